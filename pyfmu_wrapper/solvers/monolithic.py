@@ -1,0 +1,207 @@
+"""Monolithic time-domain solver of the coupled base + TMD system.
+
+Steady state (documented definition)
+------------------------------------
+The forcing is F cos(w t). The solver integrates whole forcing periods T = 2 pi / w and records
+A_k = max |x(t)| over period k from the dense output of the integrator. Periods are grouped in
+windows of ``window`` periods and W_j = max of A_k over window j.
+
+* ``window = 1`` (default for configurations without play): the response is periodic; the run
+  stops when the estimated distance to the limit of W_j, |W_j - W_{j-1}| * rho / (1 - rho) with
+  rho the observed contraction ratio between consecutive differences (or the last difference
+  itself when rho is not in (0, 1)), is below ``tol`` * W_j.
+* ``window > 1`` (default 20 for the play model): the rattling gear makes the response never
+  exactly periodic; the run stops when two consecutive windows agree: |W_j - W_{j-1}| <= tol W_j.
+
+The reported amplitude is W of the last window. Each solve returns its diagnostics (periods
+used, converged flag, last change, integrator steps). ``max_periods`` bounds the work; a point that
+does not settle is reported as not converged, never silently.
+"""
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..physics.kernels import NSTATE, SYS_COUPLED
+from ..physics.params import BaseParams, InerterModel, TMDParams, pack
+from .rodas import STAT_EVENTS, STAT_FAILED, STAT_REJECTED, STAT_STEPS, integrate
+
+
+class SolverError(RuntimeError):
+    """The integrator could not proceed (step size underflow, non-finite state)."""
+
+
+@dataclass(frozen=True)
+class SolverSettings:
+    """Accuracy and steady-state settings of the monolithic solver.
+
+    rtol: relative tolerance of the integrator; atol_scale: absolute tolerance as a fraction of
+    the static deflection F/K (per state, scaled by the natural frequency for rates);
+    tol: steady-state tolerance on the amplitude (relative); window: periods per window
+    (None: 1 without play, 20 with play); min_periods / max_periods: bounds per frequency.
+    """
+
+    rtol: float = 1e-8
+    atol_scale: float = 1e-6
+    tol: float = 1e-6
+    window: int | None = None
+    min_periods: int = 3
+    max_periods: int = 3000
+
+    def window_for(self, tmd: TMDParams) -> int:
+        if self.window is not None:
+            return int(self.window)
+        return 20 if (tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0) else 1
+
+
+@dataclass
+class SteadyState:
+    """Result of a steady-state solve at one excitation frequency."""
+
+    omega: float
+    amplitude: float  #: max |x| over the last window [m]
+    state: np.ndarray  #: state at the end (phase w t = 0 mod 2 pi)
+    periods: int
+    converged: bool
+    change: float  #: relative convergence measure at the end
+    steps: int
+    rejected: int
+    events: int
+    period_max: np.ndarray = field(repr=False)  #: max |x| of every period [m]
+    wall_time: float = 0.0
+
+
+def _atol(base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettings) -> np.ndarray:
+    xs = abs(base.force_amplitude) / max(base.stiffness, 1e-300)
+    xs = xs if xs > 0 else 1e-3
+    wn = max(omega, base.natural_frequency, 1.0)
+    a = settings.atol_scale * xs
+    atol = np.array([a, a * wn, a, a * wn, a, a * wn])
+    if tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0:
+        # the gear penetration is ~ force / ki: resolve it, not just the gap
+        pen = max(abs(base.force_amplitude) / tmd.mesh_stiffness, 1e-12)
+        atol[4] = min(atol[4], 1e-3 * max(tmd.play_gap, pen) + pen)
+        atol[5] = atol[4] * math.sqrt(tmd.mesh_stiffness / tmd.inertance)
+    return atol
+
+
+class _Runner:
+    """Holds the packed parameters and work arrays for repeated period integrations."""
+
+    def __init__(self, base, tmd, omega, settings):
+        self.p = pack(base, tmd, omega)
+        self.T = 2.0 * math.pi / omega
+        self.atol = _atol(base, tmd, omega, settings)
+        self.rtol = settings.rtol
+        self.band = 1.0 / tmd.friction_slope
+        self.u = np.zeros(1)
+        self.stats = np.zeros(4, dtype=np.int64)
+        self.h = self.T / 200.0
+        self.hmax = self.T / 20.0
+        self.no_samples = np.zeros(0)
+        self.no_out = np.zeros((0, NSTATE))
+
+    def period(self, z, t0, sample_times=None, samples=None):
+        st = self.no_samples if sample_times is None else sample_times
+        sa = self.no_out if samples is None else samples
+        h, xmax = integrate(SYS_COUPLED, z, t0, t0 + self.T, self.p, self.u, self.rtol, self.atol,
+                            self.h, self.hmax, st, sa, self.band, self.stats)
+        if h < 0.0 or not np.all(np.isfinite(z)):
+            raise SolverError(f"integration failed near t = {t0:.6g} s (step size underflow or non-finite state)")
+        self.h = h
+        return xmax
+
+
+def initial_guess(base: BaseParams, tmd: TMDParams, omega: float) -> np.ndarray:
+    """A starting state: the exact steady state of the nearest linear configuration (friction and
+    gap removed), which is the right answer in the linear case and a close one otherwise."""
+    from dataclasses import replace
+
+    from .frequency_response import exact_state
+
+    lin = replace(tmd, friction_force=0.0, play_gap=0.0)
+    try:
+        return exact_state(base, lin, omega)
+    except Exception:  # pragma: no cover - fall back to rest
+        return np.zeros(NSTATE)
+
+
+def steady_state(base: BaseParams, tmd: TMDParams, omega: float, z0=None,
+                 settings: SolverSettings = SolverSettings()) -> SteadyState:
+    """Integrate from z0 (default: :func:`initial_guess`) until the steady state (module doc)."""
+    if not (omega > 0 and math.isfinite(omega)):
+        raise ValueError(f"omega must be a positive number of rad/s, got {omega!r}")
+    t_start = time.perf_counter()
+    run = _Runner(base, tmd, omega, settings)
+    z = initial_guess(base, tmd, omega) if z0 is None else np.array(z0, dtype=float)
+    W = settings.window_for(tmd)
+    pmax: list[float] = []
+    wins: list[float] = []
+    diffs: list[float] = []
+    converged = False
+    change = math.inf
+    k = 0
+    while k < settings.max_periods:
+        pmax.append(run.period(z, 0.0))  # each period restarts at phase 0: t0 = 0
+        k += 1
+        if k % W:
+            continue
+        wins.append(max(pmax[-W:]))
+        if len(wins) < 2:
+            continue
+        d = wins[-1] - wins[-2]
+        diffs.append(d)
+        scale = max(abs(wins[-1]), 1e-300)
+        if W == 1 and len(diffs) >= 2 and diffs[-2] != 0.0:
+            rho = d / diffs[-2]
+            est = abs(d) * rho / (1.0 - rho) if 0.0 < rho < 0.95 else abs(d) / max(1e-3, 1.0 - min(abs(rho), 0.999))
+            change = est / scale
+        else:
+            change = abs(d) / scale
+        if k >= settings.min_periods and change <= settings.tol and (W > 1 or len(diffs) >= 2):
+            converged = True
+            break
+    s = run.stats
+    return SteadyState(omega=omega, amplitude=wins[-1] if wins else max(pmax), state=z, periods=k,
+                       converged=converged, change=change, steps=int(s[STAT_STEPS]),
+                       rejected=int(s[STAT_REJECTED]), events=int(s[STAT_EVENTS]),
+                       period_max=np.array(pmax), wall_time=time.perf_counter() - t_start)
+
+
+def simulate(base: BaseParams, tmd: TMDParams, omega: float, t_end: float, z0=None, n_samples: int = 1001,
+             sample_times=None, rtol: float = 1e-9, atol=None) -> tuple[np.ndarray, np.ndarray]:
+    """Transient simulation from z0 (default rest) over [0, t_end]; returns (t, states[len(t), 6])."""
+    p = pack(base, tmd, omega)
+    z = np.zeros(NSTATE) if z0 is None else np.array(z0, dtype=float)
+    t = np.linspace(0.0, t_end, n_samples) if sample_times is None else np.asarray(sample_times, dtype=float)
+    out = np.zeros((t.size, NSTATE))
+    if atol is None:
+        atol = _atol(base, tmd, omega, SolverSettings(atol_scale=1e-7))
+    stats = np.zeros(4, dtype=np.int64)
+    T = 2 * math.pi / omega
+    h, _ = integrate(SYS_COUPLED, z, 0.0, float(t_end), p, np.zeros(1), rtol, np.asarray(atol, dtype=float),
+                     T / 200, T / 20, t, out, 1.0 / tmd.friction_slope, stats)
+    if h < 0.0:
+        raise SolverError("integration failed (step size underflow)")
+    return t, out
+
+
+def periodic_time_series(base: BaseParams, tmd: TMDParams, omega: float, n_periods: int = 1,
+                         samples_per_period: int = 400, z0=None,
+                         settings: SolverSettings = SolverSettings()) -> tuple[np.ndarray, np.ndarray, SteadyState]:
+    """Steady-state time series: settle at omega, then record n_periods (t from 0, states)."""
+    ss = steady_state(base, tmd, omega, z0, settings)
+    run = _Runner(base, tmd, omega, settings)
+    z = ss.state.copy()
+    n = samples_per_period
+    ts, zs = [], []
+    for k in range(n_periods):
+        st = np.linspace(0.0, run.T, n, endpoint=False)
+        out = np.zeros((n, NSTATE))
+        run.period(z, 0.0, st, out)
+        ts.append(st + k * run.T)
+        zs.append(out)
+    return np.concatenate(ts), np.concatenate(zs), ss
