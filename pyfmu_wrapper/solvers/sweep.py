@@ -38,8 +38,9 @@ def sweep(base: BaseParams, tmd: TMDParams, omegas, direction: str = "up",
     for d in dirs:
         seq = omegas if d == "up" else omegas[::-1]
         z = None if z0 is None else np.array(z0, dtype=float)
+        hint: dict = {}
         for w in seq:
-            ss = steady_state(base, tmd, float(w), z, settings)
+            ss = steady_state(base, tmd, float(w), z, settings, hint)
             z = ss.state
             rows.append(dict(direction=d, omega=float(w), amplitude=ss.amplitude, periods=ss.periods,
                              converged=ss.converged, change=ss.change, steps=ss.steps,

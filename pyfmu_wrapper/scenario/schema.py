@@ -1,0 +1,127 @@
+"""Typed objects of a validated scenario (schema version 1; see docs/scenarios.md).
+
+The loader (:mod:`.loader`) turns a YAML file into these objects; everything downstream (the
+runner, the plots) works with them only, never with raw YAML.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..physics.params import BaseParams, TMDParams
+from ..solvers.monolithic import SolverSettings
+
+SCHEMA_VERSION = 1
+
+DIRECTIONS = ("up", "down", "both")
+LINEAR_METHODS = ("exact", "simulate")
+STUDY_KINDS = ("frc", "map", "phase_portrait")
+#: TMD parameters a map may sweep: the numeric TMDParams fields and the derived inertance_ratio.
+MAP_PARAMETERS = ("mass", "stiffness", "damping", "friction_force", "friction_slope", "inertance",
+                  "mesh_stiffness", "mesh_damping", "play_gap", "inertance_ratio")
+
+
+class ScenarioError(ValueError):
+    """A scenario file that cannot be read or is not valid.
+
+    Attributes: ``file``, ``line`` (1-based, or None), ``path`` (key path such as
+    ``studies[2].values[3]``, or None) and ``value`` (the offending value, when there is one).
+    """
+
+    def __init__(self, message: str, *, file=None, line=None, path=None, value=None):
+        super().__init__(message)
+        self.file, self.line, self.path, self.value = file, line, path, value
+
+
+@dataclass(frozen=True)
+class SolverConfig:
+    """Solver block of a scenario: the monolithic solver's settings plus sweep options.
+
+    direction: 'up', 'down' or 'both' (stepped-sine sweep with continuation);
+    linear: 'exact' (linear configurations use the exact frequency response) or 'simulate'
+    (integrate them like the nonlinear ones, e.g. to cross-check).
+    """
+
+    rtol: float = SolverSettings.rtol
+    atol_scale: float = SolverSettings.atol_scale
+    tol: float = SolverSettings.tol
+    window: int | None = SolverSettings.window
+    min_periods: int = SolverSettings.min_periods
+    max_periods: int = SolverSettings.max_periods
+    direction: str = "up"
+    linear: str = "exact"
+
+    def settings(self) -> SolverSettings:
+        return SolverSettings(rtol=self.rtol, atol_scale=self.atol_scale, tol=self.tol, window=self.window,
+                              min_periods=self.min_periods, max_periods=self.max_periods)
+
+    def as_dict(self) -> dict:
+        return dict(rtol=self.rtol, atol_scale=self.atol_scale, tol=self.tol, window=self.window,
+                    min_periods=self.min_periods, max_periods=self.max_periods,
+                    direction=self.direction, linear=self.linear)
+
+
+@dataclass(frozen=True)
+class Curve:
+    """One configuration of the TMD in a study: a label and its parameters."""
+
+    label: str
+    tmd: TMDParams
+    without_tmd: bool = False  #: the base alone (the TMD detached), the paper's black reference lines
+
+
+@dataclass(frozen=True)
+class FRCStudy:
+    """Frequency-response curves: base amplitude against omega [rad/s], one line per curve."""
+
+    name: str
+    title: str
+    omegas: np.ndarray = field(repr=False)
+    curves: tuple[Curve, ...]
+    kind: str = "frc"
+
+
+@dataclass(frozen=True)
+class MapStudy:
+    """Two-parameter diagram: base amplitude over (parameter value, omega), drawn as a colour map."""
+
+    name: str
+    title: str
+    parameter: str
+    values: np.ndarray = field(repr=False)
+    omegas: np.ndarray = field(repr=False)
+    tmds: tuple[TMDParams, ...] = field(repr=False)  #: one per value
+    kind: str = "map"
+
+
+@dataclass(frozen=True)
+class PhasePortraitStudy:
+    """Steady-state phase portraits (x, xd) of the base at a few omegas, one line per curve."""
+
+    name: str
+    title: str
+    omegas: tuple[float, ...]
+    curves: tuple[Curve, ...]
+    n_periods: int = 1
+    samples_per_period: int = 400
+    kind: str = "phase_portrait"
+
+
+Study = FRCStudy | MapStudy | PhasePortraitStudy
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A validated scenario file."""
+
+    path: str
+    name: str
+    description: str
+    schema_version: int
+    base: BaseParams
+    tmd: TMDParams
+    frequencies: np.ndarray = field(repr=False)
+    solver: SolverConfig
+    studies: tuple
+    raw: dict = field(repr=False, compare=False, default_factory=dict)  #: the YAML data as read

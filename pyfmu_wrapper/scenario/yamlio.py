@@ -1,0 +1,79 @@
+"""Safe YAML reading that remembers the line of every key and list item.
+
+Only :class:`yaml.SafeLoader` is used (no Python-object tags). Mappings are returned as
+:class:`MarkedDict` and sequences as :class:`MarkedList`, plain ``dict``/``list`` subclasses that
+carry the 1-based line number of the node and of each key / item, so that validation errors can
+say where in the file a bad value is.
+"""
+from __future__ import annotations
+
+import yaml
+
+
+class MarkedDict(dict):
+    """A mapping from YAML with ``line`` (of the mapping) and ``key_lines`` (line of each key's value)."""
+
+    line: int | None = None
+    key_lines: dict
+
+    def line_of(self, key) -> int | None:
+        return getattr(self, "key_lines", {}).get(key, self.line)
+
+
+class MarkedList(list):
+    """A sequence from YAML with ``line`` (of the sequence) and ``item_lines``."""
+
+    line: int | None = None
+    item_lines: list
+
+    def line_of(self, index: int) -> int | None:
+        lines = getattr(self, "item_lines", [])
+        return lines[index] if 0 <= index < len(lines) else self.line
+
+
+class DuplicateKeyError(yaml.MarkedYAMLError):
+    """The same key appears twice in one mapping (plain PyYAML silently keeps the last one)."""
+
+
+class _MarkedSafeLoader(yaml.SafeLoader):
+    """SafeLoader whose mappings and sequences record line numbers."""
+
+
+def _construct_mapping(loader: _MarkedSafeLoader, node: yaml.MappingNode) -> MarkedDict:
+    loader.flatten_mapping(node)
+    out = MarkedDict()
+    out.line = node.start_mark.line + 1
+    out.key_lines = {}
+    for key_node, value_node in node.value:
+        key = loader.construct_object(key_node, deep=True)
+        try:
+            hash(key)
+        except TypeError:
+            raise yaml.constructor.ConstructorError(
+                "while constructing a mapping", node.start_mark, "found an unhashable key", key_node.start_mark
+            ) from None
+        if key in out:
+            raise DuplicateKeyError("while constructing a mapping", node.start_mark,
+                                    f"found duplicate key {key!r}", key_node.start_mark)
+        out[key] = loader.construct_object(value_node, deep=True)
+        out.key_lines[key] = value_node.start_mark.line + 1
+    return out
+
+
+def _construct_sequence(loader: _MarkedSafeLoader, node: yaml.SequenceNode) -> MarkedList:
+    out = MarkedList(loader.construct_object(child, deep=True) for child in node.value)
+    out.line = node.start_mark.line + 1
+    out.item_lines = [child.start_mark.line + 1 for child in node.value]
+    return out
+
+
+_MarkedSafeLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
+_MarkedSafeLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_SEQUENCE_TAG, _construct_sequence)
+
+
+def load_marked(text: str):
+    """Parse YAML text with the safe loader; mappings/lists carry line numbers.
+
+    Raises :class:`yaml.YAMLError` (with a ``problem_mark`` where PyYAML knows the position).
+    """
+    return yaml.load(text, Loader=_MarkedSafeLoader)  # noqa: S506 - a SafeLoader subclass
