@@ -7,6 +7,8 @@ say where in the file a bad value is.
 """
 from __future__ import annotations
 
+import re
+
 import yaml
 
 
@@ -67,6 +69,10 @@ def _construct_sequence(loader: _MarkedSafeLoader, node: yaml.SequenceNode) -> M
     return out
 
 
+# YAML 1.1 (PyYAML) reads 1e6 and 2.0e7 as strings; scenario files are full of such numbers, so
+# accept the YAML 1.2 float forms too (a sign in the exponent and the dot stay optional).
+_Float12 = re.compile(r"^[-+]?(?:[0-9][0-9_]*)(?:\.[0-9_]*)?[eE][-+]?[0-9]+$|^[-+]?\.[0-9_]+[eE][-+]?[0-9]+$")
+_MarkedSafeLoader.add_implicit_resolver("tag:yaml.org,2002:float", _Float12, list("-+0123456789."))
 _MarkedSafeLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG, _construct_mapping)
 _MarkedSafeLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_SEQUENCE_TAG, _construct_sequence)
 

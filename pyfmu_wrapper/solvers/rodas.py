@@ -180,7 +180,17 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
         for i in range(n):
             samples[isample, i] = z[i]
         isample += 1
+    # the last accepted step size in each contact mode (-1, 0, +1 -> 0, 1, 2): on entering a mode
+    # the step starts from what worked there before instead of being rejected down to it
+    hmode = np.full(3, hmax)
+    rejected_last = False
+    system_switching(system, z, p, g0)
+    mode_prev = (1 if g0[1] > 0.0 else 0) - (1 if g0[2] < 0.0 else 0)
     while t < t1:
+        system_switching(system, z, p, g0)
+        mode = (1 if g0[1] > 0.0 else 0) - (1 if g0[2] < 0.0 else 0)
+        if mode != mode_prev:
+            h = min(h, hmode[mode + 1])
         hs = h
         final = False
         if t + hs >= t1 - 1e-12 * abs(span):
@@ -188,7 +198,6 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
             final = True
         system_jacobian(system, t, z, p, u, J)
         system_dfdt(system, t, z, p, u, ft)
-        system_switching(system, z, p, g0)
         while True:
             # G = I/(h gamma) - J
             for i in range(n):
@@ -234,6 +243,7 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
                     finite = False
             enorm = math.sqrt(enorm / n) if finite else 1e10
             if enorm > 1.0:
+                rejected_last = True
                 stats[STAT_REJECTED] += 1
                 hs *= max(0.2, 0.9 * enorm ** (-0.25))
                 final = False
@@ -269,7 +279,14 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
             z[i] = ynew[i]
             f0[i] = f1[i]
         stats[STAT_STEPS] += 1
-        h = min(hmax, hs * min(6.0, max(0.2, 0.9 * max(enorm, 1e-10) ** (-0.25))))
+        hmode[mode + 1] = hs
+        mode_prev = mode
+        # (a PI controller was tried: fewer rejections but more steps in total on the rattling gear)
+        fac = min(6.0, max(0.2, 0.9 * max(enorm, 1e-10) ** (-0.25)))
+        if rejected_last:
+            fac = min(fac, 1.0)
+        rejected_last = False
+        h = min(hmax, hs * fac)
         if final:
             break
     return h, xmax

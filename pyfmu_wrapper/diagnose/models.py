@@ -1,0 +1,261 @@
+"""Link-level view of a dataset and the candidate unmodelled effects.
+
+Everything is reduced to one restoring-force problem: samples of the relative displacement d,
+velocity v, acceleration a across the device and the force F through it.
+
+* link records: d, v, a and F are measured directly;
+* system time records: F is the force of the TMD links on the base, from the base equation
+  F = force - M xdd - C xd - K x, and d = x - y, v = xd - yd, a = xdd - ydd.
+
+The nominal force law and every candidate use the physics kernels' force laws
+(:func:`friction_force`, :func:`chain_force`); a candidate is ``F = offset(theta) + Phi(theta) beta``:
+linear in beta, with at most two nonlinear parameters theta (fitted by variable projection).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from ..physics.kernels import chain_force, friction_force
+from ..physics.params import N_PARAMS, P_ci, P_eps, P_ki
+from .data import DataError, Dataset
+
+MAX_SAMPLES_PER_RECORD = 4000
+
+
+@njit(cache=True)
+def friction_vec(v, df, s):
+    out = np.empty(v.shape[0])
+    for i in range(v.shape[0]):
+        out[i] = friction_force(v[i], df, s)
+    return out
+
+
+@njit(cache=True)
+def deadzone_vec(d, eps):
+    """Unit-stiffness spring in series with a gap +-eps (the kernels' chain force, ci = 0)."""
+    p = np.zeros(N_PARAMS)
+    p[P_ki], p[P_ci], p[P_eps] = 1.0, 0.0, eps
+    out = np.empty(d.shape[0])
+    for i in range(d.shape[0]):
+        out[i] = chain_force(d[i], 0.0, p)
+    return out
+
+
+@njit(cache=True)
+def jenkins_gap(d, starts, eps, delta, n_pre):
+    """Normalised force of a dry-friction slider in series with a contact spring and a gap +-eps.
+
+    The slider sits at q; the spring engages through the gap (kernels' chain force of d - q) and the
+    slider slips when the spring force reaches the friction level, i.e. at an elastic deflection
+    delta (= friction level / contact stiffness). Returns F / friction level in [-1, 1]. Each record
+    (starting at starts[k]) is pre-rolled over its first n_pre[k] samples so that the hysteresis
+    state at its first sample is the periodic one.
+    """
+    p = np.zeros(N_PARAMS)
+    p[P_ki], p[P_ci], p[P_eps] = 1.0 / delta, 0.0, eps
+    out = np.empty(d.shape[0])
+    nrec = starts.shape[0] - 1
+    for k in range(nrec):
+        a, b = starts[k], starts[k + 1]
+        q = d[a]
+        for sweep in range(2):
+            lo = a
+            hi = a + n_pre[k] if sweep == 0 else b
+            if hi > b:
+                hi = b
+            for i in range(lo, hi):
+                f = chain_force(d[i] - q, 0.0, p)
+                if f > 1.0:
+                    q = d[i] - eps - delta
+                    f = 1.0
+                elif f < -1.0:
+                    q = d[i] + eps + delta
+                    f = -1.0
+                if sweep == 1:
+                    out[i] = f
+    return out
+
+
+@dataclass
+class LinkData:
+    d: np.ndarray
+    v: np.ndarray
+    a: np.ndarray
+    F: np.ndarray  #: measured link force [N]
+    gain_reg: np.ndarray  #: regressor of a force-amplitude / force-gain error
+    F_nom: np.ndarray
+    phase: np.ndarray  #: phase in the cycle [rad], 0 at max displacement (link) / force peak (system)
+    t: np.ndarray
+    rec: np.ndarray  #: record index of each sample
+    starts: np.ndarray  #: first sample of each record, plus n
+    n_pre: np.ndarray  #: samples in one period of each record
+    records: list  #: Record objects (link or time)
+    noise: float  #: noise floor (std of the measured force noise) [N]
+    nominal: dict  #: link-level nominal parameters
+    level: str
+
+    def mask(self, rec_ids):
+        return np.isin(self.rec, np.asarray(sorted(rec_ids), dtype=int))
+
+
+def link_nominal(ds: Dataset) -> dict:
+    if ds.level == "link":
+        return dict(ds.nominal)
+    t = ds.nominal["tmd"]
+    inerter = str(t.get("inerter", "ideal")).lower()
+    return dict(stiffness=float(t.get("stiffness", 4e3)), damping=float(t.get("damping", 0.0)),
+                friction_force=float(t.get("friction_force", 0.0)), friction_slope=float(t.get("friction_slope", 1e6)),
+                inertance=0.0 if inerter == "none" else float(t.get("inertance", 1.0)))
+
+
+def nominal_force(nom, d, v, a):
+    return (nom["stiffness"] * d + nom["damping"] * v + friction_vec(v, nom["friction_force"], nom["friction_slope"])
+            + nom["inertance"] * a)
+
+
+def _deriv(t, x):
+    return np.gradient(x, t)
+
+
+def _noise_floor(r):
+    dr = np.diff(r)
+    mad = np.median(np.abs(dr - np.median(dr)))
+    return 1.4826 * mad / math.sqrt(2.0)
+
+
+def build_link_data(ds: Dataset) -> LinkData:
+    """The restoring-force view of every time record of the dataset (FRC records are skipped)."""
+    nom = link_nominal(ds)
+    parts, recs, noises = [], [], []
+    for rec in ds.records:
+        if rec.kind == "frc":
+            continue
+        c = rec.columns
+        t = c["t"]
+        if rec.kind == "link":
+            d = c["displacement"]
+            v = c["velocity"] if rec.has("velocity") else _deriv(t, d)
+            a = c["acceleration"] if rec.has("acceleration") else _deriv(t, v)
+            F = c["force"]
+            gain = None
+        else:
+            if not rec.has("y"):
+                raise DataError(f"{rec.name}: column 'y' is needed for the restoring-force diagnosis of a "
+                                "system time record (the TMD displacement); add it or give FRC records")
+            b = ds.nominal["base"]
+            x, y = c["x"], c["y"]
+            xd = c["xd"] if rec.has("xd") else _deriv(t, x)
+            yd = c["yd"] if rec.has("yd") else _deriv(t, y)
+            xdd = c["xdd"] if rec.has("xdd") else _deriv(t, xd)
+            ydd = c["ydd"] if rec.has("ydd") else _deriv(t, yd)
+            F = c["force"] - b["mass"] * xdd - b.get("damping", 0.0) * xd - b["stiffness"] * x
+            d, v, a = x - y, xd - yd, xdd - ydd
+            gain = c["force"]
+        Fn = nominal_force(nom, d, v, a)
+        noises.append(_noise_floor(F - Fn))
+        if gain is None:
+            gain = Fn
+        w = rec.omega
+        if rec.kind == "link":
+            A = np.column_stack([np.cos(w * t), np.sin(w * t), np.ones_like(t)])
+            cc = np.linalg.lstsq(A, d, rcond=None)[0]
+            ph = np.mod(w * t - math.atan2(cc[1], cc[0]), 2 * math.pi)
+        else:
+            ph = np.mod(w * t, 2 * math.pi)
+        step = max(1, int(math.ceil(len(t) / MAX_SAMPLES_PER_RECORD)))
+        sl = slice(None, None, step)
+        dt = (t[-1] - t[0]) / (len(t) - 1) * step
+        n_pre = int(min(len(t[sl]), max(2, round(2 * math.pi / w / dt)))) if w else 2
+        parts.append((d[sl], v[sl], a[sl], F[sl], gain[sl], Fn[sl], ph[sl], t[sl], n_pre))
+        recs.append(rec)
+    if not parts:
+        raise DataError(f"{ds.path}: no time records (link-level diagnosis needs at least one)")
+    cat = [np.concatenate([p[i] for p in parts]) for i in range(8)]
+    sizes = [len(p[0]) for p in parts]
+    starts = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
+    rid = np.repeat(np.arange(len(parts)), sizes)
+    return LinkData(d=cat[0], v=cat[1], a=cat[2], F=cat[3], gain_reg=cat[4], F_nom=cat[5], phase=cat[6], t=cat[7],
+                    rec=rid, starts=starts, n_pre=np.array([p[8] for p in parts], dtype=np.int64), records=recs,
+                    noise=float(np.median(noises)), nominal=nom, level=ds.level)
+
+
+# --- candidates ----------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Effect:
+    name: str
+    label: str
+    params: tuple  #: names of the reported parameters (linear ones, then nonlinear ones)
+    theta0: tuple = ()  #: starting grid of nonlinear parameters (log10 values), one tuple per parameter
+
+
+def _scales(ld):
+    return float(np.percentile(np.abs(ld.d), 99)) or 1.0, float(np.percentile(np.abs(ld.v), 99)) or 1.0
+
+
+def effect_list(ld: LinkData) -> list:
+    dmax, vmax = _scales(ld)
+    ld10, lv10 = math.log10(dmax), math.log10(vmax)
+    eps_grid = tuple(ld10 + np.linspace(-2.3, -0.4, 9))
+    effects = [
+        Effect("friction", "dry (Coulomb) friction", ("friction_force", "friction_slope"),
+               (tuple(-lv10 + np.linspace(0.5, 3.5, 7)),)),
+        Effect("play", "play (backlash) in the link", ("link_level", "play_gap"), (eps_grid,)),
+        Effect("viscous", "extra viscous damping", ("delta_damping",)),
+        Effect("mass_split", "inertance/mass mis-split (m + I fixed)", ("delta_inertance",)),
+        Effect("cubic", "cubic stiffness", ("cubic_stiffness",)),
+        Effect("force_error", "forcing-amplitude / force-gain error", ("force_gain_error",)),
+        Effect("bias", "sensor bias (constant offset)", ("force_offset",)),
+    ]
+    if ld.nominal["friction_force"] > 0 and ld.nominal["stiffness"] == 0:
+        # play in front of a friction element: slider + contact spring + gap (two nonlinear params)
+        effects[1] = Effect("play", "play (backlash) in the link", ("friction_force", "play_gap", "elastic_deflection"),
+                            (eps_grid, tuple(ld10 + np.linspace(-3.0, -1.0, 5))))
+    return effects
+
+
+def basis(effect: Effect, ld: LinkData, theta) -> tuple:
+    """(offset, Phi) of one effect: its force correction is offset + Phi beta (added to nominal)."""
+    nom, n = ld.nominal, ld.F.shape[0]
+    z = np.zeros(n)
+    name = effect.name
+    if name == "friction":
+        s = 10.0 ** theta[0]
+        return -friction_vec(ld.v, nom["friction_force"], nom["friction_slope"]), friction_vec(ld.v, 1.0, s)[:, None]
+    if name == "play":
+        eps = 10.0 ** theta[0]
+        if len(theta) == 2:
+            h = jenkins_gap(ld.d, ld.starts, eps, 10.0 ** theta[1], ld.n_pre)
+            return -friction_vec(ld.v, nom["friction_force"], nom["friction_slope"]), h[:, None]
+        return -nom["stiffness"] * ld.d, deadzone_vec(ld.d, eps)[:, None]
+    if name == "viscous":
+        return z, ld.v[:, None]
+    if name == "mass_split":
+        return z, ld.a[:, None]
+    if name == "cubic":
+        return z, (ld.d ** 3)[:, None]
+    if name == "force_error":
+        return z, ld.gain_reg[:, None]
+    if name == "bias":
+        return z, np.ones((n, 1))
+    raise KeyError(name)
+
+
+def report_params(effect: Effect, ld: LinkData, beta, theta) -> dict:
+    """Physical parameters of a fitted effect (linear beta, nonlinear theta as log10)."""
+    name = effect.name
+    if name == "friction":
+        return {"friction_force": float(beta[0]), "friction_slope": float(10 ** theta[0])}
+    if name == "play":
+        out = {"play_gap": float(10 ** theta[0])}
+        if len(theta) == 2:
+            out.update(friction_force=float(beta[0]), elastic_deflection=float(10 ** theta[1]))
+        else:
+            out["link_stiffness"] = float(beta[0])
+        return out
+    if name == "force_error" and ld.level == "system":
+        return {"force_gain_error": float(-beta[0])}
+    return {effect.params[0]: float(beta[0])}

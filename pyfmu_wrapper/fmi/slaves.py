@@ -1,0 +1,299 @@
+"""Python co-simulation slaves run by the C stub (``fmu/src/pyfmu_stub.c``).
+
+Contract with the stub
+----------------------
+The stub owns the value buffers and shares them with the slave as writable memoryviews: one
+float64 buffer and one int32 buffer indexed by value reference (fmi2Boolean is stored as int32),
+a float64 ``(nvr, 2)`` buffer of input derivatives (orders 1 and 2, set by
+fmi2SetRealInputDerivatives) and a float64 scratch buffer for directional derivatives. fmi2Get/
+SetReal never enter Python; the stub calls :meth:`Slave.update_outputs` only when an input or
+parameter changed since the outputs were last computed.
+
+Every method called by the stub returns an int status (0 ok, 1 warning, 3 error, 4 fatal) and
+never raises: an exception is caught by :func:`_guarded`, its full traceback is kept in
+``last_error`` and the stub forwards it to the FMI logger.
+
+The physics is not restated here: parameters go through :func:`~pyfmu_wrapper.physics.params.pack`,
+a step is one call of :func:`~pyfmu_wrapper.solvers.rodas.integrate` on the subsystem kernels
+(``SYS_BASE``, ``SYS_TMD``), outputs come from the kernels.
+"""
+from __future__ import annotations
+
+import functools
+import traceback
+
+import numpy as np
+
+from ..physics import kernels as kn
+from ..physics.params import BaseParams, TMDParams, pack
+from ..solvers.rodas import integrate
+from .variables import BASE_OSCILLATOR, BOOLEAN, INTEGER, TMD_INERTER, TRIVIAL, FmuSpec
+
+OK, WARNING, ERROR, FATAL = 0, 1, 3, 4
+_CSTEP = 1e-30
+
+
+class FmuStepError(RuntimeError):
+    """The integrator failed inside doStep, or doStep was called inconsistently."""
+
+
+class InjectedError(RuntimeError):
+    """Raised on purpose when the debug_raise parameter is set (tests of error reporting)."""
+
+
+def _guarded(method):
+    @functools.wraps(method)
+    def wrapper(self, *args):
+        try:
+            r = method(self, *args)
+            return OK if r is None else r
+        except Exception:  # noqa: BLE001 - every exception becomes fmi2Error with its traceback
+            self.last_error = traceback.format_exc()
+            return ERROR
+    return wrapper
+
+
+class Slave:
+    """Common machinery: buffers, start values, time keeping, state (de)serialisation."""
+
+    spec: FmuSpec = None
+    n_state = 0
+
+    def __init__(self, reals, ints, derivs, scratch, instance_name="", resources=""):
+        self.r = np.frombuffer(reals, dtype=np.float64)
+        self.i = np.frombuffer(ints, dtype=np.int32)
+        self.du = np.frombuffer(derivs, dtype=np.float64).reshape(-1, 2)
+        self.scratch = np.frombuffer(scratch, dtype=np.float64)
+        self.instance_name = instance_name
+        self.resources = resources
+        self.last_error = ""
+        self.t = 0.0
+        self.h = 0.0  # step size suggested by the integrator (part of the state: exact restore)
+        self.p = np.zeros(15)
+        self.z = np.zeros(self.n_state)
+        self.stats = np.zeros(4, dtype=np.int64)
+        self._empty_t = np.zeros(0)
+        self._empty_s = np.zeros((0, max(self.n_state, 1)))
+        self._inputs = [v for v in self.spec.of("input")]
+        self._input_vr = np.array([v.vr for v in self._inputs], dtype=np.int64)
+        self._u = np.zeros(1 + 3 * len(self._inputs))
+        self._outputs = [v for v in self.spec.of("output")]
+        self._start_values()
+
+    # --- helpers --------------------------------------------------------------------------
+    def _start_values(self):
+        for v in self.spec.variables:
+            if v.start is None:
+                continue
+            if v.type in (INTEGER, BOOLEAN):
+                self.i[v.vr] = int(v.start)
+            else:
+                self.r[v.vr] = float(v.start)
+        self.du[:] = 0.0
+
+    def val(self, name):
+        v = self.spec.by_name(name)
+        return int(self.i[v.vr]) if v.type in (INTEGER, BOOLEAN) else float(self.r[v.vr])
+
+    def _taylor_inputs(self, t):
+        """Input polynomials about t: u = [t, value, d/dt, d2/dt2, ...] (kernels' layout)."""
+        u = self._u
+        u[0] = t
+        for k, vr in enumerate(self._input_vr):
+            u[1 + 3 * k] = self.r[vr]
+            u[2 + 3 * k] = self.du[vr, 0]
+            u[3 + 3 * k] = self.du[vr, 1]
+        return u
+
+    def _inputs_at(self, t):
+        u = self._u
+        return np.array([kn.input_value(u, k, t) for k in range(len(self._input_vr))])
+
+    def _current_inputs(self):
+        return np.array([self.r[vr] for vr in self._input_vr])
+
+    # --- model hooks -----------------------------------------------------------------------
+    def configure(self):
+        """Read parameters from the buffers, validate and pack them, set the initial state."""
+
+    def outputs(self, inputs):
+        """Output values (in the order of spec.of('output')) for the current state and inputs.
+
+        Must accept complex inputs (directional derivatives by complex step)."""
+        raise NotImplementedError
+
+    def advance(self, t, h, u):
+        """Integrate the state over [t, t + h] with input polynomials u."""
+
+    # --- stub entry points -----------------------------------------------------------------
+    @_guarded
+    def setup_experiment(self, tolerance_defined, tolerance, t_start, stop_defined, t_stop):
+        self.t = float(t_start)
+        if tolerance_defined and tolerance > 0 and "rtol" in {v.name for v in self.spec.variables}:
+            self.r[self.spec.vr("rtol")] = tolerance
+
+    @_guarded
+    def enter_initialization(self):
+        pass
+
+    @_guarded
+    def update_outputs(self, initializing):
+        if initializing:
+            self.configure()
+        self._write_outputs(self.outputs(self._current_inputs()))
+
+    @_guarded
+    def exit_initialization(self):
+        self.configure()
+        self.h = 0.0
+        self._write_outputs(self.outputs(self._current_inputs()))
+
+    @_guarded
+    def do_step(self, t, h, no_set_prior):
+        if abs(t - self.t) > 1e-12 * max(1.0, abs(t)):
+            raise FmuStepError(f"Expected currentCommunicationPoint = {self.t:.16g} but was {t:.16g}")
+        if self.val("debug_raise") if "debug_raise" in {v.name for v in self.spec.variables} else 0:
+            raise InjectedError(f"debug_raise is set: exception injected at t = {t:.16g}")
+        u = self._taylor_inputs(t)
+        self.advance(t, h, u)
+        self.t = t + h
+        self._write_outputs(self.outputs(self._inputs_at(self.t)))
+        self.du[self._input_vr] = 0.0  # input derivatives are valid for one step only
+
+    @_guarded
+    def reset(self):
+        self._start_values()
+        self.t = 0.0
+        self.h = 0.0
+        self.z[:] = 0.0
+        self.stats[:] = 0
+
+    @_guarded
+    def terminate(self):
+        pass
+
+    def get_state(self):
+        """Whole internal state as bytes (the stub saves its value buffers itself)."""
+        try:
+            return np.concatenate(([self.t, self.h], self.p, self.z, self.stats.astype(np.float64))).tobytes()
+        except Exception:  # noqa: BLE001
+            self.last_error = traceback.format_exc()
+            return None
+
+    @_guarded
+    def set_state(self, data):
+        a = np.frombuffer(data, dtype=np.float64)
+        n = 2 + self.p.size + self.n_state + 4
+        if a.size != n:
+            raise ValueError(f"FMU state has {a.size} values, expected {n}")
+        self.t, self.h = float(a[0]), float(a[1])
+        self.p[:] = a[2:2 + self.p.size]
+        k = 2 + self.p.size
+        self.z[:] = a[k:k + self.n_state]
+        self.stats[:] = a[k + self.n_state:].astype(np.int64)
+
+    @_guarded
+    def directional_derivative(self, n_unknown, n_known):
+        """Scratch layout: [vUnknown (nu), vKnown (nk), dvKnown (nk)] -> dvUnknown after them."""
+        s = self.scratch
+        vu = s[:n_unknown].astype(np.int64)
+        vk = s[n_unknown:n_unknown + n_known].astype(np.int64)
+        seed = s[n_unknown + n_known:n_unknown + 2 * n_known]
+        in_vrs = list(self._input_vr)
+        out_vrs = [v.vr for v in self._outputs]
+        direction = np.zeros(len(in_vrs))
+        for vr, dv in zip(vk, seed):
+            if vr not in in_vrs:
+                raise ValueError(f"directional derivative: known value reference {vr} is not an input")
+            direction[in_vrs.index(vr)] += dv
+        for vr in vu:
+            if vr not in out_vrs or self._outputs[out_vrs.index(vr)].type != "Real":
+                raise ValueError(f"directional derivative: unknown value reference {vr} is not a Real output")
+        y = self.outputs(self._current_inputs() + 1j * _CSTEP * direction)
+        res = s[n_unknown + 2 * n_known:2 * n_unknown + 2 * n_known]
+        for j, vr in enumerate(vu):
+            res[j] = np.imag(y[out_vrs.index(vr)]) / _CSTEP
+
+    def _write_outputs(self, values):
+        for v, val in zip(self._outputs, values):
+            if v.type in (INTEGER, BOOLEAN):
+                self.i[v.vr] = int(np.real(val))
+            else:
+                self.r[v.vr] = float(np.real(val))
+
+    def _integrate(self, system, t, h, u):
+        atol = np.full(self.n_state, self.val("atol"))
+        hn, _ = integrate(system, self.z, t, t + h, self.p, u, self.val("rtol"), atol, self.h, h,
+                          self._empty_t, self._empty_s, 1.0 / self.p[9] if self.p[9] > 0 else 1e-6, self.stats)
+        if not hn > 0.0:
+            raise FmuStepError(f"integrator failed in doStep at t = {t:.16g} (step size underflow)")
+        self.h = hn
+
+
+class BaseOscillatorSlave(Slave):
+    """Base oscillator alone: state [x, xd], input f_link (force of the TMD links, in -x)."""
+
+    spec = BASE_OSCILLATOR
+    n_state = 2
+
+    def configure(self):
+        base = BaseParams(mass=self.val("M"), stiffness=self.val("K"), damping=self.val("C"),
+                          force_amplitude=self.val("F"), source=f"FMU {self.instance_name}")
+        self.p = pack(base, TMDParams(), self.val("w"))
+        self.z[:] = (self.val("x0"), self.val("xd0"))
+
+    def outputs(self, inputs):
+        x, xd = self.z[0], self.z[1]
+        fexc = kn.excitation(self.t, self.p)
+        xdd = kn.base_acceleration(x, xd, inputs[0], 0.0, fexc, self.p)
+        return [x, xd, xdd, fexc]
+
+    def advance(self, t, h, u):
+        self._integrate(kn.SYS_BASE, t, h, u)
+
+
+class TMDInerterSlave(Slave):
+    """TMD subsystem alone: state [y, yd, d, dd], inputs x, xd, xdd of the base."""
+
+    spec = TMD_INERTER
+    n_state = 4
+
+    def configure(self):
+        tmd = TMDParams(mass=self.val("m"), stiffness=self.val("k"), damping=self.val("c"),
+                        friction_force=self.val("df"), friction_slope=self.val("s"),
+                        inertance=self.val("I"), inerter=self.val("inerter"),
+                        mesh_stiffness=self.val("ki"), mesh_damping=self.val("ci"),
+                        play_gap=self.val("eps"), source=f"FMU {self.instance_name}")
+        self.p = pack(BaseParams(), tmd, 0.0)
+        self.z[:] = (self.val("y0"), self.val("yd0"), self.val("d0"), self.val("dd0"))
+
+    def outputs(self, inputs):
+        x, xd, xdd = inputs[0], inputs[1], inputs[2]
+        force, chain, contact = kn.tmd_outputs(self.z, x, xd, xdd, self.p)
+        return [force, self.z[0], self.z[1], chain, contact]
+
+    def advance(self, t, h, u):
+        self._integrate(kn.SYS_TMD, t, h, u)
+
+
+class TrivialSlave(Slave):
+    """y = gain * u; a step only advances time (measures the stub's own overhead)."""
+
+    spec = TRIVIAL
+    n_state = 0
+
+    def outputs(self, inputs):
+        return [self.r[0] * inputs[0]]
+
+    @_guarded
+    def do_step(self, t, h, no_set_prior):
+        self.t = t + h
+        self.r[2] = self.r[0] * self.r[1]
+
+
+def create(slave_path: str, reals, ints, derivs, scratch, instance_name="", resources=""):
+    """Instantiate the slave class named "module:Class" (called by the FMU's resources/model.py)."""
+    import importlib
+
+    mod, _, cls = slave_path.partition(":")
+    return getattr(importlib.import_module(mod), cls)(reals, ints, derivs, scratch, instance_name, resources)

@@ -1,0 +1,198 @@
+"""Declarative variable tables of the FMUs: the single source of truth for the interfaces.
+
+Every variable is declared once here with an explicit value reference, type, causality,
+variability, unit, start value and description. ``modelDescription.xml`` is generated from these
+tables (:mod:`.model_description`), the C stub reads the type/causality table written from them
+into ``resources/variables.tsv``, and the Python slaves (:mod:`.slaves`) address the shared value
+buffers through :meth:`FmuSpec.vr`.
+
+Value references are unique across all types of one FMU (the C stub keeps one buffer per type
+indexed by value reference).
+
+Dependencies in the ModelStructure (FMI 2.0, Sect. 2.2.8): ``depends_on`` lists the *inputs* an
+output depends on directly (algebraic feed-through within one communication point), with the
+matching ``dependencies_kind``; ``initial_depends_on`` lists the knowns (inputs and exact
+parameters) an initial unknown depends on during initialisation.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+REAL, INTEGER, BOOLEAN = "Real", "Integer", "Boolean"
+
+
+@dataclass(frozen=True)
+class Variable:
+    """One FMI scalar variable."""
+
+    name: str
+    vr: int
+    type: str
+    causality: str  #: parameter | input | output | local | independent
+    variability: str  #: fixed | tunable | continuous | discrete | constant
+    description: str
+    unit: str | None = None
+    start: float | int | bool | None = None
+    initial: str | None = None  #: exact | approx | calculated (None: FMI default)
+    depends_on: tuple[str, ...] = ()
+    dependencies_kind: tuple[str, ...] = ()
+    initial_depends_on: tuple[str, ...] | None = None
+
+    def __post_init__(self):
+        if self.type not in (REAL, INTEGER, BOOLEAN):
+            raise ValueError(f"{self.name}: unsupported type {self.type!r}")
+        if self.causality in ("parameter", "input") and self.start is None:
+            raise ValueError(f"{self.name}: a {self.causality} needs a start value")
+        if self.causality == "output" and self.start is not None and self.initial != "approx":
+            raise ValueError(f"{self.name}: a calculated output takes no start value")
+        if len(self.depends_on) != len(self.dependencies_kind):
+            raise ValueError(f"{self.name}: depends_on and dependencies_kind differ in length")
+
+
+@dataclass(frozen=True)
+class FmuSpec:
+    """Everything needed to generate, build and run one FMU."""
+
+    model_name: str
+    model_identifier: str
+    description: str
+    slave: str  #: "module:Class" of the Python slave
+    variables: tuple[Variable, ...]
+    can_interpolate_inputs: bool = True
+    max_output_derivative_order: int = 0
+    provides_directional_derivative: bool = True
+    default_step: float = 1e-3
+    extra: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        names = [v.name for v in self.variables]
+        if len(set(names)) != len(names):
+            raise ValueError(f"{self.model_name}: duplicate variable names")
+        vrs = [v.vr for v in self.variables]
+        if len(set(vrs)) != len(vrs):
+            raise ValueError(f"{self.model_name}: duplicate value references")
+        for v in self.variables:
+            for d in v.depends_on:
+                if self.by_name(d).causality != "input":
+                    raise ValueError(f"{v.name}: dependency {d} is not an input")
+
+    def by_name(self, name: str) -> Variable:
+        for v in self.variables:
+            if v.name == name:
+                return v
+        raise KeyError(f"{self.model_name} has no variable {name!r}")
+
+    def vr(self, name: str) -> int:
+        return self.by_name(name).vr
+
+    def of(self, causality: str) -> list[Variable]:
+        return [v for v in self.variables if v.causality == causality]
+
+    def index(self, name: str) -> int:
+        """1-based index in ModelVariables (as ModelStructure refers to it)."""
+        return [v.name for v in self.variables].index(name) + 1
+
+
+def _par(name, vr, start, unit, description, type_=REAL):
+    return Variable(name, vr, type_, "parameter", "fixed", description, unit, start, "exact")
+
+
+_INTEGRATOR = (
+    _par("rtol", 90, 1e-8, None, "relative tolerance of the RODAS4 integrator inside doStep"),
+    _par("atol", 91, 1e-10, None, "absolute tolerance of the integrator (all states, SI units)"),
+    Variable("debug_raise", 99, INTEGER, "parameter", "tunable",
+             "testing aid: 1 makes the next doStep raise a Python exception (reported as fmi2Error)",
+             None, 0, "exact"),
+)
+
+BASE_OSCILLATOR = FmuSpec(
+    model_name="BaseOscillator",
+    model_identifier="BaseOscillator",
+    description="Base oscillator of Brzeski & Perlikowski (2017): M xdd + C xd + K x = F cos(w t) - f_link",
+    slave="pyfmu_wrapper.fmi.slaves:BaseOscillatorSlave",
+    variables=(
+        _par("M", 0, 100.0, "kg", "base mass M"),
+        _par("K", 1, 4.0e4, "N/m", "base stiffness K"),
+        _par("C", 2, 100.0, "N.s/m", "base viscous damping C"),
+        _par("F", 3, 200.0, "N", "excitation amplitude F of F cos(w t)"),
+        _par("w", 4, 20.0, "rad/s", "excitation angular frequency w (the paper's 'Hz' are rad/s)"),
+        _par("x0", 5, 0.0, "m", "initial base displacement"),
+        _par("xd0", 6, 0.0, "m/s", "initial base velocity"),
+        Variable("f_link", 10, REAL, "input", "continuous",
+                 "force of the TMD links on the base, positive when it pushes the base in -x "
+                 "(= TMDInerter.force)", "N", 0.0),
+        Variable("x", 20, REAL, "output", "continuous", "base displacement", "m", initial="calculated",
+                 initial_depends_on=("x0",)),
+        Variable("xd", 21, REAL, "output", "continuous", "base velocity", "m/s", initial="calculated",
+                 initial_depends_on=("xd0",)),
+        Variable("xdd", 22, REAL, "output", "continuous", "base acceleration", "m/s2", initial="calculated",
+                 depends_on=("f_link",), dependencies_kind=("fixed",),
+                 initial_depends_on=("M", "K", "C", "F", "x0", "xd0", "f_link")),
+        Variable("f_exc", 23, REAL, "output", "continuous", "excitation force F cos(w t)", "N",
+                 initial="calculated", initial_depends_on=("F", "w")),
+    ) + _INTEGRATOR,
+)
+
+TMD_INERTER = FmuSpec(
+    model_name="TMDInerter",
+    model_identifier="TMDInerter",
+    description="TMD with spring, damper, dry friction and an inerter (none/ideal/with play) "
+                "driven by the base motion",
+    slave="pyfmu_wrapper.fmi.slaves:TMDInerterSlave",
+    variables=(
+        _par("m", 0, 9.0, "kg", "TMD mass m"),
+        _par("k", 1, 4.0e3, "N/m", "TMD spring stiffness k"),
+        _par("c", 2, 0.0, "N.s/m", "TMD viscous damping c"),
+        _par("df", 3, 0.0, "N", "dry friction force df, df (2/pi) atan(s (xd - yd))"),
+        _par("s", 4, 1.0e6, "s/m", "friction regularisation slope s"),
+        _par("I", 5, 1.0, "kg", "inertance I"),
+        _par("ki", 6, 2.0e7, "N/m", "gear mesh stiffness ki (play model)"),
+        _par("ci", 7, 0.01, "N.s/m", "gear mesh damping ci (play model)"),
+        _par("eps", 8, 0.0, "m", "half backlash eps of the gear (play model)"),
+        _par("inerter", 9, 1, None, "inerter model: 0 none (I must be 0), 1 ideal, 2 with play", INTEGER),
+        _par("y0", 11, 0.0, "m", "initial TMD displacement"),
+        _par("yd0", 12, 0.0, "m/s", "initial TMD velocity"),
+        _par("d0", 13, 0.0, "m", "initial play-chain deflection d = r - y (play model)"),
+        _par("dd0", 14, 0.0, "m/s", "initial play-chain deflection rate (play model)"),
+        Variable("x", 30, REAL, "input", "continuous", "base displacement", "m", 0.0),
+        Variable("xd", 31, REAL, "input", "continuous", "base velocity", "m/s", 0.0),
+        Variable("xdd", 32, REAL, "input", "continuous", "base acceleration", "m/s2", 0.0),
+        Variable("force", 40, REAL, "output", "continuous",
+                 "force of the TMD links on the base, positive in -x on the base (+y on the TMD)", "N",
+                 initial="calculated", depends_on=("x", "xd", "xdd"),
+                 dependencies_kind=("fixed", "dependent", "fixed"),
+                 initial_depends_on=("m", "k", "c", "df", "s", "I", "ki", "ci", "eps", "inerter",
+                                     "y0", "yd0", "d0", "dd0", "x", "xd", "xdd")),
+        Variable("y", 41, REAL, "output", "continuous", "TMD displacement", "m", initial="calculated",
+                 initial_depends_on=("y0",)),
+        Variable("yd", 42, REAL, "output", "continuous", "TMD velocity", "m/s", initial="calculated",
+                 initial_depends_on=("yd0",)),
+        Variable("inerter_force", 43, REAL, "output", "continuous",
+                 "force P carried by the inerter chain (diagnostic)", "N", initial="calculated",
+                 depends_on=("x", "xd", "xdd"), dependencies_kind=("fixed", "dependent", "fixed"),
+                 initial_depends_on=("m", "k", "c", "df", "s", "I", "ki", "ci", "eps", "inerter",
+                                     "y0", "yd0", "d0", "dd0", "x", "xd", "xdd")),
+        Variable("contact", 44, INTEGER, "output", "discrete",
+                 "gear contact of the play chain: +1 compression, -1 extension, 0 free", None,
+                 initial="calculated", initial_depends_on=("eps", "inerter", "d0")),
+    ) + _INTEGRATOR,
+)
+
+# A do-nothing model used only to measure the per-call overhead of the stub (benchmarks).
+TRIVIAL = FmuSpec(
+    model_name="Trivial",
+    model_identifier="Trivial",
+    description="y = gain * u; doStep only advances time (stub overhead benchmark)",
+    slave="pyfmu_wrapper.fmi.slaves:TrivialSlave",
+    variables=(
+        _par("gain", 0, 2.0, None, "gain"),
+        Variable("u", 1, REAL, "input", "continuous", "input", None, 0.0),
+        Variable("y", 2, REAL, "output", "continuous", "gain * u", None, initial="calculated",
+                 depends_on=("u",), dependencies_kind=("fixed",), initial_depends_on=("gain", "u")),
+    ),
+    provides_directional_derivative=True,
+)
+
+SPECS = {s.model_identifier: s for s in (BASE_OSCILLATOR, TMD_INERTER, TRIVIAL)}
+#: The FMUs of the project (the trivial one is built only on request).
+PROJECT_FMUS = ("BaseOscillator", "TMDInerter")

@@ -1,0 +1,197 @@
+"""Generate the parameter parts of the Modelica package ``modelica/TMDInerter`` from Python.
+
+The Modelica package restates the physics of :mod:`pyfmu_wrapper.physics.kernels` in plain
+Modelica (no Modelica Standard Library). Its parameter values have one source, the Python
+parameter definitions: :class:`~pyfmu_wrapper.physics.params.BaseParams` and
+:class:`~pyfmu_wrapper.physics.params.TMDParams` defaults and
+:func:`~pyfmu_wrapper.physics.params.paper_case`. This module writes
+
+* ``Defaults.mo``: the dataclass defaults, used as the default values of every component;
+* ``Cases.mo``: one model per case of the paper (Cases 1-3 of each study, and the two endpoints
+  of the Iratio map), each extending a coupled system with every parameter written out.
+
+Run ``python -m pyfmu_wrapper.modelica_gen`` to rewrite the files, ``--check`` to fail when the
+committed files differ from the generated text (the test suite does the same check).
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from dataclasses import dataclass, fields
+from pathlib import Path
+
+from .physics.params import BaseParams, InerterModel, TMDParams, paper_case
+
+PACKAGE = "TMDInerter"
+#: default location of the package, relative to the repository root
+PACKAGE_DIR = Path(__file__).resolve().parent.parent / "modelica" / PACKAGE
+
+#: default excitation frequency [rad/s] of the Modelica models (omega is not a structural
+#: parameter in Python; it is passed to the solvers)
+DEFAULT_OMEGA = 19.0
+#: simulation interval and tolerance written in the experiment annotation of each case
+EXPERIMENT_STOP_TIME = 2.0
+EXPERIMENT_TOLERANCE = 1e-8
+
+#: Modelica parameter name of each dataclass field
+BASE_NAMES = {"mass": "M", "stiffness": "K", "damping": "C", "force_amplitude": "F"}
+TMD_NAMES = {"mass": "m", "stiffness": "k", "damping": "c", "friction_force": "df",
+             "friction_slope": "slope", "inertance": "I", "mesh_stiffness": "ki",
+             "mesh_damping": "ci", "play_gap": "eps"}
+#: the TMD parameters each coupled system has (the others do not apply)
+SYSTEM_PARAMS = {
+    InerterModel.NONE: ("CoupledNoInerter", ("m", "k", "c", "df", "slope")),
+    InerterModel.IDEAL: ("CoupledIdealInerter", ("m", "k", "c", "df", "slope", "I")),
+    InerterModel.PLAY: ("CoupledPlayInerter", ("m", "k", "c", "df", "slope", "I", "ki", "ci", "eps")),
+}
+
+# Paper values per study (Sects. 4-7 of Brzeski & Perlikowski 2017).
+C_OPT = {1: 56.38, 2: 31.73, 3: 6.45}  #: optimised viscous damping c [N s/m] (Sect. 4, Fig. 3)
+DF_OPT = {1: 45.78, 2: 37.65, 3: 15.44}  #: optimised dry friction df [N] (Sect. 5, Fig. 4)
+STANDARD_GAP = 1e-4  #: standardised play gap eps [m] (Sect. 6)
+#: full model (Sect. 7, line "5" of Fig. 6): c and df; Case 3 uses half the values
+FULL_C_DF = {1: (10.0, 10.0), 2: (10.0, 10.0), 3: (5.0, 5.0)}
+
+
+@dataclass(frozen=True)
+class CaseSpec:
+    """One Modelica case model and the Python parameters it stands for."""
+
+    name: str  #: Modelica class name inside ``TMDInerter.Cases``
+    description: str
+    base: BaseParams
+    tmd: TMDParams
+
+    @property
+    def system(self) -> str:
+        return SYSTEM_PARAMS[self.tmd.inerter][0]
+
+    def modelica_parameters(self) -> dict[str, float]:
+        """Modelica parameter name -> value, for the parameters the system has."""
+        out = {BASE_NAMES[n]: getattr(self.base, n) for n in BASE_NAMES}
+        keep = SYSTEM_PARAMS[self.tmd.inerter][1]
+        for f, n in TMD_NAMES.items():
+            if n in keep:
+                out[n] = getattr(self.tmd, f)
+        return out
+
+
+def cases() -> list[CaseSpec]:
+    """Every case of the paper, in the order they are written to ``Cases.mo``."""
+    base = BaseParams()
+    out = [
+        CaseSpec("IratioMap0", "Iratio map endpoint Iratio = 0: classical TMD, m = 10, no inerter",
+                 base, TMDParams(mass=10.0, inertance=0.0, inerter=InerterModel.NONE)),
+        CaseSpec("IratioMap1", "Iratio map endpoint Iratio = 1: massless TMD node, ideal inerter I = 10",
+                 base, TMDParams(mass=0.0, inertance=10.0, inerter=InerterModel.IDEAL)),
+    ]
+    for n in (1, 2, 3):
+        out.append(CaseSpec(f"IdealCase{n}", f"Sect. 3, Case {n}: ideal inerter, no damping", base, paper_case(n)))
+    for n in (1, 2, 3):
+        out.append(CaseSpec(f"ViscousCase{n}", f"Sect. 4, Case {n}: ideal inerter, optimised viscous damping c",
+                            base, paper_case(n, damping=C_OPT[n])))
+    for n in (1, 2, 3):
+        out.append(CaseSpec(f"DryFrictionCase{n}", f"Sect. 5, Case {n}: ideal inerter, optimised dry friction df",
+                            base, paper_case(n, friction_force=DF_OPT[n])))
+    for n in (1, 2, 3):
+        out.append(CaseSpec(f"PlayCase{n}", f"Sect. 6, Case {n}: inerter with play, standard gap eps",
+                            base, paper_case(n, inerter=InerterModel.PLAY, play_gap=STANDARD_GAP)))
+    for n in (1, 2, 3):
+        c, df = FULL_C_DF[n]
+        out.append(CaseSpec(f"FullCase{n}", f"Sect. 7, Case {n}: full model (viscous damping, dry friction, play)",
+                            base, paper_case(n, damping=c, friction_force=df, inerter=InerterModel.PLAY,
+                                             play_gap=STANDARD_GAP)))
+    return out
+
+
+def fmt(value: float) -> str:
+    """A Modelica real literal that reads back to exactly the same double."""
+    s = repr(float(value))
+    if s in ("inf", "-inf", "nan"):
+        raise ValueError(f"cannot write {value!r} as a Modelica literal")
+    return s
+
+
+HEADER = ("  // Generated by pyfmu_wrapper.modelica_gen from pyfmu_wrapper/physics/params.py.\n"
+          "  // Do not edit: run `python -m pyfmu_wrapper.modelica_gen` instead.\n")
+
+
+def defaults_text() -> str:
+    """``Defaults.mo``: BaseParams and TMDParams dataclass defaults."""
+    base, tmd = BaseParams(), TMDParams()
+    docs = {f.name: f.name for f in fields(BaseParams)}
+    lines = [f"within {PACKAGE};", f'package Defaults "Default parameter values (Python dataclass defaults)"',
+             HEADER.rstrip("\n"), f"  extends {PACKAGE}.Icons.Package;"]
+    for f, n in BASE_NAMES.items():
+        lines.append(f'  constant Real {n} = {fmt(getattr(base, f))} "BaseParams.{docs[f]}";')
+    lines.append(f'  constant Real w = {fmt(DEFAULT_OMEGA)} "Excitation frequency [rad/s] (modelica_gen.DEFAULT_OMEGA)";')
+    for f, n in TMD_NAMES.items():
+        lines.append(f'  constant Real {n} = {fmt(getattr(tmd, f))} "TMDParams.{f}";')
+    lines.append("end Defaults;")
+    return "\n".join(lines) + "\n"
+
+
+def case_text(spec: CaseSpec) -> str:
+    params = spec.modelica_parameters()
+    mods = ", ".join(f"{n} = {fmt(v)}" for n, v in params.items())
+    return (f'  model {spec.name} "{spec.description}"\n'
+            f"    extends {PACKAGE}.Systems.{spec.system}({mods}, w = {fmt(DEFAULT_OMEGA)});\n"
+            f"    annotation(experiment(StartTime = 0, StopTime = {fmt(EXPERIMENT_STOP_TIME)}, "
+            f"Tolerance = {fmt(EXPERIMENT_TOLERANCE)}));\n"
+            f"  end {spec.name};\n")
+
+
+def cases_text() -> str:
+    """``Cases.mo``: one model per case of the paper."""
+    body = "\n".join(case_text(s) for s in cases())
+    return (f"within {PACKAGE};\n"
+            f'package Cases "One model per case of the paper (Brzeski & Perlikowski 2017)"\n'
+            f"{HEADER}  extends {PACKAGE}.Icons.Package;\n\n{body}end Cases;\n")
+
+
+def generated_files() -> dict[str, str]:
+    """File name (inside the package directory) -> generated text."""
+    return {"Defaults.mo": defaults_text(), "Cases.mo": cases_text()}
+
+
+def write(directory: Path = PACKAGE_DIR) -> list[Path]:
+    """Write the generated files into the package directory; returns the paths written."""
+    directory = Path(directory)
+    out = []
+    for name, text in generated_files().items():
+        path = directory / name
+        path.write_text(text, encoding="utf-8")
+        out.append(path)
+    return out
+
+
+def stale_files(directory: Path = PACKAGE_DIR) -> list[str]:
+    """Names of generated files whose committed text differs from the generated one."""
+    directory = Path(directory)
+    bad = []
+    for name, text in generated_files().items():
+        path = directory / name
+        if not path.is_file() or path.read_text(encoding="utf-8") != text:
+            bad.append(name)
+    return bad
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--dir", type=Path, default=PACKAGE_DIR, help="package directory (default: %(default)s)")
+    ap.add_argument("--check", action="store_true", help="only check that the files are up to date")
+    a = ap.parse_args(argv)
+    if a.check:
+        bad = stale_files(a.dir)
+        if bad:
+            print(f"stale generated Modelica files in {a.dir}: {', '.join(bad)}; "
+                  "run `python -m pyfmu_wrapper.modelica_gen`", file=sys.stderr)
+            return 1
+        return 0
+    for p in write(a.dir):
+        print(p)
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

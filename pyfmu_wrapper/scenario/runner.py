@@ -1,0 +1,195 @@
+"""Compute the studies of a scenario (no files, no plotting: see :mod:`.output` and ``plots``).
+
+Each study gives a data object: :class:`FRCData` (a long sweep table, one block per curve),
+:class:`MapData` (amplitude[value, omega]) or :class:`PhaseData` (time series per omega and curve).
+Identical (parameters, frequencies) sweeps are computed once per run and shared between studies.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import minimize_scalar
+
+from ..physics.params import as_dict
+from ..solvers.frequency_response import exact_amplitude
+from .engines import RunSettings, TimeSeries, compute_sweep, compute_time_series, uses_exact
+from .schema import FRCStudy, MapStudy, PhasePortraitStudy, Scenario
+
+
+@dataclass
+class FRCData:
+    study: FRCStudy
+    table: pd.DataFrame  #: SWEEP_COLUMNS plus 'curve' (the label)
+    peaks: dict  #: label -> {direction -> peak summary}
+    wall_time: float = 0.0
+
+
+@dataclass
+class MapData:
+    study: MapStudy
+    amplitude: np.ndarray  #: [len(values), len(omegas)], max over the sweep directions [m]
+    table: pd.DataFrame  #: long table: SWEEP_COLUMNS plus 'value'
+    wall_time: float = 0.0
+
+
+@dataclass
+class PhaseData:
+    study: PhasePortraitStudy
+    series: dict = field(default_factory=dict)  #: (omega, label) -> TimeSeries
+    wall_time: float = 0.0
+
+
+def work_units(scn: Scenario, settings: RunSettings) -> int:
+    """Number of progress units a run reports (one per frequency point and direction)."""
+    nd = len(settings.directions())
+    n = 0
+    for st in scn.studies:
+        if isinstance(st, FRCStudy):
+            n += len(st.curves) * len(st.omegas) * nd
+        elif isinstance(st, MapStudy):
+            n += len(st.values) * len(st.omegas) * nd
+        else:
+            n += len(st.omegas) * len(st.curves)
+    return n
+
+
+class _Cache:
+    """Sweeps already computed in this run, keyed by (parameters, frequencies)."""
+
+    def __init__(self):
+        self.tables = {}
+
+    def sweep(self, base, tmd, omegas, settings, progress):
+        key = (tmd, np.asarray(omegas, float).tobytes())
+        if key in self.tables:
+            if progress is not None:
+                progress(len(omegas) * len(settings.directions()))
+            return self.tables[key]
+        table = compute_sweep(base, tmd, omegas, settings, progress)
+        self.tables[key] = table
+        return table
+
+
+def find_peaks(omegas, amplitudes, refine=None) -> dict:
+    """Peak summary of one curve: global maximum and the interior local maxima.
+
+    refine: optional callable(omegas array) -> amplitudes for a smooth (exact) curve; each local
+    maximum is then located to 1e-9 rad/s between its grid neighbours instead of on the grid.
+    """
+    w = np.asarray(omegas, float)
+    a = np.asarray(amplitudes, float)
+    local = []
+    for i in range(1, len(a) - 1):
+        if a[i] >= a[i - 1] and a[i] > a[i + 1]:
+            wi, ai = w[i], a[i]
+            if refine is not None:
+                r = minimize_scalar(lambda x: -float(refine(np.array([x]))[0]), bounds=(w[i - 1], w[i + 1]),
+                                    method="bounded", options=dict(xatol=1e-9))
+                if -r.fun >= ai:
+                    wi, ai = float(r.x), float(-r.fun)
+            local.append(dict(omega=float(wi), amplitude=float(ai)))
+    k = int(np.argmax(a))
+    best = dict(omega=float(w[k]), amplitude=float(a[k]))
+    for p in local:
+        if p["amplitude"] >= best["amplitude"]:
+            best = dict(p)
+    return dict(peak_amplitude=best["amplitude"], peak_omega=best["omega"], local_maxima=local)
+
+
+def _diagnostics(t: pd.DataFrame) -> dict:
+    return dict(method=str(t["method"].iloc[0]), all_converged=bool(t["converged"].all()),
+                not_converged=int((~t["converged"].astype(bool)).sum()),
+                periods_min=int(t["periods"].min()), periods_max=int(t["periods"].max()),
+                periods_mean=float(t["periods"].mean()), max_change=float(t["change"].max()),
+                wall_time=float(t["wall_time"].sum()))
+
+
+def frc_response(scn: Scenario, study: FRCStudy, settings: RunSettings, progress=None, cache=None) -> FRCData:
+    cache = cache or _Cache()
+    t0 = time.perf_counter()
+    parts, peaks = [], {}
+    for curve in study.curves:
+        table = cache.sweep(scn.base, curve.tmd, study.omegas, settings, progress).copy()
+        table.insert(0, "curve", curve.label)
+        parts.append(table)
+        refine = (lambda x, tmd=curve.tmd: exact_amplitude(scn.base, tmd, x)) if uses_exact(curve.tmd, settings) else None
+        peaks[curve.label] = {}
+        for d, td in table.groupby("direction", sort=False):
+            peaks[curve.label][d] = dict(find_peaks(td["omega"], td["amplitude"], refine), **_diagnostics(td))
+    return FRCData(study, pd.concat(parts, ignore_index=True), peaks, time.perf_counter() - t0)
+
+
+def map_response(scn: Scenario, study: MapStudy, settings: RunSettings, progress=None, cache=None) -> MapData:
+    cache = cache or _Cache()
+    t0 = time.perf_counter()
+    amp = np.empty((len(study.values), len(study.omegas)))
+    parts = []
+    for i, (v, tmd) in enumerate(zip(study.values, study.tmds)):
+        table = cache.sweep(scn.base, tmd, study.omegas, settings, progress).copy()
+        table.insert(0, "value", float(v))
+        parts.append(table)
+        amp[i] = table.groupby("omega")["amplitude"].max().reindex(study.omegas).to_numpy()
+    return MapData(study, amp, pd.concat(parts, ignore_index=True), time.perf_counter() - t0)
+
+
+def phase_portraits(scn: Scenario, study: PhasePortraitStudy, settings: RunSettings, progress=None) -> PhaseData:
+    t0 = time.perf_counter()
+    data = PhaseData(study)
+    for w in study.omegas:
+        for curve in study.curves:
+            data.series[(w, curve.label)] = compute_time_series(scn.base, curve.tmd, w, study.n_periods,
+                                                                study.samples_per_period, settings)
+            if progress is not None:
+                progress(1)
+    data.wall_time = time.perf_counter() - t0
+    return data
+
+
+def run_studies(scn: Scenario, settings: RunSettings, progress=None) -> list:
+    """Compute every study of the scenario, in order."""
+    cache = _Cache()
+    out = []
+    for st in scn.studies:
+        if isinstance(st, FRCStudy):
+            out.append(frc_response(scn, st, settings, progress, cache))
+        elif isinstance(st, MapStudy):
+            out.append(map_response(scn, st, settings, progress, cache))
+        else:
+            out.append(phase_portraits(scn, st, settings, progress))
+    return out
+
+
+# --- summary -----------------------------------------------------------------------------------
+
+def study_summary(data) -> dict:
+    st = data.study
+    d = dict(kind=st.kind, name=st.name, title=st.title, wall_time=data.wall_time)
+    if isinstance(data, FRCData):
+        d["omegas"] = _grid(st.omegas)
+        d["curves"] = [dict(label=c.label, without_tmd=c.without_tmd, tmd=as_dict(c.tmd),
+                            inertance_ratio=c.tmd.inertance_ratio, directions=data.peaks[c.label])
+                       for c in st.curves]
+    elif isinstance(data, MapData):
+        d.update(parameter=st.parameter, values=_grid(st.values), omegas=_grid(st.omegas),
+                 amplitude_min=float(data.amplitude.min()), amplitude_max=float(data.amplitude.max()),
+                 **{k: v for k, v in _diagnostics(data.table).items() if k != "method"},
+                 methods=sorted(set(data.table["method"])))
+        d["peak_per_value"] = [dict(value=float(v), peak_amplitude=float(row.max()),
+                                    peak_omega=float(st.omegas[int(np.argmax(row))]))
+                               for v, row in zip(st.values, data.amplitude)]
+    else:
+        d.update(n_periods=st.n_periods, samples_per_period=st.samples_per_period, portraits=[])
+        for (w, label), ts in data.series.items():
+            x, xd = ts.states[:, 0], ts.states[:, 1]
+            d["portraits"].append(dict(omega=w, curve=label, method=ts.method, converged=ts.converged,
+                                       periods=ts.periods, change=ts.change, amplitude=ts.amplitude,
+                                       x_max=float(np.abs(x).max()), xd_max=float(np.abs(xd).max())))
+    return d
+
+
+def _grid(a) -> dict:
+    a = np.asarray(a, float)
+    return dict(start=float(a[0]), stop=float(a[-1]), count=int(a.size))
