@@ -45,6 +45,12 @@ class _Reader:
         raise ScenarioError(f"{where}: {path or '<top level>'}: {reason}{got}",
                             file=self.file, line=line, path=path, value=value)
 
+    def parameter_error(self, exc: ParameterError, path: str, line, value):
+        """Re-raise a ParameterError built with ``source=self.source(path, line)`` as a ScenarioError."""
+        text = str(exc).replace(f" (from {self.source(path, line)})", "")
+        where = f"{self.file}:{line}" if line else self.file
+        raise ScenarioError(f"{where}: {path}: {text}", file=self.file, line=line, path=path, value=value) from None
+
     def source(self, path: str, line) -> str:
         return f"{self.file}:{line} {path}" if line else f"{self.file} {path}"
 
@@ -211,8 +217,7 @@ class _TMDSpec:
             try:
                 TMDParams(**kw, source=rd.source(p, ln))
             except ParameterError as located:
-                raise ScenarioError(f"{rd.file}:{ln}: {p}: {located}", file=rd.file, line=ln, path=p,
-                                    value=v.get(key)) from None
+                rd.parameter_error(located, p, ln, v.get(key))
             raise  # pragma: no cover - the same values cannot pass the second time
 
 
@@ -251,7 +256,7 @@ def load_scenario(path) -> Scenario:
 def parse_scenario(text: str, file: str = "<string>") -> Scenario:
     rd = _Reader(file)
     try:
-        doc = load_marked(text)
+        doc = load_marked(text, name=file)
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None) or getattr(exc, "context_mark", None)
         line = mark.line + 1 if mark is not None else None
@@ -281,7 +286,7 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
         try:
             BaseParams(**{k: b[k] for k in BASE_FIELDS}, source=rd.source(p, ln))
         except ParameterError as exc:
-            raise ScenarioError(f"{file}:{ln}: {p}: {exc}", file=file, line=ln, path=p, value=b[key]) from None
+            rd.parameter_error(exc, p, ln, b[key])
 
     top = _TMDSpec().over(rd, doc["tmd"], "tmd", _line(doc, "tmd"))
     tmd = top.build(rd, "tmd", _line(doc, "tmd"))

@@ -7,6 +7,7 @@ say where in the file a bad value is.
 """
 from __future__ import annotations
 
+import io
 import re
 
 import yaml
@@ -77,9 +78,17 @@ _MarkedSafeLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_MAPPING_TAG
 _MarkedSafeLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_SEQUENCE_TAG, _construct_sequence)
 
 
-def load_marked(text: str):
+class _Named(io.StringIO):
+    """Text stream with a name, so that PyYAML's messages name the file."""
+
+    def __init__(self, text: str, name: str):
+        super().__init__(text)
+        self.name = name
+
+
+def load_marked(text: str, name: str = "<string>"):
     """Parse YAML text with the safe loader; mappings/lists carry line numbers.
 
     Raises :class:`yaml.YAMLError` (with a ``problem_mark`` where PyYAML knows the position).
     """
-    return yaml.load(text, Loader=_MarkedSafeLoader)  # noqa: S506 - a SafeLoader subclass
+    return yaml.load(_Named(text, name), Loader=_MarkedSafeLoader)  # noqa: S506 - a SafeLoader subclass

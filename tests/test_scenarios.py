@@ -1,0 +1,232 @@
+"""Scenario files: every committed file loads; every kind of bad file is refused with a message that
+names the file, the line, the key path and the value."""
+from __future__ import annotations
+
+import textwrap
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from pyfmu_wrapper.physics.params import CASES, InerterModel
+from pyfmu_wrapper.scenario import FRCStudy, MapStudy, PhasePortraitStudy, ScenarioError, load_scenario
+
+ROOT = Path(__file__).resolve().parents[1]
+SCENARIOS = sorted((ROOT / "scenarios").glob("*.yaml"))
+
+GOOD = """\
+schema_version: 1
+name: small
+base:
+  mass: 100.0
+  stiffness: 40000.0
+  damping: 100.0
+  force_amplitude: 200.0
+tmd:
+  case: 1
+  damping: 0.0
+frequencies: {start: 15.0, stop: 25.0, count: 11}
+solver:
+  direction: up
+studies:
+  - kind: frc
+    name: frc
+    curves:
+      - {label: "no TMD", without_tmd: true}
+      - {label: "c = 10", tmd: {damping: 10.0}}
+  - kind: map
+    name: map
+    parameter: damping
+    values: [0.0, 10.0, 20.0, 30.0]
+"""
+
+
+def write(tmp_path, text, name="s.yaml"):
+    p = tmp_path / name
+    p.write_text(textwrap.dedent(text))
+    return p
+
+
+def error_for(tmp_path, text) -> ScenarioError:
+    p = write(tmp_path, text)
+    with pytest.raises(ScenarioError) as info:
+        load_scenario(p)
+    msg = str(info.value)
+    assert str(p) in msg, msg
+    return info.value
+
+
+# --- committed files -----------------------------------------------------------------------------
+
+def test_every_paper_study_has_a_file():
+    names = {p.stem for p in SCENARIOS}
+    expected = {"iratio"} | {f"{s}_case{c}" for s in ("viscous", "friction", "play", "full") for c in (1, 2, 3)}
+    assert expected <= names
+
+
+@pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.name)
+def test_committed_scenario_loads(path):
+    scn = load_scenario(path)
+    assert scn.schema_version == 1
+    assert scn.name == path.stem  # the default results folder is results/<file stem>
+    assert scn.studies
+    assert scn.base.natural_frequency == pytest.approx(20.0)
+    for st in scn.studies:
+        assert np.all(st.omegas > 0) if not isinstance(st, PhasePortraitStudy) else all(w > 0 for w in st.omegas)
+
+
+def test_full_case1_is_the_papers_fig6a():
+    scn = load_scenario(ROOT / "scenarios" / "full_case1.yaml")
+    frc = scn.studies[0]
+    assert isinstance(frc, FRCStudy)
+    assert frc.omegas[0] == 15.0 and frc.omegas[-1] == 25.0 and len(frc.omegas) >= 41
+    full = [c.tmd for c in frc.curves if c.label.startswith("5")][0]
+    assert (full.mass, full.inertance) == (9.0, 1.0)
+    assert (full.damping, full.friction_force, full.play_gap) == (10.0, 10.0, 1e-4)
+    assert full.inerter == InerterModel.PLAY and full.mesh_stiffness == 2e7 and full.mesh_damping == 0.01
+    simple = [c.tmd for c in frc.curves if c.label.startswith("6")][0]
+    assert simple.damping == 15.0 and simple.is_linear and simple.inerter == InerterModel.IDEAL
+
+
+@pytest.mark.parametrize("case,c_opt,df_opt", [(1, 56.38, 45.78), (2, 31.73, 37.65), (3, 6.45, 15.44)])
+def test_optimised_values_of_the_paper(case, c_opt, df_opt):
+    v = load_scenario(ROOT / "scenarios" / f"viscous_case{case}.yaml")
+    f = load_scenario(ROOT / "scenarios" / f"friction_case{case}.yaml")
+    for scn in (v, f):
+        assert (scn.tmd.mass, scn.tmd.inertance) == (CASES[case]["mass"], CASES[case]["inertance"])
+    frc_v = [s for s in v.studies if s.kind == "frc"][0]
+    frc_f = [s for s in f.studies if s.kind == "frc"][0]
+    assert {c.tmd.damping for c in frc_v.curves} >= {0.0, 10.0, c_opt, 90.0}
+    assert {c.tmd.friction_force for c in frc_f.curves} >= {0.0, 10.0, df_opt, 90.0}
+    m = [s for s in v.studies if s.kind == "map"][0]
+    assert m.parameter == "damping" and m.values[0] == 0.0 and m.values[-1] == 100.0
+
+
+def test_play_and_iratio_files():
+    p = load_scenario(ROOT / "scenarios" / "play_case2.yaml")
+    m = [s for s in p.studies if isinstance(s, MapStudy)][0]
+    assert m.parameter == "play_gap" and m.values[-1] == pytest.approx(2e-3)
+    assert all(t.mesh_stiffness == 2e7 and t.mesh_damping == 0.01 for t in m.tmds)
+    ph = [s for s in p.studies if isinstance(s, PhasePortraitStudy)][0]
+    assert set(ph.omegas) == {19.0, 21.0}
+    assert [c.tmd.play_gap for c in ph.curves] == [0.0, 5e-5, 1e-4, 1e-3]
+    r = load_scenario(ROOT / "scenarios" / "iratio.yaml")
+    m = r.studies[0]
+    assert m.parameter == "inertance_ratio" and m.values[0] == 0.0 and m.values[-1] < 1.0
+    assert m.tmds[0].inerter == InerterModel.NONE and m.tmds[1].inerter == InerterModel.IDEAL
+    assert all(t.inertia == pytest.approx(10.0) for t in m.tmds)
+    ratios = [c.tmd.inertance_ratio for c in r.studies[1].curves if not c.without_tmd]
+    assert ratios == pytest.approx([0.0, 0.1, 0.5, 0.9, 1.0])
+
+
+def test_good_small_scenario(tmp_path):
+    scn = load_scenario(write(tmp_path, GOOD))
+    assert [s.kind for s in scn.studies] == ["frc", "map"]
+    assert scn.studies[0].curves[1].tmd.damping == 10.0
+    assert scn.studies[0].curves[0].tmd.stiffness == 0.0  # detached
+    assert [t.damping for t in scn.studies[1].tmds] == [0.0, 10.0, 20.0, 30.0]
+
+
+def test_yaml12_floats_are_numbers(tmp_path):
+    scn = load_scenario(write(tmp_path, GOOD.replace("damping: 0.0\nfreq", "damping: 0.0\n  mesh_stiffness: 3e7\nfreq")))
+    assert scn.tmd.mesh_stiffness == 3e7
+
+
+# --- bad files -----------------------------------------------------------------------------------
+
+def test_unknown_key(tmp_path):
+    e = error_for(tmp_path, GOOD.replace("  damping: 0.0\nfreq", "  dampnig: 0.0\nfreq"))
+    assert "tmd.dampnig" in str(e) and "unknown key" in str(e) and ":10:" in str(e)
+    assert "friction_force" in str(e)  # the allowed keys are listed
+
+
+def test_unknown_top_level_key(tmp_path):
+    e = error_for(tmp_path, GOOD + "plots: yes\n")
+    assert "plots" in str(e) and "unknown key" in str(e)
+
+
+def test_wrong_type(tmp_path):
+    e = error_for(tmp_path, GOOD.replace("stiffness: 40000.0", "stiffness: stiff"))
+    assert "base.stiffness" in str(e) and "'stiff'" in str(e) and ":5:" in str(e)
+
+
+def test_wrong_type_bool_count(tmp_path):
+    e = error_for(tmp_path, GOOD.replace("count: 11", "count: 11.5"))
+    assert "frequencies.count" in str(e) and "11.5" in str(e) and "integer" in str(e)
+
+
+def test_missing_field(tmp_path):
+    e = error_for(tmp_path, GOOD.replace("  force_amplitude: 200.0\n", ""))
+    assert "base.force_amplitude" in str(e) and "missing" in str(e)
+    e = error_for(tmp_path, GOOD.replace("    parameter: damping\n", ""))
+    assert "studies[1].parameter" in str(e) and "missing" in str(e)
+
+
+def test_negative_mass(tmp_path):
+    e = error_for(tmp_path, GOOD.replace("  mass: 100.0", "  mass: -100.0"))
+    assert "base.mass" in str(e) and "-100" in str(e) and ":4:" in str(e)
+
+
+def test_negative_tmd_friction(tmp_path):
+    e = error_for(tmp_path, GOOD.replace("  damping: 0.0\nfreq", "  friction_force: -3.0\nfreq"))
+    assert "tmd.friction_force" in str(e) and "-3" in str(e) and ":10:" in str(e)
+
+
+def test_bad_map_value_names_its_index(tmp_path):
+    e = error_for(tmp_path, GOOD.replace("values: [0.0, 10.0, 20.0, 30.0]", "values:\n      - 0.0\n      - 10.0\n"
+                                                                           "      - 20.0\n      - -5.0"))
+    assert "studies[1].values[3]" in str(e) and "-5" in str(e) and ":27:" in str(e)
+    assert e.path == "studies[1].values[3]" and e.value == -5.0
+
+
+def test_bad_curve_value(tmp_path):
+    e = error_for(tmp_path, GOOD.replace("tmd: {damping: 10.0}", "tmd: {damping: -10.0}"))
+    assert "studies[0].curves[1].tmd.damping" in str(e) and "-10" in str(e) and ":19:" in str(e)
+
+
+def test_inertance_with_no_inerter(tmp_path):
+    e = error_for(tmp_path, GOOD.replace("  case: 1\n", "  case: 1\n  inerter: none\n"))
+    assert "inertance" in str(e) and "none" in str(e)
+
+
+def test_non_physical_frequencies(tmp_path):
+    e = error_for(tmp_path, GOOD.replace("start: 15.0, stop: 25.0", "start: -15.0, stop: 25.0"))
+    assert "frequencies.start" in str(e) and "-15" in str(e)
+    e = error_for(tmp_path, GOOD.replace("start: 15.0, stop: 25.0", "start: 25.0, stop: 15.0"))
+    assert "frequencies.stop" in str(e)
+
+
+def test_bad_choice_and_version(tmp_path):
+    e = error_for(tmp_path, GOOD.replace("direction: up", "direction: sideways"))
+    assert "solver.direction" in str(e) and "'sideways'" in str(e) and "both" in str(e)
+    e = error_for(tmp_path, GOOD.replace("schema_version: 1", "schema_version: 2"))
+    assert "schema_version" in str(e) and "2" in str(e)
+    e = error_for(tmp_path, GOOD.replace("case: 1", "case: 4"))
+    assert "tmd.case" in str(e) and "4" in str(e)
+
+
+def test_duplicate_key(tmp_path):
+    e = error_for(tmp_path, GOOD.replace("  damping: 0.0\nfreq", "  damping: 0.0\n  damping: 1.0\nfreq"))
+    assert "duplicate key 'damping'" in str(e) and ":11" in str(e)
+
+
+def test_malformed_yaml(tmp_path):
+    e = error_for(tmp_path, GOOD.replace("count: 11}", "count: 11"))
+    assert "not valid YAML" in str(e) and e.line is not None
+
+
+def test_python_object_tag_is_refused(tmp_path):
+    marker = tmp_path / "pwned"
+    e = error_for(tmp_path, GOOD.replace("name: small", f"name: !!python/object/apply:os.system ['touch {marker}']"))
+    assert "python/object/apply:os.system" in str(e) and ":2:" in str(e)
+    assert not marker.exists()
+
+
+def test_missing_file(tmp_path):
+    with pytest.raises(ScenarioError, match="nope.yaml.*cannot read"):
+        load_scenario(tmp_path / "nope.yaml")
+
+
+def test_empty_and_non_mapping(tmp_path):
+    assert "empty" in str(error_for(tmp_path, ""))
+    assert "mapping" in str(error_for(tmp_path, "- 1\n- 2\n"))
