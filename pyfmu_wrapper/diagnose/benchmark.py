@@ -13,7 +13,7 @@ friction       kernels.friction_force(v, df, 1e6) added                     df =
 play           spring through a gap: kernels.chain_force (ki = k, gap eps)  eps = 0.5, 1, 2 mm
 viscous        c -> c + dc                                                  dc = 4, 8, 16 N s/m
 mass_split     I -> I + dI (m + I fixed; m does not enter a link test)      dI = 0.2, 0.4, 0.8 kg
-cubic          + k3 d^3 (not in the kernels: a test of a missing law)       k3 = 5e4, 1e5, 2e5 N/m^3
+cubic          + k3 d^3 (not in the kernels: a test of a missing law)       k3 = 1e5, 2e5, 4e5 N/m^3
 force_error    force reads (1 + alpha) x the true force (gain error)        alpha = 3, 6, 12 %
 bias           displacement sensor offset b (the nominal sees d + b)        b = 0.5, 1, 2 mm
 =============  ===========================================================  ====================
@@ -41,7 +41,7 @@ SEVERITY = {
     "play": [0.5e-3, 1e-3, 2e-3],
     "viscous": [4.0, 8.0, 16.0],
     "mass_split": [0.2, 0.4, 0.8],
-    "cubic": [5e4, 1e5, 2e5],
+    "cubic": [1e5, 2e5, 4e5],
     "force_error": [0.03, 0.06, 0.12],
     "bias": [0.5e-3, 1e-3, 2e-3],
 }

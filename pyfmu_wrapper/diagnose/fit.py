@@ -188,7 +188,7 @@ class Diagnosis:
     verdict: str = ""
 
 
-def diagnose_link(ld: LinkData, max_pairs_from: int = 4) -> Diagnosis:
+def diagnose_link(ld: LinkData, max_pairs_from: int = 7) -> Diagnosis:
     train, test = split_masks(ld)
     r0 = ld.F - ld.F_nom
     nt = int(test.sum())
@@ -212,7 +212,7 @@ def diagnose_link(ld: LinkData, max_pairs_from: int = 4) -> Diagnosis:
     structural = excess > EXCESS_THRESHOLD and fits[0].bic < bic0 - BIC_THRESHOLD
     chosen = fits[0] if structural else None
     ranking = list(fits)
-    if structural and (fits[0].closed < 0.9 or math.sqrt(fits[0].rss_test / nt) > (1 + EXCESS_THRESHOLD) * ld.noise):
+    if structural:
         by = {e.name: e for e in effects}
         top = [f.effects[0] for f in fits[:max_pairs_from]]
         pairs = [fit_effects([by[a], by[b]], ld, train, test) for a, b in itertools.combinations(top, 2)]

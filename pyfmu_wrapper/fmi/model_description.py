@@ -23,6 +23,9 @@ UNITS = {
     "s/m": dict(s=1, m=-1),
 }
 
+#: Log categories the stub uses (keep in sync with fmi2SetDebugLogging in fmu/src/pyfmu_stub.c).
+LOG_CATEGORIES = ("logStatusError", "logStatusWarning", "logAll")
+
 TYPE_CODE = {REAL: "R", INTEGER: "I", BOOLEAN: "B"}
 
 
@@ -86,7 +89,10 @@ def model_description_xml(spec: FmuSpec, guid: str, generation_tool: str = "pyfm
         f'description={quoteattr(spec.description)} generationTool="{generation_tool}" '
         f'variableNamingConvention="flat" numberOfEventIndicators="0">',
         cs,
-        "  <UnitDefinitions>", *units, "  </UnitDefinitions>",
+        *(["  <UnitDefinitions>", *units, "  </UnitDefinitions>"] if units else []),
+        "  <LogCategories>",
+        *[f'    <Category name="{c}"/>' for c in LOG_CATEGORIES],
+        "  </LogCategories>",
         f'  <DefaultExperiment startTime="0.0" stepSize="{_fmt(spec.default_step)}"/>',
         "  <ModelVariables>",
     ]

@@ -25,7 +25,7 @@ import traceback
 import numpy as np
 
 from ..physics import kernels as kn
-from ..physics.params import BaseParams, TMDParams, pack
+from ..physics.params import P_s, BaseParams, TMDParams, pack
 from ..solvers.rodas import integrate
 from .variables import BASE_OSCILLATOR, BOOLEAN, INTEGER, TMD_INERTER, TRIVIAL, FmuSpec
 
@@ -224,7 +224,7 @@ class Slave:
     def _integrate(self, system, t, h, u):
         atol = np.full(self.n_state, self.val("atol"))
         hn, _ = integrate(system, self.z, t, t + h, self.p, u, self.val("rtol"), atol, self.h, h,
-                          self._empty_t, self._empty_s, 1.0 / self.p[9] if self.p[9] > 0 else 1e-6, self.stats)
+                          self._empty_t, self._empty_s, 1.0 / self.p[P_s] if self.p[P_s] > 0 else 1e-6, self.stats)
         if not hn > 0.0:
             raise FmuStepError(f"integrator failed in doStep at t = {t:.16g} (step size underflow)")
         self.h = hn

@@ -29,7 +29,6 @@ second, hand-derived copy of the equations.
 """
 from __future__ import annotations
 
-import cmath
 import math
 
 import numpy as np
@@ -50,25 +49,27 @@ def _re(v):
     return v.real
 
 
-def _atan(v):  # real or complex arctangent, dispatched at compile time
+def _atan(v):  # real arctangent, or its complex-step extension, dispatched at compile time
     return math.atan(v)
 
 
 @overload(_atan)
 def _atan_overload(v):
     if isinstance(v, types.Complex):
-        return lambda v: cmath.atan(v)
+        # complex-step use only (imaginary part ~1e-30): first order in Im is exact to rounding
+        return lambda v: complex(math.atan(v.real), v.imag / (1.0 + v.real * v.real))
     return lambda v: math.atan(v)
 
 
-def _cos(v):  # real or complex cosine, dispatched at compile time
+def _cos(v):  # real cosine, or its complex-step extension, dispatched at compile time
     return math.cos(v)
 
 
 @overload(_cos)
 def _cos_overload(v):
     if isinstance(v, types.Complex):
-        return lambda v: cmath.cos(v)
+        # complex-step use only (imaginary part ~1e-30): first order in Im is exact to rounding
+        return lambda v: complex(math.cos(v.real), -v.imag * math.sin(v.real))
     return lambda v: math.cos(v)
 
 
@@ -224,6 +225,13 @@ def system_jacobian(system, t, z, p, u, J):
     n = z.shape[0]
     zc = np.empty(n, dtype=np.complex128)
     oc = np.empty(n, dtype=np.complex128)
+    system_jacobian_work(system, t, z, p, u, J, zc, oc)
+
+
+@njit(cache=True)
+def system_jacobian_work(system, t, z, p, u, J, zc, oc):
+    """:func:`system_jacobian` with caller-provided complex work arrays zc, oc (no allocation)."""
+    n = z.shape[0]
     for j in range(n):
         for i in range(n):
             zc[i] = z[i]
@@ -239,6 +247,13 @@ def system_dfdt(system, t, z, p, u, out):
     n = z.shape[0]
     zc = np.empty(n, dtype=np.complex128)
     oc = np.empty(n, dtype=np.complex128)
+    system_dfdt_work(system, t, z, p, u, out, zc, oc)
+
+
+@njit(cache=True)
+def system_dfdt_work(system, t, z, p, u, out, zc, oc):
+    """:func:`system_dfdt` with caller-provided complex work arrays."""
+    n = z.shape[0]
     for i in range(n):
         zc[i] = z[i]
     system_rhs(system, t + 1j * _CSTEP, zc, p, u, oc)

@@ -173,6 +173,8 @@ class _TMDSpec:
         if "case" in node or "inertance_ratio" in node:
             for k in ("mass", "inertance", "case", "inertance_ratio"):
                 new.values.pop(k, None)
+            if "inerter" not in node and str(new.values.get("inerter", "")).lower() == "none":
+                new.values.pop("inerter")  # a paper case has an inerter: back to the default, ideal
         if "mass" in node or "inertance" in node:
             new.values.pop("inertance_ratio", None)
         for key, v in node.items():

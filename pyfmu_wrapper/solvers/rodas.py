@@ -29,7 +29,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ..physics.kernels import system_dfdt, system_jacobian, system_rhs, system_switching
+from ..physics.kernels import system_dfdt_work, system_jacobian_work, system_rhs, system_switching
 
 # RODAS4 coefficients (Hairer & Wanner 1996), lower-triangular A and C stored as full matrices.
 _GAMMA = 0.25
@@ -167,6 +167,8 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
     err = np.empty(n)
     g0 = np.empty(3)
     g1 = np.empty(3)
+    zc = np.empty(n, dtype=np.complex128)
+    oc = np.empty(n, dtype=np.complex128)
     t = t0
     span = t1 - t0
     hmin = 1e-14 * max(1.0, abs(t1))
@@ -196,8 +198,8 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
         if t + hs >= t1 - 1e-12 * abs(span):
             hs = t1 - t
             final = True
-        system_jacobian(system, t, z, p, u, J)
-        system_dfdt(system, t, z, p, u, ft)
+        system_jacobian_work(system, t, z, p, u, J, zc, oc)
+        system_dfdt_work(system, t, z, p, u, ft, zc, oc)
         while True:
             # G = I/(h gamma) - J
             for i in range(n):

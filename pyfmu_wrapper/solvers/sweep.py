@@ -3,9 +3,17 @@
 Each frequency starts from the steady state of the previous one (the state at phase w t = 0,
 which is continuous in w), so the transient to settle is short, and the branch followed depends on
 the direction, as in a stepped-sine test. ``direction='both'`` runs up and then down.
+
+``workers > 1`` splits the frequency list into that many contiguous pieces, each swept with
+continuation in its own process; the first point of each piece starts from the linear initial
+guess instead of its neighbour. Where the response is multistable this can pick another branch
+at a piece boundary than a single sequential sweep would: use ``workers=1`` for strict
+stepped-sine semantics.
 """
 from __future__ import annotations
 
+import os
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
@@ -23,29 +31,73 @@ class SweepResult:
     final_states: dict
 
 
+def _sweep_piece(base, tmd, seq, d, settings, z0, queue=None):
+    rows = []
+    z = None if z0 is None else np.array(z0, dtype=float)
+    hint: dict = {}
+    for w in seq:
+        ss = steady_state(base, tmd, float(w), z, settings, hint)
+        z = ss.state
+        rows.append(dict(direction=d, omega=float(w), amplitude=ss.amplitude, periods=ss.periods,
+                         converged=ss.converged, change=ss.change, steps=ss.steps,
+                         rejected=ss.rejected, wall_time=ss.wall_time))
+        if queue is not None:
+            queue.put(1)
+    return rows, z
+
+
 def sweep(base: BaseParams, tmd: TMDParams, omegas, direction: str = "up",
-          settings: SolverSettings = SolverSettings(), progress=None, z0=None) -> SweepResult:
+          settings: SolverSettings = SolverSettings(), progress=None, z0=None, workers: int = 1) -> SweepResult:
     """Steady-state amplitude of the base at each omega [rad/s], sweeping up, down or both.
 
     progress: optional callable(n_done) called after every frequency (e.g. tqdm.update).
+    workers: processes to use (0 or None: all cores); see the module doc.
     """
     omegas = np.sort(np.asarray(omegas, dtype=float))
     if direction not in ("up", "down", "both"):
         raise ValueError(f"direction must be 'up', 'down' or 'both', got {direction!r}")
+    if not workers:
+        workers = os.cpu_count() or 1
     dirs = ["up", "down"] if direction == "both" else [direction]
     rows = []
     finals = {}
     for d in dirs:
         seq = omegas if d == "up" else omegas[::-1]
-        z = None if z0 is None else np.array(z0, dtype=float)
-        hint: dict = {}
-        for w in seq:
-            ss = steady_state(base, tmd, float(w), z, settings, hint)
-            z = ss.state
-            rows.append(dict(direction=d, omega=float(w), amplitude=ss.amplitude, periods=ss.periods,
-                             converged=ss.converged, change=ss.change, steps=ss.steps,
-                             rejected=ss.rejected, wall_time=ss.wall_time))
-            if progress is not None:
-                progress(1)
-        finals[d] = z
+        nw = max(1, min(int(workers), len(seq) // 2))
+        if nw == 1:
+            r, z = _sweep_piece(base, tmd, seq, d, settings, z0,
+                                None if progress is None else _CallbackQueue(progress))
+            rows += r
+            finals[d] = z
+            continue
+        import multiprocessing as mp
+
+        pieces = np.array_split(seq, nw)
+        with mp.Manager() as mgr, ProcessPoolExecutor(max_workers=nw) as ex:
+            q = mgr.Queue()
+            futs = [ex.submit(_sweep_piece, base, tmd, piece, d, settings, z0 if i == 0 else None, q)
+                    for i, piece in enumerate(pieces)]
+            done = 0
+            while done < len(seq):
+                if all(f.done() for f in futs) and q.empty():
+                    break
+                try:
+                    q.get(timeout=0.2)
+                except Exception:
+                    continue
+                done += 1
+                if progress is not None:
+                    progress(1)
+            results = [f.result() for f in futs]
+        for r, z in results:
+            rows += r
+        finals[d] = results[-1][1]
     return SweepResult(pd.DataFrame(rows), finals)
+
+
+class _CallbackQueue:
+    def __init__(self, cb):
+        self.cb = cb
+
+    def put(self, n):
+        self.cb(n)
