@@ -21,6 +21,8 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--out", default=None, help="output folder (default: results/<scenario name>/)")
     p.add_argument("--engine", default="monolithic", choices=sorted(ENGINES),
                    help="computation engine (default: monolithic)")
+    p.add_argument("--workers", type=int, default=1,
+                   help="processes per nonlinear sweep (default 1: strict continuation; 0: all cores)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.add_argument("--traceback", action="store_true", help="print the full traceback on failure")
     return p
@@ -34,7 +36,10 @@ def main(argv=None) -> int:
         print(f"run-scenario: error: {exc}", file=sys.stderr)
         return 2
     out = args.out if args.out is not None else default_output_dir(scn)
-    settings = RunSettings(engine=args.engine, solver=scn.solver)
+    if args.workers < 0:
+        print(f"run-scenario: error: --workers must be >= 0, got {args.workers}", file=sys.stderr)
+        return 2
+    settings = RunSettings(engine=args.engine, solver=scn.solver, workers=args.workers)
     from tqdm import tqdm
 
     with tqdm(total=work_units(scn, settings), desc=scn.name, unit="pt", disable=True if args.quiet else None,

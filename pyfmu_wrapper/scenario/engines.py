@@ -33,6 +33,7 @@ class RunSettings:
 
     engine: str = "monolithic"
     solver: SolverConfig = SolverConfig()
+    workers: int = 1  #: processes per nonlinear sweep (1: strict stepped-sine continuation)
 
     def directions(self) -> list[str]:
         return ["up", "down"] if self.solver.direction == "both" else [self.solver.direction]
@@ -80,7 +81,7 @@ def _monolithic_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -
     if uses_exact(tmd, settings):
         return _exact_table(base, tmd, omegas, settings, progress, "monolithic")
     res = sweep(base, tmd, omegas, direction=settings.solver.direction, settings=settings.solver.settings(),
-                progress=progress)
+                progress=progress, workers=settings.workers)
     table = res.table.copy()
     table.insert(0, "method", "steady_state")
     table.insert(0, "engine", "monolithic")

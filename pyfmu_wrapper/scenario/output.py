@@ -92,6 +92,7 @@ def make_summary(scn: Scenario, settings: RunSettings, datas, compute_time: floa
         scenario=dict(name=scn.name, description=scn.description, file=str(scn.path),
                       schema_version=scn.schema_version),
         engine=settings.engine,
+        workers=settings.workers,
         parameters=dict(base=as_dict(scn.base), tmd=as_dict(scn.tmd)),
         solver=settings.solver.as_dict(),
         timings=dict(compute=compute_time, total=total_time, studies={d.study.name: d.wall_time for d in datas}),
