@@ -178,6 +178,19 @@ typedef struct {
     char modname[160];
 } Comp;
 
+/* The message is passed pre-formatted as the format string with '%' doubled: C hosts that
+ * vsnprintf it and Python hosts (fmpy) that print it as is both show the text. */
+static void emit(Comp *c, fmi2Status st, const char *cat, const char *a, const char *b) {
+    size_t na = strlen(a), nb = b ? strlen(b) : 0;
+    char *m = malloc(2 * (na + nb) + 1), *q = m;
+    if (!m) return;
+    for (const char *p = a; *p; p++) { if (*p == '%') *q++ = '%'; *q++ = *p; }
+    for (const char *p = b; p && *p; p++) { if (*p == '%') *q++ = '%'; *q++ = *p; }
+    *q = 0;
+    c->logger(c->env, c->instance_name, st, cat, m);
+    free(m);
+}
+
 static void logmsg(Comp *c, fmi2Status st, const char *cat, const char *fmt, ...) {
     if (!c || !c->logger) return;
     if (st == fmi2OK && !c->logging_on) return;
@@ -186,12 +199,12 @@ static void logmsg(Comp *c, fmi2Status st, const char *cat, const char *fmt, ...
     va_start(ap, fmt);
     vsnprintf(buf, sizeof buf, fmt, ap);
     va_end(ap);
-    c->logger(c->env, c->instance_name, st, cat, "%s", buf);
+    emit(c, st, cat, buf, NULL);
 }
 
 static void loglong(Comp *c, fmi2Status st, const char *cat, const char *prefix, const char *text) {
     if (!c || !c->logger) return;
-    c->logger(c->env, c->instance_name, st, cat, "%s%s", prefix, text ? text : "");
+    emit(c, st, cat, prefix, text);
 }
 
 static int check_state(Comp *c, const char *f, int mask) {
@@ -280,7 +293,7 @@ static int read_config(const char *resdir, Config *cfg, char *err, size_t nerr) 
     snprintf(path, sizeof path, "%s/pyfmu.cfg", resdir);
     FILE *f = fopen(path, "r");
     if (!f) {
-        snprintf(err, nerr, "cannot open %s", path);
+        snprintf(err, nerr, "cannot open %.1900s", path);
         return 0;
     }
     memset(cfg, 0, sizeof *cfg);
@@ -317,7 +330,7 @@ static int read_variables(Comp *c, const char *resdir, char *err, size_t nerr) {
     snprintf(path, sizeof path, "%s/variables.tsv", resdir);
     FILE *f = fopen(path, "r");
     if (!f) {
-        snprintf(err, nerr, "cannot open %s", path);
+        snprintf(err, nerr, "cannot open %.1900s", path);
         return 0;
     }
     int maxvr = -1;
@@ -328,7 +341,7 @@ static int read_variables(Comp *c, const char *resdir, char *err, size_t nerr) {
     }
     if (maxvr < 0 || maxvr > 1000000) {
         fclose(f);
-        snprintf(err, nerr, "bad variable table %s", path);
+        snprintf(err, nerr, "bad variable table %.1900s", path);
         return 0;
     }
     c->nvr = maxvr + 1;
@@ -795,7 +808,13 @@ fmi2Status fmi2GetFMUstate(fmi2Component comp, fmi2FMUstate *FMUstate) {
         st = fmi2Error;
     } else if (r == py.NoneStruct || py.BytesAsStringAndSize(r, &buf, &len) != 0) {
         if (r != py.NoneStruct) report_py_exception(c, "fmi2GetFMUstate");
-        else py_status(c, "fmi2GetFMUstate", NULL), py.ErrClear();
+        else {
+            PyObject *e = py.GetAttrString(c->slave, "last_error");
+            loglong(c, fmi2Error, "logStatusError", "fmi2GetFMUstate: Python exception in the model\n",
+                    e ? py.UnicodeAsUTF8(e) : "");
+            if (e) py.DecRef(e);
+            py.ErrClear();
+        }
         st = fmi2Error;
     }
     FmuState *s = NULL;

@@ -7,7 +7,7 @@ package Components "Masses, links and sources"
     TMDInerter.Units.Position s(start = 0, fixed = true) "Position";
     TMDInerter.Units.Velocity v(start = 0, fixed = true) "Velocity";
     TMDInerter.Units.Acceleration a "Acceleration";
-    TMDInerter.Interfaces.Flange flange;
+    TMDInerter.Interfaces.BodyFlange flange;
   equation
     der(s) = v;
     der(v) = a;
@@ -18,7 +18,7 @@ package Components "Masses, links and sources"
   end Mass;
 
   model Fixed "Fixed point (the support)"
-    TMDInerter.Interfaces.Flange flange;
+    TMDInerter.Interfaces.BodyFlange flange;
   equation
     flange.s = 0;
     flange.v = 0;
@@ -29,7 +29,7 @@ package Components "Masses, links and sources"
     parameter TMDInerter.Units.Force F "Amplitude";
     parameter TMDInerter.Units.AngularFrequency w "Excitation frequency (rad/s)";
     TMDInerter.Units.Force force "Applied force";
-    TMDInerter.Interfaces.Flange flange;
+    TMDInerter.Interfaces.LinkFlange flange;
   equation
     force = F * cos(w * time);
     flange.f = -force;

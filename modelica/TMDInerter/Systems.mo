@@ -13,7 +13,7 @@ package Systems "Base oscillator, TMD-inerter subsystems and the coupled systems
     TMDInerter.Components.Damper damper(c = C);
     TMDInerter.Components.Fixed support;
     TMDInerter.Components.HarmonicForce excitation(F = F, w = w);
-    TMDInerter.Interfaces.Flange flange "Attachment point of the TMD (moves with the base mass)";
+    TMDInerter.Interfaces.BodyFlange flange "Attachment point of the TMD (moves with the base mass)";
   equation
     connect(mass.flange, spring.flange_a);
     connect(spring.flange_b, support.flange);
@@ -33,7 +33,7 @@ package Systems "Base oscillator, TMD-inerter subsystems and the coupled systems
     TMDInerter.Components.Spring spring(k = k);
     TMDInerter.Components.Damper damper(c = c);
     TMDInerter.Components.DryFriction friction(df = df, slope = slope);
-    TMDInerter.Interfaces.Flange flange_base "Connect to the base oscillator";
+    TMDInerter.Interfaces.LinkFlange flange_base "Connect to the base oscillator";
     TMDInerter.Units.Force f_base "Force of all the links on the base, acting in -x";
   equation
     connect(flange_base, spring.flange_a);

@@ -78,6 +78,7 @@ class Slave:
         self._input_vr = np.array([v.vr for v in self._inputs], dtype=np.int64)
         self._u = np.zeros(1 + 3 * len(self._inputs))
         self._outputs = [v for v in self.spec.of("output")]
+        self._debug_vr = next((v.vr for v in self.spec.variables if v.name == "debug_raise"), None)
         self._start_values()
 
     # --- helpers --------------------------------------------------------------------------
@@ -152,7 +153,7 @@ class Slave:
     def do_step(self, t, h, no_set_prior):
         if abs(t - self.t) > 1e-12 * max(1.0, abs(t)):
             raise FmuStepError(f"Expected currentCommunicationPoint = {self.t:.16g} but was {t:.16g}")
-        if self.val("debug_raise") if "debug_raise" in {v.name for v in self.spec.variables} else 0:
+        if self._debug_vr is not None and self.i[self._debug_vr]:
             raise InjectedError(f"debug_raise is set: exception injected at t = {t:.16g}")
         u = self._taylor_inputs(t)
         self.advance(t, h, u)

@@ -1,0 +1,102 @@
+"""Cost per fmi2DoStep of a trivial model in a pure C host: this project's stub vs PythonFMU.
+
+    python benchmarks/bench_fmu.py [--steps 200000]
+
+Builds the ``Trivial`` FMU (y = gain * u; doStep only advances time) with ``build-fmus`` and an
+equivalent PythonFMU slave (``pip install pythonfmu``, the ``bench`` extra), then runs both in
+tests/c_host/fmu_host.c (``bench`` mode: dlopen RTLD_LOCAL, no Python in the host). PythonFMU's
+binary does not link libpython, so its run needs LD_PRELOAD=<libpython> (ours needs nothing).
+Results are written to benchmarks/results/bench_fmu.json and printed.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import textwrap
+import zipfile
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(REPO / "tests"))
+
+from _fmu_support import compile_c_host, extract, guid  # noqa: E402
+
+from pyfmu_wrapper.fmi.build import build_fmus, libpython_path  # noqa: E402
+
+PYTHONFMU_SLAVE = textwrap.dedent('''
+    from pythonfmu import Fmi2Causality, Fmi2Variability, Fmi2Slave, Real
+
+
+    class TrivialPF(Fmi2Slave):
+        """y = gain * u; doStep only advances time."""
+
+        def __init__(self, **kwargs):
+            super().__init__(**kwargs)
+            self.gain = 2.0
+            self.u = 0.0
+            self.y = 0.0
+            self.register_variable(Real("gain", causality=Fmi2Causality.parameter, variability=Fmi2Variability.fixed))
+            self.register_variable(Real("u", causality=Fmi2Causality.input))
+            self.register_variable(Real("y", causality=Fmi2Causality.output))
+
+        def do_step(self, current_time, step_size):
+            self.y = self.gain * self.u
+            return True
+''')
+
+
+def _bench(exe, d, g, u, y, steps, env):
+    r = subprocess.run([str(exe), "bench", str(steps), str(d), g, str(u), str(y)], capture_output=True, text=True,
+                       env=env, timeout=600)
+    if r.returncode != 0:
+        return {"error": (r.stderr or r.stdout)[-2000:]}
+    return {k: float(v) for k, v in (l.split() for l in r.stdout.splitlines()) if k.startswith("us_")}
+
+
+def _pf_guid(d: Path) -> str:
+    import re
+    return re.search(r'guid="([^"]+)"', (d / "modelDescription.xml").read_text()).group(1)
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--steps", type=int, default=200000)
+    args = ap.parse_args(argv)
+    res = {"steps": args.steps}
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        exe = compile_c_host(tmp)
+        env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "LD_PRELOAD"))}
+        (fmu,) = build_fmus(["Trivial"], tmp / "ours")
+        d = extract(fmu, tmp / "x")
+        res["pyfmu_wrapper_stub"] = _bench(exe, d, guid(d), 1, 2, args.steps, env)
+        try:
+            script = tmp / "TrivialPF.py"
+            script.write_text(PYTHONFMU_SLAVE)
+            subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f", str(script), "-d", str(tmp / "pf")],
+                           check=True, capture_output=True, text=True)
+            pf = tmp / "pf" / "TrivialPF.fmu"
+            dpf = extract(pf, tmp / "x")
+            vrs = {}
+            import fmpy
+            for v in fmpy.read_model_description(str(pf)).modelVariables:
+                vrs[v.name] = v.valueReference
+            penv = dict(env, LD_PRELOAD=str(libpython_path()))
+            sp = [p for p in sys.path if p.endswith("site-packages")]
+            penv["PYTHONPATH"] = os.pathsep.join(sp)
+            res["pythonfmu_no_preload"] = _bench(exe, dpf, _pf_guid(dpf), vrs["u"], vrs["y"], 1000, env)
+            res["pythonfmu_ld_preload"] = _bench(exe, dpf, _pf_guid(dpf), vrs["u"], vrs["y"], args.steps, penv)
+        except (subprocess.CalledProcessError, ImportError, FileNotFoundError) as e:
+            res["pythonfmu_error"] = str(e) + getattr(e, "stderr", "")
+    out = REPO / "benchmarks" / "results"
+    out.mkdir(parents=True, exist_ok=True)
+    (out / "bench_fmu.json").write_text(json.dumps(res, indent=2))
+    print(json.dumps(res, indent=2))
+
+
+if __name__ == "__main__":
+    main()

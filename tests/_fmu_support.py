@@ -1,0 +1,60 @@
+"""Shared helpers of the FMU tests: built FMUs, extraction, exact reference solutions."""
+from __future__ import annotations
+
+import math
+import subprocess
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from pyfmu_wrapper.fmi.build import DEFAULT_OUT, ensure_fmus, fmi_headers_dir
+
+C_HOST_SOURCE = Path(__file__).parent / "c_host" / "fmu_host.c"
+
+
+def built_fmus() -> dict[str, Path]:
+    return ensure_fmus(out_dir=DEFAULT_OUT, names=("BaseOscillator", "TMDInerter", "Trivial"))
+
+
+def extract(fmu: Path, root: Path) -> Path:
+    """Unzip an FMU into root/<modelIdentifier> (the C host derives the binary name from it)."""
+    d = root / fmu.stem
+    d.mkdir(parents=True, exist_ok=True)
+    with zipfile.ZipFile(fmu) as z:
+        z.extractall(d)
+    return d
+
+
+def guid(fmu_dir: Path) -> str:
+    for line in (fmu_dir / "resources" / "pyfmu.cfg").read_text().splitlines():
+        if line.startswith("guid="):
+            return line[5:]
+    raise KeyError("guid")
+
+
+def compile_c_host(out: Path) -> Path:
+    exe = out / "fmu_host"
+    subprocess.run(["gcc", "-O2", "-Wall", f"-I{fmi_headers_dir()}", str(C_HOST_SOURCE), "-o", str(exe), "-ldl"],
+                   check=True, capture_output=True, text=True)
+    return exe
+
+
+def damped_forced_response(t, M, K, C, F, w, x0, xd0):
+    """Exact x(t), xd(t) of M xdd + C xd + K x = F cos(w t), x(0) = x0, xd(0) = xd0 (underdamped).
+
+    Particular solution A cos(wt) + B sin(wt); homogeneous e^(-zeta wn t)(c1 cos wd t + c2 sin wd t).
+    """
+    t = np.asarray(t, dtype=float)
+    den = (K - M * w * w) ** 2 + (C * w) ** 2
+    A = F * (K - M * w * w) / den
+    B = F * C * w / den
+    a = C / (2 * M)
+    wd = math.sqrt(K / M - a * a)
+    c1 = x0 - A
+    c2 = (xd0 - B * w + a * c1) / wd
+    e = np.exp(-a * t)
+    x = A * np.cos(w * t) + B * np.sin(w * t) + e * (c1 * np.cos(wd * t) + c2 * np.sin(wd * t))
+    xd = (-A * w * np.sin(w * t) + B * w * np.cos(w * t)
+          + e * (-a * (c1 * np.cos(wd * t) + c2 * np.sin(wd * t)) + wd * (-c1 * np.sin(wd * t) + c2 * np.cos(wd * t))))
+    return x, xd
