@@ -249,17 +249,14 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
                 if not (math.isfinite(acc) and math.isfinite(e)):
                     finite = False
             enorm = math.sqrt(enorm / n) if finite else 1e10
-            if enorm > 1.0:
-                rejected_last = True
-                stats[STAT_REJECTED] += 1
-                hs *= max(0.2, 0.9 * enorm ** (-0.25))
-                final = False
-                if hs < hmin:
-                    stats[STAT_FAILED] += 1
-                    return -1.0, xmax
-                continue
-            # events: a step that jumps across a switching surface is retaken shorter
-            system_switching(system, ynew, p, g1)
+            # events first: a step that jumps across a switching surface is retaken shorter (its
+            # error estimate is meaningless across the kink, so do not let it drive rejections)
+            if finite:
+                system_switching(system, ynew, p, g1)
+            else:
+                g1[0] = g0[0]
+                g1[1] = g0[1]
+                g1[2] = g0[2]
             theta = 1.0
             for k in range(3):
                 if g0[k] * g1[k] < 0.0:
@@ -272,6 +269,15 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
                 hs = hs * theta * 1.001 + hmin
                 stats[STAT_EVENTS] += 1
                 final = False
+                continue
+            if enorm > 1.0:
+                rejected_last = True
+                stats[STAT_REJECTED] += 1
+                hs *= max(0.2, 0.9 * enorm ** (-0.25))
+                final = False
+                if hs < hmin:
+                    stats[STAT_FAILED] += 1
+                    return -1.0, xmax
                 continue
             break
         # accepted
