@@ -97,7 +97,77 @@ def make_dataset(folder: Path, hidden: dict, seed: int, noise: float = NOISE, pe
     (folder / "dataset.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
 
 
-def make_benchmark(out: Path, n: int = 40, seed: int = 1, clean_fraction: float = 0.25, pair_fraction: float = 0.2):
+# --- system level: base + TMD under F cos(w t), simulated with the monolithic solver -------------
+SYS_SEVERITY = {
+    "friction": [3.0, 6.0, 12.0],
+    "viscous": [4.0, 8.0, 16.0],
+    "mass_split": [0.2, 0.4, 0.8],
+    "force_error": [0.03, 0.06, 0.12],
+    "bias": [0.05e-3, 0.1e-3, 0.2e-3],
+}
+SYS_OMEGAS = (17.0, 20.0, 23.0)
+SYS_FORCES = (100.0, 200.0, 300.0)
+SYS_NOISE = {"x": 1e-5, "y": 1e-5, "xd": 1e-4, "yd": 1e-4, "xdd": 5e-3, "ydd": 5e-3}
+
+
+def _sys_nominal():
+    return {"base": {"mass": 100.0, "stiffness": 4.0e4, "damping": 100.0, "force_amplitude": 200.0},
+            "tmd": {"mass": 9.0, "stiffness": 4.0e3, "damping": 40.0, "friction_force": 0.0,
+                    "friction_slope": 1.0e6, "inertance": 1.0, "inerter": "ideal"}}
+
+
+def make_system_dataset(folder: Path, hidden: dict, seed: int, periods: int = 3, spp: int = 200):
+    """System-level time records (t, force, x, y, xd, yd, xdd, ydd) of the full model at steady state."""
+    from ..physics.kernels import rhs
+    from ..physics.params import BaseParams, TMDParams, pack
+    from ..solvers.monolithic import simulate, steady_state
+
+    folder.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(seed)
+    nom = _sys_nominal()
+    tk = dict(nom["tmd"])
+    tk["damping"] += hidden.get("viscous", 0.0)
+    tk["friction_force"] = hidden.get("friction", 0.0)
+    dI = hidden.get("mass_split", 0.0)
+    tk["inertance"] += dI
+    tk["mass"] -= dI
+    tmd = TMDParams(**tk)
+    recs = []
+    for w in SYS_OMEGAS:
+        for F in SYS_FORCES:
+            base = BaseParams(**{**nom["base"], "force_amplitude": F * (1 + hidden.get("force_error", 0.0))})
+            ss = steady_state(base, tmd, w)
+            T = 2 * math.pi / w
+            t, z = simulate(base, tmd, w, periods * T, z0=ss.state, n_samples=periods * spp + 1)
+            p = pack(base, tmd, w)
+            dz = np.empty(6)
+            acc = np.empty((t.size, 2))
+            for i in range(t.size):
+                rhs(t[i], z[i], p, dz)
+                acc[i] = dz[1], dz[3]
+            cols = {"t": t, "force": F * np.cos(w * t), "x": z[:, 0] + hidden.get("bias", 0.0), "y": z[:, 2],
+                    "xd": z[:, 1], "yd": z[:, 3], "xdd": acc[:, 0], "ydd": acc[:, 1]}
+            for k, sd in SYS_NOISE.items():
+                cols[k] = cols[k] + rng.normal(0, sd, t.size)
+            name = f"w{w:g}_F{F:g}N.csv"
+            write_record(folder / name, cols)
+            recs.append({"file": name, "omega": w, "force_amplitude": F})
+    meta = {"level": "system", "description": "withheld-effect benchmark dataset (system level, monolithic solver)",
+            "nominal": nom, "records": recs}
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
+
+
+def _sys_truth(effect, value):
+    key = _truth_param(effect, value)[0]
+    if effect == "bias":  # x reads x + b: the base equation sees -K b, the link model + k b
+        value = -(_sys_nominal()["base"]["stiffness"] + _sys_nominal()["tmd"]["stiffness"]) * value
+    return key, value
+
+
+def make_benchmark(out: Path, n: int = 40, seed: int = 1, clean_fraction: float = 0.25, pair_fraction: float = 0.2,
+                   n_system: int = 0, noise: float = NOISE):
+    """n link-level datasets (force noise std ``noise`` [N]) plus n_system system-level ones (same clean
+    fraction, single effects)."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
@@ -115,10 +185,22 @@ def make_benchmark(out: Path, n: int = 40, seed: int = 1, clean_fraction: float 
             e = EFFECTS[j % len(EFFECTS)]
             hidden = {e: SEVERITY[e][(j // len(EFFECTS)) % 3]}
         name = f"ds{i:03d}"
-        make_dataset(out / name, hidden, seed=int(rng.integers(1 << 31)))
+        make_dataset(out / name, hidden, seed=int(rng.integers(1 << 31)), noise=noise)
         truth = dict(_truth_param(e, v) for e, v in hidden.items())
         manifest.append({"dataset": name, "hidden": sorted(hidden), "severity": hidden, "truth": truth})
-    (out / "manifest.json").write_text(json.dumps({"noise": NOISE, "nominal": NOMINAL, "datasets": manifest}, indent=1))
+    n_sys_clean = int(math.ceil(clean_fraction * n_system)) if n_system else 0
+    sys_effects = list(SYS_SEVERITY)
+    for j in range(n_system):
+        if j < n_sys_clean:
+            hidden = {}
+        else:
+            e = sys_effects[(j - n_sys_clean) % len(sys_effects)]
+            hidden = {e: SYS_SEVERITY[e][((j - n_sys_clean) // len(sys_effects)) % 3]}
+        name = f"sys{j:03d}"
+        make_system_dataset(out / name, hidden, seed=int(rng.integers(1 << 31)))
+        truth = dict(_sys_truth(e, v) for e, v in hidden.items())
+        manifest.append({"dataset": name, "hidden": sorted(hidden), "severity": hidden, "truth": truth})
+    (out / "manifest.json").write_text(json.dumps({"noise": noise, "nominal": NOMINAL, "datasets": manifest}, indent=1))
     return manifest
 
 

@@ -4,8 +4,8 @@ Source: D. Coble, P. Huggins, L. Cao, J. Ricles, A. Downey, "Dataset-Friction-Da
 ARTS-Lab, GitHub, 2022 (github.com/ARTS-Laboratory/Dataset-Friction-Damper-with-Backlash),
 CC BY-SA 4.0. The derived files are under the same licence.
 
-Steps per record: unit conversion to SI (in -> m, kip -> N, in/s -> m/s); keep the 3 central
-steady cycles (drop the start/end ramps); boxcar-average the force over the decimation stride and
+Steps per record: unit conversion to SI (in -> m, kip -> N, in/s -> m/s); keep 3 steady cycles
+(the half-cycles whose peak displacement is on the plateau; the start/end ramps are dropped); boxcar-average the force over the decimation stride and
 keep every stride-th sample (about 256 samples per cycle). The force is the measured damper
 ("friction") force column, unchanged in sign.
 
@@ -55,12 +55,13 @@ def derive(src: Path, out: Path, test_amplitude_in=1.0, test_frequency_hz=2.0):
         fs = float(raw["sampling freq"])
         t, d, F, v = a[:, 0], a[:, 1] * IN, a[:, 2] * KIP, a[:, 3] * IN
         n_cyc = int(round(fs / fhz))
-        total = len(t) // n_cyc
-        first = (total - N_CYCLES) // 2
-        # align to a displacement maximum so that each kept cycle is whole
-        i0 = max(0, first * n_cyc - n_cyc // 2)
-        i0 += int(np.argmax(d[i0:i0 + n_cyc]))
-        i1 = min(i0 + N_CYCLES * n_cyc, len(t))
+        # steady cycles: half-cycles whose peak |d| is within 3 % of the plateau (drop the ramps)
+        hc = n_cyc // 2
+        peaks = np.array([np.abs(d[k * hc:(k + 1) * hc]).max() for k in range(len(t) // hc)])
+        steady = np.nonzero(peaks >= 0.97 * np.median(np.sort(peaks)[len(peaks) // 2:]))[0]
+        i0 = int(steady[0]) * hc
+        ncyc = min(N_CYCLES, (int(steady[-1]) + 1 - int(steady[0])) * hc // n_cyc)
+        i1 = i0 + ncyc * n_cyc
         stride = max(1, int(round(n_cyc / SAMPLES_PER_CYCLE)))
         sl = slice(i0, i1)
         k = (i1 - i0) // stride

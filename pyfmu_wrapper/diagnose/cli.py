@@ -19,6 +19,15 @@ def _load_model(spec: str | None):
         raise DataError(f"{spec}: model file not found (a YAML with 'nominal:' or 'base:'/'tmd:' keys, "
                         "or link parameters)")
     raw = yaml.safe_load(p.read_text()) or {}
+    if isinstance(raw, dict) and "schema_version" in raw:  # a project scenario file
+        from ..physics.params import as_dict
+        from ..scenario.loader import ScenarioError, load_scenario
+
+        try:
+            sc = load_scenario(p)
+        except ScenarioError as e:
+            raise DataError(f"{spec}: {e}") from None
+        return {"base": as_dict(sc.base), "tmd": as_dict(sc.tmd)}
     if "nominal" in raw:
         raw = raw["nominal"]
     if not isinstance(raw, dict):
@@ -84,8 +93,11 @@ def main_make_benchmark(argv=None):
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--clean-fraction", type=float, default=0.25)
     ap.add_argument("--pair-fraction", type=float, default=0.2)
+    ap.add_argument("--n-system", type=int, default=0, help="extra system-level datasets (monolithic solver)")
+    ap.add_argument("--noise", type=float, default=0.5, help="force noise std of the link datasets [N]")
     a = ap.parse_args(argv)
-    man = make_benchmark(Path(a.out), n=a.n, seed=a.seed, clean_fraction=a.clean_fraction, pair_fraction=a.pair_fraction)
+    man = make_benchmark(Path(a.out), n=a.n, seed=a.seed, clean_fraction=a.clean_fraction, pair_fraction=a.pair_fraction,
+                         n_system=a.n_system, noise=a.noise)
     print(f"wrote {len(man)} datasets and manifest.json to {a.out}")
     return 0
 

@@ -178,7 +178,8 @@ def _number(v, file, key):
 def load_dataset(path, model_override: dict | None = None) -> Dataset:
     """Load and validate ``path/dataset.yaml`` and its records."""
     path = Path(path)
-    yml = path / "dataset.yaml" if path.is_dir() else path
+    yml = path if path.suffix in (".yaml", ".yml") else path / "dataset.yaml"
+    path = yml.parent
     if not yml.is_file():
         raise _err(yml, "file not found (a dataset is a folder with dataset.yaml and CSV files)")
     try:
@@ -222,6 +223,13 @@ def normalise_nominal(nom: dict, level: str, file) -> dict:
         nom = nom["nominal"]
     if level == "link":
         src = nom.get("link", nom)
+        if "tmd" in nom and "link" not in nom:  # a scenario: its TMD link is the device
+            try:
+                t = TMDParams(**nom["tmd"], source=str(file))
+            except (ParameterError, TypeError) as e:
+                raise _err(file, f"nominal model: {e}") from None
+            src = {"stiffness": t.stiffness, "damping": t.damping, "friction_force": t.friction_force,
+                   "friction_slope": t.friction_slope, "inertance": t.inertance}
         out = {}
         for k in LINK_NOMINAL:
             out[k] = _number(src.get(k, 1e3 if k == "friction_slope" else 0.0), file, f"nominal.{k}")
@@ -229,6 +237,7 @@ def normalise_nominal(nom: dict, level: str, file) -> dict:
         if unknown:
             raise _err(file, f"unknown nominal link parameter(s) {sorted(unknown)}; known: {list(LINK_NOMINAL)}")
         return out
+    nom = {"base": nom.get("base"), "tmd": nom.get("tmd")} if "base" in nom and "tmd" in nom else nom
     if "base" not in nom or "tmd" not in nom:
         raise _err(file, "a system-level nominal model needs 'base' and 'tmd' mappings")
     try:

@@ -23,6 +23,7 @@ from .models import Effect, LinkData, basis, effect_list, report_params
 
 EXCESS_THRESHOLD = 0.15  #: nominal held-out rms above (1 + this) x noise floor -> gap is structural
 BIC_THRESHOLD = 10.0  #: held-out BIC improvement needed to accept an effect (or a second one)
+PAIR_SHARE = 0.25  #: a second effect must also close this share of the gap the first one leaves
 
 
 @dataclass
@@ -76,7 +77,7 @@ def _combined_basis(effects, ld, theta):
         th = theta[k:k + len(e.theta0)]
         k += len(e.theta0)
         off, Phi = basis(e, ld, th)
-        repl = e.name == "friction" or (e.name == "play" and len(e.theta0) == 2)
+        repl = e.name in ("friction", "compliant_friction") or (e.name == "play" and len(e.theta0) == 2)
         if not (repl and removes_friction):
             offs.append(off)
         removes_friction |= repl
@@ -140,13 +141,15 @@ def fit_effects(effects, ld: LinkData, train, test) -> Fit:
     rho = _rho(r[train])
     s2 = rss_tr / max(n - p, 1) * (1 + rho) / (1 - rho)
     try:
-        cov = s2 * np.linalg.pinv(J.T @ J)
+        js = np.sqrt((J ** 2).sum(axis=0))
+        js[js == 0] = 1.0
+        cov = s2 * np.linalg.pinv((J / js).T @ (J / js)) / np.outer(js, js)
         sd = np.sqrt(np.clip(np.diag(cov), 0, None))
     except np.linalg.LinAlgError:  # pragma: no cover
         sd = np.full(p, np.nan)
     kb, kt = 0, 0
     for e in effects:
-        nb, nt = Phi.shape[1] if len(effects) == 1 else 1, len(e.theta0)
+        nb, nt = 1, len(e.theta0)  # every effect has one linear coefficient
         b_e, t_e = beta[kb:kb + nb], theta[kt:kt + nt]
         ps = report_params(e, ld, b_e, t_e)
         sds = list(sd[kb:kb + nb]) + [sd[beta.size + kt + i] * math.log(10) * 10 ** t_e[i] for i in range(nt)]
@@ -186,6 +189,8 @@ class Diagnosis:
     train: np.ndarray = field(repr=False)
     test: np.ndarray = field(repr=False)
     verdict: str = ""
+    bic0: float = 0.0  #: held-out BIC of the nominal model
+    excess: float = 0.0  #: nominal held-out rms / noise floor - 1
 
 
 def diagnose_link(ld: LinkData, max_pairs_from: int = 7) -> Diagnosis:
@@ -220,7 +225,7 @@ def diagnose_link(ld: LinkData, max_pairs_from: int = 7) -> Diagnosis:
             score(f)
         pairs.sort(key=lambda f: f.bic)
         ranking += pairs
-        if pairs and pairs[0].bic < chosen.bic - BIC_THRESHOLD and pairs[0].closed > chosen.closed + 0.05:
+        if pairs and pairs[0].bic < chosen.bic - BIC_THRESHOLD and pairs[0].closed > chosen.closed + PAIR_SHARE * (1 - chosen.closed):
             chosen = pairs[0]
     ranking.sort(key=lambda f: f.bic)
     if chosen is None:
@@ -229,9 +234,7 @@ def diagnose_link(ld: LinkData, max_pairs_from: int = 7) -> Diagnosis:
     else:
         verdict = f"Gap attributed to {' + '.join(chosen.labels)} (closes {100 * chosen.closed:.0f} % of the held-out gap)."
     d = Diagnosis(nominal_rss_test=rss0, n_test=nt, n_eff=n_eff, noise=ld.noise, structural=structural,
-                  ranking=ranking, chosen=chosen, train=train, test=test, verdict=verdict)
-    d.bic0 = bic0
-    d.excess = excess
+                  ranking=ranking, chosen=chosen, train=train, test=test, verdict=verdict, bic0=bic0, excess=excess)
     return d
 
 

@@ -73,15 +73,20 @@ def describe(ld, r, harm, phase_rms):
     """A sentence or two on where the gap lies."""
     out = []
     share = harm / max(harm.sum(), 1e-300)
-    k = int(np.argmax(share))
-    if k == 0:
+    odd, even = share[3::2].sum(), share[2::2].sum()
+    if share[0] >= 0.5:
         out.append(f"the residual is mostly a constant offset ({100 * share[0]:.0f} % of its harmonic content)")
-    elif k == 1:
-        odd = share[3::2].sum()
-        out.append(f"the residual is mostly at the drive frequency ({100 * share[1]:.0f} %; odd higher harmonics "
-                   f"{100 * odd:.0f} %): a linear-looking mismatch")
+    elif odd + even < 0.25:
+        out.append(f"the residual is mostly at the drive frequency ({100 * share[1]:.0f} % of its harmonic content): "
+                   "a linear-looking mismatch (damping, stiffness/inertia or gain)")
     else:
-        out.append(f"the residual is dominated by harmonic {k} ({100 * share[k]:.0f} %): a nonlinear mismatch")
+        kind = "odd (symmetric nonlinearity)" if odd >= even else "even (asymmetric nonlinearity)"
+        out.append(f"the residual has strong higher harmonics: {100 * odd:.0f} % odd, {100 * even:.0f} % even, "
+                   f"{100 * share[1]:.0f} % at the drive frequency -- mostly {kind}")
+    if np.isfinite(phase_rms).any():
+        c = np.degrees(np.linspace(0, 2 * np.pi, phase_rms.size + 1)[:-1] + np.pi / phase_rms.size)
+        k = int(np.nanargmax(phase_rms))
+        out.append(f"it is largest at {c[k]:.0f} deg of the cycle (0 = maximum displacement)")
     ss = state_summary(ld, r)
     if ss["energy_share_low_speed"] > 1.5 * ss["sample_share_low_speed"]:
         out.append(f"{100 * ss['energy_share_low_speed']:.0f} % of the residual energy lies at low relative speed "

@@ -105,11 +105,11 @@ class LinkData:
 def link_nominal(ds: Dataset) -> dict:
     if ds.level == "link":
         return dict(ds.nominal)
-    t = ds.nominal["tmd"]
-    inerter = str(t.get("inerter", "ideal")).lower()
-    return dict(stiffness=float(t.get("stiffness", 4e3)), damping=float(t.get("damping", 0.0)),
-                friction_force=float(t.get("friction_force", 0.0)), friction_slope=float(t.get("friction_slope", 1e6)),
-                inertance=0.0 if inerter == "none" else float(t.get("inertance", 1.0)))
+    from ..physics.params import TMDParams
+
+    t = TMDParams(**ds.nominal["tmd"])  # the physics' own defaults for missing keys
+    return dict(stiffness=t.stiffness, damping=t.damping, friction_force=t.friction_force,
+                friction_slope=t.friction_slope, inertance=t.inertance)
 
 
 def nominal_force(nom, d, v, a):
@@ -146,13 +146,16 @@ def build_link_data(ds: Dataset) -> LinkData:
             if not rec.has("y"):
                 raise DataError(f"{rec.name}: column 'y' is needed for the restoring-force diagnosis of a "
                                 "system time record (the TMD displacement); add it or give FRC records")
-            b = ds.nominal["base"]
+            from ..physics.params import BaseParams
+
+            bp = BaseParams(**ds.nominal["base"])
+            b = {"mass": bp.mass, "damping": bp.damping, "stiffness": bp.stiffness}
             x, y = c["x"], c["y"]
             xd = c["xd"] if rec.has("xd") else _deriv(t, x)
             yd = c["yd"] if rec.has("yd") else _deriv(t, y)
             xdd = c["xdd"] if rec.has("xdd") else _deriv(t, xd)
             ydd = c["ydd"] if rec.has("ydd") else _deriv(t, yd)
-            F = c["force"] - b["mass"] * xdd - b.get("damping", 0.0) * xd - b["stiffness"] * x
+            F = c["force"] - b["mass"] * xdd - b["damping"] * xd - b["stiffness"] * x
             d, v, a = x - y, xd - yd, xdd - ydd
             gain = c["force"]
         Fn = nominal_force(nom, d, v, a)
@@ -214,6 +217,9 @@ def effect_list(ld: LinkData) -> list:
         # play in front of a friction element: slider + contact spring + gap (two nonlinear params)
         effects[1] = Effect("play", "play (backlash) in the link", ("friction_force", "play_gap", "elastic_deflection"),
                             (eps_grid, tuple(ld10 + np.linspace(-3.0, -1.0, 5))))
+        # the same without the gap: friction with pre-sliding (contact) compliance, the rival explanation
+        effects.insert(2, Effect("compliant_friction", "dry friction with contact compliance (no play)",
+                                 ("friction_force", "elastic_deflection"), (tuple(ld10 + np.linspace(-3.0, -0.5, 7)),)))
     return effects
 
 
@@ -231,6 +237,9 @@ def basis(effect: Effect, ld: LinkData, theta) -> tuple:
             h = jenkins_gap(ld.d, ld.starts, eps, 10.0 ** theta[1], ld.n_pre)
             return -friction_vec(ld.v, nom["friction_force"], nom["friction_slope"]), h[:, None]
         return -nom["stiffness"] * ld.d, deadzone_vec(ld.d, eps)[:, None]
+    if name == "compliant_friction":
+        h = jenkins_gap(ld.d, ld.starts, 0.0, 10.0 ** theta[0], ld.n_pre)
+        return -friction_vec(ld.v, nom["friction_force"], nom["friction_slope"]), h[:, None]
     if name == "viscous":
         return z, ld.v[:, None]
     if name == "mass_split":
@@ -256,6 +265,8 @@ def report_params(effect: Effect, ld: LinkData, beta, theta) -> dict:
         else:
             out["link_stiffness"] = float(beta[0])
         return out
+    if name == "compliant_friction":
+        return {"friction_force": float(beta[0]), "elastic_deflection": float(10 ** theta[0])}
     if name == "force_error" and ld.level == "system":
         return {"force_gain_error": float(-beta[0])}
     return {effect.params[0]: float(beta[0])}
