@@ -6,7 +6,8 @@ Builds the ``Trivial`` FMU (y = gain * u; doStep only advances time) with ``buil
 equivalent PythonFMU slave (``pip install pythonfmu``, the ``bench`` extra), then runs both in
 tests/c_host/fmu_host.c (``bench`` mode: dlopen RTLD_LOCAL, no Python in the host). PythonFMU's
 binary does not link libpython, so its run needs LD_PRELOAD=<libpython> (ours needs nothing).
-Results are written to benchmarks/results/bench_fmu.json and printed.
+The same loops are also timed inside this Python process through fmpy's FMU2Slave ("under
+fmpy"). Results are written to benchmarks/results/bench_fmu.json and printed.
 """
 from __future__ import annotations
 
@@ -57,6 +58,42 @@ def _bench(exe, d, g, u, y, steps, env):
     return {k: float(v) for k, v in (l.split() for l in r.stdout.splitlines()) if k.startswith("us_")}
 
 
+def _bench_fmpy(fmu: Path, unzip: Path, u: int, y: int, steps: int) -> dict:
+    """The same loops inside this Python process through fmpy's FMU2Slave (the stub shares the
+    running interpreter; PythonFMU's binary resolves its Python symbols from it too)."""
+    import time
+
+    from fmpy import read_model_description
+    from fmpy.fmi2 import FMU2Slave
+
+    md = read_model_description(str(fmu))
+    s = FMU2Slave(guid=md.guid, unzipDirectory=str(unzip), modelIdentifier=md.coSimulation.modelIdentifier,
+                  instanceName="bench")
+    s.instantiate()
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    h, t = 1e-3, 0.0
+    for _ in range(1000):
+        s.doStep(t, h)
+        t += h
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        s.doStep(t, h)
+        t += h
+    us_do = (time.perf_counter() - t0) / steps * 1e6
+    t0 = time.perf_counter()
+    for k in range(steps):
+        s.setReal([u], [float(k)])
+        s.doStep(t, h)
+        s.getReal([y])
+        t += h
+    us_sdg = (time.perf_counter() - t0) / steps * 1e6
+    s.terminate()
+    s.freeInstance()
+    return {"us_per_doStep": us_do, "us_per_set_doStep_get": us_sdg}
+
+
 def _pf_guid(d: Path) -> str:
     import re
     return re.search(r'guid="([^"]+)"', (d / "modelDescription.xml").read_text()).group(1)
@@ -74,6 +111,7 @@ def main(argv=None):
         (fmu,) = build_fmus(["Trivial"], tmp / "ours")
         d = extract(fmu, tmp / "x")
         res["pyfmu_wrapper_stub"] = _bench(exe, d, guid(d), 1, 2, args.steps, env)
+        res["pyfmu_wrapper_stub_fmpy"] = _bench_fmpy(fmu, d, 1, 2, args.steps // 4)
         try:
             script = tmp / "TrivialPF.py"
             script.write_text(PYTHONFMU_SLAVE)
@@ -90,6 +128,7 @@ def main(argv=None):
             penv["PYTHONPATH"] = os.pathsep.join(sp)
             res["pythonfmu_no_preload"] = _bench(exe, dpf, _pf_guid(dpf), vrs["u"], vrs["y"], 1000, env)
             res["pythonfmu_ld_preload"] = _bench(exe, dpf, _pf_guid(dpf), vrs["u"], vrs["y"], args.steps, penv)
+            res["pythonfmu_fmpy"] = _bench_fmpy(pf, dpf, vrs["u"], vrs["y"], args.steps // 4)
         except (subprocess.CalledProcessError, ImportError, FileNotFoundError) as e:
             res["pythonfmu_error"] = str(e) + getattr(e, "stderr", "")
     out = REPO / "benchmarks" / "results"
