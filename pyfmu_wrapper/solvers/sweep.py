@@ -2,7 +2,10 @@
 
 Each frequency starts from the steady state of the previous one (the state at phase w t = 0,
 which is continuous in w), so the transient to settle is short, and the branch followed depends on
-the direction, as in a stepped-sine test. ``direction='both'`` runs up and then down.
+the direction, as in a stepped-sine test. ``direction='both'`` runs up and then down. For the play
+model (windowed steady state) the continued state is that of the smooth companion (ideal
+inerter) and each point starts from it (``SolverSettings.play_start``; "previous" restores a
+plain continuation of the play state).
 
 ``workers > 1`` splits the frequency list into that many contiguous pieces, each swept with
 continuation in its own process; the first point of each piece starts from the linear initial
@@ -35,8 +38,10 @@ def _sweep_piece(base, tmd, seq, d, settings, z0, queue=None):
     rows = []
     z = None if z0 is None else np.array(z0, dtype=float)
     hint: dict = {}
+    # windowed (play) points start from their smooth companion's orbit, continued via hint
+    companion = settings.window_for(tmd) > 1 and settings.play_start == "companion"
     for w in seq:
-        ss = steady_state(base, tmd, float(w), z, settings, hint)
+        ss = steady_state(base, tmd, float(w), None if companion else z, settings, hint)
         z = ss.state
         rows.append(dict(direction=d, omega=float(w), amplitude=ss.amplitude, periods=ss.periods,
                          converged=ss.converged, change=ss.change, steps=ss.steps,
