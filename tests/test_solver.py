@@ -149,3 +149,18 @@ def test_play_steady_state_is_windowed_and_close_to_zero_gap():
     assert ss.converged and ss.periods % 20 == 0
     ref = exact_amplitude(BASE, paper_case(1, damping=10.0, inerter="play", play_gap=0.0), [omega])[0]
     assert ss.amplitude == pytest.approx(ref, rel=0.02)
+
+
+def test_play_windowed_steady_state_matches_a_long_run():
+    """The two-window steady state from the companion start agrees with the maxima of a 300-period
+    run within the rattling scatter (~1e-4), at the sharp Case 1 resonance with c = 0."""
+    tmd = paper_case(1, inerter="play", play_gap=5e-5)
+    st = SolverSettings(rtol=1e-7, atol_scale=1e-7)
+    ss = steady_state(BASE, tmd, 17.0, settings=st)
+    assert ss.converged
+    long = steady_state(BASE, tmd, 17.0, settings=SolverSettings(rtol=1e-7, atol_scale=1e-7, tol_window=0.0,
+                                                                 amp_atol=0.0, max_periods_window=300))
+    assert not long.converged and long.periods == 300
+    windows = long.period_max.reshape(-1, 20).max(axis=1)[2:]
+    assert abs(ss.amplitude - np.median(windows)) <= 2e-4 * ss.amplitude
+    assert (windows.max() - windows.min()) <= 2e-4 * windows.max()
