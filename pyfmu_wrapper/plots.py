@@ -25,7 +25,14 @@ def frc_plot(data, ax=None) -> Figure:
 
     Down-sweeps of nonlinear curves are dashed; the base alone (no TMD) is black.
     """
-    if ax is None:
+    tab = data.table
+    has_ref = "reference" in tab and np.isfinite(tab["reference"].to_numpy(float)).any()
+    dax = None
+    if ax is None and has_ref:  # engine 'both': FRCs on top, relative difference below
+        fig = Figure(figsize=(7.0, 6.5), layout="constrained")
+        FigureCanvasAgg(fig)
+        ax, dax = fig.subplots(2, 1, sharex=True, height_ratios=[2.2, 1])
+    elif ax is None:
         fig, (ax,) = _figure()
     else:
         fig = ax.figure
@@ -37,11 +44,23 @@ def frc_plot(data, ax=None) -> Figure:
             lab = label if line is None else f"{label} ({d})"
             (line,) = ax.plot(td["omega"], td["amplitude"], _STYLE.get(d, "-"), label=lab,
                               lw=1.0 if color else 1.4, zorder=3 if color else 2, **kw)
+            if has_ref:
+                ax.plot(td["omega"], td["reference"], ":", color=line.get_color(), lw=1.0)
+                if dax is not None:
+                    dax.plot(td["omega"], 100.0 * td["difference"], _STYLE.get(d, "-"), color=line.get_color(),
+                             lw=1.2, marker=".", ms=3)
             bad = td[~td["converged"].astype(bool)]
             if len(bad):
                 ax.plot(bad["omega"], bad["amplitude"], "x", color=line.get_color(), ms=6)
     ax.set_xlabel(r"$\omega$ [rad/s]")
     ax.set_ylabel("max |x| [m]")
+    if dax is not None:
+        dmax = float(np.nanmax(np.abs(tab["difference"].to_numpy(float))))
+        dax.set_xlabel(r"$\omega$ [rad/s]")
+        dax.set_ylabel("cosim / monolithic - 1 [%]")
+        dax.set_title(f"co-simulation (solid) against monolithic (dotted): max |difference| = {100 * dmax:.3g} %",
+                      fontsize=9)
+        dax.grid(alpha=0.3)
     ax.set_title(data.study.title)
     ax.set_xlim(float(np.min(data.study.omegas)), float(np.max(data.study.omegas)))
     ax.set_ylim(bottom=0)

@@ -55,7 +55,7 @@ def write(tmp_path, text, name="scn.yaml"):
 def linear_run(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("linear")
     out = tmp / "out"
-    rc = main([str(write(tmp, LINEAR)), "--out", str(out), "--quiet"])
+    rc = main([str(write(tmp, LINEAR)), "--out", str(out), "--quiet", "--engine", "monolithic"])
     assert rc == 0
     return out
 
@@ -117,7 +117,7 @@ def test_nonlinear_and_simulated_linear_curves(tmp_path):
     text = text.replace('- {label: "Iratio = 1", tmd: {inertance_ratio: 1.0}}',
                         '- {label: "df = 10", tmd: {case: 1, friction_force: 10.0}}')
     out = tmp_path / "out"
-    assert main([str(write(tmp_path, text)), "--out", str(out), "--quiet"]) == 0
+    assert main([str(write(tmp_path, text)), "--out", str(out), "--quiet", "--engine", "monolithic"]) == 0
     t = pd.read_csv(out / "frc.csv")
     lin = t[t["curve"] == "Iratio = 0"]
     assert set(lin["method"]) == {"steady_state"} and set(lin["direction"]) == {"up", "down"}
@@ -142,7 +142,7 @@ def test_failed_run_leaves_no_results(tmp_path, monkeypatch, capsys):
         fig.savefig(path, dpi=dpi)
 
     monkeypatch.setattr(plots, "save_figure", broken_save)
-    assert main([str(scn), "--out", str(out), "--quiet"]) == 1
+    assert main([str(scn), "--out", str(out), "--quiet", "--engine", "monolithic"]) == 1
     err = capsys.readouterr().err
     assert "disk full (simulated)" in err and "no results were written" in err
     assert not out.exists()
@@ -150,11 +150,11 @@ def test_failed_run_leaves_no_results(tmp_path, monkeypatch, capsys):
 
     # an earlier complete result is kept untouched by a failed re-run
     monkeypatch.setattr(plots, "save_figure", lambda fig, path, dpi=120: fig.savefig(path, dpi=dpi))
-    assert main([str(scn), "--out", str(out), "--quiet"]) == 0
+    assert main([str(scn), "--out", str(out), "--quiet", "--engine", "monolithic"]) == 0
     before = (out / "summary.json").read_text()
     calls.clear()
     monkeypatch.setattr(plots, "save_figure", broken_save)
-    assert main([str(scn), "--out", str(out), "--quiet"]) == 1
+    assert main([str(scn), "--out", str(out), "--quiet", "--engine", "monolithic"]) == 1
     assert (out / "summary.json").read_text() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "scn.yaml"]
 
@@ -175,9 +175,9 @@ def test_invalid_scenario_exits_2(tmp_path, capsys):
 
 def test_unknown_engine_exits_2(tmp_path, capsys):
     with pytest.raises(SystemExit) as e:
-        main([str(write(tmp_path, LINEAR)), "--engine", "cosim"])
+        main([str(write(tmp_path, LINEAR)), "--engine", "nonsense"])
     assert e.value.code == 2
-    assert "cosim" in capsys.readouterr().err
+    assert "nonsense" in capsys.readouterr().err
 
 
 def test_console_script_missing_file(tmp_path):

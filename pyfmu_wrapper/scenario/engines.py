@@ -1,11 +1,16 @@
 """Engines that compute frequency sweeps and steady-state time series for the scenario runner.
 
 The single dispatch point is :func:`compute_sweep` (and :func:`compute_time_series` for phase
-portraits). An engine is a pair of functions registered in :data:`ENGINES`; today only
-``monolithic`` exists (exact frequency response for linear configurations, the monolithic
-steady-state solver otherwise). A co-simulation engine ('cosim') or a comparison ('both') is
-added by registering another :class:`Engine` whose sweep returns the same table columns
-(:data:`SWEEP_COLUMNS`); the runner, the plots and the summary need no change.
+portraits). An engine is a pair of functions registered in :data:`ENGINES`:
+
+* ``cosim`` (the default of ``run-scenario``): co-simulation of the two FMUs (BaseOscillator,
+  TMDInerter) by the master of :mod:`pyfmu_wrapper.master` for every configuration, linear ones
+  included; steady state as the monolithic solver defines it (:mod:`pyfmu_wrapper.master.steady`).
+* ``monolithic``: exact frequency response for linear configurations, the monolithic
+  steady-state solver otherwise.
+* ``both``: the co-simulation, held against the monolithic engine: the table has the
+  co-simulated amplitude in ``amplitude``, the monolithic one in ``reference`` and the relative
+  difference cosim / monolithic - 1 in ``difference`` (NaN for the single engines).
 """
 from __future__ import annotations
 
@@ -24,7 +29,9 @@ from .schema import SolverConfig
 
 #: columns of every sweep table (one row per direction and omega)
 SWEEP_COLUMNS = ("engine", "method", "direction", "omega", "amplitude", "periods", "converged", "change",
-                 "steps", "rejected", "wall_time")
+                 "steps", "rejected", "wall_time", "reference", "difference")
+#: the engine run-scenario uses unless told otherwise
+DEFAULT_ENGINE = "cosim"
 
 
 @dataclass(frozen=True)
@@ -33,6 +40,7 @@ class RunSettings:
 
     engine: str = "monolithic"
     solver: SolverConfig = SolverConfig()
+    cosim: object = None  #: pyfmu_wrapper.master.steady.CosimSettings (None: its defaults)
     workers: int = 1  #: processes per nonlinear sweep (1: strict stepped-sine continuation)
 
     def directions(self) -> list[str]:
@@ -60,7 +68,11 @@ class Engine:
 
 
 def uses_exact(tmd: TMDParams, settings: RunSettings) -> bool:
-    """Whether a configuration is computed from the exact frequency response."""
+    """Whether a configuration is computed from the exact frequency response (monolithic engine only)."""
+    return settings.engine == "monolithic" and _mono_exact(tmd, settings)
+
+
+def _mono_exact(tmd: TMDParams, settings: RunSettings) -> bool:
     return tmd.is_linear and settings.solver.linear == "exact"
 
 
@@ -74,22 +86,24 @@ def _exact_table(base, tmd, omegas, settings, progress, engine) -> pd.DataFrame:
         progress(n * len(settings.directions()))
     return pd.DataFrame(dict(engine=engine, method="exact", direction=direction, omega=np.asarray(omegas, float),
                              amplitude=amp, periods=0, converged=True, change=0.0, steps=0, rejected=0,
-                             wall_time=dt))[list(SWEEP_COLUMNS)]
+                             wall_time=dt, reference=np.nan, difference=np.nan))[list(SWEEP_COLUMNS)]
 
 
 def _monolithic_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.DataFrame:
-    if uses_exact(tmd, settings):
+    if _mono_exact(tmd, settings):
         return _exact_table(base, tmd, omegas, settings, progress, "monolithic")
     res = sweep(base, tmd, omegas, direction=settings.solver.direction, settings=settings.solver.settings(),
                 progress=progress, workers=settings.workers)
     table = res.table.copy()
     table.insert(0, "method", "steady_state")
     table.insert(0, "engine", "monolithic")
+    table["reference"] = np.nan
+    table["difference"] = np.nan
     return table[list(SWEEP_COLUMNS)]
 
 
 def _monolithic_time_series(base, tmd, omega, n_periods, samples_per_period, settings: RunSettings) -> TimeSeries:
-    if uses_exact(tmd, settings):
+    if _mono_exact(tmd, settings):
         T = 2.0 * np.pi / omega
         t = np.arange(n_periods * samples_per_period) * (T / samples_per_period)
         Z = exact_response(base, tmd, [omega])[0]
@@ -102,10 +116,71 @@ def _monolithic_time_series(base, tmd, omega, n_periods, samples_per_period, set
                       change=float(ss.change), amplitude=float(ss.amplitude))
 
 
+def _cosim_settings(settings: RunSettings):
+    from ..master.steady import CosimSettings
+
+    if settings.cosim is not None:
+        return settings.cosim
+    sv = settings.solver
+    return CosimSettings(tol_window=sv.tol_window, window=sv.window, min_periods=sv.min_periods)
+
+
+def _cosim_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.DataFrame:
+    from ..master.steady import sweep as cosim_sweep
+
+    cs = _cosim_settings(settings)
+    table = cosim_sweep(base, tmd, omegas, direction=settings.solver.direction, settings=cs, progress=progress,
+                        workers=settings.workers)
+    table.insert(0, "method", cs.method)
+    table.insert(0, "engine", "cosim")
+    table["reference"] = np.nan
+    table["difference"] = np.nan
+    return table[list(SWEEP_COLUMNS)]
+
+
+def _both_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.DataFrame:
+    """Co-simulation and monolithic engine; the co-simulated rows carry the monolithic amplitude
+    ('reference') and the relative difference cosim / monolithic - 1 ('difference')."""
+    co = _cosim_sweep(base, tmd, omegas, settings, None)
+    mono = _monolithic_sweep(base, tmd, omegas, settings, None)
+    ref = {(d, float(w)): a for d, w, a in zip(mono["direction"], mono["omega"], mono["amplitude"])}
+    # the exact response has a single branch ('up' or 'down'): use it for both directions
+    one = {float(w): a for w, a in zip(mono["omega"], mono["amplitude"])}
+    co["reference"] = [ref.get((d, float(w)), one.get(float(w), np.nan)) for d, w in zip(co["direction"], co["omega"])]
+    co["difference"] = co["amplitude"] / co["reference"] - 1.0
+    co["engine"] = "both"
+    co["wall_time"] = co["wall_time"].to_numpy()  # co-simulation time per point
+    if progress is not None:
+        progress(len(co))
+    return co[list(SWEEP_COLUMNS)]
+
+
+def _cosim_time_series(base, tmd, omega, n_periods, samples_per_period, settings: RunSettings) -> TimeSeries:
+    from dataclasses import replace as _replace
+
+    from ..master.steady import periodic_time_series as cosim_series
+
+    cs = _cosim_settings(settings)
+    # record at the communication points: at least the requested samples per period
+    n = max(int(samples_per_period), cs.steps_for(tmd))
+    t, states, ss = cosim_series(base, tmd, omega, n_periods, None, _replace(cs, steps_per_period=n))
+    if n != samples_per_period:  # resample to the requested grid (cubic Hermite on x, xd; linear otherwise)
+        T = 2.0 * np.pi / omega
+        tt = np.arange(n_periods * samples_per_period) * (T / samples_per_period)
+        states = np.column_stack([np.interp(tt, t, states[:, j]) for j in range(states.shape[1])])
+        t = tt
+    return TimeSeries(t=t, states=states, method=cs.method, converged=bool(ss.converged),
+                      periods=int(ss.periods), change=float(ss.change), amplitude=float(ss.amplitude))
+
+
 #: registered engines; the CLI offers exactly these names
 ENGINES: dict[str, Engine] = {
+    "cosim": Engine(_cosim_sweep, _cosim_time_series,
+                    "co-simulation of the BaseOscillator and TMDInerter FMUs (pyfmu_wrapper.master)"),
     "monolithic": Engine(_monolithic_sweep, _monolithic_time_series,
                          "exact frequency response (linear) / monolithic steady-state solver (nonlinear)"),
+    "both": Engine(_both_sweep, _cosim_time_series,
+                   "co-simulation held against the monolithic engine (difference per frequency)"),
 }
 
 

@@ -316,18 +316,21 @@ def _base_fails(b, key) -> bool:
 
 
 def _solver(rd: _Reader, node, line) -> SolverConfig:
-    keys = ("rtol", "atol_scale", "tol", "window", "min_periods", "max_periods", "direction", "linear")
+    keys = ("rtol", "atol_scale", "tol", "tol_window", "window", "min_periods", "max_periods", "direction", "linear",
+            "continuation")
     rd.mapping(node, "solver", line, optional=keys)
     d = SolverConfig()
     cfg = SolverConfig(
         rtol=rd.number(node, "rtol", "solver", minimum=0, strict=True, maximum=0.1, default=d.rtol),
         atol_scale=rd.number(node, "atol_scale", "solver", minimum=0, strict=True, default=d.atol_scale),
         tol=rd.number(node, "tol", "solver", minimum=0, strict=True, maximum=0.5, default=d.tol),
+        tol_window=rd.number(node, "tol_window", "solver", minimum=0, strict=True, maximum=0.5, default=d.tol_window),
         window=rd.integer(node, "window", "solver", minimum=1, default=d.window, allow_null=True),
         min_periods=rd.integer(node, "min_periods", "solver", minimum=1, default=d.min_periods),
         max_periods=rd.integer(node, "max_periods", "solver", minimum=1, default=d.max_periods),
         direction=rd.string(node, "direction", "solver", choices=DIRECTIONS, default=d.direction),
         linear=rd.string(node, "linear", "solver", choices=LINEAR_METHODS, default=d.linear),
+        continuation=rd.boolean(node, "continuation", "solver", default=d.continuation),
     )
     if cfg.max_periods < cfg.min_periods:
         rd.fail("solver.max_periods", _line(node, "max_periods"), f"must be >= min_periods = {cfg.min_periods}",

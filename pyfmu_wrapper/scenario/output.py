@@ -31,10 +31,22 @@ def default_output_dir(scn: Scenario) -> Path:
     return Path("results") / scn.name
 
 
-def run_scenario(scn: Scenario, out_dir, settings: RunSettings, progress=None) -> Path:
+def default_checkpoint_dir(out_dir) -> Path:
+    """Where the resumable checkpoints of a results folder live: ``<parent>/.cache/<name>/``."""
+    out = Path(out_dir)
+    return out.parent / ".cache" / out.name
+
+
+def run_scenario(scn: Scenario, out_dir, settings: RunSettings, progress=None, executor=None,
+                 checkpoint_dir=None, resume: bool = True, collect: list | None = None) -> Path:
     """Compute every study of ``scn`` and write the results folder ``out_dir`` (replaced if present).
 
-    Returns the folder. On failure nothing is left at ``out_dir`` that was not there before.
+    executor: where the nonlinear sweeps run (:mod:`.executors`; None: in this process, in order);
+    checkpoint_dir: folder of finished sweeps to resume from and add to (None: no checkpoints);
+    resume=False recomputes every sweep (and overwrites its checkpoint); collect: a list that
+    receives the computed study data objects (for callers that draw their own figures).
+    Returns the folder. On failure nothing is left at ``out_dir`` that was not there before
+    (checkpoints of finished sweeps are kept, so that the next run resumes).
     """
     out = Path(out_dir)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -44,13 +56,22 @@ def run_scenario(scn: Scenario, out_dir, settings: RunSettings, progress=None) -
     os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes it private; the results folder is an ordinary one
     try:
         t0 = time.perf_counter()
-        datas = run_studies(scn, settings, progress)
+        stats: dict = {}
+        datas = run_studies(scn, settings, progress, executor=executor, checkpoint_dir=checkpoint_dir, stats=stats,
+                            resume=resume)
         compute_time = time.perf_counter() - t0
+        if collect is not None:
+            collect.extend(datas)
         for data in datas:
             write_study_csv(data, tmp / f"{data.study.name}.csv")
             fig = plots.plot_study(data)
             plots.save_figure(fig, tmp / f"{data.study.name}.png")
         summary = make_summary(scn, settings, datas, compute_time, time.perf_counter() - t0)
+        summary["executor"] = dict(
+            name=getattr(executor, "name", "sequential"),
+            description=executor.describe() if executor is not None else "sequential (this process)",
+            checkpoint_dir=None if checkpoint_dir is None else str(checkpoint_dir),
+            tasks={k: dict(cached=v.cached, computed=v.computed, wall_time=v.wall_time) for k, v in stats.items()})
         (tmp / "summary.json").write_text(json.dumps(_finite(summary), indent=2) + "\n", encoding="utf-8")
         _replace_dir(tmp, out)
     except BaseException:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -16,6 +17,7 @@ from scipy.optimize import minimize_scalar
 from ..physics.params import as_dict
 from ..solvers.frequency_response import exact_amplitude
 from .engines import RunSettings, TimeSeries, compute_sweep, compute_time_series, uses_exact
+from .executors import Checkpoint, SweepTask, TaskStats, run_task, run_tasks
 from .schema import FRCStudy, MapStudy, PhasePortraitStudy, Scenario
 
 
@@ -57,10 +59,18 @@ def work_units(scn: Scenario, settings: RunSettings) -> int:
 
 
 class _Cache:
-    """Sweeps already computed in this run, keyed by (parameters, frequencies)."""
+    """Sweeps already computed in this run, keyed by (parameters, frequencies).
 
-    def __init__(self):
+    Nonlinear sweeps not yet computed go to the executor (:mod:`.executors`; None: computed here,
+    in order) and through the study's checkpoint folder, so a killed run resumes where it stopped.
+    """
+
+    def __init__(self, executor=None, checkpoint_dir=None, resume=True):
+        self.resume = resume
         self.tables = {}
+        self.executor = executor
+        self.checkpoint_dir = None if checkpoint_dir is None else Path(checkpoint_dir)
+        self.stats = {}  #: study name -> TaskStats
 
     def sweep(self, base, tmd, omegas, settings, progress):
         key = (tmd, np.asarray(omegas, float).tobytes())
@@ -68,9 +78,45 @@ class _Cache:
             if progress is not None:
                 progress(len(omegas) * len(settings.directions()))
             return self.tables[key]
-        table = compute_sweep(base, tmd, omegas, settings, progress)
+        if settings.solver.continuation or uses_exact(tmd, settings):
+            table = compute_sweep(base, tmd, omegas, settings, progress)
+        else:  # independent points from the linear guess: same task function as the executors
+            task = SweepTask(base, tmd, np.asarray(omegas, float), settings)
+            table = run_task(task)
+            if progress is not None:
+                progress(task.units())
         self.tables[key] = table
         return table
+
+    def sweeps(self, base, tmds, omegas, settings, progress, study_name) -> list:
+        """Tables of several configurations over the same frequencies, in order."""
+        omegas = np.asarray(omegas, float)
+        out = [None] * len(tmds)
+        todo = {}  # key -> indices (identical configurations are computed once)
+        for i, tmd in enumerate(tmds):
+            key = (tmd, omegas.tobytes())
+            if key in self.tables:
+                out[i] = self.tables[key]
+                if progress is not None:
+                    progress(len(omegas) * len(settings.directions()))
+            elif uses_exact(tmd, settings) or (self.executor is None and self.checkpoint_dir is None):
+                out[i] = self.sweep(base, tmd, omegas, settings, progress)
+            else:
+                todo.setdefault(key, []).append(i)
+        if todo:
+            keys = list(todo)
+            tasks = [SweepTask(base, k[0], omegas, settings) for k in keys]
+            ckpt = None if self.checkpoint_dir is None else Checkpoint(self.checkpoint_dir / study_name, self.resume)
+            stats = self.stats.setdefault(study_name, TaskStats())
+            extra = [len(todo[k]) - 1 for k in keys]
+            tables = run_tasks(tasks, self.executor, ckpt, progress, stats)
+            for k, t, dup in zip(keys, tables, extra):
+                self.tables[k] = t
+                for i in todo[k]:
+                    out[i] = t
+                if progress is not None and dup:
+                    progress(dup * len(omegas) * len(settings.directions()))
+        return out
 
 
 def find_peaks(omegas, amplitudes, refine=None) -> dict:
@@ -107,18 +153,31 @@ def _diagnostics(t: pd.DataFrame) -> dict:
                 wall_time=float(t["wall_time"].sum()))
 
 
+def _differences(t: pd.DataFrame) -> dict:
+    """Engine 'both': the relative difference co-simulation / monolithic - 1 per frequency and its maximum."""
+    if "difference" not in t or not np.isfinite(t["difference"].to_numpy(float)).any():
+        return {}
+    d = t["difference"].to_numpy(float)
+    return dict(max_abs_difference=float(np.nanmax(np.abs(d))),
+                omega_max_difference=float(t["omega"].to_numpy(float)[int(np.nanargmax(np.abs(d)))]),
+                difference=[dict(omega=float(w), cosim=float(a), monolithic=float(r), difference=float(x))
+                            for w, a, r, x in zip(t["omega"], t["amplitude"], t["reference"], t["difference"])])
+
+
 def frc_response(scn: Scenario, study: FRCStudy, settings: RunSettings, progress=None, cache=None) -> FRCData:
     cache = cache or _Cache()
     t0 = time.perf_counter()
     parts, peaks = [], {}
-    for curve in study.curves:
-        table = cache.sweep(scn.base, curve.tmd, study.omegas, settings, progress).copy()
+    tables = cache.sweeps(scn.base, [c.tmd for c in study.curves], study.omegas, settings, progress, study.name)
+    for curve, table in zip(study.curves, tables):
+        table = table.copy()
         table.insert(0, "curve", curve.label)
         parts.append(table)
         refine = (lambda x, tmd=curve.tmd: exact_amplitude(scn.base, tmd, x)) if uses_exact(curve.tmd, settings) else None
         peaks[curve.label] = {}
         for d, td in table.groupby("direction", sort=False):
             peaks[curve.label][d] = dict(find_peaks(td["omega"], td["amplitude"], refine), **_diagnostics(td))
+            peaks[curve.label][d].update(_differences(td))
     return FRCData(study, pd.concat(parts, ignore_index=True), peaks, time.perf_counter() - t0)
 
 
@@ -127,8 +186,9 @@ def map_response(scn: Scenario, study: MapStudy, settings: RunSettings, progress
     t0 = time.perf_counter()
     amp = np.empty((len(study.values), len(study.omegas)))
     parts = []
-    for i, (v, tmd) in enumerate(zip(study.values, study.tmds)):
-        table = cache.sweep(scn.base, tmd, study.omegas, settings, progress).copy()
+    tables = cache.sweeps(scn.base, list(study.tmds), study.omegas, settings, progress, study.name)
+    for i, (v, table) in enumerate(zip(study.values, tables)):
+        table = table.copy()
         table.insert(0, "value", float(v))
         parts.append(table)
         amp[i] = table.groupby("omega")["amplitude"].max().reindex(study.omegas).to_numpy()
@@ -148,9 +208,17 @@ def phase_portraits(scn: Scenario, study: PhasePortraitStudy, settings: RunSetti
     return data
 
 
-def run_studies(scn: Scenario, settings: RunSettings, progress=None) -> list:
-    """Compute every study of the scenario, in order."""
-    cache = _Cache()
+def run_studies(scn: Scenario, settings: RunSettings, progress=None, executor=None, checkpoint_dir=None,
+                stats: dict | None = None, resume: bool = True) -> list:
+    """Compute every study of the scenario, in order.
+
+    executor: where nonlinear sweeps run (see :mod:`.executors`; None: here, in order);
+    checkpoint_dir: folder of per-study checkpoints (``<dir>/<study>/``) for resuming, or None;
+    stats: optional dict filled with study name -> :class:`TaskStats` (tasks read back / computed).
+    """
+    cache = _Cache(executor, checkpoint_dir, resume)
+    if stats is not None:
+        cache.stats = stats
     out = []
     for st in scn.studies:
         if isinstance(st, FRCStudy):

@@ -40,26 +40,32 @@ class SolverConfig:
 
     direction: 'up', 'down' or 'both' (stepped-sine sweep with continuation);
     linear: 'exact' (linear configurations use the exact frequency response) or 'simulate'
-    (integrate them like the nonlinear ones, e.g. to cross-check).
+    (integrate them like the nonlinear ones, e.g. to cross-check);
+    continuation: True (each frequency starts from the previous steady state) or False (each starts
+    from the solver's linear initial guess, independently: the map executors then run every
+    frequency as its own sweep of one point; much faster for the rattling play model).
     """
 
     rtol: float = SolverSettings.rtol
     atol_scale: float = SolverSettings.atol_scale
     tol: float = SolverSettings.tol
+    tol_window: float = SolverSettings.tol_window
     window: int | None = SolverSettings.window
     min_periods: int = SolverSettings.min_periods
     max_periods: int = SolverSettings.max_periods
     direction: str = "up"
     linear: str = "exact"
+    continuation: bool = True
 
     def settings(self) -> SolverSettings:
-        return SolverSettings(rtol=self.rtol, atol_scale=self.atol_scale, tol=self.tol, window=self.window,
+        return SolverSettings(rtol=self.rtol, atol_scale=self.atol_scale, tol=self.tol, tol_window=self.tol_window,
+                              window=self.window,
                               min_periods=self.min_periods, max_periods=self.max_periods)
 
     def as_dict(self) -> dict:
-        return dict(rtol=self.rtol, atol_scale=self.atol_scale, tol=self.tol, window=self.window,
-                    min_periods=self.min_periods, max_periods=self.max_periods,
-                    direction=self.direction, linear=self.linear)
+        return dict(rtol=self.rtol, atol_scale=self.atol_scale, tol=self.tol, tol_window=self.tol_window,
+                    window=self.window, min_periods=self.min_periods, max_periods=self.max_periods,
+                    direction=self.direction, linear=self.linear, continuation=self.continuation)
 
 
 @dataclass(frozen=True)

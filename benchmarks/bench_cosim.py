@@ -1,0 +1,162 @@
+"""Co-simulation benchmark: wall times of run-scenario (cosim against monolithic) and master overhead.
+
+    python benchmarks/bench_cosim.py [--skip-scenario] [--jobs 0]
+
+Records in one run (results/bench_cosim.json):
+* ``run-scenario scenarios/full_case1.yaml`` with the co-simulation engine and with the monolithic
+  engine (local executor over all cores, as the CLI runs it);
+* a dry-friction FRC (Case 1, df = 45.78 N, 41 frequencies over 15-25 rad/s) by both engines, one
+  process each (the two halves of the frequency list on the two cores for the co-simulation);
+* the master's overhead per communication step: the step time of the master on two do-nothing
+  FMUs (``Trivial``: doStep only advances time) connected the way the base and the TMD are,
+  and the step time on the real FMUs with the share spent inside them.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+HERE = Path(__file__).resolve().parent
+ROOT = HERE.parent
+
+
+def bench_scenario(path: Path, engine: str, jobs: int) -> dict:
+    from pyfmu_wrapper.scenario.engines import RunSettings
+    from pyfmu_wrapper.scenario.executors import make_executor
+    from pyfmu_wrapper.scenario.loader import load_scenario
+    from pyfmu_wrapper.scenario.output import run_scenario
+
+    scn = load_scenario(path)
+    with tempfile.TemporaryDirectory() as tmp:
+        ex = make_executor("local", jobs=jobs)
+        t0 = time.perf_counter()
+        try:
+            run_scenario(scn, Path(tmp) / "out", RunSettings(engine=engine, solver=scn.solver), executor=ex,
+                         checkpoint_dir=None)
+        finally:
+            ex.close()
+        wall = time.perf_counter() - t0
+        summary = json.loads((Path(tmp) / "out" / "summary.json").read_text())
+    curves = []
+    for st in summary["studies"]:
+        for c in st.get("curves", []):
+            for d, v in c["directions"].items():
+                curves.append(dict(study=st["name"], curve=c["label"], direction=d, method=v["method"],
+                                   all_converged=v["all_converged"], periods_mean=v["periods_mean"],
+                                   peak_amplitude=v["peak_amplitude"], wall_time=v["wall_time"]))
+    return dict(scenario=str(path.relative_to(ROOT)), engine=engine, wall_time=wall, curves=curves)
+
+
+def bench_friction(workers: int = 2) -> dict:
+    from pyfmu_wrapper.physics.params import BaseParams, TMDParams
+    from pyfmu_wrapper.scenario.engines import RunSettings, compute_sweep
+
+    base, tmd = BaseParams(), TMDParams(friction_force=45.78)
+    omegas = np.linspace(15.0, 25.0, 41)
+    out = {}
+    for engine in ("cosim", "monolithic"):
+        t0 = time.perf_counter()
+        t = compute_sweep(base, tmd, omegas, RunSettings(engine=engine, workers=workers))
+        out[engine] = dict(wall_time=time.perf_counter() - t0, periods=int(t["periods"].sum()),
+                           all_converged=bool(t["converged"].all()), amplitude=t["amplitude"].tolist())
+    a, b = np.array(out["cosim"]["amplitude"]), np.array(out["monolithic"]["amplitude"])
+    out["max_rel_difference"] = float(np.max(np.abs(a / b - 1)))
+    return dict(case="Case 1, ideal inerter, df = 45.78 N, 41 frequencies 15-25 rad/s, direction up",
+                workers=workers, **out)
+
+
+def bench_overhead(steps: int = 20000) -> dict:
+    from pyfmu_wrapper.fmi.build import ensure_fmus
+    from pyfmu_wrapper.master import Master
+    from pyfmu_wrapper.master.steady import fmu_parameters, make_master
+    from pyfmu_wrapper.physics.params import BaseParams, TMDParams
+    from pyfmu_wrapper.solvers.monolithic import initial_guess
+
+    paths = ensure_fmus(names=("BaseOscillator", "TMDInerter", "Trivial"))
+    res = {}
+    h = 1e-3
+    # two do-nothing FMUs, wired like base and TMD: a value link each way plus one rate link
+    for label, conns, scheme in (
+            ("trivial_value_loop", ["a.y -> b.u", "b.y -> a.u"], "jacobi"),
+            ("trivial_rate", ["a.y -> b.u", ("b.y", "a.u", "rate", 1.0)], "jacobi")):
+        with Master({"a": paths["Trivial"], "b": paths["Trivial"]}, conns, {"a.gain": 0.5, "b.gain": 0.5},
+                    scheme=scheme) as m:
+            m.initialize()
+            for _ in range(500):
+                m.step(h)
+            t0 = time.perf_counter()
+            for _ in range(steps):
+                m.step(h)
+            res[label] = (time.perf_counter() - t0) / steps * 1e6
+    base = BaseParams()
+    for coupling, tmd in (("impulse", TMDParams(damping=10.0)), ("force", TMDParams(damping=10.0))):
+        m = make_master(base, tmd, "loop", 2, coupling=coupling)
+        try:
+            w = 18.0
+            m.initialize(0.0, fmu_parameters(base, tmd, w, initial_guess(base, tmd, w)))
+            hh = 2 * np.pi / w / 96
+            for _ in range(200):
+                m.step(hh)
+            n = steps // 4
+            # time inside the FMUs: wrap the raw fmi2 calls
+            inside = [0.0]
+            for ins in m.instances.values():
+                for attr in ("_do_step", "_get_real", "_set_real", "_set_der"):
+                    f = getattr(ins, attr)
+                    if f is None:
+                        continue
+
+                    def timed(*a, _f=f):
+                        t = time.perf_counter()
+                        r = _f(*a)
+                        inside[0] += time.perf_counter() - t
+                        return r
+                    setattr(ins, attr, timed)
+            t0 = time.perf_counter()
+            for _ in range(n):
+                m.step(hh)
+            total = (time.perf_counter() - t0) / n * 1e6
+            res[f"real_{coupling}_step_us"] = total
+            res[f"real_{coupling}_inside_fmus_us"] = inside[0] / n * 1e6
+        finally:
+            m.close()
+    return dict(us_per_step=res, note="trivial_*: master overhead per communication step (two FMUs whose doStep "
+                                      "does nothing); real_*: whole step on the project FMUs, and the part spent "
+                                      "inside the fmi2 calls (timing wrappers add ~0.3 us per call)")
+
+
+def main(argv=None):
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--skip-scenario", action="store_true", help="only the friction sweep and the overhead")
+    p.add_argument("--jobs", type=int, default=0, help="processes of the local executor (0: all cores)")
+    p.add_argument("--out", default=str(HERE / "results" / "bench_cosim.json"))
+    args = p.parse_args(argv)
+    out = dict(machine=dict(cpus=os.cpu_count(), python=sys.version.split()[0], platform=platform.platform(),
+                            load_average=list(os.getloadavg())))
+    out["overhead"] = bench_overhead()
+    print(json.dumps(out["overhead"], indent=1), flush=True)
+    out["friction"] = bench_friction()
+    print({k: v for k, v in out["friction"].items() if k not in ("cosim", "monolithic")},
+          {e: out["friction"][e]["wall_time"] for e in ("cosim", "monolithic")}, flush=True)
+    if not args.skip_scenario:
+        out["full_case1"] = {}
+        for engine in ("cosim", "monolithic"):
+            r = bench_scenario(ROOT / "scenarios" / "full_case1.yaml", engine, args.jobs)
+            out["full_case1"][engine] = r
+            print(engine, "full_case1 wall time", round(r["wall_time"], 1), "s", flush=True)
+    out["machine"]["load_average_end"] = list(os.getloadavg())
+    Path(args.out).parent.mkdir(parents=True, exist_ok=True)
+    Path(args.out).write_text(json.dumps(out, indent=1) + "\n")
+    print("wrote", args.out)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,451 @@
+"""Steady states and frequency sweeps of the base + TMD system by co-simulation of the two FMUs.
+
+This is the application layer on top of the generic :class:`~pyfmu_wrapper.master.master.Master`:
+it maps :class:`BaseParams` / :class:`TMDParams` onto the FMU parameters, connects
+
+    base.x -> tmd.x, base.xd -> tmd.xd, base.xdd -> tmd.xdd, tmd.force -> base.f_link
+
+and applies the steady-state definition of the monolithic solver
+(:mod:`pyfmu_wrapper.solvers.monolithic`): A_k = max |x| over forcing period k, from the base
+outputs x, xd at the communication points with the cubic Hermite interpolant between them;
+windows of W periods (1 without play, 20 with a gap), W_j = max of A_k in window j; W = 1 stops
+when the estimated distance to the limit |W_j - W_j-1| rho / (1 - rho) is below ``tol`` W_j, W > 1
+when |W_j - W_j-1| <= ``tol_window`` W_j. The communication step is T / ``steps_per_period`` so
+that periods start at communication points. Each frequency starts from the previous frequency's
+final state (x, xd, y, yd read from the FMU outputs; d, dd of the play chain from
+:func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`) or, for the first one, from
+:func:`initial_guess`.
+"""
+from __future__ import annotations
+
+import math
+import os
+import time
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import pandas as pd
+
+from ..physics.params import BaseParams, InerterModel, TMDParams
+from ..solvers.monolithic import initial_guess
+from .graph import Connection
+from .master import Master
+
+CONNECTIONS = ("base.x -> tmd.x", "base.xd -> tmd.xd", "base.xdd -> tmd.xdd", "tmd.force -> base.f_link")
+RECORD = ("tmd.y", "tmd.yd")
+
+
+@dataclass(frozen=True)
+class CosimSettings:
+    """Co-simulation steady-state settings.
+
+    steps_per_period: communication steps per forcing period (None: chosen from ``accuracy``
+    with the calibrated error model of :func:`steps_for_accuracy`); scheme / order: see
+    :mod:`.master`; tol, tol_window, window, min_periods, max_periods: steady state as in the
+    monolithic solver; fmu_rtol: tolerance of the integrators inside the FMUs.
+    """
+
+    steps_per_period: int | None = None
+    accuracy: float = 1e-3
+    coupling: str = "impulse"
+    scheme: str = "loop"
+    order: int = 2
+    tol: float = 1e-6
+    tol_window: float = 1e-4
+    window: int | None = None
+    min_periods: int = 3
+    max_periods: int = 240
+    fmu_rtol: float = 1e-8
+    shooting: bool = True
+    max_newton: int = 12
+
+    def window_for(self, tmd: TMDParams) -> int:
+        if self.window is not None:
+            return int(self.window)
+        return 20 if (tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0) else 1
+
+    def steps_for(self, tmd: TMDParams) -> int:
+        if self.steps_per_period is not None:
+            return int(self.steps_per_period)
+        return steps_for_accuracy(self.accuracy, self.order, self.coupling)
+
+    @property
+    def method(self) -> str:
+        """Short name of the co-simulation method (the 'method' column of sweep tables)."""
+        if self.coupling == "impulse":
+            return f"cosim_impulse_o{self.order}"
+        return f"cosim_force_{self.scheme}_o{self.order}"
+
+
+#: error model: relative FRC error ~ C (2 pi / N)^q with N steps per period, (C, q) per coupling and
+#: extrapolation order, fitted to the largest error against the monolithic solver over the
+#: configuration types (docs/cosimulation.md), C rounded up by a safety factor of about 3
+_ERR_MODEL = {("impulse", 2): (3.0, 3), ("impulse", 1): (10.0, 2), ("impulse", 0): (10.0, 1),
+              ("force", 2): (20.0, 3), ("force", 1): (20.0, 2), ("force", 0): (10.0, 1)}
+
+
+def steps_for_accuracy(accuracy: float, order: int = 2, coupling: str = "impulse") -> int:
+    """Communication steps per forcing period for a requested relative amplitude accuracy
+    (a multiple of 8, at least 32)."""
+    c, q = _ERR_MODEL[(coupling, order)]
+    n = 2 * math.pi / (accuracy / c) ** (1.0 / q)
+    return max(32, int(math.ceil(n / 8.0) * 8))
+
+
+def fmu_parameters(base: BaseParams, tmd: TMDParams, omega: float, z0, fmu_rtol: float = 1e-8) -> dict:
+    """The FMU parameter values ("instance.variable" -> value) of a configuration and start state."""
+    z = np.asarray(z0, dtype=float)
+    return {
+        "base.M": base.mass, "base.K": base.stiffness, "base.C": base.damping, "base.F": base.force_amplitude,
+        "base.w": float(omega), "base.x0": z[0], "base.xd0": z[1], "base.rtol": fmu_rtol,
+        "base.atol": 1e-8 * abs(base.force_amplitude) / base.stiffness,
+        "tmd.m": tmd.mass, "tmd.k": tmd.stiffness, "tmd.c": tmd.damping, "tmd.df": tmd.friction_force,
+        "tmd.s": tmd.friction_slope, "tmd.I": tmd.inertance, "tmd.ki": tmd.mesh_stiffness,
+        "tmd.ci": tmd.mesh_damping, "tmd.eps": tmd.play_gap, "tmd.inerter": int(tmd.inerter),
+        "tmd.y0": z[2], "tmd.yd0": z[3], "tmd.d0": z[4], "tmd.dd0": z[5], "tmd.rtol": fmu_rtol,
+        "tmd.atol": _tmd_atol(base, tmd),
+    }
+
+
+def _tmd_atol(base: BaseParams, tmd: TMDParams) -> float:
+    a = 1e-8 * abs(base.force_amplitude) / base.stiffness
+    if tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0:
+        pen = max(abs(base.force_amplitude) / tmd.mesh_stiffness, 1e-12)
+        a = min(a, 1e-3 * max(tmd.play_gap, pen) + pen)
+    return a
+
+
+def impulse_connections(tmd: TMDParams) -> list:
+    """Momentum coupling: the base gets the exact impulse of the links over each step, from the
+    TMD's momentum balance m ydd = (force of the links) (the inerter chain is massless): mean
+    f_link = m (yd(t + h) - yd(t)) / h over the step, handed to the base as a linear function with
+    that mean and the slope between consecutive means; the TMD steps first. The base's change of
+    momentum from the links is exact whatever the gear does inside the step, and no algebraic
+    loop remains. (Matching the first moment as well, ``integral_src="tmd.y"``, makes the
+    base's end-of-step acceleration jumpy and was measured less accurate with play.)"""
+    return list(CONNECTIONS[:3]) + [Connection("tmd.yd", "base.f_link", "rate", float(tmd.mass), "tmd.force")]
+
+
+def make_master(base: BaseParams | None = None, tmd: TMDParams | None = None, scheme: str = "loop",
+                order: int = 2, fmus: dict | None = None, coupling: str = "force") -> Master:
+    """A master for the base + TMD pair (the FMUs are built if missing or stale).
+
+    coupling: "force" (tmd.force -> base.f_link, the algebraic loop of the ideal inerter) or
+    "impulse" (:func:`impulse_connections`; needs ``tmd``)."""
+    if fmus is None:
+        from ..fmi.build import ensure_fmus
+
+        paths = ensure_fmus()
+        fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
+    if coupling == "impulse":
+        return Master(fmus, impulse_connections(tmd or TMDParams()), {}, scheme="jacobi", order=order,
+                      record=RECORD)
+    return Master(fmus, CONNECTIONS, {}, scheme=scheme, order=order, record=RECORD)
+
+
+def _hermite_absmax(x: np.ndarray, v: np.ndarray, h: float) -> float:
+    """max |p| over all intervals of the cubic Hermite interpolant of (x, v) at spacing h."""
+    x0, x1, b0, b1 = x[:-1], x[1:], h * v[:-1], h * v[1:]
+    c1 = b0
+    c2 = -3.0 * x0 - 2.0 * b0 + 3.0 * x1 - b1
+    c3 = 2.0 * x0 + b0 - 2.0 * x1 + b1
+    qa, qb, qc = 3.0 * c3, 2.0 * c2, c1
+    m = float(np.max(np.abs(x)))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        disc = qb * qb - 4.0 * qa * qc
+        sq = np.sqrt(np.maximum(disc, 0.0))
+        for th in ((-qb + sq) / (2.0 * qa), (-qb - sq) / (2.0 * qa), -qc / qb):
+            ok = np.isfinite(th) & (th > 0.0) & (th < 1.0) & (disc >= 0.0)
+            if np.any(ok):
+                t = th[ok]
+                val = x0[ok] + t * (c1[ok] + t * (c2[ok] + t * c3[ok]))
+                m = max(m, float(np.max(np.abs(val))))
+    return m
+
+
+@dataclass
+class CosimSteadyState:
+    omega: float
+    amplitude: float
+    state: np.ndarray  #: x, xd, y, yd, d, dd at the end (d, dd: not observable, from the start guess)
+    periods: int
+    converged: bool
+    change: float
+    steps: int
+    wall_time: float
+    period_max: np.ndarray = field(repr=False, default=None)
+
+
+class _Periods:
+    """Runs whole periods on an initialised master and returns x, xd at the communication points."""
+
+    def __init__(self, master: Master, n: int, T: float):
+        self.m, self.n, self.h = master, n, T / n
+        self.ix, self.iv = master.signals.index("base.x"), master.signals.index("base.xd")
+        self.x = np.zeros(n + 1)
+        self.v = np.zeros(n + 1)
+
+    def period(self, samples: np.ndarray | None = None) -> float:
+        m, h, ix, iv = self.m, self.h, self.ix, self.iv
+        x, v = self.x, self.v
+        x[0], v[0] = m.y[ix], m.y[iv]
+        if samples is not None:
+            samples[0] = m.y
+        step = m.step
+        for k in range(1, self.n + 1):
+            step(h)
+            y = m.y
+            x[k] = y[ix]
+            v[k] = y[iv]
+            if samples is not None:
+                samples[k] = y
+        return _hermite_absmax(x, v, h)
+
+
+def _state_of(master: Master, z_guess: np.ndarray) -> np.ndarray:
+    s = master.signals
+    y = master.y
+    return np.array([y[s.index("base.x")], y[s.index("base.xd")], y[s.index("tmd.y")], y[s.index("tmd.yd")],
+                     z_guess[4], z_guess[5]])
+
+
+def _can_shoot(tmd: TMDParams) -> bool:
+    """Shooting needs the whole state observable at the FMU outputs: x, xd, y, yd (no play chain)."""
+    return tmd.inerter != InerterModel.PLAY
+
+
+def _start(master: Master, base, tmd, omega, z, settings):
+    master.initialize(0.0, fmu_parameters(base, tmd, omega, z, settings.fmu_rtol))
+
+
+def _shoot(master: Master, base, tmd, omega, z0, settings: CosimSettings, run: "_Periods", hint: dict):
+    """Newton shooting on the co-simulated period map z -> z(T) over z = (x, xd, y, yd).
+
+    The Jacobian (monodromy - I) comes from finite differences (4 extra periods), or from the
+    previous frequency of the sweep corrected by Broyden updates. Returns (z, iterations,
+    periods spent, last relative correction) or None if Newton does not converge."""
+    z = np.array(z0[:4], dtype=float)
+    tail = np.asarray(z0[4:6], dtype=float)
+    amp = max(math.hypot(z[0], z[1] / omega), math.hypot(z[2], z[3] / omega),
+              1e-6 * abs(base.force_amplitude) / base.stiffness)
+    scale = np.array([amp, amp * omega, amp, amp * omega])
+    A = hint.get("A")
+    spent = 0
+    last = None
+
+    def P(zz):
+        nonlocal spent
+        _start(master, base, tmd, omega, np.concatenate([zz, tail]), settings)
+        run.period()
+        spent += 1
+        st = _state_of(master, np.zeros(6))
+        return st[:4]
+
+    prev_change = math.inf
+    for it in range(settings.max_newton):
+        zT = P(z)
+        r = zT - z
+        if last is not None and float(np.max(np.abs(r) / scale)) > 0.5 * prev_change:
+            A = None  # Broyden is not contracting: a fresh finite-difference Jacobian
+        if A is None:
+            A = np.empty((4, 4))
+            for j in range(4):
+                dz = np.zeros(4)
+                dz[j] = 1e-6 * scale[j]
+                A[:, j] = ((P(z + dz) - (z + dz)) - r) / dz[j]
+        elif last is not None:
+            dz_prev, r_prev = last
+            dr = r - r_prev
+            A = A + np.outer(dr - A @ dz_prev, dz_prev) / float(dz_prev @ dz_prev)
+        try:
+            dz = -np.linalg.solve(A, r)
+        except np.linalg.LinAlgError:
+            return None
+        change = float(np.max(np.abs(dz) / scale))
+        prev_change = float(np.max(np.abs(r) / scale))
+        last = (dz, r)
+        z = z + dz
+        if not np.all(np.isfinite(z)):
+            return None
+        if change <= settings.tol:
+            hint["A"] = A
+            return z, it + 1, spent, change
+    hint.pop("A", None)
+    return None
+
+
+def steady_state(master: Master, base: BaseParams, tmd: TMDParams, omega: float, z0=None,
+                 settings: CosimSettings = CosimSettings(), hint: dict | None = None) -> CosimSteadyState:
+    """Co-simulated steady state at omega [rad/s] (definition in the module doc).
+
+    Window 1 without play: Newton shooting on the co-simulated period map (``settings.shooting``),
+    the amplitude is max |x| over the period started from the corrected state; otherwise
+    (or if Newton fails) period after period until the window criterion holds.
+    hint: a dict carried along a sweep (the shooting Jacobian)."""
+    t_start = time.perf_counter()
+    hint = {} if hint is None else hint
+    guess = initial_guess(base, tmd, omega)
+    z = guess if z0 is None else np.array(z0, dtype=float)
+    if tmd.inerter == InerterModel.PLAY and z0 is not None:
+        z = np.concatenate([z[:4], guess[4:]])
+    T = 2.0 * math.pi / omega
+    n = settings.steps_for(tmd)
+    run = _Periods(master, n, T)
+    W = settings.window_for(tmd)
+    steps = 0
+    if W == 1 and settings.shooting and _can_shoot(tmd):
+        res = _shoot(master, base, tmd, omega, z, settings, run, hint)
+        if res is not None:
+            zs, its, spent, change = res
+            _start(master, base, tmd, omega, np.concatenate([zs, z[4:]]), settings)
+            a1 = run.period()
+            return CosimSteadyState(omega=float(omega), amplitude=a1, state=_state_of(master, z), periods=spent + 1,
+                                    converged=True, change=change, steps=(spent + 1) * n,
+                                    wall_time=time.perf_counter() - t_start, period_max=np.array([a1]))
+        steps = 0
+    _start(master, base, tmd, omega, z, settings)
+    tol = settings.tol if W == 1 else settings.tol_window
+    pmax: list[float] = []
+    wins: list[float] = []
+    diffs: list[float] = []
+    converged, change, k = False, math.inf, 0
+    while k < settings.max_periods:
+        pmax.append(run.period())
+        k += 1
+        if k % W:
+            continue
+        wins.append(max(pmax[-W:]))
+        if len(wins) < 2:
+            continue
+        d = wins[-1] - wins[-2]
+        diffs.append(d)
+        scale = max(abs(wins[-1]), 1e-300)
+        if W == 1 and len(diffs) >= 2 and diffs[-2] != 0.0:
+            rho = d / diffs[-2]
+            est = abs(d) * rho / (1.0 - rho) if 0.0 < rho < 0.95 else abs(d) / max(1e-3, 1.0 - min(abs(rho), 0.999))
+            change = est / scale
+        else:
+            change = abs(d) / scale
+        if k >= settings.min_periods and change <= tol and (W > 1 or len(diffs) >= 2):
+            converged = True
+            break
+    return CosimSteadyState(omega=float(omega), amplitude=wins[-1] if wins else max(pmax), state=_state_of(master, z),
+                            periods=k, converged=converged, change=change, steps=steps + k * n,
+                            wall_time=time.perf_counter() - t_start, period_max=np.array(pmax))
+
+
+def continuation_start(base: BaseParams, tmd: TMDParams, z_prev, w_prev: float, w: float) -> np.ndarray:
+    """Start state at w from the steady state z_prev found at w_prev: z_prev shifted by the change
+    of the linear steady state (:func:`initial_guess`) between the two frequencies. Exact for a
+    linear configuration; for a nonlinear one it keeps the branch (the nonlinear part of z_prev)
+    while removing most of the transient a plain restart from z_prev would excite."""
+    return np.asarray(z_prev, float) + initial_guess(base, tmd, w) - initial_guess(base, tmd, w_prev)
+
+
+def _sweep_piece(base, tmd, seq, direction, settings, z0, queue=None):
+    master = make_master(base, tmd, settings.scheme, settings.order, coupling=settings.coupling)
+    rows = []
+    z = None if z0 is None else np.asarray(z0, dtype=float)
+    hint: dict = {}
+    w_prev = None
+    try:
+        for w in seq:
+            start = z
+            if z is not None and w_prev is not None:
+                start = continuation_start(base, tmd, z, w_prev, float(w))
+            ss = steady_state(master, base, tmd, float(w), start, settings, hint)
+            z, w_prev = ss.state, float(w)
+            rows.append(dict(direction=direction, omega=float(w), amplitude=ss.amplitude, periods=ss.periods,
+                             converged=ss.converged, change=ss.change, steps=ss.steps, rejected=0,
+                             wall_time=ss.wall_time))
+            if queue is not None:
+                queue.put(1)
+    finally:
+        master.close()
+    return rows, z
+
+
+def sweep(base: BaseParams, tmd: TMDParams, omegas, direction: str = "up", settings: CosimSettings = CosimSettings(),
+          progress=None, z0=None, workers: int = 1) -> pd.DataFrame:
+    """Co-simulated steady-state amplitudes over omegas (sorted), up, down or both.
+
+    workers > 1 splits each direction into that many contiguous pieces, one process each (the
+    first piece continues from z0, the others start from :func:`initial_guess`), exactly as the
+    monolithic :func:`~pyfmu_wrapper.solvers.sweep.sweep` does, so both engines meet the same branch.
+    """
+    omegas = np.sort(np.asarray(omegas, dtype=float))
+    if direction not in ("up", "down", "both"):
+        raise ValueError(f"direction must be 'up', 'down' or 'both', got {direction!r}")
+    if not workers:
+        workers = os.cpu_count() or 1
+    dirs = ["up", "down"] if direction == "both" else [direction]
+    rows = []
+    for d in dirs:
+        seq = omegas if d == "up" else omegas[::-1]
+        nw = max(1, min(int(workers), len(seq) // 2))
+        if nw == 1:
+            q = None if progress is None else _Callback(progress)
+            r, _ = _sweep_piece(base, tmd, seq, d, settings, z0, q)
+            rows += r
+            continue
+        import multiprocessing as mp
+
+        pieces = np.array_split(seq, nw)
+        with mp.Manager() as mgr, ProcessPoolExecutor(max_workers=nw) as ex:
+            q = mgr.Queue()
+            futs = [ex.submit(_sweep_piece, base, tmd, piece, d, settings, z0 if i == 0 else None, q)
+                    for i, piece in enumerate(pieces)]
+            done = 0
+            while done < len(seq) and not all(f.done() for f in futs) or not q.empty():
+                try:
+                    q.get(timeout=0.2)
+                except Exception:  # noqa: BLE001
+                    continue
+                done += 1
+                if progress is not None:
+                    progress(1)
+            for f in futs:
+                rows += f.result()[0]
+    return pd.DataFrame(rows)
+
+
+class _Callback:
+    def __init__(self, cb):
+        self.cb = cb
+
+    def put(self, n):
+        self.cb(n)
+
+
+def periodic_time_series(base: BaseParams, tmd: TMDParams, omega: float, n_periods: int = 1,
+                         samples_per_period: int | None = None, settings: CosimSettings = CosimSettings(),
+                         master: Master | None = None):
+    """Steady state, then n_periods more recorded at the communication points.
+
+    Returns (t, states[:, 6] = x, xd, y, yd, d, dd (d, dd: nan, not outputs of the FMUs), steady state).
+    ``samples_per_period`` overrides the communication steps per period (the record is at the
+    communication points)."""
+    own = master is None
+    m = make_master(base, tmd, settings.scheme, settings.order, coupling=settings.coupling) if own else master
+    try:
+        if samples_per_period is not None:
+            settings = replace(settings, steps_per_period=int(samples_per_period))
+        ss = steady_state(m, base, tmd, omega, None, settings)
+        n = settings.steps_for(tmd)
+        run = _Periods(m, n, 2 * math.pi / omega)
+        rec = []
+        for _ in range(n_periods):
+            buf = np.zeros((n + 1, m.nsig))
+            run.period(buf)
+            rec.append(buf[:-1])
+        Y = np.vstack(rec)
+        s = m.signals
+        states = np.full((Y.shape[0], 6), np.nan)
+        for j, p in enumerate(("base.x", "base.xd", "tmd.y", "tmd.yd")):
+            states[:, j] = Y[:, s.index(p)]
+        t = np.arange(Y.shape[0]) * (2 * math.pi / omega / n)
+        return t, states, ss
+    finally:
+        if own:
+            m.close()

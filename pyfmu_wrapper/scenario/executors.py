@@ -1,0 +1,289 @@
+"""Where the sweeps of a scenario run: in this process, over the local cores, or on a Dask cluster.
+
+The unit of parallel work is a :class:`SweepTask`: one parameter configuration swept over all the
+frequencies of a study with continuation (one row of a two-parameter map, or one FRC curve). A
+101 x 51 map is 51 independent tasks of 101 steady states. Every executor runs the *same* task
+function, :func:`run_task`, so a map computed sequentially, over local processes or on a Dask
+cluster is the same map, number for number.
+
+Executors (``make_executor(name, ...)``):
+
+* ``sequential`` -- in this process, in order (what the runner does without an executor);
+* ``local`` -- a :class:`concurrent.futures.ProcessPoolExecutor` over the local cores (default: all);
+* ``dask`` -- ``distributed.Client(address).submit`` on an existing scheduler
+  (``--scheduler tcp://host:8786``), or on a given ``Client`` (e.g. of a ``LocalCluster``). The
+  workers need ``pyfmu_wrapper`` importable (the same environment). No other machinery is used.
+
+Resume: a :class:`Checkpoint` folder holds one file per finished task, named by a hash of everything
+the result depends on (base, TMD, frequencies, engine, solver settings). It is written atomically
+(temporary file + rename) as soon as a task finishes, so a sweep that is killed restarts where it
+stopped: finished tasks are read back, only the missing ones are computed. A change of any input
+changes the hash, so a stale checkpoint is never reused. The default folder, used by
+``run-scenario`` and ``python -m pyfmu_wrapper.reproduce``, is ``<out>/../.cache/<out name>/<study>/``.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import tempfile
+import time
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Callable, Iterator
+
+import numpy as np
+import pandas as pd
+
+from ..physics.params import BaseParams, TMDParams, as_dict
+from .engines import SWEEP_COLUMNS, RunSettings, compute_sweep
+
+EXECUTORS = ("local", "dask", "sequential")
+#: bump when the layout or meaning of a checkpoint file changes
+CHECKPOINT_FORMAT = 1
+
+
+@dataclass(frozen=True)
+class SweepTask:
+    """One configuration swept over the frequencies: the natural unit of parallel work."""
+
+    base: BaseParams
+    tmd: TMDParams
+    omegas: np.ndarray
+    settings: RunSettings
+
+    def units(self) -> int:
+        """Progress units of this task (one per frequency and direction)."""
+        return len(self.omegas) * len(self.settings.directions())
+
+    def key(self) -> str:
+        """Hash of everything the result depends on (the checkpoint file name)."""
+        s = self.settings
+        payload = dict(format=CHECKPOINT_FORMAT, base=as_dict(self.base), tmd=as_dict(self.tmd),
+                       omegas=[float(w).hex() for w in np.asarray(self.omegas, float)],
+                       engine=s.engine, solver=s.solver.as_dict())
+        if s.engine != "monolithic" and s.cosim is not None:  # co-simulation settings other than the defaults
+            payload["cosim"] = repr(s.cosim)
+        if s.workers != 1 and s.solver.continuation:  # split sweeps (sequential executor) differ slightly
+            payload["workers"] = s.workers
+        if s.engine != "monolithic":  # engine-specific settings (e.g. the co-simulation's)
+            payload["engine_settings"] = repr(getattr(s, "cosim", None))
+        text = json.dumps(payload, sort_keys=True, default=str)
+        return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def run_task(task: SweepTask, keep_workers: bool = False) -> pd.DataFrame:
+    """Compute one task (the function every executor runs): the engine's sweep table.
+
+    With ``solver.continuation: false`` every frequency is its own one-point sweep, started from the
+    engine's initial guess (the same rows, in the same order, as a continued sweep would give).
+    keep_workers: keep ``settings.workers`` (the sequential executor); otherwise the executor is the
+    parallelism and each sweep runs in one process (strict continuation).
+    """
+    settings = task.settings if keep_workers else replace(task.settings, workers=1)
+    omegas = np.sort(np.asarray(task.omegas, float))
+    if settings.solver.continuation or len(omegas) < 2:
+        return compute_sweep(task.base, task.tmd, omegas, settings, None)
+    parts = [compute_sweep(task.base, task.tmd, omegas[i:i + 1], settings, None) for i in range(len(omegas))]
+    table = pd.concat(parts, ignore_index=True)
+    order = {d: k for k, d in enumerate(settings.directions())}
+    key = table["direction"].map(order).fillna(0) * 1e9 + np.where(table["direction"] == "down", -1, 1) * table["omega"]
+    return table.iloc[np.argsort(key.to_numpy(), kind="stable")].reset_index(drop=True)
+
+
+# --- checkpoints ---------------------------------------------------------------------------------
+
+_DTYPES = dict(engine=str, method=str, direction=str, omega=float, amplitude=float, periods=int,
+               converged=bool, change=float, steps=int, rejected=int, wall_time=float)
+
+
+class Checkpoint:
+    """A folder of finished tasks, one CSV per task (lossless: floats written with 17 digits)."""
+
+    def __init__(self, folder, resume: bool = True):
+        self.folder = Path(folder)
+        self.resume = resume  #: False: never read back (recompute, overwrite)
+
+    def path(self, task: SweepTask) -> Path:
+        return self.folder / f"{task.key()}.csv"
+
+    def load(self, task: SweepTask) -> pd.DataFrame | None:
+        p = self.path(task)
+        if not self.resume or not p.is_file():
+            return None
+        try:
+            t = pd.read_csv(p, keep_default_na=True)
+            for col in SWEEP_COLUMNS:  # columns added to the sweep table later (e.g. 'reference'): NaN
+                if col not in t.columns and col not in _DTYPES:
+                    t[col] = np.nan
+            t = t[list(SWEEP_COLUMNS)].astype({k: v for k, v in _DTYPES.items() if k in SWEEP_COLUMNS})
+        except Exception:  # a damaged file: compute the task again
+            return None
+        if len(t) != task.units():
+            return None
+        return t
+
+    def save(self, task: SweepTask, table: pd.DataFrame) -> None:
+        self.folder.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=".task-", suffix=".tmp", dir=self.folder)
+        try:
+            with os.fdopen(fd, "w", newline="") as f:
+                table[list(SWEEP_COLUMNS)].to_csv(f, index=False, float_format="%.17g")
+            os.replace(tmp, self.path(task))
+        except BaseException:
+            try:
+                os.unlink(tmp)
+            except OSError:
+                pass
+            raise
+
+    def finished(self) -> int:
+        return len(list(self.folder.glob("*.csv"))) if self.folder.is_dir() else 0
+
+
+# --- executors -----------------------------------------------------------------------------------
+
+class SequentialExecutor:
+    """Runs the tasks in this process, in order."""
+
+    name = "sequential"
+
+    def submit_all(self, tasks: list[SweepTask]) -> Iterator[tuple[int, pd.DataFrame]]:
+        for i, t in enumerate(tasks):
+            yield i, run_task(t, keep_workers=True)
+
+    def close(self):
+        pass
+
+    def describe(self) -> str:
+        return "sequential (this process)"
+
+
+class LocalExecutor:
+    """A process pool over the local cores (``jobs`` processes; 0 or None: all cores)."""
+
+    name = "local"
+
+    def __init__(self, jobs: int | None = 0):
+        self.jobs = int(jobs) if jobs else (os.cpu_count() or 1)
+        self._pool = None
+
+    def submit_all(self, tasks):
+        if not tasks:
+            return
+        if self.jobs == 1 or len(tasks) == 1:
+            yield from SequentialExecutor().submit_all(tasks)
+            return
+        if self._pool is None:
+            self._pool = ProcessPoolExecutor(max_workers=self.jobs)
+        futs = {self._pool.submit(run_task, t): i for i, t in enumerate(tasks)}
+        try:
+            pending = set(futs)
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for f in done:
+                    yield futs[f], f.result()
+        finally:
+            for f in futs:
+                f.cancel()
+
+    def close(self):
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+
+    def describe(self) -> str:
+        return f"local process pool ({self.jobs} processes)"
+
+
+class DaskExecutor:
+    """``distributed.Client.submit`` of the same task function on a Dask cluster.
+
+    scheduler: address of a running scheduler (``tcp://host:8786``), or a ``distributed.Client``
+    (tests pass the client of a ``LocalCluster``).
+    """
+
+    name = "dask"
+
+    def __init__(self, scheduler):
+        try:
+            import distributed
+        except ImportError as exc:  # pragma: no cover - depends on the environment
+            raise RuntimeError("the dask executor needs dask[distributed]: pip install 'pyfmu-wrapper[dask]'") from exc
+        self._distributed = distributed
+        if isinstance(scheduler, distributed.Client):
+            self.client, self._own = scheduler, False
+        else:
+            if not scheduler:
+                raise ValueError("the dask executor needs a scheduler address (--scheduler tcp://HOST:PORT)")
+            self.client, self._own = distributed.Client(scheduler), True
+
+    def submit_all(self, tasks):
+        if not tasks:
+            return
+        futs = [self.client.submit(run_task, t, pure=False) for t in tasks]
+        index = {f.key: i for i, f in enumerate(futs)}
+        try:
+            for f in self._distributed.as_completed(futs):
+                yield index[f.key], f.result()
+        finally:
+            self.client.cancel([f for f in futs if not f.done()])
+
+    def close(self):
+        if self._own:
+            self.client.close()
+
+    def describe(self) -> str:
+        return f"dask ({self.client.scheduler.address})"
+
+
+def make_executor(name: str = "local", jobs: int | None = 0, scheduler=None):
+    """An executor by name: 'local' (process pool, ``jobs`` processes), 'dask' (``scheduler``), 'sequential'."""
+    if name == "local":
+        return LocalExecutor(jobs)
+    if name == "dask":
+        return DaskExecutor(scheduler)
+    if name == "sequential":
+        return SequentialExecutor()
+    raise ValueError(f"unknown executor {name!r}; available: {list(EXECUTORS)}")
+
+
+@dataclass
+class TaskStats:
+    """How many tasks a run read from checkpoints and how many it computed."""
+
+    cached: int = 0
+    computed: int = 0
+    wall_time: float = 0.0
+
+
+def run_tasks(tasks: list[SweepTask], executor=None, checkpoint: Checkpoint | None = None,
+              progress: Callable[[int], object] | None = None, stats: TaskStats | None = None) -> list[pd.DataFrame]:
+    """Results of ``tasks`` in order: read from ``checkpoint`` where finished, computed by ``executor``
+    (None: sequentially here) otherwise; each computed result is checkpointed as soon as it arrives."""
+    stats = stats if stats is not None else TaskStats()
+    t0 = time.perf_counter()
+    out: list[pd.DataFrame | None] = [None] * len(tasks)
+    missing = []
+    for i, t in enumerate(tasks):
+        got = checkpoint.load(t) if checkpoint is not None else None
+        if got is not None:
+            out[i] = got
+            stats.cached += 1
+            if progress is not None:
+                progress(t.units())
+        else:
+            missing.append(i)
+    ex = executor if executor is not None else SequentialExecutor()
+    for j, table in ex.submit_all([tasks[i] for i in missing]):
+        i = missing[j]
+        out[i] = table
+        stats.computed += 1
+        if checkpoint is not None:
+            checkpoint.save(tasks[i], table)
+        if progress is not None:
+            progress(tasks[i].units())
+    stats.wall_time += time.perf_counter() - t0
+    return out  # type: ignore[return-value]
+

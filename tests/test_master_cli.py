@@ -1,0 +1,61 @@
+"""run-scenario with the co-simulation engine (the default) and with --engine both."""
+from __future__ import annotations
+
+import json
+import textwrap
+
+import numpy as np
+import pandas as pd
+
+from pyfmu_wrapper.cli.run_scenario import main
+from pyfmu_wrapper.physics.params import BaseParams, TMDParams
+from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
+
+SCN = """\
+schema_version: 1
+name: cosim_small
+description: two curves, three frequencies
+base: {mass: 100.0, stiffness: 40000.0, damping: 100.0, force_amplitude: 200.0}
+tmd: {case: 1, inerter: ideal, stiffness: 4000.0, damping: 10.0}
+frequencies: {start: 17.0, stop: 23.0, count: 3}
+studies:
+  - kind: frc
+    name: frc
+    curves:
+      - {label: "c = 10"}
+      - {label: "df = 10", tmd: {damping: 0.0, friction_force: 10.0}}
+"""
+
+
+def _write(tmp_path):
+    p = tmp_path / "scn.yaml"
+    p.write_text(textwrap.dedent(SCN))
+    return p
+
+
+def test_default_engine_is_cosim(tmp_path):
+    out = tmp_path / "out"
+    assert main([str(_write(tmp_path)), "--out", str(out), "--quiet", "--executor", "sequential"]) == 0
+    s = json.loads((out / "summary.json").read_text())
+    assert s["engine"] == "cosim"
+    t = pd.read_csv(out / "frc.csv")
+    assert set(t["engine"]) == {"cosim"} and t["converged"].all()
+    lin = t[t["curve"] == "c = 10"]
+    exact = exact_amplitude(BaseParams(), TMDParams(damping=10.0), lin["omega"].to_numpy())
+    np.testing.assert_allclose(lin["amplitude"], exact, rtol=5e-3)
+
+
+def test_engine_both_writes_the_difference(tmp_path):
+    out = tmp_path / "out"
+    assert main([str(_write(tmp_path)), "--out", str(out), "--quiet", "--engine", "both",
+                 "--executor", "sequential"]) == 0
+    t = pd.read_csv(out / "frc.csv")
+    assert np.isfinite(t["reference"]).all()
+    np.testing.assert_allclose(t["difference"], t["amplitude"] / t["reference"] - 1, atol=1e-8)  # csv: 10 digits
+    assert np.abs(t["difference"]).max() <= 5e-3
+    s = json.loads((out / "summary.json").read_text())
+    for c in s["studies"][0]["curves"]:
+        d = c["directions"]["up"]
+        assert d["max_abs_difference"] == max(abs(r["difference"]) for r in d["difference"]) <= 5e-3
+        assert len(d["difference"]) == 3
+    assert (out / "frc.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
