@@ -28,7 +28,7 @@ import numpy as np
 import pandas as pd
 
 from ..physics.params import BaseParams, InerterModel, TMDParams
-from ..solvers.monolithic import initial_guess
+from ..solvers.monolithic import SolverSettings, WindowCriterion, companion_start, initial_guess
 from .graph import Connection
 from .master import Master
 
@@ -42,8 +42,10 @@ class CosimSettings:
 
     steps_per_period: communication steps per forcing period (None: chosen from ``accuracy``
     with the calibrated error model of :func:`steps_for_accuracy`); scheme / order: see
-    :mod:`.master`; tol, tol_window, window, min_periods, max_periods: steady state as in the
-    monolithic solver; fmu_rtol: tolerance of the integrators inside the FMUs.
+    :mod:`.master`; tol, tol_window, amp_atol, window, min_periods, max_periods, play_start:
+    steady state as in the monolithic solver (:class:`~pyfmu_wrapper.solvers.monolithic.WindowCriterion`,
+    :func:`~pyfmu_wrapper.solvers.monolithic.companion_start`); fmu_rtol: tolerance of the
+    integrators inside the FMUs.
     """
 
     steps_per_period: int | None = None
@@ -53,9 +55,11 @@ class CosimSettings:
     order: int = 2
     tol: float = 1e-6
     tol_window: float = 1e-4
+    amp_atol: float | None = None
     window: int | None = None
     min_periods: int = 3
     max_periods: int = 240
+    play_start: str = "companion"
     fmu_rtol: float = 1e-8
     shooting: bool = True
     max_newton: int = 12
@@ -285,14 +289,20 @@ def steady_state(master: Master, base: BaseParams, tmd: TMDParams, omega: float,
     hint: a dict carried along a sweep (the shooting Jacobian)."""
     t_start = time.perf_counter()
     hint = {} if hint is None else hint
-    guess = initial_guess(base, tmd, omega)
-    z = guess if z0 is None else np.array(z0, dtype=float)
-    if tmd.inerter == InerterModel.PLAY and z0 is not None:
-        z = np.concatenate([z[:4], guess[4:]])
+    W = settings.window_for(tmd)
+    if W > 1 and settings.play_start == "companion":
+        # the play model starts from the orbit of its smooth companion (ideal inerter), as in the
+        # monolithic solver: the windows then settle in about two (see companion_start)
+        z = companion_start(base, tmd, omega, SolverSettings(rtol=1e-8, atol_scale=1e-8),
+                            hint.setdefault("monolithic", {}))
+    else:
+        guess = initial_guess(base, tmd, omega)
+        z = guess if z0 is None else np.array(z0, dtype=float)
+        if tmd.inerter == InerterModel.PLAY and z0 is not None:
+            z = np.concatenate([z[:4], guess[4:]])
     T = 2.0 * math.pi / omega
     n = settings.steps_for(tmd)
     run = _Periods(master, n, T)
-    W = settings.window_for(tmd)
     steps = 0
     if W == 1 and settings.shooting and _can_shoot(tmd):
         res = _shoot(master, base, tmd, omega, z, settings, run, hint)
@@ -305,34 +315,16 @@ def steady_state(master: Master, base: BaseParams, tmd: TMDParams, omega: float,
                                     wall_time=time.perf_counter() - t_start, period_max=np.array([a1]))
         steps = 0
     _start(master, base, tmd, omega, z, settings)
-    tol = settings.tol if W == 1 else settings.tol_window
-    pmax: list[float] = []
-    wins: list[float] = []
-    diffs: list[float] = []
-    converged, change, k = False, math.inf, 0
-    while k < settings.max_periods:
-        pmax.append(run.period())
+    crit = WindowCriterion.from_settings(settings, W, base)
+    k = 0
+    while k < crit.max_periods:
         k += 1
-        if k % W:
-            continue
-        wins.append(max(pmax[-W:]))
-        if len(wins) < 2:
-            continue
-        d = wins[-1] - wins[-2]
-        diffs.append(d)
-        scale = max(abs(wins[-1]), 1e-300)
-        if W == 1 and len(diffs) >= 2 and diffs[-2] != 0.0:
-            rho = d / diffs[-2]
-            est = abs(d) * rho / (1.0 - rho) if 0.0 < rho < 0.95 else abs(d) / max(1e-3, 1.0 - min(abs(rho), 0.999))
-            change = est / scale
-        else:
-            change = abs(d) / scale
-        if k >= settings.min_periods and change <= tol and (W > 1 or len(diffs) >= 2):
-            converged = True
+        if crit.add(run.period()):
             break
-    return CosimSteadyState(omega=float(omega), amplitude=wins[-1] if wins else max(pmax), state=_state_of(master, z),
+    amplitude, converged, change = crit.result()
+    return CosimSteadyState(omega=float(omega), amplitude=amplitude, state=_state_of(master, z),
                             periods=k, converged=converged, change=change, steps=steps + k * n,
-                            wall_time=time.perf_counter() - t_start, period_max=np.array(pmax))
+                            wall_time=time.perf_counter() - t_start, period_max=np.array(crit.period_max))
 
 
 def continuation_start(base: BaseParams, tmd: TMDParams, z_prev, w_prev: float, w: float) -> np.ndarray:

@@ -220,50 +220,82 @@ def steady_state(base: BaseParams, tmd: TMDParams, omega: float, z0=None,
                            change=float("inf"), steps=int(run.stats[STAT_STEPS]), rejected=int(run.stats[STAT_REJECTED]),
                            events=int(run.stats[STAT_EVENTS]), period_max=np.zeros(0),
                            wall_time=time.perf_counter() - t_start)
-    tol = settings.tol if W == 1 else settings.tol_window
-    if W == 1:
-        amp_atol = 0.0
-    elif settings.amp_atol is not None:
-        amp_atol = settings.amp_atol
-    else:
-        amp_atol = 1e-3 * abs(base.force_amplitude) / max(base.stiffness, 1e-300)
-    max_periods = settings.max_periods if W == 1 else min(settings.max_periods, settings.max_periods_window)
-    pmax: list[float] = []
-    wins: list[float] = []
-    diffs: list[float] = []
-    converged = False
-    change = math.inf
+    crit = WindowCriterion.from_settings(settings, W, base)
     k = 0
-    while k < max_periods:
-        pmax.append(run.period(z, 0.0))  # each period restarts at phase 0: t0 = 0
+    while k < crit.max_periods:
         k += 1
+        if crit.add(run.period(z, 0.0)):  # each period restarts at phase 0: t0 = 0
+            break
+    amplitude, converged, change = crit.result()
+    pmax = crit.period_max
+    s = run.stats
+    return SteadyState(omega=omega, amplitude=amplitude, state=z, periods=k,
+                       converged=converged, change=change, steps=int(s[STAT_STEPS]),
+                       rejected=int(s[STAT_REJECTED]), events=int(s[STAT_EVENTS]),
+                       period_max=np.array(pmax), wall_time=time.perf_counter() - t_start)
+
+
+class WindowCriterion:
+    """The steady-state test on per-period maxima of |x| (module doc), shared by every engine.
+
+    Feed it A_k with :meth:`add` (True when converged); :meth:`result` gives (amplitude,
+    converged, change).
+    """
+
+    def __init__(self, window: int, tol: float, amp_atol: float = 0.0, min_periods: int = 3,
+                 max_periods: int = 3000):
+        self.W, self.tol, self.amp_atol = int(window), float(tol), float(amp_atol)
+        self.min_periods, self.max_periods = int(min_periods), int(max_periods)
+        self.period_max: list[float] = []
+        self.wins: list[float] = []
+        self.diffs: list[float] = []
+        self.converged = False
+        self.change = math.inf
+
+    @classmethod
+    def from_settings(cls, settings, window: int, base: BaseParams) -> "WindowCriterion":
+        """From any settings object with tol, tol_window, min_periods, max_periods (and optionally
+        amp_atol, max_periods_window), as :class:`SolverSettings` has."""
+        if window == 1:
+            return cls(1, settings.tol, 0.0, settings.min_periods, settings.max_periods)
+        amp_atol = getattr(settings, "amp_atol", None)
+        if amp_atol is None:
+            amp_atol = 1e-3 * abs(base.force_amplitude) / max(base.stiffness, 1e-300)
+        mp = min(settings.max_periods, getattr(settings, "max_periods_window", settings.max_periods))
+        return cls(window, settings.tol_window, amp_atol, settings.min_periods, mp)
+
+    def add(self, a: float) -> bool:
+        self.period_max.append(float(a))
+        k = len(self.period_max)
+        W = self.W
         if k % W:
-            continue
-        wins.append(max(pmax[-W:]))
+            return False
+        wins, diffs = self.wins, self.diffs
+        wins.append(max(self.period_max[-W:]))
         if len(wins) < 2:
-            continue
+            return False
         d = wins[-1] - wins[-2]
         diffs.append(d)
         scale = max(abs(wins[-1]), 1e-300)
         if W == 1 and len(diffs) >= 2 and diffs[-2] != 0.0:
             rho = d / diffs[-2]
             est = abs(d) * rho / (1.0 - rho) if 0.0 < rho < 0.95 else abs(d) / max(1e-3, 1.0 - min(abs(rho), 0.999))
-            change = est / scale
+            self.change = est / scale
         else:
-            change = max(abs(d) - amp_atol, 0.0) / scale
-        if k >= settings.min_periods and change <= tol and (W > 1 or len(diffs) >= 2):
-            converged = True
-            break
-    amplitude = wins[-1] if wins else max(pmax)
-    if not converged and W > 1 and len(wins) >= 3:
-        tail = wins[1:]
-        amplitude = max(tail)
-        change = (max(tail) - min(tail)) / max(max(tail), 1e-300)
-    s = run.stats
-    return SteadyState(omega=omega, amplitude=amplitude, state=z, periods=k,
-                       converged=converged, change=change, steps=int(s[STAT_STEPS]),
-                       rejected=int(s[STAT_REJECTED]), events=int(s[STAT_EVENTS]),
-                       period_max=np.array(pmax), wall_time=time.perf_counter() - t_start)
+            self.change = max(abs(d) - self.amp_atol, 0.0) / scale
+        if k >= self.min_periods and self.change <= self.tol and (W > 1 or len(diffs) >= 2):
+            self.converged = True
+        return self.converged
+
+    def result(self) -> tuple[float, bool, float]:
+        wins = self.wins
+        amplitude = wins[-1] if wins else (max(self.period_max) if self.period_max else float("nan"))
+        change = self.change
+        if not self.converged and self.W > 1 and len(wins) >= 3:
+            tail = wins[1:]
+            amplitude = max(tail)
+            change = (max(tail) - min(tail)) / max(max(tail), 1e-300)
+        return amplitude, self.converged, change
 
 
 def _active_states(tmd: TMDParams) -> list[int]:
