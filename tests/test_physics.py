@@ -175,3 +175,20 @@ def test_analytic_jacobian_matches_complex_step(tmd, scale):
     K.system_dfdt(K.SYS_COUPLED, 0.3, z, p, np.zeros(1), f2)
     np.testing.assert_allclose(J1, J2, rtol=1e-12, atol=1e-12 * np.abs(J2).max())
     np.testing.assert_allclose(f1, f2, rtol=1e-12, atol=1e-12 * np.abs(f2).max())
+
+
+@pytest.mark.parametrize("tmd", [
+    paper_case(1, damping=10, friction_force=10),
+    paper_case(3, damping=10, friction_force=10, inerter="play", play_gap=1e-4),
+    paper_case(2, inerter="play", play_gap=0.0),
+    TMDParams(mass=10, inertance=0, inerter="none", friction_force=5),
+])
+@pytest.mark.parametrize("scale", [(1, 1, 1, 1), (1, 1, -1, 1), (1, 1e-6, 0.1, 1)])
+def test_tmd_subsystem_jacobian_matches_complex_step(tmd, scale):
+    z = np.array([0.02, -0.05, 2e-4, 0.3]) * np.array(scale)
+    u = np.array([0.1, 0.01, 0.1, 0.5, 0.1, 0.5, -3.0, -3.0, 2.0, 1.0])  # x, xd, xdd Taylor inputs
+    p = pack(BASE, tmd, 19.0)
+    J1, J2 = np.zeros((4, 4)), np.zeros((4, 4))
+    K.tmd_jacobian(0.3, z, p, u, J1)
+    K.system_jacobian(K.SYS_TMD, 0.3, z, p, u, J2)
+    np.testing.assert_allclose(J1, J2, rtol=1e-12, atol=1e-12 * np.abs(J2).max())

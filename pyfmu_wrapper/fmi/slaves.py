@@ -223,8 +223,13 @@ class Slave:
                 self.r[v.vr] = float(np.real(val))
 
     def _integrate(self, system, t, h, u):
-        atol = np.full(self.n_state, self.val("atol"))
-        hn, _ = integrate(system, self.z, t, t + h, self.p, u, self.val("rtol"), atol, self.h, h,
+        tol_vr = getattr(self, "_tol_vr", None)
+        if tol_vr is None:  # value references of rtol/atol, resolved once
+            tol_vr = self._tol_vr = (self.spec.by_name("rtol").vr, self.spec.by_name("atol").vr)
+        rtol, a = float(self.r[tol_vr[0]]), float(self.r[tol_vr[1]])
+        if getattr(self, "_atol_value", None) != a:
+            self._atol_value, self._atol = a, np.full(self.n_state, a)
+        hn, _ = integrate(system, self.z, t, t + h, self.p, u, rtol, self._atol, self.h, h,
                           self._empty_t, self._empty_s, 1.0 / self.p[P_s] if self.p[P_s] > 0 else 1e-6, self.stats)
         if not hn > 0.0:
             raise FmuStepError(f"integrator failed in doStep at t = {t:.16g} (step size underflow)")

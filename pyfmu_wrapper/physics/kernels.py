@@ -337,6 +337,41 @@ def coupled_jacobian(t, z, p, J, ft):
 
 
 @njit(cache=True)
+def tmd_jacobian(t, z, p, u, J):
+    """Analytic d(rhs)/dz of the TMD subsystem (SYS_TMD, z = [y, yd, d, dd]) driven by the inputs u;
+    held against the complex-step Jacobian in the tests."""
+    xd = input_value(u, 1, t)
+    y, yd, d, dd = z[0], z[1], z[2], z[3]
+    model = int(p[P_MODEL])
+    m, I = p[P_m], p[P_I]
+    kv = p[P_c] + friction_slope_at(xd - yd, p[P_df], p[P_s])
+    # gradient of Fs over [y, yd, d, dd]
+    gF0, gF1 = -p[P_k], -kv
+    Pd, Pdd = 0.0, 0.0
+    if model == MODEL_IDEAL:
+        cy = 1.0 / (m + I)
+    else:
+        cy = 1.0 / m
+        if model == MODEL_PLAY:
+            Pd, Pdd = chain_force_gradient(d, dd, p)
+    for i in range(4):
+        for j in range(4):
+            J[i, j] = 0.0
+    J[0, 1] = 1.0
+    J[2, 3] = 1.0
+    J[1, 0] = cy * gF0
+    J[1, 1] = cy * gF1
+    J[1, 2] = cy * Pd
+    J[1, 3] = cy * Pdd
+    if model == MODEL_PLAY:
+        # ddd = xdd - P / I - ydd
+        for j in range(4):
+            J[3, j] = -J[1, j]
+        J[3, 2] -= Pd / I
+        J[3, 3] -= Pdd / I
+
+
+@njit(cache=True)
 def jacobian(t, z, p, J):
     """d(rhs)/dz of the coupled system."""
     system_jacobian(SYS_COUPLED, t, z, p, np.zeros(1), J)

@@ -7,9 +7,9 @@ error estimate, L-stable and stiffly accurate, in the formulation
     G K_i = f(t0 + alpha_i h, y0 + sum_j A_ij K_j) + sum_j C_ij / h K_j + gamma_i h df/dt
     y1 = y0 + sum_i M_i K_i,     err = sum_i E_i K_i
 
-The Jacobian comes from the physics kernels: analytic for the coupled system (held against the
-complex-step derivative in the tests), by the complex-step derivative for the subsystems; both are
-exact, so the method keeps its order on the stiff friction branch.
+The Jacobian comes from the physics kernels: analytic for the coupled system and the TMD
+subsystem (held against the complex-step derivative in the tests), by the complex-step
+derivative otherwise; all are exact, so the method keeps its order on the stiff friction branch.
 
 Non-smooth points. The dry-friction law is smooth but has a slope of df (2/pi) s (6.4e6 N s/m
 for df = 10 N) in a band |xd - yd| < ~1/s; the play chain has kinks at |d| = eps. A large step
@@ -30,8 +30,8 @@ import math
 import numpy as np
 from numba import njit
 
-from ..physics.kernels import (SYS_COUPLED, coupled_jacobian, system_dfdt_work, system_jacobian_work, system_rhs,
-                               system_switching)
+from ..physics.kernels import (SYS_COUPLED, SYS_TMD, coupled_jacobian, system_dfdt_work, system_jacobian_work,
+                               system_rhs, system_switching, tmd_jacobian)
 
 # RODAS4 coefficients (Hairer & Wanner 1996), lower-triangular A and C stored as full matrices.
 _GAMMA = 0.25
@@ -202,6 +202,9 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
             final = True
         if system == SYS_COUPLED:
             coupled_jacobian(t, z, p, J, ft)
+        elif system == SYS_TMD:
+            tmd_jacobian(t, z, p, u, J)
+            system_dfdt_work(system, t, z, p, u, ft, zc, oc)
         else:
             system_jacobian_work(system, t, z, p, u, J, zc, oc)
             system_dfdt_work(system, t, z, p, u, ft, zc, oc)
