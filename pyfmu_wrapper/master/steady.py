@@ -19,15 +19,14 @@ final state (x, xd, y, yd read from the FMU outputs; d, dd of the play chain fro
 from __future__ import annotations
 
 import math
-import os
 import time
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 import pandas as pd
 
 from ..physics.params import BaseParams, InerterModel, TMDParams
+from ..solvers.sweep import run_sweep_pieces
 from ..solvers.monolithic import SolverSettings, WindowCriterion, companion_start, initial_guess
 from .graph import Connection
 from .master import Master
@@ -366,48 +365,8 @@ def sweep(base: BaseParams, tmd: TMDParams, omegas, direction: str = "up", setti
     first piece continues from z0, the others start from :func:`initial_guess`), exactly as the
     monolithic :func:`~pyfmu_wrapper.solvers.sweep.sweep` does, so both engines meet the same branch.
     """
-    omegas = np.sort(np.asarray(omegas, dtype=float))
-    if direction not in ("up", "down", "both"):
-        raise ValueError(f"direction must be 'up', 'down' or 'both', got {direction!r}")
-    if not workers:
-        workers = os.cpu_count() or 1
-    dirs = ["up", "down"] if direction == "both" else [direction]
-    rows = []
-    for d in dirs:
-        seq = omegas if d == "up" else omegas[::-1]
-        nw = max(1, min(int(workers), len(seq) // 2))
-        if nw == 1:
-            q = None if progress is None else _Callback(progress)
-            r, _ = _sweep_piece(base, tmd, seq, d, settings, z0, q)
-            rows += r
-            continue
-        import multiprocessing as mp
-
-        pieces = np.array_split(seq, nw)
-        with mp.Manager() as mgr, ProcessPoolExecutor(max_workers=nw) as ex:
-            q = mgr.Queue()
-            futs = [ex.submit(_sweep_piece, base, tmd, piece, d, settings, z0 if i == 0 else None, q)
-                    for i, piece in enumerate(pieces)]
-            done = 0
-            while done < len(seq) and not all(f.done() for f in futs) or not q.empty():
-                try:
-                    q.get(timeout=0.2)
-                except Exception:  # noqa: BLE001
-                    continue
-                done += 1
-                if progress is not None:
-                    progress(1)
-            for f in futs:
-                rows += f.result()[0]
+    rows, _ = run_sweep_pieces(_sweep_piece, base, tmd, omegas, direction, settings, progress, z0, workers)
     return pd.DataFrame(rows)
-
-
-class _Callback:
-    def __init__(self, cb):
-        self.cb = cb
-
-    def put(self, n):
-        self.cb(n)
 
 
 def periodic_time_series(base: BaseParams, tmd: TMDParams, omega: float, n_periods: int = 1,

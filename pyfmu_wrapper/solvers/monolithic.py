@@ -41,7 +41,7 @@ import numpy as np
 
 from ..physics.kernels import NSTATE, SYS_COUPLED, inerter_force, rhs
 from ..physics.params import BaseParams, InerterModel, TMDParams, pack
-from .rodas import STAT_EVENTS, STAT_FAILED, STAT_REJECTED, STAT_STEPS, integrate
+from .rodas import STAT_EVENTS, STAT_REJECTED, STAT_STEPS, integrate
 
 
 class SolverError(RuntimeError):
@@ -334,6 +334,7 @@ def _shoot(run: _Runner, tmd: TMDParams, z: np.ndarray, settings: SolverSettings
     last_change = np.inf
     g_old = None
     s_old = None
+    res_old = np.inf
     for it in range(3 * settings.max_newton):
         zT = z.copy()
         amp = run.period(zT, 0.0)

@@ -166,7 +166,6 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
     fs = np.empty(n)
     ys = np.empty(n)
     ynew = np.empty(n)
-    err = np.empty(n)
     g0 = np.empty(3)
     g1 = np.empty(3)
     zc = np.empty(n, dtype=np.complex128)

@@ -58,20 +58,29 @@ def sweep(base: BaseParams, tmd: TMDParams, omegas, direction: str = "up",
     progress: optional callable(n_done) called after every frequency (e.g. tqdm.update).
     workers: processes to use (0 or None: all cores); see the module doc.
     """
+    rows, finals = run_sweep_pieces(_sweep_piece, base, tmd, omegas, direction, settings, progress, z0, workers)
+    return SweepResult(pd.DataFrame(rows), finals)
+
+
+def run_sweep_pieces(piece, base, tmd, omegas, direction, settings, progress=None, z0=None, workers: int = 1):
+    """Drive a continuation sweep, up, down or both, over ``workers`` processes (module doc).
+
+    piece(base, tmd, seq, direction, settings, z0, queue) -> (rows, final_state) sweeps one
+    contiguous piece and calls queue.put(1) after every frequency; any engine's sweep can use this
+    driver. Returns (rows of every piece, {direction: final state of the last piece}).
+    """
     omegas = np.sort(np.asarray(omegas, dtype=float))
     if direction not in ("up", "down", "both"):
         raise ValueError(f"direction must be 'up', 'down' or 'both', got {direction!r}")
     if not workers:
         workers = os.cpu_count() or 1
-    dirs = ["up", "down"] if direction == "both" else [direction]
     rows = []
     finals = {}
-    for d in dirs:
+    for d in (["up", "down"] if direction == "both" else [direction]):
         seq = omegas if d == "up" else omegas[::-1]
         nw = max(1, min(int(workers), len(seq) // 2))
         if nw == 1:
-            r, z = _sweep_piece(base, tmd, seq, d, settings, z0,
-                                None if progress is None else _CallbackQueue(progress))
+            r, z = piece(base, tmd, seq, d, settings, z0, None if progress is None else _CallbackQueue(progress))
             rows += r
             finals[d] = z
             continue
@@ -80,24 +89,24 @@ def sweep(base: BaseParams, tmd: TMDParams, omegas, direction: str = "up",
         pieces = np.array_split(seq, nw)
         with mp.Manager() as mgr, ProcessPoolExecutor(max_workers=nw) as ex:
             q = mgr.Queue()
-            futs = [ex.submit(_sweep_piece, base, tmd, piece, d, settings, z0 if i == 0 else None, q)
-                    for i, piece in enumerate(pieces)]
+            futs = [ex.submit(piece, base, tmd, part, d, settings, z0 if i == 0 else None, q)
+                    for i, part in enumerate(pieces)]
             done = 0
             while done < len(seq):
                 if all(f.done() for f in futs) and q.empty():
                     break
                 try:
                     q.get(timeout=0.2)
-                except Exception:
+                except Exception:  # noqa: BLE001 - queue.Empty from the manager proxy
                     continue
                 done += 1
                 if progress is not None:
                     progress(1)
             results = [f.result() for f in futs]
-        for r, z in results:
+        for r, _ in results:
             rows += r
         finals[d] = results[-1][1]
-    return SweepResult(pd.DataFrame(rows), finals)
+    return rows, finals
 
 
 class _CallbackQueue:
