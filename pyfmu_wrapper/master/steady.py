@@ -27,7 +27,7 @@ import pandas as pd
 
 from ..physics.params import BaseParams, InerterModel, TMDParams
 from ..solvers.sweep import run_sweep_pieces
-from ..solvers.monolithic import SolverSettings, WindowCriterion, companion_start, initial_guess
+from ..solvers.monolithic import SolverSettings, WindowCriterion, default_window, companion_start, initial_guess
 from .graph import Connection
 from .master import Master
 
@@ -64,9 +64,7 @@ class CosimSettings:
     max_newton: int = 12
 
     def window_for(self, tmd: TMDParams) -> int:
-        if self.window is not None:
-            return int(self.window)
-        return 20 if (tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0) else 1
+        return default_window(tmd, self.window)
 
     def steps_for(self, tmd: TMDParams) -> int:
         if self.steps_per_period is not None:

@@ -48,6 +48,14 @@ class SolverError(RuntimeError):
     """The integrator could not proceed (step size underflow, non-finite state)."""
 
 
+def default_window(tmd: TMDParams, window: int | None = None) -> int:
+    """Periods per steady-state window: ``window`` if given, else 20 for the play model with a gap
+    (never exactly periodic) and 1 otherwise (periodic). Shared by every engine."""
+    if window is not None:
+        return int(window)
+    return 20 if (tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0) else 1
+
+
 @dataclass(frozen=True)
 class SolverSettings:
     """Accuracy and steady-state settings of the monolithic solver.
@@ -77,9 +85,7 @@ class SolverSettings:
     max_newton: int = 8
 
     def window_for(self, tmd: TMDParams) -> int:
-        if self.window is not None:
-            return int(self.window)
-        return 20 if (tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0) else 1
+        return default_window(tmd, self.window)
 
 
 @dataclass
