@@ -25,12 +25,21 @@ import traceback
 import numpy as np
 
 from ..physics import kernels as kn
-from ..physics.params import P_s, BaseParams, TMDParams, pack
-from ..solvers.rodas import integrate
+from ..physics.params import N_PARAMS, P_s, BaseParams, TMDParams, pack
+from ..solvers.rodas import STAT_STEPS, integrate
 from .variables import BASE_OSCILLATOR, BOOLEAN, INTEGER, TMD_INERTER, TRIVIAL, FmuSpec
 
 OK, WARNING, ERROR, FATAL = 0, 1, 3, 4
 _CSTEP = 1e-30
+#: A communication point may differ from the slave's time by this fraction of the step (hosts that
+#: compute t = k h differ from a running sum of steps by rounding); the host's time is then taken.
+TIME_SLACK = 1e-6
+#: Longest communication step [s] (the stub refuses longer ones before entering Python).
+MAX_STEP = 100.0
+#: A doStep is integrated in pieces of at most this length [s] ...
+CHUNK = 1.0
+#: ... and fails when it needs more integrator steps than this (bounded cost of any doStep).
+MAX_INTEGRATOR_STEPS = 200_000
 
 
 class FmuStepError(RuntimeError):
@@ -69,7 +78,7 @@ class Slave:
         self.last_error = ""
         self.t = 0.0
         self.h = 0.0  # step size suggested by the integrator (part of the state: exact restore)
-        self.p = np.zeros(15)
+        self.p = np.zeros(N_PARAMS)
         self.z = np.zeros(self.n_state)
         self.stats = np.zeros(4, dtype=np.int64)
         self._empty_t = np.zeros(0)
@@ -79,6 +88,7 @@ class Slave:
         self._u = np.zeros(1 + 3 * len(self._inputs))
         self._outputs = [v for v in self.spec.of("output")]
         self._debug_vr = next((v.vr for v in self.spec.variables if v.name == "debug_raise"), None)
+        self._real_params = {v.vr for v in self.spec.variables if v.causality == "parameter" and v.type not in (INTEGER, BOOLEAN)}
         self._start_values()
 
     # --- helpers --------------------------------------------------------------------------
@@ -129,6 +139,10 @@ class Slave:
     # --- stub entry points -----------------------------------------------------------------
     @_guarded
     def setup_experiment(self, tolerance_defined, tolerance, t_start, stop_defined, t_stop):
+        if not np.isfinite(t_start):
+            raise FmuStepError(f"setupExperiment: startTime must be finite, got {t_start!r}")
+        if tolerance_defined and not (np.isfinite(tolerance) and tolerance > 0):
+            raise FmuStepError(f"setupExperiment: tolerance must be finite and > 0, got {tolerance!r}")
         self.t = float(t_start)
         if tolerance_defined and tolerance > 0 and "rtol" in {v.name for v in self.spec.variables}:
             self.r[self.spec.vr("rtol")] = tolerance
@@ -151,8 +165,11 @@ class Slave:
 
     @_guarded
     def do_step(self, t, h, no_set_prior):
-        if abs(t - self.t) > 1e-12 * max(1.0, abs(t)):
-            raise FmuStepError(f"Expected currentCommunicationPoint = {self.t:.16g} but was {t:.16g}")
+        if not (np.isfinite(t) and np.isfinite(h) and 0.0 < h <= MAX_STEP and t + h > t):
+            raise FmuStepError(f"doStep: invalid currentCommunicationPoint {t!r} or step size {h!r} "
+                               f"(finite, 0 < h <= {MAX_STEP} s, above the resolution of t)")
+        if abs(t - self.t) > max(TIME_SLACK * h, 8.0 * np.spacing(abs(self.t))):
+            raise FmuStepError(f"Expected currentCommunicationPoint = {self.t:.17g} but was {t:.17g}")
         if self._debug_vr is not None and self.i[self._debug_vr]:
             raise InjectedError(f"debug_raise is set: exception injected at t = {t:.16g}")
         u = self._taylor_inputs(t)
@@ -194,26 +211,61 @@ class Slave:
         self.stats[:] = a[k + self.n_state:].astype(np.int64)
 
     @_guarded
-    def directional_derivative(self, n_unknown, n_known):
-        """Scratch layout: [vUnknown (nu), vKnown (nk), dvKnown (nk)] -> dvUnknown after them."""
+    def directional_derivative(self, n_unknown, n_known, initializing=0):
+        """Scratch layout: [vUnknown (nu), vKnown (nk), dvKnown (nk)] -> dvUnknown after them.
+
+        Knowns may be any variable (FMI 2.0 allows masters to pass others than inputs; OMSimulator
+        does by default). Inputs enter by complex step through :meth:`outputs`; in initialisation
+        mode a Real parameter enters by a central difference through :meth:`configure`; any other
+        known (a fixed parameter after initialisation, an output, an Integer or Boolean) cannot
+        change continuously and contributes zero. An unknown that is not an output has derivative
+        1 with respect to itself and 0 otherwise.
+        """
         s = self.scratch
         vu = s[:n_unknown].astype(np.int64)
         vk = s[n_unknown:n_unknown + n_known].astype(np.int64)
         seed = s[n_unknown + n_known:n_unknown + 2 * n_known]
-        in_vrs = list(self._input_vr)
-        out_vrs = [v.vr for v in self._outputs]
-        direction = np.zeros(len(in_vrs))
+        in_index = {int(vr): k for k, vr in enumerate(self._input_vr)}
+        out_index = {v.vr: j for j, v in enumerate(self._outputs) if v.type not in (INTEGER, BOOLEAN)}
+        direction = np.zeros(len(in_index))
+        params = {}
         for vr, dv in zip(vk, seed):
-            if vr not in in_vrs:
-                raise ValueError(f"directional derivative: known value reference {vr} is not an input")
-            direction[in_vrs.index(vr)] += dv
-        for vr in vu:
-            if vr not in out_vrs or self._outputs[out_vrs.index(vr)].type != "Real":
-                raise ValueError(f"directional derivative: unknown value reference {vr} is not a Real output")
-        y = self.outputs(self._current_inputs() + 1j * _CSTEP * direction)
+            vr = int(vr)
+            if vr in in_index:
+                direction[in_index[vr]] += dv
+            elif initializing and vr in self._real_params:
+                params[vr] = params.get(vr, 0.0) + dv
+        dy = np.zeros(len(self._outputs))
+        if np.any(direction != 0.0):
+            y = self.outputs(self._current_inputs() + 1j * _CSTEP * direction)
+            dy += np.array([np.imag(complex(v)) for v in y]) / _CSTEP
+        for vr, dv in params.items():
+            dy += dv * self._parameter_sensitivity(vr)
         res = s[n_unknown + 2 * n_known:2 * n_unknown + 2 * n_known]
         for j, vr in enumerate(vu):
-            res[j] = np.imag(y[out_vrs.index(vr)]) / _CSTEP
+            vr = int(vr)
+            if vr in out_index:
+                res[j] = dy[out_index[vr]]
+            else:
+                res[j] = float(np.sum(seed[vk == vr]))
+
+    def _parameter_sensitivity(self, vr):
+        """d outputs / d parameter vr in initialisation mode (central difference through configure)."""
+        r0 = float(self.r[vr])
+        d = 1e-6 * max(abs(r0), 1e-6)
+        try:
+            rows = []
+            for v in (r0 + d, r0 - d):
+                self.r[vr] = v
+                self.configure()
+                rows.append(np.real(np.array(self.outputs(self._current_inputs()), dtype=complex)))
+        except Exception as e:  # noqa: BLE001 - a perturbed value outside the parameter's domain
+            raise FmuStepError(f"directional derivative with respect to parameter {vr} is not available at "
+                               f"{r0!r}: {e}") from e
+        finally:
+            self.r[vr] = r0
+            self.configure()
+        return (rows[0] - rows[1]) / (2 * d)
 
     def _write_outputs(self, values):
         for v, val in zip(self._outputs, values):
@@ -229,8 +281,23 @@ class Slave:
         rtol, a = float(self.r[tol_vr[0]]), float(self.r[tol_vr[1]])
         if getattr(self, "_atol_value", None) != a:
             self._atol_value, self._atol = a, np.full(self.n_state, a)
-        hn, _ = integrate(system, self.z, t, t + h, self.p, u, rtol, self._atol, self.h, h,
-                          self._empty_t, self._empty_s, 1.0 / self.p[P_s] if self.p[P_s] > 0 else 1e-6, self.stats)
+        band = 1.0 / self.p[P_s] if self.p[P_s] > 0 else 1e-6
+        if h <= CHUNK:  # the usual case: one call
+            hn, _ = integrate(system, self.z, t, t + h, self.p, u, rtol, self._atol, self.h, h,
+                              self._empty_t, self._empty_s, band, self.stats)
+        else:  # long steps in pieces, with a budget of integrator steps (bounded cost)
+            n = int(np.ceil(h / CHUNK))
+            start = int(self.stats[STAT_STEPS])
+            hn = self.h
+            for k in range(n):
+                a, b = t + h * k / n, (t + h if k == n - 1 else t + h * (k + 1) / n)
+                hn, _ = integrate(system, self.z, a, b, self.p, u, rtol, self._atol, hn, b - a,
+                                  self._empty_t, self._empty_s, band, self.stats)
+                if not hn > 0.0:
+                    break
+                if self.stats[STAT_STEPS] - start > MAX_INTEGRATOR_STEPS:
+                    raise FmuStepError(f"doStep of {h:g} s from t = {t:.16g} needs more than {MAX_INTEGRATOR_STEPS} "
+                                       "integrator steps; use shorter communication steps")
         if not hn > 0.0:
             raise FmuStepError(f"integrator failed in doStep at t = {t:.16g} (step size underflow)")
         self.h = hn
@@ -269,9 +336,15 @@ class TMDInerterSlave(Slave):
                         friction_force=self.val("df"), friction_slope=self.val("s"),
                         inertance=self.val("I"), inerter=self.val("inerter"),
                         mesh_stiffness=self.val("ki"), mesh_damping=self.val("ci"),
-                        play_gap=self.val("eps"), source=f"FMU {self.instance_name}")
+                        play_gap=self.val("eps"), source=f"FMU {self.instance_name}", **self._cubic())
         self.p = pack(BaseParams(), tmd, 0.0)
         self.z[:] = (self.val("y0"), self.val("yd0"), self.val("d0"), self.val("dd0"))
+
+    def _cubic(self):
+        """The cubic spring term k3, when the variable table declares it."""
+        names = {v.name for v in self.spec.variables}
+        name = next((n for n in ("k3", "cubic_stiffness") if n in names), None)
+        return {"cubic_stiffness": self.val(name)} if name else {}
 
     def outputs(self, inputs):
         x, xd, xdd = inputs[0], inputs[1], inputs[2]
