@@ -32,19 +32,38 @@ def clean_env(**extra) -> dict:
     return env
 
 
-@pytest.fixture(scope="module")
-def fresh(tmp_path_factory):
-    """FMUs copied to a temporary folder and a fresh venv elsewhere with only numpy, numba, fmpy."""
-    root = tmp_path_factory.mktemp("portable")
-    fmus = {n: Path(shutil.copy(p, root / p.name)) for n, p in built_fmus().items()}
-    venv = tmp_path_factory.mktemp("freshvenv") / "venv"
-    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, capture_output=True, cwd=root,
+def make_venv(venv: Path, cwd: Path) -> Path:
+    """A virtual environment with only numpy, numba and fmpy (and their dependencies)."""
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, capture_output=True, cwd=cwd,
                    env=clean_env())
     py = venv / "bin" / "python"
     r = subprocess.run([str(py), "-m", "pip", "install", "-q", "numpy", "numba", "fmpy"], capture_output=True,
-                       text=True, cwd=root, env=clean_env(), timeout=900)
+                       text=True, cwd=cwd, env=clean_env(), timeout=1800)
     assert r.returncode == 0, r.stderr[-3000:]
-    return root, fmus, venv, py
+    return py
+
+
+def cached_venv(cwd: Path) -> Path:
+    """The numpy/numba/fmpy venv, made once per machine outside the checkout (creating one takes a
+    minute or more on a busy machine: the slow test below makes a brand-new one every time)."""
+    root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "pyfmu-tests" / "portable-venv"
+    py = root / "bin" / "python"
+    ok = py.is_file() and subprocess.run([str(py), "-c", "import numpy, numba, fmpy"], capture_output=True,
+                                         env=clean_env(), cwd=cwd).returncode == 0
+    if not ok:
+        shutil.rmtree(root, ignore_errors=True)  # missing or broken (an interrupted build): make it anew
+        root.parent.mkdir(parents=True, exist_ok=True)
+        make_venv(root, cwd)
+    return py
+
+
+@pytest.fixture(scope="module")
+def fresh(tmp_path_factory):
+    """FMUs copied to a temporary folder, and a venv elsewhere with only numpy, numba, fmpy."""
+    root = tmp_path_factory.mktemp("portable")
+    fmus = {n: Path(shutil.copy(p, root / p.name)) for n, p in built_fmus().items()}
+    py = cached_venv(root)
+    return root, fmus, py.parent.parent, py
 
 
 SCRIPT = textwrap.dedent('''
@@ -66,8 +85,18 @@ SCRIPT = textwrap.dedent('''
 ''')
 
 
-def test_runs_in_fresh_venv_from_a_copy(fresh):
-    root, fmus, venv, py = fresh
+def test_runs_in_numpy_numba_fmpy_venv_from_a_copy(fresh):
+    _check_run(*fresh)
+
+
+@pytest.mark.slow
+def test_runs_in_brand_new_venv_from_a_copy(fresh, tmp_path):
+    root, fmus, _, _ = fresh
+    venv = tmp_path / "venv"
+    _check_run(root, fmus, venv, make_venv(venv, tmp_path))
+
+
+def _check_run(root, fmus, venv, py):
     work = root / "elsewhere"
     work.mkdir(exist_ok=True)
     (work / "run.py").write_text(SCRIPT)
