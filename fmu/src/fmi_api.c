@@ -74,6 +74,33 @@ fmi2Status fmi2SetDebugLogging(fmi2Component comp, fmi2Boolean loggingOn, size_t
     return fmi2OK;
 }
 
+/* Ask the slave for its native step (empty bytes: none). PYFMU_NATIVE=0 in the environment keeps
+ * every step in Python (benchmarks compare both). Call with the GIL; 0 on a Python error. */
+static int query_native(Comp *c) {
+    c->native = NULL;
+    const char *env = getenv("PYFMU_NATIVE");
+    if (env && !strcmp(env, "0")) return 1;
+    PyObject *m = py.GetAttrString(c->slave, "native");
+    if (!m) {
+        py.ErrClear(); /* a slave without a native step */
+        return 1;
+    }
+    PyObject *r = py.CallFunction(m, NULL);
+    py.DecRef(m);
+    if (!r) return 0;
+    char *buf = NULL;
+    Py_ssize_t len = 0;
+    if (py.BytesAsStringAndSize(r, &buf, &len) == 0 && len == 7 * (Py_ssize_t)sizeof(uint64_t)) {
+        uint64_t a[7];
+        memcpy(a, buf, sizeof a);
+        *(void **)&c->native = (void *)(uintptr_t)a[0];
+        for (int i = 0; i < 6; i++) c->nat[i] = (void *)(uintptr_t)a[i + 1];
+    }
+    py.ErrClear();
+    py.DecRef(r);
+    return 1;
+}
+
 fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
                               fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
                               fmi2Boolean visible, fmi2Boolean loggingOn) {
@@ -183,6 +210,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
                         *m[i].dst = py.GetAttrString(c->slave, m[i].name);
                         if (!*m[i].dst) ok = 0;
                     }
+                    if (ok) ok = query_native(c);
                 }
             }
         }
@@ -511,7 +539,17 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real currentCommunicationPoint, fm
         return fmi2Error;
     }
     int g = gil_take();
-    fmi2Status s = py_status(c, f, py.CallFunction(c->m_step, "ddi", t, h, noSetFMUStatePriorToCurrentPoint));
+    fmi2Status s;
+    int rc = 1;
+    if (c->native && h <= PYFMU_NATIVE_MAX_STEP) /* compiled step: no interpreter, no Python slave */
+        rc = c->native(c->reals, c->ints, c->derivs, c->nat[0], c->nat[1], c->nat[2], c->nat[3], c->nat[4], c->nat[5],
+                       t, h);
+    if (rc == 0) s = fmi2OK;
+    else if (rc == 2) {
+        logmsg(c, fmi2Error, "logStatusError", "%s: integrator failed at t = %.17g (step size underflow)", f, t);
+        s = fmi2Error;
+    } else /* no native step, a long step, or the native step asks for Python (debug_raise) */
+        s = py_status(c, f, py.CallFunction(c->m_step, "ddi", t, h, noSetFMUStatePriorToCurrentPoint));
     GIL_DROP(g);
     if (s <= fmi2Warning) {
         c->time = t + h; /* the host's time is the truth: no drift accumulates */

@@ -94,6 +94,11 @@ enum {
 enum { C_PARAMETER = 1, C_INPUT, C_OUTPUT, C_LOCAL, C_CALCPAR, C_INDEPENDENT };
 enum { V_CONSTANT = 1, V_FIXED, V_TUNABLE, V_DISCRETE, V_CONTINUOUS };
 
+typedef int32_t (*NativeStep)(double *reals, int32_t *ints, double *derivs, void *z, void *p, void *stats, void *th,
+                              void *u, void *atol, double t, double h);
+/* Longest step taken by the native function; longer ones go through Python (in pieces). */
+#define PYFMU_NATIVE_MAX_STEP 1.0
+
 typedef struct {
     uint32_t magic;     /* COMP_MAGIC while alive */
     char *instance_name;
@@ -120,6 +125,9 @@ typedef struct {
     PyObject *globals, *slave, *b_reals, *b_ints, *b_derivs, *b_scratch;
     PyObject *m_setup, *m_enter, *m_exit, *m_update, *m_step, *m_reset, *m_terminate, *m_get, *m_set, *m_dd;
     char modname[160];
+    /* native step (pyfmu_wrapper/fmi/native.py): a compiled function and the slave's arrays */
+    NativeStep native;
+    void *nat[6]; /* z, p, stats, th, u, atol */
 } Comp;
 #define COMP_MAGIC 0x434f4d50u
 

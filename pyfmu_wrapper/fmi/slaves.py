@@ -76,8 +76,10 @@ class Slave:
         self.instance_name = instance_name
         self.resources = resources
         self.last_error = ""
-        self.t = 0.0
-        self.h = 0.0  # step size suggested by the integrator (part of the state: exact restore)
+        # [time, step size suggested by the integrator] (part of the state: exact restore); an
+        # array, like p, z, stats, u and atol, so that the native step (.native) updates them in place
+        self._th = np.zeros(2)
+        self._atol = np.zeros(max(self.n_state, 1))
         self.p = np.zeros(N_PARAMS)
         self.z = np.zeros(self.n_state)
         self.stats = np.zeros(4, dtype=np.int64)
@@ -90,6 +92,22 @@ class Slave:
         self._debug_vr = next((v.vr for v in self.spec.variables if v.name == "debug_raise"), None)
         self._real_params = {v.vr for v in self.spec.variables if v.causality == "parameter" and v.type not in (INTEGER, BOOLEAN)}
         self._start_values()
+
+    t = property(lambda self: float(self._th[0]), lambda self, v: self._th.__setitem__(0, v))
+    h = property(lambda self: float(self._th[1]), lambda self, v: self._th.__setitem__(1, v))
+
+    def native(self):
+        """Addresses for the stub's native step (:mod:`.native`): the C function and the arrays it
+        updates in place, as 7 native-endian uint64; empty bytes when this slave has none."""
+        step = self._native_step()
+        if step is None:
+            return b""
+        self._native_ref = step  # keep the compiled function alive with the slave
+        arrays = (self.z, self.p, self.stats, self._th, self._u, self._atol)
+        return np.array([step.address] + [a.ctypes.data for a in arrays], dtype=np.uint64).tobytes()
+
+    def _native_step(self):
+        return None
 
     # --- helpers --------------------------------------------------------------------------
     def _start_values(self):
@@ -279,8 +297,7 @@ class Slave:
         if tol_vr is None:  # value references of rtol/atol, resolved once
             tol_vr = self._tol_vr = (self.spec.by_name("rtol").vr, self.spec.by_name("atol").vr)
         rtol, a = float(self.r[tol_vr[0]]), float(self.r[tol_vr[1]])
-        if getattr(self, "_atol_value", None) != a:
-            self._atol_value, self._atol = a, np.full(self.n_state, a)
+        self._atol[:] = a
         band = 1.0 / self.p[P_s] if self.p[P_s] > 0 else 1e-6
         if h <= CHUNK:  # the usual case: one call
             hn, _ = integrate(system, self.z, t, t + h, self.p, u, rtol, self._atol, self.h, h,
@@ -312,7 +329,7 @@ class BaseOscillatorSlave(Slave):
     def configure(self):
         base = BaseParams(mass=self.val("M"), stiffness=self.val("K"), damping=self.val("C"),
                           force_amplitude=self.val("F"), source=f"FMU {self.instance_name}")
-        self.p = pack(base, TMDParams(), self.val("w"))
+        self.p[:] = pack(base, TMDParams(), self.val("w"))
         self.z[:] = (self.val("x0"), self.val("xd0"))
 
     def outputs(self, inputs):
@@ -323,6 +340,11 @@ class BaseOscillatorSlave(Slave):
 
     def advance(self, t, h, u):
         self._integrate(kn.SYS_BASE, t, h, u)
+
+    def _native_step(self):
+        from .native import base_step
+
+        return base_step()
 
 
 class TMDInerterSlave(Slave):
@@ -337,7 +359,7 @@ class TMDInerterSlave(Slave):
                         inertance=self.val("I"), inerter=self.val("inerter"),
                         mesh_stiffness=self.val("ki"), mesh_damping=self.val("ci"),
                         play_gap=self.val("eps"), source=f"FMU {self.instance_name}", **self._cubic())
-        self.p = pack(BaseParams(), tmd, 0.0)
+        self.p[:] = pack(BaseParams(), tmd, 0.0)
         self.z[:] = (self.val("y0"), self.val("yd0"), self.val("d0"), self.val("dd0"))
 
     def _cubic(self):
@@ -353,6 +375,11 @@ class TMDInerterSlave(Slave):
 
     def advance(self, t, h, u):
         self._integrate(kn.SYS_TMD, t, h, u)
+
+    def _native_step(self):
+        from .native import tmd_step
+
+        return tmd_step()
 
 
 class TrivialSlave(Slave):
