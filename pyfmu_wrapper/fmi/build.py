@@ -142,6 +142,13 @@ def libpython_path() -> Path:
     raise BuildError("no shared libpython found (Python must be built with --enable-shared)")
 
 
+def build_python() -> str:
+    """The build's interpreter as recorded in the FMU: the same path whichever name (python,
+    python3, python3.11, a console script) started this process."""
+    cand = Path(sys.prefix) / "bin" / f"python{sys.version_info[0]}.{sys.version_info[1]}"
+    return str(cand) if cand.is_file() else sys.executable
+
+
 def source_hash() -> str:
     """Hash of everything an FMU is built from (stale FMUs are rebuilt by ensure_fmus)."""
     h = hashlib.sha256()
@@ -150,7 +157,7 @@ def source_hash() -> str:
         h.update(f.read_bytes())
     h.update(bundle_hash().encode())
     h.update((PACKAGE_DIR / "fmi" / "build.py").read_bytes())
-    h.update(sys.executable.encode())
+    h.update(build_python().encode())
     h.update(sys.version.encode())
     return h.hexdigest()[:24]
 
@@ -180,7 +187,7 @@ def _version_of(name: str) -> str:
 
 def _config(spec: FmuSpec, guid: str, shash: str, bhash: str) -> str:
     lines = [f"guid={guid}", f"model_identifier={spec.model_identifier}", "model=model.py",
-             f"python={sys.executable}", f"python_version={sys.version.split()[0]}", f"min_python={MIN_PYTHON}",
+             f"python={build_python()}", f"python_version={sys.version.split()[0]}", f"min_python={MIN_PYTHON}",
              f"requires={' '.join(REQUIRES)}",
              f"built_with=numpy=={_version_of('numpy')} numba=={_version_of('numba')}",
              f"bundle={bundle_package(bhash)}", f"bundle_hash={bhash}", f"source_hash={shash}"]
@@ -326,7 +333,8 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
             so = tmp / "stub.so"
             compile_stub(so)
         target = out_dir / f"{spec.model_identifier}.fmu"
-        part = out_dir / f".{spec.model_identifier}.fmu.part"
+        # unique per builder: parallel workers may build the same stale FMU at once
+        part = out_dir / f".{spec.model_identifier}.fmu.{os.getpid()}.{os.urandom(4).hex()}.part"
         with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr("modelDescription.xml", model_description_xml(spec, guid))
             z.write(so, f"binaries/linux64/{spec.model_identifier}.so")

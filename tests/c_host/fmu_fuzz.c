@@ -169,8 +169,11 @@ static void instantiate(Inst *in) {
 
 /* Check one call: valid 1 (must succeed or is counted as refused), invalid 0 (must be refused
  * and logged), unknown -1 (either). Returns 1 if the call succeeded. */
+static int g_op = -1;
 static int judge(int valid, fmi2Status s, uint64_t logs_before) {
     K.calls++;
+    if (valid == 1 && s != fmi2OK && s != fmi2Warning && getenv("FMU_FUZZ_VERBOSE"))
+        fprintf(stderr, "valid call refused: operation %d, status %d\n", g_op, s);
     int ok = s == fmi2OK || s == fmi2Warning;
     if (valid == 0) {
         K.invalid++;
@@ -205,6 +208,7 @@ static void op(void) {
     uint64_t L = g_errors_logged;
     fmi2Status s;
     int k = pick(24);
+    g_op = k;
     switch (k) {
     case 0: case 1: case 2: case 3: { /* valid doStep (valid only when stepping) */
         double h = (double[]){1e-3, 5e-4, 2e-3}[pick(3)];
