@@ -234,3 +234,23 @@ def test_every_registry_unit_has_its_si_exponents_in_the_model_description():
     for par in registry.PARAMETERS:
         if par.unit != "1":
             assert par.unit in UNITS, par.unit
+
+
+def test_linearisation_about_rest_is_the_small_amplitude_limit():
+    """The exact linearisation of the cubic spring about rest is the linear spring (A identical to
+    k3 = 0 to rounding); at F = 0.02 N the simulated cubic response equals it to 1e-6, at F = 200 N
+    it does not (the nonlinearity is real)."""
+    from pyfmu_wrapper.solvers.frequency_response import exact_amplitude, linear_system
+
+    tmd = paper_case(1, damping=10.0, cubic_stiffness=3e6)
+    A3, b3 = linear_system(BASE, tmd, linearise=True)
+    A0, b0 = linear_system(BASE, paper_case(1, damping=10.0))
+    np.testing.assert_allclose(A3, A0, rtol=1e-14, atol=1e-14 * np.abs(A0).max())
+    with pytest.raises(ParameterError, match="cubic_stiffness"):
+        linear_system(BASE, tmd)
+    small = BaseParams(force_amplitude=0.02)
+    for w in (18.0, 22.0):
+        lin = exact_amplitude(small, tmd, [w], linearise=True)[0]
+        assert steady_state(small, tmd, w).amplitude == pytest.approx(lin, rel=1e-6)
+        big_lin = exact_amplitude(BASE, tmd, [w], linearise=True)[0]
+        assert abs(steady_state(BASE, tmd, w).amplitude / big_lin - 1) > 1e-2
