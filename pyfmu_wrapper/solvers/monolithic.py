@@ -41,11 +41,12 @@ import numpy as np
 
 from ..physics.kernels import NSTATE, SYS_COUPLED, inerter_force, rhs
 from ..physics.params import BaseParams, InerterModel, TMDParams, pack
-from .rodas import STAT_EVENTS, STAT_REJECTED, STAT_STEPS, integrate
+from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, integrate
 
 
 class SolverError(RuntimeError):
-    """The integrator could not proceed (step size underflow, non-finite state)."""
+    """The integrator could not proceed (step size underflow, step cap, non-finite state); the
+    message names the time, the state and its contact / friction mode."""
 
 
 def default_window(tmd: TMDParams, window: int | None = None) -> int:
@@ -68,7 +69,8 @@ class SolverSettings:
     play_start: where a windowed solve without z0 starts, and where a sweep starts each
     windowed point: "companion" (the periodic orbit of the same system with an ideal inerter,
     continued along the sweep, with the gear chain placed at its contact) or "previous" (the
-    previous frequency's final state).
+    previous frequency's final state). max_steps: cap on integrator steps per period (a stalled
+    integration ends with :class:`SolverError` naming time, state and mode, never a hang).
     """
 
     rtol: float = 1e-8
@@ -83,6 +85,7 @@ class SolverSettings:
     max_periods: int = 3000
     shooting: bool = True
     max_newton: int = 8
+    max_steps: int = DEFAULT_MAX_STEPS
 
     def window_for(self, tmd: TMDParams) -> int:
         return default_window(tmd, self.window)
@@ -127,6 +130,7 @@ class _Runner:
         self.T = 2.0 * math.pi / omega
         self.atol = _atol(base, tmd, omega, settings)
         self.rtol = settings.rtol
+        self.max_steps = int(settings.max_steps)
         self.band = 1.0 / tmd.friction_slope
         self.u = np.zeros(1)
         self.stats = np.zeros(4, dtype=np.int64)
@@ -138,10 +142,15 @@ class _Runner:
     def period(self, z, t0, sample_times=None, samples=None):
         st = self.no_samples if sample_times is None else sample_times
         sa = self.no_out if samples is None else samples
-        h, xmax = integrate(SYS_COUPLED, z, t0, t0 + self.T, self.p, self.u, self.rtol, self.atol,
-                            self.h, self.hmax, st, sa, self.band, self.stats)
-        if h < 0.0 or not np.all(np.isfinite(z)):
-            raise SolverError(f"integration failed near t = {t0:.6g} s (step size underflow or non-finite state)")
+        h, xmax, status, t = integrate(SYS_COUPLED, z, t0, t0 + self.T, self.p, self.u, self.rtol, self.atol,
+                                       self.h, self.hmax, st, sa, self.band, self.stats, self.max_steps)
+        if status != OK:
+            raise SolverError(f"omega = {2 * math.pi / self.T:.10g} rad/s, period from t0 = {t0:.6g} s: "
+                              + failure_message(status, SYS_COUPLED, t, z, self.p, self.atol, self.band,
+                                                self.max_steps))
+        if not np.all(np.isfinite(z)):
+            raise SolverError(f"omega = {2 * math.pi / self.T:.10g} rad/s: non-finite state {z} after the "
+                              f"period from t0 = {t0:.6g} s")
         self.h = h
         return xmax
 
@@ -379,8 +388,13 @@ def _shoot(run: _Runner, tmd: TMDParams, z: np.ndarray, settings: SolverSettings
 
 
 def simulate(base: BaseParams, tmd: TMDParams, omega: float, t_end: float, z0=None, n_samples: int = 1001,
-             sample_times=None, rtol: float = 1e-9, atol=None) -> tuple[np.ndarray, np.ndarray]:
-    """Transient simulation from z0 (default rest) over [0, t_end]; returns (t, states[len(t), 6])."""
+             sample_times=None, rtol: float = 1e-9, atol=None,
+             max_steps: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Transient simulation from z0 (default rest) over [0, t_end]; returns (t, states[len(t), 6]).
+
+    max_steps caps the integrator steps (default: DEFAULT_MAX_STEPS per forcing period); a stalled
+    run raises :class:`SolverError` naming time, state and mode.
+    """
     p = pack(base, tmd, omega)
     z = np.zeros(NSTATE) if z0 is None else np.array(z0, dtype=float)
     t = np.linspace(0.0, t_end, n_samples) if sample_times is None else np.asarray(sample_times, dtype=float)
@@ -389,10 +403,13 @@ def simulate(base: BaseParams, tmd: TMDParams, omega: float, t_end: float, z0=No
         atol = _atol(base, tmd, omega, SolverSettings(atol_scale=1e-7))
     stats = np.zeros(4, dtype=np.int64)
     T = 2 * math.pi / omega
-    h, _ = integrate(SYS_COUPLED, z, 0.0, float(t_end), p, np.zeros(1), rtol, np.asarray(atol, dtype=float),
-                     T / 200, T / 20, t, out, 1.0 / tmd.friction_slope, stats)
-    if h < 0.0:
-        raise SolverError("integration failed (step size underflow)")
+    atol = np.asarray(atol, dtype=float)
+    if max_steps is None:  # the per-period cap, for every period of the run
+        max_steps = DEFAULT_MAX_STEPS * max(1, math.ceil(t_end / T))
+    _, _, status, tf = integrate(SYS_COUPLED, z, 0.0, float(t_end), p, np.zeros(1), rtol, atol,
+                                 T / 200, T / 20, t, out, 1.0 / tmd.friction_slope, stats, int(max_steps))
+    if status != OK:
+        raise SolverError(failure_message(status, SYS_COUPLED, tf, z, p, atol, 1.0 / tmd.friction_slope, max_steps))
     return t, out
 
 
