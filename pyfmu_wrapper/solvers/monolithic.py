@@ -357,7 +357,7 @@ class WindowCriterion:
         if len(tail) >= 3:
             grew = max(tail) - max(tail[:-1])
             self._stable = self._stable + 1 if grew <= self.tol * max(tail) + self.amp_atol else 0
-            if self._stable >= 2:
+            if self._stable >= 2 and k >= self.min_periods:
                 scatter = (max(tail) - min(tail)) / max(max(tail), 1e-300)
                 self.converged = scatter <= self.scatter_tol
                 self.irregular = not self.converged
