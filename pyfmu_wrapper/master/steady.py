@@ -63,7 +63,7 @@ class CosimSettings:
     fmu_rtol: float = 1e-8
     shooting: bool = True
     max_newton: int = 12
-    scatter_tol: float = 2e-3
+    scatter_tol: float = 5e-3
 
     def window_for(self, tmd: TMDParams) -> int:
         return default_window(tmd, self.window)
