@@ -33,7 +33,7 @@ def bench(which: str, jobs: int, executor_name: str, scheduler=None) -> dict:
     path, study_name = MAPS[which]
     scn = load_scenario(ROOT / path)
     study = next(s for s in scn.studies if s.name == study_name)
-    settings = RunSettings(solver=scn.solver)
+    settings = RunSettings.for_scenario(scn)
     ex = make_executor(executor_name, jobs=jobs, scheduler=scheduler)
     ckpt = ROOT / "results" / "paper" / ".cache" / scn.name
     from tqdm import tqdm

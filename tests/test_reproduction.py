@@ -16,13 +16,13 @@ from pyfmu_wrapper.scenario.engines import RunSettings, compute_sweep
 from pyfmu_wrapper.scenario.executors import (Checkpoint, LocalExecutor, SequentialExecutor, SweepTask, TaskStats,
                                               make_executor, run_task, run_tasks)
 from pyfmu_wrapper.scenario.runner import _Cache, map_response
-from pyfmu_wrapper.scenario.schema import SolverConfig
+from pyfmu_wrapper.scenario.schema import SolverConfig, SweepConfig
 
 ROOT = Path(__file__).resolve().parents[1]
 BASE = BaseParams(mass=100.0, stiffness=4.0e4, damping=100.0, force_amplitude=200.0)
 
 TINY = """\
-schema_version: 1
+schema_version: 2
 name: tiny_friction
 base: {mass: 100.0, stiffness: 40000.0, damping: 100.0, force_amplitude: 200.0}
 tmd: {case: 1}
@@ -41,7 +41,7 @@ def tiny(tmp_path_factory):
     p = tmp_path_factory.mktemp("tiny") / "tiny.yaml"
     p.write_text(TINY)
     scn = load_scenario(p)
-    return scn, scn.studies[0], RunSettings(solver=scn.solver)
+    return scn, scn.studies[0], RunSettings.for_scenario(scn)
 
 
 @pytest.fixture(scope="module")
@@ -162,8 +162,8 @@ def test_cli_resume(tmp_path):
 
 def test_independent_points_match_single_point_sweeps():
     """continuation: false gives, per frequency, exactly a one-point sweep from the initial guess."""
-    solver = SolverConfig(rtol=1e-7, atol_scale=1e-7, tol=1e-5, continuation=False)
-    settings = RunSettings(solver=solver)
+    solver = SolverConfig(rtol=1e-7, atol_scale=1e-7, tol=1e-5)
+    settings = RunSettings(solver=solver, sweep=SweepConfig(continuation=False))
     tmd = paper_case(1, friction_force=20.0)
     w = np.array([16.0, 20.0, 24.0])
     t = run_task(SweepTask(BASE, tmd, w, settings))
@@ -215,3 +215,78 @@ def test_report_quick(tmp_path):
         assert f"figures/fig{k}.png" in md
     # the results folders are ordinary run-scenario folders
     assert (tmp_path / "results" / "fig4_case1" / "friction_map.csv").is_file()
+
+
+# --- checkpoint keys: code version and every setting that changes a number ----------------------
+
+def _fake_table(task):
+    import pandas as pd
+
+    from pyfmu_wrapper.scenario.engines import SWEEP_COLUMNS
+
+    n = task.units()
+    return pd.DataFrame({c: (["x"] * n if c in ("engine", "method", "direction") else np.arange(n, dtype=float))
+                         for c in SWEEP_COLUMNS}).astype(dict(periods=int, steps=int, rejected=int, converged=bool))
+
+
+def test_checkpoint_key_follows_every_setting(tmp_path):
+    from dataclasses import replace
+
+    from pyfmu_wrapper.master.steady import CosimSettings
+
+    w = np.array([18.0, 20.0, 22.0])
+    tmd = paper_case(1, friction_force=20.0)
+    mono = RunSettings(engine="monolithic", solver=SolverConfig())
+    co = RunSettings(engine="cosim", cosim=CosimSettings())
+    ck = Checkpoint(tmp_path / "ck")
+    for rs in (mono, co):
+        t = SweepTask(BASE, tmd, w, rs)
+        ck.save(t, _fake_table(t))
+        assert ck.load(SweepTask(BASE, tmd, w.copy(), rs)) is not None  # same inputs: reused
+    changed = {
+        "solver.rtol": replace(mono, solver=SolverConfig(rtol=1e-7)),
+        "solver.tol": replace(mono, solver=SolverConfig(tol=1e-5)),
+        "solver.window": replace(mono, solver=SolverConfig(window=5)),
+        "solver.tol_window": replace(mono, solver=SolverConfig(tol_window=1e-3)),
+        "solver.max_periods": replace(mono, solver=SolverConfig(max_periods=100)),
+        "solver.linear": replace(mono, solver=SolverConfig(linear="simulate")),
+        "sweep.direction": replace(mono, sweep=SweepConfig(direction="down")),
+        "sweep.continuation": replace(mono, sweep=SweepConfig(continuation=False)),
+        "engine": replace(mono, engine="both", cosim=CosimSettings()),
+        "cosim.accuracy": replace(co, cosim=CosimSettings(accuracy=1e-4)),
+        "cosim.coupling": replace(co, cosim=CosimSettings(coupling="force")),
+        "cosim.tol_window": replace(co, cosim=CosimSettings(tol_window=1e-3)),
+        "cosim.fmu_rtol": replace(co, cosim=CosimSettings(fmu_rtol=1e-9)),
+    }
+    for what, rs in changed.items():
+        assert ck.load(SweepTask(BASE, tmd, w, rs)) is None, what
+    assert ck.load(SweepTask(BASE, replace(tmd, friction_force=20.5), w, mono)) is None  # a parameter
+    assert ck.load(SweepTask(replace(BASE, damping=101.0), tmd, w, mono)) is None
+    assert ck.load(SweepTask(BASE, tmd, w + 1e-12, mono)) is None  # a frequency
+    # settings the engine does not read do not invalidate it: the monolithic engine and the cosim block
+    assert ck.load(SweepTask(BASE, tmd, w, replace(mono, cosim=CosimSettings(accuracy=1e-4)))) is not None
+    assert ck.load(SweepTask(BASE, tmd, w, replace(co, solver=SolverConfig(rtol=1e-7)))) is not None
+
+
+def test_checkpoint_key_follows_the_code(tmp_path, monkeypatch):
+    import shutil
+
+    from pyfmu_wrapper.scenario import executors
+
+    w = np.array([18.0, 22.0])
+    task = SweepTask(BASE, paper_case(1, friction_force=20.0), w, RunSettings())
+    ck = Checkpoint(tmp_path / "ck")
+    ck.save(task, _fake_table(task))
+    assert ck.load(task) is not None
+    assert task.key_payload()["code"] == executors.source_hash(executors.PACKAGE_DIR)
+    # a copy of the package with one kernel line changed has another source hash ...
+    copy = tmp_path / "pkg"
+    shutil.copytree(executors.PACKAGE_DIR, copy, ignore=shutil.ignore_patterns("__pycache__", "*.so", "*.pyc"))
+    assert executors.source_hash(copy) == executors.source_hash(executors.PACKAGE_DIR)
+    kern = copy / "physics" / "kernels.py"
+    kern.write_text(kern.read_text() + "\n# edited\n")
+    other = executors.source_hash(copy)
+    assert other != executors.source_hash(executors.PACKAGE_DIR)
+    # ... and a checkpoint written by the old code is not read back by the new one
+    monkeypatch.setattr(executors, "code_version", lambda: other)
+    assert ck.load(task) is None

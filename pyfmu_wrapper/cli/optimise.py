@@ -78,7 +78,7 @@ def main(argv=None) -> int:
             return _fail(str(exc))
         base, tmd = scn.base, scn.tmd
         kw.update(settings=scn.solver.settings(), linear=scn.solver.linear)
-        direction = args.direction or scn.solver.direction
+        direction = args.direction or scn.sweep.direction
         if args.band is None:
             kw["omegas"] = scn.frequencies
         label = scn.name
