@@ -125,6 +125,12 @@ def claim(section, text, paper, needs):
     return deco
 
 
+def _not_run(ctx, prefix: str) -> str:
+    """'; Case k: not run' for the Cases whose scenario ``prefix``k is missing."""
+    miss = [c for c in CASES if f"{prefix}{c}" not in ctx.runs]
+    return "".join(f"; Case {c}: scenario {prefix}{c} not run" for c in miss)
+
+
 def _nc_note(n: int) -> str:
     return f" [{n} steady states of the data not converged]" if n else ""
 
@@ -257,12 +263,12 @@ def _c_width(ctx):
 
 @claim("4", "Case 1 behaves like a classical TMD without an inerter", "similar (qualitative)", FIG3)
 def _classical(ctx):
-    w = np.linspace(15.0, 25.0, 2001)
-    cs = np.linspace(0.0, 100.0, 51)[1:]
+    w = np.linspace(15.0, 25.0, 1001)
+    cs = np.linspace(0.0, 100.0, 26)[1:]
     d = {c: cd.classical_difference(ctx.runs[f"fig3_case{c}"].scenario.base,
                                     ctx.data(f"fig3_case{c}", "damping_map").study.tmds[0], cs, w) for c in CASES}
     return ("largest relative difference of the FRC peak against the classical TMD (m + I, no inerter) at the same c, "
-            "c = 2..100 N s/m: " + " / ".join(f"Case {c}: {d[c]:.1%}" for c in CASES),
+            "c = 4..100 N s/m: " + " / ".join(f"Case {c}: {d[c]:.1%}" for c in CASES),
             (Check("Case 1", d[1], "<=", 0.10), Check("Case 1 / Case 3", d[1] / d[3], "<", 0.5)),
             "Similar read as: peaks within 10 % of the classical TMD's at every c, and less than half Case 3's difference.")
 
@@ -419,7 +425,7 @@ def _hundred_gap(ctx):
         k = int(np.argmin(a))
         cells.append(f"Case {c}: min {a[k]:.2e} m at {w[k]:.1f} rad/s ({a[k] / 1e-4:.2f} x eps)" + _nc_note(cd.not_converged(d6)))
         checks.append(Check(f"Case {c}: min amplitude / eps", a[k] / 1e-4, ">=", 100.0))
-    return ("; ".join(cells), tuple(checks), "Near w = 20 rad/s (antiresonance, c = 0) the base amplitude is smaller "
+    return ("; ".join(cells) + _not_run(ctx, "fig6_case"), tuple(checks), "Near w = 20 rad/s (antiresonance, c = 0) the base amplitude is smaller "
             "than the gap itself.")
 
 
@@ -434,11 +440,13 @@ def _rough(ctx):
                 for lab in labels]
         spread[c] = mean[-1]
         cells.append(f"Case {c}: " + ", ".join(fmt(x, 2) for x in mean))
-        checks += [Check(f"Case {c}: eps = 1e-3 / eps = 0", mean[-1] / max(mean[0], 1e-300), ">", 1.0),
+        checks += [Check(f"Case {c}: distortion at eps = 1e-3 minus at eps = 0", mean[-1] - mean[0], ">", 1e-3),
                    Check(f"Case {c}: eps = 1e-3 / largest of the smaller gaps", mean[-1] / max(mean[:-1]), ">=", 1.0)]
     ctx.shared["roughness"] = spread
     return ("distortion of xd (RMS of the non-forcing harmonics / forcing harmonic, mean of w = 19, 21), "
-            "eps = 0, 5e-5, 1e-4, 1e-3: " + " | ".join(cells), tuple(checks), "")
+            "eps = 0, 5e-5, 1e-4, 1e-3: " + " | ".join(cells), tuple(checks),
+            "Less smooth read as: a distortion larger by more than 1e-3 at eps = 1e-3 than at eps = 0, and the largest "
+            "at the largest gap.")
 
 
 @claim("6 / Fig. 5", "The effects of play do not depend on Iratio", "qualitative", FIG5)
@@ -471,7 +479,7 @@ def _play_alone(ctx):
         d = float(np.abs(a2 - a1).max() / a1.max())
         cells.append(f"Case {c}: {d:.2%}" + _nc_note(cd.not_converged(d6)))
         checks.append(Check(f"Case {c}: max |A2 - A1| / max A1", d, "<=", 0.02))
-    return ("; ".join(cells), tuple(checks), "'Overlapped' read as within 2 % of the peak.")
+    return ("; ".join(cells) + _not_run(ctx, "fig6_case"), tuple(checks), "'Overlapped' read as within 2 % of the peak.")
 
 
 @claim("7 / Fig. 6b, d, f", "Simplified model (viscous c raised by 50 %: 15 / 15 / 7.5 N s/m) matches the full model "
@@ -479,7 +487,8 @@ def _play_alone(ctx):
 def _simplified(ctx):
     fits = ctx.fits()
     return ("; ".join(f"Case {c}: max error {f['paper']['max']:.2e} m ({f['paper']['rel_max']:.1%} of the peak), area "
-                      f"{f['paper']['rel_area']:.1%}; best-fit c (area) {f['area']['c']:.2f}" for c, f in fits.items()),
+                      f"{f['paper']['rel_area']:.1%}; best-fit c (area) {f['area']['c']:.2f}" for c, f in fits.items())
+            + _not_run(ctx, "fig6_case"),
             tuple(Check(f"Case {c}: max error / peak", f["paper"]["rel_max"], "<", 0.10) for c, f in fits.items()),
             "'Slight' read as a maximum error below 10 % of the full model's peak. Best fits: table below.")
 
@@ -496,7 +505,7 @@ def _simplified_order(ctx):
 def _simplified_small(ctx):
     from .scenario.engines import RunSettings
 
-    scales = (1.0, 4.0)
+    scales = (1.0, 9.0)  # the paper's c = df = 10 (5 for Case 3) and its 'large' 90 (45)
     w = np.linspace(15.0, 25.0, 21 if ctx.quick else 101)
     cells, checks = [], []
     for c in CASES:
@@ -513,16 +522,20 @@ def _simplified_small(ctx):
                    Check(f"Case {c}: best-fit error at c = df = {large['c']:g}", large["best"]["rel_max"], ">=", 0.10)]
     return ("max error / peak of the simplified model (+50 % rule, and the best-fit c) against the model with c and df "
             "(ideal inerter): " + "; ".join(cells), tuple(checks),
-            "Play left out (it alone changes no FRC macroscopically). 'Holds only for small' read as: at four times the "
-            "paper's c and df even the best viscous c misses by >= 10 % of the peak, more than twice the small-size error.")
+            "Play left out (it alone changes no FRC macroscopically). 'Holds only for small' read as: at nine times the "
+            "paper's c and df (90 N s/m and 90 N, the paper's 'large' values; 45 for Case 3) even the best viscous c "
+            "misses by >= 10 % of the peak, more than twice the error at the paper's values.")
 
 
 # --- the table --------------------------------------------------------------------------------------
 
-def evaluate(ctx: Context) -> list[Claim]:
-    """Every claim of :data:`CLAIMS` in order: computed, not computed (scenario missing) or error."""
+def evaluate(ctx: Context, only=None) -> list[Claim]:
+    """Every claim of :data:`CLAIMS` in order (``only``: those whose text starts with one of these
+    strings): computed, not computed (scenario missing) or error."""
     rows = []
     for e in CLAIMS:
+        if only is not None and not e.claim.startswith(tuple(only)):
+            continue
         missing = [n for n in e.needs if n not in ctx.runs]
         if missing:
             rows.append(Claim(e.section, e.claim, e.paper, status="not computed",
