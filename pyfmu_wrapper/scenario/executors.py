@@ -27,7 +27,6 @@ written by other code or other settings is never reused. The default folder, use
 """
 from __future__ import annotations
 
-import functools
 import hashlib
 import json
 import os
@@ -41,32 +40,17 @@ from typing import Callable, Iterator
 import numpy as np
 import pandas as pd
 
+from ..codeversion import PACKAGE_DIR, source_hash
 from ..physics.params import BaseParams, TMDParams, as_dict
 from .engines import SWEEP_COLUMNS, RunSettings, compute_sweep
 
 EXECUTORS = ("local", "dask", "sequential")
 #: bump when the layout or meaning of a checkpoint file changes
 CHECKPOINT_FORMAT = 2
-PACKAGE_DIR = Path(__file__).resolve().parents[1]
-
-
-def source_hash(root=PACKAGE_DIR) -> str:
-    """sha256 over the package's Python sources: every ``**/*.py`` under ``root``, in sorted order
-    of their relative paths, each path and content hashed (first 16 hex digits)."""
-    root = Path(root)
-    h = hashlib.sha256()
-    for f in sorted(root.rglob("*.py"), key=lambda q: q.relative_to(root).as_posix()):
-        if "__pycache__" in f.parts:
-            continue
-        h.update(f.relative_to(root).as_posix().encode() + b"\0")
-        h.update(f.read_bytes() + b"\0")
-    return h.hexdigest()[:16]
-
-
-@functools.lru_cache(maxsize=1)
 def code_version() -> str:
-    """The code version a checkpoint key includes: the hash of the package's sources (once per process)."""
-    return source_hash(PACKAGE_DIR)
+    """The code version a checkpoint key includes: :func:`pyfmu_wrapper.codeversion.source_hash`, the
+    sha256 of every source file of the package (first 16 hex digits; computed once per process)."""
+    return source_hash(PACKAGE_DIR)[:16]
 
 
 @dataclass(frozen=True)
