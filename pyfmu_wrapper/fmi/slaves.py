@@ -27,7 +27,7 @@ import numpy as np
 from ..physics import kernels as kn
 from ..physics import registry
 from ..physics.params import N_PARAMS, P_s, BaseParams, TMDParams, pack
-from ..solvers.rodas import integrate
+from ..solvers.rodas import failure_message, integrate
 from .variables import BASE_OSCILLATOR, BOOLEAN, INTEGER, TMD_INERTER, TRIVIAL, FmuSpec
 
 OK, WARNING, ERROR, FATAL = 0, 1, 3, 4
@@ -234,10 +234,12 @@ class Slave:
         rtol, a = float(self.r[tol_vr[0]]), float(self.r[tol_vr[1]])
         if getattr(self, "_atol_value", None) != a:
             self._atol_value, self._atol = a, np.full(self.n_state, a)
-        hn, _ = integrate(system, self.z, t, t + h, self.p, u, rtol, self._atol, self.h, h,
-                          self._empty_t, self._empty_s, 1.0 / self.p[P_s] if self.p[P_s] > 0 else 1e-6, self.stats)
-        if not hn > 0.0:
-            raise FmuStepError(f"integrator failed in doStep at t = {t:.16g} (step size underflow)")
+        band = 1.0 / self.p[P_s] if self.p[P_s] > 0 else 1e-6
+        hn, _, status, tf = integrate(system, self.z, t, t + h, self.p, u, rtol, self._atol, self.h, h,
+                                      self._empty_t, self._empty_s, band, self.stats)
+        if status != 0:
+            raise FmuStepError(f"doStep from t = {t:.16g} s: "
+                               + failure_message(status, system, tf, self.z, self.p, self._atol, band))
         self.h = hn
 
 

@@ -9,8 +9,9 @@ and applies the steady-state definition of the monolithic solver
 (:mod:`pyfmu_wrapper.solvers.monolithic`): A_k = max |x| over forcing period k, from the base
 outputs x, xd at the communication points with the cubic Hermite interpolant between them;
 windows of W periods (1 without play, 20 with a gap), W_j = max of A_k in window j; W = 1 stops
-when the estimated distance to the limit |W_j - W_j-1| rho / (1 - rho) is below ``tol`` W_j, W > 1
-when |W_j - W_j-1| <= ``tol_window`` W_j. The communication step is T / ``steps_per_period`` so
+when the estimated distance of the base state to the periodic orbit is below ``tol``, W > 1
+when two windows agree to ``tol_window`` or their scatter is known (irregular responses are
+flagged; :class:`~pyfmu_wrapper.solvers.monolithic.WindowCriterion`). The communication step is T / ``steps_per_period`` so
 that periods start at communication points. Each frequency starts from the previous frequency's
 final state (x, xd, y, yd read from the FMU outputs; d, dd of the play chain from
 :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`) or, for the first one, from
@@ -63,6 +64,7 @@ class CosimSettings:
     fmu_rtol: float = 1e-8
     shooting: bool = True
     max_newton: int = 12
+    scatter_tol: float = 5e-3
 
     def window_for(self, tmd: TMDParams) -> int:
         return default_window(tmd, self.window)
@@ -175,6 +177,7 @@ class CosimSteadyState:
     steps: int
     wall_time: float
     period_max: np.ndarray = field(repr=False, default=None)
+    irregular: bool = False  #: settled into irregular motion; ``change`` is then its scatter
 
 
 class _Periods:
@@ -311,16 +314,21 @@ def steady_state(master: Master, base: BaseParams, tmd: TMDParams, omega: float,
                                     wall_time=time.perf_counter() - t_start, period_max=np.array([a1]))
         steps = 0
     _start(master, base, tmd, omega, z, settings)
-    crit = WindowCriterion.from_settings(settings, W, base)
+    crit = WindowCriterion.from_settings(settings, W, base, omega)
+    ix, iv = master.signals.index("base.x"), master.signals.index("base.xd")
+    if W == 1:
+        crit.add(abs(master.y[ix]), (master.y[ix], master.y[iv]))  # the start, for the first residual
+        crit.period_max.clear()
     k = 0
     while k < crit.max_periods:
         k += 1
-        if crit.add(run.period()):
+        if crit.add(run.period(), (master.y[ix], master.y[iv])):
             break
     amplitude, converged, change = crit.result()
     return CosimSteadyState(omega=float(omega), amplitude=amplitude, state=_state_of(master, z),
                             periods=k, converged=converged, change=change, steps=steps + k * n,
-                            wall_time=time.perf_counter() - t_start, period_max=np.array(crit.period_max))
+                            wall_time=time.perf_counter() - t_start, period_max=np.array(crit.period_max),
+                            irregular=crit.irregular)
 
 
 def continuation_start(base: BaseParams, tmd: TMDParams, z_prev, w_prev: float, w: float) -> np.ndarray:
