@@ -187,3 +187,17 @@ def test_console_script_missing_file(tmp_path):
     r = subprocess.run(cmd + [str(tmp_path / "nope.yaml")], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2
     assert "nope.yaml" in r.stderr and "cannot read" in r.stderr
+
+
+def test_cosim_options_refused_with_the_monolithic_engine(tmp_path, capsys):
+    p = write(tmp_path, LINEAR)
+    for opt in (["--accuracy", "1e-4"], ["--coupling", "force"]):
+        assert main([str(p), "--out", str(tmp_path / "o"), "--quiet", "--engine", "monolithic"] + opt) == 2
+        assert "co-simulation" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+def test_summary_records_the_engine_settings(linear_run):
+    s = json.loads((linear_run / "summary.json").read_text())
+    assert s["settings"]["engine"] == "monolithic" and s["settings"]["solver"]["linear"] == "exact"
+    assert "cosim" not in s["settings"] and len(s["code_version"]) == 16

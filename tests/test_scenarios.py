@@ -284,3 +284,24 @@ def test_bad_cosim_values(tmp_path):
     assert "cosim.accuracy" in str(e) and "-1" in str(e)
     e = error_for(tmp_path, GOOD.replace("sweep:\n  direction: up\n", "cosim: {min_periods: 9, max_periods: 4}\n"))
     assert "cosim.max_periods" in str(e)
+
+
+def test_settings_used_by_each_engine(tmp_path):
+    """summary.json records the settings the engine used: its blocks only, fully resolved."""
+    from pyfmu_wrapper.scenario.engines import RunSettings
+
+    text = GOOD.replace("sweep:\n  direction: up\n", "sweep: {direction: down}\nsolver: {rtol: 1.0e-7}\n"
+                        "cosim: {accuracy: 1.0e-4}\n")
+    scn = load_scenario(write(tmp_path, text))
+    mono = RunSettings.for_scenario(scn, engine="monolithic").used()
+    co = RunSettings.for_scenario(scn, engine="cosim").used()
+    both = RunSettings.for_scenario(scn, engine="both").used()
+    assert mono["engine"] == "monolithic" and mono["solver"]["rtol"] == 1e-7 and "cosim" not in mono
+    assert co["engine"] == "cosim" and co["cosim"]["accuracy"] == 1e-4 and "solver" not in co
+    assert both["solver"]["rtol"] == 1e-7 and both["cosim"]["accuracy"] == 1e-4
+    for u in (mono, co, both):
+        assert u["sweep"] == {"direction": "down", "continuation": True}
+    assert co["cosim"]["tol_window"] == 1e-4 and co["cosim"]["max_periods"] > 0  # defaults filled in
+    assert RunSettings.for_scenario(scn, engine="cosim").directions() == ["down"]
+    with pytest.raises(ValueError):
+        RunSettings.for_scenario(scn, engine="nope")
