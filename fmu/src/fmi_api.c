@@ -545,8 +545,9 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real currentCommunicationPoint, fm
         rc = c->native(c->reals, c->ints, c->derivs, c->nat[0], c->nat[1], c->nat[2], c->nat[3], c->nat[4], c->nat[5],
                        t, h);
     if (rc == 0) s = fmi2OK;
-    else if (rc == 2) {
-        logmsg(c, fmi2Error, "logStatusError", "%s: integrator failed at t = %.17g (step size underflow)", f, t);
+    else if (rc >= 2) {
+        logmsg(c, fmi2Error, "logStatusError", "%s: the integrator failed in the step from t = %.17g s of %g s: %s", f, t,
+               h, rc == 2 ? "the step size fell below the resolution of t" : "more than the cap of integrator steps");
         s = fmi2Error;
     } else /* no native step, a long step, or the native step asks for Python (debug_raise) */
         s = py_status(c, f, py.CallFunction(c->m_step, "ddi", t, h, noSetFMUStatePriorToCurrentPoint));

@@ -13,7 +13,8 @@ C signature (all pointers to the slave's own arrays, which keep their address fo
                double *th /* [t, suggested h] */, double *u, double *atol, double t, double h)
 
 Returns 0 on success, 1 to ask the stub for the Python path (``debug_raise`` is set: the Python
-slave raises with a traceback), 2 when the integrator failed (step size underflow).
+slave raises with a traceback), 1 + the integrator's failure status (2: step size underflow, 3: more
+than :data:`~.slaves.MAX_INTEGRATOR_STEPS` steps) when the integration failed.
 """
 from __future__ import annotations
 
@@ -25,6 +26,7 @@ from numba import carray, cfunc, types
 from ..physics import kernels as kn
 from ..physics.params import N_PARAMS, P_s
 from ..solvers.rodas import integrate
+from .slaves import MAX_INTEGRATOR_STEPS
 from .variables import BASE_OSCILLATOR, TMD_INERTER
 
 SIGNATURE = types.int32(types.CPointer(types.float64), types.CPointer(types.int32), types.CPointer(types.float64),
@@ -43,6 +45,7 @@ T_X, T_XD, T_XDD = (TMD_INERTER.vr(n) for n in ("x", "xd", "xdd"))
 T_FORCE, T_Y, T_YD, T_P, T_CONTACT = (TMD_INERTER.vr(n) for n in ("force", "y", "yd", "inerter_force", "contact"))
 T_RTOL, T_ATOL, T_DEBUG = (TMD_INERTER.vr(n) for n in ("rtol", "atol", "debug_raise"))
 SYS_BASE, SYS_TMD = kn.SYS_BASE, kn.SYS_TMD
+MAX_STEPS = MAX_INTEGRATOR_STEPS
 
 
 @functools.cache
@@ -70,10 +73,10 @@ def base_step():
         atol[0] = a
         atol[1] = a
         band = 1.0 / p[P_s] if p[P_s] > 0 else 1e-6
-        hn, _ = integrate(SYS_BASE, z, t, t + h, p, u, reals[B_RTOL], atol, th[1], h, np.zeros(0),
-                          np.zeros((0, 2)), band, stats)
-        if not hn > 0.0:
-            return 2
+        hn, _, status, _ = integrate(SYS_BASE, z, t, t + h, p, u, reals[B_RTOL], atol, th[1], h,
+                                     np.zeros(0), np.zeros((0, 2)), band, stats, MAX_STEPS)
+        if status != 0:
+            return 1 + status
         th[1] = hn
         t1 = t + h
         th[0] = t1
@@ -121,10 +124,10 @@ def tmd_step():
         for i in range(4):
             atol[i] = a
         band = 1.0 / p[P_s] if p[P_s] > 0 else 1e-6
-        hn, _ = integrate(SYS_TMD, z, t, t + h, p, u, reals[T_RTOL], atol, th[1], h, np.zeros(0),
-                          np.zeros((0, 4)), band, stats)
-        if not hn > 0.0:
-            return 2
+        hn, _, status, _ = integrate(SYS_TMD, z, t, t + h, p, u, reals[T_RTOL], atol, th[1], h,
+                                     np.zeros(0), np.zeros((0, 4)), band, stats, MAX_STEPS)
+        if status != 0:
+            return 1 + status
         th[1] = hn
         t1 = t + h
         th[0] = t1

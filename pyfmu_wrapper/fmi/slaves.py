@@ -25,8 +25,9 @@ import traceback
 import numpy as np
 
 from ..physics import kernels as kn
+from ..physics import registry
 from ..physics.params import N_PARAMS, P_s, BaseParams, TMDParams, pack
-from ..solvers.rodas import STAT_STEPS, integrate
+from ..solvers.rodas import STAT_STEPS, failure_message, integrate
 from .variables import BASE_OSCILLATOR, BOOLEAN, INTEGER, TMD_INERTER, TRIVIAL, FmuSpec
 
 OK, WARNING, ERROR, FATAL = 0, 1, 3, 4
@@ -119,6 +120,10 @@ class Slave:
             else:
                 self.r[v.vr] = float(v.start)
         self.du[:] = 0.0
+
+    def _registry_values(self, subsystem):
+        """Field name -> value of the subsystem's registry parameters, read from the FMU buffers."""
+        return {p.name: self.val(p.fmu_name) for p in registry.fields(subsystem)}
 
     def val(self, name):
         v = self.spec.by_name(name)
@@ -286,7 +291,7 @@ class Slave:
         return (rows[0] - rows[1]) / (2 * d)
 
     def _write_outputs(self, values):
-        for v, val in zip(self._outputs, values):
+        for v, val in zip(self._outputs, values, strict=True):
             if v.type in (INTEGER, BOOLEAN):
                 self.i[v.vr] = int(np.real(val))
             else:
@@ -299,24 +304,20 @@ class Slave:
         rtol, a = float(self.r[tol_vr[0]]), float(self.r[tol_vr[1]])
         self._atol[:] = a
         band = 1.0 / self.p[P_s] if self.p[P_s] > 0 else 1e-6
-        if h <= CHUNK:  # the usual case: one call
-            hn, _ = integrate(system, self.z, t, t + h, self.p, u, rtol, self._atol, self.h, h,
-                              self._empty_t, self._empty_s, band, self.stats)
-        else:  # long steps in pieces, with a budget of integrator steps (bounded cost)
-            n = int(np.ceil(h / CHUNK))
-            start = int(self.stats[STAT_STEPS])
-            hn = self.h
-            for k in range(n):
-                a, b = t + h * k / n, (t + h if k == n - 1 else t + h * (k + 1) / n)
-                hn, _ = integrate(system, self.z, a, b, self.p, u, rtol, self._atol, hn, b - a,
-                                  self._empty_t, self._empty_s, band, self.stats)
-                if not hn > 0.0:
-                    break
-                if self.stats[STAT_STEPS] - start > MAX_INTEGRATOR_STEPS:
-                    raise FmuStepError(f"doStep of {h:g} s from t = {t:.16g} needs more than {MAX_INTEGRATOR_STEPS} "
-                                       "integrator steps; use shorter communication steps")
-        if not hn > 0.0:
-            raise FmuStepError(f"integrator failed in doStep at t = {t:.16g} (step size underflow)")
+        n = 1 if h <= CHUNK else int(np.ceil(h / CHUNK))  # long steps in pieces, within a budget of steps
+        start = int(self.stats[STAT_STEPS])
+        hn = self.h
+        for k in range(n):
+            a, b = (t, t + h) if n == 1 else (t + h * k / n, (t + h if k == n - 1 else t + h * (k + 1) / n))
+            hn, _, status, tf = integrate(system, self.z, a, b, self.p, u, rtol, self._atol, hn,
+                                          h if n == 1 else b - a,
+                                          self._empty_t, self._empty_s, band, self.stats, MAX_INTEGRATOR_STEPS)
+            if status != 0:
+                raise FmuStepError(f"doStep from t = {t:.16g} s: " + failure_message(
+                    status, system, tf, self.z, self.p, self._atol, band, MAX_INTEGRATOR_STEPS))
+            if self.stats[STAT_STEPS] - start > MAX_INTEGRATOR_STEPS:
+                raise FmuStepError(f"doStep of {h:g} s from t = {t:.16g} needs more than {MAX_INTEGRATOR_STEPS} "
+                                   "integrator steps; use shorter communication steps")
         self.h = hn
 
 
@@ -327,9 +328,8 @@ class BaseOscillatorSlave(Slave):
     n_state = 2
 
     def configure(self):
-        base = BaseParams(mass=self.val("M"), stiffness=self.val("K"), damping=self.val("C"),
-                          force_amplitude=self.val("F"), source=f"FMU {self.instance_name}")
-        self.p[:] = pack(base, TMDParams(), self.val("w"))
+        base = BaseParams(**self._registry_values("base"), source=f"FMU {self.instance_name}")
+        self.p[:] = pack(base, TMDParams(), self.val(registry.get("base", "omega").fmu_name))
         self.z[:] = (self.val("x0"), self.val("xd0"))
 
     def outputs(self, inputs):
@@ -354,19 +354,9 @@ class TMDInerterSlave(Slave):
     n_state = 4
 
     def configure(self):
-        tmd = TMDParams(mass=self.val("m"), stiffness=self.val("k"), damping=self.val("c"),
-                        friction_force=self.val("df"), friction_slope=self.val("s"),
-                        inertance=self.val("I"), inerter=self.val("inerter"),
-                        mesh_stiffness=self.val("ki"), mesh_damping=self.val("ci"),
-                        play_gap=self.val("eps"), source=f"FMU {self.instance_name}", **self._cubic())
+        tmd = TMDParams(**self._registry_values("tmd"), source=f"FMU {self.instance_name}")
         self.p[:] = pack(BaseParams(), tmd, 0.0)
         self.z[:] = (self.val("y0"), self.val("yd0"), self.val("d0"), self.val("dd0"))
-
-    def _cubic(self):
-        """The cubic spring term k3, when the variable table declares it."""
-        names = {v.name for v in self.spec.variables}
-        name = next((n for n in ("k3", "cubic_stiffness") if n in names), None)
-        return {"cubic_stiffness": self.val(name)} if name else {}
 
     def outputs(self, inputs):
         x, xd, xdd = inputs[0], inputs[1], inputs[2]
