@@ -9,6 +9,12 @@ fmi2SetRealInputDerivatives) and a float64 scratch buffer for directional deriva
 SetReal never enter Python; the stub calls :meth:`Slave.update_outputs` only when an input or
 parameter changed since the outputs were last computed.
 
+Ordinary steps do not come here: :meth:`Slave.native` hands the stub a compiled step
+(:mod:`.native`) and the addresses of the arrays it updates in place (``z``, ``p``, ``stats``,
+``[t, h]``, the input polynomials, ``atol``); those arrays keep their address for the life of the
+slave (they are only ever written in place). :meth:`Slave.do_step` runs for long steps (> CHUNK),
+when ``debug_raise`` is set, and when the stub runs without native steps (``PYFMU_NATIVE=0``).
+
 Every method called by the stub returns an int status (0 ok, 1 warning, 3 error, 4 fatal) and
 never raises: an exception is caught by :func:`_guarded`, its full traceback is kept in
 ``last_error`` and the stub forwards it to the FMI logger.
