@@ -285,3 +285,20 @@ def test_directional_derivative_wrt_parameter_in_initialization_mode(fmus, tmp_p
         assert f.s.getDirectionalDerivative([f.vr["xdd"]], [f.vr["M"]], [1.0]) == [0.0]
     finally:
         f.close()
+
+
+def test_directional_derivative_wrt_parameter_at_the_edge_of_its_domain(fmus, tmp_path):
+    """A play gap eps = 0 cannot be perturbed below 0: a one-sided difference. With the ideal
+    inerter the outputs do not depend on eps: zero."""
+    f = Logged(fmus["TMDInerter"], tmp_path, "ddedge", init=False)
+    try:
+        f.s.setupExperiment(startTime=0.0)
+        f.s.enterInitializationMode()
+        f.start(dict(y0=0.01))
+        outs = [f.vr[n] for n in ("force", "y", "yd", "inerter_force")]
+        assert f.s.getDirectionalDerivative(outs, [f.vr["eps"]], [1.0]) == [0.0] * 4
+        # d y / d y0 = 1 (a parameter that the output equals at initialisation)
+        assert f.s.getDirectionalDerivative([f.vr["y"]], [f.vr["y0"]], [1.0])[0] == pytest.approx(1.0, rel=1e-9)
+        f.s.exitInitializationMode()
+    finally:
+        f.close()

@@ -279,22 +279,30 @@ class Slave:
                 res[j] = float(np.sum(seed[vk == vr]))
 
     def _parameter_sensitivity(self, vr):
-        """d outputs / d parameter vr in initialisation mode (central difference through configure)."""
+        """d outputs / d parameter vr in initialisation mode: a central difference through
+        configure, one-sided at the edge of the parameter's domain (e.g. a play gap of 0)."""
         r0 = float(self.r[vr])
         d = 1e-6 * max(abs(r0), 1e-6)
+        rows, errors = {}, []
         try:
-            rows = []
-            for v in (r0 + d, r0 - d):
+            for v in (r0 + d, r0 - d, r0):
                 self.r[vr] = v
-                self.configure()
-                rows.append(np.real(np.array(self.outputs(self._current_inputs()), dtype=complex)))
-        except Exception as e:  # noqa: BLE001 - a perturbed value outside the parameter's domain
-            raise FmuStepError(f"directional derivative with respect to parameter {vr} is not available at "
-                               f"{r0!r}: {e}") from e
+                try:
+                    self.configure()
+                except Exception as e:  # noqa: BLE001 - this side leaves the parameter's domain
+                    errors.append(str(e))
+                    continue
+                rows[v] = np.real(np.array(self.outputs(self._current_inputs()), dtype=complex))
         finally:
             self.r[vr] = r0
             self.configure()
-        return (rows[0] - rows[1]) / (2 * d)
+        if r0 + d in rows and r0 - d in rows:
+            return (rows[r0 + d] - rows[r0 - d]) / (2 * d)
+        if r0 in rows and (r0 + d in rows or r0 - d in rows):
+            v = r0 + d if r0 + d in rows else r0 - d
+            return (rows[v] - rows[r0]) / (v - r0)
+        raise FmuStepError(f"directional derivative with respect to parameter {vr} is not available at {r0!r}: "
+                           + "; ".join(errors))
 
     def _write_outputs(self, values):
         for v, val in zip(self._outputs, values, strict=True):
