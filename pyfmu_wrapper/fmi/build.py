@@ -170,7 +170,9 @@ def compile_stub(out_so: Path, cc: str | None = None) -> None:
     out_so.parent.mkdir(parents=True, exist_ok=True)
     cmd = [cc, "-shared", "-fPIC", "-O2", "-std=gnu11", "-Wall", "-Wextra", "-Wno-unused-parameter",
            "-Wno-format-truncation", "-fvisibility=hidden", f"-I{fmi_headers_dir()}",
-           *[str(f) for f in stub_sources() if f.suffix == ".c"], "-o", str(out_so), "-ldl", "-lpthread", "-lm"]
+           *[str(f) for f in stub_sources() if f.suffix == ".c"], "-o", str(out_so),
+           # keep libdl NEEDED: on glibc < 2.34 the pre-2.34 dl* symbols the stub binds to live there
+           "-Wl,--no-as-needed", "-l:libdl.so.2", "-Wl,--as-needed", "-lpthread", "-lm"]
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
         raise BuildError(f"compiling the stub failed:\n{' '.join(cmd)}\n{r.stderr}")
