@@ -25,7 +25,8 @@ import traceback
 import numpy as np
 
 from ..physics import kernels as kn
-from ..physics.params import P_s, BaseParams, TMDParams, pack
+from ..physics import registry
+from ..physics.params import N_PARAMS, P_s, BaseParams, TMDParams, pack
 from ..solvers.rodas import failure_message, integrate
 from .variables import BASE_OSCILLATOR, BOOLEAN, INTEGER, TMD_INERTER, TRIVIAL, FmuSpec
 
@@ -69,7 +70,7 @@ class Slave:
         self.last_error = ""
         self.t = 0.0
         self.h = 0.0  # step size suggested by the integrator (part of the state: exact restore)
-        self.p = np.zeros(15)
+        self.p = np.zeros(N_PARAMS)
         self.z = np.zeros(self.n_state)
         self.stats = np.zeros(4, dtype=np.int64)
         self._empty_t = np.zeros(0)
@@ -91,6 +92,10 @@ class Slave:
             else:
                 self.r[v.vr] = float(v.start)
         self.du[:] = 0.0
+
+    def _registry_values(self, subsystem):
+        """Field name -> value of the subsystem's registry parameters, read from the FMU buffers."""
+        return {p.name: self.val(p.fmu_name) for p in registry.fields(subsystem)}
 
     def val(self, name):
         v = self.spec.by_name(name)
@@ -216,7 +221,7 @@ class Slave:
             res[j] = np.imag(y[out_vrs.index(vr)]) / _CSTEP
 
     def _write_outputs(self, values):
-        for v, val in zip(self._outputs, values):
+        for v, val in zip(self._outputs, values, strict=True):
             if v.type in (INTEGER, BOOLEAN):
                 self.i[v.vr] = int(np.real(val))
             else:
@@ -245,9 +250,8 @@ class BaseOscillatorSlave(Slave):
     n_state = 2
 
     def configure(self):
-        base = BaseParams(mass=self.val("M"), stiffness=self.val("K"), damping=self.val("C"),
-                          force_amplitude=self.val("F"), source=f"FMU {self.instance_name}")
-        self.p = pack(base, TMDParams(), self.val("w"))
+        base = BaseParams(**self._registry_values("base"), source=f"FMU {self.instance_name}")
+        self.p = pack(base, TMDParams(), self.val(registry.get("base", "omega").fmu_name))
         self.z[:] = (self.val("x0"), self.val("xd0"))
 
     def outputs(self, inputs):
@@ -267,11 +271,7 @@ class TMDInerterSlave(Slave):
     n_state = 4
 
     def configure(self):
-        tmd = TMDParams(mass=self.val("m"), stiffness=self.val("k"), damping=self.val("c"),
-                        friction_force=self.val("df"), friction_slope=self.val("s"),
-                        inertance=self.val("I"), inerter=self.val("inerter"),
-                        mesh_stiffness=self.val("ki"), mesh_damping=self.val("ci"),
-                        play_gap=self.val("eps"), source=f"FMU {self.instance_name}")
+        tmd = TMDParams(**self._registry_values("tmd"), source=f"FMU {self.instance_name}")
         self.p = pack(BaseParams(), tmd, 0.0)
         self.z[:] = (self.val("y0"), self.val("yd0"), self.val("d0"), self.val("dd0"))
 

@@ -26,6 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pandas as pd
 
+from ..physics import registry
 from ..physics.params import BaseParams, InerterModel, TMDParams
 from ..solvers.sweep import run_sweep_pieces
 from ..solvers.monolithic import SolverSettings, WindowCriterion, default_window, companion_start, initial_guess
@@ -99,16 +100,14 @@ def steps_for_accuracy(accuracy: float, order: int = 2, coupling: str = "impulse
 def fmu_parameters(base: BaseParams, tmd: TMDParams, omega: float, z0, fmu_rtol: float = 1e-8) -> dict:
     """The FMU parameter values ("instance.variable" -> value) of a configuration and start state."""
     z = np.asarray(z0, dtype=float)
-    return {
-        "base.M": base.mass, "base.K": base.stiffness, "base.C": base.damping, "base.F": base.force_amplitude,
-        "base.w": float(omega), "base.x0": z[0], "base.xd0": z[1], "base.rtol": fmu_rtol,
+    out = registry.fmu_start_values(base, tmd, omega)
+    out.update({
+        "base.x0": z[0], "base.xd0": z[1], "base.rtol": fmu_rtol,
         "base.atol": 1e-8 * abs(base.force_amplitude) / base.stiffness,
-        "tmd.m": tmd.mass, "tmd.k": tmd.stiffness, "tmd.c": tmd.damping, "tmd.df": tmd.friction_force,
-        "tmd.s": tmd.friction_slope, "tmd.I": tmd.inertance, "tmd.ki": tmd.mesh_stiffness,
-        "tmd.ci": tmd.mesh_damping, "tmd.eps": tmd.play_gap, "tmd.inerter": int(tmd.inerter),
         "tmd.y0": z[2], "tmd.yd0": z[3], "tmd.d0": z[4], "tmd.dd0": z[5], "tmd.rtol": fmu_rtol,
         "tmd.atol": _tmd_atol(base, tmd),
-    }
+    })
+    return out
 
 
 def _tmd_atol(base: BaseParams, tmd: TMDParams) -> float:

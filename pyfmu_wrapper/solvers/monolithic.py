@@ -196,10 +196,12 @@ def initial_guess(base: BaseParams, tmd: TMDParams, omega: float) -> np.ndarray:
 
     from .frequency_response import exact_state
 
-    lin = replace(tmd, friction_force=0.0, play_gap=0.0)
+    lin = replace(tmd, friction_force=0.0, play_gap=0.0, cubic_stiffness=0.0)
     try:
         return exact_state(base, lin, omega)
-    except Exception:  # pragma: no cover - fall back to rest
+    except np.linalg.LinAlgError:
+        # an undamped linear companion exactly at one of its resonances has no steady state:
+        # start from rest (the only case; any other error propagates)
         return np.zeros(NSTATE)
 
 

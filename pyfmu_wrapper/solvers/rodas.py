@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from .._jit import njit
 
 from ..physics.kernels import (SYS_COUPLED, SYS_TMD, coupled_jacobian, system_dfdt_work, system_jacobian_work,
                                system_rhs, system_switching, tmd_jacobian)
