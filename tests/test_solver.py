@@ -200,3 +200,18 @@ def test_window_criterion_is_relative_and_flags_irregular_responses():
             break
     amp, conv, change = c.result()
     assert conv and not c.irregular and amp == pytest.approx(1.05, rel=1e-3)
+
+
+def test_hermite_maximum_between_samples():
+    """The one Hermite maximum of both engines: max |x| of A cos(w t + phi) from 49 samples of
+    (x, xd) per period, with the peak between samples, equals A to 1e-6 (the samples alone miss
+    it by ~1e-3: the end points are not the maximum)."""
+    from pyfmu_wrapper.solvers.rodas import hermite_absmax_series
+
+    w, A = 20.0, 0.0123
+    h = 2 * math.pi / w / 48
+    t = np.arange(49) * h
+    phi = 0.5 * w * h  # a peak in the middle of an interval
+    x, v = A * np.cos(w * t - phi), -A * w * np.sin(w * t - phi)
+    assert abs(np.max(np.abs(x)) / A - 1) > 1e-3
+    assert hermite_absmax_series(x, v, h) == pytest.approx(A, rel=1e-6)

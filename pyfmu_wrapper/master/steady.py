@@ -28,6 +28,7 @@ import pandas as pd
 
 from ..physics import registry
 from ..physics.params import BaseParams, InerterModel, TMDParams
+from ..solvers.rodas import hermite_absmax_series
 from ..solvers.sweep import run_sweep_pieces
 from ..solvers.monolithic import SolverSettings, WindowCriterion, default_window, companion_start, initial_guess
 from .graph import Connection
@@ -146,26 +147,6 @@ def make_master(base: BaseParams | None = None, tmd: TMDParams | None = None, sc
     return Master(fmus, CONNECTIONS, {}, scheme=scheme, order=order, record=RECORD)
 
 
-def _hermite_absmax(x: np.ndarray, v: np.ndarray, h: float) -> float:
-    """max |p| over all intervals of the cubic Hermite interpolant of (x, v) at spacing h."""
-    x0, x1, b0, b1 = x[:-1], x[1:], h * v[:-1], h * v[1:]
-    c1 = b0
-    c2 = -3.0 * x0 - 2.0 * b0 + 3.0 * x1 - b1
-    c3 = 2.0 * x0 + b0 - 2.0 * x1 + b1
-    qa, qb, qc = 3.0 * c3, 2.0 * c2, c1
-    m = float(np.max(np.abs(x)))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        disc = qb * qb - 4.0 * qa * qc
-        sq = np.sqrt(np.maximum(disc, 0.0))
-        for th in ((-qb + sq) / (2.0 * qa), (-qb - sq) / (2.0 * qa), -qc / qb):
-            ok = np.isfinite(th) & (th > 0.0) & (th < 1.0) & (disc >= 0.0)
-            if np.any(ok):
-                t = th[ok]
-                val = x0[ok] + t * (c1[ok] + t * (c2[ok] + t * c3[ok]))
-                m = max(m, float(np.max(np.abs(val))))
-    return m
-
-
 @dataclass
 class CosimSteadyState:
     omega: float
@@ -203,7 +184,7 @@ class _Periods:
             v[k] = y[iv]
             if samples is not None:
                 samples[k] = y
-        return _hermite_absmax(x, v, h)
+        return hermite_absmax_series(x, v, h)
 
 
 def _state_of(master: Master, z_guess: np.ndarray) -> np.ndarray:

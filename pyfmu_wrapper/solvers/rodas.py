@@ -144,6 +144,19 @@ def _hermite_absmax(x0, v0, x1, v1, h):
 
 
 @njit(cache=True)
+def hermite_absmax_series(x, v, h):
+    """max |p| over all intervals of the cubic Hermite interpolant of samples x, v = dx/dt at
+    spacing h (the one Hermite maximum of both engines: the monolithic solver applies
+    :func:`_hermite_absmax` step by step, the co-simulation to its communication points)."""
+    m = 0.0
+    for i in range(x.shape[0] - 1):
+        m = max(m, _hermite_absmax(x[i], v[i], x[i + 1], v[i + 1], h))
+    if x.shape[0] == 1:
+        m = abs(x[0])
+    return m
+
+
+@njit(cache=True)
 def _hermite_state(z0, f0, z1, f1, h, theta, out):
     h00 = (1.0 + 2.0 * theta) * (1.0 - theta) ** 2
     h10 = theta * (1.0 - theta) ** 2
