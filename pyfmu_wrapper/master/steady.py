@@ -334,7 +334,8 @@ def _sweep_piece(base, tmd, seq, direction, settings, z0, queue=None):
             ss = steady_state(master, base, tmd, float(w), start, settings, hint)
             z, w_prev = ss.state, float(w)
             rows.append(dict(direction=direction, omega=float(w), amplitude=ss.amplitude, periods=ss.periods,
-                             converged=ss.converged, change=ss.change, steps=ss.steps, rejected=0,
+                             converged=ss.converged, irregular=ss.irregular, change=ss.change, steps=ss.steps,
+                             rejected=0,
                              wall_time=ss.wall_time))
             if queue is not None:
                 queue.put(1)
