@@ -299,13 +299,18 @@ class WindowCriterion:
         self.change = math.inf
         self._stopped = False
         self._stable = 0
+        self.floor = 0.0
 
     @classmethod
     def from_settings(cls, settings, window: int, base: BaseParams, omega: float | None = None) -> "WindowCriterion":
         """From any settings object with tol, tol_window, min_periods, max_periods (and optionally
         amp_atol, max_periods_window, scatter_tol), as :class:`SolverSettings` has."""
         if window == 1:
-            return cls(1, settings.tol, 0.0, settings.min_periods, settings.max_periods, omega=omega)
+            c = cls(1, settings.tol, 0.0, settings.min_periods, settings.max_periods, omega=omega)
+            # resolution floor of the W = 1 residual: 1e-9 of the static deflection F/K (an orbit
+            # with a zero amplitude, an undamped antiresonance, has only round-off to settle)
+            c.floor = 1e-9 * abs(base.force_amplitude) / max(base.stiffness, 1e-300)
+            return c
         amp_atol = getattr(settings, "amp_atol", None) or 0.0
         mp = min(settings.max_periods, getattr(settings, "max_periods_window", settings.max_periods))
         return cls(window, settings.tol_window, amp_atol, settings.min_periods, mp,
@@ -325,7 +330,7 @@ class WindowCriterion:
         k = len(self.period_max)
         W = self.W
         if W == 1:
-            scale = max(abs(a), 1e-300)
+            scale = max(abs(a), self.floor, 1e-300)
             if state is not None and self.omega:
                 z = np.array([state[0], state[1] / self.omega], dtype=float)
                 if self._z_prev is None:
