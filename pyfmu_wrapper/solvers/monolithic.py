@@ -27,8 +27,8 @@ windows of ``window`` periods and W_j = max of A_k over window j.
   windows. Converged if the scatter is within ``scatter_tol`` (default 5e-3, the accuracy
   asked of both engines), else flagged ``irregular`` and not converged (at 20 rad/s with
   c = 0 the window maximum scatters by ~20 % for ever). No absolute tolerance: a tiny
-  amplitude near the antiresonance must settle
-  relative to itself. ``max_periods_window`` bounds the periods either way.
+  amplitude near the antiresonance must settle relative to itself. ``max_periods_window``
+  bounds the periods either way.
 
 The reported amplitude is W of the last window. Each solve returns its diagnostics (periods
 used, converged flag, last change, integrator steps). ``max_periods`` bounds the work; a point that
