@@ -28,7 +28,7 @@ import pandas as pd
 
 from ..physics import registry
 from ..physics.params import BaseParams, InerterModel, TMDParams
-from ..solvers.rodas import hermite_absmax_series
+from ..solvers.rodas import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
 from ..solvers.shooting import shoot
 from ..solvers.sweep import run_sweep_pieces
 from ..solvers.monolithic import SolverSettings, WindowCriterion, default_window, companion_start, initial_guess
@@ -185,7 +185,7 @@ class _Periods:
             v[k] = y[iv]
             if samples is not None:
                 samples[k] = y
-        return hermite_absmax_series(x, v, h)
+        return _hermite_absmax(x, v, h)
 
 
 def _state_of(master: Master, z_guess: np.ndarray) -> np.ndarray:
