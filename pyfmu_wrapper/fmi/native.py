@@ -12,9 +12,12 @@ C signature (all pointers to the slave's own arrays, which keep their address fo
     int32 step(double *reals, int32 *ints, double *derivs, double *z, double *p, int64 *stats,
                double *th /* [t, suggested h] */, double *u, double *atol, double t, double h)
 
-Returns 0 on success, 1 to ask the stub for the Python path (``debug_raise`` is set: the Python
-slave raises with a traceback), 1 + the integrator's failure status (2: step size underflow, 3: more
-than :data:`~.slaves.MAX_INTEGRATOR_STEPS` steps) when the integration failed.
+Returns 0 on success, 1 to ask the stub for the Python path: ``debug_raise`` is set (the Python
+slave raises with a traceback), or the integration failed (step size underflow, or more than
+:data:`~.slaves.MAX_INTEGRATOR_STEPS` steps): the state is put back to the start of the step and
+the Python slave retakes it, which fails the same way and reports where the integrator stopped,
+why, the state and its mode (:func:`~pyfmu_wrapper.solvers.rodas.failure_message`). (The stub
+still understands 2 and 3 as failures without a message.)
 """
 from __future__ import annotations
 
@@ -73,10 +76,12 @@ def base_step():
         atol[0] = a
         atol[1] = a
         band = 1.0 / p[P_s] if p[P_s] > 0 else 1e-6
+        z0, z1 = z[0], z[1]
         hn, _, status, _ = integrate(SYS_BASE, z, t, t + h, p, u, reals[B_RTOL], atol, th[1], h,
                                      np.zeros(0), np.zeros((0, 2)), band, stats, MAX_STEPS)
-        if status != 0:
-            return 1 + status
+        if status != 0:  # back to the start of the step: the Python path retakes it and names the failure
+            z[0], z[1] = z0, z1
+            return 1
         th[1] = hn
         t1 = t + h
         th[0] = t1
@@ -124,10 +129,12 @@ def tmd_step():
         for i in range(4):
             atol[i] = a
         band = 1.0 / p[P_s] if p[P_s] > 0 else 1e-6
+        z0, z1, z2, z3 = z[0], z[1], z[2], z[3]
         hn, _, status, _ = integrate(SYS_TMD, z, t, t + h, p, u, reals[T_RTOL], atol, th[1], h,
                                      np.zeros(0), np.zeros((0, 4)), band, stats, MAX_STEPS)
-        if status != 0:
-            return 1 + status
+        if status != 0:  # back to the start of the step: the Python path retakes it and names the failure
+            z[0], z[1], z[2], z[3] = z0, z1, z2, z3
+            return 1
         th[1] = hn
         t1 = t + h
         th[0] = t1
