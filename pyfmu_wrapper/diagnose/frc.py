@@ -42,6 +42,11 @@ class FRCDiagnosis:
             self.test[order[1::3]] = True
         self.train = ~self.test
         self.noise = float(ds.raw.get("x_max_noise", 0.0)) or self._noise()
+        o = np.argsort(self.w)
+        rel = (self.x / self.amplitude(self.base, self.tmd) - 1.0)[o]
+        d2 = np.diff(rel, 2)
+        self.noise_rel = (float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0)) if d2.size else 0.0) \
+            or self.noise / max(float(np.abs(self.x).mean()), 1e-300)
 
     def amplitude(self, base, tmd, gain=1.0, bias=0.0):
         if tmd.is_linear:
@@ -50,6 +55,49 @@ class FRCDiagnosis:
             a = np.array([steady_state(replace(base, force_amplitude=f * gain), tmd, w).amplitude
                           for w, f in zip(self.w, self.F)])
         return a + bias
+
+    def predict(self, params: dict):
+        """x_max predicted by the nominal model changed by fitted effect parameters (names as in
+        the diagnosis: ``effect.parameter``); None when an effect cannot be evaluated on FRC
+        records (play: its effect on x_max is below the solver's steady-state scatter)."""
+        b, t = self.base, self.tmd
+        kw, gain, bias = {}, 1.0, 0.0
+        for k, v in params.items():
+            e, name = k.split(".", 1)
+            if e == "play":
+                return None
+            if k == "viscous.delta_damping":
+                kw["damping"] = max(t.damping + v, 0.0)
+            elif k == "mass_split.delta_inertance":
+                I = min(max(t.inertance + v, 1e-6), t.inertia - 1e-6)
+                kw.update(inertance=I, mass=t.inertia - I)
+            elif k == "friction.friction_force":
+                kw["friction_force"] = max(v, 0.0)
+            elif k == "friction.friction_slope":
+                kw["friction_slope"] = v
+            elif k == "cubic.cubic_stiffness":
+                if "cubic_stiffness" not in {f.name for f in __import__("dataclasses").fields(t)}:
+                    return None
+                kw["cubic_stiffness"] = v
+            elif k == "force_error.force_gain_error":
+                gain = 1.0 + v
+            elif k == "sensor_offset.x_offset":
+                bias = v
+        return self.amplitude(b, replace(t, **kw), gain=gain, bias=bias)
+
+    def chi2(self, pred, mask=None):
+        r = (self.x - pred) / (np.abs(self.x) * max(self.noise_rel, 1e-12))
+        if mask is not None:
+            r = r[mask]
+        return float(r @ r)
+
+    def evidence(self, params: dict) -> float:
+        """Chi-square drop on every FRC point when the nominal is changed by ``params`` (fitted on
+        other records: all FRC points are held out). 0 when the effect cannot be evaluated."""
+        pred = self.predict(params)
+        if pred is None:
+            return 0.0
+        return self.chi2(self.pred0) - self.chi2(pred)
 
     def _noise(self):
         o = np.argsort(self.w)
@@ -65,7 +113,7 @@ class FRCDiagnosis:
             yield "mass_split", ["delta_inertance"], [0.0], lambda p: self.amplitude(
                 b, replace(t, inertance=min(max(I0 + p[0], 1e-6), t.inertia - 1e-6), mass=t.inertia - min(max(I0 + p[0], 1e-6), t.inertia - 1e-6)))
         yield "force_error", ["force_gain_error"], [0.0], lambda p: self.amplitude(b, t, gain=1.0 + p[0])
-        yield "bias", ["x_max_offset"], [0.0], lambda p: self.amplitude(b, t, bias=p[0])
+        yield "sensor_offset", ["x_offset"], [0.0], lambda p: self.amplitude(b, t, bias=p[0])
         yield "friction", ["friction_force"], None, lambda p: self.amplitude(b, replace(t, friction_force=max(p[0], 0.0)))
 
     def run(self):
@@ -159,10 +207,10 @@ class FRCDiagnosis:
         L += ["", f"Held-out NRMSE {h['nrmse_before']:.4f} -> {h['nrmse_after']:.4f}.", ""]
         return L
 
-    def write(self, out: Path):
+    def write(self, out: Path, res=None):
         out.mkdir(parents=True, exist_ok=True)
         self.plot(out / "frc.png")
-        (out / "diagnosis.json").write_text(json.dumps(self.result(), indent=1))
+        (out / "diagnosis.json").write_text(json.dumps(res or self.result(), indent=1))
         (out / "report.md").write_text("# FRC diagnosis\n\n" + "\n".join(self.markdown()) + "\n")
 
 

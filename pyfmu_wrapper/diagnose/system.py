@@ -209,7 +209,7 @@ class SystemModel:
 
 
 EFFECT_PARAMS = {
-    "friction": ("friction_force",), "play": ("inertance_loss",), "viscous": ("delta_damping",),
+    "friction": ("friction_force",), "play": ("delta_inertance_eff",), "viscous": ("delta_damping",),
     "mass_split": ("delta_inertance",), "cubic": ("cubic_stiffness",), "force_error": ("force_gain_error",),
     "sensor_offset": ("x_offset", "y_offset"),
 }
