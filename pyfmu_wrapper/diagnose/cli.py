@@ -57,6 +57,13 @@ def run_diagnosis(dataset, out=None, model: str | None = None) -> dict:
         from .sysreport import build_system_result, write_system_report
 
         sd = SystemDiagnosis(ds, frc)
+        if not sd.views and frc is not None:  # no periodic time record: the FRC records alone
+            res = frc.result()
+            res["verdict"] = frc_verdict(res)
+            res["verdict"]["disagreements"] = [f"time record {n} not used: {w}" for n, w in sd.flagged]
+            if out is not None:
+                frc.write(Path(out), res)
+            return res
         if not sd.views:
             raise DataError(f"{ds.path}: no periodic system time record to diagnose ("
                             + "; ".join(f"{n}: {w}" for n, w in sd.flagged) + ")"
