@@ -51,8 +51,8 @@ def simulated_stat(base, tmd, omega, force, eps, dt, n_periods):
     b = replace(base, force_amplitude=force)
     t = replace(tmd, inerter=InerterModel.PLAY, play_gap=float(eps))
     tt, z, acc, _ = steady_record(b, t, omega, n_periods, fs=1.0 / dt, settle_periods=SETTLE, rtol=RTOL)
-    s = fit_series(tt, {"xdd": acc[:, 0], "ydd": acc[:, 1]}, omega)
-    return max(rattle_stat(s, base.mass, tmd.mass)[0], 1e-30)
+    s = fit_series(tt, {"x": z[:, 0], "y": z[:, 2], "xdd": acc[:, 0], "ydd": acc[:, 1]}, omega)
+    return max(rattle_stat(s, base.mass, tmd.mass)[0], 1e-30), s
 
 
 class PlayFit:
@@ -66,6 +66,7 @@ class PlayFit:
             self.S.append(S)
             self.z.append(z)
         self.curves = [dict() for _ in views]
+        self.sims = [dict() for _ in views]
         self.n_sim = 0
 
     @property
@@ -79,7 +80,7 @@ class PlayFit:
         if eps not in c:
             v = self.views[i]
             nper = max(2, int(round(v.series.n * v.dt * v.omega / (2 * math.pi))))
-            c[eps] = simulated_stat(self.base, self.tmd, v.omega, v.amplitude, eps, v.dt, nper)
+            c[eps], self.sims[i][eps] = simulated_stat(self.base, self.tmd, v.omega, v.amplitude, eps, v.dt, nper)
             self.n_sim += 1
         return c[eps]
 
@@ -125,3 +126,25 @@ class PlayFit:
         scat = float(np.std(logs)) / math.sqrt(max(len(logs) - 1, 1)) if len(logs) > 1 else 0.3
         self.std = self.eps * scat / max(abs(slope), 1e-3)
         return self
+
+    def signature(self, model):
+        """Per record, the equation error (A_h, B_h) the nominal model leaves on the record simulated
+        with the fitted gap (the periodic part of the rattling chain force minus I a), in the phase
+        of the measured force: the play candidate's prediction for the harmonic residuals."""
+        from .harmonic import fuse
+
+        out = {}
+        b, t = self.base, self.tmd
+        for i, v in enumerate(self.views):
+            self._sim(i, self.eps)
+            s = self.sims[i][self.eps]
+            H = v.X.size - 1
+            X, _ = fuse(s, "x", None, H)
+            Y, _ = fuse(s, "y", None, H)
+            hw = np.arange(H + 1) * v.omega
+            F = np.zeros(H + 1, complex)
+            F[1] = v.amplitude
+            A, B = model.residuals(v, X, Y, F)
+            rot = np.exp(1j * np.arange(H + 1) * np.angle(v.F[1]))
+            out[v.name] = (A * rot, B * rot)
+        return out

@@ -112,6 +112,7 @@ class SystemDiagnosis:
         base = ()
         if self.play.indicated:
             self.play.fit(self.train_ids, self.folds)
+            m.play_signature = self.play.signature(m)
             eqp = fit_eq(m, ("play",), self.folds)
             params = dict(eqp.params, **{"play.play_gap": self.play.eps})
             std = dict(eqp.std, **{"play.play_gap": self.play.std})

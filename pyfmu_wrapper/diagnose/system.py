@@ -129,16 +129,13 @@ class SystemModel:
         self.views = views
         b, t = self.base, self.tmd
         self.p = pack(b, t, 0.0)
+        self.play_signature = {}
         for v in views:
             H = v.X.size - 1
             hw = np.arange(H + 1) * v.omega
-            g = v.grid
-            Fs = link_force_grid(g["x"], g["xd"], g["y"], g["yd"], self.p)
-            L = grid_coef(Fs, H) + t.inertance * grid_coef(g["xdd"] - g["ydd"], H)
+            A, B = self.residuals(v, v.X, v.Y, v.F, v.grid)
             zl = t.stiffness + 1j * t.damping * hw - t.inertance * hw ** 2  # linear link: dL/dX = -dL/dY
             zb = b.stiffness + 1j * b.damping * hw - b.mass * hw ** 2
-            A = v.F - zb * v.X - L
-            B = -t.mass * hw ** 2 * v.Y - L
             J = np.zeros((H + 1, 2, 3), complex)
             J[:, 0, 0], J[:, 0, 1], J[:, 0, 2] = -zb - zl, zl, 1.0
             J[:, 1, 0], J[:, 1, 1] = -zl, -t.mass * hw ** 2 + zl
@@ -150,6 +147,19 @@ class SystemModel:
                 W[h] = np.linalg.inv(np.linalg.cholesky(Sh))
             v.W = W
             v.r = self.whiten(v, A, B)
+
+    def residuals(self, v, X, Y, F, grid=None):
+        """Equation errors (A_h, B_h) of the nominal model for displacement series X, Y and force F."""
+        b, t = self.base, self.tmd
+        H = X.size - 1
+        hw = np.arange(H + 1) * v.omega
+        if grid is None:
+            grid = {nm + suf: grid_values(C, v.omega, N_GRID, k) for nm, C in (("x", X), ("y", Y))
+                    for k, suf in ((0, ""), (1, "d"), (2, "dd"))}
+        Fs = link_force_grid(grid["x"], grid["xd"], grid["y"], grid["yd"], self.p)
+        L = grid_coef(Fs, H) + t.inertance * grid_coef(grid["xdd"] - grid["ydd"], H)
+        zb = b.stiffness + 1j * b.damping * hw - b.mass * hw ** 2
+        return F - zb * X - L, -t.mass * hw ** 2 * Y - L
 
     def whiten(self, v, A, B):
         """Real vector of whitened residual components (h = 0: real parts only)."""
@@ -187,6 +197,8 @@ class SystemModel:
 
     def offset(self, effect, v):
         """Offset added to the residual model by a candidate that replaces part of the nominal."""
+        if effect == "play" and v.name in self.play_signature:
+            return self.play_signature[v.name]
         if effect == "friction" and self.tmd.friction_force > 0:
             vr = v.grid["xd"] - v.grid["yd"]
             f = grid_coef(friction_grid(vr, self.tmd.friction_slope), v.X.size - 1) * self.tmd.friction_force
