@@ -119,7 +119,7 @@ def test_package_order_lists_every_class():
 
 def test_case_parameters_equal_python(session):
     """Each compiled case carries exactly the Python parameter values (and w)."""
-    assert len(CASES) == 17
+    assert len(CASES) == 18  # 17 cases of the paper + the cubic-spring check case
     for name, spec in CASES.items():
         model = load(session, f"Cases.{name}")
         want = dict(spec.modelica_parameters(), w=OMEGA)

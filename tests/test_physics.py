@@ -163,6 +163,8 @@ def test_exact_response_refuses_nonlinear_configuration():
     paper_case(3, damping=10, friction_force=10, inerter="play", play_gap=1e-4),
     paper_case(2, inerter="play", play_gap=0.0),
     TMDParams(mass=10, inertance=0, inerter="none", friction_force=5),
+    paper_case(1, damping=10, cubic_stiffness=3e6),
+    paper_case(2, damping=10, friction_force=10, inerter="play", play_gap=1e-4, cubic_stiffness=-2e5),
 ])
 @pytest.mark.parametrize("scale", [(1, 1, 1, 1, 1, 1), (1, 1, 1, 1, -1, 1), (1, 1e-6, 1, 1e-6, 0.1, 1)])
 def test_analytic_jacobian_matches_complex_step(tmd, scale):
@@ -182,6 +184,8 @@ def test_analytic_jacobian_matches_complex_step(tmd, scale):
     paper_case(3, damping=10, friction_force=10, inerter="play", play_gap=1e-4),
     paper_case(2, inerter="play", play_gap=0.0),
     TMDParams(mass=10, inertance=0, inerter="none", friction_force=5),
+    paper_case(1, damping=10, cubic_stiffness=3e6),
+    paper_case(2, damping=10, friction_force=10, inerter="play", play_gap=1e-4, cubic_stiffness=-2e5),
 ])
 @pytest.mark.parametrize("scale", [(1, 1, 1, 1), (1, 1, -1, 1), (1, 1e-6, 0.1, 1)])
 def test_tmd_subsystem_jacobian_matches_complex_step(tmd, scale):

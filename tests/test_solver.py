@@ -159,8 +159,44 @@ def test_play_windowed_steady_state_matches_a_long_run():
     ss = steady_state(BASE, tmd, 17.0, settings=st)
     assert ss.converged
     long = steady_state(BASE, tmd, 17.0, settings=SolverSettings(rtol=1e-7, atol_scale=1e-7, tol_window=0.0,
-                                                                 amp_atol=0.0, max_periods_window=300))
-    assert not long.converged and long.periods == 300
+                                                                 min_periods=300, max_periods_window=300))
+    assert long.periods == 300
     windows = long.period_max.reshape(-1, 20).max(axis=1)[2:]
     assert abs(ss.amplitude - np.median(windows)) <= 2e-4 * ss.amplitude
     assert (windows.max() - windows.min()) <= 2e-4 * windows.max()
+
+
+def test_window_criterion_is_relative_and_flags_irregular_responses():
+    """The windowed criterion has no absolute tolerance: a tiny amplitude (1.6e-5 m, as near the
+    antiresonance with play) whose windows differ by 3 % is not converged, where the former
+    absolute tolerance of 5e-6 m called it converged; an irregular response (window maxima
+    scattering by ~20 %) stops once its running maximum is stable and is flagged irregular with
+    its scatter; a regular one converges on two agreeing windows."""
+    from pyfmu_wrapper.solvers.monolithic import WindowCriterion
+
+    rng = np.random.default_rng(1)
+
+    def feed(levels, W=20):
+        c = WindowCriterion(W, 1e-4, 0.0, 3, 2000)
+        k = 0
+        for lev in levels:
+            for _ in range(W):
+                k += 1
+                if c.add(lev * (1.0 - 0.01 * rng.random())):
+                    return c, k
+        return c, k
+
+    tiny = [1.6e-5 * (1.0 + 0.03 * (-1) ** j) for j in range(20)]
+    c, k = feed(tiny)
+    amp, conv, change = c.result()
+    assert not conv and c.irregular and change == pytest.approx(0.06 / 1.03, rel=0.05)
+    irregular = [0.07 * (1.0 - 0.2 * rng.random()) for _ in range(30)]
+    c, k = feed(irregular)
+    amp, conv, change = c.result()
+    assert not conv and c.irregular and change > 0.05 and amp == pytest.approx(max(c.wins[1:]))
+    c = WindowCriterion(2, 1e-4, 0.0, 3, 2000)
+    for a in [1.0, 1.1, 1.05, 1.0501, 1.05, 1.05]:
+        if c.add(a):
+            break
+    amp, conv, change = c.result()
+    assert conv and not c.irregular and amp == pytest.approx(1.05, rel=1e-3)

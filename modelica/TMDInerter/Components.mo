@@ -35,11 +35,12 @@ package Components "Masses, links and sources"
     flange.f = -force;
   end HarmonicForce;
 
-  model Spring "Linear spring: f = k (x - y)"
+  model Spring "Spring with a cubic term: f = k (x - y) + k3 (x - y)^3"
     extends TMDInerter.Interfaces.PartialLink;
-    parameter TMDInerter.Units.TranslationalSpringConstant k "Stiffness";
+    parameter TMDInerter.Units.TranslationalSpringConstant k "Linear stiffness";
+    parameter TMDInerter.Units.CubicSpringConstant k3 = 0 "Cubic stiffness (> 0 hardening)";
   equation
-    f = k * s_rel;
+    f = k * s_rel + k3 * s_rel ^ 3;
   end Spring;
 
   model Damper "Viscous damper: f = c (xd - yd)"

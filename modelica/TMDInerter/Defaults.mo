@@ -17,4 +17,5 @@ package Defaults "Default parameter values (Python dataclass defaults)"
   constant Real ki = 20000000.0 "TMDParams.mesh_stiffness";
   constant Real ci = 0.01 "TMDParams.mesh_damping";
   constant Real eps = 0.0 "TMDParams.play_gap";
+  constant Real k3 = 0.0 "TMDParams.cubic_stiffness";
 end Defaults;

@@ -3,11 +3,13 @@ package Systems "Base oscillator, TMD-inerter subsystems and the coupled systems
   extends TMDInerter.Icons.Package;
 
   model BaseOscillator "M xdd + C xd + K x = F cos(w t) + (force of the links on flange)"
-    parameter TMDInerter.Units.Mass M = TMDInerter.Defaults.M "Base mass";
-    parameter TMDInerter.Units.TranslationalSpringConstant K = TMDInerter.Defaults.K "Base stiffness";
-    parameter TMDInerter.Units.TranslationalDampingConstant C = TMDInerter.Defaults.C "Base damping";
-    parameter TMDInerter.Units.Force F = TMDInerter.Defaults.F "Force amplitude";
-    parameter TMDInerter.Units.AngularFrequency w = TMDInerter.Defaults.w "Excitation frequency (rad/s)";
+    // <generated params base>
+    parameter TMDInerter.Units.Mass M = TMDInerter.Defaults.M "M: base mass";
+    parameter TMDInerter.Units.TranslationalSpringConstant K = TMDInerter.Defaults.K "K: base stiffness";
+    parameter TMDInerter.Units.TranslationalDampingConstant C = TMDInerter.Defaults.C "C: base viscous damping";
+    parameter TMDInerter.Units.Force F = TMDInerter.Defaults.F "F: amplitude F of the excitation F cos(w t)";
+    parameter TMDInerter.Units.AngularFrequency w = TMDInerter.Defaults.w "w: excitation angular frequency (the paper's 'Hz' are rad/s); passed to the solvers, not a field";
+    // </generated>
     TMDInerter.Components.Mass mass(m = M);
     TMDInerter.Components.Spring spring(k = K);
     TMDInerter.Components.Damper damper(c = C);
@@ -24,13 +26,16 @@ package Systems "Base oscillator, TMD-inerter subsystems and the coupled systems
   end BaseOscillator;
 
   partial model PartialTMD "TMD mass m with spring, viscous damper and dry friction to the base"
-    parameter TMDInerter.Units.Mass m = TMDInerter.Defaults.m "TMD mass";
-    parameter TMDInerter.Units.TranslationalSpringConstant k = TMDInerter.Defaults.k "TMD stiffness";
-    parameter TMDInerter.Units.TranslationalDampingConstant c = TMDInerter.Defaults.c "Viscous damping";
-    parameter TMDInerter.Units.Force df = TMDInerter.Defaults.df "Dry friction amplitude";
-    parameter TMDInerter.Units.InverseVelocity slope = TMDInerter.Defaults.slope "Friction regularisation slope";
+    // <generated params tmd-all>
+    parameter TMDInerter.Units.Mass m = TMDInerter.Defaults.m "m: TMD mass";
+    parameter TMDInerter.Units.TranslationalSpringConstant k = TMDInerter.Defaults.k "k: linear stiffness of the TMD spring";
+    parameter TMDInerter.Units.TranslationalDampingConstant c = TMDInerter.Defaults.c "c: viscous damping of the TMD link";
+    parameter TMDInerter.Units.Force df = TMDInerter.Defaults.df "df: dry friction force amplitude, df (2/pi) atan(s (xd - yd))";
+    parameter TMDInerter.Units.InverseVelocity slope = TMDInerter.Defaults.slope "s: regularisation slope of the friction law (1e6 in the paper)";
+    parameter TMDInerter.Units.CubicSpringConstant k3 = TMDInerter.Defaults.k3 "k3: cubic term of the TMD spring, k3 (x - y)^3 (> 0 hardening, < 0 softening)";
+    // </generated>
     TMDInerter.Components.Mass mass(m = m);
-    TMDInerter.Components.Spring spring(k = k);
+    TMDInerter.Components.Spring spring(k = k, k3 = k3);
     TMDInerter.Components.Damper damper(c = c);
     TMDInerter.Components.DryFriction friction(df = df, slope = slope);
     TMDInerter.Interfaces.LinkFlange flange_base "Connect to the base oscillator";
@@ -51,7 +56,9 @@ package Systems "Base oscillator, TMD-inerter subsystems and the coupled systems
 
   model TMDIdealInerter "TMD with an ideal inerter"
     extends PartialTMD;
-    parameter TMDInerter.Units.Inertance I = TMDInerter.Defaults.I "Inertance";
+    // <generated params tmd-ideal>
+    parameter TMDInerter.Units.Inertance I = TMDInerter.Defaults.I "I: inertance of the inerter (0 without inerter)";
+    // </generated>
     TMDInerter.Components.Inerter inerter(I = I);
   equation
     connect(flange_base, inerter.flange_a);
@@ -60,10 +67,12 @@ package Systems "Base oscillator, TMD-inerter subsystems and the coupled systems
 
   model TMDPlayInerter "TMD with an inerter with play in its gear"
     extends PartialTMD;
-    parameter TMDInerter.Units.Inertance I = TMDInerter.Defaults.I "Inertance";
-    parameter TMDInerter.Units.TranslationalSpringConstant ki = TMDInerter.Defaults.ki "Gear mesh stiffness";
-    parameter TMDInerter.Units.TranslationalDampingConstant ci = TMDInerter.Defaults.ci "Gear mesh damping";
-    parameter TMDInerter.Units.Position eps = TMDInerter.Defaults.eps "Half the backlash";
+    // <generated params tmd-play>
+    parameter TMDInerter.Units.Inertance I = TMDInerter.Defaults.I "I: inertance of the inerter (0 without inerter)";
+    parameter TMDInerter.Units.TranslationalSpringConstant ki = TMDInerter.Defaults.ki "ki: gear mesh stiffness of the play chain";
+    parameter TMDInerter.Units.TranslationalDampingConstant ci = TMDInerter.Defaults.ci "ci: gear mesh damping of the play chain";
+    parameter TMDInerter.Units.Position eps = TMDInerter.Defaults.eps "eps: half the backlash of the gear (free while |r - y| < eps)";
+    // </generated>
     TMDInerter.Components.InerterWithPlay inerter(I = I, ki = ki, ci = ci, eps = eps);
   equation
     connect(flange_base, inerter.flange_a);
@@ -71,16 +80,21 @@ package Systems "Base oscillator, TMD-inerter subsystems and the coupled systems
   end TMDPlayInerter;
 
   partial model PartialCoupled "Base oscillator and TMD; x, xd, y, yd of the paper"
-    parameter TMDInerter.Units.Mass M = TMDInerter.Defaults.M "Base mass";
-    parameter TMDInerter.Units.TranslationalSpringConstant K = TMDInerter.Defaults.K "Base stiffness";
-    parameter TMDInerter.Units.TranslationalDampingConstant C = TMDInerter.Defaults.C "Base damping";
-    parameter TMDInerter.Units.Force F = TMDInerter.Defaults.F "Force amplitude";
-    parameter TMDInerter.Units.AngularFrequency w = TMDInerter.Defaults.w "Excitation frequency (rad/s)";
-    parameter TMDInerter.Units.Mass m = TMDInerter.Defaults.m "TMD mass";
-    parameter TMDInerter.Units.TranslationalSpringConstant k = TMDInerter.Defaults.k "TMD stiffness";
-    parameter TMDInerter.Units.TranslationalDampingConstant c = TMDInerter.Defaults.c "Viscous damping";
-    parameter TMDInerter.Units.Force df = TMDInerter.Defaults.df "Dry friction amplitude";
-    parameter TMDInerter.Units.InverseVelocity slope = TMDInerter.Defaults.slope "Friction regularisation slope";
+    // <generated params base>
+    parameter TMDInerter.Units.Mass M = TMDInerter.Defaults.M "M: base mass";
+    parameter TMDInerter.Units.TranslationalSpringConstant K = TMDInerter.Defaults.K "K: base stiffness";
+    parameter TMDInerter.Units.TranslationalDampingConstant C = TMDInerter.Defaults.C "C: base viscous damping";
+    parameter TMDInerter.Units.Force F = TMDInerter.Defaults.F "F: amplitude F of the excitation F cos(w t)";
+    parameter TMDInerter.Units.AngularFrequency w = TMDInerter.Defaults.w "w: excitation angular frequency (the paper's 'Hz' are rad/s); passed to the solvers, not a field";
+    // </generated>
+    // <generated params tmd-all>
+    parameter TMDInerter.Units.Mass m = TMDInerter.Defaults.m "m: TMD mass";
+    parameter TMDInerter.Units.TranslationalSpringConstant k = TMDInerter.Defaults.k "k: linear stiffness of the TMD spring";
+    parameter TMDInerter.Units.TranslationalDampingConstant c = TMDInerter.Defaults.c "c: viscous damping of the TMD link";
+    parameter TMDInerter.Units.Force df = TMDInerter.Defaults.df "df: dry friction force amplitude, df (2/pi) atan(s (xd - yd))";
+    parameter TMDInerter.Units.InverseVelocity slope = TMDInerter.Defaults.slope "s: regularisation slope of the friction law (1e6 in the paper)";
+    parameter TMDInerter.Units.CubicSpringConstant k3 = TMDInerter.Defaults.k3 "k3: cubic term of the TMD spring, k3 (x - y)^3 (> 0 hardening, < 0 softening)";
+    // </generated>
     TMDInerter.Systems.BaseOscillator base(M = M, K = K, C = C, F = F, w = w);
     TMDInerter.Units.Position x "Base position";
     TMDInerter.Units.Velocity xd "Base velocity";
@@ -93,7 +107,9 @@ package Systems "Base oscillator, TMD-inerter subsystems and the coupled systems
 
   model CoupledNoInerter "Base + classical TMD"
     extends PartialCoupled;
-    TMDInerter.Systems.TMDNoInerter tmd(m = m, k = k, c = c, df = df, slope = slope);
+    // <generated instance none>
+    TMDInerter.Systems.TMDNoInerter tmd(m = m, k = k, c = c, df = df, slope = slope, k3 = k3);
+    // </generated>
   equation
     connect(base.flange, tmd.flange_base);
     y = tmd.mass.s;
@@ -102,8 +118,12 @@ package Systems "Base oscillator, TMD-inerter subsystems and the coupled systems
 
   model CoupledIdealInerter "Base + TMD with an ideal inerter"
     extends PartialCoupled;
-    parameter TMDInerter.Units.Inertance I = TMDInerter.Defaults.I "Inertance";
-    TMDInerter.Systems.TMDIdealInerter tmd(m = m, k = k, c = c, df = df, slope = slope, I = I);
+    // <generated params tmd-ideal>
+    parameter TMDInerter.Units.Inertance I = TMDInerter.Defaults.I "I: inertance of the inerter (0 without inerter)";
+    // </generated>
+    // <generated instance ideal>
+    TMDInerter.Systems.TMDIdealInerter tmd(m = m, k = k, c = c, df = df, slope = slope, I = I, k3 = k3);
+    // </generated>
     TMDInerter.Units.Force P "Inerter force";
   equation
     connect(base.flange, tmd.flange_base);
@@ -114,11 +134,15 @@ package Systems "Base oscillator, TMD-inerter subsystems and the coupled systems
 
   model CoupledPlayInerter "Base + TMD with an inerter with play; d = r - y"
     extends PartialCoupled;
-    parameter TMDInerter.Units.Inertance I = TMDInerter.Defaults.I "Inertance";
-    parameter TMDInerter.Units.TranslationalSpringConstant ki = TMDInerter.Defaults.ki "Gear mesh stiffness";
-    parameter TMDInerter.Units.TranslationalDampingConstant ci = TMDInerter.Defaults.ci "Gear mesh damping";
-    parameter TMDInerter.Units.Position eps = TMDInerter.Defaults.eps "Half the backlash";
-    TMDInerter.Systems.TMDPlayInerter tmd(m = m, k = k, c = c, df = df, slope = slope, I = I, ki = ki, ci = ci, eps = eps);
+    // <generated params tmd-play>
+    parameter TMDInerter.Units.Inertance I = TMDInerter.Defaults.I "I: inertance of the inerter (0 without inerter)";
+    parameter TMDInerter.Units.TranslationalSpringConstant ki = TMDInerter.Defaults.ki "ki: gear mesh stiffness of the play chain";
+    parameter TMDInerter.Units.TranslationalDampingConstant ci = TMDInerter.Defaults.ci "ci: gear mesh damping of the play chain";
+    parameter TMDInerter.Units.Position eps = TMDInerter.Defaults.eps "eps: half the backlash of the gear (free while |r - y| < eps)";
+    // </generated>
+    // <generated instance play>
+    TMDInerter.Systems.TMDPlayInerter tmd(m = m, k = k, c = c, df = df, slope = slope, I = I, ki = ki, ci = ci, eps = eps, k3 = k3);
+    // </generated>
     TMDInerter.Units.Position d "r - y";
     TMDInerter.Units.Velocity dd "der(d)";
     TMDInerter.Units.Force P "Chain force";

@@ -19,6 +19,7 @@ package TMDInerter "Tuned mass damper with inerter (Brzeski & Perlikowski 2017),
     type Inertance = Real(final quantity = "Mass", final unit = "kg", min = 0)
       "Inertance of an inerter (force per relative acceleration)";
     type TranslationalSpringConstant = Real(final quantity = "TranslationalSpringConstant", final unit = "N/m");
+    type CubicSpringConstant = Real(final unit = "N/m3") "Coefficient of a cubic spring term";
     type TranslationalDampingConstant = Real(final quantity = "TranslationalDampingConstant", final unit = "N.s/m");
     type AngularFrequency = Real(final quantity = "AngularFrequency", final unit = "rad/s");
     type InverseVelocity = Real(final unit = "s/m") "Slope of the friction regularisation";

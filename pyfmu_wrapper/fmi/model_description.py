@@ -18,6 +18,7 @@ UNITS = {
     "m/s2": dict(m=1, s=-2),
     "N": dict(kg=1, m=1, s=-2),
     "N/m": dict(kg=1, s=-2),
+    "N/m3": dict(kg=1, m=-2, s=-2),
     "N.s/m": dict(kg=1, s=-1),
     "rad/s": dict(rad=1, s=-1),
     "s/m": dict(s=1, m=-1),

@@ -25,8 +25,9 @@ import traceback
 import numpy as np
 
 from ..physics import kernels as kn
-from ..physics.params import P_s, BaseParams, TMDParams, pack
-from ..solvers.rodas import integrate
+from ..physics import registry
+from ..physics.params import N_PARAMS, P_s, BaseParams, TMDParams, pack
+from ..solvers.rodas import failure_message, integrate
 from .variables import BASE_OSCILLATOR, BOOLEAN, INTEGER, TMD_INERTER, TRIVIAL, FmuSpec
 
 OK, WARNING, ERROR, FATAL = 0, 1, 3, 4
@@ -69,7 +70,7 @@ class Slave:
         self.last_error = ""
         self.t = 0.0
         self.h = 0.0  # step size suggested by the integrator (part of the state: exact restore)
-        self.p = np.zeros(15)
+        self.p = np.zeros(N_PARAMS)
         self.z = np.zeros(self.n_state)
         self.stats = np.zeros(4, dtype=np.int64)
         self._empty_t = np.zeros(0)
@@ -91,6 +92,10 @@ class Slave:
             else:
                 self.r[v.vr] = float(v.start)
         self.du[:] = 0.0
+
+    def _registry_values(self, subsystem):
+        """Field name -> value of the subsystem's registry parameters, read from the FMU buffers."""
+        return {p.name: self.val(p.fmu_name) for p in registry.fields(subsystem)}
 
     def val(self, name):
         v = self.spec.by_name(name)
@@ -216,7 +221,7 @@ class Slave:
             res[j] = np.imag(y[out_vrs.index(vr)]) / _CSTEP
 
     def _write_outputs(self, values):
-        for v, val in zip(self._outputs, values):
+        for v, val in zip(self._outputs, values, strict=True):
             if v.type in (INTEGER, BOOLEAN):
                 self.i[v.vr] = int(np.real(val))
             else:
@@ -229,10 +234,12 @@ class Slave:
         rtol, a = float(self.r[tol_vr[0]]), float(self.r[tol_vr[1]])
         if getattr(self, "_atol_value", None) != a:
             self._atol_value, self._atol = a, np.full(self.n_state, a)
-        hn, _ = integrate(system, self.z, t, t + h, self.p, u, rtol, self._atol, self.h, h,
-                          self._empty_t, self._empty_s, 1.0 / self.p[P_s] if self.p[P_s] > 0 else 1e-6, self.stats)
-        if not hn > 0.0:
-            raise FmuStepError(f"integrator failed in doStep at t = {t:.16g} (step size underflow)")
+        band = 1.0 / self.p[P_s] if self.p[P_s] > 0 else 1e-6
+        hn, _, status, tf = integrate(system, self.z, t, t + h, self.p, u, rtol, self._atol, self.h, h,
+                                      self._empty_t, self._empty_s, band, self.stats)
+        if status != 0:
+            raise FmuStepError(f"doStep from t = {t:.16g} s: "
+                               + failure_message(status, system, tf, self.z, self.p, self._atol, band))
         self.h = hn
 
 
@@ -243,9 +250,8 @@ class BaseOscillatorSlave(Slave):
     n_state = 2
 
     def configure(self):
-        base = BaseParams(mass=self.val("M"), stiffness=self.val("K"), damping=self.val("C"),
-                          force_amplitude=self.val("F"), source=f"FMU {self.instance_name}")
-        self.p = pack(base, TMDParams(), self.val("w"))
+        base = BaseParams(**self._registry_values("base"), source=f"FMU {self.instance_name}")
+        self.p = pack(base, TMDParams(), self.val(registry.get("base", "omega").fmu_name))
         self.z[:] = (self.val("x0"), self.val("xd0"))
 
     def outputs(self, inputs):
@@ -265,11 +271,7 @@ class TMDInerterSlave(Slave):
     n_state = 4
 
     def configure(self):
-        tmd = TMDParams(mass=self.val("m"), stiffness=self.val("k"), damping=self.val("c"),
-                        friction_force=self.val("df"), friction_slope=self.val("s"),
-                        inertance=self.val("I"), inerter=self.val("inerter"),
-                        mesh_stiffness=self.val("ki"), mesh_damping=self.val("ci"),
-                        play_gap=self.val("eps"), source=f"FMU {self.instance_name}")
+        tmd = TMDParams(**self._registry_values("tmd"), source=f"FMU {self.instance_name}")
         self.p = pack(BaseParams(), tmd, 0.0)
         self.z[:] = (self.val("y0"), self.val("yd0"), self.val("d0"), self.val("dd0"))
 

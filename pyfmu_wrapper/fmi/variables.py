@@ -18,6 +18,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from ..physics import registry
+
 REAL, INTEGER, BOOLEAN = "Real", "Integer", "Boolean"
 
 
@@ -97,6 +99,23 @@ def _par(name, vr, start, unit, description, type_=REAL):
     return Variable(name, vr, type_, "parameter", "fixed", description, unit, start, "exact")
 
 
+def _registry_parameters(subsystem: str) -> tuple[Variable, ...]:
+    """The model parameters of one FMU, from the parameter registry (name, vr, unit, default)."""
+    out = []
+    for p in registry.of(subsystem):
+        if p.kind == "enum":
+            out.append(_par(p.fmu_name, p.fmu_vr, int(p.default), None, p.description, INTEGER))
+        else:
+            unit = None if p.unit == "1" else p.unit
+            out.append(_par(p.fmu_name, p.fmu_vr, float(p.default), unit, f"{p.symbol}: {p.description}"))
+    return tuple(out)
+
+
+#: FMU names of the model parameters (every output of a subsystem depends on them initially)
+_BASE_PARS = tuple(p.fmu_name for p in registry.of("base"))
+_TMD_PARS = tuple(p.fmu_name for p in registry.of("tmd"))
+
+
 _INTEGRATOR = (
     _par("rtol", 90, 1e-8, None, "relative tolerance of the RODAS4 integrator inside doStep"),
     _par("atol", 91, 1e-10, None, "absolute tolerance of the integrator (all states, SI units)"),
@@ -111,11 +130,7 @@ BASE_OSCILLATOR = FmuSpec(
     description="Base oscillator of Brzeski & Perlikowski (2017): M xdd + C xd + K x = F cos(w t) - f_link",
     slave="pyfmu_wrapper.fmi.slaves:BaseOscillatorSlave",
     variables=(
-        _par("M", 0, 100.0, "kg", "base mass M"),
-        _par("K", 1, 4.0e4, "N/m", "base stiffness K"),
-        _par("C", 2, 100.0, "N.s/m", "base viscous damping C"),
-        _par("F", 3, 200.0, "N", "excitation amplitude F of F cos(w t)"),
-        _par("w", 4, 20.0, "rad/s", "excitation angular frequency w (the paper's 'Hz' are rad/s)"),
+        *_registry_parameters("base"),
         _par("x0", 5, 0.0, "m", "initial base displacement"),
         _par("xd0", 6, 0.0, "m/s", "initial base velocity"),
         Variable("f_link", 10, REAL, "input", "continuous",
@@ -127,7 +142,7 @@ BASE_OSCILLATOR = FmuSpec(
                  initial_depends_on=("xd0",)),
         Variable("xdd", 22, REAL, "output", "continuous", "base acceleration", "m/s2", initial="calculated",
                  depends_on=("f_link",), dependencies_kind=("fixed",),
-                 initial_depends_on=("M", "K", "C", "F", "x0", "xd0", "f_link")),
+                 initial_depends_on=_BASE_PARS + ("x0", "xd0", "f_link")),
         Variable("f_exc", 23, REAL, "output", "continuous", "excitation force F cos(w t)", "N",
                  initial="calculated", initial_depends_on=("F", "w")),
     ) + _INTEGRATOR,
@@ -140,16 +155,7 @@ TMD_INERTER = FmuSpec(
                 "driven by the base motion",
     slave="pyfmu_wrapper.fmi.slaves:TMDInerterSlave",
     variables=(
-        _par("m", 0, 9.0, "kg", "TMD mass m"),
-        _par("k", 1, 4.0e3, "N/m", "TMD spring stiffness k"),
-        _par("c", 2, 0.0, "N.s/m", "TMD viscous damping c"),
-        _par("df", 3, 0.0, "N", "dry friction force df, df (2/pi) atan(s (xd - yd))"),
-        _par("s", 4, 1.0e6, "s/m", "friction regularisation slope s"),
-        _par("I", 5, 1.0, "kg", "inertance I"),
-        _par("ki", 6, 2.0e7, "N/m", "gear mesh stiffness ki (play model)"),
-        _par("ci", 7, 0.01, "N.s/m", "gear mesh damping ci (play model)"),
-        _par("eps", 8, 0.0, "m", "half backlash eps of the gear (play model)"),
-        _par("inerter", 9, 1, None, "inerter model: 0 none (I must be 0), 1 ideal, 2 with play", INTEGER),
+        *_registry_parameters("tmd"),
         _par("y0", 11, 0.0, "m", "initial TMD displacement"),
         _par("yd0", 12, 0.0, "m/s", "initial TMD velocity"),
         _par("d0", 13, 0.0, "m", "initial play-chain deflection d = r - y (play model)"),
@@ -161,8 +167,7 @@ TMD_INERTER = FmuSpec(
                  "force of the TMD links on the base, positive in -x on the base (+y on the TMD)", "N",
                  initial="calculated", depends_on=("x", "xd", "xdd"),
                  dependencies_kind=("fixed", "dependent", "fixed"),
-                 initial_depends_on=("m", "k", "c", "df", "s", "I", "ki", "ci", "eps", "inerter",
-                                     "y0", "yd0", "d0", "dd0", "x", "xd", "xdd")),
+                 initial_depends_on=_TMD_PARS + ("y0", "yd0", "d0", "dd0", "x", "xd", "xdd")),
         Variable("y", 41, REAL, "output", "continuous", "TMD displacement", "m", initial="calculated",
                  initial_depends_on=("y0",)),
         Variable("yd", 42, REAL, "output", "continuous", "TMD velocity", "m/s", initial="calculated",
@@ -170,8 +175,7 @@ TMD_INERTER = FmuSpec(
         Variable("inerter_force", 43, REAL, "output", "continuous",
                  "force P carried by the inerter chain (diagnostic)", "N", initial="calculated",
                  depends_on=("x", "xd", "xdd"), dependencies_kind=("fixed", "dependent", "fixed"),
-                 initial_depends_on=("m", "k", "c", "df", "s", "I", "ki", "ci", "eps", "inerter",
-                                     "y0", "yd0", "d0", "dd0", "x", "xd", "xdd")),
+                 initial_depends_on=_TMD_PARS + ("y0", "yd0", "d0", "dd0", "x", "xd", "xdd")),
         Variable("contact", 44, INTEGER, "output", "discrete",
                  "gear contact of the play chain: +1 compression, -1 extension, 0 free", None,
                  initial="calculated", initial_depends_on=("eps", "inerter", "d0")),

@@ -9,8 +9,9 @@ and applies the steady-state definition of the monolithic solver
 (:mod:`pyfmu_wrapper.solvers.monolithic`): A_k = max |x| over forcing period k, from the base
 outputs x, xd at the communication points with the cubic Hermite interpolant between them;
 windows of W periods (1 without play, 20 with a gap), W_j = max of A_k in window j; W = 1 stops
-when the estimated distance to the limit |W_j - W_j-1| rho / (1 - rho) is below ``tol`` W_j, W > 1
-when |W_j - W_j-1| <= ``tol_window`` W_j. The communication step is T / ``steps_per_period`` so
+when the estimated distance of the base state to the periodic orbit is below ``tol``, W > 1
+when two windows agree to ``tol_window`` or their scatter is known (irregular responses are
+flagged; :class:`~pyfmu_wrapper.solvers.monolithic.WindowCriterion`). The communication step is T / ``steps_per_period`` so
 that periods start at communication points. Each frequency starts from the previous frequency's
 final state (x, xd, y, yd read from the FMU outputs; d, dd of the play chain from
 :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`) or, for the first one, from
@@ -25,6 +26,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pandas as pd
 
+from ..physics import registry
 from ..physics.params import BaseParams, InerterModel, TMDParams
 from ..solvers.sweep import run_sweep_pieces
 from ..solvers.monolithic import SolverSettings, WindowCriterion, default_window, companion_start, initial_guess
@@ -62,6 +64,7 @@ class CosimSettings:
     fmu_rtol: float = 1e-8
     shooting: bool = True
     max_newton: int = 12
+    scatter_tol: float = 5e-3
 
     def window_for(self, tmd: TMDParams) -> int:
         return default_window(tmd, self.window)
@@ -97,16 +100,14 @@ def steps_for_accuracy(accuracy: float, order: int = 2, coupling: str = "impulse
 def fmu_parameters(base: BaseParams, tmd: TMDParams, omega: float, z0, fmu_rtol: float = 1e-8) -> dict:
     """The FMU parameter values ("instance.variable" -> value) of a configuration and start state."""
     z = np.asarray(z0, dtype=float)
-    return {
-        "base.M": base.mass, "base.K": base.stiffness, "base.C": base.damping, "base.F": base.force_amplitude,
-        "base.w": float(omega), "base.x0": z[0], "base.xd0": z[1], "base.rtol": fmu_rtol,
+    out = registry.fmu_start_values(base, tmd, omega)
+    out.update({
+        "base.x0": z[0], "base.xd0": z[1], "base.rtol": fmu_rtol,
         "base.atol": 1e-8 * abs(base.force_amplitude) / base.stiffness,
-        "tmd.m": tmd.mass, "tmd.k": tmd.stiffness, "tmd.c": tmd.damping, "tmd.df": tmd.friction_force,
-        "tmd.s": tmd.friction_slope, "tmd.I": tmd.inertance, "tmd.ki": tmd.mesh_stiffness,
-        "tmd.ci": tmd.mesh_damping, "tmd.eps": tmd.play_gap, "tmd.inerter": int(tmd.inerter),
         "tmd.y0": z[2], "tmd.yd0": z[3], "tmd.d0": z[4], "tmd.dd0": z[5], "tmd.rtol": fmu_rtol,
         "tmd.atol": _tmd_atol(base, tmd),
-    }
+    })
+    return out
 
 
 def _tmd_atol(base: BaseParams, tmd: TMDParams) -> float:
@@ -176,6 +177,7 @@ class CosimSteadyState:
     steps: int
     wall_time: float
     period_max: np.ndarray = field(repr=False, default=None)
+    irregular: bool = False  #: settled into irregular motion; ``change`` is then its scatter
 
 
 class _Periods:
@@ -312,16 +314,21 @@ def steady_state(master: Master, base: BaseParams, tmd: TMDParams, omega: float,
                                     wall_time=time.perf_counter() - t_start, period_max=np.array([a1]))
         steps = 0
     _start(master, base, tmd, omega, z, settings)
-    crit = WindowCriterion.from_settings(settings, W, base)
+    crit = WindowCriterion.from_settings(settings, W, base, omega)
+    ix, iv = master.signals.index("base.x"), master.signals.index("base.xd")
+    if W == 1:
+        crit.add(abs(master.y[ix]), (master.y[ix], master.y[iv]))  # the start, for the first residual
+        crit.period_max.clear()
     k = 0
     while k < crit.max_periods:
         k += 1
-        if crit.add(run.period()):
+        if crit.add(run.period(), (master.y[ix], master.y[iv])):
             break
     amplitude, converged, change = crit.result()
     return CosimSteadyState(omega=float(omega), amplitude=amplitude, state=_state_of(master, z),
                             periods=k, converged=converged, change=change, steps=steps + k * n,
-                            wall_time=time.perf_counter() - t_start, period_max=np.array(crit.period_max))
+                            wall_time=time.perf_counter() - t_start, period_max=np.array(crit.period_max),
+                            irregular=crit.irregular)
 
 
 def continuation_start(base: BaseParams, tmd: TMDParams, z_prev, w_prev: float, w: float) -> np.ndarray:

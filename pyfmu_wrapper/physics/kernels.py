@@ -10,7 +10,7 @@ State of the coupled system (6 entries)::
 
 Link forces act on the base in -x and on the TMD in +y:
 
-    Fs = k (x - y) + c (xd - yd) + df (2/pi) atan(s (xd - yd))          spring, damper, friction
+    Fs = k (x - y) + k3 (x - y)^3 + c (xd - yd) + df (2/pi) atan(s (xd - yd))   spring, damper, friction
     P  = I (xdd - ydd)                                                  ideal inerter
     P  = I (xdd - rdd) = ki (r - u) + ci (rd - ud)                      inerter with play
 
@@ -32,10 +32,11 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit, types
+from numba import types
 from numba.extending import overload
 
-from .params import (P_C, P_F, P_I, P_K, P_M, P_MODEL, P_W, P_c, P_ci, P_df, P_eps, P_k, P_ki,
+from .._jit import njit
+from .params import (P_C, P_F, P_I, P_K, P_M, P_MODEL, P_W, P_c, P_ci, P_df, P_eps, P_k, P_k3, P_ki,
                      P_m, P_s)
 
 MODEL_NONE, MODEL_IDEAL, MODEL_PLAY = 0, 1, 2
@@ -82,10 +83,22 @@ def friction_force(v, df, s):
 
 
 @njit(cache=True)
+def spring_force(u, p):
+    """TMD spring k u + k3 u^3 [N] at relative displacement u = x - y [m] (k3 = 0 adds exactly 0)."""
+    return p[P_k] * u + p[P_k3] * (u * u * u)
+
+
+@njit(cache=True)
+def spring_stiffness(u, p):
+    """d/du of :func:`spring_force`: k + 3 k3 u^2 [N/m]."""
+    return p[P_k] + 3.0 * p[P_k3] * (u * u)
+
+
+@njit(cache=True)
 def static_link_force(x, xd, y, yd, p):
     """Fs = spring + viscous damper + dry friction [N], positive on the TMD in +y."""
     v = xd - yd
-    return p[P_k] * (x - y) + p[P_c] * v + friction_force(v, p[P_df], p[P_s])
+    return spring_force(x - y, p) + p[P_c] * v + friction_force(v, p[P_df], p[P_s])
 
 
 @njit(cache=True)
@@ -297,8 +310,9 @@ def coupled_jacobian(t, z, p, J, ft):
     model = int(p[P_MODEL])
     m, I, M = p[P_m], p[P_I], p[P_M]
     kv = p[P_c] + friction_slope_at(xd - yd, p[P_df], p[P_s])
+    ks = spring_stiffness(x - y, p)
     # gradient of Fs over [x, xd, y, yd, d, dd]
-    gF = (p[P_k], kv, -p[P_k], -kv, 0.0, 0.0)
+    gF = (ks, kv, -ks, -kv, 0.0, 0.0)
     a, ya, da = 0.0, 0.0, 0.0
     Pd, Pdd = 0.0, 0.0
     if model == MODEL_IDEAL:
@@ -340,13 +354,14 @@ def coupled_jacobian(t, z, p, J, ft):
 def tmd_jacobian(t, z, p, u, J):
     """Analytic d(rhs)/dz of the TMD subsystem (SYS_TMD, z = [y, yd, d, dd]) driven by the inputs u;
     held against the complex-step Jacobian in the tests."""
+    x = input_value(u, 0, t)
     xd = input_value(u, 1, t)
     y, yd, d, dd = z[0], z[1], z[2], z[3]
     model = int(p[P_MODEL])
     m, I = p[P_m], p[P_I]
     kv = p[P_c] + friction_slope_at(xd - yd, p[P_df], p[P_s])
     # gradient of Fs over [y, yd, d, dd]
-    gF0, gF1 = -p[P_k], -kv
+    gF0, gF1 = -spring_stiffness(x - y, p), -kv
     Pd, Pdd = 0.0, 0.0
     if model == MODEL_IDEAL:
         cy = 1.0 / (m + I)
@@ -439,11 +454,14 @@ def switching_functions(z, p, g):
 def energy(z, p):
     """Mechanical energy [J] stored in the coupled system (physics notes).
 
-    E = M xd^2/2 + m yd^2/2 + K x^2/2 + k (x-y)^2/2 + I (xd - rd)^2/2 + ki ((|d| - eps)+)^2/2.
+    E = M xd^2/2 + m yd^2/2 + K x^2/2 + k (x-y)^2/2 + k3 (x-y)^4/4 + I (xd - rd)^2/2
+        + ki ((|d| - eps)+)^2/2.
     For the ideal inerter the inerter term is I (xd - yd)^2 / 2.
     """
     x, xd, y, yd, d, dd = z[0], z[1], z[2], z[3], z[4], z[5]
-    E = 0.5 * p[P_M] * xd * xd + 0.5 * p[P_m] * yd * yd + 0.5 * p[P_K] * x * x + 0.5 * p[P_k] * (x - y) ** 2
+    u = x - y
+    E = (0.5 * p[P_M] * xd * xd + 0.5 * p[P_m] * yd * yd + 0.5 * p[P_K] * x * x + 0.5 * p[P_k] * u * u
+         + 0.25 * p[P_k3] * u ** 4)
     model = int(p[P_MODEL])
     if model == MODEL_IDEAL:
         E += 0.5 * p[P_I] * (xd - yd) ** 2

@@ -11,10 +11,12 @@ kernels of :mod:`pyfmu_wrapper.physics.kernels`.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import asdict, field, fields, make_dataclass, replace
 from enum import IntEnum
 
 import numpy as np
+
+from . import registry
 
 
 class ParameterError(ValueError):
@@ -46,27 +48,11 @@ def _check(name: str, value, *, source: str | None, minimum=None, strict=False, 
     return v
 
 
-@dataclass(frozen=True)
-class BaseParams:
-    """Base oscillator: M xdd + C xd + K x = F cos(omega t) - (force of the TMD links).
-
-    mass: M [kg]; stiffness: K [N/m]; damping: C [N s/m]; force_amplitude: F [N].
-    The excitation frequency omega [rad/s] is not a parameter of the structure; it is passed to
-    the solvers (the paper's "Hz" are rad/s, see the physics notes).
-    """
-
-    mass: float = 100.0
-    stiffness: float = 4.0e4
-    damping: float = 100.0
-    force_amplitude: float = 200.0
-    source: str | None = field(default=None, compare=False, repr=False)
+class _BaseMixin:
+    """Methods of :class:`BaseParams` (its fields come from the registry)."""
 
     def __post_init__(self):
-        s = self.source
-        object.__setattr__(self, "mass", _check("mass (M)", self.mass, source=s, minimum=0, strict=True))
-        object.__setattr__(self, "stiffness", _check("stiffness (K)", self.stiffness, source=s, minimum=0))
-        object.__setattr__(self, "damping", _check("damping (C)", self.damping, source=s, minimum=0))
-        object.__setattr__(self, "force_amplitude", _check("force_amplitude (F)", self.force_amplitude, source=s))
+        _validate_fields(self, "base")
 
     @property
     def natural_frequency(self) -> float:
@@ -74,55 +60,20 @@ class BaseParams:
         return math.sqrt(self.stiffness / self.mass)
 
 
-@dataclass(frozen=True)
-class TMDParams:
-    """TMD mass m and its links to the base (paper Table 1).
-
-    Link forces are counted positive when they push the base in -x and the TMD in +y:
-    Fs = k (x - y) + c (xd - yd) + df (2/pi) atan(s (xd - yd)), and the inerter force P.
-
-    mass: m [kg]; stiffness: k [N/m]; damping: c [N s/m]; friction_force: df [N];
-    friction_slope: s [s/m] (regularisation of sign(); 1e6 in the paper); inertance: I [kg];
-    inerter: which inerter model; mesh_stiffness: ki [N/m]; mesh_damping: ci [N s/m];
-    play_gap: eps [m] (half the backlash: the gear is free while |r - y| < eps).
-    """
-
-    mass: float = 9.0
-    stiffness: float = 4.0e3
-    damping: float = 0.0
-    friction_force: float = 0.0
-    friction_slope: float = 1.0e6
-    inertance: float = 1.0
-    inerter: InerterModel = InerterModel.IDEAL
-    mesh_stiffness: float = 2.0e7
-    mesh_damping: float = 0.01
-    play_gap: float = 0.0
-    source: str | None = field(default=None, compare=False, repr=False)
+class _TMDMixin:
+    """Methods and cross-field checks of :class:`TMDParams` (its fields come from the registry)."""
 
     def __post_init__(self):
         s = self.source
-        chk = {
-            "mass": dict(minimum=0),
-            "stiffness": dict(minimum=0),
-            "damping": dict(minimum=0),
-            "friction_force": dict(minimum=0),
-            "friction_slope": dict(minimum=0, strict=True),
-            "inertance": dict(minimum=0),
-            "mesh_stiffness": dict(minimum=0, strict=True),
-            "mesh_damping": dict(minimum=0),
-            "play_gap": dict(minimum=0),
-        }
-        for name, kw in chk.items():
-            object.__setattr__(self, name, _check(name, getattr(self, name), source=s, **kw))
+        where = f" (from {s})" if s else ""
         try:
             model = InerterModel[self.inerter.upper()] if isinstance(self.inerter, str) else InerterModel(self.inerter)
-        except (KeyError, ValueError):
-            where = f" (from {s})" if s else ""
+        except (KeyError, ValueError, TypeError, AttributeError):
             raise ParameterError(
                 f"inerter must be one of {[m.name.lower() for m in InerterModel]}, got {self.inerter!r}{where}"
             ) from None
         object.__setattr__(self, "inerter", model)
-        where = f" (from {s})" if s else ""
+        _validate_fields(self, "tmd")
         if model == InerterModel.NONE and self.inertance != 0.0:
             raise ParameterError(f"inertance must be 0 when inerter is 'none', got {self.inertance!r}{where}")
         if model != InerterModel.NONE and self.inertance <= 0.0:
@@ -146,8 +97,49 @@ class TMDParams:
 
     @property
     def is_linear(self) -> bool:
-        """True when the coupled system is linear: no friction and no gap."""
-        return self.friction_force == 0.0 and (self.inerter != InerterModel.PLAY or self.play_gap == 0.0)
+        """True when the coupled system is linear: no friction, no gap and no cubic spring term."""
+        return (self.friction_force == 0.0 and self.cubic_stiffness == 0.0
+                and (self.inerter != InerterModel.PLAY or self.play_gap == 0.0))
+
+
+def _validate_fields(obj, subsystem: str):
+    s = obj.source
+    for par in registry.fields(subsystem):
+        if par.kind != "real":
+            continue
+        value = _check(f"{par.name} ({par.symbol})", getattr(obj, par.name), source=s,
+                       minimum=par.minimum, strict=par.strict)
+        object.__setattr__(obj, par.name, value)
+
+
+def _class_doc(title: str, subsystem: str) -> str:
+    lines = [title, "", "Fields (SI units; generated from :mod:`pyfmu_wrapper.physics.registry`)::", ""]
+    for par in registry.fields(subsystem):
+        lines.append(f"    {par.name}: {par.symbol} [{par.unit}] {par.description} (default {par.default!r})")
+    return "\n".join(lines)
+
+
+def _make_class(name: str, subsystem: str, mixin, title: str):
+    specs = []
+    for par in registry.fields(subsystem):
+        default = InerterModel(int(par.default)) if par.kind == "enum" else float(par.default)
+        specs.append((par.name, InerterModel if par.kind == "enum" else float, field(default=default)))
+    specs.append(("source", "str | None", field(default=None, compare=False, repr=False)))
+    cls = make_dataclass(name, specs, bases=(mixin,), frozen=True, kw_only=True,
+                         namespace={"__doc__": _class_doc(title, subsystem), "__module__": __name__})
+    return cls
+
+
+#: Base oscillator: M xdd + C xd + K x = F cos(omega t) - (force of the TMD links). The
+#: excitation frequency omega [rad/s] is passed to the solvers, not stored here.
+BaseParams = _make_class("BaseParams", "base", _BaseMixin,
+                         "Base oscillator: M xdd + C xd + K x = F cos(w t) - (force of the TMD links).")
+#: TMD mass m and its links to the base (paper Table 1). Link forces are counted positive when
+#: they push the base in -x and the TMD in +y:
+#: Fs = k (x - y) + k3 (x - y)^3 + c (xd - yd) + df (2/pi) atan(s (xd - yd)), and the inerter force P.
+TMDParams = _make_class("TMDParams", "tmd", _TMDMixin,
+                        "TMD mass m and its links to the base (paper Table 1): spring k + k3 (x-y)^3, "
+                        "damper c, dry friction df, inerter I (none / ideal / with play ki, ci, eps).")
 
 
 def with_values(obj, source: str | None = None, **changes):
@@ -166,20 +158,27 @@ def as_dict(obj) -> dict:
 
 
 # --- numeric packing for the compiled kernels --------------------------------------------------
-# One table: index names used by kernels.py. Keep in sync only here.
-P_M, P_K, P_C, P_F, P_W, P_m, P_k, P_c, P_df, P_s, P_I, P_ki, P_ci, P_eps, P_MODEL = range(15)
-N_PARAMS = 15
+# The indices come from the registry (its order is the packed order); kernels.py uses these names.
+_IX = registry.PACK_INDEX
+P_M, P_K, P_C, P_F, P_W = _IX["base.mass"], _IX["base.stiffness"], _IX["base.damping"], \
+    _IX["base.force_amplitude"], _IX["base.omega"]
+P_m, P_k, P_c, P_df, P_s = _IX["tmd.mass"], _IX["tmd.stiffness"], _IX["tmd.damping"], \
+    _IX["tmd.friction_force"], _IX["tmd.friction_slope"]
+P_I, P_ki, P_ci, P_eps, P_MODEL = _IX["tmd.inertance"], _IX["tmd.mesh_stiffness"], _IX["tmd.mesh_damping"], \
+    _IX["tmd.play_gap"], _IX["tmd.inerter"]
+P_k3 = _IX["tmd.cubic_stiffness"]
+N_PARAMS = registry.N_PARAMS
 
 
 def pack(base: BaseParams, tmd: TMDParams, omega: float = 0.0) -> np.ndarray:
-    """Pack parameters and the excitation frequency omega [rad/s] into the kernels' float array."""
+    """Pack parameters and the excitation frequency omega [rad/s] into the kernels' float array
+    (one entry per registry parameter, in registry order)."""
     p = np.zeros(N_PARAMS)
-    p[P_M], p[P_K], p[P_C], p[P_F] = base.mass, base.stiffness, base.damping, base.force_amplitude
-    p[P_W] = omega
-    p[P_m], p[P_k], p[P_c] = tmd.mass, tmd.stiffness, tmd.damping
-    p[P_df], p[P_s], p[P_I] = tmd.friction_force, tmd.friction_slope, tmd.inertance
-    p[P_ki], p[P_ci], p[P_eps] = tmd.mesh_stiffness, tmd.mesh_damping, tmd.play_gap
-    p[P_MODEL] = float(int(tmd.inerter))
+    for i, par in enumerate(registry.PARAMETERS):
+        if par.subsystem == "base":
+            p[i] = omega if par.name == "omega" else getattr(base, par.name)
+        else:
+            p[i] = float(int(getattr(tmd, par.name))) if par.kind == "enum" else getattr(tmd, par.name)
     return p
 
 

@@ -9,6 +9,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..physics import registry
 from ..physics.params import BaseParams, TMDParams
 from ..solvers.monolithic import SolverSettings
 
@@ -18,8 +19,7 @@ DIRECTIONS = ("up", "down", "both")
 LINEAR_METHODS = ("exact", "simulate")
 STUDY_KINDS = ("frc", "map", "phase_portrait")
 #: TMD parameters a map may sweep: the numeric TMDParams fields and the derived inertance_ratio.
-MAP_PARAMETERS = ("mass", "stiffness", "damping", "friction_force", "friction_slope", "inertance",
-                  "mesh_stiffness", "mesh_damping", "play_gap", "inertance_ratio")
+MAP_PARAMETERS = tuple(p.name for p in registry.fields("tmd") if p.mappable) + ("inertance_ratio",)
 
 
 class ScenarioError(ValueError):

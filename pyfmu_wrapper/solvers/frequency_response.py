@@ -6,20 +6,38 @@ physics kernels themselves (the right-hand side is affine in z and in the applie
 evaluations per column are exact to rounding): there is no second statement of the equations.
 This covers the ideal inerter, no inerter, and the inerter in series with the ki-ci mesh spring
 (play model with eps = 0).
+
+``linearise=True`` gives the frequency response of the linearisation about rest instead, for
+smooth nonlinear configurations (the cubic spring term k3): A is the complex-step Jacobian of the
+kernels at z = 0 (exact to rounding), the small-amplitude limit of the nonlinear response.
+Friction and a gap have no linearisation about rest (a kink or a 1e6 slope) and are refused.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ..physics.kernels import NSTATE, rhs_fext
+from ..physics.kernels import NSTATE, SYS_COUPLED, rhs_fext, system_jacobian
 from ..physics.params import BaseParams, ParameterError, TMDParams, pack
 
 
-def linear_system(base: BaseParams, tmd: TMDParams) -> tuple[np.ndarray, np.ndarray]:
-    """(A, b): dz/dt = A z + b f for the applied force f [N] on the base."""
+def linear_system(base: BaseParams, tmd: TMDParams, linearise: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(A, b): dz/dt = A z + b f for the applied force f [N] on the base (module doc for linearise)."""
+    gap = tmd.play_gap if tmd.inerter == 2 else 0.0
+    if linearise:
+        if tmd.friction_force != 0.0 or gap != 0.0:
+            raise ParameterError("a linearisation about rest needs a smooth configuration: "
+                                 f"friction_force = {tmd.friction_force} and play_gap = {gap} must be 0")
+        p = pack(base, tmd)
+        A = np.empty((NSTATE, NSTATE))
+        system_jacobian(SYS_COUPLED, 0.0, np.zeros(NSTATE), p, np.zeros(1), A)
+        b = np.empty(NSTATE)
+        rhs_fext(np.zeros(NSTATE), 1.0, p, b)
+        return A, b
     if not tmd.is_linear:
         raise ParameterError("the exact frequency response needs a linear configuration: "
-                             f"friction_force = {tmd.friction_force} and play_gap = {tmd.play_gap} must be 0")
+                             f"friction_force = {tmd.friction_force}, play_gap = {gap} and "
+                             f"cubic_stiffness = {tmd.cubic_stiffness} must be 0 (linearise=True gives the "
+                             "small-amplitude limit of a smooth configuration)")
     p = pack(base, tmd)
     A = np.empty((NSTATE, NSTATE))
     fp, fm = np.empty(NSTATE), np.empty(NSTATE)
@@ -34,9 +52,9 @@ def linear_system(base: BaseParams, tmd: TMDParams) -> tuple[np.ndarray, np.ndar
     return A, b
 
 
-def exact_response(base: BaseParams, tmd: TMDParams, omegas) -> np.ndarray:
+def exact_response(base: BaseParams, tmd: TMDParams, omegas, linearise: bool = False) -> np.ndarray:
     """Complex amplitudes Z[k, :] of the state [x, xd, y, yd, d, dd] at each omega [rad/s]."""
-    A, b = linear_system(base, tmd)
+    A, b = linear_system(base, tmd, linearise)
     omegas = np.atleast_1d(np.asarray(omegas, dtype=float))
     out = np.empty((omegas.size, NSTATE), dtype=complex)
     eye = np.eye(NSTATE)
@@ -50,9 +68,9 @@ def exact_response(base: BaseParams, tmd: TMDParams, omegas) -> np.ndarray:
     return out
 
 
-def exact_amplitude(base: BaseParams, tmd: TMDParams, omegas) -> np.ndarray:
+def exact_amplitude(base: BaseParams, tmd: TMDParams, omegas, linearise: bool = False) -> np.ndarray:
     """Steady-state amplitude of the base, |X| [m], at each omega [rad/s]."""
-    return np.abs(exact_response(base, tmd, omegas)[:, 0])
+    return np.abs(exact_response(base, tmd, omegas, linearise)[:, 0])
 
 
 def exact_state(base: BaseParams, tmd: TMDParams, omega: float, t: float = 0.0) -> np.ndarray:

@@ -14,18 +14,20 @@ windows of ``window`` periods and W_j = max of A_k over window j.
   the state scale; the amplitude is max |x| over the period started from the corrected state.
   If Newton does not converge from a far start, ten periods are integrated to let the transient
   decay and Newton is tried again. With ``shooting=False`` the solver integrates period after
-  period and stops when the estimated distance to the limit of W_j,
-  |W_j - W_{j-1}| * rho / (1 - rho), with rho the contraction ratio of consecutive differences,
-  is below ``tol`` * W_j (cheaper per period, but slow to settle and fooled by beating modes).
+  period and stops when the estimated distance of the base state (x, xd/w) at the period start
+  to the periodic orbit, r rho / (1 - rho) from the residual r between consecutive period starts
+  and its contraction rho, is below ``tol`` * A (:class:`WindowCriterion`): a beating transient
+  cannot fool it, and the offset of a TMD stuck by friction (a mode the base does not see) does
+  not hold it up.
 * ``window > 1`` (default 20 for the play model with a gap): the rattling gear makes the
-  response never exactly periodic; the run stops when two consecutive windows agree:
-  |W_j - W_{j-1}| <= tol_window * W_j + amp_atol (tol_window default 1e-4; amp_atol default
-  1e-3 of the static deflection F/K, i.e. 5e-6 m for the paper's base, so that the tiny,
-  irregular response near the antiresonance does not demand a relative accuracy it cannot have).
-  Where the response stays irregular (it does at 20 rad/s with c = 0: the window maximum scatters
-  by ~20 % for ever), the run stops after ``max_periods_window`` periods, is flagged not
-  converged, and reports the maximum over all windows after the first (transient) one, with
-  ``change`` the relative scatter of those windows.
+  response never exactly periodic. The run stops when two consecutive windows agree,
+  |W_j - W_{j-1}| <= tol_window * W_j (regular, converged), or, once three windows after the
+  first exist, when their running maximum has not grown by more than tol_window for two
+  windows: the amplitude is that maximum and ``change`` the scatter (max - min) / max of those
+  windows. Converged if the scatter is within ``scatter_tol`` (default 5e-3, the accuracy
+  asked of both engines), else flagged ``irregular`` and not converged (at 20 rad/s with
+  c = 0 the window maximum scatters by ~20 % for ever). No absolute tolerance: a tiny amplitude near the antiresonance must settle
+  relative to itself. ``max_periods_window`` bounds the periods either way.
 
 The reported amplitude is W of the last window. Each solve returns its diagnostics (periods
 used, converged flag, last change, integrator steps). ``max_periods`` bounds the work; a point that
@@ -41,11 +43,12 @@ import numpy as np
 
 from ..physics.kernels import NSTATE, SYS_COUPLED, inerter_force, rhs
 from ..physics.params import BaseParams, InerterModel, TMDParams, pack
-from .rodas import STAT_EVENTS, STAT_REJECTED, STAT_STEPS, integrate
+from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, integrate
 
 
 class SolverError(RuntimeError):
-    """The integrator could not proceed (step size underflow, non-finite state)."""
+    """The integrator could not proceed (step size underflow, step cap, non-finite state); the
+    message names the time, the state and its contact / friction mode."""
 
 
 def default_window(tmd: TMDParams, window: int | None = None) -> int:
@@ -64,11 +67,13 @@ class SolverSettings:
     the static deflection F/K (per state, scaled by the natural frequency for rates);
     tol: steady-state tolerance on the amplitude (relative); window: periods per window
     (None: 1 without play, 20 with play); min_periods / max_periods: bounds per frequency;
-    tol_window, amp_atol [m], max_periods_window: the windowed steady state (module doc);
+    tol_window, scatter_tol, max_periods_window: the windowed steady state (module doc;
+    amp_atol [m], default None = 0, an absolute tolerance kept for old settings);
     play_start: where a windowed solve without z0 starts, and where a sweep starts each
     windowed point: "companion" (the periodic orbit of the same system with an ideal inerter,
     continued along the sweep, with the gear chain placed at its contact) or "previous" (the
-    previous frequency's final state).
+    previous frequency's final state). max_steps: cap on integrator steps per period (a stalled
+    integration ends with :class:`SolverError` naming time, state and mode, never a hang).
     """
 
     rtol: float = 1e-8
@@ -83,6 +88,8 @@ class SolverSettings:
     max_periods: int = 3000
     shooting: bool = True
     max_newton: int = 8
+    max_steps: int = DEFAULT_MAX_STEPS
+    scatter_tol: float = 5e-3
 
     def window_for(self, tmd: TMDParams) -> int:
         return default_window(tmd, self.window)
@@ -103,6 +110,7 @@ class SteadyState:
     events: int
     period_max: np.ndarray = field(repr=False)  #: max |x| of every period [m]
     wall_time: float = 0.0
+    irregular: bool = False  #: settled into irregular motion; ``change`` is then its scatter
 
 
 def _atol(base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettings) -> np.ndarray:
@@ -127,6 +135,7 @@ class _Runner:
         self.T = 2.0 * math.pi / omega
         self.atol = _atol(base, tmd, omega, settings)
         self.rtol = settings.rtol
+        self.max_steps = int(settings.max_steps)
         self.band = 1.0 / tmd.friction_slope
         self.u = np.zeros(1)
         self.stats = np.zeros(4, dtype=np.int64)
@@ -138,10 +147,15 @@ class _Runner:
     def period(self, z, t0, sample_times=None, samples=None):
         st = self.no_samples if sample_times is None else sample_times
         sa = self.no_out if samples is None else samples
-        h, xmax = integrate(SYS_COUPLED, z, t0, t0 + self.T, self.p, self.u, self.rtol, self.atol,
-                            self.h, self.hmax, st, sa, self.band, self.stats)
-        if h < 0.0 or not np.all(np.isfinite(z)):
-            raise SolverError(f"integration failed near t = {t0:.6g} s (step size underflow or non-finite state)")
+        h, xmax, status, t = integrate(SYS_COUPLED, z, t0, t0 + self.T, self.p, self.u, self.rtol, self.atol,
+                                       self.h, self.hmax, st, sa, self.band, self.stats, self.max_steps)
+        if status != OK:
+            raise SolverError(f"omega = {2 * math.pi / self.T:.10g} rad/s, period from t0 = {t0:.6g} s: "
+                              + failure_message(status, SYS_COUPLED, t, z, self.p, self.atol, self.band,
+                                                self.max_steps))
+        if not np.all(np.isfinite(z)):
+            raise SolverError(f"omega = {2 * math.pi / self.T:.10g} rad/s: non-finite state {z} after the "
+                              f"period from t0 = {t0:.6g} s")
         self.h = h
         return xmax
 
@@ -182,10 +196,12 @@ def initial_guess(base: BaseParams, tmd: TMDParams, omega: float) -> np.ndarray:
 
     from .frequency_response import exact_state
 
-    lin = replace(tmd, friction_force=0.0, play_gap=0.0)
+    lin = replace(tmd, friction_force=0.0, play_gap=0.0, cubic_stiffness=0.0)
     try:
         return exact_state(base, lin, omega)
-    except Exception:  # pragma: no cover - fall back to rest
+    except np.linalg.LinAlgError:
+        # an undamped linear companion exactly at one of its resonances has no steady state:
+        # start from rest (the only case; any other error propagates)
         return np.zeros(NSTATE)
 
 
@@ -226,11 +242,14 @@ def steady_state(base: BaseParams, tmd: TMDParams, omega: float, z0=None,
                            change=float("inf"), steps=int(run.stats[STAT_STEPS]), rejected=int(run.stats[STAT_REJECTED]),
                            events=int(run.stats[STAT_EVENTS]), period_max=np.zeros(0),
                            wall_time=time.perf_counter() - t_start)
-    crit = WindowCriterion.from_settings(settings, W, base)
+    crit = WindowCriterion.from_settings(settings, W, base, omega)
     k = 0
+    if W == 1:
+        crit.add(abs(z[0]), z)  # the start state, for the residual of the first period
+        crit.period_max.clear()
     while k < crit.max_periods:
         k += 1
-        if crit.add(run.period(z, 0.0)):  # each period restarts at phase 0: t0 = 0
+        if crit.add(run.period(z, 0.0), z):  # each period restarts at phase 0: t0 = 0
             break
     amplitude, converged, change = crit.result()
     pmax = crit.period_max
@@ -238,66 +257,121 @@ def steady_state(base: BaseParams, tmd: TMDParams, omega: float, z0=None,
     return SteadyState(omega=omega, amplitude=amplitude, state=z, periods=k,
                        converged=converged, change=change, steps=int(s[STAT_STEPS]),
                        rejected=int(s[STAT_REJECTED]), events=int(s[STAT_EVENTS]),
-                       period_max=np.array(pmax), wall_time=time.perf_counter() - t_start)
+                       period_max=np.array(pmax), wall_time=time.perf_counter() - t_start,
+                       irregular=crit.irregular)
 
 
 class WindowCriterion:
     """The steady-state test on per-period maxima of |x| (module doc), shared by every engine.
 
-    Feed it A_k with :meth:`add` (True when converged); :meth:`result` gives (amplitude,
-    converged, change).
+    Feed it A_k with :meth:`add` (True when the run may stop); :meth:`result` gives (amplitude,
+    converged, change) and :attr:`irregular` tells a response that settled into irregular motion.
+
+    * W = 1 (periodic response): with the base state at each period start (``state`` = x, xd)
+      the distance to the periodic orbit is estimated from the residual r_k = max(|dx|, |dxd|/w)
+      / A_k between consecutive period starts and its contraction rho (the largest of the last
+      three ratios r_k / r_k-1): est = r_k rho / (1 - rho). A beating transient, whose amplitude
+      differences change sign, cannot fool it; modes that do not move the base (the offset of a
+      TMD stuck by friction) do not hold it up. Without ``state`` the same rule is applied to
+      the amplitudes A_k. Converged when est <= tol.
+    * W > 1 (windows of W periods, W_j = max A_k in window j): regular when two consecutive
+      windows agree, |W_j - W_j-1| <= tol W_j. Otherwise, once three windows after the first
+      exist, the run stops when the running maximum of the windows after the first has not
+      grown by more than tol for two windows: the amplitude is that maximum and ``change`` the
+      scatter (max - min) / max of those windows. The point counts as converged when the
+      scatter is within ``scatter_tol`` (an amplitude known to that fraction), else it is
+      flagged irregular and not converged. There is no absolute tolerance: a tiny amplitude
+      must settle relative to itself. ``amp_atol`` (default 0) is kept for old settings.
     """
 
     def __init__(self, window: int, tol: float, amp_atol: float = 0.0, min_periods: int = 3,
-                 max_periods: int = 3000):
+                 max_periods: int = 3000, scatter_tol: float = 5e-3, omega: float | None = None):
         self.W, self.tol, self.amp_atol = int(window), float(tol), float(amp_atol)
         self.min_periods, self.max_periods = int(min_periods), int(max_periods)
+        self.scatter_tol, self.omega = float(scatter_tol), omega
         self.period_max: list[float] = []
         self.wins: list[float] = []
         self.diffs: list[float] = []
+        self.res: list[float] = []
+        self._z_prev = None
         self.converged = False
+        self.irregular = False
         self.change = math.inf
+        self._stopped = False
+        self._stable = 0
 
     @classmethod
-    def from_settings(cls, settings, window: int, base: BaseParams) -> "WindowCriterion":
+    def from_settings(cls, settings, window: int, base: BaseParams, omega: float | None = None) -> "WindowCriterion":
         """From any settings object with tol, tol_window, min_periods, max_periods (and optionally
-        amp_atol, max_periods_window), as :class:`SolverSettings` has."""
+        amp_atol, max_periods_window, scatter_tol), as :class:`SolverSettings` has."""
         if window == 1:
-            return cls(1, settings.tol, 0.0, settings.min_periods, settings.max_periods)
-        amp_atol = getattr(settings, "amp_atol", None)
-        if amp_atol is None:
-            amp_atol = 1e-3 * abs(base.force_amplitude) / max(base.stiffness, 1e-300)
+            return cls(1, settings.tol, 0.0, settings.min_periods, settings.max_periods, omega=omega)
+        amp_atol = getattr(settings, "amp_atol", None) or 0.0
         mp = min(settings.max_periods, getattr(settings, "max_periods_window", settings.max_periods))
-        return cls(window, settings.tol_window, amp_atol, settings.min_periods, mp)
+        return cls(window, settings.tol_window, amp_atol, settings.min_periods, mp,
+                   getattr(settings, "scatter_tol", 5e-3), omega=omega)
 
-    def add(self, a: float) -> bool:
+    def _contraction(self, r: float, scale: float) -> float:
+        self.res.append(r)
+        if len(self.res) < 3:
+            return math.inf
+        ratios = [self.res[i] / self.res[i - 1] if self.res[i - 1] > 0 else 0.0
+                  for i in range(max(1, len(self.res) - 3), len(self.res))]
+        rho = min(max(ratios), 0.999)
+        return r * rho / (1.0 - rho) if rho > 0 else r
+
+    def add(self, a: float, state=None) -> bool:
         self.period_max.append(float(a))
         k = len(self.period_max)
         W = self.W
+        if W == 1:
+            scale = max(abs(a), 1e-300)
+            if state is not None and self.omega:
+                z = np.array([state[0], state[1] / self.omega], dtype=float)
+                if self._z_prev is None:
+                    self._z_prev = z
+                    return False
+                r = float(np.max(np.abs(z - self._z_prev))) / scale
+                self._z_prev = z
+            else:
+                if k < 2:
+                    return False
+                r = abs(self.period_max[-1] - self.period_max[-2]) / scale
+            self.wins.append(float(a))
+            self.change = self._contraction(r, scale)
+            if k >= self.min_periods and self.change <= self.tol:
+                self.converged = True
+            return self.converged
         if k % W:
             return False
-        wins, diffs = self.wins, self.diffs
+        wins = self.wins
         wins.append(max(self.period_max[-W:]))
         if len(wins) < 2:
             return False
         d = wins[-1] - wins[-2]
-        diffs.append(d)
+        self.diffs.append(d)
         scale = max(abs(wins[-1]), 1e-300)
-        if W == 1 and len(diffs) >= 2 and diffs[-2] != 0.0:
-            rho = d / diffs[-2]
-            est = abs(d) * rho / (1.0 - rho) if 0.0 < rho < 0.95 else abs(d) / max(1e-3, 1.0 - min(abs(rho), 0.999))
-            self.change = est / scale
-        else:
-            self.change = max(abs(d) - self.amp_atol, 0.0) / scale
-        if k >= self.min_periods and self.change <= self.tol and (W > 1 or len(diffs) >= 2):
+        self.change = max(abs(d) - self.amp_atol, 0.0) / scale
+        if k >= self.min_periods and self.change <= self.tol:
             self.converged = True
-        return self.converged
+            return True
+        tail = wins[1:]
+        if len(tail) >= 3:
+            grew = max(tail) - max(tail[:-1])
+            self._stable = self._stable + 1 if grew <= self.tol * max(tail) + self.amp_atol else 0
+            if self._stable >= 2 and k >= self.min_periods:
+                scatter = (max(tail) - min(tail)) / max(max(tail), 1e-300)
+                self.converged = scatter <= self.scatter_tol
+                self.irregular = not self.converged
+                self._stopped = True
+                return True
+        return False
 
     def result(self) -> tuple[float, bool, float]:
         wins = self.wins
         amplitude = wins[-1] if wins else (max(self.period_max) if self.period_max else float("nan"))
         change = self.change
-        if not self.converged and self.W > 1 and len(wins) >= 3:
+        if self.W > 1 and len(wins) >= 3 and (self._stopped or not self.converged):
             tail = wins[1:]
             amplitude = max(tail)
             change = (max(tail) - min(tail)) / max(max(tail), 1e-300)
@@ -379,8 +453,13 @@ def _shoot(run: _Runner, tmd: TMDParams, z: np.ndarray, settings: SolverSettings
 
 
 def simulate(base: BaseParams, tmd: TMDParams, omega: float, t_end: float, z0=None, n_samples: int = 1001,
-             sample_times=None, rtol: float = 1e-9, atol=None) -> tuple[np.ndarray, np.ndarray]:
-    """Transient simulation from z0 (default rest) over [0, t_end]; returns (t, states[len(t), 6])."""
+             sample_times=None, rtol: float = 1e-9, atol=None,
+             max_steps: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """Transient simulation from z0 (default rest) over [0, t_end]; returns (t, states[len(t), 6]).
+
+    max_steps caps the integrator steps (default: DEFAULT_MAX_STEPS per forcing period); a stalled
+    run raises :class:`SolverError` naming time, state and mode.
+    """
     p = pack(base, tmd, omega)
     z = np.zeros(NSTATE) if z0 is None else np.array(z0, dtype=float)
     t = np.linspace(0.0, t_end, n_samples) if sample_times is None else np.asarray(sample_times, dtype=float)
@@ -389,10 +468,13 @@ def simulate(base: BaseParams, tmd: TMDParams, omega: float, t_end: float, z0=No
         atol = _atol(base, tmd, omega, SolverSettings(atol_scale=1e-7))
     stats = np.zeros(4, dtype=np.int64)
     T = 2 * math.pi / omega
-    h, _ = integrate(SYS_COUPLED, z, 0.0, float(t_end), p, np.zeros(1), rtol, np.asarray(atol, dtype=float),
-                     T / 200, T / 20, t, out, 1.0 / tmd.friction_slope, stats)
-    if h < 0.0:
-        raise SolverError("integration failed (step size underflow)")
+    atol = np.asarray(atol, dtype=float)
+    if max_steps is None:  # the per-period cap, for every period of the run
+        max_steps = DEFAULT_MAX_STEPS * max(1, math.ceil(t_end / T))
+    _, _, status, tf = integrate(SYS_COUPLED, z, 0.0, float(t_end), p, np.zeros(1), rtol, atol,
+                                 T / 200, T / 20, t, out, 1.0 / tmd.friction_slope, stats, int(max_steps))
+    if status != OK:
+        raise SolverError(failure_message(status, SYS_COUPLED, tf, z, p, atol, 1.0 / tmd.friction_slope, max_steps))
     return t, out
 
 

@@ -28,7 +28,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from .._jit import njit
 
 from ..physics.kernels import (SYS_COUPLED, SYS_TMD, coupled_jacobian, system_dfdt_work, system_jacobian_work,
                                system_rhs, system_switching, tmd_jacobian)
@@ -57,6 +57,14 @@ _M = np.array([_a[6], _a[7], _a[8], _a[9], 1.0, 1.0])
 _E = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
 
 STAT_STEPS, STAT_REJECTED, STAT_EVENTS, STAT_FAILED = 0, 1, 2, 3
+
+#: status codes returned by :func:`integrate`
+OK, STEP_UNDERFLOW, STEP_CAP = 0, 1, 2
+#: default cap on accepted + rejected steps in one call of :func:`integrate`
+DEFAULT_MAX_STEPS = 1_000_000
+#: a switching function within this fraction of the absolute tolerance of its state is "on" its
+#: surface: the state is in the surface's mode and no step is retaken to land on it again
+SURFACE_TOL = 1e-3
 
 
 @njit(cache=True)
@@ -146,13 +154,28 @@ def _hermite_state(z0, f0, z1, f1, h, theta, out):
 
 
 @njit(cache=True)
-def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, samples, friction_band, stats):
-    """Integrate system from t0 to t1 in place on z; return (next step size, max |z[0]|).
+def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, samples, friction_band, stats,
+              max_steps=DEFAULT_MAX_STEPS, surface_tol=SURFACE_TOL):
+    """Integrate system from t0 to t1 in place on z; return (next step size, max |z[0]|, status, t).
 
-    A returned step size of -1 means the step size fell below the resolution of t (failure).
+    status is OK (0) when t1 was reached, else the failure code and t the time reached, with z the
+    state there (:func:`failure_message` turns them into a sentence naming time, state and mode):
+
+    * STEP_UNDERFLOW: the error test rejected steps down to the minimum step
+      hmin = 1e-14 max(1, |t1|) (the resolution of t);
+    * STEP_CAP: more than ``max_steps`` steps (accepted, rejected and retaken) in this call.
+
+    Surfaces. A step whose end point has a switching function of the other sign than its start is
+    retaken, shortened to end just past the estimated crossing, unless the start or the end lies
+    on the surface: within surface_tol * atol of the state the function depends on (friction:
+    within friction_band = 1/s [m/s]). A state on a surface is in that surface's mode (a gear
+    chain resting on its contact, a grazing contact, a TMD stuck to the base): it is integrated
+    with the ordinary error control and never retaken to land on the surface again. Retakes shorter
+    than 100 hmin are not made (the step is then judged by its error estimate alone).
+    (surface_tol = 0 restores the former rule, under which a chain resting on its contact at
+    d + eps ~ -1e-20 was retaken onto the surface for ever: kept for the tests.)
 
     sample_times (sorted, inside [t0, t1]) are filled into rows of samples by dense output.
-    friction_band = 1/s [m/s]: friction reversals that start and end outside +-band are landed on.
     stats accumulates [steps, rejected, event retakes, failed].
     """
     n = z.shape[0]
@@ -187,6 +210,13 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
     # the step starts from what worked there before instead of being rejected down to it
     hmode = np.full(3, hmax)
     rejected_last = False
+    # surface tolerances: friction by its band, the gear contact by the tolerance on d
+    gtol = np.empty(3)
+    gtol[0] = friction_band
+    di = 4 if system == SYS_COUPLED else 2
+    gtol[1] = surface_tol * atol[di] if n > di else 0.0
+    gtol[2] = gtol[1]
+    ncalls = 0
     system_switching(system, z, p, g0)
     mode_prev = (1 if g0[1] > 0.0 else 0) - (1 if g0[2] < 0.0 else 0)
     while t < t1:
@@ -208,6 +238,10 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
             system_jacobian_work(system, t, z, p, u, J, zc, oc)
             system_dfdt_work(system, t, z, p, u, ft, zc, oc)
         while True:
+            ncalls += 1
+            if ncalls > max_steps:
+                stats[STAT_FAILED] += 1
+                return h, xmax, STEP_CAP, t
             # G = I/(h gamma) - J
             for i in range(n):
                 for j in range(n):
@@ -262,8 +296,8 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
             theta = 1.0
             for k in range(3):
                 if g0[k] * g1[k] < 0.0:
-                    if k == 0 and (abs(g0[0]) <= friction_band or abs(g1[0]) <= friction_band):
-                        continue
+                    if abs(g0[k]) <= gtol[k] or abs(g1[k]) <= gtol[k]:
+                        continue  # starts or ends on the surface: in its mode, nothing to land on
                     th = g0[k] / (g0[k] - g1[k])
                     if th < theta:
                         theta = th
@@ -279,7 +313,7 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
                 final = False
                 if hs < hmin:
                     stats[STAT_FAILED] += 1
-                    return -1.0, xmax
+                    return h, xmax, STEP_UNDERFLOW, t
                 continue
             break
         # accepted
@@ -304,4 +338,39 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
         h = min(hmax, hs * fac)
         if final:
             break
-    return h, xmax
+    return h, xmax, OK, t
+
+
+_STATE_NAMES = {SYS_COUPLED: ("x", "xd", "y", "yd", "d", "dd"), SYS_TMD: ("y", "yd", "d", "dd")}
+
+
+def contact_mode(system, z, p, atol, friction_band) -> str:
+    """Name the mode of state z: gear contact (engaged in compression / extension, free, or on a
+    contact surface within the surface tolerance) and friction (stuck or sliding)."""
+    g = np.empty(3)
+    system_switching(system, np.asarray(z, dtype=float), p, g)
+    parts = []
+    if system == SYS_COUPLED and g[0] != 1.0:
+        parts.append("friction stuck" if abs(g[0]) <= friction_band else "friction sliding")
+    if g[1] != 1.0 or g[2] != 1.0:
+        di = 4 if system == SYS_COUPLED else 2
+        tol = SURFACE_TOL * float(np.asarray(atol)[di])
+        if abs(g[1]) <= tol or abs(g[2]) <= tol:
+            parts.append("gear chain on its contact surface")
+        elif g[1] > 0.0:
+            parts.append("gear engaged in compression (d > eps)")
+        elif g[2] < 0.0:
+            parts.append("gear engaged in extension (d < -eps)")
+        else:
+            parts.append("gear free (|d| < eps)")
+    return ", ".join(parts) if parts else "smooth"
+
+
+def failure_message(status, system, t, z, p, atol, friction_band, max_steps=DEFAULT_MAX_STEPS) -> str:
+    """A sentence naming why :func:`integrate` stopped, at which time, in which state and mode."""
+    why = {STEP_UNDERFLOW: "the step size fell below the resolution of t (error test failed at the minimum step)",
+           STEP_CAP: f"the cap of {max_steps} steps per call was reached"}.get(int(status), f"status {status}")
+    names = _STATE_NAMES.get(system, tuple(f"z{i}" for i in range(len(z))))
+    state = ", ".join(f"{k} = {float(v):.17g}" for k, v in zip(names, z))
+    mode = contact_mode(system, z, p, atol, friction_band)
+    return f"integrator stopped at t = {float(t):.12g} s: {why}; state {state}; mode: {mode}"

@@ -1,0 +1,95 @@
+"""Code version of the package: hashes of its sources.
+
+* :func:`source_hash` hashes every ``.py`` file of the package: it changes whenever any code that
+  could change a number changes. Checkpoints and summaries record it.
+* :func:`compiled_hash` hashes the compiled layer only: the modules that use numba and every
+  package module they import, transitively (found by reading their import statements). The numba
+  cache is keyed by it (:mod:`pyfmu_wrapper._jit`), so editing any kernel, in any file, can never
+  leave a stale compiled function behind, while editing, say, the report writer recompiles
+  nothing.
+
+Both are computed from the files on disk next to this module (so a copy of the package bundled
+into an FMU has its own version) and cached for the life of the process.
+"""
+from __future__ import annotations
+
+import ast
+import functools
+import hashlib
+from pathlib import Path
+
+PACKAGE_DIR = Path(__file__).resolve().parent
+PACKAGE = PACKAGE_DIR.name
+
+
+def _sources(root: Path) -> dict[str, bytes]:
+    return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*.py"))
+            if "__pycache__" not in p.parts}
+
+
+def _digest(files: dict[str, bytes]) -> str:
+    h = hashlib.sha256()
+    for name in sorted(files):
+        h.update(name.encode() + b"\0" + hashlib.sha256(files[name]).digest())
+    return h.hexdigest()
+
+
+@functools.lru_cache(maxsize=None)
+def source_hash(root: Path = PACKAGE_DIR) -> str:
+    """SHA-256 over every ``.py`` file of the package (names and contents)."""
+    return _digest(_sources(Path(root)))
+
+
+def _module_file(root: Path, rel: str, module: str | None, level: int) -> list[str]:
+    """Package-relative files an import statement in ``rel`` can refer to."""
+    parts = rel.split("/")[:-1]  # the importing module's package, relative to root
+    if level == 0:
+        if not module or not (module == PACKAGE or module.startswith(PACKAGE + ".")):
+            return []
+        target = module.split(".")[1:]
+    else:
+        base = parts[: len(parts) - (level - 1)] if level > 1 else parts
+        target = base + (module.split(".") if module else [])
+    out = []
+    path = "/".join(target)
+    for cand in (f"{path}.py" if path else None, f"{path}/__init__.py" if path else "__init__.py"):
+        if cand and (root / cand).is_file():
+            out.append(cand)
+    return out
+
+
+def _imports(root: Path, rel: str, source: bytes) -> set[str]:
+    found: set[str] = set()
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.ImportFrom):
+            found.update(_module_file(root, rel, node.module, node.level))
+            for alias in node.names:  # "from . import registry" names a module
+                mod = f"{node.module}.{alias.name}" if node.module else alias.name
+                found.update(_module_file(root, rel, mod, node.level))
+        elif isinstance(node, ast.Import):
+            for alias in node.names:
+                found.update(_module_file(root, rel, alias.name, 0))
+    return found
+
+
+@functools.lru_cache(maxsize=None)
+def compiled_files(root: Path = PACKAGE_DIR) -> tuple[str, ...]:
+    """Package-relative files of the compiled layer: numba users and their imports, transitively."""
+    root = Path(root)
+    files = _sources(root)
+    todo = [n for n, src in files.items() if (b"numba" in src or b"njit" in src) and n != "codeversion.py"]
+    seen: set[str] = set()
+    while todo:
+        n = todo.pop()
+        if n in seen or n not in files:
+            continue
+        seen.add(n)
+        todo.extend(_imports(root, n, files[n]) - seen)
+    return tuple(sorted(seen))
+
+
+@functools.lru_cache(maxsize=None)
+def compiled_hash(root: Path = PACKAGE_DIR) -> str:
+    """SHA-256 over the compiled layer (:func:`compiled_files`)."""
+    root = Path(root)
+    return _digest({n: (root / n).read_bytes() for n in compiled_files(root)})
