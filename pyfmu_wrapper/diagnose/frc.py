@@ -82,8 +82,12 @@ class FRCDiagnosis:
             elif k == "force_error.force_gain_error":
                 gain = 1.0 + v
             elif k == "sensor_offset.x_offset":
-                bias = v
-        return self.amplitude(b, replace(t, **kw), gain=gain, bias=bias)
+                bias = None  # x_max may be a peak (+b) or half a peak-to-peak (0): fitted below
+        pred = self.amplitude(b, replace(t, **kw), gain=gain)
+        if bias is None:  # the offset of x_max, least squares in relative units
+            wgt = 1.0 / np.abs(self.x) ** 2
+            pred = pred + float(np.sum(wgt * (self.x - pred)) / np.sum(wgt))
+        return pred
 
     def chi2(self, pred, mask=None):
         r = (self.x - pred) / (np.abs(self.x) * max(self.noise_rel, 1e-12))

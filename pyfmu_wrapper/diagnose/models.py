@@ -114,8 +114,15 @@ def link_nominal(ds: Dataset) -> dict:
 
 
 def nominal_force(nom, d, v, a):
-    return (nom["stiffness"] * d + nom["damping"] * v + friction_vec(v, nom["friction_force"], nom["friction_slope"])
-            + nom["inertance"] * a)
+    """Nominal link force: the kernels' static link force (spring, damper, friction) at relative
+    displacement d and velocity v, plus the ideal inerter I a."""
+    from ..physics.params import P_c, P_df, P_k, P_s
+    from .system import link_force_grid
+
+    p = np.zeros(N_PARAMS)
+    p[P_k], p[P_c], p[P_df], p[P_s] = nom["stiffness"], nom["damping"], nom["friction_force"], nom["friction_slope"]
+    z = np.zeros_like(d)
+    return link_force_grid(np.ascontiguousarray(d, float), np.ascontiguousarray(v, float), z, z, p) + nom["inertance"] * a
 
 
 SAVGOL_POINTS = 15  #: Savitzky-Golay window (samples, cubic) for non-periodic records

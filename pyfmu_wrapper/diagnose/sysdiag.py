@@ -22,7 +22,9 @@ import math
 import numpy as np
 
 from .play import PlayFit
-from .system import EFFECT_PARAMS, SystemModel, fit_eq, folds_for, record_views
+from dataclasses import replace
+
+from .system import EFFECT_PARAMS, SystemModel, fit_eq, folds_for, record_views, steady_signature
 
 Z_NOISE = 5.0
 EVIDENCE = 10.0
@@ -126,6 +128,7 @@ class SystemDiagnosis:
         cur = fit_eq(m, base, self.folds) if base else None
         chi_cur = cur.chi2_ho if cur else self.chi0
         self.singles = {e: fit_eq(m, base + (e,), self.folds) for e in EQ_EFFECTS}
+        self._refine_friction(base)
         self.frc_ev = {}
         chosen = list(base)
         while len(chosen) < MAX_EFFECTS and noise_gate(chi_cur, self.dof):
@@ -164,6 +167,34 @@ class SystemDiagnosis:
             self.log.append(("added", tuple(chosen), [f"held-out evidence {pick[0]:.1f}"]))
         self.chosen, self.final = chosen, cur
         return self
+
+    def _refine_friction(self, base, iterations=2):
+        """When dry friction is a leading candidate, replace its regressor (the kernels' friction law
+        along the measured, smoothed relative velocity) by the friction force along the steady state
+        simulated with the fitted df (the solver resolves the stick phases), per newton; refit."""
+        m = self.model
+        ranked = sorted(self.singles, key=lambda e: self.singles[e].chi2_ho)
+        f = self.singles["friction"]
+        df = f.params.get("friction.friction_force", 0.0)
+        if "friction" not in ranked[:2] or not df > 0:
+            return
+        slope = m.tmd.friction_slope
+        for _ in range(iterations):
+            tmd = replace(m.tmd, friction_force=df)
+            m.friction_signature = {}
+            for v in self.views:
+                A, B = steady_signature(m, v, tmd)
+                m.friction_signature[v.name] = (A / df, B / df)
+            g = fit_eq(m, base + ("friction",), self.folds, {"friction": (slope,)})
+            new = g.params["friction.friction_force"]
+            if not new > 0:
+                m.friction_signature = {}
+                return
+            converged = abs(new - df) <= 0.01 * df
+            df = new
+            if converged:
+                break
+        self.singles["friction"] = g
 
     def _frc_evidence(self, f):
         key = f.effects

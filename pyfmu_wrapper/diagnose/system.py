@@ -27,7 +27,7 @@ import numpy as np
 from numba import njit
 
 from ..physics.kernels import friction_force, static_link_force
-from ..physics.params import BaseParams, TMDParams, pack
+from ..physics.params import N_PARAMS, P_k3, BaseParams, TMDParams, pack
 from .data import DataError
 from .harmonic import PERIODIC_R2, fit_series, fuse, grid_coef, grid_values
 
@@ -130,6 +130,7 @@ class SystemModel:
         b, t = self.base, self.tmd
         self.p = pack(b, t, 0.0)
         self.play_signature = {}
+        self.friction_signature = {}  #: record -> (A_h, B_h) per newton of friction, from the solver
         for v in views:
             H = v.X.size - 1
             hw = np.arange(H + 1) * v.omega
@@ -178,10 +179,12 @@ class SystemModel:
         if effect == "viscous":
             return [(Vr, Vr)]
         if effect == "friction":
+            if v.name in self.friction_signature:  # simulated with the solver (stick-slip included)
+                return [self.friction_signature[v.name]]
             f = grid_coef(friction_grid(v.grid["xd"] - v.grid["yd"], float(theta[0])), H)
             return [(f, f)]
-        if effect == "cubic":
-            c3 = grid_coef((v.grid["x"] - v.grid["y"]) ** 3, H)
+        if effect == "cubic":  # the kernels' spring force with k = 0, k3 = 1
+            c3 = grid_coef(self.unit_link_force(v, P_k3), H)
             return [(c3, c3)]
         if effect == "mass_split":
             return [(a, -(hw ** 2) * v.X)]
@@ -194,6 +197,13 @@ class SystemModel:
         if effect == "play":  # the inertance the gear loses on average while it rattles
             return [(a, a)]
         raise KeyError(effect)
+
+    def unit_link_force(self, v, index):
+        """The kernels' static link force over one period with only parameter ``index`` = 1."""
+        p = np.zeros(N_PARAMS)
+        p[index] = 1.0
+        g = v.grid
+        return link_force_grid(g["x"], g["xd"], g["y"], g["yd"], p)
 
     def offset(self, effect, v):
         """Offset added to the residual model by a candidate that replaces part of the nominal."""
@@ -317,3 +327,24 @@ def folds_for(views):
 
 def n_components(views, ids):
     return sum(views[i].r.size for i in ids)
+
+
+def steady_signature(model: SystemModel, v: RecView, tmd) -> tuple:
+    """Equation errors (A_h, B_h) the nominal model leaves on the periodic steady state of ``tmd``
+    simulated by the project's solver at the record's frequency and force amplitude, rotated into
+    the phase of the measured force. For a link-force effect this is the effect's force along the
+    simulated motion (e.g. dry friction with its stick phases)."""
+    from dataclasses import replace
+
+    from ..physics.kernels import rhs
+    from ..solvers.monolithic import periodic_time_series
+
+    base = replace(model.base, force_amplitude=v.amplitude)
+    t, z, _ = periodic_time_series(base, tmd, v.omega, 1, N_GRID)
+    H = v.X.size - 1
+    X, Y = grid_coef(z[:, 0], H), grid_coef(z[:, 2], H)
+    F = np.zeros(H + 1, complex)
+    F[1] = v.amplitude
+    A, B = model.residuals(v, X, Y, F)
+    rot = np.exp(1j * np.arange(H + 1) * np.angle(v.F[1]))
+    return A * rot, B * rot
