@@ -30,6 +30,7 @@ Z_NOISE = 5.0
 EVIDENCE = 10.0
 PAIR_SHARE = 0.25
 MAX_EFFECTS = 2
+RELEVANCE = 1e-3  #: a second effect must change the link force by more than this share of its rms
 LABELS = {
     "friction": "dry friction in the TMD link", "play": "play in the inerter gear",
     "viscous": "extra viscous damping", "mass_split": "different split of m and I (m + I fixed)",
@@ -55,6 +56,12 @@ def evidence_gate(chi2_before, chi2_after, n_new_params, n, threshold=EVIDENCE):
 def pair_gate(excess_single, excess_pair, share=PAIR_SHARE):
     """True when the second effect closes at least ``share`` of the excess the first one leaves."""
     return excess_single > 0 and (excess_single - excess_pair) >= share * excess_single
+
+
+def relevance_gate(effect_rms, link_rms, share=RELEVANCE):
+    """True when a second effect changes the link force by more than ``share`` of its rms (an
+    effect far below what any rig could act on is not proposed, however significant)."""
+    return effect_rms > share * link_rms
 
 
 def plausibility(params: dict, std: dict, tmd, motion: dict) -> list:
@@ -154,6 +161,11 @@ class SystemDiagnosis:
                 if why:
                     self.log.append(("rejected", f.effects, why))
                     continue
+                if chosen and not relevance_gate(*self._effect_rms(f, e)):
+                    er, lr = self._effect_rms(f, e)
+                    self.log.append(("not added", f.effects, [f"{e} changes the link force by {100 * er / lr:.2g} % of "
+                                                              f"its rms (< {100 * RELEVANCE:.2g} %)"]))
+                    continue
                 if chosen and not pair_gate(chi_cur - self.dof, f.chi2_ho - self.dof):
                     self.log.append(("not added", f.effects, [f"{e} closes less than {100 * PAIR_SHARE:.0f} % "
                                                               "of the held-out excess left by " + ' + '.join(chosen)]))
@@ -167,6 +179,24 @@ class SystemDiagnosis:
             self.log.append(("added", tuple(chosen), [f"held-out evidence {pick[0]:.1f}"]))
         self.chosen, self.final = chosen, cur
         return self
+
+    def _effect_rms(self, f, effect):
+        """(rms of the force the effect adds in the base equation, rms of the nominal link force) [N]."""
+        m = self.model
+        k = 0
+        for e in f.effects:
+            if e == effect:
+                break
+            k += len(EFFECT_PARAMS[e])
+        beta = f.beta[k:k + len(EFFECT_PARAMS[effect])]
+        num = den = 0.0
+        for v in self.views:
+            A = sum(b * col[0] for b, col in zip(beta, m.columns(effect, v, f.theta.get(effect, ()))))
+            num += float(np.sum(np.abs(A[1:]) ** 2) / 2 + abs(A[0]) ** 2)
+            hw = np.arange(v.X.size) * v.omega
+            L = (m.tmd.stiffness + 1j * m.tmd.damping * hw - m.tmd.inertance * hw ** 2) * (v.X - v.Y)
+            den += float(np.sum(np.abs(L[1:]) ** 2) / 2)
+        return math.sqrt(num), math.sqrt(den)
 
     def _refine_friction(self, base, iterations=2):
         """When dry friction is a leading candidate, replace its regressor (the kernels' friction law
