@@ -52,8 +52,11 @@ class FRCDiagnosis:
         if tmd.is_linear:
             a = exact_amplitude(replace(base, force_amplitude=1.0), tmd, self.w) * np.abs(self.F) * gain
         else:
-            a = np.array([steady_state(replace(base, force_amplitude=f * gain), tmd, w).amplitude
-                          for w, f in zip(self.w, self.F)])
+            # a sweep in frequency order reusing the shooting Jacobian of the previous point
+            a = np.empty(self.w.size)
+            hint = {}
+            for i in np.argsort(self.w, kind="stable"):
+                a[i] = steady_state(replace(base, force_amplitude=self.F[i] * gain), tmd, float(self.w[i]), hint=hint).amplitude
         return a + bias
 
     def predict(self, params: dict):
@@ -130,7 +133,7 @@ class FRCDiagnosis:
             if p0 is None:  # friction: bounded scalar search on the training points
                 obj = lambda v: float(np.sum(((self.x - model([v])) / sc)[self.train] ** 2))
                 upper = 0.5 * float(np.max(np.abs(self.F)))
-                res = minimize_scalar(obj, bounds=(0.0, upper), method="bounded", options=dict(maxiter=12, xatol=1e-3 * upper))
+                res = minimize_scalar(obj, bounds=(0.0, upper), method="bounded", options=dict(maxiter=7, xatol=1e-3 * upper))
                 p = np.array([res.x])
             else:
                 p = least_squares(lambda q: ((self.x - model(q)) / sc)[self.train], p0, diff_step=1e-4).x
