@@ -124,10 +124,13 @@ class FRCDiagnosis:
         yield "friction", ["friction_force"], None, lambda p: self.amplitude(b, replace(t, friction_force=max(p[0], 0.0)))
 
     def run(self):
-        sc = max(float(np.abs(self.x).max()), 1e-300)
+        """Fit each candidate on the training frequencies; everything in relative residuals
+        (x - model) / x_max, the form of the measurement noise (a % of x_max)."""
+        sc = np.maximum(np.abs(self.x), 1e-300)
         r0 = self.x - self.amplitude(self.base, self.tmd)
         nt = int(self.test.sum())
-        self.rss0 = float(r0[self.test] @ r0[self.test])
+        q0 = r0 / sc
+        self.rss0 = float(q0[self.test] @ q0[self.test])
         self.fits = []
         for name, pnames, p0, model in self._candidates():
             if p0 is None:  # friction: bounded scalar search on the training points
@@ -138,10 +141,10 @@ class FRCDiagnosis:
             else:
                 p = least_squares(lambda q: ((self.x - model(q)) / sc)[self.train], p0, diff_step=1e-4).x
             pred = model(p)
-            r = self.x - pred
+            r = (self.x - pred) / sc
             rss_te = float(r[self.test] @ r[self.test])
             h = 1e-4 * max(abs(p[0]), 1e-3)
-            J = ((model(p + h) - pred) / h)[self.train]
+            J = ((model(p + h) - pred) / h / sc)[self.train]
             s2 = float(r[self.train] @ r[self.train]) / max(int(self.train.sum()) - 1, 1)
             sd = math.sqrt(s2 / max(float(J @ J), 1e-300))
             bic = nt * math.log(max(rss_te, 1e-300) / nt) + math.log(nt)
@@ -150,11 +153,12 @@ class FRCDiagnosis:
         self.bic0 = nt * math.log(max(self.rss0, 1e-300) / nt)
         self.fits.sort(key=lambda f: f["bic"])
         best = self.fits[0]
-        excess = math.sqrt(self.rss0 / nt) / max(self.noise, 1e-300) - 1.0
+        nr = max(self.noise_rel, 1e-300)
+        excess = math.sqrt(self.rss0 / nt) / nr - 1.0
         self.structural = excess > EXCESS_THRESHOLD and best["bic"] < self.bic0 - BIC_THRESHOLD
-        g0 = max(self.rss0 / nt - self.noise ** 2, 0.0)
+        g0 = max(self.rss0 / nt - nr ** 2, 0.0)
         for f in self.fits:
-            g1 = max(f["rss_test"] / nt - self.noise ** 2, 0.0)
+            g1 = max(f["rss_test"] / nt - nr ** 2, 0.0)
             f["gap_closed"] = None if g0 <= 0 else 1.0 - g1 / g0
             f["delta_bic"] = f["bic"] - self.bic0
         self.chosen = best if self.structural else None
@@ -164,13 +168,13 @@ class FRCDiagnosis:
 
     def result(self):
         nt = int(self.test.sum())
-        xr = float(np.sqrt(np.mean(self.x[self.test] ** 2)))
+        xr = 1.0  # residuals are relative to x_max already
         c = self.chosen
         best = c or self.fits[0]
         verdict = (f"FRC: gap attributed to {c['effects'][0]}" if c else
                    "FRC: no structural effect (held-out gap at the noise floor or no candidate beats it)")
         return {
-            "records": self.names, "noise_floor": self.noise,
+            "records": self.names, "noise_floor": self.noise, "noise_relative": self.noise_rel,
             "where": {"omega": self.w.tolist(), "residual": (self.x - self.pred0).tolist()},
             "candidates": [{k: v for k, v in f.items() if k != "pred"} for f in self.fits],
             "attribution": {"structural": self.structural, "verdict": verdict, "effects": c["effects"] if c else [],
