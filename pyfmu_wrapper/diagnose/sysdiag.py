@@ -48,8 +48,9 @@ def noise_gate(chi2, dof, z=Z_NOISE):
     return (chi2 - dof) / math.sqrt(2.0 * max(dof, 1)) > z
 
 
-def evidence_gate(chi2_before, chi2_after, n_new_params, n, threshold=EVIDENCE):
-    """True when the held-out chi-square drops by more than threshold + p ln(n)."""
+def evidence_gate(chi2_before, chi2_after, n_new_params, n, threshold=None):
+    """True when the held-out chi-square drops by more than threshold (EVIDENCE) + p ln(n)."""
+    threshold = EVIDENCE if threshold is None else threshold
     return chi2_before - chi2_after - n_new_params * math.log(max(n, 2)) > threshold
 
 
@@ -155,7 +156,8 @@ class SystemDiagnosis:
                 cands = sorted(top + cands[3:], key=lambda c: -c[0])
             pick = None
             for ev, e, f in cands:
-                if ev <= EVIDENCE:
+                extra = ev - (chi_cur - f.chi2_ho - len(EFFECT_PARAMS[e]) * math.log(self.n))  # FRC evidence
+                if not evidence_gate(chi_cur + extra, f.chi2_ho, len(EFFECT_PARAMS[e]), self.n):
                     break
                 why = plausibility(f.params, f.std, m.tmd, self.motion)
                 if why:
