@@ -132,3 +132,29 @@ def test_estimate_omega_positive_or_none():
     w = estimate_omega(t, quake)
     assert w is None or w > 0
     assert estimate_omega(t, np.zeros_like(t)) is None
+
+
+def test_non_periodic_record_flagged_rest_still_runs(data, tmp_path):
+    """An earthquake-like record gets no harmonic analysis (flagged, omega never <= 0); the
+    periodic records still give the verdict."""
+    import shutil
+
+    import yaml
+
+    from pyfmu_wrapper.diagnose.data import write_record
+
+    d = tmp_path / "ds"
+    shutil.copytree(data["viscous"], d)
+    rng = np.random.default_rng(5)
+    t = np.arange(0, 6.0, 1e-3)
+    env = np.exp(-((t - 2.0) / 1.0) ** 2)
+    f = 300 * env * np.convolve(rng.normal(size=t.size), np.ones(40) / 40, "same")
+    x = np.cumsum(np.cumsum(f)) * 1e-9
+    write_record(d / "quake.csv", {"t": t, "force": f, "x": x, "y": 2 * x, "xdd": np.gradient(np.gradient(x, t), t),
+                                   "ydd": np.gradient(np.gradient(2 * x, t), t)})
+    meta = yaml.safe_load((d / "dataset.yaml").read_text())
+    meta["records"].append({"file": "quake.csv"})
+    (d / "dataset.yaml").write_text(yaml.safe_dump(meta))
+    res = run_diagnosis(d)
+    assert [f["record"] for f in res["time_records"]["flagged"]] == ["quake.csv"]
+    assert res["verdict"]["effects"] == ["viscous"]
