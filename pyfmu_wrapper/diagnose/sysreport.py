@@ -104,6 +104,9 @@ def write_system_report(res: dict, sd, out: Path, frc=None):
     if v["rejected"]:
         L += ["### Rejected fits", ""] + [f"* {' + '.join(r['effects'])}: {'; '.join(r['reasons'])}" for r in v["rejected"]] + [""]
     tr = res["time_records"]
+    if tr["decision_log"]:
+        L += ["### How the verdict was reached", ""] + [f"* {k}: {' + '.join(e)} -- {'; '.join(r)}"
+                                                       for k, e, r in tr["decision_log"]] + [""]
     L += ["## Time records", "", "| record | w [rad/s] | F [N] | noise x, y [m] | noise xdd, ydd [m/s^2] | rattle z | held-out chi2 before -> after (dof) |",
           "|---|---|---|---|---|---|---|"]
     per = {r["record"]: r for r in res["held_out"]["per_record"]}
