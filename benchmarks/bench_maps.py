@@ -12,7 +12,6 @@ to benchmarks/results/bench_maps.json (merged with earlier entries).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import os
 import platform
@@ -21,7 +20,7 @@ from pathlib import Path
 
 from pyfmu_wrapper.scenario import load_scenario
 from pyfmu_wrapper.scenario.engines import RunSettings
-from pyfmu_wrapper.scenario.executors import make_executor
+from pyfmu_wrapper.scenario.executors import code_version, make_executor
 from pyfmu_wrapper.scenario.runner import _Cache, map_response
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -33,7 +32,7 @@ def bench(which: str, jobs: int, executor_name: str, scheduler=None) -> dict:
     path, study_name = MAPS[which]
     scn = load_scenario(ROOT / path)
     study = next(s for s in scn.studies if s.name == study_name)
-    settings = RunSettings(solver=scn.solver)
+    settings = RunSettings.for_scenario(scn)
     ex = make_executor(executor_name, jobs=jobs, scheduler=scheduler)
     ckpt = ROOT / "results" / "paper" / ".cache" / scn.name
     from tqdm import tqdm
@@ -53,8 +52,9 @@ def bench(which: str, jobs: int, executor_name: str, scheduler=None) -> dict:
                 points=int(len(t)), executor=ex.describe(), jobs=jobs, wall_s=round(wall, 2),
                 cpu_s_in_solver=round(float(t["wall_time"].sum()), 1), ms_per_point=round(1e3 * wall / len(t), 2),
                 not_converged=int((~t["converged"].astype(bool)).sum()), periods_mean=float(t["periods"].mean()),
-                solver=dataclasses.asdict(scn.solver), cpu_count=os.cpu_count(), machine=platform.processor() or platform.machine(),
-                date=time.strftime("%Y-%m-%d %H:%M:%S"))
+                settings=settings.used(), cpu_count=os.cpu_count(), machine=platform.processor() or platform.machine(),
+                date=time.strftime("%Y-%m-%d %H:%M:%S"), created=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+                code_version=code_version())
 
 
 def main():

@@ -23,7 +23,7 @@ import time
 import numpy as np
 
 from pyfmu_wrapper.optimise import (OBJECTIVES, PAPER_C_OPT, PAPER_DF_OPT, Evaluator, Objective, get_objective,
-                                    optimise)
+                                    OptimiseConfig, optimise)
 from pyfmu_wrapper.physics.params import BaseParams, paper_case
 
 BASE = BaseParams()
@@ -69,7 +69,7 @@ def part_a():
                 kw["omegas"] = band
             elif band is not None:
                 kw.update(band=band, points=pts)
-            r = optimise(BASE, paper_case(k), "tmd.damping", obj, **kw)
+            r = optimise(BASE, paper_case(k), "tmd.damping", obj, OptimiseConfig(**kw))
             vals.append(r.value)
             errs.append(100.0 * (r.value / PAPER_C_OPT[k] - 1.0))
         rows.append(dict(candidate=label, values=vals, errors_pct=errs, max_abs_error_pct=max(map(abs, errs))))
@@ -96,8 +96,9 @@ def part_b(quick: bool):
             for k in CASES:
                 cache = _caches.setdefault((direction, band, k), {})
                 pts = 101 if band == (15, 25) else 201
-                r = optimise(BASE, paper_case(k), "tmd.friction_force", obj, band=band, points=pts,
-                             bounds=(0.0, 100.0), direction=direction, curve_cache=cache)
+                r = optimise(BASE, paper_case(k), "tmd.friction_force", obj,
+                             OptimiseConfig(band=band, points=pts, bounds=(0.0, 100.0), direction=direction),
+                             curve_cache=cache)
                 vals.append(r.value)
                 errs.append(100.0 * (r.value / PAPER_DF_OPT[k] - 1.0))
                 conv = conv and bool(r.evaluations["converged"].all())

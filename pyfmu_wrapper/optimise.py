@@ -278,22 +278,41 @@ def frequency_grid(band, points: int) -> np.ndarray:
     return np.linspace(lo, hi, int(points))
 
 
-def optimise(base: BaseParams, tmd: TMDParams, parameter: str, objective="h2", band=(15.0, 25.0),
-             bounds=None, *, omegas=None, points: int | None = None, direction: str = "up",
-             settings: SolverSettings | None = None, linear: str = "exact", scan: int | None = None,
-             xtol: float | None = None, workers: int = 1, progress=None,
-             curve_cache: dict | None = None) -> OptimisationResult:
-    """Minimise ``objective`` over one parameter of the base or the TMD.
+@dataclass(frozen=True)
+class OptimiseConfig:
+    """How :func:`optimise` searches and measures.
 
-    parameter: 'tmd.damping', 'tmd.friction_force', ... (a bare name means the TMD);
-    objective: a name in :data:`OBJECTIVES` or an :class:`Objective`;
     band: (lo, hi) [rad/s] sampled at ``points`` frequencies (default 2001 for linear
       configurations, 101 for nonlinear ones), or give ``omegas`` explicitly;
     bounds: (lo, hi) of the parameter (default :data:`DEFAULT_BOUNDS`);
     direction: sweep direction for nonlinear configurations, 'up', 'down' or 'both' (then the
       pointwise larger amplitude of the two branches is used);
+    settings: the monolithic solver's settings for nonlinear configurations (default FAST_SETTINGS);
+    linear: 'exact' or 'simulate' (sweep linear configurations too);
     scan: points of the coarse scan (default 41 for linear, 11 for nonlinear);
     xtol: absolute tolerance on the parameter (default 1e-6 (hi - lo) linear, 1e-3 (hi - lo) nonlinear);
+    workers: processes per nonlinear sweep.
+    """
+
+    band: tuple = (15.0, 25.0)
+    bounds: tuple | None = None
+    omegas: object = None
+    points: int | None = None
+    direction: str = "up"
+    settings: SolverSettings | None = None
+    linear: str = "exact"
+    scan: int | None = None
+    xtol: float | None = None
+    workers: int = 1
+
+
+def optimise(base: BaseParams, tmd: TMDParams, parameter: str, objective="h2", config: OptimiseConfig | None = None,
+             *, progress=None, curve_cache: dict | None = None) -> OptimisationResult:
+    """Minimise ``objective`` over one parameter of the base or the TMD.
+
+    parameter: 'tmd.damping', 'tmd.friction_force', ... (a bare name means the TMD);
+    objective: a name in :data:`OBJECTIVES` or an :class:`Objective`;
+    config: band, bounds, frequencies, solver and search settings (:class:`OptimiseConfig`; None: defaults);
     progress: optional callable(value, objective) after each evaluation;
     curve_cache: optional dict shared between calls that differ only in the objective (same base,
       tmd, parameter, omegas, direction, settings): the computed amplitude curves are kept there.
@@ -301,6 +320,11 @@ def optimise(base: BaseParams, tmd: TMDParams, parameter: str, objective="h2", b
     If either bound makes the configuration nonlinear, every value (linear ones included, e.g.
     df = 0) is measured on the same band, so that the objective is one function of the parameter.
     """
+    cfg = config if config is not None else OptimiseConfig()
+    if not isinstance(cfg, OptimiseConfig):
+        raise OptimisationError(f"config must be an OptimiseConfig, got {type(cfg).__name__}")
+    band, bounds, omegas, points, direction = cfg.band, cfg.bounds, cfg.omegas, cfg.points, cfg.direction
+    settings, linear, scan, xtol, workers = cfg.settings, cfg.linear, cfg.scan, cfg.xtol, cfg.workers
     obj = get_objective(objective)
     owner, name = split_parameter(parameter)
     parameter = f"{owner}.{name}"

@@ -87,7 +87,7 @@ def test_csv_matches_exact_amplitude(linear_run):
 def test_summary_peaks_match_paper_fig2(linear_run):
     s = json.loads((linear_run / "summary.json").read_text())
     assert s["scenario"]["name"] == "fig2_small" and s["engine"] == "monolithic"
-    assert s["parameters"]["base"]["mass"] == 100.0 and s["solver"]["direction"] == "up"
+    assert s["parameters"]["base"]["mass"] == 100.0 and s["settings"]["sweep"]["direction"] == "up"
     assert s["timings"]["total"] > 0
     frc = {c["label"]: c["directions"]["up"] for c in s["studies"][0]["curves"]}
     # Iratio = 0, c = 0: two peaks at 17.08 and 23.41 rad/s of 0.1171 and 0.0854 m (paper Fig. 2b)
@@ -113,7 +113,8 @@ def test_nonlinear_and_simulated_linear_curves(tmp_path):
     """Friction goes through the steady-state solver; a linear curve with linear: simulate must
     reproduce the exact amplitude."""
     text = LINEAR.replace("count: 101}", "count: 5}").split("  - kind: map")[0]
-    text = text.replace("studies:", "solver: {linear: simulate, direction: both}\nstudies:")
+    text = text.replace("schema_version: 1", "schema_version: 2")
+    text = text.replace("studies:", "sweep: {direction: both}\nsolver: {linear: simulate}\nstudies:")
     text = text.replace('- {label: "Iratio = 1", tmd: {inertance_ratio: 1.0}}',
                         '- {label: "df = 10", tmd: {case: 1, friction_force: 10.0}}')
     out = tmp_path / "out"
@@ -186,3 +187,17 @@ def test_console_script_missing_file(tmp_path):
     r = subprocess.run(cmd + [str(tmp_path / "nope.yaml")], capture_output=True, text=True, timeout=120)
     assert r.returncode == 2
     assert "nope.yaml" in r.stderr and "cannot read" in r.stderr
+
+
+def test_cosim_options_refused_with_the_monolithic_engine(tmp_path, capsys):
+    p = write(tmp_path, LINEAR)
+    for opt in (["--accuracy", "1e-4"], ["--coupling", "force"]):
+        assert main([str(p), "--out", str(tmp_path / "o"), "--quiet", "--engine", "monolithic"] + opt) == 2
+        assert "co-simulation" in capsys.readouterr().err
+    assert not (tmp_path / "o").exists()
+
+
+def test_summary_records_the_engine_settings(linear_run):
+    s = json.loads((linear_run / "summary.json").read_text())
+    assert s["settings"]["engine"] == "monolithic" and s["settings"]["solver"]["linear"] == "exact"
+    assert "cosim" not in s["settings"] and len(s["code_version"]) == 16

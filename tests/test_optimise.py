@@ -13,7 +13,7 @@ import pytest
 
 from pyfmu_wrapper.cli.optimise import main
 from pyfmu_wrapper.optimise import (OBJECTIVES, PAPER_C_OPT, PAPER_DF_OPT, Objective, OptimisationError, h2_exact,
-                                    linear_response, optimise, split_parameter)
+                                    OptimiseConfig, linear_response, optimise, split_parameter)
 from pyfmu_wrapper.physics.params import BaseParams, paper_case
 from pyfmu_wrapper.solvers.frequency_response import exact_response
 
@@ -63,15 +63,18 @@ def test_registry_and_parameter_names():
     with pytest.raises(OptimisationError):
         optimise(BASE, paper_case(1), "damping", "no_such_objective")
     with pytest.raises(OptimisationError):
-        optimise(BASE, paper_case(1), "damping", "h2", bounds=(5.0, 1.0))
+        optimise(BASE, paper_case(1), "damping", "h2", OptimiseConfig(bounds=(5.0, 1.0)))
     with pytest.raises(OptimisationError):
         optimise(BASE, paper_case(1), "tmd.stiffness", "h2")  # no default bounds
     with pytest.raises(OptimisationError):
-        optimise(BASE, paper_case(1), "damping", "mean", band=(25.0, 15.0))
+        optimise(BASE, paper_case(1), "damping", "mean", OptimiseConfig(band=(25.0, 15.0)))
     with pytest.raises(OptimisationError):
-        optimise(BASE, paper_case(1), "damping", "h2", bounds=(-5.0, 10.0))  # non-physical bound
+        optimise(BASE, paper_case(1), "damping", "h2", OptimiseConfig(bounds=(-5.0, 10.0)))  # non-physical bound
     with pytest.raises(OptimisationError):  # the stroke objective needs the exact (linear) response
-        optimise(BASE, paper_case(3), "friction_force", "peak_relative", bounds=(1.0, 2.0), scan=3, points=3)
+        optimise(BASE, paper_case(3), "friction_force", "peak_relative",
+                 OptimiseConfig(bounds=(1.0, 2.0), scan=3, points=3))
+    with pytest.raises(OptimisationError):  # the settings travel in one config object
+        optimise(BASE, paper_case(1), "damping", "h2", dict(bounds=(0.0, 10.0)))
 
 
 # --- the paper's c_opt (exact linear response) -------------------------------------------------
@@ -88,23 +91,24 @@ def test_h2_objective_reproduces_paper_c_opt(case):
 
 def test_h2_over_a_wide_band_gives_the_same_c_opt():
     for case in (1, 2, 3):
-        r = optimise(BASE, paper_case(case), "tmd.damping", "mean_square", band=(10.0, 30.0), points=801)
+        r = optimise(BASE, paper_case(case), "tmd.damping", "mean_square",
+                     OptimiseConfig(band=(10.0, 30.0), points=801))
         assert rel(r.value, PAPER_C_OPT[case]) < 0.02, r.summary()
 
 
 def test_min_max_peak_does_not_reproduce_c_opt():
     """The obvious guess (the min-max of the peak over 15..25) is off by 38-55 % (physics notes)."""
     for case, lo in ((1, 0.3), (2, 0.3), (3, 0.4)):
-        r = optimise(BASE, paper_case(case), "tmd.damping", "peak", band=(15.0, 25.0))
+        r = optimise(BASE, paper_case(case), "tmd.damping", "peak", OptimiseConfig(band=(15.0, 25.0)))
         assert r.value / PAPER_C_OPT[case] - 1.0 > lo, r.summary()
 
 
 def test_custom_objective_and_curve_cache():
     obj = Objective("l1", "int |X| dw", lambda w, a: float(np.trapezoid(a, w)))
     cache = {}
-    r1 = optimise(BASE, paper_case(2), "damping", obj, band=(15.0, 25.0), points=201, curve_cache=cache)
+    r1 = optimise(BASE, paper_case(2), "damping", obj, OptimiseConfig(band=(15.0, 25.0), points=201), curve_cache=cache)
     n = len(cache)
-    r2 = optimise(BASE, paper_case(2), "damping", "mean", band=(15.0, 25.0), points=201, curve_cache=cache)
+    r2 = optimise(BASE, paper_case(2), "damping", "mean", OptimiseConfig(band=(15.0, 25.0), points=201), curve_cache=cache)
     assert abs(r1.value - r2.value) < 1e-3  # same optimum (mean = l1 / width)
     assert n > 0 and len(cache) >= n
 
@@ -112,7 +116,8 @@ def test_custom_objective_and_curve_cache():
 # --- the paper's df_opt (nonlinear solver) ------------------------------------------------------
 
 def test_h2_objective_reproduces_paper_df_opt_case3():
-    r = optimise(BASE, paper_case(3), "tmd.friction_force", "h2", band=(15.0, 25.0), points=101, bounds=(0.0, 40.0))
+    r = optimise(BASE, paper_case(3), "tmd.friction_force", "h2",
+                 OptimiseConfig(band=(15.0, 25.0), points=101, bounds=(0.0, 40.0)))
     assert r.band == (15.0, 25.0)
     assert bool(r.evaluations["converged"].all())
     assert rel(r.value, PAPER_DF_OPT[3]) < 0.02, r.summary()
@@ -126,7 +131,7 @@ def test_h2_objective_reproduces_paper_df_opt_case3():
 @pytest.mark.slow
 @pytest.mark.parametrize("case", [1, 2])
 def test_h2_objective_reproduces_paper_df_opt_cases_1_2(case):
-    r = optimise(BASE, paper_case(case), "tmd.friction_force", "h2", band=(15.0, 25.0), points=101)
+    r = optimise(BASE, paper_case(case), "tmd.friction_force", "h2", OptimiseConfig(band=(15.0, 25.0), points=101))
     assert rel(r.value, PAPER_DF_OPT[case]) < 0.02, r.summary()
 
 

@@ -15,7 +15,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SCENARIOS = sorted((ROOT / "scenarios").glob("*.yaml"))
 
 GOOD = """\
-schema_version: 1
+schema_version: 2
 name: small
 base:
   mass: 100.0
@@ -26,7 +26,7 @@ tmd:
   case: 1
   damping: 0.0
 frequencies: {start: 15.0, stop: 25.0, count: 11}
-solver:
+sweep:
   direction: up
 studies:
   - kind: frc
@@ -67,7 +67,7 @@ def test_every_paper_study_has_a_file():
 @pytest.mark.parametrize("path", SCENARIOS, ids=lambda p: p.name)
 def test_committed_scenario_loads(path):
     scn = load_scenario(path)
-    assert scn.schema_version == 1
+    assert scn.schema_version == 2
     assert scn.name == path.stem  # the default results folder is results/<file stem>
     assert scn.studies
     assert scn.base.natural_frequency == pytest.approx(20.0)
@@ -198,9 +198,9 @@ def test_non_physical_frequencies(tmp_path):
 
 def test_bad_choice_and_version(tmp_path):
     e = error_for(tmp_path, GOOD.replace("direction: up", "direction: sideways"))
-    assert "solver.direction" in str(e) and "'sideways'" in str(e) and "both" in str(e)
-    e = error_for(tmp_path, GOOD.replace("schema_version: 1", "schema_version: 2"))
-    assert "schema_version" in str(e) and "2" in str(e)
+    assert "sweep.direction" in str(e) and "'sideways'" in str(e) and "both" in str(e)
+    e = error_for(tmp_path, GOOD.replace("schema_version: 2", "schema_version: 3"))
+    assert "schema_version" in str(e) and "3" in str(e)
     e = error_for(tmp_path, GOOD.replace("case: 1", "case: 4"))
     assert "tmd.case" in str(e) and "4" in str(e)
 
@@ -230,3 +230,78 @@ def test_missing_file(tmp_path):
 def test_empty_and_non_mapping(tmp_path):
     assert "empty" in str(error_for(tmp_path, ""))
     assert "mapping" in str(error_for(tmp_path, "- 1\n- 2\n"))
+
+
+# --- settings blocks: one meaning per key --------------------------------------------------------
+
+def test_settings_blocks_per_engine(tmp_path):
+    text = GOOD.replace("sweep:\n  direction: up\n", "sweep: {direction: both, continuation: false}\n"
+                        "solver: {rtol: 1.0e-7, window: 4, linear: simulate}\n"
+                        "cosim: {accuracy: 1.0e-4, coupling: force, window: 7, shooting: false}\n")
+    scn = load_scenario(write(tmp_path, text))
+    assert (scn.sweep.direction, scn.sweep.continuation) == ("both", False)
+    assert scn.solver.settings().rtol == 1e-7 and scn.solver.settings().window == 4 and scn.solver.linear == "simulate"
+    cs = scn.cosim.settings()
+    assert (cs.accuracy, cs.coupling, cs.window, cs.shooting) == (1e-4, "force", 7, False)
+    from pyfmu_wrapper.master.steady import CosimSettings
+
+    assert cs.tol_window == CosimSettings().tol_window  # not taken from solver:
+
+
+@pytest.mark.parametrize("block,key,value,hint", [
+    ("solver", "direction", "up", "sweep.direction"),
+    ("solver", "continuation", "false", "sweep.continuation"),
+    ("solver", "accuracy", "1.0e-4", "cosim.accuracy"),
+    ("solver", "coupling", "force", "cosim.coupling"),
+    ("cosim", "rtol", "1.0e-6", "solver.rtol"),
+    ("cosim", "atol_scale", "1.0e-6", "solver.atol_scale"),
+    ("cosim", "linear", "exact", "solver.linear"),
+    ("cosim", "direction", "up", "sweep.direction"),
+    ("sweep", "rtol", "1.0e-6", "solver.rtol"),
+    ("sweep", "accuracy", "1.0e-3", "cosim.accuracy"),
+    ("cosim", "bogus", "1", "unknown key"),
+])
+def test_inapplicable_settings_are_refused(tmp_path, block, key, value, hint):
+    text = GOOD.replace("sweep:\n  direction: up\n", f"{block}:\n  {key}: {value}\n")
+    e = error_for(tmp_path, text)
+    assert f"{block}.{key}" in str(e) and hint in str(e) and ":13:" in str(e), str(e)
+    assert e.path == f"{block}.{key}" and e.line == 13
+
+
+def test_schema1_files(tmp_path):
+    """Schema 1 files are read only without a solver block (the block whose meaning changed)."""
+    v1 = GOOD.replace("schema_version: 2", "schema_version: 1")
+    e = error_for(tmp_path, v1.replace("sweep:", "solver:"))
+    assert "schema_version 1" in str(e) and "solver" in str(e) and "sweep:" in str(e)
+    scn = load_scenario(write(tmp_path, v1.replace("sweep:\n  direction: up\n", "")))
+    assert scn.sweep.direction == "up" and scn.schema_version == 1
+
+
+def test_bad_cosim_values(tmp_path):
+    e = error_for(tmp_path, GOOD.replace("sweep:\n  direction: up\n", "cosim:\n  coupling: spring\n"))
+    assert "cosim.coupling" in str(e) and "'spring'" in str(e)
+    e = error_for(tmp_path, GOOD.replace("sweep:\n  direction: up\n", "cosim:\n  accuracy: -1.0\n"))
+    assert "cosim.accuracy" in str(e) and "-1" in str(e)
+    e = error_for(tmp_path, GOOD.replace("sweep:\n  direction: up\n", "cosim: {min_periods: 9, max_periods: 4}\n"))
+    assert "cosim.max_periods" in str(e)
+
+
+def test_settings_used_by_each_engine(tmp_path):
+    """summary.json records the settings the engine used: its blocks only, fully resolved."""
+    from pyfmu_wrapper.scenario.engines import RunSettings
+
+    text = GOOD.replace("sweep:\n  direction: up\n", "sweep: {direction: down}\nsolver: {rtol: 1.0e-7}\n"
+                        "cosim: {accuracy: 1.0e-4}\n")
+    scn = load_scenario(write(tmp_path, text))
+    mono = RunSettings.for_scenario(scn, engine="monolithic").used()
+    co = RunSettings.for_scenario(scn, engine="cosim").used()
+    both = RunSettings.for_scenario(scn, engine="both").used()
+    assert mono["engine"] == "monolithic" and mono["solver"]["rtol"] == 1e-7 and "cosim" not in mono
+    assert co["engine"] == "cosim" and co["cosim"]["accuracy"] == 1e-4 and "solver" not in co
+    assert both["solver"]["rtol"] == 1e-7 and both["cosim"]["accuracy"] == 1e-4
+    for u in (mono, co, both):
+        assert u["sweep"] == {"direction": "down", "continuation": True}
+    assert co["cosim"]["tol_window"] == 1e-4 and co["cosim"]["max_periods"] > 0  # defaults filled in
+    assert RunSettings.for_scenario(scn, engine="cosim").directions() == ["down"]
+    with pytest.raises(ValueError):
+        RunSettings.for_scenario(scn, engine="nope")

@@ -20,7 +20,7 @@ import json
 import sys
 import traceback
 
-from ..optimise import OBJECTIVES, OptimisationError, optimise, split_parameter, with_parameter
+from ..optimise import OBJECTIVES, OptimisationError, OptimiseConfig, optimise, split_parameter, with_parameter
 from ..physics.params import BaseParams, ParameterError, paper_case
 
 
@@ -78,7 +78,7 @@ def main(argv=None) -> int:
             return _fail(str(exc))
         base, tmd = scn.base, scn.tmd
         kw.update(settings=scn.solver.settings(), linear=scn.solver.linear)
-        direction = args.direction or scn.solver.direction
+        direction = args.direction or scn.sweep.direction
         if args.band is None:
             kw["omegas"] = scn.frequencies
         label = scn.name
@@ -102,9 +102,9 @@ def main(argv=None) -> int:
             print(f"  {args.parameter} = {v:<12.6g} {args.objective} = {J:.8g}", file=sys.stderr, flush=True)
 
     try:
-        res = optimise(base, tmd, args.parameter, args.objective, band=tuple(args.band or (15.0, 25.0)),
-                       bounds=args.bounds, points=args.points, direction=direction, scan=args.scan,
-                       xtol=args.xtol, progress=progress, **kw)
+        cfg = OptimiseConfig(band=tuple(args.band or (15.0, 25.0)), bounds=args.bounds, points=args.points,
+                             direction=direction, scan=args.scan, xtol=args.xtol, **kw)
+        res = optimise(base, tmd, args.parameter, args.objective, cfg, progress=progress)
     except (OptimisationError, ParameterError) as exc:
         return _fail(str(exc))
     except KeyboardInterrupt:

@@ -62,17 +62,19 @@ def main(argv=None) -> int:
     if args.accuracy is not None or args.coupling is not None:
         from dataclasses import replace
 
-        from ..scenario.engines import _cosim_settings
-
+        if args.engine == "monolithic":
+            print("run-scenario: error: --accuracy and --coupling are co-simulation settings; the monolithic engine "
+                  "does not use them (use --engine cosim or both)", file=sys.stderr)
+            return 2
         if args.accuracy is not None and not (0 < args.accuracy < 1):
             print(f"run-scenario: error: --accuracy must be in (0, 1), got {args.accuracy}", file=sys.stderr)
             return 2
-        cosim = _cosim_settings(RunSettings(solver=scn.solver))
+        cosim = scn.cosim.settings()  # the scenario's cosim block, then the command line over it
         if args.accuracy is not None:
-            cosim = replace(cosim, accuracy=args.accuracy)
+            cosim = replace(cosim, accuracy=args.accuracy, steps_per_period=None)
         if args.coupling is not None:
             cosim = replace(cosim, coupling=args.coupling)
-    settings = RunSettings(engine=args.engine, solver=scn.solver, workers=args.workers, cosim=cosim)
+    settings = RunSettings.for_scenario(scn, engine=args.engine, workers=args.workers, cosim=cosim)
     if args.jobs < 0:
         print(f"run-scenario: error: --jobs must be >= 0, got {args.jobs}", file=sys.stderr)
         return 2

@@ -25,7 +25,7 @@ from ..physics.params import BaseParams, TMDParams
 from ..solvers.frequency_response import exact_amplitude, exact_response
 from ..solvers.monolithic import periodic_time_series
 from ..solvers.sweep import sweep
-from .schema import SolverConfig
+from .schema import SolverConfig, SweepConfig
 
 #: columns of every sweep table (one row per direction and omega)
 SWEEP_COLUMNS = ("engine", "method", "direction", "omega", "amplitude", "periods", "converged", "change",
@@ -34,17 +34,46 @@ SWEEP_COLUMNS = ("engine", "method", "direction", "omega", "amplitude", "periods
 DEFAULT_ENGINE = "cosim"
 
 
+#: the engines that use each settings block of a scenario
+BLOCK_USERS = {"sweep": ("cosim", "monolithic", "both"), "solver": ("monolithic", "both"), "cosim": ("cosim", "both")}
+
+
 @dataclass(frozen=True)
 class RunSettings:
-    """What an engine needs besides the parameters: its name and the scenario's solver block."""
+    """What an engine needs besides the parameters: its name and the scenario's settings blocks.
+
+    sweep: direction and continuation (every engine); solver: the monolithic engine's block (read
+    by 'monolithic' and by 'both' for its reference); cosim: the co-simulation engine's
+    :class:`~pyfmu_wrapper.master.steady.CosimSettings` (None: its defaults; read by 'cosim' and 'both').
+    """
 
     engine: str = "monolithic"
     solver: SolverConfig = SolverConfig()
     cosim: object = None  #: pyfmu_wrapper.master.steady.CosimSettings (None: its defaults)
     workers: int = 1  #: processes per nonlinear sweep (1: strict stepped-sine continuation)
+    sweep: SweepConfig = SweepConfig()
+
+    @classmethod
+    def for_scenario(cls, scn, engine: str = "monolithic", workers: int = 1, cosim=None) -> "RunSettings":
+        """The settings of a scenario for ``engine``; ``cosim`` replaces the scenario's cosim block."""
+        _engine(engine)
+        if cosim is None and engine in BLOCK_USERS["cosim"]:
+            cosim = scn.cosim.settings()
+        return cls(engine=engine, solver=scn.solver, cosim=cosim, workers=workers, sweep=scn.sweep)
 
     def directions(self) -> list[str]:
-        return ["up", "down"] if self.solver.direction == "both" else [self.solver.direction]
+        return ["up", "down"] if self.sweep.direction == "both" else [self.sweep.direction]
+
+    def used(self) -> dict:
+        """The settings the engine actually uses, block by block (the others are absent), fully resolved."""
+        from dataclasses import asdict
+
+        out = dict(engine=self.engine, sweep=self.sweep.as_dict())
+        if self.engine in BLOCK_USERS["solver"]:
+            out["solver"] = dict(asdict(self.solver.settings()), linear=self.solver.linear)
+        if self.engine in BLOCK_USERS["cosim"]:
+            out["cosim"] = asdict(_cosim_settings(self))
+        return out
 
 
 @dataclass(frozen=True)
@@ -81,7 +110,7 @@ def _exact_table(base, tmd, omegas, settings, progress, engine) -> pd.DataFrame:
     amp = exact_amplitude(base, tmd, omegas)
     dt = (time.perf_counter() - t0) / max(len(omegas), 1)
     n = len(omegas)
-    direction = "down" if settings.solver.direction == "down" else "up"  # no hysteresis: one branch
+    direction = "down" if settings.sweep.direction == "down" else "up"  # no hysteresis: one branch
     if progress is not None:
         progress(n * len(settings.directions()))
     return pd.DataFrame(dict(engine=engine, method="exact", direction=direction, omega=np.asarray(omegas, float),
@@ -92,7 +121,7 @@ def _exact_table(base, tmd, omegas, settings, progress, engine) -> pd.DataFrame:
 def _monolithic_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.DataFrame:
     if _mono_exact(tmd, settings):
         return _exact_table(base, tmd, omegas, settings, progress, "monolithic")
-    res = sweep(base, tmd, omegas, direction=settings.solver.direction, settings=settings.solver.settings(),
+    res = sweep(base, tmd, omegas, direction=settings.sweep.direction, settings=settings.solver.settings(),
                 progress=progress, workers=settings.workers)
     table = res.table.copy()
     table.insert(0, "method", "steady_state")
@@ -117,19 +146,17 @@ def _monolithic_time_series(base, tmd, omega, n_periods, samples_per_period, set
 
 
 def _cosim_settings(settings: RunSettings):
+    """The co-simulation settings of a run (its own block only: nothing is read from ``solver``)."""
     from ..master.steady import CosimSettings
 
-    if settings.cosim is not None:
-        return settings.cosim
-    sv = settings.solver
-    return CosimSettings(tol_window=sv.tol_window, window=sv.window, min_periods=sv.min_periods)
+    return settings.cosim if settings.cosim is not None else CosimSettings()
 
 
 def _cosim_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.DataFrame:
     from ..master.steady import sweep as cosim_sweep
 
     cs = _cosim_settings(settings)
-    table = cosim_sweep(base, tmd, omegas, direction=settings.solver.direction, settings=cs, progress=progress,
+    table = cosim_sweep(base, tmd, omegas, direction=settings.sweep.direction, settings=cs, progress=progress,
                         workers=settings.workers)
     table.insert(0, "method", cs.method)
     table.insert(0, "engine", "cosim")

@@ -15,10 +15,14 @@ Executors (``make_executor(name, ...)``):
   workers need ``pyfmu_wrapper`` importable (the same environment). No other machinery is used.
 
 Resume: a :class:`Checkpoint` folder holds one file per finished task, named by a hash of everything
-the result depends on (base, TMD, frequencies, engine, solver settings). It is written atomically
-(temporary file + rename) as soon as a task finishes, so a sweep that is killed restarts where it
-stopped: finished tasks are read back, only the missing ones are computed. A change of any input
-changes the hash, so a stale checkpoint is never reused. The default folder, used by
+the result depends on: the code version (:func:`code_version`, a hash of the package's sources), the
+base and TMD parameters, the frequencies, the engine, the sweep block (direction, continuation) and
+the resolved settings of every engine that computes the rows (the monolithic solver's for
+'monolithic', the co-simulation's for 'cosim', both for 'both'; see :meth:`SweepTask.key`). It is
+written atomically (temporary file + rename) as soon as a task finishes, so a sweep that is killed
+restarts where it stopped: finished tasks are read back, only the missing ones are computed. A
+change of any input, or of any source file of the package, changes the hash, so a checkpoint
+written by other code or other settings is never reused. The default folder, used by
 ``run-scenario`` and ``python -m pyfmu_wrapper.reproduce``, is ``<out>/../.cache/<out name>/<study>/``.
 """
 from __future__ import annotations
@@ -29,19 +33,24 @@ import os
 import tempfile
 import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import dataclass, replace
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 from typing import Callable, Iterator
 
 import numpy as np
 import pandas as pd
 
+from ..codeversion import PACKAGE_DIR, source_hash
 from ..physics.params import BaseParams, TMDParams, as_dict
 from .engines import SWEEP_COLUMNS, RunSettings, compute_sweep
 
 EXECUTORS = ("local", "dask", "sequential")
 #: bump when the layout or meaning of a checkpoint file changes
-CHECKPOINT_FORMAT = 1
+CHECKPOINT_FORMAT = 2
+def code_version() -> str:
+    """The code version a checkpoint key includes: :func:`pyfmu_wrapper.codeversion.source_hash`, the
+    sha256 of every source file of the package (first 16 hex digits; computed once per process)."""
+    return source_hash(PACKAGE_DIR)[:16]
 
 
 @dataclass(frozen=True)
@@ -57,33 +66,42 @@ class SweepTask:
         """Progress units of this task (one per frequency and direction)."""
         return len(self.omegas) * len(self.settings.directions())
 
-    def key(self) -> str:
-        """Hash of everything the result depends on (the checkpoint file name)."""
+    def key_payload(self) -> dict:
+        """Everything the result depends on: code version, parameters, frequencies, engine and the
+        resolved settings of the engines that compute the rows (:meth:`RunSettings.used`)."""
         s = self.settings
-        payload = dict(format=CHECKPOINT_FORMAT, base=as_dict(self.base), tmd=as_dict(self.tmd),
-                       omegas=[float(w).hex() for w in np.asarray(self.omegas, float)],
-                       engine=s.engine, solver=s.solver.as_dict())
-        if s.engine != "monolithic" and s.cosim is not None:  # co-simulation settings other than the defaults
-            payload["cosim"] = repr(s.cosim)
-        if s.workers != 1 and s.solver.continuation:  # split sweeps (sequential executor) differ slightly
+        payload = dict(format=CHECKPOINT_FORMAT, code=code_version(), base=as_dict(self.base), tmd=as_dict(self.tmd),
+                       omegas=[float(w).hex() for w in np.asarray(self.omegas, float)], settings=s.used())
+        if s.workers != 1 and s.sweep.continuation:  # split sweeps (sequential executor) differ slightly
             payload["workers"] = s.workers
-        if s.engine != "monolithic":  # engine-specific settings (e.g. the co-simulation's)
-            payload["engine_settings"] = repr(getattr(s, "cosim", None))
-        text = json.dumps(payload, sort_keys=True, default=str)
+        return payload
+
+    def key(self) -> str:
+        """Hash of :meth:`key_payload` (the checkpoint file name)."""
+        text = json.dumps(self.key_payload(), sort_keys=True, default=_exact_json)
         return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+def _exact_json(obj):
+    """JSON of values json cannot write itself (numpy scalars, enums, dataclasses), without rounding."""
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if hasattr(obj, "__dataclass_fields__"):
+        return asdict(obj)
+    return repr(obj)
 
 
 def run_task(task: SweepTask, keep_workers: bool = False) -> pd.DataFrame:
     """Compute one task (the function every executor runs): the engine's sweep table.
 
-    With ``solver.continuation: false`` every frequency is its own one-point sweep, started from the
+    With ``sweep.continuation: false`` every frequency is its own one-point sweep, started from the
     engine's initial guess (the same rows, in the same order, as a continued sweep would give).
     keep_workers: keep ``settings.workers`` (the sequential executor); otherwise the executor is the
     parallelism and each sweep runs in one process (strict continuation).
     """
     settings = task.settings if keep_workers else replace(task.settings, workers=1)
     omegas = np.sort(np.asarray(task.omegas, float))
-    if settings.solver.continuation or len(omegas) < 2:
+    if settings.sweep.continuation or len(omegas) < 2:
         return compute_sweep(task.base, task.tmd, omegas, settings, None)
     parts = [compute_sweep(task.base, task.tmd, omegas[i:i + 1], settings, None) for i in range(len(omegas))]
     table = pd.concat(parts, ignore_index=True)

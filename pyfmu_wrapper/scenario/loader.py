@@ -15,8 +15,9 @@ import numpy as np
 import yaml
 
 from ..physics.params import BaseParams, CASES, InerterModel, ParameterError, TMDParams, field_names
-from .schema import (DIRECTIONS, LINEAR_METHODS, MAP_PARAMETERS, SCHEMA_VERSION, STUDY_KINDS, Curve,
-                     FRCStudy, MapStudy, PhasePortraitStudy, Scenario, ScenarioError, SolverConfig)
+from .schema import (COSIM_KEYS, DIRECTIONS, LINEAR_METHODS, MAP_PARAMETERS, READ_VERSIONS, SCHEMA_VERSION,
+                     STUDY_KINDS, CosimConfig, Curve, FRCStudy, MapStudy, PhasePortraitStudy, Scenario, ScenarioError,
+                     SolverConfig, SweepConfig)
 from .yamlio import MarkedDict, MarkedList, load_marked
 
 TMD_FIELDS = tuple(field_names(TMDParams))
@@ -55,14 +56,17 @@ class _Reader:
         return f"{self.file}:{line} {path}" if line else f"{self.file} {path}"
 
     # -- structure ------------------------------------------------------------------------------
-    def mapping(self, node, path, line, *, required=(), optional=()):
+    def mapping(self, node, path, line, *, required=(), optional=(), hints=None):
+        """Check a mapping's keys; ``hints``: key -> where it belongs instead (a clearer refusal)."""
         if not isinstance(node, dict):
             self.fail(path, line, f"must be a mapping with keys {list(required) + list(optional)}", node)
         allowed = set(required) | set(optional)
         for key in node:
             if key not in allowed:
-                self.fail(_join(path, key), _line(node, key), f"unknown key {key!r}; allowed keys: "
-                          f"{sorted(map(str, allowed))}", node[key])
+                hint = (hints or {}).get(key)
+                reason = (f"does not apply here: {hint}" if hint else
+                          f"unknown key {key!r}; allowed keys: {sorted(map(str, allowed))}")
+                self.fail(_join(path, key), _line(node, key), reason, node[key])
         for key in required:
             if key not in node:
                 self.fail(_join(path, key), _line(node), "missing required key", show_value=False)
@@ -269,11 +273,18 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
     if doc is None:
         rd.fail("", None, "the file is empty", show_value=False)
     rd.mapping(doc, "", 1, required=("schema_version", "name", "base", "tmd", "frequencies", "studies"),
-               optional=("description", "solver"))
+               optional=("description", "sweep", "solver", "cosim"))
     version = doc["schema_version"]
-    if isinstance(version, bool) or version != SCHEMA_VERSION:
+    if isinstance(version, bool) or version not in READ_VERSIONS:
         rd.fail("schema_version", _line(doc, "schema_version"), f"unsupported schema version; this "
                 f"program reads schema_version {SCHEMA_VERSION}", version)
+    if version != SCHEMA_VERSION:
+        for key in ("solver", "sweep", "cosim"):  # schema 1 had one solver block read by both engines
+            if key in doc:
+                rd.fail(key, _line(doc, key), f"a schema_version {version} file cannot have a {key!r} block: in "
+                        f"schema 1 'solver:' meant different things to the two engines; write schema_version "
+                        f"{SCHEMA_VERSION} with 'sweep:' (direction, continuation), 'solver:' (monolithic engine) "
+                        "and 'cosim:' (co-simulation engine), see docs/scenarios.md", doc[key])
     name = rd.string(doc, "name", "", pattern=_NAME_RE)
     description = rd.string(doc, "description", "", default="")
 
@@ -293,7 +304,9 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
     top = _TMDSpec().over(rd, doc["tmd"], "tmd", _line(doc, "tmd"))
     tmd = top.build(rd, "tmd", _line(doc, "tmd"))
     omegas = rd.grid(doc["frequencies"], "frequencies", _line(doc, "frequencies"), positive=True)
+    sweep = _sweep(rd, doc.get("sweep", {}), _line(doc, "sweep"))
     solver = _solver(rd, doc.get("solver", {}), _line(doc, "solver"))
+    cosim = _cosim(rd, doc.get("cosim", {}), _line(doc, "cosim"))
 
     studies_node = rd.sequence(doc["studies"], "studies", _line(doc, "studies"))
     studies, names = [], set()
@@ -304,7 +317,8 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
         names.add(s.name)
         studies.append(s)
     return Scenario(path=file, name=name, description=description, schema_version=version, base=base, tmd=tmd,
-                    frequencies=omegas, solver=solver, studies=tuple(studies), raw=_plain(doc))
+                    frequencies=omegas, solver=solver, studies=tuple(studies), sweep=sweep, cosim=cosim,
+                    raw=_plain(doc))
 
 
 def _base_fails(b, key) -> bool:
@@ -315,10 +329,25 @@ def _base_fails(b, key) -> bool:
         return True
 
 
+_SWEEP_KEYS = ("direction", "continuation")
+_SOLVER_KEYS = ("rtol", "atol_scale", "tol", "tol_window", "window", "min_periods", "max_periods", "linear")
+_TO_SWEEP = {k: f"shared by both engines: write it as sweep.{k}" for k in _SWEEP_KEYS}
+_TO_COSIM = {k: f"a co-simulation setting: write it under cosim: (cosim.{k})"
+             for k in COSIM_KEYS if k not in _SOLVER_KEYS}
+_TO_SOLVER = {k: f"a monolithic-engine setting: write it under solver: (solver.{k})"
+              for k in _SOLVER_KEYS if k not in COSIM_KEYS}
+
+
+def _sweep(rd: _Reader, node, line) -> SweepConfig:
+    rd.mapping(node, "sweep", line, optional=_SWEEP_KEYS,
+               hints={**_TO_COSIM, **_TO_SOLVER})
+    d = SweepConfig()
+    return SweepConfig(direction=rd.string(node, "direction", "sweep", choices=DIRECTIONS, default=d.direction),
+                       continuation=rd.boolean(node, "continuation", "sweep", default=d.continuation))
+
+
 def _solver(rd: _Reader, node, line) -> SolverConfig:
-    keys = ("rtol", "atol_scale", "tol", "tol_window", "window", "min_periods", "max_periods", "direction", "linear",
-            "continuation")
-    rd.mapping(node, "solver", line, optional=keys)
+    rd.mapping(node, "solver", line, optional=_SOLVER_KEYS, hints={**_TO_SWEEP, **_TO_COSIM})
     d = SolverConfig()
     cfg = SolverConfig(
         rtol=rd.number(node, "rtol", "solver", minimum=0, strict=True, maximum=0.1, default=d.rtol),
@@ -328,13 +357,40 @@ def _solver(rd: _Reader, node, line) -> SolverConfig:
         window=rd.integer(node, "window", "solver", minimum=1, default=d.window, allow_null=True),
         min_periods=rd.integer(node, "min_periods", "solver", minimum=1, default=d.min_periods),
         max_periods=rd.integer(node, "max_periods", "solver", minimum=1, default=d.max_periods),
-        direction=rd.string(node, "direction", "solver", choices=DIRECTIONS, default=d.direction),
         linear=rd.string(node, "linear", "solver", choices=LINEAR_METHODS, default=d.linear),
-        continuation=rd.boolean(node, "continuation", "solver", default=d.continuation),
     )
     if cfg.max_periods < cfg.min_periods:
         rd.fail("solver.max_periods", _line(node, "max_periods"), f"must be >= min_periods = {cfg.min_periods}",
                 cfg.max_periods)
+    return cfg
+
+
+def _cosim(rd: _Reader, node, line) -> CosimConfig:
+    rd.mapping(node, "cosim", line, optional=COSIM_KEYS, hints={**_TO_SWEEP, **_TO_SOLVER})
+    p = "cosim"
+    read = dict(
+        accuracy=lambda: rd.number(node, "accuracy", p, minimum=0, strict=True, maximum=0.5),
+        steps_per_period=lambda: rd.integer(node, "steps_per_period", p, minimum=8, maximum=100_000, allow_null=True),
+        coupling=lambda: rd.string(node, "coupling", p, choices=("impulse", "force")),
+        order=lambda: rd.integer(node, "order", p, minimum=0, maximum=2),
+        scheme=lambda: rd.string(node, "scheme", p, choices=("loop", "jacobi", "gauss-seidel")),
+        tol=lambda: rd.number(node, "tol", p, minimum=0, strict=True, maximum=0.5),
+        tol_window=lambda: rd.number(node, "tol_window", p, minimum=0, strict=True, maximum=0.5),
+        window=lambda: rd.integer(node, "window", p, minimum=1, allow_null=True),
+        min_periods=lambda: rd.integer(node, "min_periods", p, minimum=1),
+        max_periods=lambda: rd.integer(node, "max_periods", p, minimum=1),
+        fmu_rtol=lambda: rd.number(node, "fmu_rtol", p, minimum=0, strict=True, maximum=0.1),
+        shooting=lambda: rd.boolean(node, "shooting", p),
+    )
+    overrides = tuple((k, read[k]()) for k in node)
+    cfg = CosimConfig(overrides)
+    try:
+        cs = cfg.settings()
+    except (TypeError, ValueError) as exc:  # a field the co-simulation settings refuse
+        rd.fail("cosim", line, f"not valid co-simulation settings: {exc}", node)
+    if cs.max_periods < cs.min_periods:
+        rd.fail("cosim.max_periods", _line(node, "max_periods") or line, f"must be >= min_periods = {cs.min_periods}",
+                cs.max_periods)
     return cfg
 
 

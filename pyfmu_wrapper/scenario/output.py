@@ -23,6 +23,7 @@ import pandas as pd
 from .. import plots
 from ..physics.params import as_dict
 from .engines import RunSettings
+from .executors import code_version
 from .runner import FRCData, MapData, run_studies, study_summary
 from .schema import Scenario
 
@@ -115,7 +116,9 @@ def make_summary(scn: Scenario, settings: RunSettings, datas, compute_time: floa
         engine=settings.engine,
         workers=settings.workers,
         parameters=dict(base=as_dict(scn.base), tmd=as_dict(scn.tmd)),
-        solver=settings.solver.as_dict(),
+        settings=settings.used(),
+        not_used=[b for b in ("solver", "cosim") if b in scn.raw and b not in settings.used()],
+        code_version=code_version(),
         timings=dict(compute=compute_time, total=total_time, studies={d.study.name: d.wall_time for d in datas}),
         studies=[study_summary(d) for d in datas],
         created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),

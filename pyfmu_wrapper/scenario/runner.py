@@ -78,7 +78,7 @@ class _Cache:
             if progress is not None:
                 progress(len(omegas) * len(settings.directions()))
             return self.tables[key]
-        if settings.solver.continuation or uses_exact(tmd, settings):
+        if settings.sweep.continuation or uses_exact(tmd, settings):
             table = compute_sweep(base, tmd, omegas, settings, progress)
         else:  # independent points from the linear guess: same task function as the executors
             task = SweepTask(base, tmd, np.asarray(omegas, float), settings)

@@ -1,4 +1,4 @@
-"""Typed objects of a validated scenario (schema version 1; see docs/scenarios.md).
+"""Typed objects of a validated scenario (schema version 2; see docs/scenarios.md).
 
 The loader (:mod:`.loader`) turns a YAML file into these objects; everything downstream (the
 runner, the plots) works with them only, never with raw YAML.
@@ -13,7 +13,9 @@ from ..physics import registry
 from ..physics.params import BaseParams, TMDParams
 from ..solvers.monolithic import SolverSettings
 
-SCHEMA_VERSION = 1
+SCHEMA_VERSION = 2
+#: older versions still read: 1 only when the file has no ``solver:`` block (docs/scenarios.md)
+READ_VERSIONS = (1, 2)
 
 DIRECTIONS = ("up", "down", "both")
 LINEAR_METHODS = ("exact", "simulate")
@@ -35,15 +37,30 @@ class ScenarioError(ValueError):
 
 
 @dataclass(frozen=True)
-class SolverConfig:
-    """Solver block of a scenario: the monolithic solver's settings plus sweep options.
+class SweepConfig:
+    """``sweep:`` block of a scenario: how the frequencies are visited, for every engine.
 
     direction: 'up', 'down' or 'both' (stepped-sine sweep with continuation);
-    linear: 'exact' (linear configurations use the exact frequency response) or 'simulate'
-    (integrate them like the nonlinear ones, e.g. to cross-check);
     continuation: True (each frequency starts from the previous steady state) or False (each starts
-    from the solver's linear initial guess, independently: the map executors then run every
-    frequency as its own sweep of one point; much faster for the rattling play model).
+    from the engine's initial guess, independently: the map executors then run every frequency as
+    its own sweep of one point; much faster for the rattling play model).
+    """
+
+    direction: str = "up"
+    continuation: bool = True
+
+    def as_dict(self) -> dict:
+        return dict(direction=self.direction, continuation=self.continuation)
+
+
+@dataclass(frozen=True)
+class SolverConfig:
+    """``solver:`` block of a scenario: the settings of the monolithic engine only.
+
+    rtol ... max_periods: :class:`~pyfmu_wrapper.solvers.monolithic.SolverSettings`;
+    linear: 'exact' (linear configurations use the exact frequency response) or 'simulate'
+    (integrate them like the nonlinear ones, e.g. to cross-check). The co-simulation engine reads
+    none of these (its block is :class:`CosimConfig`).
     """
 
     rtol: float = SolverSettings.rtol
@@ -53,9 +70,7 @@ class SolverConfig:
     window: int | None = SolverSettings.window
     min_periods: int = SolverSettings.min_periods
     max_periods: int = SolverSettings.max_periods
-    direction: str = "up"
     linear: str = "exact"
-    continuation: bool = True
 
     def settings(self) -> SolverSettings:
         return SolverSettings(rtol=self.rtol, atol_scale=self.atol_scale, tol=self.tol, tol_window=self.tol_window,
@@ -65,7 +80,33 @@ class SolverConfig:
     def as_dict(self) -> dict:
         return dict(rtol=self.rtol, atol_scale=self.atol_scale, tol=self.tol, tol_window=self.tol_window,
                     window=self.window, min_periods=self.min_periods, max_periods=self.max_periods,
-                    direction=self.direction, linear=self.linear, continuation=self.continuation)
+                    linear=self.linear)
+
+
+#: keys of the ``cosim:`` block (fields of pyfmu_wrapper.master.steady.CosimSettings a scenario may set)
+COSIM_KEYS = ("accuracy", "steps_per_period", "coupling", "order", "scheme", "tol", "tol_window", "window",
+              "min_periods", "max_periods", "fmu_rtol", "shooting")
+
+
+@dataclass(frozen=True)
+class CosimConfig:
+    """``cosim:`` block of a scenario: the settings of the co-simulation engine only.
+
+    ``overrides`` holds the keys the file sets (names of
+    :class:`~pyfmu_wrapper.master.steady.CosimSettings` fields, :data:`COSIM_KEYS`); every other
+    field keeps its default. The monolithic engine reads none of these.
+    """
+
+    overrides: tuple = ()  #: ((key, value), ...) in file order
+
+    def settings(self):
+        """The :class:`~pyfmu_wrapper.master.steady.CosimSettings` of the block."""
+        from ..master.steady import CosimSettings  # lazy: the master imports fmpy
+
+        return CosimSettings(**dict(self.overrides))
+
+    def as_dict(self) -> dict:
+        return dict(self.overrides)
 
 
 @dataclass(frozen=True)
@@ -128,6 +169,8 @@ class Scenario:
     base: BaseParams
     tmd: TMDParams
     frequencies: np.ndarray = field(repr=False)
-    solver: SolverConfig
+    solver: SolverConfig  #: the monolithic engine's block
     studies: tuple
+    sweep: SweepConfig = SweepConfig()  #: shared by every engine
+    cosim: CosimConfig = CosimConfig()  #: the co-simulation engine's block
     raw: dict = field(repr=False, compare=False, default_factory=dict)  #: the YAML data as read
