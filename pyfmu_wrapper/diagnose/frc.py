@@ -48,14 +48,17 @@ class FRCDiagnosis:
         self.noise_rel = (float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0)) if d2.size else 0.0) \
             or self.noise / max(float(np.abs(self.x).mean()), 1e-300)
 
-    def amplitude(self, base, tmd, gain=1.0, bias=0.0):
+    def amplitude(self, base, tmd, gain=1.0, bias=0.0, only=None):
+        """x_max at every FRC point (``only``: a mask of the points to compute; others are nan)."""
         if tmd.is_linear:
             a = exact_amplitude(replace(base, force_amplitude=1.0), tmd, self.w) * np.abs(self.F) * gain
         else:
             # a sweep in frequency order reusing the shooting Jacobian of the previous point
-            a = np.empty(self.w.size)
+            a = np.full(self.w.size, np.nan)
             hint = {}
             for i in np.argsort(self.w, kind="stable"):
+                if only is not None and not only[i]:
+                    continue
                 a[i] = steady_state(replace(base, force_amplitude=self.F[i] * gain), tmd, float(self.w[i]), hint=hint).amplitude
         return a + bias
 
@@ -121,7 +124,8 @@ class FRCDiagnosis:
                 b, replace(t, inertance=min(max(I0 + p[0], 1e-6), t.inertia - 1e-6), mass=t.inertia - min(max(I0 + p[0], 1e-6), t.inertia - 1e-6)))
         yield "force_error", ["force_gain_error"], [0.0], lambda p: self.amplitude(b, t, gain=1.0 + p[0])
         yield "sensor_offset", ["x_offset"], [0.0], lambda p: self.amplitude(b, t, bias=p[0])
-        yield "friction", ["friction_force"], None, lambda p: self.amplitude(b, replace(t, friction_force=max(p[0], 0.0)))
+        yield "friction", ["friction_force"], None, lambda p, only=None: self.amplitude(
+            b, replace(t, friction_force=max(p[0], 0.0)), only=only)
 
     def run(self):
         """Fit each candidate on the training frequencies; everything in relative residuals
@@ -134,7 +138,7 @@ class FRCDiagnosis:
         self.fits = []
         for name, pnames, p0, model in self._candidates():
             if p0 is None:  # friction: bounded scalar search on the training points
-                obj = lambda v: float(np.sum(((self.x - model([v])) / sc)[self.train] ** 2))
+                obj = lambda v: float(np.sum(((self.x - model([v], only=self.train)) / sc)[self.train] ** 2))
                 upper = 0.5 * float(np.max(np.abs(self.F)))
                 res = minimize_scalar(obj, bounds=(0.0, upper), method="bounded", options=dict(maxiter=7, xatol=1e-3 * upper))
                 p = np.array([res.x])

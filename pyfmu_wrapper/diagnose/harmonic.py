@@ -107,10 +107,11 @@ def _basis(tt, omega, H):
     uniform = bool(np.max(np.abs(tt - np.linspace(0.0, tt[-1], n))) <= 1e-6 * tt[-1] / max(n - 1, 1))
     key = (n, omega, H, float(tt[-1])) if uniform else None
     if key is None or key not in _BASIS:
-        B = [np.ones(n)]
-        for h in range(1, H + 1):
-            B += [np.cos(h * omega * tt), np.sin(h * omega * tt)]
-        B = np.column_stack(B)
+        ang = np.outer(tt, omega * np.arange(1, H + 1))
+        B = np.empty((n, 2 * H + 1))
+        B[:, 0] = 1.0
+        B[:, 1::2] = np.cos(ang)
+        B[:, 2::2] = np.sin(ang)
         # normal equations: over whole periods the basis is nearly orthogonal (B^T B ~ n/2 I), so
         # this is well conditioned and much cheaper than a QR of the n x (2H+1) matrix
         Li = np.linalg.inv(np.linalg.cholesky(B.T @ B))

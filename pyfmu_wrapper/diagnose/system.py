@@ -24,7 +24,7 @@ import math
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
+from .._jit import njit
 
 from ..physics.kernels import friction_force, static_link_force
 from ..physics.params import N_PARAMS, P_k3, BaseParams, TMDParams, pack
