@@ -18,7 +18,8 @@ from scipy.optimize import least_squares, minimize_scalar
 
 from ..physics.params import BaseParams, TMDParams
 from ..solvers.frequency_response import exact_amplitude
-from ..solvers.monolithic import steady_state
+from ..physics.params import ParameterError
+from ..solvers.monolithic import SolverError, steady_state
 
 BIC_THRESHOLD = 6.0
 EXCESS_THRESHOLD = 0.15
@@ -104,9 +105,12 @@ class FRCDiagnosis:
     def evidence(self, params: dict) -> float:
         """Chi-square drop on every FRC point when the nominal is changed by ``params`` (fitted on
         other records: all FRC points are held out). 0 when the effect cannot be evaluated."""
-        pred = self.predict(params)
-        if pred is None:
-            return 0.0
+        try:
+            pred = self.predict(params)
+        except (SolverError, ParameterError, ValueError, FloatingPointError):
+            return None  # the changed model has no steady state the solver can reach: no FRC evidence
+        if pred is None or not np.all(np.isfinite(pred)):
+            return None
         return self.chi2(self.pred0) - self.chi2(pred)
 
     def _noise(self):

@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from ..solvers.monolithic import SolverError
 from .play import PlayFit
 from dataclasses import replace
 
@@ -121,8 +122,13 @@ class SystemDiagnosis:
         self.play_ok = False
         base = ()
         if self.play.indicated:
-            self.play.fit(self.train_ids, self.folds)
-            m.play_signature = self.play.signature(m)
+            try:
+                self.play.fit(self.train_ids, self.folds)
+                m.play_signature = self.play.signature(m)
+            except (SolverError, ValueError, FloatingPointError) as err:
+                self.log.append(("rejected", ("play",), [f"the play model could not be simulated: {err}"]))
+                self.play_fail = True
+        if self.play.indicated and not getattr(self, "play_fail", False):
             eqp = fit_eq(m, ("play",), self.folds)
             params = dict(eqp.params, **{"play.play_gap": self.play.eps})
             std = dict(eqp.std, **{"play.play_gap": self.play.std})
@@ -151,8 +157,10 @@ class SystemDiagnosis:
             if self.frc is not None:  # FRC evidence for the leading time-record candidates
                 top = []
                 for ev, e, f in cands[:3]:
-                    fe = self._frc_evidence(f)
-                    top.append((ev + fe, e, f))
+                    fe = None
+                    if not plausibility(f.params, f.std, m.tmd, self.motion):
+                        fe = self._frc_evidence(f)
+                    top.append((ev + (fe or 0.0), e, f))
                 cands = sorted(top + cands[3:], key=lambda c: -c[0])
             pick = None
             for ev, e, f in cands:
@@ -214,9 +222,14 @@ class SystemDiagnosis:
         for _ in range(iterations):
             tmd = replace(m.tmd, friction_force=df)
             m.friction_signature = {}
-            for v in self.views:
-                A, B = steady_signature(m, v, tmd)
-                m.friction_signature[v.name] = (A / df, B / df)
+            try:
+                for v in self.views:
+                    A, B = steady_signature(m, v, tmd)
+                    m.friction_signature[v.name] = (A / df, B / df)
+            except (SolverError, ValueError, FloatingPointError) as err:
+                m.friction_signature = {}
+                self.log.append(("note", ("friction",), [f"no refinement through the solver: {err}"]))
+                return
             g = fit_eq(m, base + ("friction",), self.folds, {"friction": (slope,)})
             new = g.params["friction.friction_force"]
             if not new > 0:

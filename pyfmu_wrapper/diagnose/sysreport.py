@@ -43,7 +43,7 @@ def disagreements(sd, frc_res) -> list:
                        "or below the FRC evidence threshold")
         out.append("The FRC records alone find no structural effect: " + "; ".join(why) + ".")
     for key, ev in sd.frc_ev.items():
-        if set(key) == chosen and ev < -10:
+        if set(key) == chosen and ev is not None and ev < -10:
             out.append(f"With the time-record parameters, the FRC fit gets worse (chi-square +{-ev:.3g}): the "
                        "parameters are uncertain or a further effect acts on the FRC only.")
     return out
