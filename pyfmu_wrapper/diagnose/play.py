@@ -29,6 +29,7 @@ from .harmonic import fit_series
 
 Z_GATE = 6.0  #: rattle statistic (in noise std) above which a record shows contact spikes
 EPS_LADDER = (1e-5, 1e-4, 1e-3)  #: gaps [m] of the first simulations
+SIGNATURE_PERIODS = 8  #: the play signature is taken over this many times the record's periods
 RTOL = 1e-6  #: integrator tolerance of the fitting simulations (the rattle statistic needs no more)
 SETTLE = 4  #: periods simulated from the companion orbit before the record starts
 
@@ -136,8 +137,10 @@ class PlayFit:
         out = {}
         b, t = self.base, self.tmd
         for i, v in enumerate(self.views):
-            self._sim(i, self.eps)
-            s = self.sims[i][self.eps]
+            # a longer run than the record: the periodic part of a chaotic rattle scatters less
+            nper = SIGNATURE_PERIODS * max(2, int(round(v.series.n * v.dt * v.omega / (2 * math.pi))))
+            _, s = simulated_stat(self.base, self.tmd, v.omega, v.amplitude, self.eps, v.dt, nper)
+            self.n_sim += 1
             H = v.X.size - 1
             X, _ = fuse(s, "x", None, H)
             Y, _ = fuse(s, "y", None, H)

@@ -38,7 +38,7 @@ LABELS = {
     "cubic": "cubic term in the TMD spring", "force_error": "forcing-amplitude error",
     "sensor_offset": "displacement-sensor offset",
 }
-UNITS = {"friction_force": "N", "friction_slope": "s/m", "play_gap": "m", "delta_inertance_eff": "kg",
+UNITS = {"friction_force": "N", "friction_slope": "s/m", "play_gap": "m", "delta_inertance_eff": "kg", "signature_scale": "1",
          "delta_damping": "N s/m", "delta_inertance": "kg", "cubic_stiffness": "N/m^3",
          "force_gain_error": "1", "x_offset": "m", "y_offset": "m"}
 EQ_EFFECTS = ("friction", "viscous", "mass_split", "cubic", "force_error", "sensor_offset")
@@ -93,6 +93,9 @@ def plausibility(params: dict, std: dict, tmd, motion: dict) -> list:
     eps = g("play.play_gap")
     if eps is not None and eps > motion["d"]:
         out.append(f"gap {eps:.3g} m larger than the relative motion ({motion['d']:.3g} m)")
+    sc = g("play.signature_scale")
+    if sc is not None and sc <= 0:
+        out.append(f"the simulated rattle signature enters with scale {sc:.3g} <= 0")
     dIe = g("play.delta_inertance_eff")
     if dIe is not None and tmd.inertance + dIe < -s("play.delta_inertance_eff"):
         out.append(f"effective inertance < 0 ({tmd.inertance + dIe:.3g} kg)")
@@ -314,7 +317,7 @@ class SystemDiagnosis:
         for e in self.chosen:
             ps = ", ".join(f"{k.split('.', 1)[1]} = {v:.4g} +- {s.get(k, float('nan')):.2g} {UNITS.get(k.split('.', 1)[1], '')}"
                            for k, v in p.items() if k.startswith(e + ".") and not k.endswith("friction_slope")
-                           and not k.endswith("delta_inertance_eff") and not (k.endswith("y_offset") and abs(v) < 2 * s.get(k, 0)))
+                           and not k.endswith("delta_inertance_eff") and not k.endswith("signature_scale") and not (k.endswith("y_offset") and abs(v) < 2 * s.get(k, 0)))
             parts.append(f"{LABELS[e]} ({ps})")
         gc = self.held_out()["gap_closed"]
         return ("Gap attributed to " + " + ".join(parts)

@@ -20,7 +20,6 @@ parameters fitted on the others.
 """
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -336,7 +335,6 @@ def steady_signature(model: SystemModel, v: RecView, tmd) -> tuple:
     simulated motion (e.g. dry friction with its stick phases)."""
     from dataclasses import replace
 
-    from ..physics.kernels import rhs
     from ..solvers.monolithic import periodic_time_series
 
     base = replace(model.base, force_amplitude=v.amplitude)
