@@ -128,7 +128,7 @@ class PlayFit:
         self.std = self.eps * scat / max(abs(slope), 1e-3)
         return self
 
-    def signature(self, model):
+    def signature(self, model, eps=None):
         """Per record, the equation error (A_h, B_h) the nominal model leaves on the record simulated
         with the fitted gap (the periodic part of the rattling chain force minus I a), in the phase
         of the measured force: the play candidate's prediction for the harmonic residuals."""
@@ -139,7 +139,7 @@ class PlayFit:
         for i, v in enumerate(self.views):
             # a longer run than the record: the periodic part of a chaotic rattle scatters less
             nper = SIGNATURE_PERIODS * max(2, int(round(v.series.n * v.dt * v.omega / (2 * math.pi))))
-            _, s = simulated_stat(self.base, self.tmd, v.omega, v.amplitude, self.eps, v.dt, nper)
+            _, s = simulated_stat(self.base, self.tmd, v.omega, v.amplitude, self.eps if eps is None else eps, v.dt, nper)
             self.n_sim += 1
             H = v.X.size - 1
             X, _ = fuse(s, "x", None, H)
