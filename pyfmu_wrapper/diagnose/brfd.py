@@ -14,7 +14,6 @@ keep every stride-th sample (about 256 samples per cycle). The force is the meas
 from __future__ import annotations
 
 import json
-import math
 import re
 import shutil
 from pathlib import Path

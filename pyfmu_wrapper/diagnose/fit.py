@@ -207,7 +207,6 @@ def diagnose_link(ld: LinkData, max_pairs_from: int = 7) -> Diagnosis:
     f_rms = float(np.sqrt(np.mean(ld.F[test] ** 2)))
     effects = effect_list(ld)
     fits = [fit_effects([e], ld, train, test) for e in effects]
-    best_rss = min(f.rss_test for f in fits)
     best = min(fits, key=lambda f: f.rss_test)
     n_eff = max(10.0, nt * (1 - _rho((ld.F - best.pred)[test])) / (1 + _rho((ld.F - best.pred)[test])))
 

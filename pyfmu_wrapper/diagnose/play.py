@@ -135,7 +135,6 @@ class PlayFit:
         from .harmonic import fuse
 
         out = {}
-        b, t = self.base, self.tmd
         for i, v in enumerate(self.views):
             # a longer run than the record: the periodic part of a chaotic rattle scatters less
             nper = SIGNATURE_PERIODS * max(2, int(round(v.series.n * v.dt * v.omega / (2 * math.pi))))
@@ -144,7 +143,6 @@ class PlayFit:
             H = v.X.size - 1
             X, _ = fuse(s, "x", None, H)
             Y, _ = fuse(s, "y", None, H)
-            hw = np.arange(H + 1) * v.omega
             F = np.zeros(H + 1, complex)
             F[1] = v.amplitude
             A, B = model.residuals(v, X, Y, F)
