@@ -305,3 +305,86 @@ def test_settings_used_by_each_engine(tmp_path):
     assert RunSettings.for_scenario(scn, engine="cosim").directions() == ["down"]
     with pytest.raises(ValueError):
         RunSettings.for_scenario(scn, engine="nope")
+
+
+# --- checkpoint keys: code version and every setting that changes a number ----------------------
+
+from pyfmu_wrapper.physics.params import BaseParams, paper_case  # noqa: E402
+from pyfmu_wrapper.scenario.engines import RunSettings  # noqa: E402
+from pyfmu_wrapper.scenario.executors import Checkpoint, SweepTask  # noqa: E402
+from pyfmu_wrapper.scenario.schema import SolverConfig, SweepConfig  # noqa: E402
+
+BASE = BaseParams(mass=100.0, stiffness=4.0e4, damping=100.0, force_amplitude=200.0)
+
+def _fake_table(task):
+    import pandas as pd
+
+    from pyfmu_wrapper.scenario.engines import SWEEP_COLUMNS
+
+    n = task.units()
+    return pd.DataFrame({c: (["x"] * n if c in ("engine", "method", "direction") else np.arange(n, dtype=float))
+                         for c in SWEEP_COLUMNS}).astype(dict(periods=int, steps=int, rejected=int, converged=bool))
+
+
+def test_checkpoint_key_follows_every_setting(tmp_path):
+    from dataclasses import replace
+
+    from pyfmu_wrapper.master.steady import CosimSettings
+
+    w = np.array([18.0, 20.0, 22.0])
+    tmd = paper_case(1, friction_force=20.0)
+    mono = RunSettings(engine="monolithic", solver=SolverConfig())
+    co = RunSettings(engine="cosim", cosim=CosimSettings())
+    ck = Checkpoint(tmp_path / "ck")
+    for rs in (mono, co):
+        t = SweepTask(BASE, tmd, w, rs)
+        ck.save(t, _fake_table(t))
+        assert ck.load(SweepTask(BASE, tmd, w.copy(), rs)) is not None  # same inputs: reused
+    changed = {
+        "solver.rtol": replace(mono, solver=SolverConfig(rtol=1e-7)),
+        "solver.tol": replace(mono, solver=SolverConfig(tol=1e-5)),
+        "solver.window": replace(mono, solver=SolverConfig(window=5)),
+        "solver.tol_window": replace(mono, solver=SolverConfig(tol_window=1e-3)),
+        "solver.max_periods": replace(mono, solver=SolverConfig(max_periods=100)),
+        "solver.linear": replace(mono, solver=SolverConfig(linear="simulate")),
+        "sweep.direction": replace(mono, sweep=SweepConfig(direction="down")),
+        "sweep.continuation": replace(mono, sweep=SweepConfig(continuation=False)),
+        "engine": replace(mono, engine="both", cosim=CosimSettings()),
+        "cosim.accuracy": replace(co, cosim=CosimSettings(accuracy=1e-4)),
+        "cosim.coupling": replace(co, cosim=CosimSettings(coupling="force")),
+        "cosim.tol_window": replace(co, cosim=CosimSettings(tol_window=1e-3)),
+        "cosim.fmu_rtol": replace(co, cosim=CosimSettings(fmu_rtol=1e-9)),
+    }
+    for what, rs in changed.items():
+        assert ck.load(SweepTask(BASE, tmd, w, rs)) is None, what
+    assert ck.load(SweepTask(BASE, replace(tmd, friction_force=20.5), w, mono)) is None  # a parameter
+    assert ck.load(SweepTask(replace(BASE, damping=101.0), tmd, w, mono)) is None
+    assert ck.load(SweepTask(BASE, tmd, w + 1e-12, mono)) is None  # a frequency
+    # settings the engine does not read do not invalidate it: the monolithic engine and the cosim block
+    assert ck.load(SweepTask(BASE, tmd, w, replace(mono, cosim=CosimSettings(accuracy=1e-4)))) is not None
+    assert ck.load(SweepTask(BASE, tmd, w, replace(co, solver=SolverConfig(rtol=1e-7)))) is not None
+
+
+def test_checkpoint_key_follows_the_code(tmp_path, monkeypatch):
+    import shutil
+
+    from pyfmu_wrapper.scenario import executors
+
+    w = np.array([18.0, 22.0])
+    task = SweepTask(BASE, paper_case(1, friction_force=20.0), w, RunSettings())
+    ck = Checkpoint(tmp_path / "ck")
+    ck.save(task, _fake_table(task))
+    assert ck.load(task) is not None
+    assert task.key_payload()["code"] == executors.source_hash(executors.PACKAGE_DIR)[:16]
+    # a copy of the package with one kernel line changed has another source hash ...
+    same, edited = tmp_path / "same" / "pkg", tmp_path / "edited" / "pkg"
+    for d in (same, edited):
+        shutil.copytree(executors.PACKAGE_DIR, d, ignore=shutil.ignore_patterns("__pycache__", "*.so", "*.pyc"))
+    assert executors.source_hash(same) == executors.source_hash(executors.PACKAGE_DIR)
+    kern = edited / "physics" / "kernels.py"
+    kern.write_text(kern.read_text() + "\n# edited\n")
+    other = executors.source_hash(edited)[:16]
+    assert other != executors.code_version()
+    # ... and a checkpoint written by the old code is not read back by the new one
+    monkeypatch.setattr(executors, "code_version", lambda: other)
+    assert ck.load(task) is None
