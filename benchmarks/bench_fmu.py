@@ -1,6 +1,11 @@
-"""Cost per fmi2DoStep of a trivial model in a pure C host: this project's stub vs PythonFMU.
+"""Cost per fmi2DoStep in a pure C host and under fmpy: the stub alone, the real FMUs, PythonFMU.
 
-    python benchmarks/bench_fmu.py [--steps 200000]
+    python benchmarks/bench_fmu.py [--steps 200000] [--real-steps 20000] [--fuzz 2000] [--no-pythonfmu]
+
+Real FMUs: BaseOscillator and TMDInerter (Case 1: m = 9 kg, I = 1 kg, c = 10 N.s/m), h = 1 ms,
+each with every step through the Python slave (PYFMU_NATIVE=0: the path every step took before
+the native step) and with the native step, in the same run as the stub-alone baseline.
+``--fuzz N`` also runs the C fuzz harness (tests/c_host/fmu_fuzz.c) with N sequences.
 
 Builds the ``Trivial`` FMU (y = gain * u; doStep only advances time) with ``build-fmus`` and an
 equivalent PythonFMU slave (``pip install pythonfmu``, the ``bench`` extra), then runs both in
@@ -50,15 +55,15 @@ PYTHONFMU_SLAVE = textwrap.dedent('''
 ''')
 
 
-def _bench(exe, d, g, u, y, steps, env):
-    r = subprocess.run([str(exe), "bench", str(steps), str(d), g, str(u), str(y)], capture_output=True, text=True,
-                       env=env, timeout=600)
+def _bench(exe, d, g, u, y, steps, env, params=()):
+    r = subprocess.run([str(exe), "bench", str(steps), str(d), g, str(u), str(y), *params], capture_output=True,
+                       text=True, env=env, timeout=1800)
     if r.returncode != 0:
         return {"error": (r.stderr or r.stdout)[-2000:]}
     return {k: float(v) for k, v in (l.split() for l in r.stdout.splitlines()) if k.startswith("us_")}
 
 
-def _bench_fmpy(fmu: Path, unzip: Path, u: int, y: int, steps: int) -> dict:
+def _bench_fmpy(fmu: Path, unzip: Path, u: int, y: int, steps: int, start: dict | None = None) -> dict:
     """The same loops inside this Python process through fmpy's FMU2Slave (the stub shares the
     running interpreter; PythonFMU's binary resolves its Python symbols from it too)."""
     import time
@@ -72,6 +77,8 @@ def _bench_fmpy(fmu: Path, unzip: Path, u: int, y: int, steps: int) -> dict:
     s.instantiate()
     s.setupExperiment(startTime=0.0)
     s.enterInitializationMode()
+    for vr, v in (start or {}).items():
+        s.setReal([vr], [v])
     s.exitInitializationMode()
     h, t = 1e-3, 0.0
     for _ in range(1000):
@@ -84,7 +91,7 @@ def _bench_fmpy(fmu: Path, unzip: Path, u: int, y: int, steps: int) -> dict:
     us_do = (time.perf_counter() - t0) / steps * 1e6
     t0 = time.perf_counter()
     for k in range(steps):
-        s.setReal([u], [float(k)])
+        s.setReal([u], [float(k % 7) * (1e-4 if start else 1.0)])
         s.doStep(t, h)
         s.getReal([y])
         t += h
@@ -102,8 +109,11 @@ def _pf_guid(d: Path) -> str:
 def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--steps", type=int, default=200000)
+    ap.add_argument("--real-steps", type=int, default=20000, help="steps of the real FMUs (per path)")
+    ap.add_argument("--no-pythonfmu", action="store_true", help="skip the PythonFMU comparison")
+    ap.add_argument("--fuzz", type=int, default=0, help="also run the C fuzz harness with this many sequences")
     args = ap.parse_args(argv)
-    res = {"steps": args.steps}
+    res = {"steps": args.steps, "real_steps": args.real_steps}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         exe = compile_c_host(tmp)
@@ -112,7 +122,30 @@ def main(argv=None):
         d = extract(fmu, tmp / "x")
         res["pyfmu_wrapper_stub"] = _bench(exe, d, guid(d), 1, 2, args.steps, env)
         res["pyfmu_wrapper_stub_fmpy"] = _bench_fmpy(fmu, d, 1, 2, args.steps // 4)
+        # the real FMUs, h = 1 ms, Case 1 (m = 9, I = 1, c = 10): Python step vs native step
+        real = build_fmus(["BaseOscillator", "TMDInerter"], tmp / "real")
+        cases = {"BaseOscillator": (10, 20, {}), "TMDInerter": (30, 40, {2: 10.0})}
+        for f in real:
+            dr = extract(f, tmp / "xr")
+            u, y, start = cases[f.stem]
+            params = [f"r:{vr}={v!r}" for vr, v in start.items()]
+            for native in ("0", "1"):
+                key = f"{f.stem}_{'native' if native == '1' else 'python'}"
+                res[key] = _bench(exe, dr, guid(dr), u, y, args.real_steps, dict(env, PYFMU_NATIVE=native), params)
+                os.environ["PYFMU_NATIVE"] = native  # read by the stub at fmi2Instantiate
+                res[key + "_fmpy"] = _bench_fmpy(f, dr, u, y, args.real_steps // 4, start)
+            os.environ.pop("PYFMU_NATIVE", None)
+        if args.fuzz:
+            from _fmu_support import run_fuzz  # noqa: E402
+
+            import time
+            t0 = time.perf_counter()
+            fz = run_fuzz(tmp / "fuzz", args.fuzz, 160, seed=2026)
+            fz.pop("stderr", None)
+            res["fuzz"] = dict(fz, seconds=time.perf_counter() - t0)
         try:
+            if args.no_pythonfmu:
+                raise ImportError("skipped (--no-pythonfmu)")
             script = tmp / "TrivialPF.py"
             script.write_text(PYTHONFMU_SLAVE)
             subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f", str(script), "-d", str(tmp / "pf")],

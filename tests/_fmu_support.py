@@ -58,3 +58,30 @@ def damped_forced_response(t, M, K, C, F, w, x0, xd0):
     xd = (-A * w * np.sin(w * t) + B * w * np.cos(w * t)
           + e * (-a * (c1 * np.cos(wd * t) + c2 * np.sin(wd * t)) + wd * (-c1 * np.sin(wd * t) + c2 * np.cos(wd * t))))
     return x, xd
+
+
+FUZZ_SOURCE = Path(__file__).parent / "c_host" / "fmu_fuzz.c"
+
+
+def compile_fuzz(out: Path) -> Path:
+    exe = out / "fmu_fuzz"
+    subprocess.run(["gcc", "-O2", "-Wall", f"-I{fmi_headers_dir()}", str(FUZZ_SOURCE), "-o", str(exe), "-ldl", "-lm"],
+                   check=True, capture_output=True, text=True)
+    return exe
+
+
+def run_fuzz(root: Path, sequences: int, calls: int, seed: int = 1, timeout: float = 3600) -> dict[str, int]:
+    """Run the C fuzz harness (one forked subprocess per sequence) on copies of both FMUs."""
+    import os
+
+    fmus = built_fmus()
+    dirs = [extract(fmus[n], root) for n in ("BaseOscillator", "TMDInerter")]
+    exe = compile_fuzz(root)
+    env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "LD_PRELOAD", "VIRTUAL_ENV"))}
+    r = subprocess.run([str(exe), str(seed), str(sequences), str(calls), str(dirs[0]), guid(dirs[0]), str(dirs[1]),
+                        guid(dirs[1])], capture_output=True, text=True, env=env, timeout=timeout)
+    if r.returncode != 0:
+        raise RuntimeError(f"fuzz harness failed ({r.returncode}): {r.stderr[-3000:]}")
+    out = {k: int(v) for k, v in (line.split() for line in r.stdout.splitlines() if line.strip())}
+    out["stderr"] = r.stderr  # type: ignore[assignment]
+    return out

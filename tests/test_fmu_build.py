@@ -23,7 +23,7 @@ def test_ensure_fmus_builds_missing_and_stale_only(tmp_path, monkeypatch):
         cfg = z.read("resources/pyfmu.cfg").decode()
     assert {"modelDescription.xml", "binaries/linux64/TMDInerter.so", "resources/pyfmu.cfg",
             "resources/variables.tsv", "resources/model.py"} <= names
-    assert "libpython=" in cfg and "path=" in cfg
+    assert "python=" in cfg and "bundle_hash=" in cfg and "path=" not in cfg and "libpython=" not in cfg
 
 
 def test_xml_matches_variable_table(tmp_path):

@@ -1,4 +1,4 @@
-"""Build the FMI 2.0 co-simulation FMUs: compile the C stub, generate the XML, pack the archive.
+"""Build the FMI 2.0 co-simulation FMUs: compile the C stub, bundle the model code, pack the archive.
 
 Command line (console script ``build-fmus``)::
 
@@ -7,22 +7,28 @@ Command line (console script ``build-fmus``)::
     build-fmus Trivial              # the stub-overhead benchmark model
 
 API: :func:`build_fmu`, :func:`build_fmus`, :func:`ensure_fmus` (builds what is missing or stale,
-judged by a hash of the sources: the C stub, this package's fmi/physics/solver modules and the
-Python environment).
+judged by a hash of the sources: the C stub, the bundled modules and the build interpreter).
 
-An FMU contains ``modelDescription.xml``, ``binaries/linux64/<modelIdentifier>.so`` (the stub,
-compiled with the system gcc against the FMI 2.0 headers that fmpy ships) and ``resources/``:
-``pyfmu.cfg`` (GUID, the libpython to load in a host without Python, PYTHONHOME, the sys.path
-entries of the build environment, the source hash), ``variables.tsv`` (the stub's variable table)
-and ``model.py`` (the model code loaded under a unique module name per instance).
+An FMU is self-contained: it contains ``modelDescription.xml``, ``binaries/linux64/<id>.so`` (the
+stub, compiled with the system gcc against the FMI 2.0 headers that fmpy ships) and
+``resources/``:
+
+- ``_pyfmu_<hash>/``: the modules of this package the model runs (``fmi/slaves.py`` and
+  everything it imports from the package, transitively), copied verbatim under a package name
+  that carries their hash, so no checkout or install of this project is needed to run it;
+- ``model.py``: checks the bundle against its recorded hash, keys numba's on-disk cache of the
+  bundled functions by that hash (a cache of other code can never be loaded), imports the slave;
+- ``pyfmu.cfg``: GUID, the requirements (Python >= 3.11, numpy, numba) and the build's
+  interpreter (one of the places a pure C host looks for a Python, see ``docs/fmus.md``);
+- ``variables.tsv``: the stub's variable table.
 """
 from __future__ import annotations
 
 import argparse
+import ast
 import hashlib
 import os
 import shutil
-import site
 import subprocess
 import sys
 import sysconfig
@@ -35,12 +41,84 @@ from .variables import PROJECT_FMUS, SPECS, FmuSpec
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1]  # pyfmu_wrapper/
 REPO_ROOT = PACKAGE_DIR.parent
-STUB_SOURCE = REPO_ROOT / "fmu" / "src" / "pyfmu_stub.c"
+STUB_DIR = REPO_ROOT / "fmu" / "src"
 DEFAULT_OUT = REPO_ROOT / "fmu" / "build"
+#: What the bundled model code needs in the interpreter that runs it (mirrors pyproject.toml).
+REQUIRES = ("numpy>=1.26", "numba>=0.59")
+MIN_PYTHON = "3.11"
+#: The module the slaves live in (the root of the bundled import closure).
+SLAVE_MODULE = "fmi/slaves.py"
 
 
 class BuildError(RuntimeError):
     """The FMU could not be built (no compiler, no headers, no shared libpython...)."""
+
+
+def stub_sources() -> list[Path]:
+    """The C sources and headers of the stub (fmu/src)."""
+    return sorted(STUB_DIR.glob("*.c")) + sorted(STUB_DIR.glob("*.h"))
+
+
+def _relative_imports(rel: str, source: bytes) -> set[str]:
+    """Package-relative files that the module ``rel`` imports from this package."""
+    found: set[str] = set()
+    pkg = rel.split("/")[:-1]
+
+    def files(target: list[str]) -> list[str]:
+        path = "/".join(target)
+        return [c for c in ((f"{path}.py" if path else None), (f"{path}/__init__.py" if path else "__init__.py"))
+                if c and (PACKAGE_DIR / c).is_file()]
+
+    for node in ast.walk(ast.parse(source)):
+        mods: list[list[str]] = []
+        if isinstance(node, ast.ImportFrom):
+            if node.level:
+                base = pkg[:len(pkg) - (node.level - 1)] if node.level > 1 else list(pkg)
+            elif node.module and node.module.split(".")[0] == PACKAGE_DIR.name:
+                base = []
+            else:
+                continue
+            mod = (node.module.split(".") if node.module else [])
+            if not node.level:
+                mod = mod[1:]
+            mods.append(base + mod)
+            mods += [base + mod + [a.name] for a in node.names]  # "from . import x" names a module
+        elif isinstance(node, ast.Import):
+            mods += [a.name.split(".")[1:] for a in node.names if a.name.split(".")[0] == PACKAGE_DIR.name]
+        for m in mods:
+            found.update(files(m))
+    return found
+
+
+def bundled_files() -> list[str]:
+    """Package-relative files the slaves need: fmi/slaves.py and its package imports, transitively,
+    with the ``__init__.py`` of every package on the way."""
+    todo, seen = [SLAVE_MODULE], set()
+    while todo:
+        rel = todo.pop()
+        if rel in seen:
+            continue
+        seen.add(rel)
+        parts = rel.split("/")
+        for k in range(len(parts)):
+            init = "/".join(parts[:k] + ["__init__.py"])
+            if (PACKAGE_DIR / init).is_file() and init not in seen:
+                todo.append(init)
+        todo.extend(_relative_imports(rel, (PACKAGE_DIR / rel).read_bytes()) - seen)
+    return sorted(seen)
+
+
+def bundle_hash(files: list[str] | None = None) -> str:
+    """SHA-256 over the bundled files (names and contents): the bundle's identity."""
+    h = hashlib.sha256()
+    for rel in files or bundled_files():
+        h.update(rel.encode() + b"\0" + hashlib.sha256((PACKAGE_DIR / rel).read_bytes()).digest())
+    return h.hexdigest()
+
+
+def bundle_package(bhash: str) -> str:
+    """Name the bundled package is imported under (unique per content)."""
+    return f"_pyfmu_{bhash[:16]}"
 
 
 def fmi_headers_dir() -> Path:
@@ -64,26 +142,22 @@ def libpython_path() -> Path:
     raise BuildError("no shared libpython found (Python must be built with --enable-shared)")
 
 
-def python_paths() -> list[str]:
-    """sys.path entries the slave needs: the environment's site-packages and the project root."""
-    paths = list(site.getsitepackages())
-    user = site.getusersitepackages()
-    if isinstance(user, str) and os.path.isdir(user):
-        paths.append(user)
-    paths.append(str(REPO_ROOT))
-    return [p for p in dict.fromkeys(paths) if os.path.isdir(p)]
+def build_python() -> str:
+    """The build's interpreter as recorded in the FMU: the same path whichever name (python,
+    python3, python3.11, a console script) started this process."""
+    cand = Path(sys.prefix) / "bin" / f"python{sys.version_info[0]}.{sys.version_info[1]}"
+    return str(cand) if cand.is_file() else sys.executable
 
 
 def source_hash() -> str:
     """Hash of everything an FMU is built from (stale FMUs are rebuilt by ensure_fmus)."""
     h = hashlib.sha256()
-    files = [STUB_SOURCE]
-    for sub in ("fmi", "physics", "solvers"):
-        files += sorted((PACKAGE_DIR / sub).glob("*.py"))
-    for f in files:
+    for f in stub_sources():
         h.update(f.name.encode())
         h.update(f.read_bytes())
-    h.update(sys.prefix.encode())
+    h.update(bundle_hash().encode())
+    h.update((PACKAGE_DIR / "fmi" / "build.py").read_bytes())
+    h.update(build_python().encode())
     h.update(sys.version.encode())
     return h.hexdigest()[:24]
 
@@ -95,26 +169,153 @@ def compile_stub(out_so: Path, cc: str | None = None) -> None:
         raise BuildError(f"C compiler {cc!r} not found")
     out_so.parent.mkdir(parents=True, exist_ok=True)
     cmd = [cc, "-shared", "-fPIC", "-O2", "-std=gnu11", "-Wall", "-Wextra", "-Wno-unused-parameter",
-           f"-I{fmi_headers_dir()}", str(STUB_SOURCE), "-o", str(out_so), "-ldl", "-lpthread"]
+           "-Wno-format-truncation", "-fvisibility=hidden", f"-I{fmi_headers_dir()}",
+           *[str(f) for f in stub_sources() if f.suffix == ".c"], "-o", str(out_so),
+           # keep libdl NEEDED: on glibc < 2.34 the pre-2.34 dl* symbols the stub binds to live there
+           "-Wl,--no-as-needed", "-l:libdl.so.2", "-Wl,--as-needed", "-lpthread", "-lm"]
     r = subprocess.run(cmd, capture_output=True, text=True)
     if r.returncode != 0:
         raise BuildError(f"compiling the stub failed:\n{' '.join(cmd)}\n{r.stderr}")
 
 
-def _config(spec: FmuSpec, guid: str, shash: str) -> str:
-    lines = [f"guid={guid}", f"model_identifier={spec.model_identifier}", f"libpython={libpython_path()}",
-             f"pythonhome={sys.base_prefix}", f"prefix={sys.prefix}", f"python_version={sys.version.split()[0]}",
-             "model=model.py", f"source_hash={shash}"]
-    lines += [f"path={p}" for p in python_paths()]
+def _version_of(name: str) -> str:
+    from importlib import metadata
+
+    try:
+        return metadata.version(name)
+    except metadata.PackageNotFoundError:
+        return "none"
+
+
+def _config(spec: FmuSpec, guid: str, shash: str, bhash: str) -> str:
+    lines = [f"guid={guid}", f"model_identifier={spec.model_identifier}", "model=model.py",
+             f"python={build_python()}", f"python_version={sys.version.split()[0]}", f"min_python={MIN_PYTHON}",
+             f"requires={' '.join(REQUIRES)}",
+             f"built_with=numpy=={_version_of('numpy')} numba=={_version_of('numba')}",
+             f"bundle={bundle_package(bhash)}", f"bundle_hash={bhash}", f"source_hash={shash}"]
     return "\n".join(lines) + "\n"
 
 
-def _model_py(spec: FmuSpec) -> str:
-    return (f'"""Model code of the {spec.model_name} FMU (loaded by the stub under a unique module name)."""\n'
-            "from pyfmu_wrapper.fmi.slaves import create as _create\n\n"
-            f"SLAVE = {spec.slave!r}\n\n\n"
-            "def create(reals, ints, derivs, scratch, instance_name, resources):\n"
-            "    return _create(SLAVE, reals, ints, derivs, scratch, instance_name, resources)\n")
+MODEL_PY = '''"""Model code of the {model} FMU: the slave from the package bundled beside this file.
+
+Loaded by the FMU's binary under a unique module name per instance. The bundled package
+{package!r} is checked against its recorded SHA-256 before it is imported, and numba's on-disk
+cache of its compiled functions is kept in <cache root>/{package}/ with the bundle hash as the
+source stamp: a cache entry of other code cannot be loaded, and extracting the FMU anew (new
+folder, new file times) does not recompile. Cache root: $PYFMU_CACHE_DIR, else
+$XDG_CACHE_HOME/pyfmu-fmus, else ~/.cache/pyfmu-fmus (if none is writable, numba's own locators).
+"""
+import hashlib
+import importlib
+import importlib.util
+import os
+import sys
+
+PACKAGE = {package!r}
+BUNDLE_HASH = {bhash!r}
+FILES = {files!r}
+SLAVE = {slave!r}
+HERE = os.path.dirname(os.path.abspath(__file__))
+
+
+def bundle_hash():
+    h = hashlib.sha256()
+    for rel in FILES:
+        with open(os.path.join(HERE, PACKAGE, rel), "rb") as f:
+            h.update(rel.encode() + b"\\0" + hashlib.sha256(f.read()).digest())
+    return h.hexdigest()
+
+
+def cache_root():
+    for d in (os.environ.get("PYFMU_CACHE_DIR"),
+              os.path.join(os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "pyfmu-fmus")):
+        if d:
+            return d
+    return None
+
+
+def _install_cache_locator():
+    from numba.core import caching
+
+    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl")
+    bundles = getattr(caching, "_pyfmu_bundles", None)
+    if bundles is None:
+        bundles = caching._pyfmu_bundles = {{}}
+
+        class BundleCacheLocator(caching._CacheLocator):
+            """numba cache of a bundled FMU package: one folder per bundle hash, hash as stamp."""
+
+            def __init__(self, py_func, path, stamp):
+                self._lineno = py_func.__code__.co_firstlineno
+                self._cache_path, self._stamp = path, stamp
+
+            def get_cache_path(self):
+                return self._cache_path
+
+            def get_source_stamp(self):
+                return self._stamp
+
+            def get_disambiguator(self):
+                return str(self._lineno)
+
+            @classmethod
+            def from_function(cls, py_func, py_file):
+                parts = os.path.abspath(py_file).split(os.sep)
+                for k, part in enumerate(parts):
+                    if part in bundles:
+                        root, stamp = bundles[part]
+                        self = cls(py_func, os.path.join(root, part, *parts[k + 1:-1]), stamp)
+                        try:
+                            self.ensure_cache_path()
+                        except OSError:
+                            return None
+                        return self
+                return None
+
+        caching._pyfmu_locator = BundleCacheLocator
+    root = cache_root()
+    if root:
+        bundles[PACKAGE] = (root, BUNDLE_HASH)
+    loc = caching._pyfmu_locator
+    if loc in impl._locator_classes:
+        impl._locator_classes.remove(loc)
+    impl._locator_classes.insert(0, loc)  # ahead of any locator the bundled code installs
+
+
+def _import_package():
+    if PACKAGE in sys.modules:
+        return
+    found = bundle_hash()
+    if found != BUNDLE_HASH:
+        raise RuntimeError(f"the model code in {{os.path.join(HERE, PACKAGE)}} was modified after the build "
+                           f"(SHA-256 {{found}}, recorded {{BUNDLE_HASH}}); rebuild the FMU")
+    spec = importlib.util.spec_from_file_location(PACKAGE, os.path.join(HERE, PACKAGE, "__init__.py"),
+                                                  submodule_search_locations=[os.path.join(HERE, PACKAGE)])
+    mod = importlib.util.module_from_spec(spec)
+    sys.modules[PACKAGE] = mod
+    try:
+        spec.loader.exec_module(mod)
+        if os.path.isfile(os.path.join(HERE, PACKAGE, "_jit.py")):
+            importlib.import_module(PACKAGE + "._jit")  # installs its locator; ours goes in front
+        _install_cache_locator()
+    except BaseException:
+        for name in [n for n in sys.modules if n == PACKAGE or n.startswith(PACKAGE + ".")]:
+            del sys.modules[name]
+        raise
+
+
+def create(reals, ints, derivs, scratch, instance_name, resources):
+    _import_package()
+    module, _, cls = SLAVE.partition(":")
+    slave_class = getattr(importlib.import_module(PACKAGE + "." + module), cls)
+    return slave_class(reals, ints, derivs, scratch, instance_name, resources)
+'''
+
+
+def _model_py(spec: FmuSpec, package: str, bhash: str, files: list[str]) -> str:
+    module, _, cls = spec.slave.partition(":")
+    rel = module.split(".", 1)[1] if module.startswith(PACKAGE_DIR.name + ".") else module
+    return MODEL_PY.format(model=spec.model_name, package=package, bhash=bhash, files=files, slave=f"{rel}:{cls}")
 
 
 def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path | None = None) -> Path:
@@ -124,6 +325,9 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
     out_dir.mkdir(parents=True, exist_ok=True)
     shash = source_hash()
     guid = guid_of(spec, shash)
+    files = bundled_files()
+    bhash = bundle_hash(files)
+    package = bundle_package(bhash)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         so = stub_so
@@ -131,13 +335,16 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
             so = tmp / "stub.so"
             compile_stub(so)
         target = out_dir / f"{spec.model_identifier}.fmu"
-        part = out_dir / f".{spec.model_identifier}.fmu.part"
+        # unique per builder: parallel workers may build the same stale FMU at once
+        part = out_dir / f".{spec.model_identifier}.fmu.{os.getpid()}.{os.urandom(4).hex()}.part"
         with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr("modelDescription.xml", model_description_xml(spec, guid))
             z.write(so, f"binaries/linux64/{spec.model_identifier}.so")
-            z.writestr("resources/pyfmu.cfg", _config(spec, guid, shash))
+            z.writestr("resources/pyfmu.cfg", _config(spec, guid, shash, bhash))
             z.writestr("resources/variables.tsv", variable_table_tsv(spec))
-            z.writestr("resources/model.py", _model_py(spec))
+            z.writestr("resources/model.py", _model_py(spec, package, bhash, files))
+            for rel in files:
+                z.write(PACKAGE_DIR / rel, f"resources/{package}/{rel}")
         os.replace(part, target)
     return target
 

@@ -9,6 +9,12 @@ fmi2SetRealInputDerivatives) and a float64 scratch buffer for directional deriva
 SetReal never enter Python; the stub calls :meth:`Slave.update_outputs` only when an input or
 parameter changed since the outputs were last computed.
 
+Ordinary steps do not come here: :meth:`Slave.native` hands the stub a compiled step
+(:mod:`.native`) and the addresses of the arrays it updates in place (``z``, ``p``, ``stats``,
+``[t, h]``, the input polynomials, ``atol``); those arrays keep their address for the life of the
+slave (they are only ever written in place). :meth:`Slave.do_step` runs for long steps (> CHUNK),
+when ``debug_raise`` is set, and when the stub runs without native steps (``PYFMU_NATIVE=0``).
+
 Every method called by the stub returns an int status (0 ok, 1 warning, 3 error, 4 fatal) and
 never raises: an exception is caught by :func:`_guarded`, its full traceback is kept in
 ``last_error`` and the stub forwards it to the FMI logger.
@@ -27,11 +33,20 @@ import numpy as np
 from ..physics import kernels as kn
 from ..physics import registry
 from ..physics.params import N_PARAMS, P_s, BaseParams, TMDParams, pack
-from ..solvers.rodas import failure_message, integrate
+from ..solvers.rodas import STAT_STEPS, failure_message, integrate
 from .variables import BASE_OSCILLATOR, BOOLEAN, INTEGER, TMD_INERTER, TRIVIAL, FmuSpec
 
 OK, WARNING, ERROR, FATAL = 0, 1, 3, 4
 _CSTEP = 1e-30
+#: A communication point may differ from the slave's time by this fraction of the step (hosts that
+#: compute t = k h differ from a running sum of steps by rounding); the host's time is then taken.
+TIME_SLACK = 1e-6
+#: Longest communication step [s] (the stub refuses longer ones before entering Python).
+MAX_STEP = 100.0
+#: A doStep is integrated in pieces of at most this length [s] ...
+CHUNK = 1.0
+#: ... and fails when it needs more integrator steps than this (bounded cost of any doStep).
+MAX_INTEGRATOR_STEPS = 200_000
 
 
 class FmuStepError(RuntimeError):
@@ -68,8 +83,10 @@ class Slave:
         self.instance_name = instance_name
         self.resources = resources
         self.last_error = ""
-        self.t = 0.0
-        self.h = 0.0  # step size suggested by the integrator (part of the state: exact restore)
+        # [time, step size suggested by the integrator] (part of the state: exact restore); an
+        # array, like p, z, stats, u and atol, so that the native step (.native) updates them in place
+        self._th = np.zeros(2)
+        self._atol = np.zeros(max(self.n_state, 1))
         self.p = np.zeros(N_PARAMS)
         self.z = np.zeros(self.n_state)
         self.stats = np.zeros(4, dtype=np.int64)
@@ -80,7 +97,24 @@ class Slave:
         self._u = np.zeros(1 + 3 * len(self._inputs))
         self._outputs = [v for v in self.spec.of("output")]
         self._debug_vr = next((v.vr for v in self.spec.variables if v.name == "debug_raise"), None)
+        self._real_params = {v.vr for v in self.spec.variables if v.causality == "parameter" and v.type not in (INTEGER, BOOLEAN)}
         self._start_values()
+
+    t = property(lambda self: float(self._th[0]), lambda self, v: self._th.__setitem__(0, v))
+    h = property(lambda self: float(self._th[1]), lambda self, v: self._th.__setitem__(1, v))
+
+    def native(self):
+        """Addresses for the stub's native step (:mod:`.native`): the C function and the arrays it
+        updates in place, as 7 native-endian uint64; empty bytes when this slave has none."""
+        step = self._native_step()
+        if step is None:
+            return b""
+        self._native_ref = step  # keep the compiled function alive with the slave
+        arrays = (self.z, self.p, self.stats, self._th, self._u, self._atol)
+        return np.array([step.address] + [a.ctypes.data for a in arrays], dtype=np.uint64).tobytes()
+
+    def _native_step(self):
+        return None
 
     # --- helpers --------------------------------------------------------------------------
     def _start_values(self):
@@ -134,6 +168,10 @@ class Slave:
     # --- stub entry points -----------------------------------------------------------------
     @_guarded
     def setup_experiment(self, tolerance_defined, tolerance, t_start, stop_defined, t_stop):
+        if not np.isfinite(t_start):
+            raise FmuStepError(f"setupExperiment: startTime must be finite, got {t_start!r}")
+        if tolerance_defined and not (np.isfinite(tolerance) and tolerance > 0):
+            raise FmuStepError(f"setupExperiment: tolerance must be finite and > 0, got {tolerance!r}")
         self.t = float(t_start)
         if tolerance_defined and tolerance > 0 and "rtol" in {v.name for v in self.spec.variables}:
             self.r[self.spec.vr("rtol")] = tolerance
@@ -156,8 +194,11 @@ class Slave:
 
     @_guarded
     def do_step(self, t, h, no_set_prior):
-        if abs(t - self.t) > 1e-12 * max(1.0, abs(t)):
-            raise FmuStepError(f"Expected currentCommunicationPoint = {self.t:.16g} but was {t:.16g}")
+        if not (np.isfinite(t) and np.isfinite(h) and 0.0 < h <= MAX_STEP and t + h > t):
+            raise FmuStepError(f"doStep: invalid currentCommunicationPoint {t!r} or step size {h!r} "
+                               f"(finite, 0 < h <= {MAX_STEP} s, above the resolution of t)")
+        if abs(t - self.t) > max(TIME_SLACK * h, 8.0 * np.spacing(abs(self.t))):
+            raise FmuStepError(f"Expected currentCommunicationPoint = {self.t:.17g} but was {t:.17g}")
         if self._debug_vr is not None and self.i[self._debug_vr]:
             raise InjectedError(f"debug_raise is set: exception injected at t = {t:.16g}")
         u = self._taylor_inputs(t)
@@ -199,26 +240,69 @@ class Slave:
         self.stats[:] = a[k + self.n_state:].astype(np.int64)
 
     @_guarded
-    def directional_derivative(self, n_unknown, n_known):
-        """Scratch layout: [vUnknown (nu), vKnown (nk), dvKnown (nk)] -> dvUnknown after them."""
+    def directional_derivative(self, n_unknown, n_known, initializing=0):
+        """Scratch layout: [vUnknown (nu), vKnown (nk), dvKnown (nk)] -> dvUnknown after them.
+
+        Knowns may be any variable (FMI 2.0 allows masters to pass others than inputs; OMSimulator
+        does by default). Inputs enter by complex step through :meth:`outputs`; in initialisation
+        mode a Real parameter enters by a central difference through :meth:`configure`; any other
+        known (a fixed parameter after initialisation, an output, an Integer or Boolean) cannot
+        change continuously and contributes zero. An unknown that is not an output has derivative
+        1 with respect to itself and 0 otherwise.
+        """
         s = self.scratch
         vu = s[:n_unknown].astype(np.int64)
         vk = s[n_unknown:n_unknown + n_known].astype(np.int64)
         seed = s[n_unknown + n_known:n_unknown + 2 * n_known]
-        in_vrs = list(self._input_vr)
-        out_vrs = [v.vr for v in self._outputs]
-        direction = np.zeros(len(in_vrs))
+        in_index = {int(vr): k for k, vr in enumerate(self._input_vr)}
+        out_index = {v.vr: j for j, v in enumerate(self._outputs) if v.type not in (INTEGER, BOOLEAN)}
+        direction = np.zeros(len(in_index))
+        params = {}
         for vr, dv in zip(vk, seed):
-            if vr not in in_vrs:
-                raise ValueError(f"directional derivative: known value reference {vr} is not an input")
-            direction[in_vrs.index(vr)] += dv
-        for vr in vu:
-            if vr not in out_vrs or self._outputs[out_vrs.index(vr)].type != "Real":
-                raise ValueError(f"directional derivative: unknown value reference {vr} is not a Real output")
-        y = self.outputs(self._current_inputs() + 1j * _CSTEP * direction)
+            vr = int(vr)
+            if vr in in_index:
+                direction[in_index[vr]] += dv
+            elif initializing and vr in self._real_params:
+                params[vr] = params.get(vr, 0.0) + dv
+        dy = np.zeros(len(self._outputs))
+        if np.any(direction != 0.0):
+            y = self.outputs(self._current_inputs() + 1j * _CSTEP * direction)
+            dy += np.array([np.imag(complex(v)) for v in y]) / _CSTEP
+        for vr, dv in params.items():
+            dy += dv * self._parameter_sensitivity(vr)
         res = s[n_unknown + 2 * n_known:2 * n_unknown + 2 * n_known]
         for j, vr in enumerate(vu):
-            res[j] = np.imag(y[out_vrs.index(vr)]) / _CSTEP
+            vr = int(vr)
+            if vr in out_index:
+                res[j] = dy[out_index[vr]]
+            else:
+                res[j] = float(np.sum(seed[vk == vr]))
+
+    def _parameter_sensitivity(self, vr):
+        """d outputs / d parameter vr in initialisation mode: a central difference through
+        configure, one-sided at the edge of the parameter's domain (e.g. a play gap of 0)."""
+        r0 = float(self.r[vr])
+        d = 1e-6 * max(abs(r0), 1e-6)
+        rows, errors = {}, []
+        try:
+            for v in (r0 + d, r0 - d, r0):
+                self.r[vr] = v
+                try:
+                    self.configure()
+                except Exception as e:  # noqa: BLE001 - this side leaves the parameter's domain
+                    errors.append(str(e))
+                    continue
+                rows[v] = np.real(np.array(self.outputs(self._current_inputs()), dtype=complex))
+        finally:
+            self.r[vr] = r0
+            self.configure()
+        if r0 + d in rows and r0 - d in rows:
+            return (rows[r0 + d] - rows[r0 - d]) / (2 * d)
+        if r0 in rows and (r0 + d in rows or r0 - d in rows):
+            v = r0 + d if r0 + d in rows else r0 - d
+            return (rows[v] - rows[r0]) / (v - r0)
+        raise FmuStepError(f"directional derivative with respect to parameter {vr} is not available at {r0!r}: "
+                           + "; ".join(errors))
 
     def _write_outputs(self, values):
         for v, val in zip(self._outputs, values, strict=True):
@@ -232,14 +316,22 @@ class Slave:
         if tol_vr is None:  # value references of rtol/atol, resolved once
             tol_vr = self._tol_vr = (self.spec.by_name("rtol").vr, self.spec.by_name("atol").vr)
         rtol, a = float(self.r[tol_vr[0]]), float(self.r[tol_vr[1]])
-        if getattr(self, "_atol_value", None) != a:
-            self._atol_value, self._atol = a, np.full(self.n_state, a)
+        self._atol[:] = a
         band = 1.0 / self.p[P_s] if self.p[P_s] > 0 else 1e-6
-        hn, _, status, tf = integrate(system, self.z, t, t + h, self.p, u, rtol, self._atol, self.h, h,
-                                      self._empty_t, self._empty_s, band, self.stats)
-        if status != 0:
-            raise FmuStepError(f"doStep from t = {t:.16g} s: "
-                               + failure_message(status, system, tf, self.z, self.p, self._atol, band))
+        n = 1 if h <= CHUNK else int(np.ceil(h / CHUNK))  # long steps in pieces, within a budget of steps
+        start = int(self.stats[STAT_STEPS])
+        hn = self.h
+        for k in range(n):
+            a, b = (t, t + h) if n == 1 else (t + h * k / n, (t + h if k == n - 1 else t + h * (k + 1) / n))
+            hn, _, status, tf = integrate(system, self.z, a, b, self.p, u, rtol, self._atol, hn,
+                                          h if n == 1 else b - a,
+                                          self._empty_t, self._empty_s, band, self.stats, MAX_INTEGRATOR_STEPS)
+            if status != 0:
+                raise FmuStepError(f"doStep from t = {t:.16g} s: " + failure_message(
+                    status, system, tf, self.z, self.p, self._atol, band, MAX_INTEGRATOR_STEPS))
+            if self.stats[STAT_STEPS] - start > MAX_INTEGRATOR_STEPS:
+                raise FmuStepError(f"doStep of {h:g} s from t = {t:.16g} needs more than {MAX_INTEGRATOR_STEPS} "
+                                   "integrator steps; use shorter communication steps")
         self.h = hn
 
 
@@ -251,7 +343,7 @@ class BaseOscillatorSlave(Slave):
 
     def configure(self):
         base = BaseParams(**self._registry_values("base"), source=f"FMU {self.instance_name}")
-        self.p = pack(base, TMDParams(), self.val(registry.get("base", "omega").fmu_name))
+        self.p[:] = pack(base, TMDParams(), self.val(registry.get("base", "omega").fmu_name))
         self.z[:] = (self.val("x0"), self.val("xd0"))
 
     def outputs(self, inputs):
@@ -263,6 +355,11 @@ class BaseOscillatorSlave(Slave):
     def advance(self, t, h, u):
         self._integrate(kn.SYS_BASE, t, h, u)
 
+    def _native_step(self):
+        from .native import base_step
+
+        return base_step()
+
 
 class TMDInerterSlave(Slave):
     """TMD subsystem alone: state [y, yd, d, dd], inputs x, xd, xdd of the base."""
@@ -272,7 +369,7 @@ class TMDInerterSlave(Slave):
 
     def configure(self):
         tmd = TMDParams(**self._registry_values("tmd"), source=f"FMU {self.instance_name}")
-        self.p = pack(BaseParams(), tmd, 0.0)
+        self.p[:] = pack(BaseParams(), tmd, 0.0)
         self.z[:] = (self.val("y0"), self.val("yd0"), self.val("d0"), self.val("dd0"))
 
     def outputs(self, inputs):
@@ -282,6 +379,11 @@ class TMDInerterSlave(Slave):
 
     def advance(self, t, h, u):
         self._integrate(kn.SYS_TMD, t, h, u)
+
+    def _native_step(self):
+        from .native import tmd_step
+
+        return tmd_step()
 
 
 class TrivialSlave(Slave):

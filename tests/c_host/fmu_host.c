@@ -7,7 +7,7 @@
  *                                                 "t out..." rows (%.17g) for all instances
  *      SPEC = DIR GUID NAME [r:VR=VAL] [i:VR=VAL] [in:VR=VAL] [o:VR] ...
  *   fmu_host loop N DIR GUID                      instantiate/init/step/free N times, print RSS
- *   fmu_host bench N DIR GUID UVR YVR             us per (SetReal, DoStep, GetReal)
+ *   fmu_host bench N DIR GUID UVR YVR [r:VR=VAL]  us per (SetReal, DoStep, GetReal)
  *   fmu_host errors DIR GUID                      wrong call sequences and an injected exception
  */
 #include <dlfcn.h>
@@ -205,6 +205,11 @@ static int bench(int argc, char **argv) {
     if (!c) return 3;
     a.setup(c, fmi2False, 0, 0, fmi2False, 0);
     a.enter(c);
+    for (int i = 7; i < argc; i++) { /* parameters r:VR=VAL */
+        fmi2ValueReference pvr;
+        double pv;
+        if (sscanf(argv[i], "r:%u=%lf", &pvr, &pv) == 2) a.set_real(c, &pvr, 1, &pv);
+    }
     a.exit_init(c);
     double h = 1e-3, t = 0, yv = 0, sum = 0;
     for (long k = 0; k < 1000; k++, t += h) a.do_step(c, t, h, fmi2True); /* warm up */

@@ -1,0 +1,633 @@
+/*
+ * The FMI 2.0 co-simulation API: the state machine, GUID and argument checks on every call,
+ * values (fmi2Get/Set* never enter Python: the buffers are shared with the slave), doStep,
+ * directional derivatives. A Python exception becomes fmi2Error with its traceback logged.
+ *
+ * Edges (all refused with fmi2Error and a message): non-finite times, tolerances and values;
+ * step sizes that are not finite, not positive, longer than PYFMU_MAX_STEP, or below the
+ * resolution of the time; a communication point off the FMU's time by more than a small fraction
+ * of the step (the FMU then takes the host's time, so t = k h hosts never drift apart).
+ */
+#define _GNU_SOURCE
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "pyfmu.h"
+
+/* Longest communication step accepted [s]: the cost of one doStep grows with its length (tens of
+ * integrator steps per excitation period), so a longer step is refused, not run for minutes. */
+#define PYFMU_MAX_STEP 100.0
+/* A communication point may differ from the FMU's time by this fraction of the step. */
+#define PYFMU_TIME_SLACK 1e-6
+
+static pthread_mutex_t g_count_lock = PTHREAD_MUTEX_INITIALIZER;
+static unsigned long g_counter = 0;
+
+static void free_comp(Comp *c) {
+    if (!c) return;
+    if (c->globals && g_py_ready) {
+        int g = gil_take();
+        PyObject *unload = py.DictGetItemString(c->globals, "_unload");
+        if (unload) {
+            PyObject *r = py.CallFunction(unload, "s", c->modname);
+            if (r) py.DecRef(r);
+            else py.ErrClear();
+        }
+        PyObject **objs[] = {&c->m_setup, &c->m_enter, &c->m_exit, &c->m_update, &c->m_step, &c->m_reset,
+                             &c->m_terminate, &c->m_get, &c->m_set, &c->m_dd, &c->slave, &c->b_reals,
+                             &c->b_ints, &c->b_derivs, &c->b_scratch, &c->globals};
+        for (size_t i = 0; i < sizeof objs / sizeof objs[0]; i++)
+            if (*objs[i]) {
+                py.DecRef(*objs[i]);
+                *objs[i] = NULL;
+            }
+        GIL_DROP(g);
+    }
+    free(c->vtype);
+    free(c->vcaus);
+    free(c->vvar);
+    free(c->instance_name);
+    c->magic = 0;
+    free(c);
+}
+
+/* ------------------------------------------------------------------------------------------ */
+/* FMI 2.0 API                                                                                   */
+const char *fmi2GetTypesPlatform(void) { return fmi2TypesPlatform; }
+const char *fmi2GetVersion(void) { return fmi2Version; }
+
+fmi2Status fmi2SetDebugLogging(fmi2Component comp, fmi2Boolean loggingOn, size_t n, const fmi2String cats[]) {
+    Comp *c = (Comp *)comp;
+    CHECK("fmi2SetDebugLogging", M_ANY_BUT_FATAL);
+    static const char *known[] = {"logStatusError", "logStatusWarning", "logAll"};
+    if (n > 0) NULLARG("fmi2SetDebugLogging", cats);
+    for (size_t i = 0; i < n; i++) {
+        if (!cats[i] || !code_of(cats[i], known, 3)) {
+            logmsg(c, fmi2Error, "logStatusError", "fmi2SetDebugLogging: unknown log category %s", cats[i] ? cats[i] : "NULL");
+            return fmi2Error;
+        }
+    }
+    c->logging_on = loggingOn;
+    return fmi2OK;
+}
+
+/* Ask the slave for its native step (empty bytes: none). PYFMU_NATIVE=0 in the environment keeps
+ * every step in Python (benchmarks compare both). Call with the GIL; 0 on a Python error. */
+static int query_native(Comp *c) {
+    c->native = NULL;
+    const char *env = getenv("PYFMU_NATIVE");
+    if (env && !strcmp(env, "0")) return 1;
+    PyObject *m = py.GetAttrString(c->slave, "native");
+    if (!m) {
+        py.ErrClear(); /* a slave without a native step */
+        return 1;
+    }
+    PyObject *r = py.CallFunction(m, NULL);
+    py.DecRef(m);
+    if (!r) return 0;
+    char *buf = NULL;
+    Py_ssize_t len = 0;
+    if (py.BytesAsStringAndSize(r, &buf, &len) == 0 && len == 7 * (Py_ssize_t)sizeof(uint64_t)) {
+        uint64_t a[7];
+        memcpy(a, buf, sizeof a);
+        *(void **)&c->native = (void *)(uintptr_t)a[0];
+        for (int i = 0; i < 6; i++) c->nat[i] = (void *)(uintptr_t)a[i + 1];
+    }
+    py.ErrClear();
+    py.DecRef(r);
+    return 1;
+}
+
+fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2String fmuGUID,
+                              fmi2String fmuResourceLocation, const fmi2CallbackFunctions *functions,
+                              fmi2Boolean visible, fmi2Boolean loggingOn) {
+    (void)visible;
+    Comp tmp = {0};
+    tmp.instance_name = (char *)(instanceName ? instanceName : "?");
+    tmp.logger = functions ? functions->logger : NULL;
+    tmp.env = functions ? functions->componentEnvironment : NULL;
+    Comp *c = &tmp;
+    if (!functions) return NULL;
+    if (!instanceName || !instanceName[0]) {
+        logmsg(c, fmi2Error, "logStatusError", "fmi2Instantiate: missing instance name");
+        return NULL;
+    }
+    if (fmuType != fmi2CoSimulation) {
+        logmsg(c, fmi2Error, "logStatusError", "fmi2Instantiate: this FMU supports co-simulation only");
+        return NULL;
+    }
+    if (!fmuGUID) {
+        logmsg(c, fmi2Error, "logStatusError", "fmi2Instantiate: GUID is NULL");
+        return NULL;
+    }
+    char resdir[2048], err[2048] = "";
+    if (fmuResourceLocation && !strncmp(fmuResourceLocation, "file:", 5)) uri_to_path(fmuResourceLocation, resdir, sizeof resdir);
+    else resources_from_library(resdir, sizeof resdir);
+    Config cfg;
+    memset(&cfg, 0, sizeof cfg);
+    if (!read_config(resdir, &cfg, err, sizeof err)) {
+        resources_from_library(resdir, sizeof resdir); /* a bad URI: try next to the binary */
+        if (!read_config(resdir, &cfg, err, sizeof err)) {
+            logmsg(c, fmi2Error, "logStatusError", "fmi2Instantiate: %s", err);
+            return NULL;
+        }
+    }
+    if (strcmp(cfg.guid, fmuGUID)) {
+        logmsg(c, fmi2Error, "logStatusError", "fmi2Instantiate: GUID mismatch: expected %s but was %s", cfg.guid, fmuGUID);
+        return NULL;
+    }
+    c = calloc(1, sizeof(Comp));
+    *c = tmp;
+    c->magic = COMP_MAGIC;
+    c->fingerprint = fingerprint_of(cfg.guid);
+    c->instance_name = strdup(instanceName);
+    c->logging_on = loggingOn;
+    c->state = S_INSTANTIATED;
+    c->dirty = 1;
+    if (!read_variables(c, resdir, err, sizeof err)) {
+        logmsg(c, fmi2Error, "logStatusError", "fmi2Instantiate: %s", err);
+        free_comp(c);
+        return NULL;
+    }
+    if (!ensure_python(&cfg, resdir, err, sizeof err)) {
+        logmsg(c, fmi2Error, "logStatusError", "fmi2Instantiate: %s", err);
+        free_comp(c);
+        return NULL;
+    }
+    pthread_mutex_lock(&g_count_lock);
+    unsigned long id = ++g_counter;
+    pthread_mutex_unlock(&g_count_lock);
+    snprintf(c->modname, sizeof c->modname, "_pyfmu_%.60s_%lu_%lx", fmuGUID[0] == '{' ? "model" : "m", id,
+             (unsigned long)(uintptr_t)c);
+    for (char *p = c->modname; *p; p++)
+        if (!((*p >= 'a' && *p <= 'z') || (*p >= 'A' && *p <= 'Z') || (*p >= '0' && *p <= '9'))) *p = '_';
+
+    int g = gil_take();
+    int ok = 0;
+    c->globals = py.DictNew();
+    if (c->globals && py.DictSetItemString(c->globals, "__builtins__", py.EvalGetBuiltins()) == 0) {
+        PyObject *r = py.RunString(BOOTSTRAP, PY_FILE_INPUT, c->globals, c->globals);
+        if (r) {
+            py.DecRef(r);
+            char model_file[2400];
+            snprintf(model_file, sizeof model_file, "%s/%s", resdir, cfg.model[0] ? cfg.model : "model.py");
+            PyObject *mod = py.CallFunction(py.DictGetItemString(c->globals, "_load"), "sssss", python_site_paths(),
+                                            model_file, c->modname, cfg.requires, cfg.min_python);
+            if (mod) {
+                c->nscratch = 4 * (c->nvr + 2);
+                c->b_reals = py.ByteArrayFromStringAndSize(NULL, (Py_ssize_t)(sizeof(double) * c->nvr));
+                c->b_ints = py.ByteArrayFromStringAndSize(NULL, (Py_ssize_t)(sizeof(int32_t) * c->nvr));
+                c->b_derivs = py.ByteArrayFromStringAndSize(NULL, (Py_ssize_t)(2 * sizeof(double) * c->nvr));
+                c->b_scratch = py.ByteArrayFromStringAndSize(NULL, (Py_ssize_t)(sizeof(double) * c->nscratch));
+                if (c->b_reals && c->b_ints && c->b_derivs && c->b_scratch) {
+                    c->reals = (double *)py.ByteArrayAsString(c->b_reals);
+                    c->ints = (int32_t *)py.ByteArrayAsString(c->b_ints);
+                    c->derivs = (double *)py.ByteArrayAsString(c->b_derivs);
+                    c->scratch = (double *)py.ByteArrayAsString(c->b_scratch);
+                    memset(c->reals, 0, sizeof(double) * c->nvr);
+                    memset(c->ints, 0, sizeof(int32_t) * c->nvr);
+                    memset(c->derivs, 0, 2 * sizeof(double) * c->nvr);
+                    memset(c->scratch, 0, sizeof(double) * c->nscratch);
+                    PyObject *create = py.GetAttrString(mod, "create");
+                    if (create) {
+                        c->slave = py.CallFunction(create, "OOOOss", c->b_reals, c->b_ints, c->b_derivs, c->b_scratch,
+                                                   c->instance_name, resdir);
+                        py.DecRef(create);
+                    }
+                }
+                py.DecRef(mod);
+                if (c->slave) {
+                    struct { PyObject **dst; const char *name; } m[] = {
+                        {&c->m_setup, "setup_experiment"}, {&c->m_enter, "enter_initialization"},
+                        {&c->m_exit, "exit_initialization"}, {&c->m_update, "update_outputs"},
+                        {&c->m_step, "do_step"}, {&c->m_reset, "reset"}, {&c->m_terminate, "terminate"},
+                        {&c->m_get, "get_state"}, {&c->m_set, "set_state"}, {&c->m_dd, "directional_derivative"}};
+                    ok = 1;
+                    for (size_t i = 0; i < sizeof m / sizeof m[0]; i++) {
+                        *m[i].dst = py.GetAttrString(c->slave, m[i].name);
+                        if (!*m[i].dst) ok = 0;
+                    }
+                    if (ok) ok = query_native(c);
+                }
+            }
+        }
+    }
+    if (!ok) report_py_exception(c, "fmi2Instantiate");
+    GIL_DROP(g);
+    if (!ok) {
+        logmsg(c, fmi2Fatal, "logStatusError", "fmi2Instantiate: could not create the Python slave");
+        free_comp(c);
+        return NULL;
+    }
+    logmsg(c, fmi2OK, "logAll", "fmi2Instantiate: module %s, resources %s", c->modname, resdir);
+    return c;
+}
+
+void fmi2FreeInstance(fmi2Component comp) {
+    Comp *c = (Comp *)comp;
+    if (!c) return;
+    free_comp(c);
+}
+
+fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceDefined, fmi2Real tolerance,
+                               fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
+    Comp *c = (Comp *)comp;
+    CHECK("fmi2SetupExperiment", S_INSTANTIATED);
+    if (!isfinite(startTime)) {
+        logmsg(c, fmi2Error, "logStatusError", "fmi2SetupExperiment: startTime must be finite but was %g", startTime);
+        return fmi2Error;
+    }
+    if (toleranceDefined && !(isfinite(tolerance) && tolerance > 0.0)) {
+        logmsg(c, fmi2Error, "logStatusError", "fmi2SetupExperiment: tolerance must be finite and > 0 but was %g", tolerance);
+        return fmi2Error;
+    }
+    if (stopTimeDefined && !isfinite(stopTime)) {
+        logmsg(c, fmi2Error, "logStatusError", "fmi2SetupExperiment: stopTime must be finite but was %g", stopTime);
+        return fmi2Error;
+    }
+    if (stopTimeDefined && stopTime < startTime) {
+        logmsg(c, fmi2Error, "logStatusError", "fmi2SetupExperiment: stopTime %.16g < startTime %.16g", stopTime, startTime);
+        return fmi2Error;
+    }
+    c->time = startTime;
+    int g = gil_take();
+    fmi2Status s = py_status(c, "fmi2SetupExperiment",
+                             py.CallFunction(c->m_setup, "idfid", toleranceDefined, tolerance, startTime, stopTimeDefined, stopTime));
+    GIL_DROP(g);
+    return s;
+}
+
+fmi2Status fmi2EnterInitializationMode(fmi2Component comp) {
+    Comp *c = (Comp *)comp;
+    CHECK("fmi2EnterInitializationMode", S_INSTANTIATED);
+    int g = gil_take();
+    fmi2Status s = py_status(c, "fmi2EnterInitializationMode", py.CallFunction(c->m_enter, NULL));
+    GIL_DROP(g);
+    if (s <= fmi2Warning) {
+        c->state = S_INIT;
+        c->dirty = 1;
+    }
+    return s;
+}
+
+fmi2Status fmi2ExitInitializationMode(fmi2Component comp) {
+    Comp *c = (Comp *)comp;
+    CHECK("fmi2ExitInitializationMode", S_INIT);
+    int g = gil_take();
+    fmi2Status s = py_status(c, "fmi2ExitInitializationMode", py.CallFunction(c->m_exit, NULL));
+    GIL_DROP(g);
+    if (s <= fmi2Warning) {
+        c->state = S_STEP_COMPLETE;
+        c->dirty = 0;
+    } else c->state = S_ERROR;
+    return s;
+}
+
+fmi2Status fmi2Terminate(fmi2Component comp) {
+    Comp *c = (Comp *)comp;
+    CHECK("fmi2Terminate", S_STEP_COMPLETE | S_STEP_FAILED);
+    int g = gil_take();
+    fmi2Status s = py_status(c, "fmi2Terminate", py.CallFunction(c->m_terminate, NULL));
+    GIL_DROP(g);
+    c->state = S_TERMINATED;
+    return s;
+}
+
+fmi2Status fmi2Reset(fmi2Component comp) {
+    Comp *c = (Comp *)comp;
+    CHECK("fmi2Reset", M_ANY_BUT_FATAL);
+    int g = gil_take();
+    fmi2Status s = py_status(c, "fmi2Reset", py.CallFunction(c->m_reset, NULL));
+    GIL_DROP(g);
+    if (s <= fmi2Warning) {
+        c->state = S_INSTANTIATED;
+        c->dirty = 1;
+        c->time = 0.0;
+    }
+    return s;
+}
+
+/* Recompute outputs if inputs/parameters changed; call before reading outputs. */
+fmi2Status refresh(Comp *c, const char *f) {
+    if (!c->dirty || !(c->state & (S_INIT | S_STEP_COMPLETE))) return fmi2OK;
+    int g = gil_take();
+    fmi2Status s = py_status(c, f, py.CallFunction(c->m_update, "i", c->state == S_INIT));
+    GIL_DROP(g);
+    if (s <= fmi2Warning) c->dirty = 0;
+    return s;
+}
+
+int check_vr(Comp *c, const char *f, fmi2ValueReference vr, char type) {
+    if (vr >= (fmi2ValueReference)c->nvr || c->vtype[vr] != type) {
+        logmsg(c, fmi2Error, "logStatusError", "%s: invalid value reference %u", f, vr);
+        return 0;
+    }
+    return 1;
+}
+
+static int check_settable(Comp *c, const char *f, fmi2ValueReference vr) {
+    int ca = c->vcaus[vr], va = c->vvar[vr];
+    int ok = 0;
+    if (ca == C_INPUT) ok = 1;
+    else if (ca == C_PARAMETER && va == V_TUNABLE) ok = 1;
+    else if (ca == C_PARAMETER && va == V_FIXED) ok = c->state & (S_INSTANTIATED | S_INIT);
+    if (!ok) logmsg(c, fmi2Error, "logStatusError", "%s: variable %u cannot be set in state %s", f, vr, state_name(c->state));
+    return ok;
+}
+
+/* Real values must be finite; Booleans 0 or 1. */
+static int check_value(Comp *c, const char *f, fmi2ValueReference vr, double v, char type) {
+    if (type == 'R' && !isfinite(v)) {
+        logmsg(c, fmi2Error, "logStatusError", "%s: value of variable %u must be finite but was %g", f, vr, v);
+        return 0;
+    }
+    if (type == 'B' && v != 0.0 && v != 1.0) {
+        logmsg(c, fmi2Error, "logStatusError", "%s: value of Boolean variable %u must be 0 or 1 but was %g", f, vr, v);
+        return 0;
+    }
+    return 1;
+}
+
+#define GETTER(NAME, CTYPE, TCODE, BUF, CONV)                                                    \
+    fmi2Status NAME(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr, CTYPE value[]) { \
+        Comp *c = (Comp *)comp;                                                                  \
+        CHECK(#NAME, M_GET);                                                                     \
+        if (nvr == 0) return fmi2OK;                                                             \
+        NULLARG(#NAME, vr);                                                                      \
+        NULLARG(#NAME, value);                                                                   \
+        for (size_t i = 0; i < nvr; i++)                                                         \
+            if (!check_vr(c, #NAME, vr[i], TCODE)) return fmi2Error;                             \
+        fmi2Status s = refresh(c, #NAME);                                                        \
+        if (s > fmi2Warning) return s;                                                           \
+        for (size_t i = 0; i < nvr; i++) value[i] = CONV(c->BUF[vr[i]]);                         \
+        return s;                                                                                \
+    }
+#define ID(x) (x)
+#define TOBOOL(x) ((x) ? fmi2True : fmi2False)
+GETTER(fmi2GetReal, fmi2Real, 'R', reals, ID)
+GETTER(fmi2GetInteger, fmi2Integer, 'I', ints, ID)
+GETTER(fmi2GetBoolean, fmi2Boolean, 'B', ints, TOBOOL)
+
+#define SETTER(NAME, CTYPE, TCODE, BUF, EXTRA)                                                           \
+    fmi2Status NAME(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr, const CTYPE value[]) { \
+        Comp *c = (Comp *)comp;                                                                          \
+        CHECK(#NAME, M_SET);                                                                             \
+        if (nvr == 0) return fmi2OK;                                                                     \
+        NULLARG(#NAME, vr);                                                                              \
+        NULLARG(#NAME, value);                                                                           \
+        for (size_t i = 0; i < nvr; i++)                                                                 \
+            if (!check_vr(c, #NAME, vr[i], TCODE) || !check_settable(c, #NAME, vr[i]) ||                 \
+                !check_value(c, #NAME, vr[i], (double)value[i], TCODE)) return fmi2Error;                \
+        for (size_t i = 0; i < nvr; i++) {                                                               \
+            c->BUF[vr[i]] = value[i];                                                                    \
+            EXTRA                                                                                        \
+        }                                                                                                \
+        c->dirty = 1;                                                                                    \
+        return fmi2OK;                                                                                   \
+    }
+SETTER(fmi2SetReal, fmi2Real, 'R', reals, if (c->vcaus[vr[i]] == C_INPUT) { c->derivs[2 * vr[i]] = 0; c->derivs[2 * vr[i] + 1] = 0; })
+SETTER(fmi2SetInteger, fmi2Integer, 'I', ints, )
+SETTER(fmi2SetBoolean, fmi2Boolean, 'B', ints, )
+
+fmi2Status fmi2GetString(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr, fmi2String value[]) {
+    Comp *c = (Comp *)comp;
+    (void)value;
+    CHECK("fmi2GetString", M_GET);
+    if (nvr == 0) return fmi2OK;
+    NULLARG("fmi2GetString", vr);
+    logmsg(c, fmi2Error, "logStatusError", "fmi2GetString: invalid value reference %u (no String variables)", vr[0]);
+    return fmi2Error;
+}
+
+fmi2Status fmi2SetString(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr, const fmi2String value[]) {
+    Comp *c = (Comp *)comp;
+    (void)value;
+    CHECK("fmi2SetString", M_SET);
+    if (nvr == 0) return fmi2OK;
+    NULLARG("fmi2SetString", vr);
+    logmsg(c, fmi2Error, "logStatusError", "fmi2SetString: invalid value reference %u (no String variables)", vr[0]);
+    return fmi2Error;
+}
+
+/* Derivatives of any Real unknowns with respect to any knowns (FMI 2.0, 2.1.9). Knowns that are
+ * not inputs (parameters, outputs, Integer/Boolean variables: some masters, OMSimulator by default,
+ * pass them) contribute what the model says: zero after initialisation (they cannot change) and,
+ * in initialisation mode, the derivative with respect to a Real parameter. */
+fmi2Status fmi2GetDirectionalDerivative(fmi2Component comp, const fmi2ValueReference vUnknown_ref[], size_t nUnknown,
+                                        const fmi2ValueReference vKnown_ref[], size_t nKnown, const fmi2Real dvKnown[],
+                                        fmi2Real dvUnknown[]) {
+    Comp *c = (Comp *)comp;
+    const char *f = "fmi2GetDirectionalDerivative";
+    CHECK(f, M_GET);
+    if (nUnknown == 0) return fmi2OK;
+    NULLARG(f, vUnknown_ref);
+    NULLARG(f, dvUnknown);
+    if (nKnown > 0) {
+        NULLARG(f, vKnown_ref);
+        NULLARG(f, dvKnown);
+    }
+    size_t cap = (size_t)c->nscratch / 2; /* layout [vUnknown, vKnown, dvKnown, dvUnknown] */
+    if (nUnknown > cap || nKnown > cap || nUnknown + nKnown > cap) {
+        logmsg(c, fmi2Error, "logStatusError", "%s: too many variables (%zu unknowns, %zu knowns; at most %zu in all)", f,
+               nUnknown, nKnown, cap);
+        return fmi2Error;
+    }
+    for (size_t i = 0; i < nUnknown; i++) {
+        fmi2ValueReference vr = vUnknown_ref[i];
+        if (vr >= (fmi2ValueReference)c->nvr || c->vtype[vr] != 'R') {
+            logmsg(c, fmi2Error, "logStatusError", "%s: unknown %u is not a Real variable", f, vr);
+            return fmi2Error;
+        }
+        c->scratch[i] = (double)vr;
+    }
+    for (size_t i = 0; i < nKnown; i++) {
+        fmi2ValueReference vr = vKnown_ref[i];
+        if (vr >= (fmi2ValueReference)c->nvr || !c->vtype[vr]) {
+            logmsg(c, fmi2Error, "logStatusError", "%s: invalid value reference %u of a known", f, vr);
+            return fmi2Error;
+        }
+        if (!isfinite(dvKnown[i])) {
+            logmsg(c, fmi2Error, "logStatusError", "%s: seed of known %u must be finite but was %g", f, vr, dvKnown[i]);
+            return fmi2Error;
+        }
+        c->scratch[nUnknown + i] = (double)vr;
+        c->scratch[nUnknown + nKnown + i] = dvKnown[i];
+    }
+    fmi2Status s = refresh(c, f);
+    if (s > fmi2Warning) return s;
+    int g = gil_take();
+    s = py_status(c, f, py.CallFunction(c->m_dd, "nni", (Py_ssize_t)nUnknown, (Py_ssize_t)nKnown, c->state == S_INIT));
+    GIL_DROP(g);
+    if (s <= fmi2Warning)
+        for (size_t i = 0; i < nUnknown; i++) dvUnknown[i] = c->scratch[2 * nKnown + nUnknown + i];
+    return s;
+}
+
+fmi2Status fmi2SetRealInputDerivatives(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr,
+                                       const fmi2Integer order[], const fmi2Real value[]) {
+    Comp *c = (Comp *)comp;
+    CHECK("fmi2SetRealInputDerivatives", M_SET);
+    if (nvr == 0) return fmi2OK;
+    NULLARG("fmi2SetRealInputDerivatives", vr);
+    NULLARG("fmi2SetRealInputDerivatives", order);
+    NULLARG("fmi2SetRealInputDerivatives", value);
+    for (size_t i = 0; i < nvr; i++) {
+        if (!check_vr(c, "fmi2SetRealInputDerivatives", vr[i], 'R')) return fmi2Error;
+        if (c->vcaus[vr[i]] != C_INPUT) {
+            logmsg(c, fmi2Error, "logStatusError", "fmi2SetRealInputDerivatives: variable %u is not an input", vr[i]);
+            return fmi2Error;
+        }
+        if (order[i] < 1 || order[i] > 2) {
+            logmsg(c, fmi2Error, "logStatusError", "fmi2SetRealInputDerivatives: order %d not supported (1 or 2)", order[i]);
+            return fmi2Error;
+        }
+    }
+    for (size_t i = 0; i < nvr; i++)
+        if (!isfinite(value[i])) {
+            logmsg(c, fmi2Error, "logStatusError", "fmi2SetRealInputDerivatives: value for %u must be finite but was %g",
+                   vr[i], value[i]);
+            return fmi2Error;
+        }
+    for (size_t i = 0; i < nvr; i++) c->derivs[2 * vr[i] + order[i] - 1] = value[i];
+    return fmi2OK;
+}
+
+fmi2Status fmi2GetRealOutputDerivatives(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr,
+                                        const fmi2Integer order[], fmi2Real value[]) {
+    Comp *c = (Comp *)comp;
+    (void)vr; (void)order; (void)value;
+    CHECK("fmi2GetRealOutputDerivatives", M_GET);
+    if (nvr == 0) return fmi2OK;
+    logmsg(c, fmi2Error, "logStatusError", "fmi2GetRealOutputDerivatives: maxOutputDerivativeOrder is 0");
+    return fmi2Error;
+}
+
+fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real currentCommunicationPoint, fmi2Real communicationStepSize,
+                      fmi2Boolean noSetFMUStatePriorToCurrentPoint) {
+    Comp *c = (Comp *)comp;
+    const char *f = "fmi2DoStep";
+    double t = currentCommunicationPoint, h = communicationStepSize;
+    CHECK(f, S_STEP_COMPLETE);
+    if (!isfinite(t)) {
+        logmsg(c, fmi2Error, "logStatusError", "%s: currentCommunicationPoint must be finite but was %g", f, t);
+        return fmi2Error;
+    }
+    if (!isfinite(h) || !(h > 0.0)) {
+        logmsg(c, fmi2Error, "logStatusError", "%s: communicationStepSize must be finite and > 0 but was %g", f, h);
+        return fmi2Error;
+    }
+    if (h > PYFMU_MAX_STEP) {
+        logmsg(c, fmi2Error, "logStatusError",
+               "%s: communicationStepSize %g s is longer than the %g s this FMU accepts in one step "
+               "(the cost of a step grows with its length); split it into shorter steps", f, h, PYFMU_MAX_STEP);
+        return fmi2Error;
+    }
+    if (!(t + h > t) || !isfinite(t + h)) {
+        logmsg(c, fmi2Error, "logStatusError", "%s: communicationStepSize %g is below the resolution of the time %.17g", f,
+               h, t);
+        return fmi2Error;
+    }
+    /* relative to the step: hosts computing t = k h differ from the FMU's sum of steps by rounding */
+    double slack = PYFMU_TIME_SLACK * h, ulp = 8.0 * nextafter(fabs(c->time), INFINITY) - 8.0 * fabs(c->time);
+    if (slack < ulp) slack = ulp;
+    if (fabs(t - c->time) > slack) {
+        logmsg(c, fmi2Error, "logStatusError",
+               "%s: expected currentCommunicationPoint = %.17g (within %g) but was %.17g", f, c->time, slack, t);
+        return fmi2Error;
+    }
+    int g = gil_take();
+    fmi2Status s;
+    int rc = 1;
+    if (c->native && h <= PYFMU_NATIVE_MAX_STEP) /* compiled step: no interpreter, no Python slave */
+        rc = c->native(c->reals, c->ints, c->derivs, c->nat[0], c->nat[1], c->nat[2], c->nat[3], c->nat[4], c->nat[5],
+                       t, h);
+    if (rc == 0) s = fmi2OK;
+    else if (rc >= 2) {
+        logmsg(c, fmi2Error, "logStatusError", "%s: the integrator failed in the step from t = %.17g s of %g s: %s", f, t,
+               h, rc == 2 ? "the step size fell below the resolution of t" : "more than the cap of integrator steps");
+        s = fmi2Error;
+    } else /* no native step, a long step, or the native step asks for Python (debug_raise) */
+        s = py_status(c, f, py.CallFunction(c->m_step, "ddi", t, h, noSetFMUStatePriorToCurrentPoint));
+    GIL_DROP(g);
+    if (s <= fmi2Warning) {
+        c->time = t + h; /* the host's time is the truth: no drift accumulates */
+        c->dirty = 0;
+    } else c->state = (s == fmi2Fatal) ? S_FATAL : S_ERROR;
+    return s;
+}
+
+fmi2Status fmi2CancelStep(fmi2Component comp) {
+    Comp *c = (Comp *)comp;
+    if (!c) return fmi2Error;
+    logmsg(c, fmi2Error, "logStatusError", "fmi2CancelStep: doStep is synchronous, nothing to cancel");
+    return fmi2Error;
+}
+
+fmi2Status fmi2GetStatus(fmi2Component comp, const fmi2StatusKind s, fmi2Status *value) {
+    Comp *c = (Comp *)comp;
+    CHECK("fmi2GetStatus", S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED);
+    NULLARG("fmi2GetStatus", value);
+    (void)s;
+    logmsg(c, fmi2Error, "logStatusError", "fmi2GetStatus: no asynchronous step in progress");
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetRealStatus(fmi2Component comp, const fmi2StatusKind s, fmi2Real *value) {
+    Comp *c = (Comp *)comp;
+    CHECK("fmi2GetRealStatus", S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED);
+    NULLARG("fmi2GetRealStatus", value);
+    if (s == fmi2LastSuccessfulTime) {
+        *value = c->time;
+        return fmi2OK;
+    }
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetIntegerStatus(fmi2Component comp, const fmi2StatusKind s, fmi2Integer *value) {
+    Comp *c = (Comp *)comp;
+    (void)s;
+    CHECK("fmi2GetIntegerStatus", S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED);
+    NULLARG("fmi2GetIntegerStatus", value);
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetBooleanStatus(fmi2Component comp, const fmi2StatusKind s, fmi2Boolean *value) {
+    Comp *c = (Comp *)comp;
+    CHECK("fmi2GetBooleanStatus", S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED);
+    NULLARG("fmi2GetBooleanStatus", value);
+    if (s == fmi2Terminated) {
+        *value = fmi2False;
+        return fmi2OK;
+    }
+    return fmi2Discard;
+}
+
+fmi2Status fmi2GetStringStatus(fmi2Component comp, const fmi2StatusKind s, fmi2String *value) {
+    Comp *c = (Comp *)comp;
+    (void)s;
+    CHECK("fmi2GetStringStatus", S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED);
+    NULLARG("fmi2GetStringStatus", value);
+    return fmi2Discard;
+}
+
+/* Model-exchange entry points: this FMU is co-simulation only. */
+#define ME_ONLY(comp, name)                                                                      \
+    do {                                                                                         \
+        logmsg((Comp *)(comp), fmi2Error, "logStatusError", name ": model exchange is not supported"); \
+        return fmi2Error;                                                                        \
+    } while (0)
+fmi2Status fmi2EnterEventMode(fmi2Component c) { ME_ONLY(c, "fmi2EnterEventMode"); }
+fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *e) { (void)e; ME_ONLY(c, "fmi2NewDiscreteStates"); }
+fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) { ME_ONLY(c, "fmi2EnterContinuousTimeMode"); }
+fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean a, fmi2Boolean *b, fmi2Boolean *d) {
+    (void)a; (void)b; (void)d; ME_ONLY(c, "fmi2CompletedIntegratorStep");
+}
+fmi2Status fmi2SetTime(fmi2Component c, fmi2Real t) { (void)t; ME_ONLY(c, "fmi2SetTime"); }
+fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t n) { (void)x; (void)n; ME_ONLY(c, "fmi2SetContinuousStates"); }
+fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real x[], size_t n) { (void)x; (void)n; ME_ONLY(c, "fmi2GetDerivatives"); }
+fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real x[], size_t n) { (void)x; (void)n; ME_ONLY(c, "fmi2GetEventIndicators"); }
+fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t n) { (void)x; (void)n; ME_ONLY(c, "fmi2GetContinuousStates"); }
+fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x[], size_t n) { (void)x; (void)n; ME_ONLY(c, "fmi2GetNominalsOfContinuousStates"); }

@@ -1,0 +1,172 @@
+/*
+ * Shared declarations of the FMI 2.0 co-simulation stub that runs a Python slave.
+ *
+ * The stub is split along its jobs:
+ *   py_embed.c   finding, loading and entering a Python interpreter (C-API resolved with dlsym)
+ *   resources.c  reading resources/: pyfmu.cfg, variables.tsv, the resource URI
+ *   fmi_api.c    the FMI 2.0 API: state machine, argument checks, values, doStep, derivatives
+ *   fmi_state.c  FMU state get/set/free/serialize (overflow-safe, ownership-checked)
+ *   log.c        messages to the host's logger
+ * Only the fmi2* functions are exported (compiled with -fvisibility=hidden).
+ */
+#ifndef PYFMU_H
+#define PYFMU_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <sys/types.h>
+
+#include "fmi2Functions.h"
+
+#define HIDDEN __attribute__((visibility("hidden")))
+
+/* Bind the dl* functions to their oldest x86-64 versions, so the binary loads on glibc < 2.34 too
+ * (glibc 2.34 moved them into libc under a new version; the old ones are still exported). */
+#if defined(__x86_64__) && defined(__GLIBC__)
+__asm__(".symver dlopen,dlopen@GLIBC_2.2.5");
+__asm__(".symver dlsym,dlsym@GLIBC_2.2.5");
+__asm__(".symver dlerror,dlerror@GLIBC_2.2.5");
+__asm__(".symver dladdr,dladdr@GLIBC_2.2.5");
+#endif
+
+/* ---- Python C-API, resolved at run time ------------------------------------------------- */
+typedef void PyObject;
+typedef ssize_t Py_ssize_t;
+#define PY_FILE_INPUT 257
+
+typedef struct {
+    int (*IsInitialized)(void);
+    void (*InitializeEx)(int);
+    void (*SetPythonHome)(const wchar_t *);
+    wchar_t *(*DecodeLocale)(const char *, size_t *);
+    void *(*SaveThread)(void);
+    int (*GILEnsure)(void);
+    void (*GILRelease)(int);
+    void *(*GILThisThreadState)(void);
+    PyObject *(*RunString)(const char *, int, PyObject *, PyObject *);
+    PyObject *(*DictNew)(void);
+    int (*DictSetItemString)(PyObject *, const char *, PyObject *);
+    PyObject *(*DictGetItemString)(PyObject *, const char *);
+    PyObject *(*EvalGetBuiltins)(void);
+    const char *(*UnicodeAsUTF8)(PyObject *);
+    PyObject *(*GetAttrString)(PyObject *, const char *);
+    PyObject *(*CallFunction)(PyObject *, const char *, ...);
+    long (*LongAsLong)(PyObject *);
+    PyObject *(*ByteArrayFromStringAndSize)(const char *, Py_ssize_t);
+    char *(*ByteArrayAsString)(PyObject *);
+    int (*BytesAsStringAndSize)(PyObject *, char **, Py_ssize_t *);
+    PyObject *(*BytesFromStringAndSize)(const char *, Py_ssize_t);
+    void (*DecRef)(PyObject *);
+    PyObject *(*ErrOccurred)(void);
+    void (*ErrFetch)(PyObject **, PyObject **, PyObject **);
+    void (*ErrNormalize)(PyObject **, PyObject **, PyObject **);
+    void (*ErrClear)(void);
+    PyObject *(*NoneStruct);
+} PyApi;
+
+extern HIDDEN PyApi py;
+extern HIDDEN int g_py_ready;
+
+/* ---- resources ----------------------------------------------------------------------------- */
+typedef struct {
+    char guid[128];
+    char model[256];
+    char python[1024];         /* the build's interpreter (sys.executable) */
+    char python_version[32];   /* major.minor.micro of the build's interpreter */
+    char requires[512];        /* "numpy>=X,<Y numba>=..." checked in the interpreter */
+    char min_python[16];       /* oldest major.minor the bundled code supports */
+} Config;
+
+/* ---- instance ------------------------------------------------------------------------------ */
+enum {
+    S_INSTANTIATED = 1 << 0,
+    S_INIT = 1 << 1,
+    S_STEP_COMPLETE = 1 << 2,
+    S_STEP_FAILED = 1 << 3,
+    S_TERMINATED = 1 << 4,
+    S_ERROR = 1 << 5,
+    S_FATAL = 1 << 6
+};
+#define M_ANY_BUT_FATAL (S_INSTANTIATED | S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED | S_ERROR)
+#define M_GET (S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED | S_ERROR)
+#define M_SET (S_INSTANTIATED | S_INIT | S_STEP_COMPLETE)
+
+enum { C_PARAMETER = 1, C_INPUT, C_OUTPUT, C_LOCAL, C_CALCPAR, C_INDEPENDENT };
+enum { V_CONSTANT = 1, V_FIXED, V_TUNABLE, V_DISCRETE, V_CONTINUOUS };
+
+typedef int32_t (*NativeStep)(double *reals, int32_t *ints, double *derivs, void *z, void *p, void *stats, void *th,
+                              void *u, void *atol, double t, double h);
+/* Longest step taken by the native function; longer ones go through Python (in pieces). */
+#define PYFMU_NATIVE_MAX_STEP 1.0
+
+typedef struct {
+    uint32_t magic;     /* COMP_MAGIC while alive */
+    char *instance_name;
+    fmi2CallbackLogger logger;
+    fmi2ComponentEnvironment env;
+    int logging_on;
+    int state;
+    int dirty;
+    double time;
+    uint64_t fingerprint; /* of the GUID: FMU states of another FMU are refused */
+    /* variable table */
+    int nvr;            /* max value reference + 1 */
+    int nvars;
+    char *vtype;        /* 'R', 'I', 'B' or 0 per value reference */
+    char *vcaus;
+    char *vvar;
+    /* buffers shared with Python (bytearrays) */
+    double *reals;
+    int32_t *ints;
+    double *derivs;     /* [vr][2]: input derivatives of order 1 and 2 */
+    double *scratch;
+    int nscratch;
+    /* Python objects */
+    PyObject *globals, *slave, *b_reals, *b_ints, *b_derivs, *b_scratch;
+    PyObject *m_setup, *m_enter, *m_exit, *m_update, *m_step, *m_reset, *m_terminate, *m_get, *m_set, *m_dd;
+    char modname[160];
+    /* native step (pyfmu_wrapper/fmi/native.py): a compiled function and the slave's arrays */
+    NativeStep native;
+    void *nat[6]; /* z, p, stats, th, u, atol */
+} Comp;
+#define COMP_MAGIC 0x434f4d50u
+
+/* ---- log.c --------------------------------------------------------------------------------- */
+HIDDEN void logmsg(Comp *c, fmi2Status st, const char *cat, const char *fmt, ...)
+    __attribute__((format(printf, 4, 5)));
+HIDDEN void loglong(Comp *c, fmi2Status st, const char *cat, const char *prefix, const char *text);
+HIDDEN const char *state_name(int s);
+HIDDEN int check_state(Comp *c, const char *f, int mask);
+
+#define CHECK(f, mask)                          \
+    if (!c) return fmi2Error;                   \
+    if (!check_state(c, f, mask)) return fmi2Error;
+#define NULLARG(f, p)                                                                  \
+    if ((p) == NULL) {                                                                 \
+        logmsg(c, fmi2Error, "logStatusError", "%s: argument %s is NULL", f, #p);      \
+        return fmi2Error;                                                              \
+    }
+
+/* ---- resources.c --------------------------------------------------------------------------- */
+HIDDEN int read_config(const char *resdir, Config *cfg, char *err, size_t nerr);
+HIDDEN int read_variables(Comp *c, const char *resdir, char *err, size_t nerr);
+HIDDEN void uri_to_path(const char *uri, char *out, size_t n);
+HIDDEN void resources_from_library(char *out, size_t n);
+HIDDEN int code_of(const char *s, const char *const *names, int n);
+HIDDEN uint64_t fingerprint_of(const char *s);
+
+/* ---- py_embed.c ---------------------------------------------------------------------------- */
+extern HIDDEN const char *BOOTSTRAP;
+HIDDEN int ensure_python(const Config *cfg, const char *resdir, char *err, size_t nerr);
+HIDDEN int gil_take(void);
+#define GIL_DROP(g) py.GILRelease(g)
+HIDDEN void report_py_exception(Comp *c, const char *f);
+HIDDEN fmi2Status py_status(Comp *c, const char *f, PyObject *r);
+HIDDEN int python_is_host(void);
+HIDDEN const char *python_site_paths(void);
+
+/* ---- fmi_api.c / fmi_state.c --------------------------------------------------------------- */
+HIDDEN fmi2Status refresh(Comp *c, const char *f);
+HIDDEN int check_vr(Comp *c, const char *f, fmi2ValueReference vr, char type);
+
+#endif

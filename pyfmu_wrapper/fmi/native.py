@@ -1,0 +1,148 @@
+"""Native-speed doStep: the step of a slave as a C-callable function (numba ``cfunc``).
+
+The C stub calls it directly for an ordinary step (h <= :data:`~.slaves.CHUNK`), so a step enters
+neither the interpreter nor the Python slave: it reads the inputs and their derivatives from the
+stub's value buffers, integrates the subsystem over [t, t + h] with the same compiled RODAS4
+integrator (:func:`~pyfmu_wrapper.solvers.rodas.integrate`, the same specialisation the Python
+path calls, so the numbers are bit-identical), writes the outputs at t + h and clears the input
+derivatives. Python is entered only to instantiate, to set up, for long steps, and on errors.
+
+C signature (all pointers to the slave's own arrays, which keep their address for its life)::
+
+    int32 step(double *reals, int32 *ints, double *derivs, double *z, double *p, int64 *stats,
+               double *th /* [t, suggested h] */, double *u, double *atol, double t, double h)
+
+Returns 0 on success, 1 to ask the stub for the Python path (``debug_raise`` is set: the Python
+slave raises with a traceback), 1 + the integrator's failure status (2: step size underflow, 3: more
+than :data:`~.slaves.MAX_INTEGRATOR_STEPS` steps) when the integration failed.
+"""
+from __future__ import annotations
+
+import functools
+
+import numpy as np
+from numba import carray, cfunc, types
+
+from ..physics import kernels as kn
+from ..physics.params import N_PARAMS, P_s
+from ..solvers.rodas import integrate
+from .slaves import MAX_INTEGRATOR_STEPS
+from .variables import BASE_OSCILLATOR, TMD_INERTER
+
+SIGNATURE = types.int32(types.CPointer(types.float64), types.CPointer(types.int32), types.CPointer(types.float64),
+                        types.CPointer(types.float64), types.CPointer(types.float64), types.CPointer(types.int64),
+                        types.CPointer(types.float64), types.CPointer(types.float64), types.CPointer(types.float64),
+                        types.float64, types.float64)
+
+NP = N_PARAMS
+# value references (frozen into the compiled code)
+B_NVR = max(v.vr for v in BASE_OSCILLATOR.variables) + 1
+B_FLINK = BASE_OSCILLATOR.vr("f_link")
+B_X, B_XD, B_XDD, B_FEXC = (BASE_OSCILLATOR.vr(n) for n in ("x", "xd", "xdd", "f_exc"))
+B_RTOL, B_ATOL, B_DEBUG = (BASE_OSCILLATOR.vr(n) for n in ("rtol", "atol", "debug_raise"))
+T_NVR = max(v.vr for v in TMD_INERTER.variables) + 1
+T_X, T_XD, T_XDD = (TMD_INERTER.vr(n) for n in ("x", "xd", "xdd"))
+T_FORCE, T_Y, T_YD, T_P, T_CONTACT = (TMD_INERTER.vr(n) for n in ("force", "y", "yd", "inerter_force", "contact"))
+T_RTOL, T_ATOL, T_DEBUG = (TMD_INERTER.vr(n) for n in ("rtol", "atol", "debug_raise"))
+SYS_BASE, SYS_TMD = kn.SYS_BASE, kn.SYS_TMD
+MAX_STEPS = MAX_INTEGRATOR_STEPS
+
+
+@functools.cache
+def base_step():
+    """The BaseOscillator step (compiled on first use, cached on disk)."""
+
+    @cfunc(SIGNATURE, cache=True)
+    def step(reals_p, ints_p, derivs_p, z_p, p_p, stats_p, th_p, u_p, atol_p, t, h):
+        reals = carray(reals_p, (B_NVR,))
+        ints = carray(ints_p, (B_NVR,))
+        derivs = carray(derivs_p, (2 * B_NVR,))
+        z = carray(z_p, (2,))
+        p = carray(p_p, (NP,))
+        stats = carray(stats_p, (4,))
+        th = carray(th_p, (2,))
+        u = carray(u_p, (4,))
+        atol = carray(atol_p, (2,))
+        if ints[B_DEBUG] != 0:
+            return 1
+        u[0] = t
+        u[1] = reals[B_FLINK]
+        u[2] = derivs[2 * B_FLINK]
+        u[3] = derivs[2 * B_FLINK + 1]
+        a = reals[B_ATOL]
+        atol[0] = a
+        atol[1] = a
+        band = 1.0 / p[P_s] if p[P_s] > 0 else 1e-6
+        hn, _, status, _ = integrate(SYS_BASE, z, t, t + h, p, u, reals[B_RTOL], atol, th[1], h,
+                                     np.zeros(0), np.zeros((0, 2)), band, stats, MAX_STEPS)
+        if status != 0:
+            return 1 + status
+        th[1] = hn
+        t1 = t + h
+        th[0] = t1
+        fexc = kn.excitation(t1, p)
+        f_link = kn.input_value(u, 0, t1)
+        reals[B_X] = z[0]
+        reals[B_XD] = z[1]
+        reals[B_XDD] = kn.base_acceleration(z[0], z[1], f_link, 0.0, fexc, p)
+        reals[B_FEXC] = fexc
+        derivs[2 * B_FLINK] = 0.0
+        derivs[2 * B_FLINK + 1] = 0.0
+        return 0
+
+    return step
+
+
+@functools.cache
+def tmd_step():
+    """The TMDInerter step (compiled on first use, cached on disk)."""
+
+    @cfunc(SIGNATURE, cache=True)
+    def step(reals_p, ints_p, derivs_p, z_p, p_p, stats_p, th_p, u_p, atol_p, t, h):
+        reals = carray(reals_p, (T_NVR,))
+        ints = carray(ints_p, (T_NVR,))
+        derivs = carray(derivs_p, (2 * T_NVR,))
+        z = carray(z_p, (4,))
+        p = carray(p_p, (NP,))
+        stats = carray(stats_p, (4,))
+        th = carray(th_p, (2,))
+        u = carray(u_p, (10,))
+        atol = carray(atol_p, (4,))
+        if ints[T_DEBUG] != 0:
+            return 1
+        u[0] = t
+        u[1] = reals[T_X]
+        u[2] = derivs[2 * T_X]
+        u[3] = derivs[2 * T_X + 1]
+        u[4] = reals[T_XD]
+        u[5] = derivs[2 * T_XD]
+        u[6] = derivs[2 * T_XD + 1]
+        u[7] = reals[T_XDD]
+        u[8] = derivs[2 * T_XDD]
+        u[9] = derivs[2 * T_XDD + 1]
+        a = reals[T_ATOL]
+        for i in range(4):
+            atol[i] = a
+        band = 1.0 / p[P_s] if p[P_s] > 0 else 1e-6
+        hn, _, status, _ = integrate(SYS_TMD, z, t, t + h, p, u, reals[T_RTOL], atol, th[1], h,
+                                     np.zeros(0), np.zeros((0, 4)), band, stats, MAX_STEPS)
+        if status != 0:
+            return 1 + status
+        th[1] = hn
+        t1 = t + h
+        th[0] = t1
+        x = kn.input_value(u, 0, t1)
+        xd = kn.input_value(u, 1, t1)
+        xdd = kn.input_value(u, 2, t1)
+        force, chain, contact = kn.tmd_outputs(z, x, xd, xdd, p)
+        reals[T_FORCE] = force
+        reals[T_Y] = z[0]
+        reals[T_YD] = z[1]
+        reals[T_P] = chain
+        ints[T_CONTACT] = np.int32(contact)
+        for vr in (T_X, T_XD, T_XDD):
+            derivs[2 * vr] = 0.0
+            derivs[2 * vr + 1] = 0.0
+        return 0
+
+    return step
