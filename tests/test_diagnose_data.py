@@ -78,3 +78,49 @@ def test_cli_reports_bad_data(tmp_path, capsys):
     _write(tmp_path, "t,displacement\n0,0\n0.1,1\n0.2,2\n")
     assert main_diagnose([str(tmp_path), "--out", str(tmp_path / "out")]) == 2
     assert "r1.csv" in capsys.readouterr().err
+
+
+def test_all_train_roles_is_a_data_error_exit_2(tmp_path, capsys):
+    import math
+
+    import numpy as np
+    import yaml
+
+    from pyfmu_wrapper.diagnose.cli import main_diagnose
+    from pyfmu_wrapper.diagnose.data import write_record
+
+    recs = []
+    for k, w in enumerate((15.0, 20.0, 25.0)):
+        t = np.arange(600) * (2 * math.pi / w) / 200
+        d = 0.01 * np.sin(w * t)
+        write_record(tmp_path / f"r{k}.csv", {"t": t, "displacement": d, "force": 4e3 * d})
+        recs.append({"file": f"r{k}.csv", "omega": w, "role": "train"})
+    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump({"level": "link", "nominal": {"stiffness": 4e3},
+                                                           "records": recs}))
+    assert main_diagnose([str(tmp_path), "--out", str(tmp_path / "out")]) == 2
+    assert "role 'train'" in capsys.readouterr().err
+
+
+def test_brfd_names_any_tension_and_header(tmp_path):
+    import json
+
+    import numpy as np
+    import yaml
+
+    from pyfmu_wrapper.diagnose.brfd import _parse, derive
+
+    assert _parse("0.5Hz30lbtension1amplitude.json") == (0.5, 1.0, 30.0)
+    assert _parse("2Hz_45lbtension_0.5inamplitude.json") == (2.0, 0.5, 45.0)
+    src = tmp_path / "Dataset-3"
+    src.mkdir()
+    fs, f = 256.0, 1.0
+    t = np.arange(0, 8, 1 / fs)
+    d = np.sin(2 * np.pi * f * t) * np.clip(t, 0, 1) * np.clip(8 - t, 0, 1)
+    data = np.column_stack([t, d, 2.0 * np.sign(np.cos(2 * np.pi * f * t)), np.gradient(d, t)]).tolist()
+    (src / "1Hz45lbtension1amplitude.json").write_text(json.dumps({"data": data, "sampling freq": fs}))
+    (src / "LICENSE.txt").write_text("CC BY-SA 4.0")
+    recs = derive(src, tmp_path / "out")
+    assert recs[0]["file"] == "1Hz_1in.csv"
+    head = (tmp_path / "out" / "dataset.yaml").read_text()
+    assert "45 lb band tension" in head and '"Dataset 3"' in head and "30 lb" not in head
+    assert "45 lb" in yaml.safe_load(head)["description"]

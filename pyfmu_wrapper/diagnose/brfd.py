@@ -9,15 +9,13 @@ Steps per record: unit conversion to SI (in -> m, kip -> N, in/s -> m/s); keep 3
 keep every stride-th sample (about 256 samples per cycle). The force is the measured damper
 ("friction") force column, unchanged in sign.
 
-    python -m pyfmu_wrapper.diagnose.brfd /work/shared/data/brfd data/brfd_link
+    python -m pyfmu_wrapper.diagnose.brfd /work/shared/data/brfd data/brfd_link --dataset '"Dataset 2" (April 2023)'
 """
 from __future__ import annotations
 
 import json
-import math
 import re
 import shutil
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -31,25 +29,51 @@ N_CYCLES = 3
 NOMINAL = {"stiffness": 0.0, "damping": 0.0, "friction_force": 11000.0, "friction_slope": 1000.0, "inertance": 0.0}
 ATTRIBUTION = """Derived from: D. Coble, P. Huggins, L. Cao, J. Ricles, A. Downey,
 "Dataset-Friction-Damper-with-Backlash", ARTS-Lab, GitHub, 2022
-(github.com/ARTS-Laboratory/Dataset-Friction-Damper-with-Backlash), "Dataset 2"
-characterization tests (April 2023), 30 lb band tension. Licence: Creative Commons
+(github.com/ARTS-Laboratory/Dataset-Friction-Damper-with-Backlash), {dataset}
+characterization tests, {tension} band tension. Licence: Creative Commons
 Attribution-ShareAlike 4.0 International (LICENSE.txt). Changes: converted to SI units, trimmed to
 3 steady cycles, force boxcar-averaged and decimated to ~256 samples per cycle, CSV format.
 Device background: M. Stiles et al., NHERI REU 2019, doi:10.17603/DS2-PT11-YN09; A. Downey,
 L. Cao, S. Laflamme, D. Taylor, J. Ricles, Engineering Structures 113 (2016) 287-298."""
 
 
+NAME = re.compile(r"(?P<f>\d+(?:\.\d+)?)\s*Hz[_\s-]*(?P<tension>\d+(?:\.\d+)?)\s*lb\s*tension[_\s-]*"
+                  r"(?P<a>\d+(?:\.\d+)?)\s*(?:in)?\s*amplitude", re.IGNORECASE)
+
+
 def _parse(name):
-    m = re.match(r"([\d.]+)Hz30lbtension([\d.]+)amplitude\.json", name)
-    return float(m.group(1)), float(m.group(2))
+    """(frequency [Hz], amplitude [in], tension [lb]) from a BRFD file name such as
+    ``0.5Hz30lbtension1amplitude.json`` or ``2Hz_45lbtension_0.5inamplitude.json``; None if not one."""
+    m = NAME.search(name)
+    if m is None:
+        return None
+    return float(m.group("f")), float(m.group("a")), float(m.group("tension"))
 
 
-def derive(src: Path, out: Path, test_amplitude_in=1.0, test_frequency_hz=2.0):
+def _dataset_label(src: Path) -> str:
+    m = re.search(r"data[\s_-]*set[\s_-]*(\d+)", str(src), re.IGNORECASE)
+    return f'"Dataset {m.group(1)}"' if m else f'the "{src.name}" files'
+
+
+def derive(src: Path, out: Path, test_amplitude_in=1.0, test_frequency_hz=2.0, tension_lb=None, dataset=None):
+    """Derive the link-level dataset from the BRFD JSON files in ``src`` (any band tension and file
+    naming read by :func:`_parse`; with several tensions, pick one with ``tension_lb``)."""
     src, out = Path(src), Path(out)
+    files = [(f, _parse(f.name)) for f in sorted(src.glob("*.json"))]
+    files = [(f, p) for f, p in files if p is not None]
+    tensions = sorted({p[2] for _, p in files})
+    if not files:
+        raise ValueError(f"{src}: no BRFD files named like '<f>Hz<T>lbtension<A>amplitude.json'")
+    if tension_lb is None:
+        if len(tensions) > 1:
+            raise ValueError(f"{src}: files for several band tensions {tensions} lb: choose one (tension_lb)")
+        tension_lb = tensions[0]
+    files = [(f, p) for f, p in files if p[2] == tension_lb]
+    dataset = dataset or _dataset_label(src)
+    attribution = ATTRIBUTION.format(dataset=dataset, tension=f"{tension_lb:g} lb")
     out.mkdir(parents=True, exist_ok=True)
     recs = []
-    for f in sorted(src.glob("*Hz30lbtension*amplitude.json")):
-        fhz, amp_in = _parse(f.name)
+    for f, (fhz, amp_in, _) in files:
         raw = json.loads(f.read_text())
         a = np.asarray(raw["data"], dtype=float)
         fs = float(raw["sampling freq"])
@@ -74,19 +98,19 @@ def derive(src: Path, out: Path, test_amplitude_in=1.0, test_frequency_hz=2.0):
             shift = (stride - 1) / 2.0 / fs
             cols["displacement"] = np.interp(tt + shift, t[sl] - t[i0], d[sl])
             cols["velocity"] = np.interp(tt + shift, t[sl] - t[i0], v[sl])
-        name = f.name.replace(".json", ".csv").replace("30lbtension", "_").replace("amplitude", "in")
+        name = f"{fhz:g}Hz_{amp_in:g}in.csv"
         role = "test" if (amp_in == test_amplitude_in or fhz == test_frequency_hz) else "train"
         write_record(out / name, cols, header_comment=f"BRFD {f.name}: SI units (s, m, m/s, N); CC BY-SA 4.0, see README.md")
         recs.append({"file": name, "frequency_hz": fhz, "amplitude": amp_in * IN, "role": role,
                      "source_file": f.name})
     meta = {"level": "link",
-            "description": "Banded rotary friction damper with backlash (BRFD), 30 lb band tension, "
+            "description": f"Banded rotary friction damper with backlash (BRFD), {tension_lb:g} lb band tension, "
                            "sinusoidal displacement tests; link level (displacement across, force through). "
                            "CC BY-SA 4.0, see README.md.",
             "nominal": dict(NOMINAL), "records": recs}
-    (out / "dataset.yaml").write_text("# " + ATTRIBUTION.replace("\n", "\n# ") + "\n" + yaml.safe_dump(meta, sort_keys=False))
+    (out / "dataset.yaml").write_text("# " + attribution.replace("\n", "\n# ") + "\n" + yaml.safe_dump(meta, sort_keys=False))
     shutil.copyfile(src / "LICENSE.txt", out / "LICENSE.txt")
-    (out / "README.md").write_text("# BRFD link-level dataset (derived)\n\n" + ATTRIBUTION + "\n\n"
+    (out / "README.md").write_text("# BRFD link-level dataset (derived)\n\n" + attribution + "\n\n"
                                    "Nominal model in dataset.yaml: plain Coulomb friction, df = 11 kN "
                                    "(regularised with friction_slope 1e3 s/m). Held-out records (role: test): "
                                    "all 1 in amplitude tests and the 2 Hz test.\n\n"
@@ -95,4 +119,12 @@ def derive(src: Path, out: Path, test_amplitude_in=1.0, test_frequency_hz=2.0):
 
 
 if __name__ == "__main__":
-    derive(Path(sys.argv[1]), Path(sys.argv[2]))
+    import argparse
+
+    ap = argparse.ArgumentParser(description="Derive the BRFD link-level dataset (see module doc).")
+    ap.add_argument("src")
+    ap.add_argument("out")
+    ap.add_argument("--tension", type=float, help="band tension [lb] when the folder holds several")
+    ap.add_argument("--dataset", help='label written in the header, e.g. \'"Dataset 2" (April 2023)\'')
+    a = ap.parse_args()
+    derive(Path(a.src), Path(a.out), tension_lb=a.tension, dataset=a.dataset)

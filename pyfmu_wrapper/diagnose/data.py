@@ -141,28 +141,25 @@ def read_record(file: Path, level: str, entry: dict | None = None) -> Record:
     rec = Record(name=file.name, kind=kind, columns=cols, omega=None if omega is None else float(omega),
                  amplitude=None if amp is None else float(amp), role=entry.get("role"),
                  meta={k: v for k, v in entry.items() if k not in ("file",)})
-    if kind == "link" and rec.omega is None:
-        rec.omega = estimate_omega(cols["t"], cols["displacement"])
+    if kind in ("link", "time") and rec.omega is None:
+        rec.omega = estimate_omega(cols["t"], cols["displacement"] if kind == "link" else cols["force"])
+        rec.meta["omega_estimated"] = True
+        if rec.omega is None:
+            rec.meta["periodic"] = False
+    if rec.omega is not None and not rec.omega > 0:
+        raise _err(file, f"omega must be > 0 rad/s, got {rec.omega!r}")
     if kind == "link" and rec.amplitude is None:
         d = cols["displacement"]
         rec.amplitude = 0.5 * float(np.percentile(d, 99.5) - np.percentile(d, 0.5))
-    if kind == "time" and rec.omega is None:
-        raise _err(file, "a system time record needs its forcing frequency: give 'omega' [rad/s] in dataset.yaml")
     return rec
 
 
-def estimate_omega(t, d) -> float:
-    """Dominant angular frequency [rad/s] of a sampled signal (FFT peak, refined by parabola)."""
-    n = len(t)
-    dt = (t[-1] - t[0]) / (n - 1)
-    x = d - d.mean()
-    spec = np.abs(np.fft.rfft(x * np.hanning(n)))
-    k = int(np.argmax(spec[1:]) + 1)
-    if 1 <= k < len(spec) - 1:
-        a, b, c = spec[k - 1], spec[k], spec[k + 1]
-        den = a - 2 * b + c
-        k = k + (0.5 * (a - c) / den if den != 0 else 0.0)
-    return 2 * math.pi * k / (n * dt)
+def estimate_omega(t, d) -> float | None:
+    """Dominant angular frequency [rad/s] > 0 of a sampled signal, or None when it is not periodic
+    (see :func:`harmonic.estimate_omega`)."""
+    from .harmonic import estimate_omega as _est
+
+    return _est(t, d)
 
 
 def _number(v, file, key):

@@ -19,6 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize
 
+from .data import DataError
 from .models import Effect, LinkData, basis, effect_list, report_params
 
 EXCESS_THRESHOLD = 0.15  #: nominal held-out rms above (1 + this) x noise floor -> gap is structural
@@ -65,8 +66,11 @@ def split_masks(ld: LinkData):
         k = ld.starts[0] + int(0.6 * (ld.starts[1] - ld.starts[0]))
         idx = np.arange(ld.F.size)
         return idx < k, idx >= k
-    if not test_ids or not train_ids:
-        raise ValueError("need at least one training and one held-out record")
+    if not test_ids:
+        raise DataError("every record has role 'train': mark at least one record 'role: test' (held out), "
+                        "or give no roles (records are then held out automatically)")
+    if not train_ids:
+        raise DataError("every record has role 'test': at least one record must be for training")
     return ld.mask(train_ids), ld.mask(test_ids)
 
 
@@ -195,13 +199,14 @@ class Diagnosis:
 
 def diagnose_link(ld: LinkData, max_pairs_from: int = 7) -> Diagnosis:
     train, test = split_masks(ld)
+    # the noise floor of the held-out samples, from each record's own noise
+    ld.noise = float(np.sqrt(np.mean(ld.noise_rec[ld.rec[test]] ** 2)))
     r0 = ld.F - ld.F_nom
     nt = int(test.sum())
     rss0 = float(r0[test] @ r0[test])
     f_rms = float(np.sqrt(np.mean(ld.F[test] ** 2)))
     effects = effect_list(ld)
     fits = [fit_effects([e], ld, train, test) for e in effects]
-    best_rss = min(f.rss_test for f in fits)
     best = min(fits, key=lambda f: f.rss_test)
     n_eff = max(10.0, nt * (1 - _rho((ld.F - best.pred)[test])) / (1 + _rho((ld.F - best.pred)[test])))
 
@@ -241,7 +246,7 @@ def diagnose_link(ld: LinkData, max_pairs_from: int = 7) -> Diagnosis:
 def per_band(ld: LinkData, diag: Diagnosis, fit: Fit | None):
     """Held-out gap per frequency band (records grouped by drive frequency)."""
     rows = []
-    oms = np.array([r.omega for r in ld.records])
+    oms = np.array([r.omega if r.omega is not None else -1.0 for r in ld.records])
     test_recs = sorted(set(ld.rec[diag.test].tolist()))
     for w in sorted(set(np.round(oms[test_recs], 6))):
         ids = [i for i in test_recs if abs(oms[i] - w) < 1e-6]

@@ -18,7 +18,8 @@ from scipy.optimize import least_squares, minimize_scalar
 
 from ..physics.params import BaseParams, TMDParams
 from ..solvers.frequency_response import exact_amplitude
-from ..solvers.monolithic import steady_state
+from ..physics.params import ParameterError
+from ..solvers.monolithic import SolverError, steady_state
 
 BIC_THRESHOLD = 6.0
 EXCESS_THRESHOLD = 0.15
@@ -42,14 +43,75 @@ class FRCDiagnosis:
             self.test[order[1::3]] = True
         self.train = ~self.test
         self.noise = float(ds.raw.get("x_max_noise", 0.0)) or self._noise()
+        o = np.argsort(self.w)
+        rel = (self.x / self.amplitude(self.base, self.tmd) - 1.0)[o]
+        d2 = np.diff(rel, 2)
+        self.noise_rel = (float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0)) if d2.size else 0.0) \
+            or self.noise / max(float(np.abs(self.x).mean()), 1e-300)
 
-    def amplitude(self, base, tmd, gain=1.0, bias=0.0):
+    def amplitude(self, base, tmd, gain=1.0, bias=0.0, only=None):
+        """x_max at every FRC point (``only``: a mask of the points to compute; others are nan)."""
         if tmd.is_linear:
             a = exact_amplitude(replace(base, force_amplitude=1.0), tmd, self.w) * np.abs(self.F) * gain
         else:
-            a = np.array([steady_state(replace(base, force_amplitude=f * gain), tmd, w).amplitude
-                          for w, f in zip(self.w, self.F)])
+            # a sweep in frequency order reusing the shooting Jacobian of the previous point
+            a = np.full(self.w.size, np.nan)
+            hint = {}
+            for i in np.argsort(self.w, kind="stable"):
+                if only is not None and not only[i]:
+                    continue
+                a[i] = steady_state(replace(base, force_amplitude=self.F[i] * gain), tmd, float(self.w[i]), hint=hint).amplitude
         return a + bias
+
+    def predict(self, params: dict):
+        """x_max predicted by the nominal model changed by fitted effect parameters (names as in
+        the diagnosis: ``effect.parameter``); None when an effect cannot be evaluated on FRC
+        records (play: its effect on x_max is below the solver's steady-state scatter)."""
+        b, t = self.base, self.tmd
+        kw, gain, bias = {}, 1.0, 0.0
+        for k, v in params.items():
+            e, name = k.split(".", 1)
+            if e == "play":
+                return None
+            if k == "viscous.delta_damping":
+                kw["damping"] = max(t.damping + v, 0.0)
+            elif k == "mass_split.delta_inertance":
+                I = min(max(t.inertance + v, 1e-6), t.inertia - 1e-6)
+                kw.update(inertance=I, mass=t.inertia - I)
+            elif k == "friction.friction_force":
+                kw["friction_force"] = max(v, 0.0)
+            elif k == "friction.friction_slope":
+                kw["friction_slope"] = v
+            elif k == "cubic.cubic_stiffness":
+                if "cubic_stiffness" not in {f.name for f in __import__("dataclasses").fields(t)}:
+                    return None
+                kw["cubic_stiffness"] = v
+            elif k == "force_error.force_gain_error":
+                gain = 1.0 + v
+            elif k == "sensor_offset.x_offset":
+                bias = None  # x_max may be a peak (+b) or half a peak-to-peak (0): fitted below
+        pred = self.amplitude(b, replace(t, **kw), gain=gain)
+        if bias is None:  # the offset of x_max, least squares in relative units
+            wgt = 1.0 / np.abs(self.x) ** 2
+            pred = pred + float(np.sum(wgt * (self.x - pred)) / np.sum(wgt))
+        return pred
+
+    def chi2(self, pred, mask=None):
+        r = (self.x - pred) / (np.abs(self.x) * max(self.noise_rel, 1e-12))
+        if mask is not None:
+            r = r[mask]
+        return float(r @ r)
+
+    def evidence(self, params: dict) -> float:
+        """Chi-square drop on every FRC point when the nominal is changed by ``params`` (fitted on
+        other records: all FRC points are held out). 0 when the effect cannot be evaluated."""
+        try:
+            pred = self.predict(params)
+        except (SolverError, ParameterError, ValueError, FloatingPointError):
+            return None  # the changed model has no steady state the solver can reach: no FRC evidence
+        if pred is None or not np.all(np.isfinite(pred)):
+            return None
+        return self.chi2(self.pred0) - self.chi2(pred)
 
     def _noise(self):
         o = np.argsort(self.w)
@@ -65,28 +127,32 @@ class FRCDiagnosis:
             yield "mass_split", ["delta_inertance"], [0.0], lambda p: self.amplitude(
                 b, replace(t, inertance=min(max(I0 + p[0], 1e-6), t.inertia - 1e-6), mass=t.inertia - min(max(I0 + p[0], 1e-6), t.inertia - 1e-6)))
         yield "force_error", ["force_gain_error"], [0.0], lambda p: self.amplitude(b, t, gain=1.0 + p[0])
-        yield "bias", ["x_max_offset"], [0.0], lambda p: self.amplitude(b, t, bias=p[0])
-        yield "friction", ["friction_force"], None, lambda p: self.amplitude(b, replace(t, friction_force=max(p[0], 0.0)))
+        yield "sensor_offset", ["x_offset"], [0.0], lambda p: self.amplitude(b, t, bias=p[0])
+        yield "friction", ["friction_force"], None, lambda p, only=None: self.amplitude(
+            b, replace(t, friction_force=max(p[0], 0.0)), only=only)
 
     def run(self):
-        sc = max(float(np.abs(self.x).max()), 1e-300)
+        """Fit each candidate on the training frequencies; everything in relative residuals
+        (x - model) / x_max, the form of the measurement noise (a % of x_max)."""
+        sc = np.maximum(np.abs(self.x), 1e-300)
         r0 = self.x - self.amplitude(self.base, self.tmd)
         nt = int(self.test.sum())
-        self.rss0 = float(r0[self.test] @ r0[self.test])
+        q0 = r0 / sc
+        self.rss0 = float(q0[self.test] @ q0[self.test])
         self.fits = []
         for name, pnames, p0, model in self._candidates():
             if p0 is None:  # friction: bounded scalar search on the training points
-                obj = lambda v: float(np.sum(((self.x - model([v])) / sc)[self.train] ** 2))
+                obj = lambda v: float(np.sum(((self.x - model([v], only=self.train)) / sc)[self.train] ** 2))
                 upper = 0.5 * float(np.max(np.abs(self.F)))
-                res = minimize_scalar(obj, bounds=(0.0, upper), method="bounded", options=dict(maxiter=12, xatol=1e-3 * upper))
+                res = minimize_scalar(obj, bounds=(0.0, upper), method="bounded", options=dict(maxiter=7, xatol=1e-3 * upper))
                 p = np.array([res.x])
             else:
                 p = least_squares(lambda q: ((self.x - model(q)) / sc)[self.train], p0, diff_step=1e-4).x
             pred = model(p)
-            r = self.x - pred
+            r = (self.x - pred) / sc
             rss_te = float(r[self.test] @ r[self.test])
             h = 1e-4 * max(abs(p[0]), 1e-3)
-            J = ((model(p + h) - pred) / h)[self.train]
+            J = ((model(p + h) - pred) / h / sc)[self.train]
             s2 = float(r[self.train] @ r[self.train]) / max(int(self.train.sum()) - 1, 1)
             sd = math.sqrt(s2 / max(float(J @ J), 1e-300))
             bic = nt * math.log(max(rss_te, 1e-300) / nt) + math.log(nt)
@@ -95,11 +161,12 @@ class FRCDiagnosis:
         self.bic0 = nt * math.log(max(self.rss0, 1e-300) / nt)
         self.fits.sort(key=lambda f: f["bic"])
         best = self.fits[0]
-        excess = math.sqrt(self.rss0 / nt) / max(self.noise, 1e-300) - 1.0
+        nr = max(self.noise_rel, 1e-300)
+        excess = math.sqrt(self.rss0 / nt) / nr - 1.0
         self.structural = excess > EXCESS_THRESHOLD and best["bic"] < self.bic0 - BIC_THRESHOLD
-        g0 = max(self.rss0 / nt - self.noise ** 2, 0.0)
+        g0 = max(self.rss0 / nt - nr ** 2, 0.0)
         for f in self.fits:
-            g1 = max(f["rss_test"] / nt - self.noise ** 2, 0.0)
+            g1 = max(f["rss_test"] / nt - nr ** 2, 0.0)
             f["gap_closed"] = None if g0 <= 0 else 1.0 - g1 / g0
             f["delta_bic"] = f["bic"] - self.bic0
         self.chosen = best if self.structural else None
@@ -109,13 +176,13 @@ class FRCDiagnosis:
 
     def result(self):
         nt = int(self.test.sum())
-        xr = float(np.sqrt(np.mean(self.x[self.test] ** 2)))
+        xr = 1.0  # residuals are relative to x_max already
         c = self.chosen
         best = c or self.fits[0]
         verdict = (f"FRC: gap attributed to {c['effects'][0]}" if c else
                    "FRC: no structural effect (held-out gap at the noise floor or no candidate beats it)")
         return {
-            "records": self.names, "noise_floor": self.noise,
+            "records": self.names, "noise_floor": self.noise, "noise_relative": self.noise_rel,
             "where": {"omega": self.w.tolist(), "residual": (self.x - self.pred0).tolist()},
             "candidates": [{k: v for k, v in f.items() if k != "pred"} for f in self.fits],
             "attribution": {"structural": self.structural, "verdict": verdict, "effects": c["effects"] if c else [],
@@ -159,10 +226,10 @@ class FRCDiagnosis:
         L += ["", f"Held-out NRMSE {h['nrmse_before']:.4f} -> {h['nrmse_after']:.4f}.", ""]
         return L
 
-    def write(self, out: Path):
+    def write(self, out: Path, res=None):
         out.mkdir(parents=True, exist_ok=True)
         self.plot(out / "frc.png")
-        (out / "diagnosis.json").write_text(json.dumps(self.result(), indent=1))
+        (out / "diagnosis.json").write_text(json.dumps(res or self.result(), indent=1))
         (out / "report.md").write_text("# FRC diagnosis\n\n" + "\n".join(self.markdown()) + "\n")
 
 

@@ -21,7 +21,11 @@ def by_record(ld, r):
 def harmonics(ld, r):
     """Residual amplitude at k w (k = 0..N_HARM), averaged over records, as a fraction of the total."""
     amps = np.zeros(N_HARM + 1)
+    used = 0
     for k, rec in enumerate(ld.records):
+        if rec.omega is None:  # non-periodic record: no harmonic panel
+            continue
+        used += 1
         m = ld.rec == k
         t, x = ld.t[m], r[m]
         cols = [np.ones_like(t)]
@@ -30,8 +34,7 @@ def harmonics(ld, r):
         c = np.linalg.lstsq(np.column_stack(cols), x, rcond=None)[0]
         amps[0] += abs(c[0])
         amps[1:] += np.hypot(c[1::2], c[2::2])
-    amps /= len(ld.records)
-    return amps
+    return amps / max(used, 1)
 
 
 def by_phase(ld, r, nbins=24):

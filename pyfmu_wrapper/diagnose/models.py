@@ -94,7 +94,8 @@ class LinkData:
     starts: np.ndarray  #: first sample of each record, plus n
     n_pre: np.ndarray  #: samples in one period of each record
     records: list  #: Record objects (link or time)
-    noise: float  #: noise floor (std of the measured force noise) [N]
+    noise: float  #: noise floor (std of the measured force noise) [N], median over records
+    noise_rec: np.ndarray  #: noise floor of each record [N]
     nominal: dict  #: link-level nominal parameters
     level: str
 
@@ -113,12 +114,35 @@ def link_nominal(ds: Dataset) -> dict:
 
 
 def nominal_force(nom, d, v, a):
-    return (nom["stiffness"] * d + nom["damping"] * v + friction_vec(v, nom["friction_force"], nom["friction_slope"])
-            + nom["inertance"] * a)
+    """Nominal link force: the kernels' static link force (spring, damper, friction) at relative
+    displacement d and velocity v, plus the ideal inerter I a."""
+    from ..physics.params import P_c, P_df, P_k, P_s
+    from .system import link_force_grid
+
+    p = np.zeros(N_PARAMS)
+    p[P_k], p[P_c], p[P_df], p[P_s] = nom["stiffness"], nom["damping"], nom["friction_force"], nom["friction_slope"]
+    z = np.zeros_like(d)
+    return link_force_grid(np.ascontiguousarray(d, float), np.ascontiguousarray(v, float), z, z, p) + nom["inertance"] * a
 
 
-def _deriv(t, x):
-    return np.gradient(x, t)
+SAVGOL_POINTS = 15  #: Savitzky-Golay window (samples, cubic) for non-periodic records
+
+
+def _deriv(t, x, omega=None, order=1):
+    """Derivative of a measured signal: from its Fourier series over whole periods when the record
+    is periodic at omega (exact for the steady state, noise averaged over the periods), else from a
+    cubic Savitzky-Golay smoother over SAVGOL_POINTS samples (cut-off ~ fs / SAVGOL_POINTS)."""
+    from .harmonic import fit_series
+
+    if omega:
+        s = fit_series(t, {"s": x}, omega, H=40)
+        if s.periodic and s.r2["s"] >= 0.9:
+            return s.eval("s", omega * (t - t[0]), deriv=order)
+    from scipy.signal import savgol_filter
+
+    dt = (t[-1] - t[0]) / (len(t) - 1)
+    w = min(SAVGOL_POINTS, len(t) - (1 - len(t) % 2))
+    return savgol_filter(x, w, 3, deriv=order, delta=dt)
 
 
 def _noise_floor(r):
@@ -138,8 +162,9 @@ def build_link_data(ds: Dataset) -> LinkData:
         t = c["t"]
         if rec.kind == "link":
             d = c["displacement"]
-            v = c["velocity"] if rec.has("velocity") else _deriv(t, d)
-            a = c["acceleration"] if rec.has("acceleration") else _deriv(t, v)
+            v = c["velocity"] if rec.has("velocity") else _deriv(t, d, rec.omega)
+            a = c["acceleration"] if rec.has("acceleration") else (
+                _deriv(t, v, rec.omega) if rec.has("velocity") else _deriv(t, d, rec.omega, 2))
             F = c["force"]
             gain = None
         else:
@@ -151,10 +176,10 @@ def build_link_data(ds: Dataset) -> LinkData:
             bp = BaseParams(**ds.nominal["base"])
             b = {"mass": bp.mass, "damping": bp.damping, "stiffness": bp.stiffness}
             x, y = c["x"], c["y"]
-            xd = c["xd"] if rec.has("xd") else _deriv(t, x)
-            yd = c["yd"] if rec.has("yd") else _deriv(t, y)
-            xdd = c["xdd"] if rec.has("xdd") else _deriv(t, xd)
-            ydd = c["ydd"] if rec.has("ydd") else _deriv(t, yd)
+            xd = c["xd"] if rec.has("xd") else _deriv(t, x, rec.omega)
+            yd = c["yd"] if rec.has("yd") else _deriv(t, y, rec.omega)
+            xdd = c["xdd"] if rec.has("xdd") else _deriv(t, x, rec.omega, 2)
+            ydd = c["ydd"] if rec.has("ydd") else _deriv(t, y, rec.omega, 2)
             F = c["force"] - b["mass"] * xdd - b["damping"] * xd - b["stiffness"] * x
             d, v, a = x - y, xd - yd, xdd - ydd
             gain = c["force"]
@@ -163,7 +188,9 @@ def build_link_data(ds: Dataset) -> LinkData:
         if gain is None:
             gain = Fn
         w = rec.omega
-        if rec.kind == "link":
+        if not w:
+            ph = np.zeros_like(t)
+        elif rec.kind == "link":
             A = np.column_stack([np.cos(w * t), np.sin(w * t), np.ones_like(t)])
             cc = np.linalg.lstsq(A, d, rcond=None)[0]
             ph = np.mod(w * t - math.atan2(cc[1], cc[0]), 2 * math.pi)
@@ -183,7 +210,7 @@ def build_link_data(ds: Dataset) -> LinkData:
     rid = np.repeat(np.arange(len(parts)), sizes)
     return LinkData(d=cat[0], v=cat[1], a=cat[2], F=cat[3], gain_reg=cat[4], F_nom=cat[5], phase=cat[6], t=cat[7],
                     rec=rid, starts=starts, n_pre=np.array([p[8] for p in parts], dtype=np.int64), records=recs,
-                    noise=float(np.median(noises)), nominal=nom, level=ds.level)
+                    noise=float(np.median(noises)), noise_rec=np.array(noises), nominal=nom, level=ds.level)
 
 
 # --- candidates ----------------------------------------------------------------------------------

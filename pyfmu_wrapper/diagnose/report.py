@@ -28,7 +28,6 @@ def build_result(ds, ld, diag) -> dict:
     r0 = ld.F - ld.F_nom
     chosen = diag.chosen
     best = chosen or diag.ranking[0]
-    r1 = ld.F - best.pred
     nt = diag.n_test
     frms = float(np.sqrt(np.mean(ld.F[diag.test] ** 2)))
     harm = localise.harmonics(ld, r0)

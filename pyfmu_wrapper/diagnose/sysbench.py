@@ -1,0 +1,203 @@
+"""System-level withheld-effect benchmark: the coupled base + TMD simulated with the project's
+solver (``solvers.monolithic``) and measured as a test rig does.
+
+Per dataset: paper Case 1 or Case 2 nominal (ideal inerter, c = 15 N s/m, no friction, no play);
+four steady-state time records (t, force, x, y, xdd, ydd at 1 kHz over 10 forcing periods, no
+velocity channel) at four distinct frequencies drawn from 16-24 rad/s and force amplitudes from
+100-300 N; independent white noise of 0.5-2 % of each channel's rms, drawn per channel and per
+record; one stepped-sine FRC (200 N, 15-25 rad/s in 0.5 rad/s steps, x_max = max x over the
+steady window) with 0.5 % noise on x_max. Accelerations are the kernels' right-hand side at the
+sample times (contact spikes of the play chain included, point-sampled like a real ADC).
+
+Hidden effects and the parameter the diagnosis should recover (``truth`` in the manifest):
+
+==============  =====================================================  ============================
+effect          how it is simulated                                    severity range (log-uniform)
+==============  =====================================================  ============================
+friction        TMDParams.friction_force = df (slope 1e6 s/m)          df 1.5-20 N
+play            inerter = play, play_gap = eps (ki 2e7, ci 0.01)       eps 3e-5-1e-3 m
+viscous         damping 15 -> 15 + dc                                  dc 2-30 N s/m
+mass_split      I -> I + dI, m -> m - dI (m + I = 10 kg)               |dI| 0.1-1 kg (Case 1: dI > -0.5)
+cubic           TMDParams.cubic_stiffness = k3 (when the physics has)  k3 1e4-3e5 N/m^3
+force_error     true force = (1 + a) x recorded force                  |a| 2-15 %
+sensor_offset   x reads x + b (time records and x_max)                 |b| 3e-4-3e-3 m
+==============  =====================================================  ============================
+"""
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from .data import write_record
+
+RANGES = {
+    "friction": (1.5, 20.0),
+    "play": (3e-5, 1e-3),
+    "viscous": (2.0, 30.0),
+    "mass_split": (0.1, 1.0),
+    "cubic": (1e4, 3e5),
+    "force_error": (0.02, 0.15),
+    "sensor_offset": (3e-4, 3e-3),
+}
+SIGNED = {"mass_split", "force_error", "sensor_offset"}
+TRUTH_KEY = {"friction": "friction.friction_force", "play": "play.play_gap", "viscous": "viscous.delta_damping",
+             "mass_split": "mass_split.delta_inertance", "cubic": "cubic.cubic_stiffness",
+             "force_error": "force_error.force_gain_error", "sensor_offset": "sensor_offset.x_offset"}
+FS = 1000.0
+N_PERIODS = 10
+FRC_OMEGAS = np.linspace(15.0, 25.0, 21)
+FRC_FORCE = 200.0
+FRC_NOISE = 0.005
+
+
+def has_cubic() -> bool:
+    from ..physics.params import TMDParams
+    return "cubic_stiffness" in {f.name for f in dataclasses.fields(TMDParams)}
+
+
+def system_effects() -> list:
+    return [e for e in RANGES if e != "cubic" or has_cubic()]
+
+
+def nominal(case: int) -> dict:
+    m, I = {1: (9.0, 1.0), 2: (5.0, 5.0)}[case]
+    return {"base": {"mass": 100.0, "stiffness": 4.0e4, "damping": 100.0, "force_amplitude": 200.0},
+            "tmd": {"mass": m, "stiffness": 4.0e3, "damping": 15.0, "friction_force": 0.0,
+                    "friction_slope": 1.0e6, "inertance": I, "inerter": "ideal"}}
+
+
+def true_tmd(nom: dict, hidden: dict):
+    from ..physics.params import TMDParams
+
+    tk = dict(nom["tmd"])
+    tk["damping"] += hidden.get("viscous", 0.0)
+    tk["friction_force"] = hidden.get("friction", 0.0)
+    dI = hidden.get("mass_split", 0.0)
+    tk["inertance"] += dI
+    tk["mass"] -= dI
+    if "play" in hidden:
+        tk.update(inerter="play", play_gap=hidden["play"])
+    if "cubic" in hidden:
+        tk["cubic_stiffness"] = hidden["cubic"]
+    return TMDParams(**tk)
+
+
+def steady_record(base, tmd, omega, n_periods=N_PERIODS, fs=FS, settle_periods=None, rtol=1e-9):
+    """(t, states, accelerations [n, 2]) of n_periods of the steady state sampled at fs."""
+    from ..physics.kernels import rhs
+    from ..physics.params import pack
+    from ..solvers.monolithic import SolverSettings, simulate, steady_state
+
+    T = 2 * math.pi / omega
+    if settle_periods is None:
+        ss = steady_state(base, tmd, omega, settings=SolverSettings(max_periods_window=80))
+        z0, t0 = ss.state, 0.0
+    else:  # the play model's companion orbit, then a fixed number of settling periods
+        from ..solvers.monolithic import companion_start
+        ss = None
+        z0, t0 = companion_start(base, tmd, omega, SolverSettings()), settle_periods * T
+    t = np.arange(0.0, n_periods * T, 1.0 / fs)
+    atol = None
+    if rtol > 1e-9:
+        from ..solvers.monolithic import _atol
+        atol = _atol(base, tmd, omega, SolverSettings())
+    _, z = simulate(base, tmd, omega, t0 + n_periods * T, z0=z0, sample_times=t + t0, rtol=rtol, atol=atol)
+    p = pack(base, tmd, omega)
+    dz = np.empty(6)
+    acc = np.empty((t.size, 2))
+    for i in range(t.size):
+        rhs(t[i], z[i], p, dz)
+        acc[i] = dz[1], dz[3]
+    return t, z, acc, ss
+
+
+def make_system_dataset(folder: Path, hidden: dict, seed: int, case: int = 1, n_records: int = 4,
+                        frc: bool = True, n_periods: int = N_PERIODS):
+    """Write one system-level dataset (time records + FRC) with the hidden effects ``hidden``."""
+    from ..physics.params import BaseParams
+
+    folder = Path(folder)
+    folder.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(seed)
+    nom = nominal(case)
+    tmd = true_tmd(nom, hidden)
+    alpha = hidden.get("force_error", 0.0)
+    b = hidden.get("sensor_offset", 0.0)
+    omegas = np.sort(rng.choice(np.arange(16.0, 24.01, 0.5), n_records, replace=False))
+    forces = np.round(rng.uniform(100.0, 300.0, n_records), 0)
+    recs = []
+    for w, F in zip(omegas, forces):
+        base = BaseParams(**{**nom["base"], "force_amplitude": F * (1 + alpha)})
+        t, z, acc, _ = steady_record(base, tmd, float(w), n_periods)
+        cols = {"t": t, "force": F * np.cos(w * t), "x": z[:, 0] + b, "y": z[:, 2],
+                "xdd": acc[:, 0], "ydd": acc[:, 1]}
+        for k in ("force", "x", "y", "xdd", "ydd"):
+            rms = float(np.sqrt(np.mean((cols[k] - (b if k == "x" else 0.0)) ** 2)))
+            cols[k] = cols[k] + rng.normal(0.0, rng.uniform(0.005, 0.02) * rms, t.size)
+        name = f"w{w:g}_F{F:g}N.csv"
+        write_record(folder / name, cols, fmt="%.8g")
+        recs.append({"file": name, "omega": float(w), "force_amplitude": float(F)})
+    if frc:
+        from ..solvers.monolithic import SolverSettings, steady_state
+
+        base = BaseParams(**{**nom["base"], "force_amplitude": FRC_FORCE * (1 + alpha)})
+        xm = np.array([steady_state(base, tmd, float(w), settings=SolverSettings(max_periods_window=80)).amplitude
+                       for w in FRC_OMEGAS]) + b
+        xm = xm * (1 + rng.normal(0.0, FRC_NOISE, xm.size))
+        write_record(folder / "frc.csv", {"omega": FRC_OMEGAS, "force_amplitude": np.full(xm.size, FRC_FORCE),
+                                          "x_max": xm})
+        recs.append({"file": "frc.csv"})
+    meta = {"level": "system", "description": "withheld-effect benchmark dataset (system level, simulated rig)",
+            "nominal": nom, "records": recs}
+    (folder / "dataset.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
+
+
+def draw(rng, effect, strength=None):
+    lo, hi = RANGES[effect]
+    u = rng.uniform() if strength is None else strength
+    v = float(lo * (hi / lo) ** u)
+    if effect in SIGNED and rng.uniform() < 0.5:
+        v = -v
+    return v
+
+
+def make_system_benchmark(out: Path, n: int = 40, seed: int = 1, n_clean: int | None = None,
+                          n_pair: int | None = None, progress=None):
+    """n system-level datasets: ~25 % clean, 3 (or ~8 %) pairs, the rest single effects cycling over
+    the effects with random severities; Case 1 or 2 drawn per dataset. Labels in manifest.json."""
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(seed)
+    effects = system_effects()
+    n_clean = int(round(0.25 * n)) if n_clean is None else n_clean
+    n_pair = max(1, int(round(0.075 * n))) if n_pair is None else n_pair
+    man = []
+    order = rng.permutation(n)
+    for i in range(n):
+        j = int(order[i])
+        case = int(rng.integers(1, 3))
+        if j < n_clean:
+            hidden = {}
+        elif j < n_clean + n_pair:
+            e1, e2 = rng.choice(effects, 2, replace=False)
+            hidden = {str(e): draw(rng, str(e), rng.uniform(0.4, 1.0)) for e in (e1, e2)}
+        else:
+            k = j - n_clean - n_pair
+            e = effects[k % len(effects)]
+            hidden = {e: draw(rng, e)}
+        if case == 1 and hidden.get("mass_split", 0.0) < -0.5:
+            hidden["mass_split"] = -0.5 * abs(hidden["mass_split"])
+        name = f"sys{i:03d}"
+        make_system_dataset(out / name, hidden, seed=int(rng.integers(1 << 31)), case=case)
+        row = {"dataset": name, "case": case, "hidden": sorted(hidden), "severity": hidden,
+               "truth": {TRUTH_KEY[e]: v for e, v in hidden.items()}}
+        man.append(row)
+        if progress:
+            progress(row)
+    (out / "manifest.json").write_text(json.dumps({"suite": "system", "seed": seed, "datasets": man}, indent=1))
+    return man

@@ -1,0 +1,348 @@
+"""System-level time records: the equation error of both equations of motion, per harmonic,
+whitened by the noise propagated from every channel of every record.
+
+For a periodic record at w with fused displacement series X_h, Y_h (see :mod:`harmonic`), the
+measured force series F_h and the nominal link force L_h (the physics kernels'
+``static_link_force`` plus the ideal inerter I (xdd - ydd), evaluated on one period and projected on
+the harmonics), the two residuals
+
+    A_h = F_h - (K + i C h w - M (h w)^2) X_h - L_h        base:  M xdd + C xd + K x + L = force
+    B_h = -m (h w)^2 Y_h - L_h                             TMD:   m ydd = L
+
+vanish for the nominal model up to noise. Their 2x2 noise covariance per harmonic follows from the
+variances of X_h, Y_h, F_h (the linear part of the model); residuals and regressors are whitened
+with it, so a chi-square is in units of the measured noise of that record and channel.
+
+Every candidate effect adds ``offset + Phi beta`` to the residual model (Phi: one column per
+linear parameter, for A and for B). Parameters are fitted by weighted least squares; held-out
+evidence is leave-one-record-out (or the dataset's roles): the chi-square of each record with the
+parameters fitted on the others.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from .._jit import njit
+
+from ..physics.kernels import friction_force, static_link_force
+from ..physics.params import N_PARAMS, P_k3, BaseParams, TMDParams, pack
+from .data import DataError
+from .harmonic import PERIODIC_R2, fit_series, fuse, grid_coef, grid_values
+
+H_EQ = 12  #: harmonics used in the equation error
+N_GRID = 256  #: samples per period for nonlinear force laws
+SLOPES = (1e2, 1e3, 1e4, 1e5, 1e6)  #: friction slopes [s/m] tried (kernels' regularisation)
+
+
+@njit(cache=True)
+def link_force_grid(x, xd, y, yd, p):
+    out = np.empty(x.shape[0])
+    for i in range(x.shape[0]):
+        out[i] = static_link_force(x[i], xd[i], y[i], yd[i], p)
+    return out
+
+
+@njit(cache=True)
+def friction_grid(v, s):
+    out = np.empty(v.shape[0])
+    for i in range(v.shape[0]):
+        out[i] = friction_force(v[i], 1.0, s)
+    return out
+
+
+@dataclass
+class RecView:
+    name: str
+    omega: float
+    amplitude: float
+    series: object
+    X: np.ndarray
+    vX: np.ndarray
+    Y: np.ndarray
+    vY: np.ndarray
+    F: np.ndarray
+    vF: np.ndarray
+    grid: dict = field(default_factory=dict)  #: x, xd, xdd, y, yd, ydd on one period
+    W: np.ndarray = None  #: whitening matrices per harmonic (H+1, 2, 2)
+    r: np.ndarray = None  #: whitened nominal residual, real vector
+    role: str | None = None
+    dt: float = 1e-3  #: sampling interval [s]
+    spike: dict = field(default_factory=dict)
+
+
+def _nominal_objects(ds):
+    return BaseParams(**ds.nominal["base"]), TMDParams(**ds.nominal["tmd"])
+
+
+def record_views(ds):
+    """Periodic system time records as :class:`RecView`; returns (views, flagged) where flagged lists
+    (record name, reason) for records left out of the harmonic analysis."""
+    views, flagged = [], []
+    for rec in ds.records:
+        if rec.kind != "time":
+            continue
+        c = rec.columns
+        miss = [k for k in ("y",) if k not in c]
+        if miss:
+            flagged.append((rec.name, "no 'y' column: the TMD equation needs the TMD displacement"))
+            continue
+        if rec.omega is None or not rec.omega > 0:
+            flagged.append((rec.name, "no forcing frequency (not periodic)"))
+            continue
+        chans = {k: c[k] for k in ("force", "x", "y", "xdd", "ydd", "xd", "yd") if k in c}
+        s = fit_series(c["t"], chans, rec.omega)
+        if not s.periodic or min(s.r2["force"], s.r2["x"]) < PERIODIC_R2:
+            flagged.append((rec.name, f"not periodic at w = {rec.omega:.4g} rad/s (harmonic series explains "
+                                      f"{100 * min(s.r2['force'], s.r2['x']):.0f} % of force/x): no harmonic analysis"))
+            continue
+        H = min(H_EQ, s.H)
+        X, vX = fuse(s, "x", "xdd" if "xdd" in c else None, H)
+        Y, vY = fuse(s, "y", "ydd" if "ydd" in c else None, H)
+        F, vF = s.coef["force"][:H + 1], s.var["force"][:H + 1]
+        amp = float(np.abs(F[1])) if rec.amplitude is None else rec.amplitude
+        v = RecView(rec.name, rec.omega, amp, s, X, vX, Y, vY, F, vF, role=rec.role,
+                    dt=float((c["t"][-1] - c["t"][0]) / (len(c["t"]) - 1)))
+        for nm, C in (("x", X), ("y", Y)):
+            for k, suf in ((0, ""), (1, "d"), (2, "dd")):
+                v.grid[nm + suf] = grid_values(C, rec.omega, N_GRID, k)
+        if "ydd" in s.resid:
+            e = s.resid["ydd"]
+            dof = max(s.n - (2 * s.H + 1), 1)
+            ms = float(e @ e) / dof
+            sr = s.noise_robust["ydd"]
+            v.spike = {"ms": ms, "sigma": sr, "n": s.n, "ratio": ms / max(sr * sr, 1e-300),
+                       "excess": max(ms - sr * sr, 0.0)}
+            if "xdd" in s.resid:
+                ex = s.resid["xdd"]
+                v.spike["xy_corr"] = float(np.corrcoef(ex, e)[0, 1]) if np.std(ex) > 0 and np.std(e) > 0 else 0.0
+        views.append(v)
+    return views, flagged
+
+
+class SystemModel:
+    """Nominal residuals, noise whitening and candidate regressors for a set of RecViews."""
+
+    def __init__(self, ds, views):
+        self.base, self.tmd = _nominal_objects(ds)
+        self.views = views
+        b, t = self.base, self.tmd
+        self.p = pack(b, t, 0.0)
+        self.play_signature = {}
+        self.friction_signature = {}  #: record -> (A_h, B_h) per newton of friction, from the solver
+        for v in views:
+            H = v.X.size - 1
+            hw = np.arange(H + 1) * v.omega
+            A, B = self.residuals(v, v.X, v.Y, v.F, v.grid)
+            zl = t.stiffness + 1j * t.damping * hw - t.inertance * hw ** 2  # linear link: dL/dX = -dL/dY
+            zb = b.stiffness + 1j * b.damping * hw - b.mass * hw ** 2
+            J = np.zeros((H + 1, 2, 3), complex)
+            J[:, 0, 0], J[:, 0, 1], J[:, 0, 2] = -zb - zl, zl, 1.0
+            J[:, 1, 0], J[:, 1, 1] = -zl, -t.mass * hw ** 2 + zl
+            var = np.stack([v.vX, v.vY, v.vF], axis=1)
+            S = np.einsum("hik,hk,hjk->hij", J, var, J.conj())
+            W = np.empty_like(S)
+            for h in range(H + 1):
+                Sh = S[h] + np.eye(2) * 1e-30
+                W[h] = np.linalg.inv(np.linalg.cholesky(Sh))
+            v.W = W
+            v.r = self.whiten(v, A, B)
+
+    def residuals(self, v, X, Y, F, grid=None):
+        """Equation errors (A_h, B_h) of the nominal model for displacement series X, Y and force F."""
+        b, t = self.base, self.tmd
+        H = X.size - 1
+        hw = np.arange(H + 1) * v.omega
+        if grid is None:
+            grid = {nm + suf: grid_values(C, v.omega, N_GRID, k) for nm, C in (("x", X), ("y", Y))
+                    for k, suf in ((0, ""), (1, "d"), (2, "dd"))}
+        Fs = link_force_grid(grid["x"], grid["xd"], grid["y"], grid["yd"], self.p)
+        L = grid_coef(Fs, H) + t.inertance * grid_coef(grid["xdd"] - grid["ydd"], H)
+        zb = b.stiffness + 1j * b.damping * hw - b.mass * hw ** 2
+        return F - zb * X - L, -t.mass * hw ** 2 * Y - L
+
+    def whiten(self, v, A, B):
+        """Real vector of whitened residual components (h = 0: real parts only)."""
+        Z = np.einsum("hij,hj->hi", v.W, np.stack([A, B], axis=1))
+        return np.concatenate([Z[0].real, Z[1:].real.ravel(), Z[1:].imag.ravel()])
+
+    # --- candidate regressors: list of (A_h, B_h) complex pairs, one per linear parameter ----------
+    def columns(self, effect, v, theta=()):
+        t, b = self.tmd, self.base
+        H = v.X.size - 1
+        hw = np.arange(H + 1) * v.omega
+        D = v.X - v.Y
+        Vr = 1j * hw * D
+        a = -(hw ** 2) * D
+        z = np.zeros(H + 1, complex)
+        if effect == "viscous":
+            return [(Vr, Vr)]
+        if effect == "friction":
+            if v.name in self.friction_signature:  # simulated with the solver (stick-slip included)
+                return [self.friction_signature[v.name]]
+            f = grid_coef(friction_grid(v.grid["xd"] - v.grid["yd"], float(theta[0])), H)
+            return [(f, f)]
+        if effect == "cubic":  # the kernels' spring force with k = 0, k3 = 1
+            c3 = grid_coef(self.unit_link_force(v, P_k3), H)
+            return [(c3, c3)]
+        if effect == "mass_split":
+            return [(a, -(hw ** 2) * v.X)]
+        if effect == "force_error":
+            return [(v.F, z)]
+        if effect == "sensor_offset":
+            e0 = z.copy()
+            e0[0] = 1.0
+            return [(-(b.stiffness + t.stiffness) * e0, -t.stiffness * e0), (t.stiffness * e0, t.stiffness * e0)]
+        if effect == "play":  # the inertance the gear loses on average while it rattles
+            return [(a, a)]
+        raise KeyError(effect)
+
+    def unit_link_force(self, v, index):
+        """The kernels' static link force over one period with only parameter ``index`` = 1."""
+        p = np.zeros(N_PARAMS)
+        p[index] = 1.0
+        g = v.grid
+        return link_force_grid(g["x"], g["xd"], g["y"], g["yd"], p)
+
+    def offset(self, effect, v):
+        """Offset added to the residual model by a candidate that replaces part of the nominal."""
+        if effect == "play" and v.name in self.play_signature:
+            return self.play_signature[v.name]
+        if effect == "friction" and self.tmd.friction_force > 0:
+            vr = v.grid["xd"] - v.grid["yd"]
+            f = grid_coef(friction_grid(vr, self.tmd.friction_slope), v.X.size - 1) * self.tmd.friction_force
+            return -f, -f
+        return None
+
+    def design(self, effects, thetas):
+        """Per record: (whitened offset vector, whitened design matrix)."""
+        out = []
+        for v in self.views:
+            cols, off = [], np.zeros_like(v.r)
+            for e in effects:
+                for A, B in self.columns(e, v, thetas.get(e, ())):
+                    cols.append(self.whiten(v, A, B))
+                o = self.offset(e, v)
+                if o is not None:
+                    off = off + self.whiten(v, *o)
+            out.append((off, np.column_stack(cols)))
+        return out
+
+
+EFFECT_PARAMS = {
+    "friction": ("friction_force",), "play": ("delta_inertance_eff",), "viscous": ("delta_damping",),
+    "mass_split": ("delta_inertance",), "cubic": ("cubic_stiffness",), "force_error": ("force_gain_error",),
+    "sensor_offset": ("x_offset", "y_offset"),
+}
+SIGN = {"force_error": -1.0}  # beta = -alpha
+
+
+def _lstsq(Phi, y):
+    sc = np.sqrt((Phi ** 2).sum(axis=0))
+    sc[sc == 0] = 1.0
+    A = Phi / sc
+    beta, *_ = np.linalg.lstsq(A, y, rcond=None)
+    cov = np.linalg.pinv(A.T @ A) / np.outer(sc, sc)
+    return beta / sc, cov
+
+
+@dataclass
+class EqFit:
+    effects: tuple
+    theta: dict
+    beta: np.ndarray
+    cov: np.ndarray
+    chi2_ho: float  #: held-out chi-square (leave-one-record-out or roles)
+    chi2_ho_rec: list
+    chi2_fit: float
+    n_params: int
+    params: dict = field(default_factory=dict)
+    std: dict = field(default_factory=dict)
+
+
+def fit_eq(model: SystemModel, effects, folds, theta=None) -> EqFit:
+    """Fit the linear parameters of ``effects`` on all training records; held-out chi-square by folds.
+
+    folds: list of (train record ids, test record ids)."""
+    theta = dict(theta or {})
+    if "friction" in effects and "friction" not in theta:
+        best = None
+        for s in SLOPES:
+            f = fit_eq(model, effects, folds, {**theta, "friction": (s,)})
+            if best is None or f.chi2_fit < best.chi2_fit:
+                best = f
+        return best
+    des = model.design(effects, theta)
+    ys = [v.r for v in model.views]
+    train_all = sorted({i for tr, _ in folds for i in tr})
+    chi_rec = [0.0] * len(ys)
+    for tr, te in folds:
+        Phi = np.vstack([des[i][1] for i in tr])
+        y = np.concatenate([ys[i] - des[i][0] for i in tr])
+        beta, _ = _lstsq(Phi, y)
+        for i in te:
+            r = ys[i] - des[i][0] - des[i][1] @ beta
+            chi_rec[i] += float(r @ r)
+    Phi = np.vstack([des[i][1] for i in train_all])
+    y = np.concatenate([ys[i] - des[i][0] for i in train_all])
+    beta, cov = _lstsq(Phi, y)
+    r = y - Phi @ beta
+    chi_fit = float(r @ r)
+    dof = max(y.size - beta.size, 1)
+    cov = cov * max(1.0, chi_fit / dof)
+    test_ids = sorted({i for _, te in folds for i in te})
+    f = EqFit(tuple(effects), theta, beta, cov, sum(chi_rec[i] for i in test_ids), chi_rec, chi_fit, beta.size)
+    k = 0
+    sd = np.sqrt(np.clip(np.diag(cov), 0, None))
+    for e in effects:
+        sgn = SIGN.get(e, 1.0)
+        for pn in EFFECT_PARAMS[e]:
+            f.params[f"{e}.{pn}"] = float(sgn * beta[k])
+            f.std[f"{e}.{pn}"] = float(sd[k])
+            k += 1
+        if e == "friction":
+            f.params["friction.friction_slope"] = float(theta["friction"][0])
+    return f
+
+
+def folds_for(views):
+    """Leave-one-record-out folds, or the dataset's roles (train/test)."""
+    n = len(views)
+    roles = [v.role for v in views]
+    if any(roles):
+        te = [i for i, r in enumerate(roles) if r == "test"]
+        tr = [i for i, r in enumerate(roles) if r != "test"]
+        if not te:
+            raise DataError("every time record has role 'train': mark at least one record 'role: test' "
+                            "(or give no roles: each record is then held out in turn)")
+        if not tr:
+            raise DataError("every time record has role 'test': at least one record must be for training")
+        return [(tr, te)]
+    if n < 2:
+        raise DataError("the system-level diagnosis needs at least two periodic time records "
+                        "(one is held out while the others are fitted)")
+    return [([j for j in range(n) if j != i], [i]) for i in range(n)]
+
+
+def n_components(views, ids):
+    return sum(views[i].r.size for i in ids)
+
+
+def steady_signature(model: SystemModel, v: RecView, tmd) -> tuple:
+    """Equation errors (A_h, B_h) the nominal model leaves on the periodic steady state of ``tmd``
+    simulated by the project's solver at the record's frequency and force amplitude, rotated into
+    the phase of the measured force. For a link-force effect this is the effect's force along the
+    simulated motion (e.g. dry friction with its stick phases)."""
+    from dataclasses import replace
+
+    from ..solvers.monolithic import periodic_time_series
+
+    base = replace(model.base, force_amplitude=v.amplitude)
+    t, z, _ = periodic_time_series(base, tmd, v.omega, 1, N_GRID)
+    H = v.X.size - 1
+    X, Y = grid_coef(z[:, 0], H), grid_coef(z[:, 2], H)
+    F = np.zeros(H + 1, complex)
+    F[1] = v.amplitude
+    A, B = model.residuals(v, X, Y, F)
+    rot = np.exp(1j * np.arange(H + 1) * np.angle(v.F[1]))
+    return A * rot, B * rot
