@@ -154,3 +154,28 @@ def test_pair_against_monolithic_first_order(standalone):
     e3, e4 = abs(a3 / ref - 1), abs(a4 / ref - 1)
     assert e4 <= 0.005, (a4, ref)
     assert e4 <= e3 / 4, (e3, e4)
+
+
+def test_missing_bundled_runtime_is_named_in_the_error(tmp_path):
+    """An FMU whose pyfmu.cfg names a bundled runtime that is not there (and no other Python):
+    fmi2Instantiate fails, no crash, and the message lists the runtime in its place of the order."""
+    from _fmu_support import built_fmus, compile_c_host, extract
+
+    d = extract(built_fmus()["BaseOscillator"], tmp_path / "fmu")
+    cfg = d / "resources" / "pyfmu.cfg"
+    lines = [("python=/nonexistent/bin/python3" if line.startswith("python=") else line)
+             for line in cfg.read_text().splitlines()]
+    cfg.write_text("\n".join(lines + ["runtime=python", "runtime_libpython=python/lib/libpython3.11.so",
+                                      "runtime_version=3.11.7"]) + "\n")
+    exe = compile_c_host(tmp_path)
+    home = tmp_path / "home"
+    home.mkdir()
+    r = subprocess.run(["env", "-i", "PATH=/usr/bin:/bin", f"HOME={home}", "FMU_HOST_VERBOSE=1", str(exe), "run",
+                        "0.01", "0.001", str(d), guid(d), "base"], capture_output=True, text=True, cwd=tmp_path,
+                       timeout=120)
+    assert r.returncode == 3, r.stderr[-3000:]  # instantiate returned NULL
+    msg = r.stderr
+    order = ["PYFMU_PYTHON: not set", "the FMU's bundled runtime = python: no file "
+             f"{d}/resources/python/lib/libpython3.11.so", "the build's interpreter = /nonexistent/bin/python3"]
+    pos = [msg.find(o) for o in order]
+    assert all(p >= 0 for p in pos) and pos == sorted(pos), msg[-3000:]
