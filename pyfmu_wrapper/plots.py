@@ -49,11 +49,16 @@ def frc_plot(data, ax=None) -> Figure:
                 if dax is not None:
                     dax.plot(td["omega"], 100.0 * td["difference"], _STYLE.get(d, "-"), color=line.get_color(),
                              lw=1.2, marker=".", ms=3)
-            bad = td[~td["converged"].astype(bool)]
+            irr = td["irregular"].fillna(False).astype(bool) if "irregular" in td else np.zeros(len(td), bool)
+            bad = td[~td["converged"].astype(bool) & ~irr]
             if len(bad):
                 ax.plot(bad["omega"], bad["amplitude"], "x", color=line.get_color(), ms=6)
+            if irr.any():  # irregular (rattling, non-periodic): the maximum over its windows, marked
+                ax.plot(td["omega"][irr], td["amplitude"][irr], "o", mfc="none", color=line.get_color(), ms=5)
     ax.set_xlabel(r"$\omega$ [rad/s]")
     ax.set_ylabel("max |x| [m]")
+    ax.text(0.01, 0.01, "x: not converged   o: irregular (non-periodic; max over its windows)",
+            transform=ax.transAxes, fontsize=7, color="0.4", va="bottom")
     if dax is not None:
         dmax = float(np.nanmax(np.abs(tab["difference"].to_numpy(float))))
         dax.set_xlabel(r"$\omega$ [rad/s]")

@@ -126,3 +126,25 @@ def test_stuck_pair_closed_form_cosimulation():
         m.close()
     assert ss.converged
     assert ss.amplitude == pytest.approx(exact, rel=2e-5)
+
+
+def test_fmu_do_step_failure_names_time_state_and_mode():
+    """The FMU's doStep uses the same integrator: when it cannot proceed (here tolerances of
+    1e-30 / 1e-300 that no step can meet) the master raises an error carrying the FMU's own
+    message: where the integrator stopped, why, the subsystem state and its mode."""
+    from pyfmu_wrapper.master import steady as cs
+    from pyfmu_wrapper.master.master import MasterError
+    from pyfmu_wrapper.solvers.monolithic import initial_guess
+
+    tmd = paper_case(1, friction_force=10.0)
+    m = cs.make_master(BASE, tmd, coupling="impulse")
+    try:
+        p = cs.fmu_parameters(BASE, tmd, 20.0, initial_guess(BASE, tmd, 20.0), fmu_rtol=1e-30)
+        p["tmd.atol"] = 1e-300
+        m.initialize(0.0, p)
+        with pytest.raises(MasterError, match=r"tmd: fmi2DoStep failed .*FmuStepError: doStep from t = 0 s: "
+                                              r"integrator stopped at t = .* s: the step size fell below .*"
+                                              r"state y = .*, yd = .*, d = .*, dd = .*; mode: "):
+            m.step(1e-3)
+    finally:
+        m.close()

@@ -200,3 +200,35 @@ def test_window_criterion_is_relative_and_flags_irregular_responses():
             break
     amp, conv, change = c.result()
     assert conv and not c.irregular and amp == pytest.approx(1.05, rel=1e-3)
+
+
+def test_hermite_maximum_between_samples():
+    """The one Hermite maximum of both engines: max |x| of A cos(w t + phi) from 49 samples of
+    (x, xd) per period, with the peak between samples, equals A to 1e-6 (the samples alone miss
+    it by ~1e-3: the end points are not the maximum)."""
+    from pyfmu_wrapper.solvers.rodas import hermite_absmax_series
+
+    w, A = 20.0, 0.0123
+    h = 2 * math.pi / w / 48
+    t = np.arange(49) * h
+    phi = 0.5 * w * h  # a peak in the middle of an interval
+    x, v = A * np.cos(w * t - phi), -A * w * np.sin(w * t - phi)
+    assert abs(np.max(np.abs(x)) / A - 1) > 1e-3
+    assert hermite_absmax_series(x, v, h) == pytest.approx(A, rel=1e-6)
+
+
+def test_shooting_finds_the_fixed_point_of_an_affine_period_map():
+    """The one shooting of both engines on z -> A z + b (a damped rotation, as a linear period map
+    is): the fixed point (I - A)^-1 b to 1e-12 after one finite-difference Jacobian (4 periods) and
+    three Newton steps (4 map calls); a map with a multiplier of 1 (no isolated orbit) is reported as None."""
+    from pyfmu_wrapper.solvers.shooting import shoot
+
+    th, r = 0.7, 0.9
+    R = r * np.array([[math.cos(th), -math.sin(th)], [math.sin(th), math.cos(th)]])
+    A = np.block([[R, 0.1 * np.eye(2)], [np.zeros((2, 2)), 0.5 * R]])
+    b = np.array([1.0, -2.0, 0.5, 0.3])
+    res = shoot(lambda z: (A @ z + b, float(abs(z[0]))), np.zeros(4), np.ones(4), 1e-10)
+    exact = np.linalg.solve(np.eye(4) - A, b)
+    np.testing.assert_allclose(res.z, exact, rtol=0, atol=1e-12)
+    assert res.periods == 4 + 4 and res.amplitude == pytest.approx(abs(exact[0]))
+    assert shoot(lambda z: (z + np.array([1e-3, 0, 0, 0]), 0.0), np.zeros(4), np.ones(4), 1e-10) is None

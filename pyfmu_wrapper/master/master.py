@@ -88,7 +88,8 @@ class _Instance:
         self.vars = {v.name: v for v in md.modelVariables}
         self.slave = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=cs.modelIdentifier,
                                instanceName=name)
-        self.slave.instantiate()
+        self.last_error = ""
+        self.slave.instantiate(callbacks=self._callbacks())
         f = self.slave._functions
         self._c = self.slave.component
         self._set_real = f["fmi2SetReal"]
@@ -129,10 +130,31 @@ class _Instance:
         if self.n_out and self._get_real(self._c, self.p_out_vr, self.n_out, self.p_out_val) > 1:
             raise MasterError(f"{self.name}: fmi2GetReal failed")
 
+    def _callbacks(self):
+        """FMI callbacks whose logger prints as fmpy's does and keeps the last error message, so
+        that a failed call raises an error saying what the FMU said (e.g. where its integrator
+        stopped, in which state and mode)."""
+        from fmpy.fmi2 import (calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                               fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free, printLogMessage)
+
+        def logger(env, instance, status, category, message):
+            if status > 1:
+                self.last_error = (message or b"").decode(errors="replace")
+            printLogMessage(env, instance, status, category, message)
+
+        cb = fmi2CallbackFunctions()
+        cb.logger = fmi2CallbackLoggerTYPE(logger)
+        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self._cb_keep = (cb, logger)  # the FMU holds pointers to these: keep them alive
+        return cb
+
     def do_step(self, t: float, h: float):
         st = self._do_step(self._c, t, h, 0)
         if st > 1:
-            raise MasterError(f"{self.name}: fmi2DoStep failed at t = {t:.16g} s, h = {h:.6g} s (status {st})")
+            said = self.last_error.strip().splitlines()
+            said = f": {said[-1]}" if said else ""
+            raise MasterError(f"{self.name}: fmi2DoStep failed at t = {t:.16g} s, h = {h:.6g} s (status {st}){said}")
 
     # --- parameters -------------------------------------------------------------------------
     def set_value(self, name: str, value):

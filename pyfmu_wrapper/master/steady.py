@@ -11,8 +11,8 @@ outputs x, xd at the communication points with the cubic Hermite interpolant bet
 windows of W periods (1 without play, 20 with a gap), W_j = max of A_k in window j; W = 1 stops
 when the estimated distance of the base state to the periodic orbit is below ``tol``, W > 1
 when two windows agree to ``tol_window`` or their scatter is known (irregular responses are
-flagged; :class:`~pyfmu_wrapper.solvers.monolithic.WindowCriterion`). The communication step is T / ``steps_per_period`` so
-that periods start at communication points. Each frequency starts from the previous frequency's
+flagged; :class:`~pyfmu_wrapper.solvers.monolithic.WindowCriterion`). The communication step is
+T / ``steps_per_period`` so that periods start at communication points. Each frequency starts from the previous frequency's
 final state (x, xd, y, yd read from the FMU outputs; d, dd of the play chain from
 :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`) or, for the first one, from
 :func:`initial_guess`.
@@ -28,6 +28,8 @@ import pandas as pd
 
 from ..physics import registry
 from ..physics.params import BaseParams, InerterModel, TMDParams
+from ..solvers.rodas import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
+from ..solvers.shooting import shoot
 from ..solvers.sweep import run_sweep_pieces
 from ..solvers.monolithic import SolverSettings, WindowCriterion, default_window, companion_start, initial_guess
 from .graph import Connection
@@ -146,26 +148,6 @@ def make_master(base: BaseParams | None = None, tmd: TMDParams | None = None, sc
     return Master(fmus, CONNECTIONS, {}, scheme=scheme, order=order, record=RECORD)
 
 
-def _hermite_absmax(x: np.ndarray, v: np.ndarray, h: float) -> float:
-    """max |p| over all intervals of the cubic Hermite interpolant of (x, v) at spacing h."""
-    x0, x1, b0, b1 = x[:-1], x[1:], h * v[:-1], h * v[1:]
-    c1 = b0
-    c2 = -3.0 * x0 - 2.0 * b0 + 3.0 * x1 - b1
-    c3 = 2.0 * x0 + b0 - 2.0 * x1 + b1
-    qa, qb, qc = 3.0 * c3, 2.0 * c2, c1
-    m = float(np.max(np.abs(x)))
-    with np.errstate(divide="ignore", invalid="ignore"):
-        disc = qb * qb - 4.0 * qa * qc
-        sq = np.sqrt(np.maximum(disc, 0.0))
-        for th in ((-qb + sq) / (2.0 * qa), (-qb - sq) / (2.0 * qa), -qc / qb):
-            ok = np.isfinite(th) & (th > 0.0) & (th < 1.0) & (disc >= 0.0)
-            if np.any(ok):
-                t = th[ok]
-                val = x0[ok] + t * (c1[ok] + t * (c2[ok] + t * c3[ok]))
-                m = max(m, float(np.max(np.abs(val))))
-    return m
-
-
 @dataclass
 class CosimSteadyState:
     omega: float
@@ -223,67 +205,36 @@ def _start(master: Master, base, tmd, omega, z, settings):
 
 
 def _shoot(master: Master, base, tmd, omega, z0, settings: CosimSettings, run: "_Periods", hint: dict):
-    """Newton shooting on the co-simulated period map z -> z(T) over z = (x, xd, y, yd).
-
-    The Jacobian (monodromy - I) comes from finite differences (4 extra periods), or from the
-    previous frequency of the sweep corrected by Broyden updates. Returns (z, iterations,
-    periods spent, last relative correction) or None if Newton does not converge."""
+    """Newton shooting (:func:`~pyfmu_wrapper.solvers.shooting.shoot`, the one shared with the
+    monolithic solver) on the co-simulated period map z -> z(T) over z = (x, xd, y, yd); each
+    evaluation re-initialises the FMUs from z. The Jacobian comes from the previous frequency of
+    the sweep (``hint['A']``) or from finite differences. Returns the ShootingResult or None."""
     z = np.array(z0[:4], dtype=float)
     tail = np.asarray(z0[4:6], dtype=float)
     amp = max(math.hypot(z[0], z[1] / omega), math.hypot(z[2], z[3] / omega),
               1e-6 * abs(base.force_amplitude) / base.stiffness)
-    scale = np.array([amp, amp * omega, amp, amp * omega])
-    A = hint.get("A")
-    spent = 0
-    last = None
 
-    def P(zz):
-        nonlocal spent
+    def period_map(zz):
         _start(master, base, tmd, omega, np.concatenate([zz, tail]), settings)
-        run.period()
-        spent += 1
-        st = _state_of(master, np.zeros(6))
-        return st[:4]
+        a = run.period()
+        return _state_of(master, np.zeros(6))[:4], a
 
-    prev_change = math.inf
-    for it in range(settings.max_newton):
-        zT = P(z)
-        r = zT - z
-        if last is not None and float(np.max(np.abs(r) / scale)) > 0.5 * prev_change:
-            A = None  # Broyden is not contracting: a fresh finite-difference Jacobian
-        if A is None:
-            A = np.empty((4, 4))
-            for j in range(4):
-                dz = np.zeros(4)
-                dz[j] = 1e-6 * scale[j]
-                A[:, j] = ((P(z + dz) - (z + dz)) - r) / dz[j]
-        elif last is not None:
-            dz_prev, r_prev = last
-            dr = r - r_prev
-            A = A + np.outer(dr - A @ dz_prev, dz_prev) / float(dz_prev @ dz_prev)
-        try:
-            dz = -np.linalg.solve(A, r)
-        except np.linalg.LinAlgError:
-            return None
-        change = float(np.max(np.abs(dz) / scale))
-        prev_change = float(np.max(np.abs(r) / scale))
-        last = (dz, r)
-        z = z + dz
-        if not np.all(np.isfinite(z)):
-            return None
-        if change <= settings.tol:
-            hint["A"] = A
-            return z, it + 1, spent, change
-    hint.pop("A", None)
-    return None
+    res = shoot(period_map, z, np.array([amp, amp * omega, amp, amp * omega]), settings.tol,
+                settings.max_newton, hint.get("A"))
+    if res is None:
+        hint.pop("A", None)
+    else:
+        hint["A"] = res.jacobian
+    return res
 
 
 def steady_state(master: Master, base: BaseParams, tmd: TMDParams, omega: float, z0=None,
                  settings: CosimSettings = CosimSettings(), hint: dict | None = None) -> CosimSteadyState:
     """Co-simulated steady state at omega [rad/s] (definition in the module doc).
 
-    Window 1 without play: Newton shooting on the co-simulated period map (``settings.shooting``),
-    the amplitude is max |x| over the period started from the corrected state; otherwise
+    Window 1 without play: Newton shooting on the co-simulated period map (``settings.shooting``,
+    :func:`~pyfmu_wrapper.solvers.shooting.shoot`, shared with the monolithic solver), the
+    amplitude is max |x| over the period started from the converged state; otherwise
     (or if Newton fails) period after period until the window criterion holds.
     hint: a dict carried along a sweep (the shooting Jacobian)."""
     t_start = time.perf_counter()
@@ -305,13 +256,11 @@ def steady_state(master: Master, base: BaseParams, tmd: TMDParams, omega: float,
     steps = 0
     if W == 1 and settings.shooting and _can_shoot(tmd):
         res = _shoot(master, base, tmd, omega, z, settings, run, hint)
-        if res is not None:
-            zs, its, spent, change = res
-            _start(master, base, tmd, omega, np.concatenate([zs, z[4:]]), settings)
-            a1 = run.period()
-            return CosimSteadyState(omega=float(omega), amplitude=a1, state=_state_of(master, z), periods=spent + 1,
-                                    converged=True, change=change, steps=(spent + 1) * n,
-                                    wall_time=time.perf_counter() - t_start, period_max=np.array([a1]))
+        if res is not None:  # the master stands at the end of the period from res.z
+            return CosimSteadyState(omega=float(omega), amplitude=res.amplitude, state=_state_of(master, z),
+                                    periods=res.periods, converged=True, change=res.change,
+                                    steps=res.periods * n, wall_time=time.perf_counter() - t_start,
+                                    period_max=np.array([res.amplitude]))
         steps = 0
     _start(master, base, tmd, omega, z, settings)
     crit = WindowCriterion.from_settings(settings, W, base, omega)
@@ -353,7 +302,8 @@ def _sweep_piece(base, tmd, seq, direction, settings, z0, queue=None):
             ss = steady_state(master, base, tmd, float(w), start, settings, hint)
             z, w_prev = ss.state, float(w)
             rows.append(dict(direction=direction, omega=float(w), amplitude=ss.amplitude, periods=ss.periods,
-                             converged=ss.converged, change=ss.change, steps=ss.steps, rejected=0,
+                             converged=ss.converged, irregular=ss.irregular, change=ss.change, steps=ss.steps,
+                             rejected=0,
                              wall_time=ss.wall_time))
             if queue is not None:
                 queue.put(1)

@@ -28,8 +28,8 @@ from ..solvers.sweep import sweep
 from .schema import SolverConfig, SweepConfig
 
 #: columns of every sweep table (one row per direction and omega)
-SWEEP_COLUMNS = ("engine", "method", "direction", "omega", "amplitude", "periods", "converged", "change",
-                 "steps", "rejected", "wall_time", "reference", "difference")
+SWEEP_COLUMNS = ("engine", "method", "direction", "omega", "amplitude", "periods", "converged", "irregular",
+                 "change", "steps", "rejected", "wall_time", "reference", "difference")
 #: the engine run-scenario uses unless told otherwise
 DEFAULT_ENGINE = "cosim"
 
@@ -114,7 +114,7 @@ def _exact_table(base, tmd, omegas, settings, progress, engine) -> pd.DataFrame:
     if progress is not None:
         progress(n * len(settings.directions()))
     return pd.DataFrame(dict(engine=engine, method="exact", direction=direction, omega=np.asarray(omegas, float),
-                             amplitude=amp, periods=0, converged=True, change=0.0, steps=0, rejected=0,
+                             amplitude=amp, periods=0, converged=True, irregular=False, change=0.0, steps=0, rejected=0,
                              wall_time=dt, reference=np.nan, difference=np.nan))[list(SWEEP_COLUMNS)]
 
 

@@ -113,7 +113,7 @@ def run_task(task: SweepTask, keep_workers: bool = False) -> pd.DataFrame:
 # --- checkpoints ---------------------------------------------------------------------------------
 
 _DTYPES = dict(engine=str, method=str, direction=str, omega=float, amplitude=float, periods=int,
-               converged=bool, change=float, steps=int, rejected=int, wall_time=float)
+               converged=bool, irregular=bool, change=float, steps=int, rejected=int, wall_time=float)
 
 
 class Checkpoint:

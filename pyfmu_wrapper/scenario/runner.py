@@ -148,6 +148,7 @@ def find_peaks(omegas, amplitudes, refine=None) -> dict:
 def _diagnostics(t: pd.DataFrame) -> dict:
     return dict(method=str(t["method"].iloc[0]), all_converged=bool(t["converged"].all()),
                 not_converged=int((~t["converged"].astype(bool)).sum()),
+                irregular=int(t["irregular"].fillna(False).astype(bool).sum()) if "irregular" in t else 0,
                 periods_min=int(t["periods"].min()), periods_max=int(t["periods"].max()),
                 periods_mean=float(t["periods"].mean()), max_change=float(t["change"].max()),
                 wall_time=float(t["wall_time"].sum()))

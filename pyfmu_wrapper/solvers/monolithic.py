@@ -26,8 +26,9 @@ windows of ``window`` periods and W_j = max of A_k over window j.
   windows: the amplitude is that maximum and ``change`` the scatter (max - min) / max of those
   windows. Converged if the scatter is within ``scatter_tol`` (default 5e-3, the accuracy
   asked of both engines), else flagged ``irregular`` and not converged (at 20 rad/s with
-  c = 0 the window maximum scatters by ~20 % for ever). No absolute tolerance: a tiny amplitude near the antiresonance must settle
-  relative to itself. ``max_periods_window`` bounds the periods either way.
+  c = 0 the window maximum scatters by ~20 % for ever). No absolute tolerance: a tiny
+  amplitude near the antiresonance must settle relative to itself. ``max_periods_window``
+  bounds the periods either way.
 
 The reported amplitude is W of the last window. Each solve returns its diagnostics (periods
 used, converged flag, last change, integrator steps). ``max_periods`` bounds the work; a point that
@@ -43,6 +44,7 @@ import numpy as np
 
 from ..physics.kernels import NSTATE, SYS_COUPLED, inerter_force, rhs
 from ..physics.params import BaseParams, InerterModel, TMDParams, pack
+from .shooting import shoot
 from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, integrate
 
 
@@ -299,13 +301,18 @@ class WindowCriterion:
         self.change = math.inf
         self._stopped = False
         self._stable = 0
+        self.floor = 0.0
 
     @classmethod
     def from_settings(cls, settings, window: int, base: BaseParams, omega: float | None = None) -> "WindowCriterion":
         """From any settings object with tol, tol_window, min_periods, max_periods (and optionally
         amp_atol, max_periods_window, scatter_tol), as :class:`SolverSettings` has."""
         if window == 1:
-            return cls(1, settings.tol, 0.0, settings.min_periods, settings.max_periods, omega=omega)
+            c = cls(1, settings.tol, 0.0, settings.min_periods, settings.max_periods, omega=omega)
+            # resolution floor of the W = 1 residual: 1e-9 of the static deflection F/K (an orbit
+            # with a zero amplitude, an undamped antiresonance, has only round-off to settle)
+            c.floor = 1e-9 * abs(base.force_amplitude) / max(base.stiffness, 1e-300)
+            return c
         amp_atol = getattr(settings, "amp_atol", None) or 0.0
         mp = min(settings.max_periods, getattr(settings, "max_periods_window", settings.max_periods))
         return cls(window, settings.tol_window, amp_atol, settings.min_periods, mp,
@@ -325,7 +332,7 @@ class WindowCriterion:
         k = len(self.period_max)
         W = self.W
         if W == 1:
-            scale = max(abs(a), 1e-300)
+            scale = max(abs(a), self.floor, 1e-300)
             if state is not None and self.omega:
                 z = np.array([state[0], state[1] / self.omega], dtype=float)
                 if self._z_prev is None:
@@ -382,74 +389,29 @@ def _active_states(tmd: TMDParams) -> list[int]:
     return list(range(6)) if tmd.inerter == InerterModel.PLAY else [0, 1, 2, 3]
 
 
-def _monodromy(run: _Runner, act, z, zT, zmag):
-    n = len(act)
-    D = np.empty((n, n))
-    for j, idx in enumerate(act):
-        dz = 1e-6 * zmag[j]
-        zp = z.copy()
-        zp[idx] += dz
-        run.period(zp, 0.0)
-        D[:, j] = (zp[act] - zT[act]) / dz
-    return D
-
-
 def _shoot(run: _Runner, tmd: TMDParams, z: np.ndarray, settings: SolverSettings, hint=None):
-    """Newton shooting for a periodic steady state; None when it does not converge.
+    """Newton shooting (:func:`~pyfmu_wrapper.solvers.shooting.shoot`) on the period map of the
+    active states; returns (state after the period, amplitude, periods, change) or None.
 
-    The Jacobian of the residual g(z) = z(T) - z is J = D - I with D the monodromy matrix. It is
-    taken from ``hint['J']`` (the previous frequency of a sweep) when given, else by finite
-    differences, and refreshed by Broyden updates; a fresh finite-difference D is computed when
-    the iteration stalls. On success ``hint['J']`` holds the last Jacobian.
-    """
+    The Jacobian is taken from ``hint['J']`` (the previous frequency of a sweep) when given; on
+    success ``hint['J']`` holds the last one."""
     act = _active_states(tmd)
-    n = len(act)
-    scale = run.atol[act] / settings.atol_scale
-    z = z.copy()
-    periods = 0
-    J = None if hint is None else hint.get("J")
-    if J is not None and J.shape != (n, n):
-        J = None
-    fresh = False
-    last_change = np.inf
-    g_old = None
-    s_old = None
-    res_old = np.inf
-    for it in range(3 * settings.max_newton):
-        zT = z.copy()
-        amp = run.period(zT, 0.0)
-        periods += 1
-        g = zT[act] - z[act]
-        zmag = np.maximum(np.abs(z[act]), scale)
-        res = float(np.max(np.abs(g) / zmag))
-        if last_change <= settings.tol and res <= 10 * settings.tol:
-            if hint is not None:
-                hint["J"] = J
-            return zT, amp, periods, max(last_change, res)
-        if J is not None and g_old is not None and s_old is not None:
-            if res > 0.5 * res_old and not fresh:
-                J = None  # stalled: refresh the Jacobian below
-            else:
-                y = g - g_old
-                J = J + np.outer(y - J @ s_old, s_old) / float(s_old @ s_old)
-        if J is None:
-            J = _monodromy(run, act, z, zT, zmag) - np.eye(n)
-            periods += n
-            fresh = True
-        else:
-            fresh = False
-        try:
-            delta = -np.linalg.solve(J, g)
-        except np.linalg.LinAlgError:
-            return None
-        if not np.all(np.isfinite(delta)):
-            return None
-        z[act] += delta
-        g_old, s_old, res_old = g, delta, res
-        last_change = float(np.max(np.abs(delta) / zmag))
-        if it >= settings.max_newton and fresh and last_change > 1e3 * settings.tol:
-            return None
-    return None
+    last = {}
+
+    def period_map(za):
+        zf = z.copy()
+        zf[act] = za
+        amp = run.period(zf, 0.0)
+        last["z"] = zf
+        return zf[act], amp
+
+    res = shoot(period_map, z[act], run.atol[act] / settings.atol_scale, settings.tol, settings.max_newton,
+                None if hint is None else hint.get("J"))
+    if res is None:
+        return None
+    if hint is not None:
+        hint["J"] = res.jacobian
+    return last["z"], res.amplitude, res.periods, res.change  # the last map call was from res.z
 
 
 def simulate(base: BaseParams, tmd: TMDParams, omega: float, t_end: float, z0=None, n_samples: int = 1001,

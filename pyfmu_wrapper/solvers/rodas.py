@@ -19,6 +19,15 @@ therefore checked for sign changes of the switching functions of the physics lay
 jumps across one is retaken, shortened to end just past the estimated crossing, so that the
 next step starts on the right branch with the right Jacobian.
 
+Always advancing. A state within SURFACE_TOL * atol of a contact surface (or within the friction
+band of a reversal) is on it, in that surface's mode, and is integrated with the ordinary error
+control: a gear chain resting on its contact at d + eps ~ -1e-20 is not retaken onto the surface
+again and again (the stall of issue 13). Minimum step: retakes shorter than 100 hmin are not
+made (the step is judged by its error estimate alone); an error-test rejection below hmin =
+1e-14 max(1, |t1|) ends the call with STEP_UNDERFLOW. At most ``max_steps`` steps (accepted,
+rejected and retaken) per call, else STEP_CAP. The callers turn a status into an error naming
+the time, the state and the mode (:func:`failure_message`), never a hang.
+
 Dense output. Within a step, x(t) is the cubic Hermite interpolant of (x, xd) at both ends
 (fourth-order accurate, and xd is part of the state, so it costs no extra evaluation); the
 maximum of |x| over each period is taken from it, not from samples.
@@ -140,6 +149,19 @@ def _hermite_absmax(x0, v0, x1, v1, h):
     for th in ((-qb + sq) / (2.0 * qa), (-qb - sq) / (2.0 * qa)):
         if 0.0 < th < 1.0:
             m = max(m, abs(c0 + th * (c1 + th * (c2 + th * c3))))
+    return m
+
+
+@njit(cache=True)
+def hermite_absmax_series(x, v, h):
+    """max |p| over all intervals of the cubic Hermite interpolant of samples x, v = dx/dt at
+    spacing h (the one Hermite maximum of both engines: the monolithic solver applies
+    :func:`_hermite_absmax` step by step, the co-simulation to its communication points)."""
+    m = 0.0
+    for i in range(x.shape[0] - 1):
+        m = max(m, _hermite_absmax(x[i], v[i], x[i + 1], v[i + 1], h))
+    if x.shape[0] == 1:
+        m = abs(x[0])
     return m
 
 

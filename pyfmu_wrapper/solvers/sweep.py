@@ -28,7 +28,9 @@ from .monolithic import SolverSettings, steady_state
 
 @dataclass
 class SweepResult:
-    """Table with one row per (direction, omega): amplitude [m], periods, converged, steps, wall_time."""
+    """Table with one row per (direction, omega): amplitude [m], periods, converged, irregular
+    (settled into irregular motion; ``change`` is then the scatter of its window maxima), change,
+    steps, rejected, wall_time."""
 
     table: pd.DataFrame
     final_states: dict
@@ -44,7 +46,7 @@ def _sweep_piece(base, tmd, seq, d, settings, z0, queue=None):
         ss = steady_state(base, tmd, float(w), None if companion else z, settings, hint)
         z = ss.state
         rows.append(dict(direction=d, omega=float(w), amplitude=ss.amplitude, periods=ss.periods,
-                         converged=ss.converged, change=ss.change, steps=ss.steps,
+                         converged=ss.converged, irregular=ss.irregular, change=ss.change, steps=ss.steps,
                          rejected=ss.rejected, wall_time=ss.wall_time))
         if queue is not None:
             queue.put(1)
