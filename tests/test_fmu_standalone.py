@@ -120,6 +120,23 @@ def test_pyfmu_python_still_wins_over_the_bundled_runtime(standalone):
     assert "(bundled runtime)" not in log and f"from {sys.prefix}" in log
 
 
+@pytest.mark.slow
+def test_bundled_runtime_ignores_pythonhome_and_pythonpath(standalone):
+    """The bundled runtime starts isolated: a PYTHONHOME that does not exist (fatal if it were
+    used) and a PYTHONPATH to the build venv's site-packages are both ignored."""
+    import sysconfig
+
+    root, dirs, *_ = standalone
+    vb = _vrs(dirs["BaseOscillator"])
+    args = [f"r1:{vb[k][0]}={v!r}" for k, v in BASE.items()] + [f"o1:{vb['x'][0]}"]
+    rows, maps, log = _run(standalone, 0.05, 1e-3, args, PYTHONHOME="/nonexistent",
+                           PYTHONPATH=sysconfig.get_paths()["purelib"])
+    x, _ = damped_forced_response(rows[:, 0], **BASE)
+    assert np.max(np.abs(rows[:, 1] - x)) < 1e-7 * 0.01
+    assert not [m for m in maps if m.startswith((sys.base_prefix, sys.prefix, str(REPO_ROOT)))]
+    assert "(bundled runtime)" in log
+
+
 def _pair_amplitude(standalone, omega, h, periods=25, window=3):
     from pyfmu_wrapper.master.steady import CONNECTIONS, fmu_parameters
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
