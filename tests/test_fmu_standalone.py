@@ -163,15 +163,16 @@ def _pair_amplitude(standalone, omega, h, periods=25, window=3):
 
 
 @pytest.mark.slow
-def test_pair_against_monolithic_first_order(standalone):
-    """Case 1 at 20 rad/s: Gauss-Seidel coupling with zero-order hold is first order in h, so the
-    steady amplitude approaches the monolithic one about 10x closer at h/10; within 0.5 % at 0.1 ms."""
-    a3, ref = _pair_amplitude(standalone, 20.0, 1e-3)
-    a4, _ = _pair_amplitude(standalone, 20.0, 1e-4)
+@pytest.mark.parametrize("omega", [17.0, 20.0])
+def test_pair_against_monolithic_first_order(standalone, omega):
+    """Case 1: Gauss-Seidel coupling with a zero-order hold is first order in h, so the steady
+    amplitude comes about 10x closer to the monolithic one at h/10 (measured 0.54 % -> 0.054 % at
+    17 rad/s, 0.30 % -> 0.029 % at 20 rad/s); held: ratio 5..20 and within 0.2 % at 0.1 ms."""
+    a3, ref = _pair_amplitude(standalone, omega, 1e-3)
+    a4, _ = _pair_amplitude(standalone, omega, 1e-4)
     e3, e4 = abs(a3 / ref - 1), abs(a4 / ref - 1)
-    assert e4 <= 0.005, (a4, ref)
-    assert e4 <= e3 / 4, (e3, e4)
-
+    assert e4 <= 0.002, (a4, ref)
+    assert 5 <= e3 / e4 <= 20, (e3, e4)
 
 def test_missing_bundled_runtime_is_named_in_the_error(tmp_path):
     """An FMU whose pyfmu.cfg names a bundled runtime that is not there (and no other Python):
