@@ -12,6 +12,7 @@ against the monolithic steady state (Case 1), converging at first order in the s
 from __future__ import annotations
 
 import math
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -62,12 +63,14 @@ def standalone(tmp_path_factory):
         with zipfile.ZipFile(p) as z:
             z.extractall(d)
         dirs[p.stem] = d
+    shutil.rmtree(build, ignore_errors=True)  # two ~98 MB zips, no longer needed
     exe = root / "fmu_pair"
     subprocess.run(["gcc", "-O2", "-Wall", f"-I{fmi_headers_dir()}", str(PAIR_SOURCE), "-o", str(exe), "-ldl"],
                    check=True, capture_output=True, text=True)
     home = root / "home"
     home.mkdir()
-    return root, dirs, exe, home, {p.stem: p for p in fmus}
+    yield root, dirs, exe, home
+    shutil.rmtree(root, ignore_errors=True)  # ~600 MB extracted
 
 
 def _vrs(d: Path) -> dict:
@@ -77,7 +80,7 @@ def _vrs(d: Path) -> dict:
 
 
 def _run(standalone, stop, h, args, **env):
-    root, dirs, exe, home, _ = standalone
+    root, dirs, exe, home = standalone
     b, t = dirs["BaseOscillator"], dirs["TMDInerter"]
     cmd = ["env", "-i", "PATH=/usr/bin:/bin", f"HOME={home}", "FMU_HOST_VERBOSE=1",
            *[f"{k}={v}" for k, v in env.items()],
