@@ -222,7 +222,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         free_comp(c);
         return NULL;
     }
-    logmsg(c, fmi2OK, "logAll", "fmi2Instantiate: module %s, resources %s", c->modname, resdir);
+    logmsg(c, fmi2OK, "logAll", "fmi2Instantiate: module %s, resources %s, %s", c->modname, resdir, python_origin());
     return c;
 }
 

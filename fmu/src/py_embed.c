@@ -6,10 +6,14 @@
  *   global symbol scope (Py_IsInitialized) and reused; the model code then checks that this
  *   interpreter fits (version, numpy, numba) and says what to install when it does not.
  * - In a pure C host a Python is found in this order: the environment variable PYFMU_PYTHON
- *   (a python executable or a virtual environment folder), then the interpreter recorded at
- *   build time. Each candidate is probed in a subprocess (its version, shared libpython, site
- *   folders, numpy and numba versions); the first that fits is dlopened with RTLD_GLOBAL (so
- *   extension modules resolve its symbols), initialised, and the GIL released.
+ *   (a python executable or a virtual environment folder), then the runtime bundled in a
+ *   standalone FMU (resources/python/), then the interpreter recorded at build time. Each
+ *   external candidate is probed in a subprocess (its version, shared libpython, site folders,
+ *   numpy and numba versions); the bundled runtime is not probed (it has no executable; its files
+ *   are checked, and the packages after start-up as for any Python). The first that fits is
+ *   dlopened with RTLD_GLOBAL (so extension modules resolve its symbols), initialised, and the
+ *   GIL released. The bundled runtime is started isolated: its home is resources/python, the
+ *   environment (PYTHONPATH, PYTHONHOME...) and the user site are ignored, no byte code written.
  * - One Python thread state per calling thread: a thread without one gets it once and keeps it
  *   (PyGILState_Ensure + PyEval_SaveThread); every call then only takes and drops the GIL.
  */
@@ -30,6 +34,7 @@ int g_py_ready = 0;
 static pthread_mutex_t g_lock = PTHREAD_MUTEX_INITIALIZER;
 static __thread int tls_primed = 0;
 static int g_host_python = 0;
+static void *g_lib = NULL; /* the libpython this stub dlopened (NULL: the host's) */
 
 /* Checks run inside the interpreter (probe subprocess and bootstrap alike). */
 #define FIT_CODE                                                                                     \
@@ -155,9 +160,11 @@ static int resolve_python(void *h, char *err, size_t nerr) {
 /* ---- finding a Python for a C host ----------------------------------------------------------- */
 typedef struct {
     char exe[1024], version[32], libpython[1024], home[1024], paths[8192], unfit[2048];
+    int bundled; /* the standalone FMU's own runtime */
 } Probe;
 
 static char g_paths[8192]; /* site folders of the chosen interpreter, added by the bootstrap */
+static char g_origin[1400]; /* which Python runs the models, for the log */
 static wchar_t *g_home = NULL;
 
 /* open() instead of stat(): stat is versioned GLIBC_2.33 and would raise the glibc needed. */
@@ -250,19 +257,40 @@ static int probe(const char *given, const Config *cfg, Probe *pr) {
     return pr->unfit[0] == 0;
 }
 
-static int find_python(const Config *cfg, Probe *chosen, char *err, size_t nerr) {
-    const char *cands[2];
-    const char *labels[2] = {"PYFMU_PYTHON", "the build's interpreter"};
+/* The runtime of a standalone FMU (resources/<runtime>): fits if its files are there. */
+static int bundled(const Config *cfg, const char *resdir, Probe *pr) {
+    memset(pr, 0, sizeof *pr);
+    pr->bundled = 1;
+    snprintf(pr->home, sizeof pr->home, "%s/%s", resdir, cfg->runtime);
+    snprintf(pr->exe, sizeof pr->exe, "%s (bundled runtime)", pr->home);
+    snprintf(pr->version, sizeof pr->version, "%s", cfg->runtime_version);
+    snprintf(pr->libpython, sizeof pr->libpython, "%s/%s", resdir, cfg->runtime_libpython);
+    if (!cfg->runtime_libpython[0] || !is_file(pr->libpython)) {
+        snprintf(pr->unfit, sizeof pr->unfit, "no file %s", pr->libpython);
+        return 0;
+    }
+    if (!is_dir(pr->home)) {
+        snprintf(pr->unfit, sizeof pr->unfit, "no folder %s", pr->home);
+        return 0;
+    }
+    return 1;
+}
+
+static int find_python(const Config *cfg, const char *resdir, Probe *chosen, char *err, size_t nerr) {
+    const char *cands[3];
+    const char *labels[3] = {"PYFMU_PYTHON", "the FMU's bundled runtime", "the build's interpreter"};
     cands[0] = getenv("PYFMU_PYTHON");
-    cands[1] = cfg->python[0] ? cfg->python : NULL;
+    cands[1] = cfg->runtime[0] ? cfg->runtime : NULL;
+    cands[2] = cfg->python[0] ? cfg->python : NULL;
     char tried[3000] = "";
-    for (int i = 0; i < 2; i++) {
+    for (int i = 0; i < 3; i++) {
         size_t k = strlen(tried);
         if (!cands[i] || !cands[i][0]) {
-            snprintf(tried + k, sizeof tried - k, "%s%s: not set", k ? "; " : "", labels[i]);
+            if (i != 1) /* a non-standalone FMU has no runtime: not worth a word */
+                snprintf(tried + k, sizeof tried - k, "%s%s: not set", k ? "; " : "", labels[i]);
             continue;
         }
-        if (probe(cands[i], cfg, chosen)) return 1;
+        if (i == 1 ? bundled(cfg, resdir, chosen) : probe(cands[i], cfg, chosen)) return 1;
         snprintf(tried + k, sizeof tried - k, "%s%s = %s: %s", k ? "; " : "", labels[i], cands[i], chosen->unfit);
     }
     snprintf(err, nerr,
@@ -273,8 +301,18 @@ static int find_python(const Config *cfg, Probe *chosen, char *err, size_t nerr)
     return 0;
 }
 
+/* Isolation of the bundled runtime: the legacy configuration flags of Python <= 3.11 (read by
+ * Py_InitializeEx; no PyConfig struct, whose layout changes between versions, is touched). */
+static void isolate(void *h) {
+    static const char *flags[] = {"Py_IsolatedFlag", "Py_IgnoreEnvironmentFlag", "Py_NoUserSiteDirectory",
+                                  "Py_DontWriteBytecodeFlag"};
+    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++) {
+        int *f = (int *)dlsym(h, flags[i]);
+        if (f) *f = 1;
+    }
+}
+
 int ensure_python(const Config *cfg, const char *resdir, char *err, size_t nerr) {
-    (void)resdir;
     pthread_mutex_lock(&g_lock);
     int ok = 1;
     Probe pr;
@@ -284,10 +322,10 @@ int ensure_python(const Config *cfg, const char *resdir, char *err, size_t nerr)
         if (dlsym(RTLD_DEFAULT, "Py_IsInitialized")) {
             g_host_python = 1;
         } else {
-            ok = find_python(cfg, &pr, err, nerr);
+            ok = find_python(cfg, resdir, &pr, err, nerr);
             if (ok) {
                 probed = 1;
-                h = dlopen(pr.libpython, RTLD_NOW | RTLD_GLOBAL);
+                h = g_lib = dlopen(pr.libpython, RTLD_NOW | RTLD_GLOBAL);
                 if (!h) {
                     snprintf(err, nerr, "cannot load libpython %s of %s: %s", pr.libpython, pr.exe, dlerror());
                     ok = 0;
@@ -298,13 +336,15 @@ int ensure_python(const Config *cfg, const char *resdir, char *err, size_t nerr)
         if (ok) g_py_ready = 1;
     }
     if (ok && !py.IsInitialized()) {
-        if (!probed) ok = find_python(cfg, &pr, err, nerr); /* libpython of a host that did not start it */
+        if (!probed) ok = find_python(cfg, resdir, &pr, err, nerr); /* libpython of a host that did not start it */
         if (ok) {
+            if (pr.bundled) isolate(g_lib ? g_lib : RTLD_DEFAULT);
             if (py.SetPythonHome && pr.home[0] && !g_home) {
                 g_home = py.DecodeLocale(pr.home, NULL); /* must outlive the interpreter */
                 if (g_home) py.SetPythonHome(g_home);
             }
             snprintf(g_paths, sizeof g_paths, "%s", pr.paths);
+            snprintf(g_origin, sizeof g_origin, "Python %s from %s, libpython %s", pr.version, pr.exe, pr.libpython);
             py.InitializeEx(0);
             if (!py.IsInitialized()) {
                 snprintf(err, nerr, "Py_InitializeEx failed for %s", pr.exe);
@@ -320,6 +360,7 @@ int ensure_python(const Config *cfg, const char *resdir, char *err, size_t nerr)
 }
 
 const char *python_site_paths(void) { return g_paths; }
+const char *python_origin(void) { return g_host_python ? "the host's running Python" : g_origin; }
 int python_is_host(void) { return g_host_python; }
 
 /* Take the GIL; a thread calling for the first time gets a thread state that it keeps. */

@@ -75,6 +75,9 @@ typedef struct {
     char python_version[32];   /* major.minor.micro of the build's interpreter */
     char requires[512];        /* "numpy>=X,<Y numba>=..." checked in the interpreter */
     char min_python[16];       /* oldest major.minor the bundled code supports */
+    char runtime[256];         /* standalone FMU: its Python runtime folder, relative to resources/ */
+    char runtime_libpython[512]; /* ... and that runtime's shared libpython, relative to resources/ */
+    char runtime_version[32];  /* major.minor.micro of the bundled runtime */
 } Config;
 
 /* ---- instance ------------------------------------------------------------------------------ */
@@ -164,6 +167,7 @@ HIDDEN void report_py_exception(Comp *c, const char *f);
 HIDDEN fmi2Status py_status(Comp *c, const char *f, PyObject *r);
 HIDDEN int python_is_host(void);
 HIDDEN const char *python_site_paths(void);
+HIDDEN const char *python_origin(void);
 
 /* ---- fmi_api.c / fmi_state.c --------------------------------------------------------------- */
 HIDDEN fmi2Status refresh(Comp *c, const char *f);

@@ -1,4 +1,5 @@
-/* Reading resources/: pyfmu.cfg (GUID, model file, the build's interpreter and requirements),
+/* Reading resources/: pyfmu.cfg (GUID, model file, the build's interpreter and requirements, a
+ * standalone FMU's bundled runtime),
  * variables.tsv (the variable table) and the resource location URI. */
 #define _GNU_SOURCE
 #include <dlfcn.h>
@@ -35,6 +36,9 @@ int read_config(const char *resdir, Config *cfg, char *err, size_t nerr) {
         else if (!strcmp(k, "python_version")) snprintf(cfg->python_version, sizeof cfg->python_version, "%s", v);
         else if (!strcmp(k, "requires")) snprintf(cfg->requires, sizeof cfg->requires, "%s", v);
         else if (!strcmp(k, "min_python")) snprintf(cfg->min_python, sizeof cfg->min_python, "%s", v);
+        else if (!strcmp(k, "runtime")) snprintf(cfg->runtime, sizeof cfg->runtime, "%s", v);
+        else if (!strcmp(k, "runtime_libpython")) snprintf(cfg->runtime_libpython, sizeof cfg->runtime_libpython, "%s", v);
+        else if (!strcmp(k, "runtime_version")) snprintf(cfg->runtime_version, sizeof cfg->runtime_version, "%s", v);
     }
     fclose(f);
     if (!cfg->guid[0]) {

@@ -5,6 +5,7 @@ Command line (console script ``build-fmus``)::
     build-fmus                      # build BaseOscillator.fmu and TMDInerter.fmu into fmu/build/
     build-fmus --out DIR --force    # elsewhere, rebuilding even when up to date
     build-fmus Trivial              # the stub-overhead benchmark model
+    build-fmus --standalone         # also bundle a Python runtime (fmu/build/standalone/)
 
 API: :func:`build_fmu`, :func:`build_fmus`, :func:`ensure_fmus` (builds what is missing or stale,
 judged by a hash of the sources: the C stub, the bundled modules and the build interpreter).
@@ -21,6 +22,11 @@ stub, compiled with the system gcc against the FMI 2.0 headers that fmpy ships) 
 - ``pyfmu.cfg``: GUID, the requirements (Python >= 3.11, numpy, numba) and the build's
   interpreter (one of the places a pure C host looks for a Python, see ``docs/fmus.md``);
 - ``variables.tsv``: the stub's variable table.
+
+A *standalone* FMU (``build-fmus --standalone``, :func:`build_fmu` with ``standalone=True``, section
+*standalone runtime* below) also carries ``resources/python/``: the build interpreter's runtime (shared
+libpython, the standard library without tests/IDLE/tkinter, ``lib-dynload``) and the installed
+numpy, numba and llvmlite, so it runs on a Linux x86-64 machine with no Python at all.
 """
 from __future__ import annotations
 
@@ -187,12 +193,13 @@ def _version_of(name: str) -> str:
         return "none"
 
 
-def _config(spec: FmuSpec, guid: str, shash: str, bhash: str) -> str:
+def _config(spec: FmuSpec, guid: str, shash: str, bhash: str, runtime: dict | None = None) -> str:
     lines = [f"guid={guid}", f"model_identifier={spec.model_identifier}", "model=model.py",
              f"python={build_python()}", f"python_version={sys.version.split()[0]}", f"min_python={MIN_PYTHON}",
              f"requires={' '.join(REQUIRES)}",
              f"built_with=numpy=={_version_of('numpy')} numba=={_version_of('numba')}",
              f"bundle={bundle_package(bhash)}", f"bundle_hash={bhash}", f"source_hash={shash}"]
+    lines += [f"{k}={v}" for k, v in (runtime or {}).items()]
     return "\n".join(lines) + "\n"
 
 
@@ -318,8 +325,102 @@ def _model_py(spec: FmuSpec, package: str, bhash: str, files: list[str]) -> str:
     return MODEL_PY.format(model=spec.model_name, package=package, bhash=bhash, files=files, slave=f"{rel}:{cls}")
 
 
-def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path | None = None) -> Path:
-    """Build one FMU (name: a key of :data:`~.variables.SPECS`); return the path of the .fmu."""
+# ---- standalone runtime ------------------------------------------------------------------------
+#: Distributions bundled into a standalone FMU (with what they import at run time: numba needs
+#: numpy and llvmlite; llvmlite's libllvmlite.so and numpy's numpy.libs are in their file lists).
+RUNTIME_PACKAGES = ("numpy", "numba", "llvmlite")
+#: Parts of the standard library a model never imports (tests, IDEs, GUI, installers, build files).
+STDLIB_EXCLUDE = {"test", "idlelib", "tkinter", "turtledemo", "ensurepip", "lib2to3", "site-packages",
+                  "__pycache__", "pydoc_data", "venv", "turtle.py"}
+DYNLOAD_EXCLUDE = ("_test", "_tkinter", "xxlimited", "_ctypes_test", "_xxtestfuzz", "_xxsubinterpreters")
+RUNTIME_DIR = "python"
+
+
+def _pyver() -> str:
+    return f"python{sys.version_info[0]}.{sys.version_info[1]}"
+
+
+def runtime_config() -> dict:
+    """What ``pyfmu.cfg`` records about the bundled runtime (paths relative to ``resources/``)."""
+    return {"runtime": RUNTIME_DIR, "runtime_libpython": f"{RUNTIME_DIR}/lib/lib{_pyver()}.so",
+            "runtime_version": sys.version.split()[0],
+            "runtime_packages": " ".join(f"{n}=={_version_of(n)}" for n in RUNTIME_PACKAGES)}
+
+
+def _pyc(src: Path, arc: str, pyc_dir: Path, out: list) -> None:
+    """Add the source and, compiled now, its byte code (unchecked-hash pyc: valid whatever file times
+    the extraction gives, and nothing is written into the FMU folder at run time)."""
+    import py_compile
+
+    out.append((src, arc))
+    if not arc.endswith(".py"):
+        return
+    d, _, name = arc.rpartition("/")
+    pyc_arc = f"{d}/__pycache__/{name[:-3]}.{sys.implementation.cache_tag}.pyc"
+    target = pyc_dir / pyc_arc
+    try:
+        py_compile.compile(str(src), cfile=str(target), dfile=arc, doraise=True,
+                           invalidation_mode=py_compile.PycInvalidationMode.UNCHECKED_HASH)
+    except (py_compile.PyCompileError, SyntaxError, ValueError):
+        return  # files that are not valid Python 3 (templates): shipped as is, never imported
+    out.append((target, pyc_arc))
+
+
+def runtime_files(pyc_dir: Path) -> list[tuple[Path, str]]:
+    """(source file, name under ``resources/``) of the runtime of a standalone FMU.
+
+    ``python/lib/libpythonX.Y.so`` (the build interpreter's shared library), the standard library
+    of ``sys.base_prefix`` under ``python/lib/pythonX.Y/`` without :data:`STDLIB_EXCLUDE` and test
+    extension modules, and every file of the :data:`RUNTIME_PACKAGES` distributions under
+    ``python/lib/pythonX.Y/site-packages/`` (where the runtime's ``site`` finds them), with byte
+    code compiled into ``pyc_dir``."""
+    from importlib import metadata
+
+    if sys.platform != "linux" or sysconfig.get_platform() != "linux-x86_64":
+        raise BuildError(f"a standalone FMU is built on Linux x86-64 only, not {sysconfig.get_platform()}")
+    lib = libpython_path()
+    stdlib = Path(sysconfig.get_paths(vars={"base": sys.base_prefix, "installed_base": sys.base_prefix})["stdlib"])
+    if not (stdlib / "os.py").is_file():
+        raise BuildError(f"the standard library of {sys.base_prefix} was not found at {stdlib}")
+    pre = f"{RUNTIME_DIR}/lib/{_pyver()}"
+    pyc_dir.mkdir(parents=True, exist_ok=True)
+    if shutil.which("strip"):  # its debug information is 3/4 of the file
+        shutil.copyfile(lib, pyc_dir / lib.name)
+        lib = pyc_dir / lib.name
+        subprocess.run(["strip", "--strip-unneeded", str(lib)], check=True, capture_output=True)
+    out: list[tuple[Path, str]] = [(lib, f"{RUNTIME_DIR}/lib/lib{_pyver()}.so")]
+    for root, dirs, names in os.walk(stdlib):
+        rel = Path(root).relative_to(stdlib)
+        dirs[:] = sorted(d for d in dirs if not (d in STDLIB_EXCLUDE or d.startswith("config-")
+                                                 or (rel.parts and d in ("tests", "test", "idle_test"))))
+        for n in sorted(names):
+            if n in STDLIB_EXCLUDE or n.endswith((".pyc", ".exe", ".a")):
+                continue
+            if rel.parts[:1] == ("lib-dynload",) and n.startswith(DYNLOAD_EXCLUDE):
+                continue
+            _pyc(Path(root) / n, "/".join((pre, *rel.parts, n)), pyc_dir, out)
+    for name in RUNTIME_PACKAGES:
+        try:
+            dist = metadata.distribution(name)
+        except metadata.PackageNotFoundError:
+            raise BuildError(f"{name} is not installed in the build interpreter {sys.executable}") from None
+        for f in dist.files or ():
+            src = Path(dist.locate_file(f)).resolve()
+            if "__pycache__" in f.parts or f.parts[0] == ".." or not src.is_file() or src.suffix == ".pyc":
+                continue
+            if "tests" in f.parts[1:-1]:
+                continue
+            _pyc(src, f"{pre}/site-packages/{f.as_posix()}", pyc_dir, out)
+    return out
+
+
+def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path | None = None,
+              standalone: bool = False, runtime: list | None = None) -> Path:
+    """Build one FMU (name: a key of :data:`~.variables.SPECS`); return the path of the .fmu.
+
+    standalone: also bundle the Python runtime and numpy/numba/llvmlite (``resources/python/``);
+    runtime: the (source, archive name) pairs of that runtime, if already collected
+    (:func:`.standalone.runtime_files`)."""
     spec = SPECS[name]
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -330,6 +431,11 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
     package = bundle_package(bhash)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
+        rt_cfg = None
+        if standalone:
+            if runtime is None:
+                runtime = runtime_files(tmp / "pyc")
+            rt_cfg = runtime_config()
         so = stub_so
         if so is None:
             so = tmp / "stub.so"
@@ -340,21 +446,26 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
         with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr("modelDescription.xml", model_description_xml(spec, guid))
             z.write(so, f"binaries/linux64/{spec.model_identifier}.so")
-            z.writestr("resources/pyfmu.cfg", _config(spec, guid, shash, bhash))
+            z.writestr("resources/pyfmu.cfg", _config(spec, guid, shash, bhash, rt_cfg))
             z.writestr("resources/variables.tsv", variable_table_tsv(spec))
             z.writestr("resources/model.py", _model_py(spec, package, bhash, files))
             for rel in files:
                 z.write(PACKAGE_DIR / rel, f"resources/{package}/{rel}")
+            for src, arc in runtime or ():
+                z.write(src, f"resources/{arc}")
         os.replace(part, target)
     return target
 
 
-def build_fmus(names=PROJECT_FMUS, out_dir: str | os.PathLike = DEFAULT_OUT) -> list[Path]:
-    """Build several FMUs (the stub is compiled once)."""
+def build_fmus(names=PROJECT_FMUS, out_dir: str | os.PathLike = DEFAULT_OUT, standalone: bool = False) -> list[Path]:
+    """Build several FMUs (the stub is compiled once, a standalone runtime collected once)."""
     with tempfile.TemporaryDirectory() as tmp:
         so = Path(tmp) / "stub.so"
         compile_stub(so)
-        return [build_fmu(n, out_dir, stub_so=so) for n in names]
+        runtime = None
+        if standalone:
+            runtime = runtime_files(Path(tmp) / "pyc")
+        return [build_fmu(n, out_dir, stub_so=so, standalone=standalone, runtime=runtime) for n in names]
 
 
 def fmu_source_hash(fmu: Path) -> str | None:
@@ -385,12 +496,18 @@ def main(argv=None) -> int:
     ap.add_argument("names", nargs="*", default=list(PROJECT_FMUS), help=f"FMUs to build, of {sorted(SPECS)}")
     ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory (default fmu/build)")
     ap.add_argument("--force", action="store_true", help="rebuild even when up to date")
+    ap.add_argument("--standalone", action="store_true",
+                    help="also bundle a relocatable Python runtime with numpy, numba and llvmlite, so the FMU runs "
+                         "where no Python is installed (always rebuilt; default --out fmu/build/standalone)")
     args = ap.parse_args(argv)
     unknown = [n for n in args.names if n not in SPECS]
     if unknown:
         ap.error(f"unknown FMU(s) {unknown}; choose from {sorted(SPECS)}")
     try:
-        if args.force:
+        if args.standalone:
+            out = DEFAULT_OUT / "standalone" if args.out == str(DEFAULT_OUT) else args.out
+            paths = build_fmus(args.names, out, standalone=True)
+        elif args.force:
             paths = build_fmus(args.names, args.out)
         else:
             paths = list(ensure_fmus(args.out, args.names).values())
