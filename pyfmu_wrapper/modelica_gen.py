@@ -215,9 +215,10 @@ def cases_text() -> str:
             f"{HEADER}  extends {PACKAGE}.Icons.Package;\n\n{body}end Cases;\n")
 
 
-def generated_files() -> dict[str, str]:
-    """File name (inside the package directory) -> generated text."""
-    systems = (PACKAGE_DIR / "Systems.mo").read_text(encoding="utf-8")
+def generated_files(directory: Path = PACKAGE_DIR) -> dict[str, str]:
+    """File name (inside the package directory) -> generated text (Systems.mo: its own structure,
+    read from ``directory``, with the generated blocks rewritten)."""
+    systems = (Path(directory) / "Systems.mo").read_text(encoding="utf-8")
     return {"Defaults.mo": defaults_text(), "Cases.mo": cases_text(), "Systems.mo": systems_text(systems)}
 
 
@@ -225,7 +226,7 @@ def write(directory: Path = PACKAGE_DIR) -> list[Path]:
     """Write the generated files into the package directory; returns the paths written."""
     directory = Path(directory)
     out = []
-    for name, text in generated_files().items():
+    for name, text in generated_files(directory).items():
         path = directory / name
         path.write_text(text, encoding="utf-8")
         out.append(path)
@@ -236,7 +237,7 @@ def stale_files(directory: Path = PACKAGE_DIR) -> list[str]:
     """Names of generated files whose committed text differs from the generated one."""
     directory = Path(directory)
     bad = []
-    for name, text in generated_files().items():
+    for name, text in generated_files(directory).items():
         path = directory / name
         if not path.is_file() or path.read_text(encoding="utf-8") != text:
             bad.append(name)
@@ -248,6 +249,9 @@ def main(argv=None) -> int:
     ap.add_argument("--dir", type=Path, default=PACKAGE_DIR, help="package directory (default: %(default)s)")
     ap.add_argument("--check", action="store_true", help="only check that the files are up to date")
     a = ap.parse_args(argv)
+    if not (a.dir / "Systems.mo").is_file():
+        print(f"{a.dir}: not a TMDInerter package directory (no Systems.mo)", file=sys.stderr)
+        return 2
     if a.check:
         bad = stale_files(a.dir)
         if bad:

@@ -17,12 +17,12 @@ from __future__ import annotations
 import numpy as np
 
 from ..physics.kernels import NSTATE, SYS_COUPLED, rhs_fext, system_jacobian
-from ..physics.params import BaseParams, ParameterError, TMDParams, pack
+from ..physics.params import BaseParams, InerterModel, ParameterError, TMDParams, pack
 
 
 def linear_system(base: BaseParams, tmd: TMDParams, linearise: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(A, b): dz/dt = A z + b f for the applied force f [N] on the base (module doc for linearise)."""
-    gap = tmd.play_gap if tmd.inerter == 2 else 0.0
+    gap = tmd.play_gap if tmd.inerter == InerterModel.PLAY else 0.0
     if linearise:
         if tmd.friction_force != 0.0 or gap != 0.0:
             raise ParameterError("a linearisation about rest needs a smooth configuration: "

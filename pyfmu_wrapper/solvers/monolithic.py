@@ -198,13 +198,8 @@ def initial_guess(base: BaseParams, tmd: TMDParams, omega: float) -> np.ndarray:
 
     from .frequency_response import exact_state
 
-    lin = replace(tmd, friction_force=0.0, play_gap=0.0, cubic_stiffness=0.0)
-    try:
-        return exact_state(base, lin, omega)
-    except np.linalg.LinAlgError:
-        # an undamped linear companion exactly at one of its resonances has no steady state:
-        # start from rest (the only case; any other error propagates)
-        return np.zeros(NSTATE)
+    # (exact_response itself handles an undamped companion exactly at a resonance)
+    return exact_state(base, replace(tmd, friction_force=0.0, play_gap=0.0, cubic_stiffness=0.0), omega)
 
 
 def steady_state(base: BaseParams, tmd: TMDParams, omega: float, z0=None,
