@@ -23,10 +23,10 @@ stub, compiled with the system gcc against the FMI 2.0 headers that fmpy ships) 
   interpreter (one of the places a pure C host looks for a Python, see ``docs/fmus.md``);
 - ``variables.tsv``: the stub's variable table.
 
-A *standalone* FMU (``build-fmus --standalone``, :func:`build_fmu` with ``standalone=True``, section
-*standalone runtime* below) also carries ``resources/python/``: the build interpreter's runtime (shared
-libpython, the standard library without tests/IDLE/tkinter, ``lib-dynload``) and the installed
-numpy, numba and llvmlite, so it runs on a Linux x86-64 machine with no Python at all.
+A *standalone* FMU (``build-fmus --standalone``, :func:`build_fmu` with ``standalone=True``) also
+carries ``resources/python/``: the build interpreter's runtime and the installed numpy, numba and
+llvmlite, collected by :mod:`.standalone`, so it runs on a Linux x86-64 machine with no Python at
+all.
 """
 from __future__ import annotations
 
@@ -37,7 +37,6 @@ import os
 import shutil
 import subprocess
 import sys
-import sysconfig
 import tempfile
 import zipfile
 from pathlib import Path
@@ -135,17 +134,6 @@ def fmi_headers_dir() -> Path:
     if not (d / "fmi2Functions.h").is_file():
         raise BuildError(f"fmi2Functions.h not found in {d}; is fmpy installed?")
     return d
-
-
-def libpython_path() -> Path:
-    """The shared libpython of the running interpreter (dlopened by the stub in a C host)."""
-    libdir = sysconfig.get_config_var("LIBDIR") or ""
-    for name in (sysconfig.get_config_var("INSTSONAME"), sysconfig.get_config_var("LDLIBRARY")):
-        if name and name.endswith((".so", ".so.1.0")) or (name and ".so" in name):
-            p = Path(libdir) / name
-            if p.is_file():
-                return p
-    raise BuildError("no shared libpython found (Python must be built with --enable-shared)")
 
 
 def build_python() -> str:
@@ -325,95 +313,6 @@ def _model_py(spec: FmuSpec, package: str, bhash: str, files: list[str]) -> str:
     return MODEL_PY.format(model=spec.model_name, package=package, bhash=bhash, files=files, slave=f"{rel}:{cls}")
 
 
-# ---- standalone runtime ------------------------------------------------------------------------
-#: Distributions bundled into a standalone FMU (with what they import at run time: numba needs
-#: numpy and llvmlite; llvmlite's libllvmlite.so and numpy's numpy.libs are in their file lists).
-RUNTIME_PACKAGES = ("numpy", "numba", "llvmlite")
-#: Parts of the standard library a model never imports (tests, IDEs, GUI, installers, build files).
-STDLIB_EXCLUDE = {"test", "idlelib", "tkinter", "turtledemo", "ensurepip", "lib2to3", "site-packages",
-                  "__pycache__", "pydoc_data", "venv", "turtle.py"}
-DYNLOAD_EXCLUDE = ("_test", "_tkinter", "xxlimited", "_ctypes_test", "_xxtestfuzz", "_xxsubinterpreters")
-RUNTIME_DIR = "python"
-
-
-def _pyver() -> str:
-    return f"python{sys.version_info[0]}.{sys.version_info[1]}"
-
-
-def runtime_config() -> dict:
-    """What ``pyfmu.cfg`` records about the bundled runtime (paths relative to ``resources/``)."""
-    return {"runtime": RUNTIME_DIR, "runtime_libpython": f"{RUNTIME_DIR}/lib/lib{_pyver()}.so",
-            "runtime_version": sys.version.split()[0],
-            "runtime_packages": " ".join(f"{n}=={_version_of(n)}" for n in RUNTIME_PACKAGES)}
-
-
-def _pyc(src: Path, arc: str, pyc_dir: Path, out: list) -> None:
-    """Add the source and, compiled now, its byte code (unchecked-hash pyc: valid whatever file times
-    the extraction gives, and nothing is written into the FMU folder at run time)."""
-    import py_compile
-
-    out.append((src, arc))
-    if not arc.endswith(".py"):
-        return
-    d, _, name = arc.rpartition("/")
-    pyc_arc = f"{d}/__pycache__/{name[:-3]}.{sys.implementation.cache_tag}.pyc"
-    target = pyc_dir / pyc_arc
-    try:
-        py_compile.compile(str(src), cfile=str(target), dfile=arc, doraise=True,
-                           invalidation_mode=py_compile.PycInvalidationMode.UNCHECKED_HASH)
-    except (py_compile.PyCompileError, SyntaxError, ValueError):
-        return  # files that are not valid Python 3 (templates): shipped as is, never imported
-    out.append((target, pyc_arc))
-
-
-def runtime_files(pyc_dir: Path) -> list[tuple[Path, str]]:
-    """(source file, name under ``resources/``) of the runtime of a standalone FMU.
-
-    ``python/lib/libpythonX.Y.so`` (the build interpreter's shared library), the standard library
-    of ``sys.base_prefix`` under ``python/lib/pythonX.Y/`` without :data:`STDLIB_EXCLUDE` and test
-    extension modules, and every file of the :data:`RUNTIME_PACKAGES` distributions under
-    ``python/lib/pythonX.Y/site-packages/`` (where the runtime's ``site`` finds them), with byte
-    code compiled into ``pyc_dir``."""
-    from importlib import metadata
-
-    if sys.platform != "linux" or sysconfig.get_platform() != "linux-x86_64":
-        raise BuildError(f"a standalone FMU is built on Linux x86-64 only, not {sysconfig.get_platform()}")
-    lib = libpython_path()
-    stdlib = Path(sysconfig.get_paths(vars={"base": sys.base_prefix, "installed_base": sys.base_prefix})["stdlib"])
-    if not (stdlib / "os.py").is_file():
-        raise BuildError(f"the standard library of {sys.base_prefix} was not found at {stdlib}")
-    pre = f"{RUNTIME_DIR}/lib/{_pyver()}"
-    pyc_dir.mkdir(parents=True, exist_ok=True)
-    if shutil.which("strip"):  # its debug information is 3/4 of the file
-        shutil.copyfile(lib, pyc_dir / lib.name)
-        lib = pyc_dir / lib.name
-        subprocess.run(["strip", "--strip-unneeded", str(lib)], check=True, capture_output=True)
-    out: list[tuple[Path, str]] = [(lib, f"{RUNTIME_DIR}/lib/lib{_pyver()}.so")]
-    for root, dirs, names in os.walk(stdlib):
-        rel = Path(root).relative_to(stdlib)
-        dirs[:] = sorted(d for d in dirs if not (d in STDLIB_EXCLUDE or d.startswith("config-")
-                                                 or (rel.parts and d in ("tests", "test", "idle_test"))))
-        for n in sorted(names):
-            if n in STDLIB_EXCLUDE or n.endswith((".pyc", ".exe", ".a")):
-                continue
-            if rel.parts[:1] == ("lib-dynload",) and n.startswith(DYNLOAD_EXCLUDE):
-                continue
-            _pyc(Path(root) / n, "/".join((pre, *rel.parts, n)), pyc_dir, out)
-    for name in RUNTIME_PACKAGES:
-        try:
-            dist = metadata.distribution(name)
-        except metadata.PackageNotFoundError:
-            raise BuildError(f"{name} is not installed in the build interpreter {sys.executable}") from None
-        for f in dist.files or ():
-            src = Path(dist.locate_file(f)).resolve()
-            if "__pycache__" in f.parts or f.parts[0] == ".." or not src.is_file() or src.suffix == ".pyc":
-                continue
-            if "tests" in f.parts[1:-1]:
-                continue
-            _pyc(src, f"{pre}/site-packages/{f.as_posix()}", pyc_dir, out)
-    return out
-
-
 def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path | None = None,
               standalone: bool = False, runtime: list | None = None) -> Path:
     """Build one FMU (name: a key of :data:`~.variables.SPECS`); return the path of the .fmu.
@@ -433,6 +332,8 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
         tmp = Path(tmp)
         rt_cfg = None
         if standalone:
+            from .standalone import runtime_config, runtime_files
+
             if runtime is None:
                 runtime = runtime_files(tmp / "pyc")
             rt_cfg = runtime_config()
@@ -464,6 +365,8 @@ def build_fmus(names=PROJECT_FMUS, out_dir: str | os.PathLike = DEFAULT_OUT, sta
         compile_stub(so)
         runtime = None
         if standalone:
+            from .standalone import runtime_files
+
             runtime = runtime_files(Path(tmp) / "pyc")
         return [build_fmu(n, out_dir, stub_so=so, standalone=standalone, runtime=runtime) for n in names]
 
