@@ -1,18 +1,24 @@
 """Run the FMUs and the exported SSP in an OMSimulator you point to, with its default settings.
 
     OMSIMULATOR=/path/to/OMSimulator python benchmarks/omsimulator_fmu.py [--omega 17 20] [--step 1e-3]
+        [--option=--directionalDerivatives=false ...]
 
 OMSimulator cannot be installed from the package registries of this project's machines (its pip
 sdist downloads a binary at install time); build it from its public source
 (https://github.com/OpenModelica/OMSimulator) and set ``OMSIMULATOR`` to the executable. Without
-it this script says so and exits with status 2, running nothing.
+it this script says so and exits with status 2, running nothing. How it was built for the
+recorded run: benchmarks/README_fmu.md.
 
 For each frequency it exports the base + TMD pair (Case 1, c = 10 N.s/m) as an SSP
-(:func:`pyfmu_wrapper.master.ssp.export_tmd_system`, start state the linear steady state), runs
-``OMSimulator --stopTime=T --intervals=N --resultFile=... system.ssp`` with nothing else changed
-(directional derivatives on, as by default), counts the error lines in its log, and compares the
-amplitude of base.x over the last three periods with the monolithic solver. It also loads each
-FMU alone (``OMSimulator X.fmu``). Results: benchmarks/results/omsimulator_fmu.json.
+(:func:`pyfmu_wrapper.master.ssp.export_tmd_system`, start state the linear steady state, force
+coupling: the algebraic loop of the ideal inerter, x, xd, xdd -> tmd, tmd.force -> base.f_link),
+whose OMSimulator annotation names OMSimulator's default master (``oms-ma``) with the step
+``--step`` (1e-3 s: OMSimulator's default step), and runs ``OMSimulator --stopTime=T
+--resultFile=... system.ssp`` with nothing else changed (directional derivatives on, algebraic
+loops by kinsol, as by default; ``--option`` adds OMSimulator options, for comparisons only). It
+counts the ``error:`` and ``warning:`` lines of its log and compares the amplitude of base.x over
+the last three periods with the monolithic solver. It also runs each FMU alone
+(``OMSimulator X.fmu``). Results: benchmarks/results/omsimulator_fmu.json.
 """
 from __future__ import annotations
 
@@ -25,9 +31,23 @@ import shutil
 import subprocess
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
+
+
+def _run(cmd, cwd, timeout):
+    """Run OMSimulator; its log, exit status, error and warning lines, wall time."""
+    t0 = time.perf_counter()
+    r = subprocess.run(cmd, capture_output=True, text=True, cwd=cwd, timeout=timeout)
+    wall = time.perf_counter() - t0
+    lines = (r.stdout + r.stderr).splitlines()
+    errors = [ln for ln in lines if ln.lstrip().lower().startswith("error")]
+    warnings = [ln for ln in lines if ln.lstrip().lower().startswith("warning")]
+    return {"command": [str(c) for c in cmd], "returncode": r.returncode, "errors": len(errors),
+            "warnings": len(warnings), "first_errors": errors[:5], "first_warnings": warnings[:5],
+            "wall_time_s": round(wall, 2)}
 
 
 def main(argv=None) -> int:
@@ -35,6 +55,8 @@ def main(argv=None) -> int:
     ap.add_argument("--omega", type=float, nargs="+", default=[17.0, 20.0])
     ap.add_argument("--step", type=float, default=1e-3)
     ap.add_argument("--periods", type=int, default=25)
+    ap.add_argument("--option", action="append", default=[], help="extra OMSimulator option (not default)")
+    ap.add_argument("--out", default=str(REPO / "benchmarks" / "results" / "omsimulator_fmu.json"))
     args = ap.parse_args(argv)
     exe = os.environ.get("OMSIMULATOR") or shutil.which("OMSimulator")
     if not exe or not os.access(exe, os.X_OK):
@@ -47,25 +69,20 @@ def main(argv=None) -> int:
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
     from pyfmu_wrapper.solvers import monolithic as mono
 
+    version = subprocess.run([exe, "--version"], capture_output=True, text=True).stdout.strip()
     base, tmd = BaseParams(), TMDParams(damping=10.0)
-    results = {"omsimulator": exe, "step": args.step, "runs": []}
+    results = {"omsimulator": exe, "version": version, "step": args.step, "options": args.option, "runs": []}
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         for name, fmu in ensure_fmus().items():
-            r = subprocess.run([exe, str(fmu)], capture_output=True, text=True, cwd=tmp, timeout=600)
-            log = r.stdout + r.stderr
-            results["runs"].append({"model": name, "returncode": r.returncode,
-                                    "errors": sum("error" in line.lower() for line in log.splitlines())})
+            run = _run([exe, *args.option, str(fmu)], tmp, 600)
+            results["runs"].append({"model": name, **run})
         for w in args.omega:
             T = 2 * math.pi / w
             stop = args.periods * T
-            ssp = export_tmd_system(tmp / f"case1_{w:g}.ssp", base, tmd, w, stop_time=stop)
+            ssp = export_tmd_system(tmp / f"case1_{w:g}.ssp", base, tmd, w, stop_time=stop, step_size=args.step)
             res = tmp / f"case1_{w:g}.csv"
-            cmd = [exe, f"--stopTime={stop}", f"--intervals={int(round(stop / args.step))}", f"--resultFile={res}",
-                   str(ssp)]
-            r = subprocess.run(cmd, capture_output=True, text=True, cwd=tmp, timeout=3600)
-            log = r.stdout + r.stderr
-            errors = [line for line in log.splitlines() if "error" in line.lower()]
+            run = _run([exe, *args.option, f"--stopTime={stop}", f"--resultFile={res}", str(ssp)], tmp, 3600)
             amp = None
             if res.is_file():
                 with res.open() as f:
@@ -74,14 +91,13 @@ def main(argv=None) -> int:
                 if col:
                     amp = max(abs(float(row[col])) for row in rows if float(row["time"]) >= stop - 3 * T)
             ref = mono.steady_state(base, tmd, w).amplitude
-            results["runs"].append({"omega": w, "command": cmd, "returncode": r.returncode, "errors": len(errors),
-                                    "first_errors": errors[:5], "amplitude": amp, "monolithic": ref,
+            results["runs"].append({"omega": w, **run, "amplitude": amp, "monolithic": ref,
                                     "relative_difference": None if amp is None else amp / ref - 1})
-    out = REPO / "benchmarks" / "results" / "omsimulator_fmu.json"
+    out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(results, indent=2))
     print(json.dumps(results, indent=2))
-    return 0 if all(r.get("errors", 0) == 0 and r.get("returncode", 0) == 0 for r in results["runs"]) else 1
+    return 0 if all(r["errors"] == 0 and r["returncode"] == 0 for r in results["runs"]) else 1
 
 
 if __name__ == "__main__":

@@ -191,8 +191,8 @@ def test_ssp_export_runs_in_fmpy(tmp_path):
 
     tmd = CONFIGS["ideal_inerter"]
     w = 18.0
-    p = export_tmd_system(tmp_path / "base_tmd.ssp", BASE, tmd, w, stop_time=0.5)
-    ssd = read_ssd(str(p))  # validated against the SSP 1.0 schema
+    p = export_tmd_system(tmp_path / "base_tmd.ssp", BASE, tmd, w, stop_time=0.5, step_size=1e-4)
+    ssd = read_ssd(str(p))  # validated against the SSP 1.0 schema, OMSimulator's annotations included
     assert {c.name for c in ssd.system.elements} == {"base", "tmd"}
     assert len(ssd.system.connections) == 4
     ps = ssp_parameter_set(p)
@@ -203,6 +203,33 @@ def test_ssp_export_runs_in_fmpy(tmp_path):
     t = res["time"] + h  # fmpy records the values after the step under the step's start time
     _, st = mono.simulate(BASE, tmd, w, 0.6, z0, sample_times=t)
     assert np.max(np.abs(res["base.x"] - st[:, 0])) <= 1e-2 * np.max(np.abs(st[:, 0]))
+
+
+def test_ssp_carries_omsimulator_master_annotation_only_when_a_step_is_given(tmp_path):
+    """OMSimulator needs its own annotation naming the master and its step (else "[NewSystem]
+    internal error"); it is written, with the given step, only when a step is given, and a
+    non-positive or non-finite step is refused."""
+    import xml.etree.ElementTree as ET
+    import zipfile
+
+    from pyfmu_wrapper.master.ssp import export_tmd_system
+
+    tmd, w = CONFIGS["ideal_inerter"], 18.0
+    ns = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
+          "oms": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"}
+    with_step = export_tmd_system(tmp_path / "a.ssp", BASE, tmd, w, stop_time=1.0, step_size=2.5e-4)
+    root = ET.fromstring(zipfile.ZipFile(with_step).read("SystemStructure.ssd"))
+    master = root.findall("ssd:System/ssd:Annotations/*/oms:Annotations/oms:SimulationInformation/"
+                          "oms:FixedStepMaster", ns)
+    assert len(master) == 1
+    assert master[0].get("description") == "oms-ma" and float(master[0].get("stepSize")) == 2.5e-4
+    assert len(root.findall("ssd:DefaultExperiment/ssd:Annotations/*/oms:Annotations/oms:SimulationInformation",
+                            ns)) == 1
+    plain = export_tmd_system(tmp_path / "b.ssp", BASE, tmd, w, stop_time=1.0)
+    assert b"org.openmodelica" not in zipfile.ZipFile(plain).read("SystemStructure.ssd")
+    for bad in (0.0, -1e-3, float("inf"), float("nan")):
+        with pytest.raises(ValueError, match="step_size"):
+            export_tmd_system(tmp_path / "c.ssp", BASE, tmd, w, stop_time=1.0, step_size=bad)
 
 
 def test_period_maximum_uses_the_hermite_interpolant_between_communication_points():

@@ -14,6 +14,15 @@ tool can run it; with fmpy::
 steps the components with a fixed step, zero-order hold and no loop handling, i.e. the naive
 Jacobi scheme of :mod:`.master`, so it needs a small step.) :func:`ssp_parameter_set` returns the
 same parameter set without reading the file back.
+
+OMSimulator loads an SSP only if its system carries OMSimulator's own annotation naming a master
+algorithm (SSP 1.0 has no standard element for it; OMSimulator issues #872, #1094, #1318: without
+it, ``[NewSystem] internal error``). Given a ``step_size``, :func:`ssd_xml` writes its vendor
+annotations (``type="org.openmodelica"``): on the system, OMSimulator's default fixed-step master
+``oms-ma`` with that step and its default relative tolerance 1e-4; on the default experiment, its
+default result settings (``<name>_res.mat``, every step, buffer of 10), without which it warns of
+"wrong/deprecated content". Other tools ignore them (fmpy validates the file against the SSP 1.0
+schema with them, and so does OMSimulator).
 """
 from __future__ import annotations
 
@@ -29,6 +38,10 @@ _NS = ('xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" '
        'xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" '
        'xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues"')
 
+_OMS_NS = 'xmlns:oms="https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"'
+#: OMSimulator's default relative tolerance (its --tolerance), written into its annotation.
+_OMS_TOLERANCE = 1e-4
+
 _TYPE_TAG = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer", "Boolean": "Boolean", "String": "String"}
 
 
@@ -42,12 +55,17 @@ def _fmt(value, type_: str) -> str:
     return str(value)
 
 
-def ssd_xml(name: str, fmus: dict, connections, start_time: float = 0.0, stop_time: float | None = None) -> str:
-    """The SystemStructure.ssd text (FMUs referenced as resources/<file name>)."""
+def ssd_xml(name: str, fmus: dict, connections, start_time: float = 0.0, stop_time: float | None = None,
+            step_size: float | None = None) -> str:
+    """The SystemStructure.ssd text (FMUs referenced as resources/<file name>); with ``step_size``
+    [s], also OMSimulator's system annotation (its fixed-step master with that step)."""
+    if step_size is not None and not (0.0 < float(step_size) < float("inf")):
+        raise ValueError(f"step_size must be a positive finite number of seconds, got {step_size!r}")
     mds = {inst: read_model_description(str(p)) for inst, p in fmus.items()}
     graph = build_graph(mds, connections)  # validates the connection list
     lines = ['<?xml version="1.0" encoding="UTF-8"?>',
-             f'<ssd:SystemStructureDescription {_NS} version="1.0" name={quoteattr(name)}>',
+             f'<ssd:SystemStructureDescription {_NS}{" " + _OMS_NS if step_size is not None else ""} '
+             f'version="1.0" name={quoteattr(name)}>',
              f'  <ssd:System name={quoteattr(name)}>',
              '    <ssd:Elements>']
     for inst, path in fmus.items():
@@ -70,9 +88,32 @@ def ssd_xml(name: str, fmus: dict, connections, start_time: float = 0.0, stop_ti
                      f'startConnector={quoteattr(c.src_variable)} endElement={quoteattr(c.dst_instance)} '
                      f'endConnector={quoteattr(c.dst_variable)}/>')
     lines.append('    </ssd:Connections>')
+    if step_size is not None:  # last child of the system, as the schema orders it
+        lines += ['    <ssd:Annotations>',
+                  '      <ssc:Annotation type="org.openmodelica">',
+                  '        <oms:Annotations>',
+                  '          <oms:SimulationInformation>',
+                  f'            <oms:FixedStepMaster description="oms-ma" stepSize="{float(step_size)!r}" '
+                  f'relativeTolerance="{_OMS_TOLERANCE!r}"/>',
+                  '          </oms:SimulationInformation>',
+                  '        </oms:Annotations>',
+                  '      </ssc:Annotation>',
+                  '    </ssd:Annotations>']
     lines.append('  </ssd:System>')
     stop = "" if stop_time is None else f' stopTime="{float(stop_time)!r}"'
-    lines.append(f'  <ssd:DefaultExperiment startTime="{float(start_time)!r}"{stop}/>')
+    if step_size is None:
+        lines.append(f'  <ssd:DefaultExperiment startTime="{float(start_time)!r}"{stop}/>')
+    else:  # OMSimulator's result settings, its defaults (without them it warns of deprecated content)
+        lines += [f'  <ssd:DefaultExperiment startTime="{float(start_time)!r}"{stop}>',
+                  '    <ssd:Annotations>',
+                  '      <ssc:Annotation type="org.openmodelica">',
+                  '        <oms:Annotations>',
+                  f'          <oms:SimulationInformation resultFile={quoteattr(name + "_res.mat")} '
+                  'loggingInterval="0.0" bufferSize="10"/>',
+                  '        </oms:Annotations>',
+                  '      </ssc:Annotation>',
+                  '    </ssd:Annotations>',
+                  '  </ssd:DefaultExperiment>']
     lines.append('</ssd:SystemStructureDescription>')
     # the parameters are bound at system level (inserted before Elements, as the schema orders them)
     i = lines.index('    <ssd:Elements>')
@@ -104,11 +145,12 @@ def ssv_xml(name: str, fmus: dict, parameters: dict) -> str:
 
 
 def export_ssp(path, fmus: dict, connections, parameters: dict, name: str = "CoupledSystem",
-               start_time: float = 0.0, stop_time: float | None = None) -> Path:
-    """Write the SSP archive: the SSD, the FMUs and the parameter values. Returns the path."""
+               start_time: float = 0.0, stop_time: float | None = None, step_size: float | None = None) -> Path:
+    """Write the SSP archive: the SSD, the FMUs and the parameter values. Returns the path.
+    step_size: see :func:`ssd_xml` (needed by OMSimulator)."""
     path = Path(path)
     conns = [Connection.parse(c) for c in connections]
-    ssd = ssd_xml(name, fmus, conns, start_time, stop_time)
+    ssd = ssd_xml(name, fmus, conns, start_time, stop_time, step_size)
     ssv = ssv_xml(name, fmus, parameters)
     path.parent.mkdir(parents=True, exist_ok=True)
     tmp = path.with_name(path.name + ".tmp")
@@ -128,9 +170,11 @@ def ssp_parameter_set(path):
     return read_ssv(str(path), "resources/parameters.ssv")
 
 
-def export_tmd_system(path, base, tmd, omega: float, z0=None, stop_time: float | None = None) -> Path:
+def export_tmd_system(path, base, tmd, omega: float, z0=None, stop_time: float | None = None,
+                      step_size: float | None = None) -> Path:
     """SSP of the base + TMD pair of this project at excitation omega [rad/s] (start state z0,
-    default the linear steady state of :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`)."""
+    default the linear steady state of :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`;
+    step_size: OMSimulator's master step, see :func:`ssd_xml`)."""
     from ..fmi.build import ensure_fmus
     from ..solvers.monolithic import initial_guess
     from .steady import CONNECTIONS, fmu_parameters
@@ -139,4 +183,4 @@ def export_tmd_system(path, base, tmd, omega: float, z0=None, stop_time: float |
     fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
     z = initial_guess(base, tmd, omega) if z0 is None else z0
     return export_ssp(path, fmus, CONNECTIONS, fmu_parameters(base, tmd, omega, z), name="BaseTMD",
-                      stop_time=stop_time)
+                      stop_time=stop_time, step_size=step_size)
