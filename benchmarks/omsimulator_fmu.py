@@ -17,7 +17,9 @@ whose OMSimulator annotation names OMSimulator's default master (``oms-ma``) wit
 --resultFile=... system.ssp`` with nothing else changed (directional derivatives on, algebraic
 loops by kinsol, as by default; ``--option`` adds OMSimulator options, for comparisons only). It
 counts the ``error:`` and ``warning:`` lines of its log and compares the amplitude of base.x over
-the last three periods with the monolithic solver. It also runs each FMU alone
+the last three of ``--periods`` periods (60: started from the monolithic linear steady state, the
+co-simulation settles to its own steady state within 1e-5 after ~50 periods at 17 rad/s; after 25
+it is still 0.1 % away) with the monolithic solver. It also runs each FMU alone
 (``OMSimulator X.fmu``). Results: benchmarks/results/omsimulator_fmu.json.
 """
 from __future__ import annotations
@@ -54,7 +56,7 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--omega", type=float, nargs="+", default=[17.0, 20.0])
     ap.add_argument("--step", type=float, default=1e-3)
-    ap.add_argument("--periods", type=int, default=25)
+    ap.add_argument("--periods", type=int, default=60)
     ap.add_argument("--option", action="append", default=[], help="extra OMSimulator option (not default)")
     ap.add_argument("--out", default=str(REPO / "benchmarks" / "results" / "omsimulator_fmu.json"))
     args = ap.parse_args(argv)
