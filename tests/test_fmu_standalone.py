@@ -90,7 +90,8 @@ def _run(standalone, stop, h, args, **env):
     assert r.returncode == 0, r.stderr[-4000:]
     rows = np.array([[float(v) for v in line.split()[1:]] for line in r.stdout.splitlines() if line.startswith("row ")])
     maps = {line[4:] for line in r.stdout.splitlines() if line.startswith("map ")}
-    return rows, maps, r.stderr
+    locale = next(line[7:] for line in r.stdout.splitlines() if line.startswith("locale "))
+    return rows, maps, r.stderr, locale
 
 
 @pytest.mark.slow
@@ -98,7 +99,7 @@ def test_base_alone_exact_with_no_python_reachable(standalone):
     root, dirs, *_ = standalone
     vb = _vrs(dirs["BaseOscillator"])
     args = [f"r1:{vb[k][0]}={v!r}" for k, v in BASE.items()] + [f"o1:{vb['x'][0]}"]
-    rows, maps, log = _run(standalone, 0.5, 1e-3, args)
+    rows, maps, log, _ = _run(standalone, 0.5, 1e-3, args)
     x, _ = damped_forced_response(rows[:, 0], **BASE)
     assert rows.shape == (501, 2)
     assert np.max(np.abs(rows[:, 1] - x)) < 1e-7 * 0.01
@@ -119,7 +120,7 @@ def test_pyfmu_python_still_wins_over_the_bundled_runtime(standalone):
     root, dirs, *_ = standalone
     vb = _vrs(dirs["BaseOscillator"])
     args = [f"r1:{vb[k][0]}={v!r}" for k, v in BASE.items()] + [f"o1:{vb['x'][0]}"]
-    rows, maps, log = _run(standalone, 0.05, 1e-3, args, PYFMU_PYTHON=sys.prefix)
+    rows, maps, log, _ = _run(standalone, 0.05, 1e-3, args, PYFMU_PYTHON=sys.prefix)
     assert any(m.startswith(sys.base_prefix) and "/libpython3" in m for m in maps)
     assert "(bundled runtime)" not in log and f"from {sys.prefix}" in log
 
@@ -133,12 +134,28 @@ def test_bundled_runtime_ignores_pythonhome_and_pythonpath(standalone):
     root, dirs, *_ = standalone
     vb = _vrs(dirs["BaseOscillator"])
     args = [f"r1:{vb[k][0]}={v!r}" for k, v in BASE.items()] + [f"o1:{vb['x'][0]}"]
-    rows, maps, log = _run(standalone, 0.05, 1e-3, args, PYTHONHOME="/nonexistent",
+    rows, maps, log, _ = _run(standalone, 0.05, 1e-3, args, PYTHONHOME="/nonexistent",
                            PYTHONPATH=sysconfig.get_paths()["purelib"])
     x, _ = damped_forced_response(rows[:, 0], **BASE)
     assert np.max(np.abs(rows[:, 1] - x)) < 1e-7 * 0.01
     assert not [m for m in maps if m.startswith((sys.base_prefix, sys.prefix, str(REPO_ROOT)))]
     assert "(bundled runtime)" in log
+
+
+@pytest.mark.slow
+def test_bundled_runtime_leaves_the_host_locale_alone(standalone):
+    """The bundled runtime is started with PyConfig's isolated configuration in UTF-8 mode
+    (fmu/src/py_config.c): it neither reads nor sets the host's locale. The host never calls
+    setlocale; with LANG=C.UTF-8 in its environment its LC_CTYPE must still be "C" after the
+    FMU ran (the legacy start-up, Py_InitializeEx, set it to C.UTF-8 from the environment)."""
+    root, dirs, *_ = standalone
+    vb = _vrs(dirs["BaseOscillator"])
+    args = [f"r1:{vb[k][0]}={v!r}" for k, v in BASE.items()] + [f"o1:{vb['x'][0]}"]
+    rows, maps, log, loc = _run(standalone, 0.05, 1e-3, args, LANG="C.UTF-8")
+    x, _ = damped_forced_response(rows[:, 0], **BASE)
+    assert np.max(np.abs(rows[:, 1] - x)) < 1e-7 * 0.01
+    assert "(bundled runtime)" in log
+    assert loc == "C"
 
 
 def _pair_amplitude(standalone, omega, h, periods=25, window=3):

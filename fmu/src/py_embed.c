@@ -12,8 +12,9 @@
  *   numpy and numba versions); the bundled runtime is not probed (it has no executable; its files
  *   are checked, and the packages after start-up as for any Python). The first that fits is
  *   dlopened with RTLD_GLOBAL (so extension modules resolve its symbols), initialised, and the
- *   GIL released. The bundled runtime is started isolated: its home is resources/python, the
- *   environment (PYTHONPATH, PYTHONHOME...) and the user site are ignored, no byte code written.
+ *   GIL released. The bundled runtime is started isolated with the PyConfig API (py_config.c):
+ *   its home is resources/python, the environment (PYTHONPATH, PYTHONHOME...) and the user site
+ *   are ignored, no byte code written, UTF-8 mode, the host's locale untouched.
  * - One Python thread state per calling thread: a thread without one gets it once and keeps it
  *   (PyGILState_Ensure + PyEval_SaveThread); every call then only takes and drops the GIL.
  */
@@ -301,17 +302,6 @@ static int find_python(const Config *cfg, const char *resdir, Probe *chosen, cha
     return 0;
 }
 
-/* Isolation of the bundled runtime: the legacy configuration flags of Python <= 3.11 (read by
- * Py_InitializeEx; no PyConfig struct, whose layout changes between versions, is touched). */
-static void isolate(void *h) {
-    static const char *flags[] = {"Py_IsolatedFlag", "Py_IgnoreEnvironmentFlag", "Py_NoUserSiteDirectory",
-                                  "Py_DontWriteBytecodeFlag"};
-    for (size_t i = 0; i < sizeof flags / sizeof flags[0]; i++) {
-        int *f = (int *)dlsym(h, flags[i]);
-        if (f) *f = 1;
-    }
-}
-
 int ensure_python(const Config *cfg, const char *resdir, char *err, size_t nerr) {
     pthread_mutex_lock(&g_lock);
     int ok = 1;
@@ -338,18 +328,27 @@ int ensure_python(const Config *cfg, const char *resdir, char *err, size_t nerr)
     if (ok && !py.IsInitialized()) {
         if (!probed) ok = find_python(cfg, resdir, &pr, err, nerr); /* libpython of a host that did not start it */
         if (ok) {
-            if (pr.bundled) isolate(g_lib ? g_lib : RTLD_DEFAULT);
-            if (py.SetPythonHome && pr.home[0] && !g_home) {
-                g_home = py.DecodeLocale(pr.home, NULL); /* must outlive the interpreter */
-                if (g_home) py.SetPythonHome(g_home);
-            }
             snprintf(g_paths, sizeof g_paths, "%s", pr.paths);
             snprintf(g_origin, sizeof g_origin, "Python %s from %s, libpython %s", pr.version, pr.exe, pr.libpython);
-            py.InitializeEx(0);
-            if (!py.IsInitialized()) {
-                snprintf(err, nerr, "Py_InitializeEx failed for %s", pr.exe);
-                ok = 0;
+            if (pr.bundled) {
+                /* isolated, UTF-8 mode, home resources/python: PyConfig (py_config.c) */
+                ok = pyconfig_start_isolated(g_lib ? g_lib : RTLD_DEFAULT, pr.home, err, nerr);
             } else {
+                /* a Python of any version >= 3.11 found on the machine: no PyConfig (its layout
+                 * is per version and this binary has no headers of it); Py_SetPythonHome and
+                 * Py_InitializeEx, deprecated since 3.11, present up to 3.15 */
+                if (py.SetPythonHome && pr.home[0] && !g_home) {
+                    g_home = py.DecodeLocale(pr.home, NULL); /* must outlive the interpreter */
+                    if (g_home) py.SetPythonHome(g_home);
+                }
+                py.InitializeEx(0);
+            }
+            if (ok && !py.IsInitialized()) {
+                snprintf(err, nerr, "%s failed for %s", pr.bundled ? "Py_InitializeFromConfig" : "Py_InitializeEx",
+                         pr.exe);
+                ok = 0;
+            }
+            if (ok) {
                 py.SaveThread(); /* this thread keeps its thread state; the GIL is released */
                 tls_primed = 1;
             }

@@ -3,6 +3,7 @@
  *
  * The stub is split along its jobs:
  *   py_embed.c   finding, loading and entering a Python interpreter (C-API resolved with dlsym)
+ *   py_config.c  starting the bundled runtime of a standalone FMU isolated (PyConfig API)
  *   resources.c  reading resources/: pyfmu.cfg, variables.tsv, the resource URI
  *   fmi_api.c    the FMI 2.0 API: state machine, argument checks, values, doStep, derivatives
  *   fmi_state.c  FMU state get/set/free/serialize (overflow-safe, ownership-checked)
@@ -20,14 +21,7 @@
 
 #define HIDDEN __attribute__((visibility("hidden")))
 
-/* Bind the dl* functions to their oldest x86-64 versions, so the binary loads on glibc < 2.34 too
- * (glibc 2.34 moved them into libc under a new version; the old ones are still exported). */
-#if defined(__x86_64__) && defined(__GLIBC__)
-__asm__(".symver dlopen,dlopen@GLIBC_2.2.5");
-__asm__(".symver dlsym,dlsym@GLIBC_2.2.5");
-__asm__(".symver dlerror,dlerror@GLIBC_2.2.5");
-__asm__(".symver dladdr,dladdr@GLIBC_2.2.5");
-#endif
+#include "dl_compat.h"
 
 /* ---- Python C-API, resolved at run time ------------------------------------------------- */
 typedef void PyObject;
@@ -168,6 +162,9 @@ HIDDEN fmi2Status py_status(Comp *c, const char *f, PyObject *r);
 HIDDEN int python_is_host(void);
 HIDDEN const char *python_site_paths(void);
 HIDDEN const char *python_origin(void);
+
+/* ---- py_config.c (does not include this header: it includes Python.h) ----------------------- */
+HIDDEN int pyconfig_start_isolated(void *lib, const char *home, char *err, size_t nerr);
 
 /* ---- fmi_api.c / fmi_state.c --------------------------------------------------------------- */
 HIDDEN fmi2Status refresh(Comp *c, const char *f);

@@ -156,14 +156,15 @@ def source_hash() -> str:
     return h.hexdigest()[:24]
 
 
-def compile_stub(out_so: Path, cc: str | None = None) -> None:
-    """Compile the C stub into a shared library with the system C compiler."""
+def compile_stub(out_so: Path, cc: str | None = None, extra_flags: tuple = ()) -> None:
+    """Compile the C stub into a shared library with the system C compiler (``extra_flags``: the
+    standalone stub's, :func:`.standalone.stub_flags`)."""
     cc = cc or os.environ.get("CC", "gcc")
     if shutil.which(cc) is None:
         raise BuildError(f"C compiler {cc!r} not found")
     out_so.parent.mkdir(parents=True, exist_ok=True)
     cmd = [cc, "-shared", "-fPIC", "-O2", "-std=gnu11", "-Wall", "-Wextra", "-Wno-unused-parameter",
-           "-Wno-format-truncation", "-fvisibility=hidden", f"-I{fmi_headers_dir()}",
+           "-Wno-format-truncation", "-fvisibility=hidden", f"-I{fmi_headers_dir()}", *extra_flags,
            *[str(f) for f in stub_sources() if f.suffix == ".c"], "-o", str(out_so),
            # keep libdl NEEDED: on glibc < 2.34 the pre-2.34 dl* symbols the stub binds to live there
            "-Wl,--no-as-needed", "-l:libdl.so.2", "-Wl,--as-needed", "-lpthread", "-lm"]
@@ -319,7 +320,8 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
 
     standalone: also bundle the Python runtime and numpy/numba/llvmlite (``resources/python/``);
     runtime: the (source, archive name) pairs of that runtime, if already collected
-    (:func:`.standalone.runtime_files`)."""
+    (:func:`.standalone.runtime_files`); stub_so: the compiled stub, if already compiled (for a
+    standalone FMU, with :func:`.standalone.stub_flags`)."""
     spec = SPECS[name]
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
@@ -330,17 +332,17 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
     package = bundle_package(bhash)
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        rt_cfg = None
+        rt_cfg, flags = None, ()
         if standalone:
-            from .standalone import runtime_config, runtime_files
+            from .standalone import runtime_config, runtime_files, stub_flags
 
             if runtime is None:
                 runtime = runtime_files(tmp / "pyc")
-            rt_cfg = runtime_config()
+            rt_cfg, flags = runtime_config(), stub_flags()
         so = stub_so
         if so is None:
             so = tmp / "stub.so"
-            compile_stub(so)
+            compile_stub(so, extra_flags=flags)
         target = out_dir / f"{spec.model_identifier}.fmu"
         # unique per builder: parallel workers may build the same stale FMU at once
         part = out_dir / f".{spec.model_identifier}.fmu.{os.getpid()}.{os.urandom(4).hex()}.part"
@@ -362,12 +364,12 @@ def build_fmus(names=PROJECT_FMUS, out_dir: str | os.PathLike = DEFAULT_OUT, sta
     """Build several FMUs (the stub is compiled once, a standalone runtime collected once)."""
     with tempfile.TemporaryDirectory() as tmp:
         so = Path(tmp) / "stub.so"
-        compile_stub(so)
-        runtime = None
+        runtime, flags = None, ()
         if standalone:
-            from .standalone import runtime_files
+            from .standalone import runtime_files, stub_flags
 
-            runtime = runtime_files(Path(tmp) / "pyc")
+            runtime, flags = runtime_files(Path(tmp) / "pyc"), stub_flags()
+        compile_stub(so, extra_flags=flags)
         return [build_fmu(n, out_dir, stub_so=so, standalone=standalone, runtime=runtime) for n in names]
 
 

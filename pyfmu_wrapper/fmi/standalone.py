@@ -12,8 +12,9 @@ Linux x86-64 machine with no Python at all:
 - byte code compiled at build time as unchecked-hash ``.pyc``.
 
 :func:`runtime_files` collects it (once for several FMUs, see :func:`.build.build_fmus`),
-:func:`runtime_config` is what ``pyfmu.cfg`` records about it. The stub starts this runtime
-isolated (``fmu/src/py_embed.c``); see docs/fmus.md.
+:func:`runtime_config` is what ``pyfmu.cfg`` records about it. The stub of a standalone FMU is
+compiled with :func:`stub_flags`: against the build interpreter's headers, so that it starts this
+runtime isolated with the PyConfig API (``fmu/src/py_config.c``); see docs/fmus.md.
 """
 from __future__ import annotations
 
@@ -123,3 +124,14 @@ def libpython_path() -> Path:
             if p.is_file():
                 return p
     raise BuildError("no shared libpython found (Python must be built with --enable-shared)")
+
+
+def stub_flags() -> tuple[str, ...]:
+    """Compiler flags of a standalone FMU's stub: ``-DPYFMU_PYCONFIG`` and the build interpreter's
+    include folder (``fmu/src/py_config.c`` needs the PyConfig layout of the bundled runtime's
+    Python version, which is the build interpreter's)."""
+    inc = Path(sysconfig.get_paths()["include"])
+    if not (inc / "Python.h").is_file():
+        raise BuildError(f"Python.h of the build interpreter not found in {inc}: a standalone FMU's stub is compiled "
+                         f"against it (install the Python development headers)")
+    return ("-DPYFMU_PYCONFIG", f"-I{inc}")

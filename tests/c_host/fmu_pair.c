@@ -10,10 +10,12 @@
  *         | c21:VR2=VR1    output VR2 of FMU 2 -> input VR1 of FMU 1
  *         | o1:VR          output of FMU 1 printed per step
  *   Gauss-Seidel coupling: FMU 1 steps with FMU 2's last outputs, FMU 2 with FMU 1's new ones.
- *   Prints "row t o1..." per communication point, then "map PATH" per mapped file.
+ *   Prints "row t o1..." per communication point, then "map PATH" per mapped file, then
+ *   "locale NAME": this process's LC_CTYPE locale (it never sets one itself).
  *   The FMUs are instantiated with logging on; FMU_HOST_VERBOSE=1 prints the log to stderr.
  */
 #include <dlfcn.h>
+#include <locale.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -154,6 +156,7 @@ int main(int argc, char **argv) {
         if (p) printf("map %s", p);
     }
     if (m) fclose(m);
+    printf("locale %s\n", setlocale(LC_CTYPE, NULL));
     for (int k = 0; k < 2; k++) {
         ((fmi2TerminateTYPE *)sym(f[k].h, "fmi2Terminate"))(f[k].c);
         ((fmi2FreeInstanceTYPE *)sym(f[k].h, "fmi2FreeInstance"))(f[k].c);
