@@ -39,7 +39,7 @@ MUTATIONS = (
     Mutation("rodas event retakes disabled", "pyfmu_wrapper/solvers/rodas.py",
              "if theta < 0.9 and hs * theta > hmin * 100:", "if False and theta < 0.9 and hs * theta > hmin * 100:",
              ("tests/test_steady_rules.py", "tests/test_integrator_edges.py")),
-    Mutation("play window off by one", "pyfmu_wrapper/solvers/monolithic.py",
+    Mutation("play window off by one", "pyfmu_wrapper/solvers/steady.py",
              "wins.append(max(self.period_max[-W:]))", "wins.append(max(self.period_max[-W + 1:]))",
              ("tests/test_steady_rules.py", "tests/test_solver.py")),
     Mutation("diagnose noise gate dropped", "pyfmu_wrapper/diagnose/sysdiag.py",

@@ -283,7 +283,10 @@ def test_bad_cosim_values(tmp_path):
     e = error_for(tmp_path, GOOD.replace("sweep:\n  direction: up\n", "cosim:\n  accuracy: -1.0\n"))
     assert "cosim.accuracy" in str(e) and "-1" in str(e)
     e = error_for(tmp_path, GOOD.replace("sweep:\n  direction: up\n", "cosim: {min_periods: 9, max_periods: 4}\n"))
-    assert "cosim.max_periods" in str(e)
+    assert "cosim.max_periods" in str(e) and "min_periods = 9" in str(e)
+    # the same rule (SteadySettings, shared by both engines) refuses it in the monolithic block, at its line
+    e = error_for(tmp_path, GOOD.replace("sweep:\n  direction: up\n", "solver:\n  min_periods: 9\n  max_periods: 4\n"))
+    assert (e.path, e.line, e.value) == ("solver.max_periods", 14, 4) and "min_periods = 9" in str(e)
 
 
 def test_settings_used_by_each_engine(tmp_path):

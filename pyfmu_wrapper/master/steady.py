@@ -11,7 +11,7 @@ outputs x, xd at the communication points with the cubic Hermite interpolant bet
 windows of W periods (1 without play, 20 with a gap), W_j = max of A_k in window j; W = 1 stops
 when the estimated distance of the base state to the periodic orbit is below ``tol``, W > 1
 when two windows agree to ``tol_window`` or their scatter is known (irregular responses are
-flagged; :class:`~pyfmu_wrapper.solvers.monolithic.WindowCriterion`). The communication step is
+flagged; :class:`~pyfmu_wrapper.solvers.steady.WindowCriterion`). The communication step is
 T / ``steps_per_period`` so that periods start at communication points. Each frequency starts from the previous frequency's
 final state (x, xd, y, yd read from the FMU outputs; d, dd of the play chain from
 :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`) or, for the first one, from
@@ -31,45 +31,50 @@ from ..physics.params import BaseParams, InerterModel, TMDParams
 from ..solvers.rodas import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
 from ..solvers.shooting import shoot
 from ..solvers.sweep import run_sweep_pieces
-from ..solvers.monolithic import SolverSettings, WindowCriterion, default_window, companion_start, initial_guess
+from ..solvers.monolithic import SolverSettings, companion_start, initial_guess
+from ..solvers.steady import Checks, SteadySettings, WindowCriterion
 from .graph import Connection
-from .master import Master
+from .master import SCHEMES, Master
 
 CONNECTIONS = ("base.x -> tmd.x", "base.xd -> tmd.xd", "base.xdd -> tmd.xdd", "tmd.force -> base.f_link")
 RECORD = ("tmd.y", "tmd.yd")
+#: how the TMD force reaches the base (CosimSettings.coupling)
+COUPLINGS = ("impulse", "force")
 
 
 @dataclass(frozen=True)
-class CosimSettings:
+class CosimSettings(SteadySettings):
     """Co-simulation steady-state settings.
 
+    The steady-state fields (tol, tol_window, amp_atol, window, min_periods, max_periods,
+    scatter_tol, play_start, shooting, max_newton) are those of
+    :class:`~pyfmu_wrapper.solvers.steady.SteadySettings` (the definition shared with the
+    monolithic solver, validated there), with max_periods 240 and max_newton 12 here. Own fields:
     steps_per_period: communication steps per forcing period (None: chosen from ``accuracy``
-    with the calibrated error model of :func:`steps_for_accuracy`); scheme / order: see
-    :mod:`.master`; tol, tol_window, amp_atol, window, min_periods, max_periods, play_start:
-    steady state as in the monolithic solver (:class:`~pyfmu_wrapper.solvers.monolithic.WindowCriterion`,
-    :func:`~pyfmu_wrapper.solvers.monolithic.companion_start`); fmu_rtol: tolerance of the
-    integrators inside the FMUs.
+    with the calibrated error model of :func:`steps_for_accuracy`); coupling: "impulse"
+    (:func:`impulse_connections`) or "force" (:data:`CONNECTIONS`); scheme / order: see
+    :mod:`pyfmu_wrapper.master.master`; fmu_rtol: tolerance of the integrators inside the FMUs.
     """
 
+    max_periods: int = 240
+    max_newton: int = 12
     steps_per_period: int | None = None
     accuracy: float = 1e-3
     coupling: str = "impulse"
     scheme: str = "loop"
     order: int = 2
-    tol: float = 1e-6
-    tol_window: float = 1e-4
-    amp_atol: float | None = None
-    window: int | None = None
-    min_periods: int = 3
-    max_periods: int = 240
-    play_start: str = "companion"
     fmu_rtol: float = 1e-8
-    shooting: bool = True
-    max_newton: int = 12
-    scatter_tol: float = 5e-3
 
-    def window_for(self, tmd: TMDParams) -> int:
-        return default_window(tmd, self.window)
+    def validate(self):
+        super().validate()
+        c = Checks(self)
+        c.integer("steps_per_period", 1, optional=True)
+        c.number("accuracy", positive=True)
+        c.choice("coupling", COUPLINGS)
+        c.choice("scheme", SCHEMES)
+        c.integer("order", 0)
+        c.choice("order", (0, 1, 2))
+        c.number("fmu_rtol", positive=True)
 
     def steps_for(self, tmd: TMDParams) -> int:
         if self.steps_per_period is not None:
