@@ -163,6 +163,36 @@ def test_exact_response_refuses_nonlinear_configuration():
     paper_case(3, damping=10, friction_force=10, inerter="play", play_gap=1e-4),
     paper_case(2, inerter="play", play_gap=0.0),
     TMDParams(mass=10, inertance=0, inerter="none", friction_force=5),
+    paper_case(2, damping=10, friction_force=10, inerter="play", play_gap=1e-4, cubic_stiffness=-2e5),
+])
+@pytest.mark.parametrize("d", [2e-4, -3e-4, 0.0])
+def test_mounted_tmd_with_base_compliance_is_the_coupled_system(tmd, d):
+    """The interface Jacobian (kappa = 1/M, xdd input = the base's acceleration without the link
+    force) makes the TMD subsystem's rhs the coupled system's, exactly: the TMD then solves the
+    base's equation of motion for xdd itself. With kappa = 0 and the coupled xdd as input it is the
+    plain subsystem. Both held against the coupled kernel (rhs_fext) in every contact mode."""
+    z = np.array([0.01, 0.1, 0.02, -0.05, d, 0.3])
+    p = pack(BASE, tmd, 19.0)
+    fext = K.excitation(0.3, p)
+    full = np.zeros(6)
+    K.rhs_fext(z, fext, p, full)
+    xdd_free = (fext - BASE.damping * z[1] - BASE.stiffness * z[0]) / BASE.mass
+    for kappa, xdd in ((1.0 / BASE.mass, xdd_free), (0.0, full[1])):
+        u = np.array([0.3, z[0], 0, 0, z[1], 0, 0, xdd, 0, 0, kappa])
+        out = np.zeros(4)
+        K.system_rhs(K.SYS_TMD, 0.3, z[2:], p, u, out)
+        np.testing.assert_allclose(out, full[2:], rtol=1e-13, atol=1e-13 * np.abs(full).max())
+        force, chain, _ = K.tmd_outputs(z[2:], z[0], z[1], xdd, kappa, p)
+        # the force on the base closes the base's equation: M xdd = fext - C xd - K x - force
+        assert force == pytest.approx(fext - BASE.damping * z[1] - BASE.stiffness * z[0] - BASE.mass * full[1],
+                                      rel=1e-12, abs=1e-12 * abs(fext))
+
+
+@pytest.mark.parametrize("tmd", [
+    paper_case(1, damping=10, friction_force=10),
+    paper_case(3, damping=10, friction_force=10, inerter="play", play_gap=1e-4),
+    paper_case(2, inerter="play", play_gap=0.0),
+    TMDParams(mass=10, inertance=0, inerter="none", friction_force=5),
     paper_case(1, damping=10, cubic_stiffness=3e6),
     paper_case(2, damping=10, friction_force=10, inerter="play", play_gap=1e-4, cubic_stiffness=-2e5),
 ])
@@ -188,9 +218,12 @@ def test_analytic_jacobian_matches_complex_step(tmd, scale):
     paper_case(2, damping=10, friction_force=10, inerter="play", play_gap=1e-4, cubic_stiffness=-2e5),
 ])
 @pytest.mark.parametrize("scale", [(1, 1, 1, 1), (1, 1, -1, 1), (1, 1e-6, 0.1, 1)])
-def test_tmd_subsystem_jacobian_matches_complex_step(tmd, scale):
+@pytest.mark.parametrize("kappa", [None, 0.0, 1.0 / 100.0])
+def test_tmd_subsystem_jacobian_matches_complex_step(tmd, scale, kappa):
     z = np.array([0.02, -0.05, 2e-4, 0.3]) * np.array(scale)
     u = np.array([0.1, 0.01, 0.1, 0.5, 0.1, 0.5, -3.0, -3.0, 2.0, 1.0])  # x, xd, xdd Taylor inputs
+    if kappa is not None:  # the mounting compliance slot (interface Jacobian)
+        u = np.append(u, kappa)
     p = pack(BASE, tmd, 19.0)
     J1, J2 = np.zeros((4, 4)), np.zeros((4, 4))
     K.tmd_jacobian(0.3, z, p, u, J1)

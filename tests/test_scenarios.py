@@ -237,12 +237,13 @@ def test_empty_and_non_mapping(tmp_path):
 def test_settings_blocks_per_engine(tmp_path):
     text = GOOD.replace("sweep:\n  direction: up\n", "sweep: {direction: both, continuation: false}\n"
                         "solver: {rtol: 1.0e-7, window: 4, linear: simulate}\n"
-                        "cosim: {accuracy: 1.0e-4, coupling: force, window: 7, shooting: false}\n")
+                        "cosim: {accuracy: 1.0e-4, coupling: force, window: 7, shooting: false, "
+                        "interface_jacobian: false}\n")
     scn = load_scenario(write(tmp_path, text))
     assert (scn.sweep.direction, scn.sweep.continuation) == ("both", False)
     assert scn.solver.settings().rtol == 1e-7 and scn.solver.settings().window == 4 and scn.solver.linear == "simulate"
     cs = scn.cosim.settings()
-    assert (cs.accuracy, cs.coupling, cs.window, cs.shooting) == (1e-4, "force", 7, False)
+    assert (cs.accuracy, cs.coupling, cs.window, cs.shooting, cs.interface_jacobian) == (1e-4, "force", 7, False, False)
     from pyfmu_wrapper.master.steady import CosimSettings
 
     assert cs.tol_window == CosimSettings().tol_window  # not taken from solver:

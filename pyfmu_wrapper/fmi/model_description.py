@@ -22,6 +22,7 @@ UNITS = {
     "N.s/m": dict(kg=1, s=-1),
     "rad/s": dict(rad=1, s=-1),
     "s/m": dict(s=1, m=-1),
+    "1/kg": dict(kg=-1),
 }
 
 #: Log categories the stub uses (keep in sync with fmi2SetDebugLogging in fmu/src/pyfmu_stub.c).

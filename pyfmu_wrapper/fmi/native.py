@@ -41,13 +41,13 @@ NP = N_PARAMS
 # value references (frozen into the compiled code)
 B_NVR = max(v.vr for v in BASE_OSCILLATOR.variables) + 1
 B_FLINK = BASE_OSCILLATOR.vr("f_link")
-B_X, B_XD, B_XDD, B_FEXC = (BASE_OSCILLATOR.vr(n) for n in ("x", "xd", "xdd", "f_exc"))
+B_X, B_XD, B_XDD, B_FEXC, B_XDDF = (BASE_OSCILLATOR.vr(n) for n in ("x", "xd", "xdd", "f_exc", "xdd_free"))
 B_RTOL, B_ATOL, B_DEBUG = (BASE_OSCILLATOR.vr(n) for n in ("rtol", "atol", "debug_raise"))
 T_NVR = max(v.vr for v in TMD_INERTER.variables) + 1
 T_X, T_XD, T_XDD = (TMD_INERTER.vr(n) for n in ("x", "xd", "xdd"))
 T_FORCE, T_Y, T_YD, T_P, T_CONTACT = (TMD_INERTER.vr(n) for n in ("force", "y", "yd", "inerter_force", "contact"))
 T_RTOL, T_ATOL, T_DEBUG = (TMD_INERTER.vr(n) for n in ("rtol", "atol", "debug_raise"))
-SYS_BASE, SYS_TMD = kn.SYS_BASE, kn.SYS_TMD
+SYS_BASE, SYS_TMD, U_KAPPA = kn.SYS_BASE, kn.SYS_TMD, kn.U_KAPPA
 MAX_STEPS = MAX_INTEGRATOR_STEPS
 
 
@@ -91,6 +91,7 @@ def base_step():
         reals[B_XD] = z[1]
         reals[B_XDD] = kn.base_acceleration(z[0], z[1], f_link, 0.0, fexc, p)
         reals[B_FEXC] = fexc
+        reals[B_XDDF] = kn.base_acceleration(z[0], z[1], 0.0, 0.0, fexc, p)
         derivs[2 * B_FLINK] = 0.0
         derivs[2 * B_FLINK + 1] = 0.0
         return 0
@@ -111,7 +112,7 @@ def tmd_step():
         p = carray(p_p, (NP,))
         stats = carray(stats_p, (4,))
         th = carray(th_p, (2,))
-        u = carray(u_p, (10,))
+        u = carray(u_p, (U_KAPPA + 1,))  # u[U_KAPPA]: the mounting compliance, set by configure
         atol = carray(atol_p, (4,))
         if ints[T_DEBUG] != 0:
             return 1
@@ -141,7 +142,7 @@ def tmd_step():
         x = kn.input_value(u, 0, t1)
         xd = kn.input_value(u, 1, t1)
         xdd = kn.input_value(u, 2, t1)
-        force, chain, contact = kn.tmd_outputs(z, x, xd, xdd, p)
+        force, chain, contact = kn.tmd_outputs(z, x, xd, xdd, u[U_KAPPA], p)
         reals[T_FORCE] = force
         reals[T_Y] = z[0]
         reals[T_YD] = z[1]

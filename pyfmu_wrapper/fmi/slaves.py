@@ -26,13 +26,14 @@ a step is one call of :func:`~pyfmu_wrapper.solvers.rodas.integrate` on the subs
 from __future__ import annotations
 
 import functools
+import math
 import traceback
 
 import numpy as np
 
 from ..physics import kernels as kn
 from ..physics import registry
-from ..physics.params import N_PARAMS, P_s, BaseParams, TMDParams, pack
+from ..physics.params import N_PARAMS, P_s, BaseParams, ParameterError, TMDParams, pack
 from ..solvers.rodas import STAT_STEPS, failure_message, integrate
 from .variables import BASE_OSCILLATOR, BOOLEAN, INTEGER, TMD_INERTER, TRIVIAL, FmuSpec
 
@@ -350,7 +351,7 @@ class BaseOscillatorSlave(Slave):
         x, xd = self.z[0], self.z[1]
         fexc = kn.excitation(self.t, self.p)
         xdd = kn.base_acceleration(x, xd, inputs[0], 0.0, fexc, self.p)
-        return [x, xd, xdd, fexc]
+        return [x, xd, xdd, fexc, kn.base_acceleration(x, xd, 0.0, 0.0, fexc, self.p)]
 
     def advance(self, t, h, u):
         self._integrate(kn.SYS_BASE, t, h, u)
@@ -367,14 +368,23 @@ class TMDInerterSlave(Slave):
     spec = TMD_INERTER
     n_state = 4
 
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self._u = np.zeros(kn.U_KAPPA + 1)  # the input polynomials, then the mounting compliance
+
     def configure(self):
         tmd = TMDParams(**self._registry_values("tmd"), source=f"FMU {self.instance_name}")
+        kappa = self.val("base_compliance")
+        if not (math.isfinite(kappa) and kappa >= 0.0):
+            raise ParameterError(f"FMU {self.instance_name}: base_compliance = {kappa!r} 1/kg: must be finite "
+                                 "and >= 0 (1/M of the body the TMD is mounted on, 0: off)")
         self.p[:] = pack(BaseParams(), tmd, 0.0)
+        self._u[kn.U_KAPPA] = kappa
         self.z[:] = (self.val("y0"), self.val("yd0"), self.val("d0"), self.val("dd0"))
 
     def outputs(self, inputs):
         x, xd, xdd = inputs[0], inputs[1], inputs[2]
-        force, chain, contact = kn.tmd_outputs(self.z, x, xd, xdd, self.p)
+        force, chain, contact = kn.tmd_outputs(self.z, x, xd, xdd, self._u[kn.U_KAPPA], self.p)
         return [force, self.z[0], self.z[1], chain, contact]
 
     def advance(self, t, h, u):

@@ -145,6 +145,10 @@ BASE_OSCILLATOR = FmuSpec(
                  initial_depends_on=_BASE_PARS + ("x0", "xd0", "f_link")),
         Variable("f_exc", 23, REAL, "output", "continuous", "excitation force F cos(w t)", "N",
                  initial="calculated", initial_depends_on=("F", "w")),
+        Variable("xdd_free", 24, REAL, "output", "continuous",
+                 "base acceleration without the link force, (F cos(w t) - C xd - K x)/M: the input of a "
+                 "TMDInerter with base_compliance = 1/M", "m/s2", initial="calculated",
+                 initial_depends_on=_BASE_PARS + ("x0", "xd0")),
     ) + _INTEGRATOR,
 )
 
@@ -160,14 +164,19 @@ TMD_INERTER = FmuSpec(
         _par("yd0", 12, 0.0, "m/s", "initial TMD velocity"),
         _par("d0", 13, 0.0, "m", "initial play-chain deflection d = r - y (play model)"),
         _par("dd0", 14, 0.0, "m/s", "initial play-chain deflection rate (play model)"),
+        _par("base_compliance", 15, 0.0, "1/kg",
+             "interface Jacobian -d xdd/d force = 1/M of the body the TMD is mounted on. 0 (default): "
+             "xdd is the base acceleration. > 0: xdd is the base acceleration without this TMD's force "
+             "(BaseOscillator.xdd_free) and the TMD adds the base's reaction -force/M within each step"),
         Variable("x", 30, REAL, "input", "continuous", "base displacement", "m", 0.0),
         Variable("xd", 31, REAL, "input", "continuous", "base velocity", "m/s", 0.0),
-        Variable("xdd", 32, REAL, "input", "continuous", "base acceleration", "m/s2", 0.0),
+        Variable("xdd", 32, REAL, "input", "continuous",
+                 "base acceleration (without this TMD's force when base_compliance > 0)", "m/s2", 0.0),
         Variable("force", 40, REAL, "output", "continuous",
                  "force of the TMD links on the base, positive in -x on the base (+y on the TMD)", "N",
                  initial="calculated", depends_on=("x", "xd", "xdd"),
                  dependencies_kind=("fixed", "dependent", "fixed"),
-                 initial_depends_on=_TMD_PARS + ("y0", "yd0", "d0", "dd0", "x", "xd", "xdd")),
+                 initial_depends_on=_TMD_PARS + ("y0", "yd0", "d0", "dd0", "base_compliance", "x", "xd", "xdd")),
         Variable("y", 41, REAL, "output", "continuous", "TMD displacement", "m", initial="calculated",
                  initial_depends_on=("y0",)),
         Variable("yd", 42, REAL, "output", "continuous", "TMD velocity", "m/s", initial="calculated",
@@ -175,7 +184,7 @@ TMD_INERTER = FmuSpec(
         Variable("inerter_force", 43, REAL, "output", "continuous",
                  "force P carried by the inerter chain (diagnostic)", "N", initial="calculated",
                  depends_on=("x", "xd", "xdd"), dependencies_kind=("fixed", "dependent", "fixed"),
-                 initial_depends_on=_TMD_PARS + ("y0", "yd0", "d0", "dd0", "x", "xd", "xdd")),
+                 initial_depends_on=_TMD_PARS + ("y0", "yd0", "d0", "dd0", "base_compliance", "x", "xd", "xdd")),
         Variable("contact", 44, INTEGER, "output", "discrete",
                  "gear contact of the play chain: +1 compression, -1 extension, 0 free", None,
                  initial="calculated", initial_depends_on=("eps", "inerter", "d0")),

@@ -53,7 +53,9 @@ class CosimSettings(SteadySettings):
     steps_per_period: communication steps per forcing period (None: chosen from ``accuracy``
     with the calibrated error model of :func:`steps_for_accuracy`); coupling: "impulse"
     (:func:`impulse_connections`) or "force" (:data:`CONNECTIONS`); scheme / order: see
-    :mod:`pyfmu_wrapper.master.master`; fmu_rtol: tolerance of the integrators inside the FMUs.
+    :mod:`pyfmu_wrapper.master.master`; fmu_rtol: tolerance of the integrators inside the FMUs;
+    interface_jacobian: with the impulse coupling, hand the TMD the base's compliance 1/M and its
+    acceleration without the link force (:func:`impulse_connections`).
     """
 
     max_periods: int = 240
@@ -64,6 +66,7 @@ class CosimSettings(SteadySettings):
     scheme: str = "loop"
     order: int = 2
     fmu_rtol: float = 1e-8
+    interface_jacobian: bool = True
 
     def validate(self):
         super().validate()
@@ -75,6 +78,7 @@ class CosimSettings(SteadySettings):
         c.integer("order", 0)
         c.choice("order", (0, 1, 2))
         c.number("fmu_rtol", positive=True)
+        c.boolean("interface_jacobian")
 
     def steps_for(self, tmd: TMDParams) -> int:
         if self.steps_per_period is not None:
@@ -125,31 +129,42 @@ def _tmd_atol(base: BaseParams, tmd: TMDParams) -> float:
     return a
 
 
-def impulse_connections(tmd: TMDParams) -> list:
+def impulse_connections(tmd: TMDParams, interface_jacobian: bool = True) -> list:
     """Momentum coupling: the base gets the exact impulse of the links over each step, from the
     TMD's momentum balance m ydd = (force of the links) (the inerter chain is massless): mean
     f_link = m (yd(t + h) - yd(t)) / h over the step, handed to the base as a linear function with
     that mean and the slope between consecutive means; the TMD steps first. The base's change of
     momentum from the links is exact whatever the gear does inside the step, and no algebraic
     loop remains. (Matching the first moment as well, ``integral_src="tmd.y"``, makes the
-    base's end-of-step acceleration jumpy and was measured less accurate with play.)"""
-    return list(CONNECTIONS[:3]) + [Connection("tmd.yd", "base.f_link", "rate", float(tmd.mass), "tmd.force")]
+    base's end-of-step acceleration jumpy and was measured less accurate with play.)
+
+    interface_jacobian: the TMD gets the base's acceleration without the link force
+    (``base.xdd_free -> tmd.xdd``) and, as the parameter ``tmd.base_compliance`` = 1/M set by
+    :func:`make_master`, the base's compliance, so that within a step it adds the base's
+    instantaneous reaction -force/M to its own force: the gear-mesh rattle then meets a base that
+    reacts without a step of delay (docs/cosimulation.md, "interface Jacobian")."""
+    xdd = "base.xdd_free -> tmd.xdd" if interface_jacobian else CONNECTIONS[2]
+    return [CONNECTIONS[0], CONNECTIONS[1], xdd,
+            Connection("tmd.yd", "base.f_link", "rate", float(tmd.mass), "tmd.force")]
 
 
 def make_master(base: BaseParams | None = None, tmd: TMDParams | None = None, scheme: str = "loop",
-                order: int = 2, fmus: dict | None = None, coupling: str = "force") -> Master:
+                order: int = 2, fmus: dict | None = None, coupling: str = "force",
+                interface_jacobian: bool = True) -> Master:
     """A master for the base + TMD pair (the FMUs are built if missing or stale).
 
     coupling: "force" (tmd.force -> base.f_link, the algebraic loop of the ideal inerter) or
-    "impulse" (:func:`impulse_connections`; needs ``tmd``)."""
+    "impulse" (:func:`impulse_connections`; needs ``tmd``; ``interface_jacobian`` sets
+    ``tmd.base_compliance`` = 1/M of ``base``)."""
     if fmus is None:
         from ..fmi.build import ensure_fmus
 
         paths = ensure_fmus()
         fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
     if coupling == "impulse":
-        return Master(fmus, impulse_connections(tmd or TMDParams()), {}, scheme="jacobi", order=order,
-                      record=RECORD)
+        pars = {"tmd.base_compliance": 1.0 / (base or BaseParams()).mass} if interface_jacobian else {}
+        return Master(fmus, impulse_connections(tmd or TMDParams(), interface_jacobian), pars, scheme="jacobi",
+                      order=order, record=RECORD)
     return Master(fmus, CONNECTIONS, {}, scheme=scheme, order=order, record=RECORD)
 
 
@@ -294,7 +309,8 @@ def continuation_start(base: BaseParams, tmd: TMDParams, z_prev, w_prev: float, 
 
 
 def _sweep_piece(base, tmd, seq, direction, settings, z0, queue=None):
-    master = make_master(base, tmd, settings.scheme, settings.order, coupling=settings.coupling)
+    master = make_master(base, tmd, settings.scheme, settings.order, coupling=settings.coupling,
+                         interface_jacobian=settings.interface_jacobian)
     rows = []
     z = None if z0 is None else np.asarray(z0, dtype=float)
     hint: dict = {}
@@ -338,7 +354,8 @@ def periodic_time_series(base: BaseParams, tmd: TMDParams, omega: float, n_perio
     ``samples_per_period`` overrides the communication steps per period (the record is at the
     communication points)."""
     own = master is None
-    m = make_master(base, tmd, settings.scheme, settings.order, coupling=settings.coupling) if own else master
+    m = make_master(base, tmd, settings.scheme, settings.order, coupling=settings.coupling,
+                         interface_jacobian=settings.interface_jacobian) if own else master
     try:
         if samples_per_period is not None:
             settings = replace(settings, steps_per_period=int(samples_per_period))

@@ -184,8 +184,13 @@ def rhs(t, z, p, out):
 # --- subsystems, as the FMUs integrate them ----------------------------------------------------
 # Inputs of a subsystem over a communication step are Taylor polynomials in tau = t - u[0]:
 # input k has value u[1 + 3k], first derivative u[2 + 3k], second derivative u[3 + 3k].
+# The TMD subsystem's u carries one more entry after its three input polynomials (x, xd, xdd):
+# u[U_KAPPA] = the compliance kappa = 1/M [1/kg] of the body it is mounted on (0: off). With
+# kappa > 0 the xdd input is that body's acceleration *without* this TMD's link force, and the TMD
+# adds the body's instantaneous reaction to its own force (:func:`mounted_acceleration`).
 SYS_COUPLED, SYS_BASE, SYS_TMD = 0, 1, 2
 SYSTEM_SIZE = (6, 2, 4)
+U_KAPPA = 10
 
 
 @njit(cache=True, inline="always")
@@ -201,10 +206,35 @@ def base_rhs(t, z, p, f_link, out):
     out[1] = base_acceleration(z[0], z[1], f_link, 0.0, excitation(t, p), p)
 
 
+@njit(cache=True, inline="always")
+def tmd_kappa(u):
+    """The mounting compliance kappa carried in a TMD input vector u (0 when u has no slot)."""
+    return u[U_KAPPA] if u.shape[0] > U_KAPPA else 0.0
+
+
+@njit(cache=True, inline="always")
+def mounted_acceleration(xdd_in, kappa, f0, a):
+    """Acceleration of the body the TMD is mounted on, seen by the TMD within a step.
+
+    kappa = 0: the input itself. kappa = 1/M > 0 (interface Jacobian d xdd / d f_link = -1/M):
+    the input is the body's acceleration without the link force, xdd_free, and the body's
+    reaction to the TMD's own force f = f0 + a xdd is added at every instant:
+    xdd = xdd_free - kappa (f0 + a xdd)  ->  xdd = (xdd_free - kappa f0) / (1 + kappa a).
+    This is the base's own equation of motion, so the fast gear-mesh dynamics see the base react
+    without the delay of a communication step.
+    """
+    if kappa == 0.0:
+        return xdd_in
+    return (xdd_in - kappa * f0) / (1.0 + kappa * a)
+
+
 @njit(cache=True)
-def tmd_rhs(z, x, xd, xdd, p, out):
-    """TMD subsystem alone: z = [y, yd, d, dd] driven by the base motion x, xd, xdd."""
+def tmd_rhs(z, x, xd, xdd, kappa, p, out):
+    """TMD subsystem alone: z = [y, yd, d, dd] driven by the base motion x, xd, xdd
+    (xdd: the base's acceleration without the TMD's force when kappa > 0, see
+    :func:`mounted_acceleration`)."""
     f0, a, ydd0, ya, ddd0, da, _ = tmd_link(x, xd, z[0], z[1], z[2], z[3], p)
+    xdd = mounted_acceleration(xdd, kappa, f0, a)
     out[0] = z[1]
     out[1] = ydd0 + ya * xdd
     out[2] = z[3]
@@ -212,9 +242,11 @@ def tmd_rhs(z, x, xd, xdd, p, out):
 
 
 @njit(cache=True)
-def tmd_outputs(z, x, xd, xdd, p):
-    """(force on the base [N], inerter chain force [N], gear contact state) of the TMD subsystem."""
+def tmd_outputs(z, x, xd, xdd, kappa, p):
+    """(force on the base [N], inerter chain force [N], gear contact state) of the TMD subsystem
+    (kappa, xdd: see :func:`tmd_rhs`)."""
     f0, a, ydd0, ya, ddd0, da, P0 = tmd_link(x, xd, z[0], z[1], z[2], z[3], p)
+    xdd = mounted_acceleration(xdd, kappa, f0, a)
     P = P0
     if int(p[P_MODEL]) == MODEL_IDEAL:
         P = p[P_I] * (xdd - (ydd0 + ya * xdd))
@@ -229,7 +261,7 @@ def system_rhs(system, t, z, p, u, out):
     elif system == SYS_BASE:
         base_rhs(t, z, p, input_value(u, 0, t), out)
     else:
-        tmd_rhs(z, input_value(u, 0, t), input_value(u, 1, t), input_value(u, 2, t), p, out)
+        tmd_rhs(z, input_value(u, 0, t), input_value(u, 1, t), input_value(u, 2, t), tmd_kappa(u), p, out)
 
 
 @njit(cache=True)
@@ -384,6 +416,18 @@ def tmd_jacobian(t, z, p, u, J):
             J[3, j] = -J[1, j]
         J[3, 2] -= Pd / I
         J[3, 3] -= Pdd / I
+    kappa = tmd_kappa(u)
+    if kappa != 0.0 and model != MODEL_NONE:
+        # mounted_acceleration: d xdd / dz = -kappa / (1 + kappa a) * d f0 / dz
+        if model == MODEL_PLAY:  # f0 = Fs + P, a = 0, xdd enters ddd with weight 1
+            J[3, 0] -= kappa * gF0
+            J[3, 1] -= kappa * gF1
+            J[3, 2] -= kappa * Pd
+            J[3, 3] -= kappa * Pdd
+        else:  # ideal: f0 = m Fs / (m + I), a = m I / (m + I), xdd enters ydd with weight I / (m + I)
+            w = -kappa / (1.0 + kappa * m * I / (m + I)) * (m / (m + I)) * (I / (m + I))
+            J[1, 0] += w * gF0
+            J[1, 1] += w * gF1
 
 
 @njit(cache=True)

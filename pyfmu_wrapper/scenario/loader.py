@@ -380,6 +380,7 @@ def _cosim(rd: _Reader, node, line) -> CosimConfig:
         max_periods=lambda: rd.integer(node, "max_periods", p, minimum=1),
         fmu_rtol=lambda: rd.number(node, "fmu_rtol", p, minimum=0, strict=True, maximum=0.1),
         shooting=lambda: rd.boolean(node, "shooting", p),
+        interface_jacobian=lambda: rd.boolean(node, "interface_jacobian", p),
     )
     overrides = tuple((k, read[k]()) for k in node)
     cfg = CosimConfig(overrides)
