@@ -52,7 +52,7 @@ MUTATIONS = (
              "omegas=[float(w).hex() for w in np.asarray(self.omegas, float)], settings=s.used())",
              "omegas=[float(w).hex() for w in np.asarray(self.omegas, float)])",
              ("tests/test_scenarios.py",)),
-    Mutation("co-simulation Hermite maximum replaced by end points", "pyfmu_wrapper/master/steady.py",
+    Mutation("co-simulation Hermite maximum replaced by end points", "pyfmu_wrapper/cosim/steady.py",
              "        return _hermite_absmax(x, v, h)", "        return float(np.max(np.abs(x)))",
              ("tests/test_master.py",)),
     Mutation("antiresonance verdict inverted", "pyfmu_wrapper/claims.py",

@@ -8,7 +8,7 @@ sdist downloads a binary at install time); build it from its public source
 it this script says so and exits with status 2, running nothing.
 
 For each frequency it exports the base + TMD pair (Case 1, c = 10 N.s/m) as an SSP
-(:func:`pyfmu_wrapper.master.ssp.export_tmd_system`, start state the linear steady state), runs
+(:func:`pyfmu_wrapper.cosim.system.export_tmd_system`, start state the linear steady state), runs
 ``OMSimulator --stopTime=T --intervals=N --resultFile=... system.ssp`` with nothing else changed
 (directional derivatives on, as by default), counts the error lines in its log, and compares the
 amplitude of base.x over the last three periods with the monolithic solver. It also loads each
@@ -43,7 +43,7 @@ def main(argv=None) -> int:
         return 2
 
     from pyfmu_wrapper.fmi.build import ensure_fmus
-    from pyfmu_wrapper.master.ssp import export_tmd_system
+    from pyfmu_wrapper.cosim.system import export_tmd_system
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
     from pyfmu_wrapper.solvers import monolithic as mono
 

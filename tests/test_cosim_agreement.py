@@ -20,7 +20,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pyfmu_wrapper.master import steady as cs
+from pyfmu_wrapper.cosim import steady as cs
 from pyfmu_wrapper.physics.params import BaseParams, paper_case
 from pyfmu_wrapper.solvers.monolithic import SolverSettings
 from pyfmu_wrapper.solvers.sweep import sweep
