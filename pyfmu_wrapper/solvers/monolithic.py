@@ -100,6 +100,14 @@ class SteadyState:
     irregular: bool = False  #: settled into irregular motion; ``change`` is then its scatter
 
 
+def play_atol(base: BaseParams, tmd: TMDParams) -> float:
+    """Absolute tolerance [m] on the gear-chain deflection d of the play model, shared by both
+    engines (the monolithic integrator and the TMD FMU): the gear penetration is ~ F / ki, so
+    resolve it, not just the gap: 1e-3 of the larger of gap and penetration, plus the penetration."""
+    pen = max(abs(base.force_amplitude) / tmd.mesh_stiffness, 1e-12)
+    return 1e-3 * max(tmd.play_gap, pen) + pen
+
+
 def _atol(base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettings) -> np.ndarray:
     xs = abs(base.force_amplitude) / max(base.stiffness, 1e-300)
     xs = xs if xs > 0 else 1e-3
@@ -107,9 +115,7 @@ def _atol(base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettin
     a = settings.atol_scale * xs
     atol = np.array([a, a * wn, a, a * wn, a, a * wn])
     if tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0:
-        # the gear penetration is ~ force / ki: resolve it, not just the gap
-        pen = max(abs(base.force_amplitude) / tmd.mesh_stiffness, 1e-12)
-        atol[4] = min(atol[4], 1e-3 * max(tmd.play_gap, pen) + pen)
+        atol[4] = min(atol[4], play_atol(base, tmd))
         atol[5] = atol[4] * math.sqrt(tmd.mesh_stiffness / tmd.inertance)
     return atol
 
