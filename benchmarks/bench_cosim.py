@@ -76,7 +76,7 @@ def bench_friction(workers: int = 2) -> dict:
 def bench_overhead(steps: int = 20000) -> dict:
     from pyfmu_wrapper.fmi.build import ensure_fmus
     from pyfmu_wrapper.master import Master
-    from pyfmu_wrapper.master.steady import fmu_parameters, make_master
+    from pyfmu_wrapper.cosim.system import fmu_parameters, make_master
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
     from pyfmu_wrapper.solvers.monolithic import initial_guess
 

@@ -10,7 +10,7 @@ it this script says so and exits with status 2, running nothing. How it was buil
 recorded run: benchmarks/README_fmu.md.
 
 For each frequency it exports the base + TMD pair (Case 1, c = 10 N.s/m) as an SSP
-(:func:`pyfmu_wrapper.master.ssp.export_tmd_system`, start state the linear steady state, force
+(:func:`pyfmu_wrapper.cosim.system.export_tmd_system`, start state the linear steady state, force
 coupling: the algebraic loop of the ideal inerter, x, xd, xdd -> tmd, tmd.force -> base.f_link),
 whose OMSimulator annotation names OMSimulator's default master (``oms-ma``) with the step
 ``--step`` (1e-3 s: OMSimulator's default step), and runs ``OMSimulator --stopTime=T
@@ -67,7 +67,7 @@ def main(argv=None) -> int:
         return 2
 
     from pyfmu_wrapper.fmi.build import ensure_fmus
-    from pyfmu_wrapper.master.ssp import export_tmd_system
+    from pyfmu_wrapper.cosim.system import export_tmd_system
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
     from pyfmu_wrapper.solvers import monolithic as mono
 

@@ -3,11 +3,17 @@
 The slow test sweeps 41 frequencies (15..25 rad/s) up with both engines, with continuation as
 ``run-scenario`` does, and holds the co-simulated amplitude within 0.5 % of the monolithic one at
 every point. Its numbers are written to ``benchmarks/results/cosim_agreement.json`` (git-ignored)
-and recorded in docs/cosimulation.md. The fast test holds a few points of two configurations.
+and recorded in docs/cosimulation.md.
 
-Known to fail: the full model of Case 2 at 22.75-25 rad/s (co-simulation +0.5 to +1.5 %), see
-"Known limits" in docs/cosimulation.md: the explicit coupling pumps energy into the nearly
-undamped gear-mesh mode when the TMD sticks to the base and the chain rattles.
+One exception, stated and measured: where the monolithic engine itself reports the response
+irregular (the play model at its antiresonance, 20 rad/s: the base amplitude ~1.6e-5 m is set by
+a chaotic gear rattle and the maximum over a 20-period window scatters by 20-50 % from window to
+window), an amplitude is only defined to within that scatter, and the co-simulation is held
+within max(0.5 %, the monolithic window scatter) there.
+
+The fast tests hold a few points, among them the ones that were 0.8-1.5 % off before the
+interface Jacobian (full model Case 2 at 24 and 25 rad/s, play Case 1 at 19.5 rad/s), and show
+that without it the full model of Case 2 is off by more than 0.5 % (the cause: docs/cosimulation.md).
 
 Run the slow one with ``nice python -m pytest tests/test_cosim_agreement.py -m slow``.
 """
@@ -15,12 +21,13 @@ from __future__ import annotations
 
 import json
 import os
+from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import pytest
 
-from pyfmu_wrapper.master import steady as cs
+from pyfmu_wrapper.cosim import steady as cs
 from pyfmu_wrapper.physics.params import BaseParams, paper_case
 from pyfmu_wrapper.solvers.monolithic import SolverSettings
 from pyfmu_wrapper.solvers.sweep import sweep
@@ -47,6 +54,12 @@ CONFIGS = paper_configurations()
 TOL = 5e-3
 
 
+def _allowed(mono) -> np.ndarray:
+    """0.5 %, or the monolithic window scatter where that engine reports the response irregular."""
+    irregular = mono["irregular"].astype(bool).to_numpy()
+    return np.where(irregular, np.maximum(TOL, mono["change"].to_numpy()), TOL)
+
+
 def _relative_differences(tmd, omegas, cosim=cs.CosimSettings()):
     mono = sweep(BASE, tmd, omegas, "up", SolverSettings()).table
     co = cs.sweep(BASE, tmd, omegas, "up", cosim)
@@ -63,19 +76,36 @@ def test_cosim_within_half_percent_of_monolithic_41_points(name):
     out.mkdir(parents=True, exist_ok=True)
     path = out / "cosim_agreement.json"
     data = json.loads(path.read_text()) if path.exists() else {}
-    worst = int(np.argmax(np.abs(rel)))
-    data[name] = dict(max_abs_rel=float(np.max(np.abs(rel))), at_omega=float(OMEGAS[worst]),
-                      above_tol=int(np.sum(np.abs(rel) > TOL)),
+    allowed = _allowed(mono)
+    worst = int(np.argmax(np.abs(rel) / allowed))
+    data[name] = dict(max_abs_rel=float(np.max(np.abs(rel))), at_omega=float(OMEGAS[int(np.argmax(np.abs(rel)))]),
+                      above_tol=int(np.sum(np.abs(rel) > TOL)), above_allowed=int(np.sum(np.abs(rel) > allowed)),
+                      irregular_mono=[float(w) for w in OMEGAS[mono["irregular"].astype(bool).to_numpy()]],
                       mono_not_converged=int((~mono["converged"].astype(bool)).sum()),
                       cosim_not_converged=int((~co["converged"].astype(bool)).sum()),
                       rel=[float(r) for r in rel], pid=os.getpid())
     path.write_text(json.dumps(data, indent=1))
-    assert np.max(np.abs(rel)) <= TOL, f"{name}: {np.max(np.abs(rel)):.3e} at {OMEGAS[worst]} rad/s"
+    assert np.all(np.abs(rel) <= allowed), f"{name}: {rel[worst]:.3e} at {OMEGAS[worst]} rad/s (allowed {allowed[worst]:.1e})"
 
 
-@pytest.mark.timeout(300)
-@pytest.mark.parametrize("name,omegas", [("viscous_case2", [17.0, 22.0]), ("friction_case3", [18.0, 21.0])])
+@pytest.mark.timeout(600)
+@pytest.mark.parametrize("name,omegas", [("viscous_case2", [17.0, 22.0]), ("friction_case3", [18.0, 21.0]),
+                                         ("full_case2", [24.0, 25.0]), ("play_case1", [19.5])])
 def test_cosim_agrees_on_a_few_points(name, omegas):
-    """A few points of two configurations within 0.5 % (their 41-point sweeps: docs/cosimulation.md)."""
-    rel, _, _ = _relative_differences(CONFIGS[name], omegas)
+    """A few points within 0.5 % (their 41-point sweeps: docs/cosimulation.md). The full model of
+    Case 2 at 24/25 rad/s and play Case 1 at 19.5 rad/s were 0.8-1.5 % off before the interface
+    Jacobian."""
+    rel, mono, _ = _relative_differences(CONFIGS[name], omegas)
+    assert not mono["irregular"].any()
     assert np.max(np.abs(rel)) <= TOL, rel
+
+
+@pytest.mark.timeout(600)
+def test_without_the_interface_jacobian_the_rattling_full_model_drifts():
+    """The cause, shown: with the plain impulse coupling (the TMD takes the base's acceleration as
+    a given input within a step, the base's reaction to the gear force arrives a step late) the
+    full model of Case 2 at 25 rad/s is more than 0.5 % too large (measured +1.5 %); with the
+    interface Jacobian it is within 0.5 % (test above)."""
+    rel, _, _ = _relative_differences(CONFIGS["full_case2"], [25.0],
+                                      replace(cs.CosimSettings(), interface_jacobian=False))
+    assert rel[0] > TOL, rel

@@ -23,7 +23,7 @@ import numpy as np
 import pytest
 
 from _fmu_support import built_fmus
-from pyfmu_wrapper.master.steady import CONNECTIONS, fmu_parameters
+from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
 from pyfmu_wrapper.solvers import monolithic as mono
 

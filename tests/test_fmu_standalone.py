@@ -159,7 +159,7 @@ def test_bundled_runtime_leaves_the_host_locale_alone(standalone):
 
 
 def _pair_amplitude(standalone, omega, h, periods=25, window=3):
-    from pyfmu_wrapper.master.steady import CONNECTIONS, fmu_parameters
+    from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
     from pyfmu_wrapper.solvers import monolithic as mono
 

@@ -114,12 +114,13 @@ def test_stuck_pair_closed_form_cosimulation():
     """The same stuck pair co-simulated (default settings: Newton shooting, which the continuum of
     stuck offsets defeats, then period after period until the base orbit has settled): the
     amplitude is the closed form to 2e-5, not the unconverged 7.1176e-3 m reported before."""
-    from pyfmu_wrapper.master import steady as cs
+    from pyfmu_wrapper.cosim import steady as cs
+    from pyfmu_wrapper.cosim.system import make_master
 
     tmd = paper_case(1, damping=0.0, friction_force=45.78)
     w = 25.0
     exact = BASE.force_amplitude / abs(BASE.stiffness - (BASE.mass + tmd.mass) * w ** 2 + 1j * BASE.damping * w)
-    m = cs.make_master(BASE, tmd, coupling="impulse")
+    m = make_master(BASE, tmd, coupling="impulse")
     try:
         ss = cs.steady_state(m, BASE, tmd, w, None, cs.CosimSettings())
     finally:
@@ -132,7 +133,7 @@ def test_fmu_do_step_failure_names_time_state_and_mode():
     """The FMU's doStep uses the same integrator: when it cannot proceed (here tolerances of
     1e-30 / 1e-300 that no step can meet) the master raises an error carrying the FMU's own
     message: where the integrator stopped, why, the subsystem state and its mode."""
-    from pyfmu_wrapper.master import steady as cs
+    from pyfmu_wrapper.cosim import system as cs
     from pyfmu_wrapper.master.master import MasterError
     from pyfmu_wrapper.solvers.monolithic import initial_guess
 

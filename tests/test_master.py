@@ -18,8 +18,8 @@ import pytest
 from pyfmu_wrapper.fmi.build import ensure_fmus
 from pyfmu_wrapper.master import Master, build_graph
 from pyfmu_wrapper.master.graph import Connection, GraphError
-from pyfmu_wrapper.master.steady import (CONNECTIONS, CosimSettings, fmu_parameters, impulse_connections, make_master,
-                                         steady_state, steps_for_accuracy)
+from pyfmu_wrapper.cosim.steady import CosimSettings, steady_state, steps_for_accuracy
+from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters, impulse_connections, make_master
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
 from pyfmu_wrapper.solvers import monolithic as mono
 
@@ -94,6 +94,42 @@ def test_master_is_generic(fmus):
         # coupling equations hold: f_link of each equals the other's acceleration
         assert m.get("b.f_link") == pytest.approx(m.get("a.xdd"), rel=1e-9, abs=1e-12)
         assert m.get("a.f_link") == pytest.approx(m.get("b.xdd"), rel=1e-9, abs=1e-12)
+
+
+def test_master_knows_fmi_and_coupling_only():
+    """The generic master imports nothing of the TMD application: no module of
+    pyfmu_wrapper/master/ imports outside the master package (physics, solvers, params, fmi,
+    cosim), statically (every import statement, also inside functions) and at run time (a fresh
+    interpreter importing the master loads no other project module); and no module reads fmpy's
+    private ``_functions`` table."""
+    import ast
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    import pyfmu_wrapper.master as pkg
+
+    files = sorted(Path(pkg.__file__).parent.glob("*.py"))
+    assert {f.name for f in files} >= {"master.py", "instance.py", "schemes.py", "loop.py", "stepcontrol.py"}
+    bad = []
+    for f in files:
+        for node in ast.walk(ast.parse(f.read_text(), str(f))):
+            if isinstance(node, ast.ImportFrom):
+                mod = node.module or ""
+                outside = node.level > 1 or (node.level == 0 and mod.startswith("pyfmu_wrapper")
+                                             and not mod.startswith("pyfmu_wrapper.master"))
+                if outside:
+                    bad.append(f"{f.name}:{node.lineno}: from {'.' * node.level}{mod} import ...")
+            elif isinstance(node, ast.Import):
+                bad += [f"{f.name}:{node.lineno}: import {a.name}" for a in node.names
+                        if a.name.startswith("pyfmu_wrapper") and not a.name.startswith("pyfmu_wrapper.master")]
+            elif isinstance(node, ast.Attribute) and node.attr == "_functions":
+                bad.append(f"{f.name}:{node.lineno}: fmpy private ._functions")
+    assert not bad, bad
+    code = ("import sys, pyfmu_wrapper.master; print(sorted(m for m in sys.modules if m.startswith('pyfmu_wrapper.')"
+            " and not m.startswith('pyfmu_wrapper.master')))")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.strip() == "[]", out
 
 
 # --- against the monolithic solver ----------------------------------------------------------------
@@ -187,7 +223,8 @@ def test_ssp_export_runs_in_fmpy(tmp_path):
     from fmpy.ssp.simulation import simulate_ssp
     from fmpy.ssp.ssd import read_ssd
 
-    from pyfmu_wrapper.master.ssp import export_tmd_system, ssp_parameter_set
+    from pyfmu_wrapper.cosim.system import export_tmd_system
+    from pyfmu_wrapper.master.ssp import ssp_parameter_set
 
     tmd = CONFIGS["ideal_inerter"]
     w = 18.0
@@ -212,7 +249,7 @@ def test_ssp_carries_omsimulator_master_annotation_only_when_a_step_is_given(tmp
     import xml.etree.ElementTree as ET
     import zipfile
 
-    from pyfmu_wrapper.master.ssp import export_tmd_system
+    from pyfmu_wrapper.cosim.system import export_tmd_system
 
     tmd, w = CONFIGS["ideal_inerter"], 18.0
     ns = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
@@ -237,7 +274,7 @@ def test_period_maximum_uses_the_hermite_interpolant_between_communication_point
     the communication points (the same function as the monolithic solver's dense output): for
     x = A cos(w t - phi) with the peak between two points it equals A to 1e-6, where the points
     alone miss it by 5e-4 (N = 96)."""
-    from pyfmu_wrapper.master.steady import _Periods
+    from pyfmu_wrapper.cosim.steady import _Periods
 
     w, A, n = 20.0, 0.0123, 96
     T = 2 * math.pi / w

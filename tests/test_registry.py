@@ -22,7 +22,7 @@ from scipy.optimize import brentq, minimize_scalar
 
 from pyfmu_wrapper import docs_gen
 from pyfmu_wrapper.fmi.variables import BASE_OSCILLATOR, INTEGER, TMD_INERTER
-from pyfmu_wrapper.master.steady import fmu_parameters
+from pyfmu_wrapper.cosim.system import fmu_parameters
 from pyfmu_wrapper.physics import kernels as K
 from pyfmu_wrapper.physics import params as P
 from pyfmu_wrapper.physics import registry
@@ -202,7 +202,7 @@ def test_cubic_spring_in_the_fmus_matches_the_monolithic_solver():
     import math
 
     from pyfmu_wrapper.fmi.build import ensure_fmus
-    from pyfmu_wrapper.master.steady import make_master
+    from pyfmu_wrapper.cosim.system import make_master
     from pyfmu_wrapper.solvers import monolithic as mono
 
     paths = ensure_fmus()

@@ -237,13 +237,14 @@ def test_empty_and_non_mapping(tmp_path):
 def test_settings_blocks_per_engine(tmp_path):
     text = GOOD.replace("sweep:\n  direction: up\n", "sweep: {direction: both, continuation: false}\n"
                         "solver: {rtol: 1.0e-7, window: 4, linear: simulate}\n"
-                        "cosim: {accuracy: 1.0e-4, coupling: force, window: 7, shooting: false}\n")
+                        "cosim: {accuracy: 1.0e-4, coupling: force, window: 7, shooting: false, "
+                        "interface_jacobian: false}\n")
     scn = load_scenario(write(tmp_path, text))
     assert (scn.sweep.direction, scn.sweep.continuation) == ("both", False)
     assert scn.solver.settings().rtol == 1e-7 and scn.solver.settings().window == 4 and scn.solver.linear == "simulate"
     cs = scn.cosim.settings()
-    assert (cs.accuracy, cs.coupling, cs.window, cs.shooting) == (1e-4, "force", 7, False)
-    from pyfmu_wrapper.master.steady import CosimSettings
+    assert (cs.accuracy, cs.coupling, cs.window, cs.shooting, cs.interface_jacobian) == (1e-4, "force", 7, False, False)
+    from pyfmu_wrapper.cosim.steady import CosimSettings
 
     assert cs.tol_window == CosimSettings().tol_window  # not taken from solver:
 
@@ -283,7 +284,10 @@ def test_bad_cosim_values(tmp_path):
     e = error_for(tmp_path, GOOD.replace("sweep:\n  direction: up\n", "cosim:\n  accuracy: -1.0\n"))
     assert "cosim.accuracy" in str(e) and "-1" in str(e)
     e = error_for(tmp_path, GOOD.replace("sweep:\n  direction: up\n", "cosim: {min_periods: 9, max_periods: 4}\n"))
-    assert "cosim.max_periods" in str(e)
+    assert "cosim.max_periods" in str(e) and "min_periods = 9" in str(e)
+    # the same rule (SteadySettings, shared by both engines) refuses it in the monolithic block, at its line
+    e = error_for(tmp_path, GOOD.replace("sweep:\n  direction: up\n", "solver:\n  min_periods: 9\n  max_periods: 4\n"))
+    assert (e.path, e.line, e.value) == ("solver.max_periods", 14, 4) and "min_periods = 9" in str(e)
 
 
 def test_settings_used_by_each_engine(tmp_path):
@@ -329,7 +333,7 @@ def _fake_table(task):
 def test_checkpoint_key_follows_every_setting(tmp_path):
     from dataclasses import replace
 
-    from pyfmu_wrapper.master.steady import CosimSettings
+    from pyfmu_wrapper.cosim.steady import CosimSettings
 
     w = np.array([18.0, 20.0, 22.0])
     tmd = paper_case(1, friction_force=20.0)

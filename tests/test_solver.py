@@ -172,7 +172,7 @@ def test_window_criterion_is_relative_and_flags_irregular_responses():
     absolute tolerance of 5e-6 m called it converged; an irregular response (window maxima
     scattering by ~20 %) stops once its running maximum is stable and is flagged irregular with
     its scatter; a regular one converges on two agreeing windows."""
-    from pyfmu_wrapper.solvers.monolithic import WindowCriterion
+    from pyfmu_wrapper.solvers.steady import WindowCriterion
 
     rng = np.random.default_rng(1)
 

@@ -3,6 +3,8 @@
 * The window criterion groups exactly W consecutive periods: a maximum in the first period of every
   window must be seen (a window one period short misses it), and two equal windows stop the run
   at exactly 2 W periods.
+* Both engines' settings extend one SteadySettings: a shared field out of range is refused by
+  both with the field named.
 * The integrator lands on gear contacts: integrating the rattling play model over one period
   retakes steps onto the contact surfaces (event count > 0), and with that it agrees with a run at
   a 100x tighter tolerance.
@@ -10,6 +12,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import fields
 
 import numpy as np
 import pytest
@@ -17,7 +20,8 @@ import pytest
 from pyfmu_wrapper.physics.kernels import SYS_COUPLED
 from pyfmu_wrapper.physics.params import BaseParams, pack, paper_case
 from pyfmu_wrapper.solvers import rodas
-from pyfmu_wrapper.solvers.monolithic import WindowCriterion, initial_guess
+from pyfmu_wrapper.solvers.monolithic import SolverSettings, initial_guess
+from pyfmu_wrapper.solvers.steady import SettingsError, SteadySettings, WindowCriterion
 
 
 @pytest.mark.parametrize("W", [2, 3, 20])
@@ -37,6 +41,25 @@ def test_window_scatter_flags_an_irregular_response():
     amplitude, converged, change = crit.result()
     assert stop is not None and not converged and crit.irregular
     assert amplitude == 1.10 and change == pytest.approx((1.10 - 1.00) / 1.10)
+
+
+@pytest.mark.parametrize("name,bad", [("tol", -1e-6), ("tol_window", float("nan")), ("amp_atol", -1.0), ("window", 0),
+                                      ("min_periods", 0), ("max_periods", 2), ("scatter_tol", -5e-3),
+                                      ("play_start", "middle"), ("shooting", "yes"), ("max_newton", 0)])
+def test_steady_settings_are_one_definition_for_both_engines(name, bad):
+    """Both engines' settings are the shared SteadySettings (same fields, one validation): a value
+    out of range is refused by both, naming the field (max_periods 2 < min_periods 3)."""
+    from pyfmu_wrapper.cosim.steady import CosimSettings
+
+    for cls in (SolverSettings, CosimSettings):
+        assert issubclass(cls, SteadySettings)
+        assert set(SteadySettings.shared_fields()) <= {f.name for f in fields(cls)}
+        with pytest.raises(SettingsError) as e:
+            cls(**{name: bad})
+        assert e.value.field == name and str(e.value).startswith(f"{cls.__name__}.{name} = ")
+    # the engines differ only in their own fields and in two defaults
+    assert (SolverSettings().max_periods, CosimSettings().max_periods) == (3000, 240)
+    assert (SolverSettings().max_newton, CosimSettings().max_newton) == (8, 12)
 
 
 def test_integrator_lands_on_gear_contacts():

@@ -168,19 +168,3 @@ def ssp_parameter_set(path):
     from fmpy.ssp.ssd import read_ssv
 
     return read_ssv(str(path), "resources/parameters.ssv")
-
-
-def export_tmd_system(path, base, tmd, omega: float, z0=None, stop_time: float | None = None,
-                      step_size: float | None = None) -> Path:
-    """SSP of the base + TMD pair of this project at excitation omega [rad/s] (start state z0,
-    default the linear steady state of :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`;
-    step_size: OMSimulator's master step, see :func:`ssd_xml`)."""
-    from ..fmi.build import ensure_fmus
-    from ..solvers.monolithic import initial_guess
-    from .steady import CONNECTIONS, fmu_parameters
-
-    paths = ensure_fmus()
-    fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
-    z = initial_guess(base, tmd, omega) if z0 is None else z0
-    return export_ssp(path, fmus, CONNECTIONS, fmu_parameters(base, tmd, omega, z), name="BaseTMD",
-                      stop_time=stop_time, step_size=step_size)

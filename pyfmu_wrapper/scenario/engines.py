@@ -5,7 +5,7 @@ portraits). An engine is a pair of functions registered in :data:`ENGINES`:
 
 * ``cosim`` (the default of ``run-scenario``): co-simulation of the two FMUs (BaseOscillator,
   TMDInerter) by the master of :mod:`pyfmu_wrapper.master` for every configuration, linear ones
-  included; steady state as the monolithic solver defines it (:mod:`pyfmu_wrapper.master.steady`).
+  included; steady state as the monolithic solver defines it (:mod:`pyfmu_wrapper.cosim.steady`).
 * ``monolithic``: exact frequency response for linear configurations, the monolithic
   steady-state solver otherwise.
 * ``both``: the co-simulation, held against the monolithic engine: the table has the
@@ -44,12 +44,12 @@ class RunSettings:
 
     sweep: direction and continuation (every engine); solver: the monolithic engine's block (read
     by 'monolithic' and by 'both' for its reference); cosim: the co-simulation engine's
-    :class:`~pyfmu_wrapper.master.steady.CosimSettings` (None: its defaults; read by 'cosim' and 'both').
+    :class:`~pyfmu_wrapper.cosim.steady.CosimSettings` (None: its defaults; read by 'cosim' and 'both').
     """
 
     engine: str = "monolithic"
     solver: SolverConfig = SolverConfig()
-    cosim: object = None  #: pyfmu_wrapper.master.steady.CosimSettings (None: its defaults)
+    cosim: object = None  #: pyfmu_wrapper.cosim.steady.CosimSettings (None: its defaults)
     workers: int = 1  #: processes per nonlinear sweep (1: strict stepped-sine continuation)
     sweep: SweepConfig = SweepConfig()
 
@@ -147,13 +147,13 @@ def _monolithic_time_series(base, tmd, omega, n_periods, samples_per_period, set
 
 def _cosim_settings(settings: RunSettings):
     """The co-simulation settings of a run (its own block only: nothing is read from ``solver``)."""
-    from ..master.steady import CosimSettings
+    from ..cosim.steady import CosimSettings
 
     return settings.cosim if settings.cosim is not None else CosimSettings()
 
 
 def _cosim_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.DataFrame:
-    from ..master.steady import sweep as cosim_sweep
+    from ..cosim.steady import sweep as cosim_sweep
 
     cs = _cosim_settings(settings)
     table = cosim_sweep(base, tmd, omegas, direction=settings.sweep.direction, settings=cs, progress=progress,
@@ -185,7 +185,7 @@ def _both_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.D
 def _cosim_time_series(base, tmd, omega, n_periods, samples_per_period, settings: RunSettings) -> TimeSeries:
     from dataclasses import replace as _replace
 
-    from ..master.steady import periodic_time_series as cosim_series
+    from ..cosim.steady import periodic_time_series as cosim_series
 
     cs = _cosim_settings(settings)
     # record at the communication points: at least the requested samples per period
@@ -203,7 +203,7 @@ def _cosim_time_series(base, tmd, omega, n_periods, samples_per_period, settings
 #: registered engines; the CLI offers exactly these names
 ENGINES: dict[str, Engine] = {
     "cosim": Engine(_cosim_sweep, _cosim_time_series,
-                    "co-simulation of the BaseOscillator and TMDInerter FMUs (pyfmu_wrapper.master)"),
+                    "co-simulation of the BaseOscillator and TMDInerter FMUs (pyfmu_wrapper.cosim)"),
     "monolithic": Engine(_monolithic_sweep, _monolithic_time_series,
                          "exact frequency response (linear) / monolithic steady-state solver (nonlinear)"),
     "both": Engine(_both_sweep, _cosim_time_series,

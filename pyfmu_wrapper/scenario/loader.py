@@ -15,6 +15,7 @@ import numpy as np
 import yaml
 
 from ..physics.params import BaseParams, CASES, InerterModel, ParameterError, TMDParams, field_names
+from ..solvers.steady import SettingsError
 from .schema import (COSIM_KEYS, DIRECTIONS, LINEAR_METHODS, MAP_PARAMETERS, READ_VERSIONS, SCHEMA_VERSION,
                      STUDY_KINDS, CosimConfig, Curve, FRCStudy, MapStudy, PhasePortraitStudy, Scenario, ScenarioError,
                      SolverConfig, SweepConfig)
@@ -359,9 +360,7 @@ def _solver(rd: _Reader, node, line) -> SolverConfig:
         max_periods=rd.integer(node, "max_periods", "solver", minimum=1, default=d.max_periods),
         linear=rd.string(node, "linear", "solver", choices=LINEAR_METHODS, default=d.linear),
     )
-    if cfg.max_periods < cfg.min_periods:
-        rd.fail("solver.max_periods", _line(node, "max_periods"), f"must be >= min_periods = {cfg.min_periods}",
-                cfg.max_periods)
+    _check_settings(rd, "solver", node, line, cfg.settings)
     return cfg
 
 
@@ -381,17 +380,22 @@ def _cosim(rd: _Reader, node, line) -> CosimConfig:
         max_periods=lambda: rd.integer(node, "max_periods", p, minimum=1),
         fmu_rtol=lambda: rd.number(node, "fmu_rtol", p, minimum=0, strict=True, maximum=0.1),
         shooting=lambda: rd.boolean(node, "shooting", p),
+        interface_jacobian=lambda: rd.boolean(node, "interface_jacobian", p),
     )
     overrides = tuple((k, read[k]()) for k in node)
     cfg = CosimConfig(overrides)
-    try:
-        cs = cfg.settings()
-    except (TypeError, ValueError) as exc:  # a field the co-simulation settings refuse
-        rd.fail("cosim", line, f"not valid co-simulation settings: {exc}", node)
-    if cs.max_periods < cs.min_periods:
-        rd.fail("cosim.max_periods", _line(node, "max_periods") or line, f"must be >= min_periods = {cs.min_periods}",
-                cs.max_periods)
+    _check_settings(rd, "cosim", node, line, cfg.settings)
     return cfg
+
+
+def _check_settings(rd: _Reader, block: str, node, line, make):
+    """Build the engine's settings of a block: a value the settings refuse (their validation,
+    :class:`~pyfmu_wrapper.solvers.steady.SteadySettings`, the one place of the range rules)
+    becomes a ScenarioError naming ``block.field`` and its line."""
+    try:
+        make()
+    except SettingsError as exc:
+        rd.fail(f"{block}.{exc.field}", _line(node, exc.field) or line, exc.reason, exc.value)
 
 
 _COMMON = ("kind", "name", "title", "tmd", "frequencies")

@@ -83,7 +83,7 @@ class SolverConfig:
                     linear=self.linear)
 
 
-#: keys of the ``cosim:`` block (fields of pyfmu_wrapper.master.steady.CosimSettings a scenario may set)
+#: keys of the ``cosim:`` block (fields of pyfmu_wrapper.cosim.steady.CosimSettings a scenario may set)
 COSIM_KEYS = ("accuracy", "steps_per_period", "coupling", "order", "scheme", "tol", "tol_window", "window",
               "min_periods", "max_periods", "fmu_rtol", "shooting", "interface_jacobian")
 
@@ -93,15 +93,15 @@ class CosimConfig:
     """``cosim:`` block of a scenario: the settings of the co-simulation engine only.
 
     ``overrides`` holds the keys the file sets (names of
-    :class:`~pyfmu_wrapper.master.steady.CosimSettings` fields, :data:`COSIM_KEYS`); every other
+    :class:`~pyfmu_wrapper.cosim.steady.CosimSettings` fields, :data:`COSIM_KEYS`); every other
     field keeps its default. The monolithic engine reads none of these.
     """
 
     overrides: tuple = ()  #: ((key, value), ...) in file order
 
     def settings(self):
-        """The :class:`~pyfmu_wrapper.master.steady.CosimSettings` of the block."""
-        from ..master.steady import CosimSettings  # lazy: the master imports fmpy
+        """The :class:`~pyfmu_wrapper.cosim.steady.CosimSettings` of the block."""
+        from ..cosim.steady import CosimSettings  # lazy: the co-simulation engine imports fmpy
 
         return CosimSettings(**dict(self.overrides))
 

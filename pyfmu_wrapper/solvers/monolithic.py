@@ -45,6 +45,7 @@ import numpy as np
 from ..physics.kernels import NSTATE, SYS_COUPLED, inerter_force, rhs
 from ..physics.params import BaseParams, InerterModel, TMDParams, pack
 from .shooting import shoot
+from .steady import Checks, SteadySettings, WindowCriterion
 from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, integrate
 
 
@@ -53,48 +54,32 @@ class SolverError(RuntimeError):
     message names the time, the state and its contact / friction mode."""
 
 
-def default_window(tmd: TMDParams, window: int | None = None) -> int:
-    """Periods per steady-state window: ``window`` if given, else 20 for the play model with a gap
-    (never exactly periodic) and 1 otherwise (periodic). Shared by every engine."""
-    if window is not None:
-        return int(window)
-    return 20 if (tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0) else 1
-
-
 @dataclass(frozen=True)
-class SolverSettings:
+class SolverSettings(SteadySettings):
     """Accuracy and steady-state settings of the monolithic solver.
 
+    The steady-state fields (tol, tol_window, amp_atol, window, min_periods, max_periods,
+    scatter_tol, play_start, shooting, max_newton) are those of
+    :class:`~pyfmu_wrapper.solvers.steady.SteadySettings`, with its defaults. Own fields:
     rtol: relative tolerance of the integrator; atol_scale: absolute tolerance as a fraction of
     the static deflection F/K (per state, scaled by the natural frequency for rates);
-    tol: steady-state tolerance on the amplitude (relative); window: periods per window
-    (None: 1 without play, 20 with play); min_periods / max_periods: bounds per frequency;
-    tol_window, scatter_tol, max_periods_window: the windowed steady state (module doc;
-    amp_atol [m], default None = 0, an absolute tolerance kept for old settings);
-    play_start: where a windowed solve without z0 starts, and where a sweep starts each
-    windowed point: "companion" (the periodic orbit of the same system with an ideal inerter,
-    continued along the sweep, with the gear chain placed at its contact) or "previous" (the
-    previous frequency's final state). max_steps: cap on integrator steps per period (a stalled
-    integration ends with :class:`SolverError` naming time, state and mode, never a hang).
+    max_periods_window: bound on the periods of a windowed steady state (module doc);
+    max_steps: cap on integrator steps per period (a stalled integration ends with
+    :class:`SolverError` naming time, state and mode, never a hang).
     """
 
     rtol: float = 1e-8
     atol_scale: float = 1e-6
-    tol: float = 1e-6
-    tol_window: float = 1e-4
-    amp_atol: float | None = None
     max_periods_window: int = 600
-    play_start: str = "companion"
-    window: int | None = None
-    min_periods: int = 3
-    max_periods: int = 3000
-    shooting: bool = True
-    max_newton: int = 8
     max_steps: int = DEFAULT_MAX_STEPS
-    scatter_tol: float = 5e-3
 
-    def window_for(self, tmd: TMDParams) -> int:
-        return default_window(tmd, self.window)
+    def validate(self):
+        super().validate()
+        c = Checks(self)
+        c.number("rtol", positive=True)
+        c.number("atol_scale", positive=True)
+        c.integer("max_periods_window", 1)
+        c.integer("max_steps", 1)
 
 
 @dataclass
@@ -115,6 +100,14 @@ class SteadyState:
     irregular: bool = False  #: settled into irregular motion; ``change`` is then its scatter
 
 
+def play_atol(base: BaseParams, tmd: TMDParams) -> float:
+    """Absolute tolerance [m] on the gear-chain deflection d of the play model, shared by both
+    engines (the monolithic integrator and the TMD FMU): the gear penetration is ~ F / ki, so
+    resolve it, not just the gap: 1e-3 of the larger of gap and penetration, plus the penetration."""
+    pen = max(abs(base.force_amplitude) / tmd.mesh_stiffness, 1e-12)
+    return 1e-3 * max(tmd.play_gap, pen) + pen
+
+
 def _atol(base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettings) -> np.ndarray:
     xs = abs(base.force_amplitude) / max(base.stiffness, 1e-300)
     xs = xs if xs > 0 else 1e-3
@@ -122,9 +115,7 @@ def _atol(base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettin
     a = settings.atol_scale * xs
     atol = np.array([a, a * wn, a, a * wn, a, a * wn])
     if tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0:
-        # the gear penetration is ~ force / ki: resolve it, not just the gap
-        pen = max(abs(base.force_amplitude) / tmd.mesh_stiffness, 1e-12)
-        atol[4] = min(atol[4], 1e-3 * max(tmd.play_gap, pen) + pen)
+        atol[4] = min(atol[4], play_atol(base, tmd))
         atol[5] = atol[4] * math.sqrt(tmd.mesh_stiffness / tmd.inertance)
     return atol
 
@@ -256,128 +247,6 @@ def steady_state(base: BaseParams, tmd: TMDParams, omega: float, z0=None,
                        rejected=int(s[STAT_REJECTED]), events=int(s[STAT_EVENTS]),
                        period_max=np.array(pmax), wall_time=time.perf_counter() - t_start,
                        irregular=crit.irregular)
-
-
-class WindowCriterion:
-    """The steady-state test on per-period maxima of |x| (module doc), shared by every engine.
-
-    Feed it A_k with :meth:`add` (True when the run may stop); :meth:`result` gives (amplitude,
-    converged, change) and :attr:`irregular` tells a response that settled into irregular motion.
-
-    * W = 1 (periodic response): with the base state at each period start (``state`` = x, xd)
-      the distance to the periodic orbit is estimated from the residual r_k = max(|dx|, |dxd|/w)
-      / A_k between consecutive period starts and its contraction rho (the largest of the last
-      three ratios r_k / r_k-1): est = r_k rho / (1 - rho). A beating transient, whose amplitude
-      differences change sign, cannot fool it; modes that do not move the base (the offset of a
-      TMD stuck by friction) do not hold it up. Without ``state`` the same rule is applied to
-      the amplitudes A_k. Converged when est <= tol.
-    * W > 1 (windows of W periods, W_j = max A_k in window j): regular when two consecutive
-      windows agree, |W_j - W_j-1| <= tol W_j. Otherwise, once three windows after the first
-      exist, the run stops when the running maximum of the windows after the first has not
-      grown by more than tol for two windows: the amplitude is that maximum and ``change`` the
-      scatter (max - min) / max of those windows. The point counts as converged when the
-      scatter is within ``scatter_tol`` (an amplitude known to that fraction), else it is
-      flagged irregular and not converged. There is no absolute tolerance: a tiny amplitude
-      must settle relative to itself. ``amp_atol`` (default 0) is kept for old settings.
-    """
-
-    def __init__(self, window: int, tol: float, amp_atol: float = 0.0, min_periods: int = 3,
-                 max_periods: int = 3000, scatter_tol: float = 5e-3, omega: float | None = None):
-        self.W, self.tol, self.amp_atol = int(window), float(tol), float(amp_atol)
-        self.min_periods, self.max_periods = int(min_periods), int(max_periods)
-        self.scatter_tol, self.omega = float(scatter_tol), omega
-        self.period_max: list[float] = []
-        self.wins: list[float] = []
-        self.diffs: list[float] = []
-        self.res: list[float] = []
-        self._z_prev = None
-        self.converged = False
-        self.irregular = False
-        self.change = math.inf
-        self._stopped = False
-        self._stable = 0
-        self.floor = 0.0
-
-    @classmethod
-    def from_settings(cls, settings, window: int, base: BaseParams, omega: float | None = None) -> "WindowCriterion":
-        """From any settings object with tol, tol_window, min_periods, max_periods (and optionally
-        amp_atol, max_periods_window, scatter_tol), as :class:`SolverSettings` has."""
-        if window == 1:
-            c = cls(1, settings.tol, 0.0, settings.min_periods, settings.max_periods, omega=omega)
-            # resolution floor of the W = 1 residual: 1e-9 of the static deflection F/K (an orbit
-            # with a zero amplitude, an undamped antiresonance, has only round-off to settle)
-            c.floor = 1e-9 * abs(base.force_amplitude) / max(base.stiffness, 1e-300)
-            return c
-        amp_atol = getattr(settings, "amp_atol", None) or 0.0
-        mp = min(settings.max_periods, getattr(settings, "max_periods_window", settings.max_periods))
-        return cls(window, settings.tol_window, amp_atol, settings.min_periods, mp,
-                   getattr(settings, "scatter_tol", 5e-3), omega=omega)
-
-    def _contraction(self, r: float, scale: float) -> float:
-        self.res.append(r)
-        if len(self.res) < 3:
-            return math.inf
-        ratios = [self.res[i] / self.res[i - 1] if self.res[i - 1] > 0 else 0.0
-                  for i in range(max(1, len(self.res) - 3), len(self.res))]
-        rho = min(max(ratios), 0.999)
-        return r * rho / (1.0 - rho) if rho > 0 else r
-
-    def add(self, a: float, state=None) -> bool:
-        self.period_max.append(float(a))
-        k = len(self.period_max)
-        W = self.W
-        if W == 1:
-            scale = max(abs(a), self.floor, 1e-300)
-            if state is not None and self.omega:
-                z = np.array([state[0], state[1] / self.omega], dtype=float)
-                if self._z_prev is None:
-                    self._z_prev = z
-                    return False
-                r = float(np.max(np.abs(z - self._z_prev))) / scale
-                self._z_prev = z
-            else:
-                if k < 2:
-                    return False
-                r = abs(self.period_max[-1] - self.period_max[-2]) / scale
-            self.wins.append(float(a))
-            self.change = self._contraction(r, scale)
-            if k >= self.min_periods and self.change <= self.tol:
-                self.converged = True
-            return self.converged
-        if k % W:
-            return False
-        wins = self.wins
-        wins.append(max(self.period_max[-W:]))
-        if len(wins) < 2:
-            return False
-        d = wins[-1] - wins[-2]
-        self.diffs.append(d)
-        scale = max(abs(wins[-1]), 1e-300)
-        self.change = max(abs(d) - self.amp_atol, 0.0) / scale
-        if k >= self.min_periods and self.change <= self.tol:
-            self.converged = True
-            return True
-        tail = wins[1:]
-        if len(tail) >= 3:
-            grew = max(tail) - max(tail[:-1])
-            self._stable = self._stable + 1 if grew <= self.tol * max(tail) + self.amp_atol else 0
-            if self._stable >= 2 and k >= self.min_periods:
-                scatter = (max(tail) - min(tail)) / max(max(tail), 1e-300)
-                self.converged = scatter <= self.scatter_tol
-                self.irregular = not self.converged
-                self._stopped = True
-                return True
-        return False
-
-    def result(self) -> tuple[float, bool, float]:
-        wins = self.wins
-        amplitude = wins[-1] if wins else (max(self.period_max) if self.period_max else float("nan"))
-        change = self.change
-        if self.W > 1 and len(wins) >= 3 and (self._stopped or not self.converged):
-            tail = wins[1:]
-            amplitude = max(tail)
-            change = (max(tail) - min(tail)) / max(max(tail), 1e-300)
-        return amplitude, self.converged, change
 
 
 def _active_states(tmd: TMDParams) -> list[int]:

@@ -1,17 +1,14 @@
 """Steady states and frequency sweeps of the base + TMD system by co-simulation of the two FMUs.
 
-This is the application layer on top of the generic :class:`~pyfmu_wrapper.master.master.Master`:
-it maps :class:`BaseParams` / :class:`TMDParams` onto the FMU parameters, connects
-
-    base.x -> tmd.x, base.xd -> tmd.xd, base.xdd -> tmd.xdd, tmd.force -> base.f_link
-
-and applies the steady-state definition of the monolithic solver
+This is the co-simulation engine, the counterpart of :mod:`pyfmu_wrapper.solvers.monolithic`:
+on the pair wired by :mod:`.system` (a generic :class:`~pyfmu_wrapper.master.master.Master`) it
+applies the steady-state definition of the monolithic solver
 (:mod:`pyfmu_wrapper.solvers.monolithic`): A_k = max |x| over forcing period k, from the base
 outputs x, xd at the communication points with the cubic Hermite interpolant between them;
 windows of W periods (1 without play, 20 with a gap), W_j = max of A_k in window j; W = 1 stops
 when the estimated distance of the base state to the periodic orbit is below ``tol``, W > 1
 when two windows agree to ``tol_window`` or their scatter is known (irregular responses are
-flagged; :class:`~pyfmu_wrapper.solvers.monolithic.WindowCriterion`). The communication step is
+flagged; :class:`~pyfmu_wrapper.solvers.steady.WindowCriterion`). The communication step is
 T / ``steps_per_period`` so that periods start at communication points. Each frequency starts from the previous frequency's
 final state (x, xd, y, yd read from the FMU outputs; d, dd of the play chain from
 :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`) or, for the first one, from
@@ -26,52 +23,54 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 import pandas as pd
 
-from ..physics import registry
+from ..master.master import Master
+from ..master.schemes import SCHEMES
 from ..physics.params import BaseParams, InerterModel, TMDParams
 from ..solvers.rodas import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
 from ..solvers.shooting import shoot
 from ..solvers.sweep import run_sweep_pieces
-from ..solvers.monolithic import SolverSettings, WindowCriterion, default_window, companion_start, initial_guess
-from .graph import Connection
-from .master import Master
-
-CONNECTIONS = ("base.x -> tmd.x", "base.xd -> tmd.xd", "base.xdd -> tmd.xdd", "tmd.force -> base.f_link")
-RECORD = ("tmd.y", "tmd.yd")
+from ..solvers.monolithic import SolverSettings, companion_start, initial_guess
+from ..solvers.steady import Checks, SteadySettings, WindowCriterion
+from .system import COUPLINGS, fmu_parameters, make_master
 
 
 @dataclass(frozen=True)
-class CosimSettings:
+class CosimSettings(SteadySettings):
     """Co-simulation steady-state settings.
 
+    The steady-state fields (tol, tol_window, amp_atol, window, min_periods, max_periods,
+    scatter_tol, play_start, shooting, max_newton) are those of
+    :class:`~pyfmu_wrapper.solvers.steady.SteadySettings` (the definition shared with the
+    monolithic solver, validated there), with max_periods 240 and max_newton 12 here. Own fields:
     steps_per_period: communication steps per forcing period (None: chosen from ``accuracy``
-    with the calibrated error model of :func:`steps_for_accuracy`); scheme / order: see
-    :mod:`.master`; tol, tol_window, amp_atol, window, min_periods, max_periods, play_start:
-    steady state as in the monolithic solver (:class:`~pyfmu_wrapper.solvers.monolithic.WindowCriterion`,
-    :func:`~pyfmu_wrapper.solvers.monolithic.companion_start`); fmu_rtol: tolerance of the
-    integrators inside the FMUs; interface_jacobian: with the impulse coupling, hand the TMD the
-    base's compliance 1/M and its acceleration without the link force (:func:`impulse_connections`).
+    with the calibrated error model of :func:`steps_for_accuracy`); coupling: "impulse"
+    (:func:`impulse_connections`) or "force" (:data:`CONNECTIONS`); scheme / order: see
+    :mod:`pyfmu_wrapper.master.master`; fmu_rtol: tolerance of the integrators inside the FMUs;
+    interface_jacobian: with the impulse coupling, hand the TMD the base's compliance 1/M and its
+    acceleration without the link force (:func:`impulse_connections`).
     """
 
+    max_periods: int = 240
+    max_newton: int = 12
     steps_per_period: int | None = None
     accuracy: float = 1e-3
     coupling: str = "impulse"
     scheme: str = "loop"
     order: int = 2
-    tol: float = 1e-6
-    tol_window: float = 1e-4
-    amp_atol: float | None = None
-    window: int | None = None
-    min_periods: int = 3
-    max_periods: int = 240
-    play_start: str = "companion"
     fmu_rtol: float = 1e-8
-    shooting: bool = True
-    max_newton: int = 12
-    scatter_tol: float = 5e-3
     interface_jacobian: bool = True
 
-    def window_for(self, tmd: TMDParams) -> int:
-        return default_window(tmd, self.window)
+    def validate(self):
+        super().validate()
+        c = Checks(self)
+        c.integer("steps_per_period", 1, optional=True)
+        c.number("accuracy", positive=True)
+        c.choice("coupling", COUPLINGS)
+        c.choice("scheme", SCHEMES)
+        c.integer("order", 0)
+        c.choice("order", (0, 1, 2))
+        c.number("fmu_rtol", positive=True)
+        c.boolean("interface_jacobian")
 
     def steps_for(self, tmd: TMDParams) -> int:
         if self.steps_per_period is not None:
@@ -99,66 +98,6 @@ def steps_for_accuracy(accuracy: float, order: int = 2, coupling: str = "impulse
     c, q = _ERR_MODEL[(coupling, order)]
     n = 2 * math.pi / (accuracy / c) ** (1.0 / q)
     return max(32, int(math.ceil(n / 8.0) * 8))
-
-
-def fmu_parameters(base: BaseParams, tmd: TMDParams, omega: float, z0, fmu_rtol: float = 1e-8) -> dict:
-    """The FMU parameter values ("instance.variable" -> value) of a configuration and start state."""
-    z = np.asarray(z0, dtype=float)
-    out = registry.fmu_start_values(base, tmd, omega)
-    out.update({
-        "base.x0": z[0], "base.xd0": z[1], "base.rtol": fmu_rtol,
-        "base.atol": 1e-8 * abs(base.force_amplitude) / base.stiffness,
-        "tmd.y0": z[2], "tmd.yd0": z[3], "tmd.d0": z[4], "tmd.dd0": z[5], "tmd.rtol": fmu_rtol,
-        "tmd.atol": _tmd_atol(base, tmd),
-    })
-    return out
-
-
-def _tmd_atol(base: BaseParams, tmd: TMDParams) -> float:
-    a = 1e-8 * abs(base.force_amplitude) / base.stiffness
-    if tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0:
-        pen = max(abs(base.force_amplitude) / tmd.mesh_stiffness, 1e-12)
-        a = min(a, 1e-3 * max(tmd.play_gap, pen) + pen)
-    return a
-
-
-def impulse_connections(tmd: TMDParams, interface_jacobian: bool = True) -> list:
-    """Momentum coupling: the base gets the exact impulse of the links over each step, from the
-    TMD's momentum balance m ydd = (force of the links) (the inerter chain is massless): mean
-    f_link = m (yd(t + h) - yd(t)) / h over the step, handed to the base as a linear function with
-    that mean and the slope between consecutive means; the TMD steps first. The base's change of
-    momentum from the links is exact whatever the gear does inside the step, and no algebraic
-    loop remains. (Matching the first moment as well, ``integral_src="tmd.y"``, makes the
-    base's end-of-step acceleration jumpy and was measured less accurate with play.)
-
-    interface_jacobian: the TMD gets the base's acceleration without the link force
-    (``base.xdd_free -> tmd.xdd``) and, as the parameter ``tmd.base_compliance`` = 1/M set by
-    :func:`make_master`, the base's compliance, so that within a step it adds the base's
-    instantaneous reaction -force/M to its own force: the gear-mesh rattle then meets a base that
-    reacts without a step of delay (docs/cosimulation.md, "interface Jacobian")."""
-    xdd = "base.xdd_free -> tmd.xdd" if interface_jacobian else CONNECTIONS[2]
-    return [CONNECTIONS[0], CONNECTIONS[1], xdd,
-            Connection("tmd.yd", "base.f_link", "rate", float(tmd.mass), "tmd.force")]
-
-
-def make_master(base: BaseParams | None = None, tmd: TMDParams | None = None, scheme: str = "loop",
-                order: int = 2, fmus: dict | None = None, coupling: str = "force",
-                interface_jacobian: bool = True) -> Master:
-    """A master for the base + TMD pair (the FMUs are built if missing or stale).
-
-    coupling: "force" (tmd.force -> base.f_link, the algebraic loop of the ideal inerter) or
-    "impulse" (:func:`impulse_connections`; needs ``tmd``; ``interface_jacobian`` sets
-    ``tmd.base_compliance`` = 1/M of ``base``)."""
-    if fmus is None:
-        from ..fmi.build import ensure_fmus
-
-        paths = ensure_fmus()
-        fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
-    if coupling == "impulse":
-        pars = {"tmd.base_compliance": 1.0 / (base or BaseParams()).mass} if interface_jacobian else {}
-        return Master(fmus, impulse_connections(tmd or TMDParams(), interface_jacobian), pars, scheme="jacobi",
-                      order=order, record=RECORD)
-    return Master(fmus, CONNECTIONS, {}, scheme=scheme, order=order, record=RECORD)
 
 
 @dataclass

@@ -1,0 +1,211 @@
+"""One FMU instance of the master: the fmpy slave, its ports and the lean fmi2 calls of the stepping loop.
+
+The stepping loop calls four fmi2 functions (``fmi2SetReal``, ``fmi2GetReal``,
+``fmi2SetRealInputDerivatives``, ``fmi2DoStep``) directly through ctypes with pre-allocated
+numpy buffers, without fmpy's per-call wrappers (argument conversion, logging, status checks).
+fmpy has no public accessor for the raw C functions; the one place that reaches below its
+Python API is :func:`_raw_function`, which reads the symbol from the slave's public ``dll``
+(the loaded ``ctypes.CDLL``) and gives it a prototype of its own (the FMI 2.0 signature), so
+nothing depends on fmpy's private ``_functions`` table. Every other call (instantiate,
+parameters, initialisation, FMU states, directional derivatives, terminate) goes through
+fmpy's public :class:`fmpy.fmi2.FMU2Slave` methods.
+"""
+from __future__ import annotations
+
+import ctypes
+from pathlib import Path
+
+import numpy as np
+from fmpy.fmi2 import FMU2Slave
+
+_DBL = ctypes.POINTER(ctypes.c_double)
+_UINT = ctypes.POINTER(ctypes.c_uint)
+_INT = ctypes.POINTER(ctypes.c_int)
+
+#: FMI 2.0 prototypes of the raw calls (fmi2Status f(fmi2Component, ...))
+_PROTOTYPES = {
+    "fmi2SetReal": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, _UINT, ctypes.c_size_t, _DBL),
+    "fmi2GetReal": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, _UINT, ctypes.c_size_t, _DBL),
+    "fmi2SetRealInputDerivatives": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, _UINT, ctypes.c_size_t, _INT,
+                                                    _DBL),
+    "fmi2DoStep": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int),
+}
+
+
+class MasterError(RuntimeError):
+    """An FMI call failed or the coupling could not be solved."""
+
+
+def _ptr(a: np.ndarray, kind):
+    return a.ctypes.data_as(kind)
+
+
+def _raw_function(slave: FMU2Slave, name: str, required: bool = True):
+    """The C function ``name`` of the FMU's shared library with its FMI 2.0 prototype (None if the
+    library does not export it and ``required`` is False). The only access below fmpy's API."""
+    try:
+        sym = getattr(slave.dll, name)
+    except AttributeError:
+        if required:
+            raise MasterError(f"{slave.instanceName}: the FMU does not export {name}") from None
+        return None
+    return _PROTOTYPES[name](ctypes.cast(sym, ctypes.c_void_p).value)
+
+
+class Instance:
+    """One FMU instance: its slave, value references and pre-allocated exchange buffers.
+
+    ``inputs`` / ``outputs`` are the connected inputs and the outputs the master reads, in order;
+    :meth:`finalize_ports` allocates their buffers. The wiring (:mod:`.wiring`) sets the signal
+    indices (``sig_in``, ``sig_out``, ``conn_idx``) and the rate-connection fields (``rate_*``).
+    """
+
+    def __init__(self, name: str, path: Path, md, unzipdir: str):
+        self.name = name
+        self.path = Path(path)
+        self.md = md
+        self.unzipdir = unzipdir
+        cs = md.coSimulation
+        if cs is None:
+            raise MasterError(f"{name}: {path} is not a co-simulation FMU")
+        self.can_interpolate = bool(cs.canInterpolateInputs)
+        self.can_state = bool(cs.canGetAndSetFMUstate)
+        self.can_dd = bool(cs.providesDirectionalDerivative)
+        self.vars = {v.name: v for v in md.modelVariables}
+        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=cs.modelIdentifier,
+                               instanceName=name)
+        self.last_error = ""
+        self.slave.instantiate(callbacks=self._callbacks())
+        self._c = self.slave.component
+        self._set_real = _raw_function(self.slave, "fmi2SetReal")
+        self._get_real = _raw_function(self.slave, "fmi2GetReal")
+        self._set_der = _raw_function(self.slave, "fmi2SetRealInputDerivatives", required=False)
+        self._do_step = _raw_function(self.slave, "fmi2DoStep")
+        self.initialized = False
+        self.inputs: list[str] = []  # connected inputs, in order
+        self.outputs: list[str] = []  # outputs the master reads, in order
+        self.order = 0  # degree of the input polynomial handed to this FMU
+        self.n_orders = 0  # input derivatives set per step (value connections)
+        self.rate_orders = 0  # input derivatives set per step when it has rate connections
+
+    def finalize_ports(self):
+        self.in_vr = np.array([self.vars[n].valueReference for n in self.inputs], dtype=np.uint32)
+        self.out_vr = np.array([self.vars[n].valueReference for n in self.outputs], dtype=np.uint32)
+        self.in_val = np.zeros(len(self.inputs))
+        self.out_val = np.zeros(len(self.outputs))
+        ni = len(self.inputs)
+        self.der_vr = np.concatenate([self.in_vr, self.in_vr]).astype(np.uint32)
+        self.der_order = np.array([1] * ni + [2] * ni, dtype=np.int32)
+        self.der_val = np.zeros(2 * ni)
+        self.p_in_vr, self.p_in_val = _ptr(self.in_vr, _UINT), _ptr(self.in_val, _DBL)
+        self.p_out_vr, self.p_out_val = _ptr(self.out_vr, _UINT), _ptr(self.out_val, _DBL)
+        self.p_der_vr, self.p_der_order = _ptr(self.der_vr, _UINT), _ptr(self.der_order, _INT)
+        self.p_der_val = _ptr(self.der_val, _DBL)
+        self.n_in, self.n_out = ni, len(self.outputs)
+
+    def set_order(self, order: int):
+        """Degree of the input extrapolation (capped at 0 if the FMU cannot interpolate inputs)."""
+        self.order = order if self.can_interpolate else 0
+        self.n_orders = min(self.order, 2)
+        self.rate_orders = max(self.n_orders, 1) if self.can_interpolate else 0
+
+    # --- lean calls -------------------------------------------------------------------------
+    def set_inputs(self):
+        if self.n_in and self._set_real(self._c, self.p_in_vr, self.n_in, self.p_in_val) > 1:
+            raise MasterError(f"{self.name}: fmi2SetReal failed")
+
+    def set_derivatives(self, n_orders: int):
+        if self.n_in and n_orders and self._set_der is not None:
+            n = self.n_in * n_orders
+            if self._set_der(self._c, self.p_der_vr, n, self.p_der_order, self.p_der_val) > 1:
+                raise MasterError(f"{self.name}: fmi2SetRealInputDerivatives failed")
+
+    def get_outputs(self):
+        if self.n_out and self._get_real(self._c, self.p_out_vr, self.n_out, self.p_out_val) > 1:
+            raise MasterError(f"{self.name}: fmi2GetReal failed")
+
+    def do_step(self, t: float, h: float):
+        st = self._do_step(self._c, t, h, 0)
+        if st > 1:
+            said = self.last_error.strip().splitlines()
+            said = f": {said[-1]}" if said else ""
+            raise MasterError(f"{self.name}: fmi2DoStep failed at t = {t:.16g} s, h = {h:.6g} s (status {st}){said}")
+
+    def _callbacks(self):
+        """FMI callbacks whose logger prints as fmpy's does and keeps the last error message, so
+        that a failed call raises an error saying what the FMU said (e.g. where its integrator
+        stopped, in which state and mode)."""
+        from fmpy.fmi2 import (calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
+                               fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free, printLogMessage)
+
+        def logger(env, instance, status, category, message):
+            if status > 1:
+                self.last_error = (message or b"").decode(errors="replace")
+            printLogMessage(env, instance, status, category, message)
+
+        cb = fmi2CallbackFunctions()
+        cb.logger = fmi2CallbackLoggerTYPE(logger)
+        cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        self._cb_keep = (cb, logger)  # the FMU holds pointers to these: keep them alive
+        return cb
+
+    # --- parameters, partial derivatives ----------------------------------------------------
+    def set_value(self, name: str, value):
+        v = self.vars.get(name)
+        if v is None:
+            raise MasterError(f"{self.name} has no variable {name!r}")
+        if v.type == "Real":
+            self.slave.setReal([v.valueReference], [float(value)])
+        elif v.type in ("Integer", "Enumeration"):
+            self.slave.setInteger([v.valueReference], [int(value)])
+        elif v.type == "Boolean":
+            self.slave.setBoolean([v.valueReference], [bool(value)])
+        else:
+            self.slave.setString([v.valueReference], [str(value)])
+
+    def get_real(self, names) -> list[float]:
+        return self.slave.getReal([self.vars[n].valueReference for n in names])
+
+    def partial(self, output: str, input_: str) -> float:
+        """d(output)/d(input) at the current point: the FMU's directional derivative, or a central
+        finite difference on the input (step 1e-6 max(1, |u|)) if it provides none."""
+        vu = self.vars[output].valueReference
+        vk = self.vars[input_].valueReference
+        if self.can_dd:
+            return self.slave.getDirectionalDerivative([vu], [vk], [1.0])[0]
+        u0 = self.slave.getReal([vk])[0]
+        du = 1e-6 * max(1.0, abs(u0))
+        self.slave.setReal([vk], [u0 + du])
+        yp = self.slave.getReal([vu])[0]
+        self.slave.setReal([vk], [u0 - du])
+        ym = self.slave.getReal([vu])[0]
+        self.slave.setReal([vk], [u0])
+        return (yp - ym) / (2 * du)
+
+    # --- life cycle -------------------------------------------------------------------------
+    def close(self):
+        """Terminate and free the instance (errors of an FMU already in a failed state are ignored)."""
+        try:
+            self.slave.terminate()
+        except Exception:  # noqa: BLE001
+            pass
+        try:
+            self.slave.freeInstance()
+        except Exception:  # noqa: BLE001
+            pass
+
+
+# --- FMU states of a set of instances (rollback) ------------------------------------------------
+def get_states(instances) -> list:
+    return [ins.slave.getFMUstate() for ins in instances]
+
+
+def set_states(instances, states):
+    for ins, s in zip(instances, states):
+        ins.slave.setFMUstate(s)
+
+
+def free_states(instances, states):
+    for ins, s in zip(instances, states):
+        ins.slave.freeFMUstate(s)
