@@ -265,7 +265,8 @@ def _settings_text(r) -> str:
                      + (f", window {s['window']}, tol_window {s['tol_window']:g}" if s.get("window") else ""))
     if "cosim" in st:
         c = st["cosim"]
-        parts.append(f"cosim: accuracy {c['accuracy']:g}, {c['coupling']}" + (f", window {c['window']}" if c.get("window") else ""))
+        acc = "default" if c.get("accuracy") is None else f"{c['accuracy']:g}"
+        parts.append(f"cosim: accuracy {acc}, {c['coupling']}" + (f", window {c['window']}" if c.get("window") else ""))
     if not st.get("sweep", {}).get("continuation", True):
         parts.append("independent points")
     return "; ".join(parts)
