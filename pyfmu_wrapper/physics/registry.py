@@ -150,5 +150,5 @@ def markdown_table(subsystem: str) -> str:
         applies = "all" if p.models == ALL_MODELS else ", ".join(names[m] for m in p.models)
         name = p.name if p.field else f"{p.name} (not a field)"
         rows.append(f"| `{name}` | {p.symbol} | {p.unit} | {p.default:g} | {bound} | `{p.fmu_name}` ({p.fmu_vr}) "
-                    f"| {p.modelica_name or '-'} | {applies} | {p.description} |")
+                    f"| {p.modelica_name or '-'} | {applies} | {p.description.replace('|', chr(92) + '|')} |")
     return "\n".join(rows) + "\n"
