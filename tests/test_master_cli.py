@@ -59,3 +59,24 @@ def test_engine_both_writes_the_difference(tmp_path):
         assert d["max_abs_difference"] == max(abs(r["difference"]) for r in d["difference"]) <= 5e-3
         assert len(d["difference"]) == 3
     assert (out / "frc.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_engine_both_has_no_relative_difference_to_a_zero_reference(tmp_path):
+    """The undamped ideal inerter's antiresonance (20 rad/s): the exact amplitude is zero to
+    rounding (~1e-16 m), so the relative difference is NaN in the CSV and null in the summary,
+    not ~1e10; the other point keeps its difference."""
+    scn = SCN.replace("damping: 10.0}", "damping: 0.0}").replace("{start: 17.0, stop: 23.0, count: 3}",
+                                                               "{start: 19.5, stop: 20.0, count: 2}")
+    scn = scn.replace('      - {label: "df = 10", tmd: {damping: 0.0, friction_force: 10.0}}\n', "")
+    p = tmp_path / "scn.yaml"
+    p.write_text(scn)
+    out = tmp_path / "out"
+    assert main([str(p), "--out", str(out), "--quiet", "--engine", "both", "--executor", "sequential"]) == 0
+    t = pd.read_csv(out / "frc.csv").set_index("omega")
+    exact = exact_amplitude(BaseParams(), TMDParams(damping=0.0), np.array([19.5, 20.0]))
+    assert exact[1] < 1e-9 * exact[0]  # the premise: a zero of the exact response
+    assert np.isnan(t.loc[20.0, "difference"]) and t.loc[20.0, "amplitude"] < 1e-3 * exact[0]
+    assert abs(t.loc[19.5, "difference"]) <= 5e-3
+    d = json.loads((out / "summary.json").read_text())["studies"][0]["curves"][0]["directions"]["up"]
+    assert [r["difference"] is None for r in d["difference"]] == [False, True]
+    assert d["max_abs_difference"] == abs(d["difference"][0]["difference"])

@@ -32,6 +32,9 @@ SWEEP_COLUMNS = ("engine", "method", "direction", "omega", "amplitude", "periods
                  "change", "steps", "rejected", "wall_time", "reference", "difference")
 #: the engine run-scenario uses unless told otherwise
 DEFAULT_ENGINE = "cosim"
+#: a reference amplitude below this fraction of its curve's largest is zero to rounding: its
+#: relative difference is reported as NaN
+ZERO_REFERENCE = 1e-9
 
 
 #: the engines that use each settings block of a scenario
@@ -167,7 +170,8 @@ def _cosim_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.
 
 def _both_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.DataFrame:
     """Co-simulation and monolithic engine; the co-simulated rows carry the monolithic amplitude
-    ('reference') and the relative difference cosim / monolithic - 1 ('difference')."""
+    ('reference') and the relative difference cosim / monolithic - 1 ('difference'; NaN where the
+    reference is zero to rounding, :data:`ZERO_REFERENCE`)."""
     co = _cosim_sweep(base, tmd, omegas, settings, None)
     mono = _monolithic_sweep(base, tmd, omegas, settings, None)
     ref = {(d, float(w)): a for d, w, a in zip(mono["direction"], mono["omega"], mono["amplitude"])}
@@ -175,6 +179,12 @@ def _both_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.D
     one = {float(w): a for w, a in zip(mono["omega"], mono["amplitude"])}
     co["reference"] = [ref.get((d, float(w)), one.get(float(w), np.nan)) for d, w in zip(co["direction"], co["omega"])]
     co["difference"] = co["amplitude"] / co["reference"] - 1.0
+    # a reference that is zero to rounding (the undamped ideal inerter's antiresonance, ~1e-16 m
+    # against a peak of ~0.1 m) has no relative difference: NaN there, not 1e10
+    for _, rows in co.groupby("direction"):
+        ref_abs = rows["reference"].abs()
+        zero = rows.index[ref_abs <= ZERO_REFERENCE * ref_abs.max()]
+        co.loc[zero, "difference"] = np.nan
     co["engine"] = "both"
     co["wall_time"] = co["wall_time"].to_numpy()  # co-simulation time per point
     if progress is not None:

@@ -161,7 +161,8 @@ def _differences(t: pd.DataFrame) -> dict:
     d = t["difference"].to_numpy(float)
     return dict(max_abs_difference=float(np.nanmax(np.abs(d))),
                 omega_max_difference=float(t["omega"].to_numpy(float)[int(np.nanargmax(np.abs(d)))]),
-                difference=[dict(omega=float(w), cosim=float(a), monolithic=float(r), difference=float(x))
+                difference=[dict(omega=float(w), cosim=float(a), monolithic=float(r),
+                                 difference=float(x) if np.isfinite(x) else None)
                             for w, a, r, x in zip(t["omega"], t["amplitude"], t["reference"], t["difference"])])
 
 
