@@ -9,6 +9,15 @@ from pyfmu_wrapper.physics.params import (BaseParams, ParameterError, TMDParams,
 from pyfmu_wrapper.solvers.frequency_response import exact_amplitude, exact_response
 
 BASE = BaseParams()
+#: TMD configurations the Jacobian tests run through: every inerter model, friction, cubic spring
+JACOBIAN_CASES = [
+    paper_case(1, damping=10, friction_force=10),
+    paper_case(3, damping=10, friction_force=10, inerter="play", play_gap=1e-4),
+    paper_case(2, inerter="play", play_gap=0.0),
+    TMDParams(mass=10, inertance=0, inerter="none", friction_force=5),
+    paper_case(1, damping=10, cubic_stiffness=3e6),
+    paper_case(2, damping=10, friction_force=10, inerter="play", play_gap=1e-4, cubic_stiffness=-2e5),
+]
 
 
 def closed_form_x(omega, M=100.0, Kb=4e4, C=100.0, F=200.0, m=9.0, k=4e3, c=0.0, link=0.0):
@@ -188,14 +197,7 @@ def test_mounted_tmd_with_base_compliance_is_the_coupled_system(tmd, d):
                                       rel=1e-12, abs=1e-12 * abs(fext))
 
 
-@pytest.mark.parametrize("tmd", [
-    paper_case(1, damping=10, friction_force=10),
-    paper_case(3, damping=10, friction_force=10, inerter="play", play_gap=1e-4),
-    paper_case(2, inerter="play", play_gap=0.0),
-    TMDParams(mass=10, inertance=0, inerter="none", friction_force=5),
-    paper_case(1, damping=10, cubic_stiffness=3e6),
-    paper_case(2, damping=10, friction_force=10, inerter="play", play_gap=1e-4, cubic_stiffness=-2e5),
-])
+@pytest.mark.parametrize("tmd", JACOBIAN_CASES)
 @pytest.mark.parametrize("scale", [(1, 1, 1, 1, 1, 1), (1, 1, 1, 1, -1, 1), (1, 1e-6, 1, 1e-6, 0.1, 1)])
 def test_analytic_jacobian_matches_complex_step(tmd, scale):
     """The solver's analytic Jacobian and dF/dt against the complex-step derivative of rhs_fext."""
@@ -209,14 +211,7 @@ def test_analytic_jacobian_matches_complex_step(tmd, scale):
     np.testing.assert_allclose(f1, f2, rtol=1e-12, atol=1e-12 * np.abs(f2).max())
 
 
-@pytest.mark.parametrize("tmd", [
-    paper_case(1, damping=10, friction_force=10),
-    paper_case(3, damping=10, friction_force=10, inerter="play", play_gap=1e-4),
-    paper_case(2, inerter="play", play_gap=0.0),
-    TMDParams(mass=10, inertance=0, inerter="none", friction_force=5),
-    paper_case(1, damping=10, cubic_stiffness=3e6),
-    paper_case(2, damping=10, friction_force=10, inerter="play", play_gap=1e-4, cubic_stiffness=-2e5),
-])
+@pytest.mark.parametrize("tmd", JACOBIAN_CASES)
 @pytest.mark.parametrize("scale", [(1, 1, 1, 1), (1, 1, -1, 1), (1, 1e-6, 0.1, 1)])
 @pytest.mark.parametrize("kappa", [None, 0.0, 1.0 / 100.0])
 def test_tmd_subsystem_jacobian_matches_complex_step(tmd, scale, kappa):

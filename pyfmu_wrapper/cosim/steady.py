@@ -25,7 +25,7 @@ import pandas as pd
 
 from ..master.master import Master
 from ..master.schemes import SCHEMES
-from ..physics.params import BaseParams, InerterModel, TMDParams
+from ..physics.params import BaseParams, InerterModel, TMDParams, has_gap
 from ..solvers.rodas import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
 from ..solvers.shooting import shoot
 from ..solvers.sweep import run_sweep_pieces
@@ -104,17 +104,12 @@ _ERR_MODEL_PLAY = {("impulse", 2): (0.69, 1.67)}
 DEFAULT_ACCURACY = {False: 1e-3, True: 2.5e-3}
 
 
-def has_gap(tmd: TMDParams) -> bool:
-    """The TMD has an inerter with play and a gap (the rattling configurations)."""
-    return tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0
-
-
 def steps_for_accuracy(accuracy: float, order: int = 2, coupling: str = "impulse", play: bool = False) -> int:
     """Communication steps per forcing period for a requested relative amplitude accuracy
     (a multiple of 8, at least 32); ``play``: the error model of the rattling configurations
     (calibrated for the impulse coupling of order 2; the smooth model otherwise)."""
-    c, q = _ERR_MODEL_PLAY.get((coupling, order)) if play and (coupling, order) in _ERR_MODEL_PLAY \
-        else _ERR_MODEL[(coupling, order)]
+    model = _ERR_MODEL_PLAY if play and (coupling, order) in _ERR_MODEL_PLAY else _ERR_MODEL
+    c, q = model[(coupling, order)]
     n = 2 * math.pi / (accuracy / c) ** (1.0 / q)
     return max(32, int(math.ceil(n / 8.0) * 8))
 

@@ -22,7 +22,7 @@ from ..master.graph import Connection
 from ..master.master import Master
 from ..master.ssp import export_ssp
 from ..physics import registry
-from ..physics.params import BaseParams, InerterModel, TMDParams
+from ..physics.params import BaseParams, TMDParams, has_gap
 from ..solvers.monolithic import initial_guess, play_atol
 
 CONNECTIONS = ("base.x -> tmd.x", "base.xd -> tmd.xd", "base.xdd -> tmd.xdd", "tmd.force -> base.f_link")
@@ -46,7 +46,7 @@ def fmu_parameters(base: BaseParams, tmd: TMDParams, omega: float, z0, fmu_rtol:
 
 def _tmd_atol(base: BaseParams, tmd: TMDParams) -> float:
     a = 1e-8 * abs(base.force_amplitude) / base.stiffness
-    if tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0:
+    if has_gap(tmd):
         a = min(a, play_atol(base, tmd))
     return a
 

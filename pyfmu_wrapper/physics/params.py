@@ -186,6 +186,11 @@ def pack(base: BaseParams, tmd: TMDParams, omega: float = 0.0) -> np.ndarray:
 CASES = {1: dict(mass=9.0, inertance=1.0), 2: dict(mass=5.0, inertance=5.0), 3: dict(mass=1.0, inertance=9.0)}
 
 
+def has_gap(tmd: TMDParams) -> bool:
+    """The inerter has play with a gap (eps > 0): the rattling configurations, never exactly periodic."""
+    return tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0
+
+
 def paper_case(case: int, **overrides) -> TMDParams:
     """TMD parameters of the paper's Case 1, 2 or 3 (ideal inerter, no damping unless overridden)."""
     if case not in CASES:

@@ -43,7 +43,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..physics.kernels import NSTATE, SYS_COUPLED, inerter_force, rhs
-from ..physics.params import BaseParams, InerterModel, TMDParams, pack
+from ..physics.params import BaseParams, InerterModel, TMDParams, has_gap, pack
 from .shooting import shoot
 from .steady import Checks, SteadySettings, WindowCriterion
 from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, integrate
@@ -114,7 +114,7 @@ def _atol(base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettin
     wn = max(omega, base.natural_frequency, 1.0)
     a = settings.atol_scale * xs
     atol = np.array([a, a * wn, a, a * wn, a, a * wn])
-    if tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0:
+    if has_gap(tmd):
         atol[4] = min(atol[4], play_atol(base, tmd))
         atol[5] = atol[4] * math.sqrt(tmd.mesh_stiffness / tmd.inertance)
     return atol

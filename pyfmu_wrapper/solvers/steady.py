@@ -15,7 +15,7 @@ from dataclasses import dataclass, fields
 
 import numpy as np
 
-from ..physics.params import BaseParams, InerterModel, TMDParams
+from ..physics.params import BaseParams, TMDParams, has_gap
 
 #: where a windowed solve starts (SteadySettings.play_start)
 PLAY_STARTS = ("companion", "previous")
@@ -74,7 +74,7 @@ def default_window(tmd: TMDParams, window: int | None = None) -> int:
     (never exactly periodic) and 1 otherwise (periodic). Shared by every engine."""
     if window is not None:
         return int(window)
-    return 20 if (tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0) else 1
+    return 20 if has_gap(tmd) else 1
 
 
 @dataclass(frozen=True)
