@@ -4,8 +4,8 @@ Record kinds (told apart by their columns):
 
 * ``link``   -- ``t, displacement, force`` (optional ``velocity``, ``acceleration``): relative motion
   across one device and the force through it (damper test rig).
-* ``time``   -- system level: ``t, force, x`` (optional ``y, xd, yd, xdd, ydd``): base plus TMD under
-  the harmonic force ``force``.
+* ``time``   -- system level: ``t, force`` and the displacements ``x, y`` or the accelerations
+  ``xdd, ydd`` (or both; optional ``xd, yd``): base plus TMD under the harmonic force ``force``.
 * ``frc``    -- system level stepped sine: ``omega, force_amplitude, x_max`` (optional ``direction``).
 
 Every problem is raised as :class:`DataError` naming the file, and where it applies the row
@@ -23,12 +23,12 @@ import yaml
 
 REQUIRED = {
     "link": ["t", "displacement", "force"],
-    "time": ["t", "force", "x"],
+    "time": ["t", "force"],
     "frc": ["omega", "force_amplitude", "x_max"],
 }
 OPTIONAL = {
     "link": ["velocity", "acceleration"],
-    "time": ["y", "xd", "yd", "xdd", "ydd"],
+    "time": ["x", "y", "xd", "yd", "xdd", "ydd"],
     "frc": ["direction"],
 }
 LINK_NOMINAL = ("stiffness", "damping", "friction_force", "friction_slope", "inertance")
@@ -63,6 +63,7 @@ class Dataset:
     records: list
     description: str = ""
     raw: dict = field(default_factory=dict)
+    acquisition: dict = field(default_factory=dict)  #: channel -> acquisition.Chain (dataset.yaml 'acquisition')
 
 
 def _err(file, msg, row=None, column=None):
@@ -102,6 +103,13 @@ def read_record(file: Path, level: str, entry: dict | None = None) -> Record:
     if missing:
         raise _err(file, f"missing column(s) {missing} for a {kind} record (needs {REQUIRED[kind]}, "
                          f"optional {OPTIONAL[kind]}); found {list(df.columns)}", column=missing[0])
+    if kind == "time":  # displacements or accelerations of both bodies (acceleration-only records)
+        opts = [[c for c in pair if c not in df.columns] for pair in (("x", "y"), ("xdd", "ydd"))]
+        if all(opts):
+            miss = min(opts, key=len)
+            raise _err(file, f"missing column(s) {miss} for a time record (needs {REQUIRED[kind]} and the "
+                             f"displacements ['x', 'y'] or the accelerations ['xdd', 'ydd'], or both); "
+                             f"found {list(df.columns)}", column=miss[0])
     if len(df) < 3:
         raise _err(file, f"needs at least 3 data rows, has {len(df)}")
     cols = {}
@@ -207,8 +215,13 @@ def load_dataset(path, model_override: dict | None = None) -> Dataset:
         if e.get("role") not in (None, "train", "test"):
             raise _err(yml, f"records[{i}].role must be 'train' or 'test', got {e['role']!r}")
         records.append(read_record(path / e["file"], level, e))
+    from .acquisition import check_records, correct_frc, parse_acquisition
+
+    acq = parse_acquisition(raw.get("acquisition"), yml, level)
+    check_records(acq, records, yml)
+    correct_frc(records, acq)
     return Dataset(path=path, level=level, nominal=nominal, records=records,
-                   description=str(raw.get("description", "")), raw=raw)
+                   description=str(raw.get("description", "")), raw=raw, acquisition=acq)
 
 
 def normalise_nominal(nom: dict, level: str, file) -> dict:

@@ -162,8 +162,18 @@ def fit_series(t, channels: dict, omega: float, H: int | None = None) -> Series:
 
 def fuse(s: Series, pos: str, acc: str | None, H: int):
     """Displacement coefficients X_h (h = 0..H) fused from a displacement and an acceleration
-    channel, and their variance per real component. Returns (X, var)."""
+    channel, and their variance per real component. Returns (X, var).
+
+    Without the displacement channel (an acceleration-only record) X_h = -Xdd_h / (h w)^2 for
+    h >= 1; the mean X_0 is unobservable and returned as 0 with variance 0 (the caller decides)."""
     h = np.arange(H + 1)
+    if pos not in s.coef:
+        w2 = (h[1:] * s.omega) ** 2
+        X = np.zeros(H + 1, complex)
+        vx = np.zeros(H + 1)
+        X[1:] = -s.coef[acc][1:H + 1] / w2
+        vx[1:] = s.var[acc][1:H + 1] / w2 ** 2
+        return X, vx
     X = s.coef[pos][:H + 1].copy()
     vx = s.var[pos][:H + 1].copy()
     if acc is None or acc not in s.coef:

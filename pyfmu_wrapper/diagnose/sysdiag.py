@@ -25,6 +25,7 @@ from ..solvers.monolithic import SolverError
 from .play import PlayFit
 from dataclasses import replace
 
+from .acquisition import unobservable
 from .system import EFFECT_PARAMS, SystemModel, fit_eq, folds_for, record_views, steady_signature
 
 Z_NOISE = 5.0
@@ -144,13 +145,15 @@ class SystemDiagnosis:
         self.noise_ok = noise_gate(self.chi0, self.dof)
         cur = fit_eq(m, base, self.folds) if base else None
         chi_cur = cur.chi2_ho if cur else self.chi0
-        self.singles = {e: fit_eq(m, base + (e,), self.folds) for e in EQ_EFFECTS}
+        self.unobservable = unobservable(v)  # acceleration-only records: no DC, no sensor offset
+        self.effects = tuple(e for e in EQ_EFFECTS if e not in self.unobservable)
+        self.singles = {e: fit_eq(m, base + (e,), self.folds) for e in self.effects}
         self._refine_friction(base)
         self.frc_ev = {}
         chosen = list(base)
         while len(chosen) < MAX_EFFECTS and noise_gate(chi_cur, self.dof):
             cands = []
-            for e in EQ_EFFECTS:
+            for e in self.effects:
                 if e in chosen:
                     continue
                 f = self.singles[e] if len(chosen) == len(base) else fit_eq(m, tuple(chosen) + (e,), self.folds)

@@ -59,9 +59,13 @@ def build_system_result(ds, sd, frc=None) -> dict:
               "noise_std": {c: v.series.noise[c] for c in v.series.noise},
               "noise_std_robust": {c: v.series.noise_robust[c] for c in v.series.noise_robust},
               "rattle_z": sd.play.z[i], "rattle_power": sd.play.S[i]} for i, v in enumerate(sd.views)]
+    unobs = list(getattr(sd, "unobservable", []))
+    text = sd.verdict_text()
+    if unobs:
+        text += " Not observable from these records (no displacement channels): " + ", ".join(unobs) + "."
     verdict = {
         "structural": bool(sd.chosen), "effects": list(sd.chosen), "labels": [LABELS[e] for e in sd.chosen],
-        "text": sd.verdict_text(), "parameters": params,
+        "text": text, "parameters": params, "unobservable": unobs,
         "held_out": {"gap_before": ho["excess_before"], "gap_after": ho["excess_after"], "gap_closed": _f(ho["gap_closed"]),
                      "chi2_before": ho["chi2_before"], "chi2_after": ho["chi2_after"], "dof": ho["dof"]},
         "sources": {"time_records": [v.name for v in sd.views],
@@ -99,6 +103,10 @@ def write_system_report(res: dict, sd, out: Path, frc=None):
     h = v["held_out"]
     L += [f"Held-out gap (chi-square excess over the measured noise): {h['gap_before']:.4g} -> {h['gap_after']:.4g}"
           + ("" if h["gap_closed"] is None else f", {100 * h['gap_closed']:.1f} % closed") + f" ({h['dof']} dof).", ""]
+    if v.get("unobservable"):
+        L += ["Not observable from these records: " + ", ".join(f"`{u}`" for u in v["unobservable"])
+              + " (acceleration-only records give the displacements at h >= 1 only, X_h = -Xdd_h / (h w)^2; "
+              "a constant offset, a static preload or a displacement-sensor offset cannot be seen, and is not guessed).", ""]
     if v["disagreements"]:
         L += ["### Where the evidence disagrees", ""] + [f"* {d}" for d in v["disagreements"]] + [""]
     if v["rejected"]:
@@ -148,7 +156,8 @@ def _plot_harmonics(sd, path):
     for i, v in enumerate(sd.views):
         H = v.X.size - 1
         r = v.r
-        mag = np.concatenate([[abs(r[0]) + abs(r[1])], np.hypot(r[2:2 + 2 * H], r[2 + 2 * H:])[0::2]])
+        o = 2 if v.dc else 0  # acceleration-only records have no h = 0 rows
+        mag = np.concatenate([[abs(r[0]) + abs(r[1])] if v.dc else [np.nan], np.hypot(r[o:o + 2 * H], r[o + 2 * H:])[0::2]])
         ax.semilogy(np.arange(mag.size), np.maximum(mag, 1e-3), "o-", ms=3, label=f"{v.name}")
     ax.axhline(1.0, color="k", lw=0.8, label="noise (1 std)")
     ax.set(xlabel="harmonic k of w", ylabel="whitened residual |A_k| (nominal)", title="gap per harmonic (noise units)")

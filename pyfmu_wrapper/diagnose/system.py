@@ -69,6 +69,7 @@ class RecView:
     role: str | None = None
     dt: float = 1e-3  #: sampling interval [s]
     spike: dict = field(default_factory=dict)
+    dc: bool = True  #: the mean displacements are measured (x and y); False: acceleration-only, h = 0 unobservable
 
 
 def _nominal_objects(ds):
@@ -77,32 +78,49 @@ def _nominal_objects(ds):
 
 def record_views(ds):
     """Periodic system time records as :class:`RecView`; returns (views, flagged) where flagged lists
-    (record name, reason) for records left out of the harmonic analysis."""
+    (record name, reason) for records left out of the harmonic analysis.
+
+    The dataset's acquisition chain (``ds.acquisition``, :mod:`acquisition`) is divided out of every
+    harmonic of the declared channels. A record without the displacement pair x, y (acceleration-only)
+    gets its displacements h >= 1 from xdd, ydd; its mean is unobservable (``dc = False``): the
+    h = 0 equation errors are left out and the means are put at the nominal static equilibrium with
+    no relative offset (X_0 = Y_0 = F_0 / K), about which the link force is evaluated."""
+    from .acquisition import correct_series
+
+    chains = getattr(ds, "acquisition", None) or {}
     views, flagged = [], []
     for rec in ds.records:
         if rec.kind != "time":
             continue
         c = rec.columns
-        miss = [k for k in ("y",) if k not in c]
-        if miss:
-            flagged.append((rec.name, "no 'y' column: the TMD equation needs the TMD displacement"))
+        if not ({"y", "ydd"} & set(c)):
+            flagged.append((rec.name, "no 'y' or 'ydd' column: the TMD equation needs the TMD motion"))
+            continue
+        if not ({"x", "xdd"} & set(c)):
+            flagged.append((rec.name, "no 'x' or 'xdd' column: the base equation needs the base motion"))
             continue
         if rec.omega is None or not rec.omega > 0:
             flagged.append((rec.name, "no forcing frequency (not periodic)"))
             continue
         chans = {k: c[k] for k in ("force", "x", "y", "xdd", "ydd", "xd", "yd") if k in c}
         s = fit_series(c["t"], chans, rec.omega)
-        if not s.periodic or min(s.r2["force"], s.r2["x"]) < PERIODIC_R2:
+        correct_series(s, chains)
+        mo = "x" if "x" in c else "xdd"
+        if not s.periodic or min(s.r2["force"], s.r2[mo]) < PERIODIC_R2:
             flagged.append((rec.name, f"not periodic at w = {rec.omega:.4g} rad/s (harmonic series explains "
-                                      f"{100 * min(s.r2['force'], s.r2['x']):.0f} % of force/x): no harmonic analysis"))
+                                      f"{100 * min(s.r2['force'], s.r2[mo]):.0f} % of force/{mo}): no harmonic analysis"))
             continue
         H = min(H_EQ, s.H)
         X, vX = fuse(s, "x", "xdd" if "xdd" in c else None, H)
         Y, vY = fuse(s, "y", "ydd" if "ydd" in c else None, H)
         F, vF = s.coef["force"][:H + 1], s.var["force"][:H + 1]
+        dc = "x" in c and "y" in c
+        if not dc:  # nominal static equilibrium, no preload: the mean is not measured
+            X[0] = Y[0] = F[0].real / BaseParams(**ds.nominal["base"]).stiffness
+            vX[0] = vY[0] = 0.0
         amp = float(np.abs(F[1])) if rec.amplitude is None else rec.amplitude
         v = RecView(rec.name, rec.omega, amp, s, X, vX, Y, vY, F, vF, role=rec.role,
-                    dt=float((c["t"][-1] - c["t"][0]) / (len(c["t"]) - 1)))
+                    dt=float((c["t"][-1] - c["t"][0]) / (len(c["t"]) - 1)), dc=dc)
         for nm, C in (("x", X), ("y", Y)):
             for k, suf in ((0, ""), (1, "d"), (2, "dd")):
                 v.grid[nm + suf] = grid_values(C, rec.omega, N_GRID, k)
@@ -164,6 +182,8 @@ class SystemModel:
     def whiten(self, v, A, B):
         """Real vector of whitened residual components (h = 0: real parts only)."""
         Z = np.einsum("hij,hj->hi", v.W, np.stack([A, B], axis=1))
+        if not v.dc:  # acceleration-only record: the mean (h = 0) is not observed
+            return np.concatenate([Z[1:].real.ravel(), Z[1:].imag.ravel()])
         return np.concatenate([Z[0].real, Z[1:].real.ravel(), Z[1:].imag.ravel()])
 
     # --- candidate regressors: list of (A_h, B_h) complex pairs, one per linear parameter ----------
