@@ -251,6 +251,8 @@ def test_acceleration_only_viscous_named_offset_unobservable(tmp_path, accel_onl
     assert abs(v["parameters"]["viscous.delta_damping"]["value"] - 10.0) < 0.3
     assert v["held_out"]["gap_closed"] > 0.9
     report = (tmp_path / "out" / "report.md").read_text()
+    assert res["acquisition"]["xdd"] == "butterworth low-pass, order 4, -3 dB at 102.4 Hz"
+    assert res["acquisition"]["force"] == "delay 0.0005 s" and "Acquisition chain divided out" in report
     if len(accel_only) == 4:
         assert v["unobservable"] == ["sensor_offset", "displacement DC"]
         assert "sensor_offset" not in [c["effects"][-1] for c in res["time_records"]["candidates"]]

@@ -75,6 +75,7 @@ def build_system_result(ds, sd, frc=None) -> dict:
     }
     return {
         "schema": "pyfmu-diagnose/2", "dataset": str(ds.path), "level": "system", "nominal": ds.nominal,
+        "acquisition": {ch: c.describe() for ch, c in (getattr(ds, "acquisition", None) or {}).items()},
         "verdict": verdict,
         # the same facts in the layout of the link-level result (read by ``score``)
         "attribution": {"structural": bool(sd.chosen), "verdict": verdict["text"], "effects": list(sd.chosen),
@@ -103,6 +104,9 @@ def write_system_report(res: dict, sd, out: Path, frc=None):
     h = v["held_out"]
     L += [f"Held-out gap (chi-square excess over the measured noise): {h['gap_before']:.4g} -> {h['gap_after']:.4g}"
           + ("" if h["gap_closed"] is None else f", {100 * h['gap_closed']:.1f} % closed") + f" ({h['dof']} dof).", ""]
+    if res.get("acquisition"):
+        L += ["Acquisition chain divided out of every harmonic (dataset.yaml `acquisition`): "
+              + "; ".join(f"{ch}: {d}" for ch, d in res["acquisition"].items()) + ".", ""]
     if v.get("unobservable"):
         L += ["Not observable from these records: " + ", ".join(f"`{u}`" for u in v["unobservable"])
               + " (acceleration-only records give the displacements at h >= 1 only, X_h = -Xdd_h / (h w)^2; "
