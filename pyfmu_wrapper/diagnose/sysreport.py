@@ -62,7 +62,10 @@ def build_system_result(ds, sd, frc=None) -> dict:
     unobs = list(getattr(sd, "unobservable", []))
     text = sd.verdict_text()
     if unobs:
-        text += " Not observable from these records (no displacement channels): " + ", ".join(unobs) + "."
+        acc_only = [v.name for v in sd.views if not getattr(v, "dc", True)]
+        text += (" Not observable (" + ("no record has" if len(acc_only) == len(sd.views) else
+                                        "records " + ", ".join(acc_only) + " have no")
+                 + " displacement channels): " + ", ".join(unobs) + ".")
     verdict = {
         "structural": bool(sd.chosen), "effects": list(sd.chosen), "labels": [LABELS[e] for e in sd.chosen],
         "text": text, "parameters": params, "unobservable": unobs,
