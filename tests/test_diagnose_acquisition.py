@@ -129,6 +129,21 @@ def test_dividing_harmonics_equals_filtering_the_prediction():
     assert chi_div == pytest.approx(chi_filt, rel=1e-10)
 
 
+def test_rig_samples_time_domain_matches_the_frequency_response():
+    """acquisition.rig_samples (lsim of the analog filter, then the delay, then every step-th sample)
+    on a sine gives |G| cos(w t + arg G) once the filter's transient has passed."""
+    w = 300.0  # rad/s, near the cut-off so that gain and phase both matter
+    t = np.arange(0, 1.0, 1 / 8192)
+    ch = {"xdd": acq.Chain("xdd", "bessel", 3, 40.0, delay_s=2e-3), "force": acq.Chain("force", delay_s=1e-3)}
+    out = acq.rig_samples(ch, t, {"xdd": np.cos(w * t), "force": np.sin(w * t), "x": np.cos(w * t)}, step=4)
+    ts = t[::4]
+    g = ch["xdd"].response(w)
+    late = ts > 0.3
+    assert np.max(np.abs(out["xdd"] - np.abs(g) * np.cos(w * ts + np.angle(g)))[late]) < 5e-4  # interpolation ~ (w dt)^2 / 8
+    assert np.max(np.abs(out["force"] - np.sin(w * (ts - 1e-3)))[late]) < 5e-4
+    assert np.array_equal(out["x"], np.cos(w * ts))
+
+
 # --- validation of the acquisition block -----------------------------------------------------------
 def _write_small(tmp_path, acquisition, fs=256.0):
     t = np.arange(0, 3.0, 1 / fs)

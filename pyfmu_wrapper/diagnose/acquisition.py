@@ -92,6 +92,31 @@ class Chain:
         return ", ".join(parts) or "none"
 
 
+def rig_samples(chains: dict, t, channels: dict, step: int = 1) -> dict:
+    """What the rig's acquisition makes of densely sampled true signals: each channel of ``channels``
+    (uniformly sampled at times ``t``) run through its analog filter in the time domain
+    (``scipy.signal.lsim``, started at the filter's DC equilibrium for the first value) and delayed
+    (linear interpolation), then every ``step``-th sample kept (the ADC). Channels without a chain
+    are only decimated. The filter's transient lasts ~ order / (2 pi cutoff_hz) s: simulate a
+    settling stretch and discard it. For simulated records that must look like the measured ones
+    (e.g. the play candidate's rattle statistic, which is taken on the measured, filtered samples)."""
+    from scipy import signal
+
+    t = np.asarray(t, float)
+    out = {}
+    for ch, u in channels.items():
+        u = np.asarray(u, float)
+        c = chains.get(ch)
+        if c is not None and c.type is not None:
+            A, B, C, D = signal.tf2ss(*c.ba())
+            x0 = -np.linalg.solve(A, B[:, 0]) * u[0]
+            _, u, _ = signal.lsim((A, B, C, D), u, t, X0=x0)
+        if c is not None and c.delay_s:
+            u = np.interp(t - c.delay_s, t, u)
+        out[ch] = u[::step]
+    return out
+
+
 def _err(file, msg):
     from .data import DataError
 

@@ -70,6 +70,7 @@ class RecView:
     dt: float = 1e-3  #: sampling interval [s]
     spike: dict = field(default_factory=dict)
     dc: bool = True  #: the mean displacements are measured (x and y); False: acceleration-only, h = 0 unobservable
+    acq: dict = field(default_factory=dict)  #: the dataset's acquisition chain (channel -> acquisition.Chain)
 
 
 def _nominal_objects(ds):
@@ -120,7 +121,7 @@ def record_views(ds):
             vX[0] = vY[0] = 0.0
         amp = float(np.abs(F[1])) if rec.amplitude is None else rec.amplitude
         v = RecView(rec.name, rec.omega, amp, s, X, vX, Y, vY, F, vF, role=rec.role,
-                    dt=float((c["t"][-1] - c["t"][0]) / (len(c["t"]) - 1)), dc=dc)
+                    dt=float((c["t"][-1] - c["t"][0]) / (len(c["t"]) - 1)), dc=dc, acq=chains)
         for nm, C in (("x", X), ("y", Y)):
             for k, suf in ((0, ""), (1, "d"), (2, "dd")):
                 v.grid[nm + suf] = grid_values(C, rec.omega, N_GRID, k)
