@@ -70,7 +70,7 @@ def test_frc_bad_direction_and_system_nominal(tmp_path):
         load_dataset(tmp_path)
     _write(tmp_path, "omega,force_amplitude,x_max\n15,200,0.01\n16,200,0.01\n17,200,0.01\n", name="frc.csv",
            level="system", nominal={"base": {"mass": -1.0}, "tmd": {}})
-    with pytest.raises(DataError, match=r"dataset\.yaml: nominal model: mass \(M\) must be > 0"):
+    with pytest.raises(DataError, match=r"dataset\.yaml:\d+: nominal model: base: mass \(M\) must be > 0"):
         load_dataset(tmp_path)
 
 
