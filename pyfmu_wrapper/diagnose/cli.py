@@ -59,35 +59,55 @@ def _load_model(spec: str | None):
     return raw
 
 
-def _is_result(folder: Path, marker: str) -> bool:
-    """True when ``folder`` holds a previous result of the tool that writes ``marker``."""
-    if (folder / marker).is_file():
-        return True
-    key, names, suffixes = _LEGACY[marker]
-    entries = list(folder.iterdir())
+def _files(folder: Path) -> set:
+    return {str(p.relative_to(folder)) for p in folder.rglob("*") if not p.is_dir()}
+
+
+def _foreign(folder: Path, marker: str) -> list | None:
+    """Files in ``folder`` that the tool writing ``marker`` did not write (None: not a result at all)."""
+    m = folder / marker
+    if m.is_file():
+        try:
+            written = set(json.loads(m.read_text(encoding="utf-8"))["files"])
+        except (ValueError, KeyError, TypeError, OSError):
+            return None
+        return sorted(_files(folder) - written - {marker})
+    key, names, suffixes = _LEGACY[marker]  # a result written before the marker existed
     if not (folder / key).is_file():
-        return False
-    for e in entries:
+        return None
+    bad = []
+    for e in folder.iterdir():
         if e.is_file() and (e.name in names or e.suffix in suffixes):
             continue
         if marker == BENCHMARK_MARKER and e.is_dir() and (e / "dataset.yaml").is_file():
             continue
-        return False
-    return True
+        bad.append(e.name)
+    return sorted(bad)
+
+
+def _is_result(folder: Path, marker: str) -> bool:
+    """True when ``folder`` holds a previous result of the tool that writes ``marker``, and nothing else."""
+    return _foreign(folder, marker) == []
 
 
 def check_out_folder(out, tool: str, marker: str) -> Path:
     """Refuse (InputError, before any computing) an --out that is a file, or a non-empty folder
-    that is not a previous result of ``tool``."""
+    that is not a previous result of ``tool`` (or holds files ``tool`` did not write)."""
     out = Path(out)
     if out.exists() or out.is_symlink():
         if not out.is_dir():
             raise InputError(f"--out {out}: is a file, not a folder; {tool} writes a folder and never overwrites "
                              "a file: choose a new folder name")
-        if any(out.iterdir()) and not _is_result(out, marker):
-            raise InputError(f"--out {out}: the folder is not empty and is not a previous {tool} result (no "
-                             f"{marker} marker): choose a new or empty folder; {tool} never deletes or "
-                             "overwrites files it did not write")
+        if any(out.iterdir()):
+            bad = _foreign(out, marker)
+            if bad is None:
+                raise InputError(f"--out {out}: the folder is not empty and is not a previous {tool} result (no "
+                                 f"{marker} marker): choose a new or empty folder; {tool} never deletes or "
+                                 "overwrites files it did not write")
+            if bad:
+                raise InputError(f"--out {out}: a previous {tool} result, but it also holds files {tool} did not "
+                                 f"write ({', '.join(bad[:3])}{', ...' if len(bad) > 3 else ''}): move them or "
+                                 "choose another folder; the result is replaced as a whole")
     elif not out.parent.is_dir() and out.parent != Path(""):
         out.parent.mkdir(parents=True, exist_ok=True)
     return out
@@ -109,8 +129,10 @@ class ResultFolder:
         if et is not None:
             shutil.rmtree(self.tmp, ignore_errors=True)
             return False
-        (self.tmp / self.marker).write_text("written by pyfmu_wrapper; this folder is replaced as a whole when "
-                                            "the tool runs again with the same --out\n")
+        files = sorted(_files(self.tmp))
+        (self.tmp / self.marker).write_text(json.dumps({
+            "note": "written by pyfmu_wrapper; replaced as a whole when the tool runs again with the same --out, "
+                    "refused if other files are added", "files": files}, indent=0) + "\n")
         old = None
         if self.out.exists():  # checked before computing: a previous result or an empty folder
             if not (not any(self.out.iterdir()) or _is_result(self.out, self.marker)):

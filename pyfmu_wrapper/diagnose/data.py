@@ -175,7 +175,7 @@ def _read_long(file, level, entry, n_rows, log):
 
     q = max(1, math.ceil(n_rows / MAX_SAMPLES))
     chunk = q * max(1, CHUNK_ROWS // q)
-    log(f"{file.name}: {n_rows:,} rows, more than {MAX_SAMPLES:,}: reading {chunk:,} rows at a time and averaging "
+    log(f"{file.name}: {n_rows:,} lines after the header, more than {MAX_SAMPLES:,}: reading {chunk:,} rows at a time and averaging "
         f"every {q} consecutive samples (boxcar anti-alias filter) -> about {n_rows // q:,} samples")
     parts, lo, hi = {}, {}, {}
     kind, t_prev, row0, dropped = None, None, 0, 0
@@ -203,7 +203,7 @@ def _read_long(file, level, entry, n_rows, log):
             row0 += len(df)
             if _time.monotonic() - last >= 2.0:
                 last = _time.monotonic()
-                log(f"{file.name}: read {row0:,} of {n_rows:,} rows ({100 * row0 / n_rows:.0f} %, "
+                log(f"{file.name}: read {row0:,} of about {n_rows:,} rows ({100 * row0 / n_rows:.0f} %, "
                     f"{last - t0:.0f} s)")
     except DataError:
         raise
