@@ -158,6 +158,9 @@ CASES = [
     ("diagnose-dead-force-system", dg(lambda tmp: system_dataset(tmp, dead="force")),
      r"w0\.csv, column 'force': the channel is constant .*dead channel"),
     ("diagnose-dead-y-system", dg(lambda tmp: system_dataset(tmp, dead="y")), r"w0\.csv, column 'y': the channel is constant"),
+    ("diagnose-shorter-than-a-period", dg(lambda tmp: (lambda d: (Path(d, "dataset.yaml").write_text(
+        Path(d, "dataset.yaml").read_text().replace("omega: 17.0", "omega: 0.5")), d)[1])(system_dataset(tmp))),
+     r"w0\.csv: the record spans 1\.475 s, less than one period of w = 0\.5 rad/s \(12\.57 s\)"),
     ("diagnose-too-few-rows", dg(lambda tmp: link_dataset(tmp, rows="t,displacement,force\n0,0,0\n0.1,1,2\n")),
      r"r0\.csv: needs at least 3 data rows, has 2"),
     ("diagnose-non-utf8-csv", dg(lambda tmp: link_dataset(tmp, rows=b"t,displacement,force\n0,0,0\n0.1,1\xff,2\n")),

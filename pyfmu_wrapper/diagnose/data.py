@@ -261,6 +261,12 @@ def read_record(file: Path, level: str, entry: dict | None = None, log=_stderr) 
             rec.meta["periodic"] = False
     if rec.omega is not None and not rec.omega > 0:
         raise _err(file, f"omega must be > 0 rad/s, got {_plainf(rec.omega)}")
+    if kind == "time" and rec.omega is not None:
+        span, period = float(cols["t"][-1] - cols["t"][0]), 2 * math.pi / rec.omega
+        if span < period:
+            raise _err(file, f"the record spans {span:.4g} s, less than one period of w = {rec.omega:.4g} rad/s "
+                             f"({period:.4g} s): the harmonic analysis of a system time record needs whole periods "
+                             "(at least 2)")
     if kind == "link" and rec.amplitude is None:
         d = cols["displacement"]
         rec.amplitude = 0.5 * float(np.percentile(d, 99.5) - np.percentile(d, 0.5))
