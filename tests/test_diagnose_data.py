@@ -245,3 +245,29 @@ def test_flagged_records_are_printed(tmp_path, capsys, monkeypatch):
     assert cli.main_diagnose([str(tmp_path / "ds"), "--out", str(tmp_path / "o")]) == 0
     out = capsys.readouterr().out
     assert "flagged: a.csv: no 'y' column" in out and "flagged: b.csv: no 'ydd' column" in out
+
+
+def test_sigterm_removes_the_partial_folder_and_stale_ones_are_cleaned(tmp_path):
+    """SIGTERM during a run behaves as Ctrl-C: the partial folder is removed, the old result kept;
+    a partial folder left by a killed process is removed on the next start."""
+    import os
+    import signal
+
+    from pyfmu_wrapper.diagnose.cli import DIAGNOSE_MARKER, ResultFolder
+
+    out = tmp_path / "res"
+    with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
+        (tmp / "report.md").write_text("one")
+    with pytest.raises(KeyboardInterrupt):
+        with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
+            (tmp / "report.md").write_text("half")
+            os.kill(os.getpid(), signal.SIGTERM)
+    assert (out / "report.md").read_text() == "one"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
+    dead = tmp_path / ".res.partial-999999999-abc"  # no such process
+    dead.mkdir()
+    (dead / "report.md").write_text("left by a killed run")
+    with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
+        (tmp / "report.md").write_text("two")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
+    assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL

@@ -113,19 +113,58 @@ def check_out_folder(out, tool: str, marker: str) -> Path:
     return out
 
 
+def _pid_alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:
+        return True
+    return True
+
+
+def _interrupt(signum, frame):
+    raise KeyboardInterrupt(f"signal {signum}")
+
+
 class ResultFolder:
     """``with ResultFolder(out, marker) as tmp:`` write into tmp; on success tmp replaces ``out``
-    (a previous result of the same tool, or an empty folder); on failure tmp is removed."""
+    (a previous result of the same tool, or an empty folder); on failure, Ctrl-C, SIGTERM or SIGHUP
+    tmp is removed. Partial folders of a killed run (``.<out>.partial-<pid>-*`` of a dead process)
+    are removed on the next start, and said so."""
 
     def __init__(self, out, marker):
         self.out, self.marker = Path(out), marker
+        self.parent = self.out.parent if str(self.out.parent) else Path(".")
+
+    def _stale(self):
+        for p in self.parent.glob(f".{self.out.name}.partial-*"):
+            try:
+                pid = int(p.name.rsplit(".partial-", 1)[1].split("-")[0])
+            except ValueError:
+                continue
+            if p.is_dir() and not _pid_alive(pid):
+                shutil.rmtree(p, ignore_errors=True)
+                print(f"removed {p}: the partial result of an interrupted run (process {pid})", file=sys.stderr)
 
     def __enter__(self) -> Path:
-        parent = self.out.parent if str(self.out.parent) else Path(".")
-        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.partial-", dir=parent))
+        import signal
+        import threading
+
+        self._stale()
+        self.tmp = Path(tempfile.mkdtemp(prefix=f".{self.out.name}.partial-{os.getpid()}-", dir=self.parent))
+        self.saved = {}
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGTERM, getattr(signal, "SIGHUP", None)):
+                if sig is not None:
+                    self.saved[sig] = signal.signal(sig, _interrupt)
         return self.tmp
 
     def __exit__(self, et, ev, tb):
+        import signal
+
+        for sig, h in self.saved.items():
+            signal.signal(sig, h)
         if et is not None:
             shutil.rmtree(self.tmp, ignore_errors=True)
             return False
@@ -139,7 +178,7 @@ class ResultFolder:
                 shutil.rmtree(self.tmp, ignore_errors=True)
                 raise InputError(f"--out {self.out}: files appeared in the folder during the run; the result was "
                                  "not written (nothing was deleted)")
-            old = self.out.parent / f".{self.out.name}.old-{os.getpid()}"
+            old = self.parent / f".{self.out.name}.old-{os.getpid()}"
             os.replace(self.out, old)
         os.replace(self.tmp, self.out)
         if old is not None:
