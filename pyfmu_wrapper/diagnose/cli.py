@@ -175,9 +175,8 @@ class ResultFolder:
         old = None
         if self.out.exists():  # checked before computing: a previous result or an empty folder
             if not (not any(self.out.iterdir()) or _is_result(self.out, self.marker)):
-                shutil.rmtree(self.tmp, ignore_errors=True)
-                raise InputError(f"--out {self.out}: files appeared in the folder during the run; the result was "
-                                 "not written (nothing was deleted)")
+                raise InputError(f"--out {self.out}: files appeared in the folder during the run; nothing there "
+                                 f"was touched and the result was left in {self.tmp}")
             old = self.parent / f".{self.out.name}.old-{os.getpid()}"
             os.replace(self.out, old)
         os.replace(self.tmp, self.out)
