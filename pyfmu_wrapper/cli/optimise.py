@@ -22,7 +22,7 @@ import traceback
 
 from ..optimise import OBJECTIVES, OptimisationError, OptimiseConfig, optimise, split_parameter, with_parameter
 from ..physics.params import BaseParams, ParameterError, paper_case
-from .errors import cli_main
+from .errors import cli_main, plain_text
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -55,7 +55,7 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _fail(msg: str) -> int:
-    print(f"optimise: error: {msg}", file=sys.stderr)
+    print(f"optimise: error: {' '.join(plain_text(msg).split())}", file=sys.stderr)
     return 2
 
 
