@@ -271,3 +271,30 @@ def test_sigterm_removes_the_partial_folder_and_stale_ones_are_cleaned(tmp_path)
         (tmp / "report.md").write_text("two")
     assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
     assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL
+
+
+def test_make_benchmark_prints_no_hidden_labels(tmp_path, capsys, monkeypatch):
+    """A blind benchmark does not print what it hides: the progress lines name the datasets only."""
+    import json
+
+    from pyfmu_wrapper.diagnose import cli, sysbench
+
+    def fake(out, n, seed, progress=None):
+        man = []
+        for i in range(n):
+            (out / f"sys{i:03d}").mkdir()
+            (out / f"sys{i:03d}" / "dataset.yaml").write_text("level: system\n")
+            row = {"dataset": f"sys{i:03d}", "case": 2, "hidden": ["friction"], "severity": {"friction": 7.25},
+                   "truth": {"friction.friction_force": 7.25}}
+            man.append(row)
+            progress(row)
+        (out / "manifest.json").write_text(json.dumps({"datasets": man}))
+        return man
+
+    monkeypatch.setattr(sysbench, "make_system_benchmark", fake)
+    assert cli.main_make_benchmark(["--out", str(tmp_path / "b"), "-n", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "sys001: written" in out
+    assert "friction" not in out and "7.25" not in out
+    assert json.loads((tmp_path / "b" / "manifest.json").read_text())["datasets"][0]["hidden"] == ["friction"]
+    assert (tmp_path / "b" / cli.BENCHMARK_MARKER).is_file()
