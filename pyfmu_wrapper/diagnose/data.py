@@ -395,6 +395,10 @@ def normalise_nominal(nom: dict, level: str, file) -> dict:
         nom = nom["nominal"]
     ln = lambda node, k: _line(node, k) or _line(nom, k)  # noqa: E731
     if level == "link":
+        if "link" in nom and set(nom) - {"link", "base", "tmd"}:
+            extra = sorted(map(str, set(nom) - {"link", "base", "tmd"}))
+            raise _err(file, f"nominal: unknown key(s) {extra} beside 'link'; allowed keys: ['link'] (or the link "
+                             f"parameters {list(LINK_NOMINAL)} directly)", line=_line(nom, extra[0]))
         src = nom.get("link", nom)
         if "tmd" in nom and "link" not in nom:  # a scenario: its TMD link is the device
             try:
