@@ -34,6 +34,7 @@ from matplotlib.figure import Figure
 from . import plots
 from .claim_data import FULL_C, PAPER_SIMPLIFIED, best_fit_viscous, curve, viscous_errors  # noqa: F401 (API)
 from .claims import Claim, Context, evaluate
+from .cli.errors import InputError, cli_main
 from .scenario.engines import ENGINES, RunSettings
 from .scenario.executors import code_version, make_executor
 from .scenario.loader import _plain, parse_scenario
@@ -387,6 +388,7 @@ def write_report(runs: dict, rows: list, figs: dict, out: Path, figdir: Path, re
     return path
 
 
+@cli_main("reproduce")
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="python -m pyfmu_wrapper.reproduce", description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="docs", help="folder of reproduction.md (figures in <out>/figures/)")
@@ -408,6 +410,16 @@ def main(argv=None) -> int:
         ap.error(f"unknown scenario names {unknown}; available: {NAMES}")
     out = Path(a.out)
     results = Path(a.results) if a.results else Path("results") / ("paper-quick" if a.quick else "paper")
+    if a.jobs < 0:
+        raise InputError(f"--jobs {a.jobs}: must be >= 0 (0: all cores)")
+    if a.dpi < 10:
+        raise InputError(f"--dpi {a.dpi}: must be >= 10")
+    if a.executor == "dask" and not a.scheduler:
+        raise InputError("--executor dask needs --scheduler ADDRESS")
+    for opt, p in (("--out", out), ("--results", results)):
+        if p.exists() and not p.is_dir():
+            raise InputError(f"{opt} {p}: is a file, not a folder; reproduce writes a folder there and never "
+                             "overwrites a file")
     names = a.only if a.only else NAMES
     level_of = lambda n: "quick" if a.quick else ("coarse" if n in a.coarse else None)  # noqa: E731
     ex = make_executor(a.executor, jobs=a.jobs, scheduler=a.scheduler)

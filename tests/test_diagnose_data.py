@@ -70,7 +70,7 @@ def test_frc_bad_direction_and_system_nominal(tmp_path):
         load_dataset(tmp_path)
     _write(tmp_path, "omega,force_amplitude,x_max\n15,200,0.01\n16,200,0.01\n17,200,0.01\n", name="frc.csv",
            level="system", nominal={"base": {"mass": -1.0}, "tmd": {}})
-    with pytest.raises(DataError, match=r"dataset\.yaml: nominal model: mass \(M\) must be > 0"):
+    with pytest.raises(DataError, match=r"dataset\.yaml:\d+: nominal model: base: mass \(M\) must be > 0"):
         load_dataset(tmp_path)
 
 
@@ -124,3 +124,179 @@ def test_brfd_names_any_tension_and_header(tmp_path):
     head = (tmp_path / "out" / "dataset.yaml").read_text()
     assert "45 lb band tension" in head and '"Dataset 3"' in head and "30 lb" not in head
     assert "45 lb" in yaml.safe_load(head)["description"]
+
+
+# --- issue 17: long records, unknown keys, output folders ------------------------------------------
+
+def _long_link(tmp_path, n, seed=2):
+    rng = np.random.default_rng(seed)
+    t = np.arange(n) * 1e-3
+    d = 0.01 * np.sin(20 * t)
+    F = 4000 * d + rng.normal(0, 0.5, n)
+    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump({"level": "link", "nominal": NOM,
+                                                           "records": [{"file": "long.csv", "omega": 20.0}]}))
+    return t, d, F
+
+
+def test_long_record_is_block_averaged_in_chunks(tmp_path, monkeypatch):
+    """A record longer than MAX_SAMPLES is read in chunks and averaged over q = ceil(n / MAX) samples:
+    the result equals the block means computed directly from the raw columns (rows that do not fill
+    a last block dropped), and the console says so."""
+    from pyfmu_wrapper.diagnose import data
+    from pyfmu_wrapper.diagnose.data import write_record
+
+    monkeypatch.setattr(data, "MAX_SAMPLES", 1000)
+    monkeypatch.setattr(data, "CHUNK_ROWS", 700)
+    t, d, F = _long_link(tmp_path, 4321)
+    write_record(tmp_path / "long.csv", {"t": t, "displacement": d, "force": F}, fmt="%.17g")
+    said = []
+    ds = load_dataset(tmp_path, log=said.append)
+    rec = ds.records[0]
+    q = 5  # ceil(4321 / 1000)
+    m = 4321 // q * q
+    np.testing.assert_array_equal(rec["t"], t[:m].reshape(-1, q).mean(axis=1))
+    np.testing.assert_allclose(rec["force"], F[:m].reshape(-1, q).mean(axis=1), rtol=0, atol=1e-12)
+    np.testing.assert_allclose(rec["displacement"], d[:m].reshape(-1, q).mean(axis=1), rtol=0, atol=1e-15)
+    assert rec.meta["reduced"] == {"rows": 4321, "block": q, "samples": m // q, "dropped_rows": 4321 - m,
+                                   "method": f"boxcar average of {q} consecutive samples, one sample kept per block"}
+    assert any("averaging every 5 consecutive samples" in s for s in said)
+    assert any("the last 1 rows" in s for s in said)
+
+
+@pytest.mark.parametrize("row,line,match", [
+    (2345, "2.344,nan,1", r"long\.csv, row 2345, column 'displacement': value nan"),
+    (1401, "1.3985,0.001,1", r"long\.csv, row 1401, column 't': time must be strictly increasing: t = 1\.3985 after 1\.399"),
+])
+def test_long_record_errors_name_the_global_row(tmp_path, monkeypatch, row, line, match):
+    """Errors in a later chunk name the row of the file (1-based data row), also across a chunk boundary
+    (row 1401 is the first row of the third chunk of 700)."""
+    from pyfmu_wrapper.diagnose import data
+
+    monkeypatch.setattr(data, "MAX_SAMPLES", 1000)
+    monkeypatch.setattr(data, "CHUNK_ROWS", 700)
+    t, d, F = _long_link(tmp_path, 3000)
+    lines = ["t,displacement,force"] + [f"{a:.4f},{b:.6g},{c:.6g}" for a, b, c in zip(t, d, F)]
+    lines[row] = line
+    (tmp_path / "long.csv").write_text("\n".join(lines) + "\n")
+    with pytest.raises(DataError, match=match):
+        load_dataset(tmp_path, log=lambda s: None)
+
+
+def test_dead_channel_in_a_long_record(tmp_path, monkeypatch):
+    from pyfmu_wrapper.diagnose import data
+    from pyfmu_wrapper.diagnose.data import write_record
+
+    monkeypatch.setattr(data, "MAX_SAMPLES", 1000)
+    t, d, F = _long_link(tmp_path, 2500)
+    write_record(tmp_path / "long.csv", {"t": t, "displacement": d, "force": 0 * F})
+    with pytest.raises(DataError, match=r"long\.csv, column 'force': the channel is constant \(every value = 0\)"):
+        load_dataset(tmp_path, log=lambda s: None)
+
+
+def test_acquisition_key_allowed_unknown_keys_refused(tmp_path):
+    """The ALLOWED_KEYS table admits issue 19's 'acquisition' block; a typo is refused with the list."""
+    rows = "t,displacement,force\n" + _good_rows(60) + "\n"
+    _write(tmp_path, rows)
+    doc = yaml.safe_load((tmp_path / "dataset.yaml").read_text())
+    doc["acquisition"] = {"force": {"filter": {"type": "butterworth", "order": 4, "cutoff_hz": 200.0}, "delay_s": 1e-4}}
+    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump(doc))
+    # the key is known (not an "unknown key"): on a link dataset the acquisition parser refuses it by name
+    with pytest.raises(DataError, match=r"'acquisition' is for system-level datasets"):
+        load_dataset(tmp_path)
+    doc["acquisiton"] = doc.pop("acquisition")
+    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump(doc))
+    with pytest.raises(DataError, match=r"unknown key\(s\) \['acquisiton'\]; allowed keys: \[.*'acquisition'"):
+        load_dataset(tmp_path)
+
+
+def test_result_folder_replaced_as_a_whole_user_files_never_touched(tmp_path):
+    from pyfmu_wrapper.cli.errors import InputError
+    from pyfmu_wrapper.diagnose.cli import DIAGNOSE_MARKER, ResultFolder, check_out_folder
+
+    out = check_out_folder(tmp_path / "res", "diagnose", DIAGNOSE_MARKER)
+    with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
+        (tmp / "report.md").write_text("one")
+        (tmp / "old.png").write_text("png")
+    assert sorted(p.name for p in out.iterdir()) == [DIAGNOSE_MARKER, "old.png", "report.md"]
+    check_out_folder(out, "diagnose", DIAGNOSE_MARKER)  # a previous result: accepted
+    with pytest.raises(RuntimeError):  # a failed run leaves the previous result and no partial folder
+        with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
+            (tmp / "report.md").write_text("half")
+            raise RuntimeError("boom")
+    assert (out / "report.md").read_text() == "one"
+    with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
+        (tmp / "report.md").write_text("two")
+    assert sorted(p.name for p in out.iterdir()) == [DIAGNOSE_MARKER, "report.md"]  # no stale old.png
+    assert (out / "report.md").read_text() == "two"
+    (out / "my_notes.md").write_text("mine")
+    with pytest.raises(InputError, match=r"also holds files diagnose did not write \(my_notes\.md\)"):
+        check_out_folder(out, "diagnose", DIAGNOSE_MARKER)
+    assert (out / "my_notes.md").read_text() == "mine"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
+
+
+def test_flagged_records_are_printed(tmp_path, capsys, monkeypatch):
+    """Records the analysis leaves out (or partly out) appear in the printed verdict, not only in the report."""
+    from pyfmu_wrapper.diagnose import cli
+
+    res = {"verdict": {"text": "No structural effect."}, "held_out": {},
+           "time_records": {"flagged": [{"record": "a.csv", "reason": "no 'y' column"}]},
+           "flagged_records": [{"record": "b.csv", "reason": "no 'ydd' column"}]}
+    monkeypatch.setattr(cli, "run_diagnosis", lambda *a, **k: res)
+    (tmp_path / "ds").mkdir()
+    assert cli.main_diagnose([str(tmp_path / "ds"), "--out", str(tmp_path / "o")]) == 0
+    out = capsys.readouterr().out
+    assert "flagged: a.csv: no 'y' column" in out and "flagged: b.csv: no 'ydd' column" in out
+
+
+def test_sigterm_removes_the_partial_folder_and_stale_ones_are_cleaned(tmp_path):
+    """SIGTERM during a run behaves as Ctrl-C: the partial folder is removed, the old result kept;
+    a partial folder left by a killed process is removed on the next start."""
+    import os
+    import signal
+
+    from pyfmu_wrapper.diagnose.cli import DIAGNOSE_MARKER, ResultFolder
+
+    out = tmp_path / "res"
+    with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
+        (tmp / "report.md").write_text("one")
+    with pytest.raises(KeyboardInterrupt):
+        with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
+            (tmp / "report.md").write_text("half")
+            os.kill(os.getpid(), signal.SIGTERM)
+    assert (out / "report.md").read_text() == "one"
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
+    dead = tmp_path / ".res.partial-999999999-abc"  # no such process
+    dead.mkdir()
+    (dead / "report.md").write_text("left by a killed run")
+    with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
+        (tmp / "report.md").write_text("two")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
+    assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL
+
+
+def test_make_benchmark_prints_no_hidden_labels(tmp_path, capsys, monkeypatch):
+    """A blind benchmark does not print what it hides: the progress lines name the datasets only."""
+    import json
+
+    from pyfmu_wrapper.diagnose import cli, sysbench
+
+    def fake(out, n, seed, progress=None):
+        man = []
+        for i in range(n):
+            (out / f"sys{i:03d}").mkdir()
+            (out / f"sys{i:03d}" / "dataset.yaml").write_text("level: system\n")
+            row = {"dataset": f"sys{i:03d}", "case": 2, "hidden": ["friction"], "severity": {"friction": 7.25},
+                   "truth": {"friction.friction_force": 7.25}}
+            man.append(row)
+            progress(row)
+        (out / "manifest.json").write_text(json.dumps({"datasets": man}))
+        return man
+
+    monkeypatch.setattr(sysbench, "make_system_benchmark", fake)
+    assert cli.main_make_benchmark(["--out", str(tmp_path / "b"), "-n", "2"]) == 0
+    out = capsys.readouterr().out
+    assert "sys001: written" in out
+    assert "friction" not in out and "7.25" not in out
+    assert json.loads((tmp_path / "b" / "manifest.json").read_text())["datasets"][0]["hidden"] == ["friction"]
+    assert (tmp_path / "b" / cli.BENCHMARK_MARKER).is_file()

@@ -22,6 +22,7 @@ import traceback
 
 from ..optimise import OBJECTIVES, OptimisationError, OptimiseConfig, optimise, split_parameter, with_parameter
 from ..physics.params import BaseParams, ParameterError, paper_case
+from .errors import cli_main, plain_text
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -54,10 +55,32 @@ def _parser() -> argparse.ArgumentParser:
 
 
 def _fail(msg: str) -> int:
-    print(f"optimise: error: {msg}", file=sys.stderr)
+    print(f"optimise: error: {' '.join(plain_text(msg).split())}", file=sys.stderr)
     return 2
 
 
+def _check_json_target(path) -> str | None:
+    """Why --json PATH must not be written (None: a new file or a previous optimise result)."""
+    import os
+
+    if path in (None, "-"):
+        return None
+    if os.path.isdir(path):
+        return f"--json {path}: is a folder; give a file name"
+    if os.path.exists(path):
+        try:
+            with open(path, encoding="utf-8") as fh:
+                prev = json.load(fh)
+            if isinstance(prev, dict) and {"parameter", "objective", "evaluations"} <= set(prev):
+                return None
+        except (OSError, ValueError):
+            pass
+        return (f"--json {path}: the file exists and is not a previous optimise result: choose a new name "
+                "(optimise never overwrites files it did not write)")
+    return None
+
+
+@cli_main("optimise")
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)  # exits 2 on bad options
     if args.list_objectives:
@@ -68,6 +91,13 @@ def main(argv=None) -> int:
         return _fail("--parameter is required")
     if (args.scenario is None) == (args.case is None):
         return _fail("give either a scenario file or --case N (not both)")
+    if args.xtol is not None and not 0 < args.xtol < float("inf"):
+        return _fail(f"--xtol must be a tolerance > 0, got {args.xtol}")
+    if args.scan is not None and args.scan < 3:
+        return _fail(f"--scan must be >= 3 points, got {args.scan}")
+    why = _check_json_target(args.json_out)
+    if why:
+        return _fail(why)
     kw = {}
     if args.scenario is not None:
         from ..scenario import ScenarioError, load_scenario
@@ -92,7 +122,14 @@ def main(argv=None) -> int:
             if not sep:
                 return _fail(f"--set wants NAME=VALUE, got {item!r}")
             split_parameter(name.strip())
-            base, tmd = with_parameter(base, tmd, name.strip(), float(value))
+            try:
+                number = float(value)
+            except ValueError:
+                return _fail(f"--set {item}: {value.strip()!r} is not a number")
+            try:
+                base, tmd = with_parameter(base, tmd, name.strip(), number)
+            except (OptimisationError, ParameterError) as exc:
+                return _fail(f"--set {item}: {exc}")
         split_parameter(args.parameter)
     except (OptimisationError, ParameterError, ValueError) as exc:
         return _fail(str(exc))
@@ -128,8 +165,12 @@ def main(argv=None) -> int:
         if args.json_out == "-":
             print(text)
         else:
-            with open(args.json_out, "w", encoding="utf-8") as fh:
+            import os
+
+            tmp = f"{args.json_out}.partial-{os.getpid()}"
+            with open(tmp, "w", encoding="utf-8") as fh:
                 fh.write(text + "\n")
+            os.replace(tmp, args.json_out)
     return 0
 
 

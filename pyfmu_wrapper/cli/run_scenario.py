@@ -10,6 +10,7 @@ import sys
 import traceback
 
 from ..scenario import ScenarioError, load_scenario
+from .errors import cli_main
 from ..scenario.engines import DEFAULT_ENGINE, ENGINES, RunSettings
 from ..scenario.executors import EXECUTORS, make_executor
 from ..scenario.output import default_checkpoint_dir, default_output_dir, run_scenario
@@ -47,6 +48,7 @@ def _parser() -> argparse.ArgumentParser:
     return p
 
 
+@cli_main("run-scenario")
 def main(argv=None) -> int:
     args = _parser().parse_args(argv)  # exits 2 on bad options
     try:

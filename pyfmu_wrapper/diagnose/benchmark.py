@@ -133,10 +133,10 @@ def score(bench: Path, results: dict | None = None, progress=None) -> dict:
     are taken for the hidden effects the verdict names."""
     import time
 
-    from .cli import run_diagnosis
+    from .cli import load_manifest, run_diagnosis
 
     bench = Path(bench)
-    man = json.loads((bench / "manifest.json").read_text())["datasets"]
+    man = load_manifest(bench)  # InputError for a folder without a manifest or an empty benchmark
     rows = []
     for m in man:
         t0 = time.perf_counter()

@@ -48,6 +48,11 @@ class Fit:
         return "+".join(self.effects)
 
 
+def _log(x):
+    """ln of a mean square; an exact fit (0) counts as 1e-300 (a perfect held-out prediction)."""
+    return math.log(max(x, 1e-300))
+
+
 def split_masks(ld: LinkData):
     """(train, test) sample masks: yaml roles, else every third record (sorted by omega, amplitude)
     held out, else the last 40 % of a single record."""
@@ -205,18 +210,21 @@ def diagnose_link(ld: LinkData, max_pairs_from: int = 7) -> Diagnosis:
     nt = int(test.sum())
     rss0 = float(r0[test] @ r0[test])
     f_rms = float(np.sqrt(np.mean(ld.F[test] ** 2)))
+    if not f_rms > 0:
+        raise DataError("the measured force is zero in every held-out record (" + ", ".join(
+            sorted({ld.records[i].name for i in ld.rec[test]})) + "): a dead force channel, nothing to diagnose")
     effects = effect_list(ld)
     fits = [fit_effects([e], ld, train, test) for e in effects]
     best = min(fits, key=lambda f: f.rss_test)
     n_eff = max(10.0, nt * (1 - _rho((ld.F - best.pred)[test])) / (1 + _rho((ld.F - best.pred)[test])))
 
     def score(f):
-        f.bic = n_eff * math.log(f.rss_test / nt) + f.n_params * math.log(n_eff)
+        f.bic = n_eff * _log(f.rss_test / nt) + f.n_params * math.log(n_eff)
         f.closed = gap_closed(rss0 / nt, f.rss_test / nt, ld.noise)
-        f.nrmse_test = math.sqrt(f.rss_test / nt) / f_rms
+        f.nrmse_test = math.sqrt(f.rss_test / nt) / f_rms if f_rms > 0 else float("nan")
     for f in fits:
         score(f)
-    bic0 = n_eff * math.log(rss0 / nt)
+    bic0 = n_eff * _log(rss0 / nt)
     fits.sort(key=lambda f: f.bic)
     excess = math.sqrt(rss0 / nt) / max(ld.noise, 1e-300) - 1.0
     structural = excess > EXCESS_THRESHOLD and fits[0].bic < bic0 - BIC_THRESHOLD
@@ -254,9 +262,10 @@ def per_band(ld: LinkData, diag: Diagnosis, fit: Fit | None):
         r0 = (ld.F - ld.F_nom)[m]
         ms0 = float(np.mean(r0 ** 2))
         fr = float(np.sqrt(np.mean(ld.F[m] ** 2)))
-        row = {"omega": float(w), "records": [ld.records[i].name for i in ids], "nrmse_before": math.sqrt(ms0) / fr}
+        row = {"omega": float(w), "records": [ld.records[i].name for i in ids],
+               "nrmse_before": math.sqrt(ms0) / fr if fr > 0 else float("nan")}
         if fit is not None:
             ms1 = float(np.mean((ld.F - fit.pred)[m] ** 2))
-            row.update(nrmse_after=math.sqrt(ms1) / fr, gap_closed=gap_closed(ms0, ms1, ld.noise))
+            row.update(nrmse_after=math.sqrt(ms1) / fr if fr > 0 else float("nan"), gap_closed=gap_closed(ms0, ms1, ld.noise))
         rows.append(row)
     return rows

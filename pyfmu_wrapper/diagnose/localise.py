@@ -14,7 +14,8 @@ def by_record(ld, r):
         m = ld.rec == k
         fr = float(np.sqrt(np.mean(ld.F[m] ** 2)))
         rows.append({"record": rec.name, "omega": rec.omega, "amplitude": rec.amplitude,
-                     "rms": float(np.sqrt(np.mean(r[m] ** 2))), "nrmse": float(np.sqrt(np.mean(r[m] ** 2))) / fr})
+                     "rms": float(np.sqrt(np.mean(r[m] ** 2))),
+                     "nrmse": float(np.sqrt(np.mean(r[m] ** 2))) / fr if fr > 0 else float("nan")})
     return rows
 
 

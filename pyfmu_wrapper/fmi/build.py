@@ -41,6 +41,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
+from ..cli.errors import cli_main
 from .model_description import guid_of, model_description_xml, variable_table_tsv
 from .variables import PROJECT_FMUS, SPECS, FmuSpec
 
@@ -396,6 +397,7 @@ def ensure_fmus(out_dir: str | os.PathLike = DEFAULT_OUT, names=PROJECT_FMUS) ->
     return paths
 
 
+@cli_main("build-fmus")
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="build-fmus", description=__doc__.split("\n\n")[0])
     ap.add_argument("names", nargs="*", default=list(PROJECT_FMUS), help=f"FMUs to build, of {sorted(SPECS)}")
@@ -408,6 +410,8 @@ def main(argv=None) -> int:
     unknown = [n for n in args.names if n not in SPECS]
     if unknown:
         ap.error(f"unknown FMU(s) {unknown}; choose from {sorted(SPECS)}")
+    if Path(args.out).exists() and not Path(args.out).is_dir():  # before compiling anything
+        ap.error(f"--out {args.out}: is a file, not a folder (build-fmus writes the FMUs into a folder)")
     try:
         if args.standalone:
             out = DEFAULT_OUT / "standalone" if args.out == str(DEFAULT_OUT) else args.out

@@ -253,10 +253,17 @@ def load_scenario(path) -> Scenario:
     path = os.fspath(path)
     file = path
     try:
-        with open(path, encoding="utf-8") as fh:
-            text = fh.read()
+        with open(path, "rb") as fh:
+            data = fh.read()
     except OSError as exc:
         raise ScenarioError(f"{file}: cannot read scenario file: {exc.strerror or exc}", file=file) from None
+    try:
+        text = data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:  # name the line and byte, not a traceback
+        from ..cli.errors import bad_bytes_message
+
+        raise ScenarioError(bad_bytes_message(file, data, exc), file=file,
+                            line=data.count(b"\n", 0, exc.start) + 1) from None
     return parse_scenario(text, file)
 
 

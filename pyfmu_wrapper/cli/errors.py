@@ -1,0 +1,167 @@
+"""One bad-input policy for every console script.
+
+``@cli_main("prog")`` wraps a ``main(argv) -> int``: the project's typed input errors
+(:class:`ScenarioError`, :class:`DataError`, :class:`ParameterError`, :class:`SettingsError`,
+:class:`OptimisationError`, :class:`EngineError`, :class:`InputError`, bytes that are not UTF-8, and an
+``OSError`` naming a file) become **one line** on stderr, ``prog: error: <what and where>``, and
+exit status 2, without a traceback. Anything else is a bug: its traceback is shown (exit 1).
+``argparse`` errors keep their own exit status 2. Ctrl-C gives exit 130.
+
+Messages show plain numbers (``nan``, ``0.5``), never ``np.float64(nan)``: :func:`plain` converts
+numpy scalars, :func:`plain_text` cleans a message that already holds such a repr.
+
+Set ``PYFMU_TRACEBACK=1`` to see the traceback of an input error too (debugging).
+"""
+from __future__ import annotations
+
+import codecs
+import functools
+import os
+import re
+import sys
+
+#: (module, class name) of the typed input errors; looked up in sys.modules, so that wrapping a
+#: ``main`` imports nothing heavy (an error class whose module was never imported cannot be raised)
+INPUT_ERROR_TYPES = (
+    ("pyfmu_wrapper.scenario.schema", "ScenarioError"),
+    ("pyfmu_wrapper.diagnose.data", "DataError"),
+    ("pyfmu_wrapper.physics.params", "ParameterError"),
+    ("pyfmu_wrapper.solvers.steady", "SettingsError"),
+    ("pyfmu_wrapper.optimise", "OptimisationError"),
+    ("pyfmu_wrapper.scenario.engines", "EngineError"),
+    ("pyfmu_wrapper.master.graph", "GraphError"),
+)
+
+
+class InputError(ValueError):
+    """Bad input found by a console script itself (a command-line value, an output folder...)."""
+
+
+def is_input_error(exc: BaseException) -> bool:
+    if isinstance(exc, (InputError, UnicodeDecodeError)):
+        return True
+    if isinstance(exc, OSError):
+        return getattr(exc, "filename", None) is not None
+    for mod, name in INPUT_ERROR_TYPES:
+        cls = getattr(sys.modules.get(mod), name, None)
+        if cls is not None and isinstance(exc, cls):
+            return True
+    return False
+
+
+_NP_REPR = re.compile(r"\bnp\.(?:float|int|uint|complex|bool|str)_?\d*\(([^()]*)\)")
+
+
+def plain_text(text: str) -> str:
+    """``np.float64(0.5)`` -> ``0.5`` everywhere in a message."""
+    return _NP_REPR.sub(r"\1", text)
+
+
+def plain(x):
+    """A number as a person writes it: numpy scalars as Python numbers (repr ``nan``, ``0.5``)."""
+    item = getattr(x, "item", None)
+    if item is not None and getattr(x, "shape", None) == ():
+        return item()
+    return x
+
+
+def message(exc: BaseException) -> str:
+    """One line: the message of an input error with plain numbers."""
+    if isinstance(exc, OSError) and getattr(exc, "filename", None) is not None:
+        text = f"{exc.filename}: {exc.strerror or exc}"
+        if getattr(exc, "filename2", None):
+            text += f" ({exc.filename2})"
+    elif isinstance(exc, UnicodeDecodeError):
+        text = (f"input is not UTF-8 text: bytes {exc.object[exc.start:exc.end].hex(' ')} at byte offset "
+                f"{exc.start} ({exc.reason})")
+    else:
+        text = str(exc) or type(exc).__name__
+    return " ".join(plain_text(text).split())
+
+
+def report(prog: str, exc: BaseException) -> int:
+    if os.environ.get("PYFMU_TRACEBACK"):
+        import traceback
+
+        traceback.print_exception(exc)
+    print(f"{prog}: error: {message(exc)}", file=sys.stderr)
+    return 2
+
+
+def cli_main(prog: str):
+    """Decorator for a console script's ``main(argv=None) -> int`` (see the module doc)."""
+
+    def wrap(main):
+        @functools.wraps(main)
+        def run(*args, **kwargs):
+            try:
+                return main(*args, **kwargs)
+            except KeyboardInterrupt:
+                print(f"\n{prog}: interrupted", file=sys.stderr)
+                return 130
+            except Exception as exc:  # noqa: BLE001 - typed input errors only; the rest re-raised
+                if is_input_error(exc):
+                    return report(prog, exc)
+                raise
+
+        return run
+
+    return wrap
+
+
+# --- bytes that are not UTF-8 ------------------------------------------------------------------
+
+def bad_bytes_message(name, data: bytes, exc: UnicodeDecodeError, offset0: int = 0, line0: int = 1,
+                      line_start0: int = 0) -> str:
+    """``name: line L, column C (byte offset O): bytes ff fe are not UTF-8 text`` for a decode error
+    in ``data`` (a block of the file starting at byte offset0, on line line0 whose first byte is at
+    line_start0)."""
+    off = exc.start
+    nl = data.rfind(b"\n", 0, off)
+    line = line0 + data.count(b"\n", 0, off)
+    col = off - nl if nl >= 0 else offset0 + off - line_start0 + 1
+    return (f"{name}: line {line}, column {col} (byte offset {offset0 + off}): bytes "
+            f"{data[exc.start:exc.end].hex(' ')} are not UTF-8 text ({exc.reason}); save the file as UTF-8")
+
+
+def decode_utf8(data: bytes, name, error=InputError) -> str:
+    """Decode UTF-8 (a BOM is dropped); bad bytes raise ``error`` naming the file, line and offset."""
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise error(bad_bytes_message(name, data, exc)) from None
+
+
+def read_utf8(path, error=InputError) -> str:
+    """The text of a file; bad bytes raise ``error`` naming file, line, column and byte offset."""
+    with open(path, "rb") as fh:
+        data = fh.read()
+    return decode_utf8(data, os.fspath(path), error)
+
+
+def scan_utf8_lines(path, error=InputError, block: int = 1 << 24) -> int:
+    """Stream a (large) text file once: check it is UTF-8 and count its lines, in bounded memory."""
+    dec = codecs.getincrementaldecoder("utf-8")()
+    lines, offset, line_start, last = 0, 0, 0, b""
+    with open(path, "rb") as fh:
+        while True:
+            data = fh.read(block)
+            if not data:
+                break
+            if not data.isascii():
+                try:
+                    dec.decode(data)
+                except UnicodeDecodeError as exc:
+                    raise error(bad_bytes_message(os.fspath(path), data, exc, offset, lines + 1, line_start)) from None
+            n = data.count(b"\n")
+            if n:
+                line_start = offset + data.rfind(b"\n") + 1
+            lines += n
+            offset += len(data)
+            last = data[-1:]
+    try:
+        dec.decode(b"", final=True)
+    except UnicodeDecodeError:
+        raise error(f"{os.fspath(path)}: the file ends inside a multi-byte character (byte offset {offset}): "
+                    "not UTF-8 text; save the file as UTF-8") from None
+    return lines + (1 if last not in (b"", b"\n") else 0)
