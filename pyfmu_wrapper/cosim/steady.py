@@ -129,29 +129,23 @@ class CosimSteadyState:
 
 
 class _Periods:
-    """Runs whole periods on an initialised master and returns x, xd at the communication points."""
+    """Runs whole periods on an initialised master and returns x, xd at the communication points.
+
+    A period is one block of the master's :meth:`~pyfmu_wrapper.master.master.Master.advance`
+    (the compiled loop: no Python work per step), recorded into preallocated arrays."""
 
     def __init__(self, master: Master, n: int, T: float):
         self.m, self.n, self.h = master, n, T / n
         self.ix, self.iv = master.signals.index("base.x"), master.signals.index("base.xd")
-        self.x = np.zeros(n + 1)
-        self.v = np.zeros(n + 1)
+        self.t_rec = np.zeros(n)
+        self.y_rec = np.zeros((n + 1, master.nsig))
 
     def period(self, samples: np.ndarray | None = None) -> float:
-        m, h, ix, iv = self.m, self.h, self.ix, self.iv
-        x, v = self.x, self.v
-        x[0], v[0] = m.y[ix], m.y[iv]
-        if samples is not None:
-            samples[0] = m.y
-        step = m.step
-        for k in range(1, self.n + 1):
-            step(h)
-            y = m.y
-            x[k] = y[ix]
-            v[k] = y[iv]
-            if samples is not None:
-                samples[k] = y
-        return _hermite_absmax(x, v, h)
+        m = self.m
+        rec = self.y_rec if samples is None else samples
+        rec[0] = m.y
+        m.advance(self.n, self.h, self.t_rec, rec[1:])
+        return _hermite_absmax(np.ascontiguousarray(rec[:, self.ix]), np.ascontiguousarray(rec[:, self.iv]), self.h)
 
 
 def _state_of(master: Master, z_guess: np.ndarray) -> np.ndarray:

@@ -52,6 +52,7 @@ rollback). It knows FMI and coupling only; the base + TMD application is
 """
 from __future__ import annotations
 
+import os
 import shutil
 import tempfile
 import time
@@ -87,7 +88,9 @@ class Master:
     order: degree of the input extrapolation (0, 1 or 2; capped at 0 for FMUs that cannot
     interpolate inputs); record: extra ports to record (all connected outputs are recorded);
     loop_tol, max_loop_iter: the Newton solve of the coupling equations (:mod:`.loop`);
-    startup_iterations: iterations of the first steps (:meth:`step`).
+    startup_iterations: iterations of the first steps (:meth:`step`); compiled: take fixed steps
+    (:meth:`advance`, :meth:`run`) in the compiled loop of :mod:`.cloop` where it applies (default:
+    yes, unless the environment sets ``PYFMU_COMPILED_LOOP=0``); the results are the same bit for bit.
 
     ``y`` holds the current value of every signal (``signals``: every connected source and
     recorded port), ``t`` the current time [s].
@@ -95,7 +98,7 @@ class Master:
 
     def __init__(self, fmus: dict[str, str | Path], connections, parameters: dict | None = None,
                  scheme: str = "loop", order: int = 2, record=(), loop_tol: float = 1e-10, max_loop_iter: int = 20,
-                 startup_iterations: int = 2, compiled: bool = True):
+                 startup_iterations: int = 2, compiled: bool | None = None):
         if scheme not in SCHEMES:
             raise ValueError(f"scheme must be one of {SCHEMES}, got {scheme!r}")
         order = _check_order(order)
@@ -120,6 +123,8 @@ class Master:
         self.stepper = Stepper(self.instances, self.wiring, self.loop, self.y, self.history, scheme, order,
                                startup_iterations)
         self._error = ErrorEstimate()
+        if compiled is None:  # $PYFMU_COMPILED_LOOP=0: every step on the Python reference path
+            compiled = os.environ.get("PYFMU_COMPILED_LOOP", "1") != "0"
         self.compiled = bool(compiled)  #: fixed steps in the compiled loop (:mod:`.cloop`) where it applies
         self._cloop = None
         self.python_seconds = 0.0  #: wall time of the steps taken on the Python path by :meth:`advance`
