@@ -145,7 +145,9 @@ class _Periods:
         rec = self.y_rec if samples is None else samples
         rec[0] = m.y
         m.advance(self.n, self.h, self.t_rec, rec[1:])
-        return _hermite_absmax(np.ascontiguousarray(rec[:, self.ix]), np.ascontiguousarray(rec[:, self.iv]), self.h)
+        self.x = np.ascontiguousarray(rec[:, self.ix])  # x, xd at the communication points of the period
+        self.v = np.ascontiguousarray(rec[:, self.iv])
+        return _hermite_absmax(self.x, self.v, self.h)
 
 
 def _state_of(master: Master, z_guess: np.ndarray) -> np.ndarray:
