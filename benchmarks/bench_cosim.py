@@ -122,7 +122,7 @@ def bench_overhead(steps: int = 20000, keep: list | None = None) -> dict:
 
         py = _per_step(python_path, steps // 10, 3)
         comp = _per_step(lambda n, m=m: m.advance(n, h), steps)
-        plain = _per_step(lambda n, loop=loop, m=m: loop.plain(n, h, m.t), steps)
+        plain = _per_step(lambda n, loop=loop: loop.plain(n, h), steps)
         loop.timing = True
         timed = _per_step(lambda n, m=m: m.advance(n, h), steps)
         res[label] = dict(python_us=py, compiled_us=comp, plain_c_us=plain, overhead_us=comp - plain,
