@@ -242,6 +242,19 @@ def steady_state(master: Master, base: BaseParams, tmd: TMDParams, omega: float,
                             irregular=crit.irregular)
 
 
+def _time_split(before: dict, after: dict) -> dict:
+    """Where the wall time of a steady state went (:meth:`Master.timing` before and after): seconds
+    inside each FMU's fmi2 calls of the compiled loop (``fmu_time_<instance>``), the compiled
+    loop's own work (``master_loop_time``) and the steps taken on the Python path
+    (``python_step_time``); the rest of ``wall_time`` is the steady-state logic (shooting,
+    windows, re-initialisations)."""
+    out = {f"fmu_time_{k}": v["seconds"] - before["fmus"].get(k, {"seconds": 0.0})["seconds"]
+           for k, v in after["fmus"].items()}
+    out["master_loop_time"] = after["master_seconds"] - before["master_seconds"]
+    out["python_step_time"] = after["python_seconds"] - before["python_seconds"]
+    return out
+
+
 def continuation_start(base: BaseParams, tmd: TMDParams, z_prev, w_prev: float, w: float) -> np.ndarray:
     """Start state at w from the steady state z_prev found at w_prev: z_prev shifted by the change
     of the linear steady state (:func:`initial_guess`) between the two frequencies. Exact for a
@@ -262,12 +275,13 @@ def _sweep_piece(base, tmd, seq, direction, settings, z0, queue=None):
             start = z
             if z is not None and w_prev is not None:
                 start = continuation_start(base, tmd, z, w_prev, float(w))
+            before = master.timing()
             ss = steady_state(master, base, tmd, float(w), start, settings, hint)
             z, w_prev = ss.state, float(w)
             rows.append(dict(direction=direction, omega=float(w), amplitude=ss.amplitude, periods=ss.periods,
                              converged=ss.converged, irregular=ss.irregular, change=ss.change, steps=ss.steps,
                              rejected=0,
-                             wall_time=ss.wall_time))
+                             wall_time=ss.wall_time, **_time_split(before, master.timing())))
             if queue is not None:
                 queue.put(1)
     finally:
