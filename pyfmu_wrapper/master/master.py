@@ -38,7 +38,10 @@ scaled estimate exceeds 1 is rejected and redone from the saved FMU states
 factor. The scale of a signal is ``atol + rtol * max|signal|`` seen so far.
 
 The stepping loop is lean: value references and ctypes pointers are resolved once, values live
-in numpy arrays, the raw fmi2 functions are called without fmpy's per-call wrappers.
+in numpy arrays, the raw fmi2 functions are called without fmpy's per-call wrappers. Fixed steps
+(:meth:`Master.advance`, :meth:`Master.run` with ``step=``) run in the compiled loop of
+:mod:`.cloop` wherever it applies (Jacobi, Gauss-Seidel, rate connections), bit for bit the same
+as the Python path of :mod:`.schemes`, which stays the reference and takes the rest.
 
 Pieces
 ------
@@ -46,8 +49,8 @@ Pieces
 :mod:`.instance` (an FMU instance over fmpy: ports, lean fmi2 calls, callbacks, FMU states),
 :mod:`.wiring` (signals and the ports that read and write them), :mod:`.extrapolation` (input
 polynomials from the history), :mod:`.schemes` (the stepping schemes), :mod:`.loop` (coupling
-Jacobian and Newton on u = G(u)) and :mod:`.stepcontrol` (fixed / adaptive step, error estimate,
-rollback). It knows FMI and coupling only; the base + TMD application is
+Jacobian and Newton on u = G(u)), :mod:`.stepcontrol` (fixed / adaptive step, error estimate,
+rollback) and :mod:`.cloop` (the compiled stepping loop). It knows FMI and coupling only; the base + TMD application is
 :mod:`pyfmu_wrapper.cosim`.
 """
 from __future__ import annotations
