@@ -287,9 +287,13 @@ def test_period_maximum_uses_the_hermite_interpolant_between_communication_point
             self.t = 0.0
             self.y = np.array([A * math.cos(-phi), -A * w * math.sin(-phi)])
 
-        def step(self, h):
-            self.t += h
-            self.y = np.array([A * math.cos(w * self.t - phi), -A * w * math.sin(w * self.t - phi)])
+        nsig = 2
+
+        def advance(self, n, h, rec_t, rec_y):  # the master's block of n steps, recorded
+            for k in range(n):
+                self.t += h
+                self.y = np.array([A * math.cos(w * self.t - phi), -A * w * math.sin(w * self.t - phi)])
+                rec_t[k], rec_y[k] = self.t, self.y
 
     run = _Periods(Clock(), n, T)
     a = run.period()

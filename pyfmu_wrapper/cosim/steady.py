@@ -129,29 +129,25 @@ class CosimSteadyState:
 
 
 class _Periods:
-    """Runs whole periods on an initialised master and returns x, xd at the communication points."""
+    """Runs whole periods on an initialised master and returns x, xd at the communication points.
+
+    A period is one block of the master's :meth:`~pyfmu_wrapper.master.master.Master.advance`
+    (the compiled loop: no Python work per step), recorded into preallocated arrays."""
 
     def __init__(self, master: Master, n: int, T: float):
         self.m, self.n, self.h = master, n, T / n
         self.ix, self.iv = master.signals.index("base.x"), master.signals.index("base.xd")
-        self.x = np.zeros(n + 1)
-        self.v = np.zeros(n + 1)
+        self.t_rec = np.zeros(n)
+        self.y_rec = np.zeros((n + 1, master.nsig))
 
     def period(self, samples: np.ndarray | None = None) -> float:
-        m, h, ix, iv = self.m, self.h, self.ix, self.iv
-        x, v = self.x, self.v
-        x[0], v[0] = m.y[ix], m.y[iv]
-        if samples is not None:
-            samples[0] = m.y
-        step = m.step
-        for k in range(1, self.n + 1):
-            step(h)
-            y = m.y
-            x[k] = y[ix]
-            v[k] = y[iv]
-            if samples is not None:
-                samples[k] = y
-        return _hermite_absmax(x, v, h)
+        m = self.m
+        rec = self.y_rec if samples is None else samples
+        rec[0] = m.y
+        m.advance(self.n, self.h, self.t_rec, rec[1:])
+        self.x = np.ascontiguousarray(rec[:, self.ix])  # x, xd at the communication points of the period
+        self.v = np.ascontiguousarray(rec[:, self.iv])
+        return _hermite_absmax(self.x, self.v, self.h)
 
 
 def _state_of(master: Master, z_guess: np.ndarray) -> np.ndarray:
@@ -246,6 +242,19 @@ def steady_state(master: Master, base: BaseParams, tmd: TMDParams, omega: float,
                             irregular=crit.irregular)
 
 
+def _time_split(before: dict, after: dict) -> dict:
+    """Where the wall time of a steady state went (:meth:`Master.timing` before and after): seconds
+    inside each FMU's fmi2 calls of the compiled loop (``fmu_time_<instance>``), the compiled
+    loop's own work (``master_loop_time``) and the steps taken on the Python path
+    (``python_step_time``); the rest of ``wall_time`` is the steady-state logic (shooting,
+    windows, re-initialisations)."""
+    out = {f"fmu_time_{k}": v["seconds"] - before["fmus"].get(k, {"seconds": 0.0})["seconds"]
+           for k, v in after["fmus"].items()}
+    out["master_loop_time"] = after["master_seconds"] - before["master_seconds"]
+    out["python_step_time"] = after["python_seconds"] - before["python_seconds"]
+    return out
+
+
 def continuation_start(base: BaseParams, tmd: TMDParams, z_prev, w_prev: float, w: float) -> np.ndarray:
     """Start state at w from the steady state z_prev found at w_prev: z_prev shifted by the change
     of the linear steady state (:func:`initial_guess`) between the two frequencies. Exact for a
@@ -266,12 +275,13 @@ def _sweep_piece(base, tmd, seq, direction, settings, z0, queue=None):
             start = z
             if z is not None and w_prev is not None:
                 start = continuation_start(base, tmd, z, w_prev, float(w))
+            before = master.timing()
             ss = steady_state(master, base, tmd, float(w), start, settings, hint)
             z, w_prev = ss.state, float(w)
             rows.append(dict(direction=direction, omega=float(w), amplitude=ss.amplitude, periods=ss.periods,
                              converged=ss.converged, irregular=ss.irregular, change=ss.change, steps=ss.steps,
                              rejected=0,
-                             wall_time=ss.wall_time))
+                             wall_time=ss.wall_time, **_time_split(before, master.timing())))
             if queue is not None:
                 queue.put(1)
     finally:

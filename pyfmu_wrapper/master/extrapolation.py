@@ -28,6 +28,19 @@ def lagrange_weights(s: np.ndarray):
     return d1, d2
 
 
+def combine(w: np.ndarray, rows: np.ndarray) -> np.ndarray:
+    """sum_i w[i] rows[i], summed left to right with separate multiplies and adds.
+
+    Not ``w @ rows``: numpy hands that to BLAS (gemv), whose summation order and use of fused
+    multiply-adds depend on the vector length and the CPU, so its last bit cannot be
+    reproduced elsewhere; the compiled loop (:mod:`.cloop`) does exactly these operations, so the
+    two paths agree bit for bit (and a result no longer depends on the BLAS kernel)."""
+    acc = w[0] * rows[0]
+    for i in range(1, len(w)):
+        acc = acc + w[i] * rows[i]
+    return acc
+
+
 class History:
     """Source values at the last three communication points, oldest first.
 
@@ -40,6 +53,7 @@ class History:
         self.t = np.zeros(3)
         self.n = 0
         self._cache: dict = {}
+        self.generation = 0  #: bumped whenever the weight cache is emptied (the compiled loop mirrors it)
 
     def clear(self):
         self.n = 0
@@ -65,11 +79,13 @@ class History:
             w = lagrange_weights(ht[3 - k:] - t)
             if len(self._cache) > 64:
                 self._cache.clear()
+                self.generation += 1
             self._cache[key] = w
         return w
 
     def clear_cache(self):
         self._cache.clear()
+        self.generation += 1
 
     def snapshot(self):
         return self.y.copy(), self.t.copy(), self.n

@@ -110,26 +110,43 @@ class Instance:
         self.rate_orders = max(self.n_orders, 1) if self.can_interpolate else 0
 
     # --- lean calls -------------------------------------------------------------------------
+    #: the lean calls, in the numbering of the compiled loop's error report (:mod:`.cloop`)
+    LEAN_CALLS = ("fmi2SetReal", "fmi2SetRealInputDerivatives", "fmi2DoStep", "fmi2GetReal")
+
+    def failure(self, call: str, status: int = 3, t: float = 0.0, h: float = 0.0) -> MasterError:
+        """The error of a failed lean call (status > fmi2Warning); a failed doStep says where and
+        repeats the FMU's own last error message."""
+        if call != "fmi2DoStep":
+            return MasterError(f"{self.name}: {call} failed")
+        said = self.last_error.strip().splitlines()
+        said = f": {said[-1]}" if said else ""
+        return MasterError(f"{self.name}: fmi2DoStep failed at t = {t:.16g} s, h = {h:.6g} s (status {status}){said}")
+
+    def raw_address(self, name: str) -> int:
+        """Address of the raw fmi2 function ``name`` (0 if the FMU does not export it), for the
+        compiled loop."""
+        f = {"fmi2SetReal": self._set_real, "fmi2GetReal": self._get_real,
+             "fmi2SetRealInputDerivatives": self._set_der, "fmi2DoStep": self._do_step}[name]
+        return 0 if f is None else ctypes.cast(f, ctypes.c_void_p).value
+
     def set_inputs(self):
         if self.n_in and self._set_real(self._c, self.p_in_vr, self.n_in, self.p_in_val) > 1:
-            raise MasterError(f"{self.name}: fmi2SetReal failed")
+            raise self.failure("fmi2SetReal")
 
     def set_derivatives(self, n_orders: int):
         if self.n_in and n_orders and self._set_der is not None:
             n = self.n_in * n_orders
             if self._set_der(self._c, self.p_der_vr, n, self.p_der_order, self.p_der_val) > 1:
-                raise MasterError(f"{self.name}: fmi2SetRealInputDerivatives failed")
+                raise self.failure("fmi2SetRealInputDerivatives")
 
     def get_outputs(self):
         if self.n_out and self._get_real(self._c, self.p_out_vr, self.n_out, self.p_out_val) > 1:
-            raise MasterError(f"{self.name}: fmi2GetReal failed")
+            raise self.failure("fmi2GetReal")
 
     def do_step(self, t: float, h: float):
         st = self._do_step(self._c, t, h, 0)
         if st > 1:
-            said = self.last_error.strip().splitlines()
-            said = f": {said[-1]}" if said else ""
-            raise MasterError(f"{self.name}: fmi2DoStep failed at t = {t:.16g} s, h = {h:.6g} s (status {st}){said}")
+            raise self.failure("fmi2DoStep", st, t, h)
 
     def _callbacks(self):
         """FMI callbacks whose logger prints as fmpy's does and keeps the last error message, so

@@ -38,7 +38,10 @@ scaled estimate exceeds 1 is rejected and redone from the saved FMU states
 factor. The scale of a signal is ``atol + rtol * max|signal|`` seen so far.
 
 The stepping loop is lean: value references and ctypes pointers are resolved once, values live
-in numpy arrays, the raw fmi2 functions are called without fmpy's per-call wrappers.
+in numpy arrays, the raw fmi2 functions are called without fmpy's per-call wrappers. Fixed steps
+(:meth:`Master.advance`, :meth:`Master.run` with ``step=``) run in the compiled loop of
+:mod:`.cloop` wherever it applies (Jacobi, Gauss-Seidel, rate connections), bit for bit the same
+as the Python path of :mod:`.schemes`, which stays the reference and takes the rest.
 
 Pieces
 ------
@@ -46,21 +49,23 @@ Pieces
 :mod:`.instance` (an FMU instance over fmpy: ports, lean fmi2 calls, callbacks, FMU states),
 :mod:`.wiring` (signals and the ports that read and write them), :mod:`.extrapolation` (input
 polynomials from the history), :mod:`.schemes` (the stepping schemes), :mod:`.loop` (coupling
-Jacobian and Newton on u = G(u)) and :mod:`.stepcontrol` (fixed / adaptive step, error estimate,
-rollback). It knows FMI and coupling only; the base + TMD application is
+Jacobian and Newton on u = G(u)), :mod:`.stepcontrol` (fixed / adaptive step, error estimate,
+rollback) and :mod:`.cloop` (the compiled stepping loop). It knows FMI and coupling only; the base + TMD application is
 :mod:`pyfmu_wrapper.cosim`.
 """
 from __future__ import annotations
 
+import os
 import shutil
 import tempfile
+import time
 import weakref
 from pathlib import Path
 
 import numpy as np
 from fmpy import extract, read_model_description
 
-from . import stepcontrol
+from . import cloop, stepcontrol
 from .extrapolation import History
 from .graph import ConnectionGraph, build_graph
 from .instance import Instance, MasterError
@@ -86,7 +91,9 @@ class Master:
     order: degree of the input extrapolation (0, 1 or 2; capped at 0 for FMUs that cannot
     interpolate inputs); record: extra ports to record (all connected outputs are recorded);
     loop_tol, max_loop_iter: the Newton solve of the coupling equations (:mod:`.loop`);
-    startup_iterations: iterations of the first steps (:meth:`step`).
+    startup_iterations: iterations of the first steps (:meth:`step`); compiled: take fixed steps
+    (:meth:`advance`, :meth:`run`) in the compiled loop of :mod:`.cloop` where it applies (default:
+    yes, unless the environment sets ``PYFMU_COMPILED_LOOP=0``); the results are the same bit for bit.
 
     ``y`` holds the current value of every signal (``signals``: every connected source and
     recorded port), ``t`` the current time [s].
@@ -94,7 +101,7 @@ class Master:
 
     def __init__(self, fmus: dict[str, str | Path], connections, parameters: dict | None = None,
                  scheme: str = "loop", order: int = 2, record=(), loop_tol: float = 1e-10, max_loop_iter: int = 20,
-                 startup_iterations: int = 2):
+                 startup_iterations: int = 2, compiled: bool | None = None):
         if scheme not in SCHEMES:
             raise ValueError(f"scheme must be one of {SCHEMES}, got {scheme!r}")
         order = _check_order(order)
@@ -119,6 +126,11 @@ class Master:
         self.stepper = Stepper(self.instances, self.wiring, self.loop, self.y, self.history, scheme, order,
                                startup_iterations)
         self._error = ErrorEstimate()
+        if compiled is None:  # $PYFMU_COMPILED_LOOP=0: every step on the Python reference path
+            compiled = os.environ.get("PYFMU_COMPILED_LOOP", "1") != "0"
+        self.compiled = bool(compiled)  #: fixed steps in the compiled loop (:mod:`.cloop`) where it applies
+        self._cloop = None
+        self.python_seconds = 0.0  #: wall time of the steps taken on the Python path by :meth:`advance`
         self.t = 0.0
         self.steps = 0
         self.rejected = 0
@@ -205,6 +217,52 @@ class Master:
         self.steps += 1
         self.history.push(self.t, self.y)
 
+    def _compiled_loop(self):
+        """The compiled loop of this master, or None if its steps stay in Python (``compiled=False``,
+        the ``loop`` scheme on algebraic loops)."""
+        if not self.compiled or cloop.scheme_of(self) is None:
+            return None
+        if self._cloop is None:
+            self._cloop = cloop.CompiledLoop(self)
+        return self._cloop
+
+    def _startup_step(self) -> bool:
+        """Whether the next step is a start-up step iterated with rollback (Python only)."""
+        st = self.stepper
+        k = min(self.history.n, st.order + 1)
+        return (st.scheme != "gauss-seidel" and k <= st.order and st.startup_iterations > 0
+                and st.can_rollback)
+
+    def advance(self, n: int, h: float, rec_t: np.ndarray | None = None, rec_y: np.ndarray | None = None) -> None:
+        """n communication steps of size h [s], the same as n calls of :meth:`step` (bit for bit),
+        in the compiled loop where it applies (after the start-up steps, which stay in Python).
+        rec_t, rec_y: if given, arrays of at least n rows (rec_y: C-contiguous, one column per
+        signal) that receive t and the signals after every step."""
+        n = int(n)
+        i = 0
+        loop = self._compiled_loop()
+        while i < n and (loop is None or self._startup_step()):
+            t0 = time.perf_counter()
+            self.step(h)
+            self.python_seconds += time.perf_counter() - t0
+            if rec_t is not None:
+                rec_t[i] = self.t
+                rec_y[i] = self.y
+            i += 1
+        if i < n:
+            loop.run(n - i, h, None if rec_t is None else rec_t[i:], None if rec_y is None else rec_y[i:])
+
+    def timing(self) -> dict:
+        """Where the time of :meth:`advance` went: per FMU the seconds inside its fmi2 calls and
+        their number (compiled loop), the seconds of the compiled loop in all, the master's own
+        share of it (loop minus FMUs), and the seconds of steps taken on the Python path."""
+        out = dict(fmus={}, loop_seconds=0.0, master_seconds=0.0, python_seconds=self.python_seconds)
+        if self._cloop is not None:
+            out["fmus"] = self._cloop.fmu_times()
+            out["loop_seconds"] = self._cloop.loop_seconds
+            out["master_seconds"] = self._cloop.loop_seconds - sum(v["seconds"] for v in out["fmus"].values())
+        return out
+
     def error_estimate(self, rtol: float, atol: float) -> float:
         """Scaled local coupling error of the last step: |extrapolated - found| at the new point."""
         return self._error(self.stepper.pred, self.y, rtol, atol)
@@ -229,6 +287,7 @@ class Master:
         return self.instances[inst].get_real([var])[0]
 
     def close(self):
+        self._cloop = None
         for ins in self.instances.values():
             ins.close()
         self.instances = {}

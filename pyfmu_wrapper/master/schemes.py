@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .extrapolation import History, lagrange_weights
+from .extrapolation import History, combine, lagrange_weights
 from .instance import free_states, get_states, set_states
 from .loop import CouplingSolver
 from .wiring import Wiring
@@ -65,8 +65,8 @@ class Stepper:
         k = min(hist.n, self.order + 1)
         hy = hist.y[3 - k:]
         w1, w2 = hist.weights(k, t)
-        d1 = w1 @ hy
-        d2 = w2 @ hy
+        d1 = combine(w1, hy)
+        d2 = combine(w2, hy)
         if self.scheme == "gauss-seidel":
             self.step_gauss_seidel(t, h, d1, d2)
         elif k <= self.order and self.startup_iterations and self.can_rollback:
@@ -187,8 +187,8 @@ class Stepper:
                 new = stepped[src]
                 if np.any(new) and len(s_i) > 1:
                     pts = np.vstack([hy_old[:, src], ynew[src][None, :]])
-                    e1 = np.where(new, v1 @ pts, e1)
-                    e2 = np.where(new, v2 @ pts, e2)
+                    e1 = np.where(new, combine(v1, pts), e1)
+                    e2 = np.where(new, combine(v2, pts), e2)
                 ins.in_val[:] = y[src]
                 ins.der_val[:ins.n_in] = e1
                 ins.der_val[ins.n_in:] = e2

@@ -1,0 +1,288 @@
+"""The compiled stepping loop: fixed communication steps in C, calling the FMUs' fmi2 functions
+through their C function pointers.
+
+``cloop.c`` (beside this file) takes blocks of fixed steps of the Jacobi scheme, the two-phase
+stepping with rate connections (the impulse coupling) and Gauss-Seidel, with exactly the
+arithmetic of the Python reference path (:mod:`.schemes`): the two agree bit for bit (tested).
+It is compiled with the system C compiler (``$CC``, default gcc) at first use into
+``__pycache__/cloop-<hash>.so`` beside this file (or the user's cache directory when that is not
+writable), the hash covering the source and the flags, and loaded with ctypes; the call releases
+the GIL while it runs, as every ctypes call does.
+
+The loop returns to Python at the end of a block (the caller records in preallocated arrays),
+when it meets history time offsets whose extrapolation weights it has not been given (the master's
+own :meth:`~.extrapolation.History.weights`, so the cache behaves as on the Python path) and on an
+FMU error (status > fmi2Warning: the master raises the same :class:`~.instance.MasterError`
+with the FMU's own message as the Python path). What it does not cover stays in Python: the
+``loop`` scheme on a system with algebraic loops (Newton with directional derivatives), the
+start-up iterations with rollback, adaptive steps.
+
+It also measures, per FMU, the time spent inside its fmi2 calls (``timing``).
+"""
+from __future__ import annotations
+
+import ctypes
+import hashlib
+import os
+import shutil
+import subprocess
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+from .instance import MasterError
+
+HERE = Path(__file__).resolve().parent
+SOURCE = HERE / "cloop.c"
+FLAGS = ("-O2", "-std=gnu11", "-fPIC", "-shared", "-ffp-contract=off", "-fno-fast-math", "-Wall")
+
+_i64, _dbl, _vp = ctypes.c_int64, ctypes.c_double, ctypes.c_void_p
+
+
+class _Inst(ctypes.Structure):
+    _fields_ = [("comp", _vp), ("set_real", _vp), ("get_real", _vp), ("set_der", _vp), ("do_step", _vp),
+                ("n_in", _i64), ("n_out", _i64), ("in_vr", _vp), ("out_vr", _vp), ("der_vr", _vp),
+                ("der_order", _vp), ("in_val", _vp), ("out_val", _vp), ("der_val", _vp),
+                ("sig_in", _vp), ("sig_out", _vp), ("n_orders", _i64), ("rate_orders", _i64),
+                ("n_rate", _i64), ("any_int", _i64), ("phase", _i64),
+                ("rate_pos", _vp), ("rate_src", _vp), ("rate_int", _vp), ("rate_gain", _vp),
+                ("rate_prev", _vp), ("slope", _vp), ("rate_ready", _i64), ("time_in", _dbl), ("calls", _i64)]
+
+
+class _Ctx(ctypes.Structure):
+    _fields_ = [("n_inst", _i64), ("nsig", _i64), ("scheme", _i64), ("order", _i64), ("timing", _i64),
+                ("gs_order", _vp), ("t", _dbl), ("h", _dbl), ("h_prev", _dbl), ("half_h", _dbl), ("hh2", _dbl),
+                ("h3", _dbl), ("y", _vp), ("y0", _vp), ("d1", _vp), ("d2", _vp), ("pred", _vp), ("ynew", _vp),
+                ("stepped", _vp), ("hist_y", _vp), ("hist_t", _vp), ("hist_n", _i64),
+                ("n_w", _i64), ("max_w", _i64), ("w_key", _vp), ("w_val", _vp),
+                ("steps", _i64), ("steps_done", _i64), ("need_k", _i64), ("need_x0", _dbl), ("need_x1", _dbl),
+                ("err_inst", _i64), ("err_func", _i64), ("err_status", _i64), ("loop_time", _dbl)]
+
+
+DONE, NEED_WEIGHTS, FMU_ERROR = 0, 1, 2
+_SCHEME_CODE = {"jacobi": 0, "rate": 1, "gauss-seidel": 2}
+_lib = None
+
+
+def _cache_dirs():
+    yield HERE / "__pycache__"
+    yield Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "pyfmu_wrapper"
+
+
+def library_path() -> Path:
+    """Path of the compiled loop, building it if missing (keyed by a hash of source and flags)."""
+    cc = os.environ.get("CC", "gcc")
+    src = SOURCE.read_bytes()
+    key = hashlib.sha256(src + " ".join((cc,) + FLAGS).encode()).hexdigest()[:16]
+    name = f"cloop-{key}.so"
+    for d in _cache_dirs():
+        if (d / name).exists():
+            return d / name
+    if shutil.which(cc) is None:
+        raise MasterError(f"the compiled stepping loop needs a C compiler: {cc!r} not found (set $CC, or "
+                          "use Master(..., compiled=False))")
+    last = None
+    for d in _cache_dirs():
+        try:
+            d.mkdir(parents=True, exist_ok=True)
+            fd, tmp = tempfile.mkstemp(prefix="cloop-", suffix=".so", dir=d)
+            os.close(fd)
+        except OSError as e:
+            last = e
+            continue
+        r = subprocess.run([cc, *FLAGS, str(SOURCE), "-o", tmp], capture_output=True, text=True)
+        if r.returncode != 0:
+            os.unlink(tmp)
+            raise MasterError(f"compiling {SOURCE} failed:\n{r.stderr}")
+        os.replace(tmp, d / name)  # atomic: concurrent builders write the same bytes
+        return d / name
+    raise MasterError(f"no writable cache directory for the compiled loop ({last})")
+
+
+def library():
+    global _lib
+    if _lib is None:
+        lib = ctypes.CDLL(str(library_path()))
+        lib.cl_run.argtypes = [ctypes.POINTER(_Ctx), ctypes.POINTER(_Inst), _i64, _vp, _vp]
+        lib.cl_run.restype = ctypes.c_int
+        lib.cl_plain.argtypes = [ctypes.POINTER(_Inst), _i64, _dbl, _dbl, _i64]
+        lib.cl_plain.restype = ctypes.c_int
+        _lib = lib
+    return _lib
+
+
+def _addr(a: np.ndarray) -> int:
+    return a.ctypes.data
+
+
+def scheme_of(master) -> str | None:
+    """The compiled scheme that takes the master's fixed steps, or None if they stay in Python."""
+    st = master.stepper
+    if st.scheme == "gauss-seidel":
+        return "gauss-seidel"
+    if master.wiring.rate:
+        return "rate"
+    if st.scheme == "loop" and master.wiring.has_loops:
+        return None  # Newton on the coupling equations: Python
+    return "jacobi"
+
+
+class CompiledLoop:
+    """The C structures of one master (built once; the arrays they point to are the master's own
+    buffers, kept alive here)."""
+
+    MAX_WEIGHTS = 64
+
+    def __init__(self, master):
+        self.lib = library()
+        m = master
+        self.m = m
+        inst = m.stepper.inst_list
+        self.index = {id(ins): i for i, ins in enumerate(inst)}
+        n = len(inst)
+        self.insts = (_Inst * n)()
+        self._keep = []
+        nsig = m.nsig
+        phase2 = {id(i) for i in m.wiring.phase2}
+        self.rate_prev = []
+        for k, ins in enumerate(inst):
+            s = self.insts[k]
+            s.comp = ins._c
+            s.set_real = ins.raw_address("fmi2SetReal")
+            s.get_real = ins.raw_address("fmi2GetReal")
+            s.set_der = ins.raw_address("fmi2SetRealInputDerivatives")
+            s.do_step = ins.raw_address("fmi2DoStep")
+            s.n_in, s.n_out = ins.n_in, ins.n_out
+            arrays = dict(in_vr=ins.in_vr, out_vr=ins.out_vr, der_vr=ins.der_vr, der_order=ins.der_order,
+                          in_val=ins.in_val, out_val=ins.out_val, der_val=ins.der_val,
+                          sig_in=np.ascontiguousarray(ins.sig_in, np.int64),
+                          sig_out=np.ascontiguousarray(ins.sig_out, np.int64),
+                          rate_pos=np.ascontiguousarray(ins.rate_pos, np.int64),
+                          rate_src=np.ascontiguousarray(ins.rate_src, np.int64),
+                          rate_int=np.ascontiguousarray(ins.rate_int, np.int64),
+                          rate_gain=np.ascontiguousarray(ins.rate_gain, float))
+            rp = np.zeros(max(1, len(ins.rate_pos)))
+            arrays.update(rate_prev=rp, slope=np.zeros(max(1, len(ins.rate_pos))))
+            self.rate_prev.append(rp)
+            for name, a in arrays.items():
+                self._keep.append(a)
+                setattr(s, name, _addr(a) if a.size else None)  # empty: never read (its count is 0)
+            s.n_rate = len(ins.rate_pos)
+            s.any_int = int(bool(np.any(ins.rate_has_int))) if len(ins.rate_pos) else 0
+            s.phase = 2 if id(ins) in phase2 else 1
+        c = self.ctx = _Ctx()
+        c.n_inst, c.nsig = n, nsig
+        self.work = {k: np.zeros(max(1, nsig)) for k in ("y0", "d1", "d2", "pred", "ynew")}
+        self.stepped = np.zeros(max(1, nsig), dtype=np.uint8)
+        for k, a in self.work.items():
+            setattr(c, k, _addr(a))
+        c.stepped = _addr(self.stepped)
+        self.gs_order = np.array([self.index[id(m.instances[nm])] for nm in m.wiring.order_gs], dtype=np.int64)
+        c.gs_order = _addr(self.gs_order)
+        c.y = _addr(m.y)
+        c.hist_y, c.hist_t = _addr(m.history.y), _addr(m.history.t)
+        self.w_key = np.zeros((self.MAX_WEIGHTS, 3))
+        self.w_val = np.zeros((self.MAX_WEIGHTS, 6))
+        c.w_key, c.w_val, c.max_w, c.n_w = _addr(self.w_key), _addr(self.w_val), self.MAX_WEIGHTS, 0
+        self.generation = m.history.generation
+        self.timing = True
+
+    def _check_buffers(self):
+        m = self.m
+        c = self.ctx
+        # the master's arrays are updated in place everywhere; guard against a replaced one
+        if c.y != _addr(m.y) or c.hist_y != _addr(m.history.y) or c.hist_t != _addr(m.history.t):
+            raise MasterError("internal: the master's signal or history arrays were replaced")
+
+    def _add_weights(self, k: int, x0: float, x1: float):
+        hist = self.m.history
+        w1, w2 = hist.weights(int(k), self.ctx.t)
+        if hist.generation != self.generation or self.ctx.n_w >= self.MAX_WEIGHTS:
+            self.ctx.n_w = 0  # the Python cache was emptied: forget what was copied from it
+            self.generation = hist.generation
+        e = self.ctx.n_w
+        self.w_key[e] = (k, x0, x1)
+        self.w_val[e] = 0.0
+        self.w_val[e, :len(w1)] = w1
+        self.w_val[e, 3:3 + len(w2)] = w2
+        self.ctx.n_w = e + 1
+
+    def run(self, n: int, h: float, rec_t: np.ndarray | None = None, rec_y: np.ndarray | None = None) -> int:
+        """Take n steps of size h [s] from the master's state; record t and the signals after every
+        step in rec_t[:n], rec_y[:n] (C-contiguous float arrays) if given. Updates the master's
+        time, signals, history, step count, rate memory and ``stepper.pred``."""
+        m = self.m
+        st = m.stepper
+        self._check_buffers()
+        c = self.ctx
+        if m.history.generation != self.generation:
+            c.n_w = 0
+            self.generation = m.history.generation
+        c.scheme = _SCHEME_CODE[scheme_of(m)]
+        c.order = st.order
+        c.timing = int(self.timing)
+        c.t, c.h, c.h_prev = m.t, h, st.h_prev
+        c.half_h, c.hh2, c.h3 = 0.5 * h, 0.5 * h * h, h ** 3
+        c.hist_n = m.history.n
+        c.steps = m.steps
+        inst = st.inst_list
+        for k, ins in enumerate(inst):
+            self.insts[k].n_orders, self.insts[k].rate_orders = ins.n_orders, ins.rate_orders
+            if len(ins.rate_pos):
+                self.rate_prev[k][:] = ins.rate_prev
+                self.insts[k].rate_ready = int(ins.rate_ready)
+        if rec_t is not None:
+            assert rec_t.flags.c_contiguous and rec_y.flags.c_contiguous and rec_y.shape[1] == m.nsig
+        done = 0
+        try:
+            while done < n:
+                pt = None if rec_t is None else _addr(rec_t) + 8 * done
+                py = None if rec_y is None else _addr(rec_y) + 8 * m.nsig * done
+                r = self.lib.cl_run(ctypes.byref(c), self.insts, n - done, pt, py)
+                done += c.steps_done
+                if r == DONE:
+                    break
+                if r == NEED_WEIGHTS:
+                    m.history.n = c.hist_n
+                    self._add_weights(c.need_k, c.need_x0, c.need_x1)
+                    continue
+                ins = inst[c.err_inst]
+                raise ins.failure(ins.LEAN_CALLS[c.err_func], c.err_status, c.t, h)
+        finally:
+            m.t = c.t
+            m.steps = c.steps
+            m.history.n = c.hist_n
+            st.h_prev = c.h_prev
+            st.pred = self.work["pred"][:m.nsig].copy()
+            for k, ins in enumerate(inst):
+                if len(ins.rate_pos):
+                    ins.rate_prev = self.rate_prev[k][:len(ins.rate_pos)].copy()
+                    ins.rate_ready = bool(self.insts[k].rate_ready)
+        return done
+
+    def fmu_times(self) -> dict:
+        """Seconds inside each FMU's fmi2 calls and number of calls, since the loop was built."""
+        return {ins.name: dict(seconds=self.insts[k].time_in, calls=int(self.insts[k].calls))
+                for k, ins in enumerate(self.m.stepper.inst_list)}
+
+    @property
+    def loop_seconds(self) -> float:
+        """Seconds spent in the compiled loop (inside the FMUs and the master's own work)."""
+        return self.ctx.loop_time
+
+    def plain(self, n: int, h: float) -> float:
+        """Benchmark baseline: n steps of a plain C loop (fmi2SetReal, fmi2DoStep, fmi2GetReal of
+        every FMU, no coupling arithmetic) on the same instances from the master's time; returns
+        the wall time [s]. The master's time moves on with the FMUs' (its history does not: the
+        next extrapolation spans the gap)."""
+        import time
+
+        m = self.m
+        t = time.perf_counter()
+        if self.lib.cl_plain(self.insts, len(m.stepper.inst_list), m.t, h, n):
+            raise MasterError("an FMU failed in the plain loop")
+        wall = time.perf_counter() - t
+        for _ in range(n):  # the same additions as the C loop
+            m.t = m.t + h
+        return wall
