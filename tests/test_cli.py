@@ -62,7 +62,11 @@ def linear_run(tmp_path_factory):
 
 def test_outputs_exist(linear_run):
     names = sorted(os.listdir(linear_run))
-    assert names == ["frc.csv", "frc.png", "map.csv", "map.png", "phase.csv", "phase.png", "summary.json"]
+    files = ["frc.csv", "frc.png", "map.csv", "map.png", "phase.csv", "phase.png", "summary.json"]
+    assert names == [".run-scenario.json"] + files
+    marker = json.loads((linear_run / ".run-scenario.json").read_text())  # what marks the folder as ours
+    assert marker["tool"] == "run-scenario" and marker["kind"] == "result" and marker["scenario"] == "fig2_small"
+    assert marker["files"] == files
     for png in ("frc.png", "map.png", "phase.png"):
         assert (linear_run / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # no temporary folders left beside it
