@@ -205,3 +205,124 @@ def test_summary_records_the_engine_settings(linear_run):
     s = json.loads((linear_run / "summary.json").read_text())
     assert s["settings"]["engine"] == "monolithic" and s["settings"]["solver"]["linear"] == "exact"
     assert "cosim" not in s["settings"] and len(s["code_version"]) == 16
+
+
+# --- progress, closing lines, the parallelism switch (issue 17) -------------------------------------
+
+PLAY = """\
+schema_version: 2
+name: irr
+base: {mass: 100.0, stiffness: 40000.0, damping: 100.0, force_amplitude: 200.0}
+tmd: {case: 1, inerter: play, play_gap: 1.0e-4, stiffness: 4000.0, damping: 0.0, mesh_stiffness: 2.0e7,
+      mesh_damping: 0.01}
+frequencies: [19.5, 20.0]
+studies:
+  - kind: frc
+    name: frc
+    curves:
+      - {label: "play eps = 1e-4"}
+"""
+
+
+def test_progress_lines_and_closing_lines_when_not_on_a_terminal(tmp_path):
+    """stderr to a pipe: plain progress lines (no bar, no carriage returns) per point with an ETA; at
+    the end one line per study naming the irregular / unconverged points, the same as the CSV's flags.
+    The play model at its antiresonance (20 rad/s) rattles: an irregular point (paper Sect. 6)."""
+    p = write(tmp_path, PLAY)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "pyfmu_wrapper.cli.run_scenario", str(p), "--out", str(out), "--executor",
+           "sequential", "--progress-every", "0.5"]
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    assert "\r" not in r.stderr and "it/s" not in r.stderr  # no tqdm bar in a log
+    import re
+
+    prog = [re.match(r"run-scenario: irr: (\d+)/(\d+) points \((\d+) %\), (.+) elapsed, (about (.+) left|"
+                     r"estimating the time left)$", ln) for ln in r.stderr.splitlines() if "points (" in ln]
+    assert len(prog) >= 2 and all(prog)
+    done = [int(m.group(1)) for m in prog]
+    assert done == sorted(done) and done[-1] == 2 and {int(m.group(2)) for m in prog} == {2}
+    assert prog[-1].group(6) == "0 s"
+    t = pd.read_csv(out / "frc.csv")
+    closing = [ln for ln in r.stdout.splitlines() if ln.startswith("run-scenario: frc:")]
+    assert len(closing) == 1
+    irregular = t[t["irregular"]]["omega"].tolist()
+    unconverged = t[~t["converged"]]["omega"].tolist()
+    assert irregular == [20.0]  # the premise: the rattling antiresonance point
+    assert f"{len(unconverged)} of 2 points not converged, 1 irregular" in closing[0]
+    assert "irregular at 20 rad/s (window scatter" in closing[0]
+    assert ("not converged)" in closing[0]) == (20.0 in unconverged)
+
+
+def test_progress_eta_is_the_speed_of_the_points_computed(monkeypatch):
+    """ETA = points left x (time so far / points computed); points read back from checkpoints
+    (skip) count as done but not in the speed. 50 skipped, 10 computed in 20 s, 40 left: 80 s."""
+    from pyfmu_wrapper.cli import run_scenario as rs
+
+    now = [1000.0]
+    monkeypatch.setattr(rs.time, "monotonic", lambda: now[0])
+    bar = rs.Progress(100, "x", enabled=False)
+    assert bar.eta() is None and "estimating" in bar.line()
+    bar.skip(50)
+    assert bar.eta() is None  # nothing computed yet: no speed
+    now[0] += 20.0
+    bar(10)
+    assert bar.eta() == pytest.approx(80.0)
+    assert bar.line() == "run-scenario: x: 60/100 points (60 %), 20 s elapsed, about 1 min 20 s left"
+
+
+def test_one_parallelism_switch_recorded_as_used(tmp_path, capsys):
+    """--workers N is the number of processes the sweeps use, and summary.json says how many did;
+    the numbers do not depend on it (each sweep is one strict continuation in one process)."""
+    text = LINEAR.replace("count: 101}", "count: 4}").split("  - kind: map")[0].replace("schema_version: 1",
+                                                                                      "schema_version: 2")
+    text = text.replace('- {label: "Iratio = 0", tmd: {inertance_ratio: 0.0}}',
+                        '- {label: "df = 10", tmd: {case: 1, friction_force: 10.0}}')
+    text = text.replace('- {label: "Iratio = 1", tmd: {inertance_ratio: 1.0}}',
+                        '- {label: "df = 20", tmd: {case: 1, friction_force: 20.0}}')
+    p = write(tmp_path, text)
+    runs = {}
+    for n in (1, 2):
+        out = tmp_path / f"w{n}"
+        assert main([str(p), "--out", str(out), "--quiet", "--engine", "monolithic", "--workers", str(n),
+                     "--no-resume"]) == 0
+        s = json.loads((out / "summary.json").read_text())
+        assert s["workers"] == n and s["executor"]["processes_used"] == n
+        assert s["executor"]["processes_requested"] == n
+        runs[n] = pd.read_csv(out / "frc.csv")
+    pd.testing.assert_series_equal(runs[1]["amplitude"], runs[2]["amplitude"])  # bit-identical
+    # --jobs: a deprecated alias, said so
+    assert main([str(p), "--out", str(tmp_path / "j"), "--quiet", "--engine", "monolithic", "--jobs", "1"]) == 0
+    assert "--jobs is deprecated" in capsys.readouterr().err
+    assert json.loads((tmp_path / "j" / "summary.json").read_text())["workers"] == 1
+    # a number that would not be used is refused, not recorded
+    for opt, msg in ((["--executor", "sequential", "--workers", "2"], "--workers 2 would not be used"),
+                     (["--jobs", "2", "--workers", "3"], "disagree"), (["--workers", "-1"], "--workers must be >= 0")):
+        assert main([str(p), "--out", str(tmp_path / "bad"), "--quiet"] + opt) == 2
+        assert msg in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists()
+
+
+def test_engine_both_headlines_the_regular_points_only(tmp_path, capsys):
+    """--engine both: the headline max |difference| is over the regular points; the irregular play
+    point at the antiresonance (no single amplitude: its windows scatter) is listed apart with the
+    window scatter of each engine, in summary.json, on the console and in the figure's title."""
+    p = write(tmp_path, PLAY.replace("frequencies: [19.5, 20.0]", "frequencies: [19.0, 19.5, 20.0]"))
+    out = tmp_path / "out"
+    assert main([str(p), "--out", str(out), "--quiet", "--engine", "both", "--executor", "sequential"]) == 0
+    t = pd.read_csv(out / "frc.csv")
+    irr = t["irregular"].astype(bool) | (t["reference_irregular"] == 1)
+    assert irr.tolist() == [False, False, True]  # the premise: 20 rad/s rattles
+    reg = t[~irr]
+    d = json.loads((out / "summary.json").read_text())["studies"][0]["curves"][0]["directions"]["up"]
+    assert d["regular_points"] == 2
+    assert d["max_abs_difference"] == pytest.approx(np.abs(reg["amplitude"] / reg["reference"] - 1).max(), rel=1e-6)
+    assert d["max_abs_difference"] <= 5e-3  # README: within 0.5 % of the monolithic solver
+    (ip,) = d["irregular_points"]
+    row = t[irr].iloc[0]
+    assert ip["omega"] == 20.0 and ip["scatter"] == pytest.approx(row["change"], rel=1e-8)
+    assert ip["reference_scatter"] == pytest.approx(row["reference_change"], rel=1e-8)
+    assert ip["difference"] == pytest.approx(row["amplitude"] / row["reference"] - 1, rel=1e-6)
+    console = capsys.readouterr().out
+    assert f"max |difference| = {100 * d['max_abs_difference']:.3g} % over the 2 regular points" in console
+    assert "irregular points (not in that maximum): 20 rad/s" in console

@@ -51,6 +51,9 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--cache", default=None,
                    help="checkpoint folder (default: <out>.checkpoints/ beside the output folder)")
     p.add_argument("--quiet", action="store_true", help="no progress report (the closing lines are still printed)")
+    p.add_argument("--progress-every", type=float, default=5.0, metavar="SECONDS",
+                   help="when stderr is not a terminal (a log, a pipe): one progress line every SECONDS "
+                        "(default 5); on a terminal the line is redrawn every second")
     p.add_argument("--traceback", action="store_true", help="print the full traceback on failure")
     return p
 
@@ -126,7 +129,7 @@ class Progress:
         pct = 100.0 * done / self.total if self.total else 100.0
         eta = self.eta()
         left = "estimating the time left" if eta is None else f"about {_fmt_time(eta)} left"
-        return (f"run-scenario: {self.name}: {done:.0f}/{self.total:.0f} frequency points ({pct:.0f} %), "
+        return (f"run-scenario: {self.name}: {done:.0f}/{self.total:.0f} points ({pct:.0f} %), "
                 f"{_fmt_time(time.monotonic() - self.t0)} elapsed, {left}")
 
     def _emit(self, final=False) -> None:
@@ -235,6 +238,8 @@ def main(argv=None) -> int:
     settings = RunSettings.for_scenario(scn, engine=args.engine, workers=1, cosim=cosim)
     if args.executor == "dask" and not args.scheduler:
         return _err("--executor dask needs --scheduler ADDRESS")
+    if not args.progress_every > 0:
+        return _err(f"--progress-every must be > 0 seconds, got {args.progress_every}")
     cache = args.cache if args.cache is not None else default_checkpoint_dir(out)
     try:  # before anything is computed: never replace what run-scenario did not write
         for note in check_output_dir(out, scn.path, cache):
@@ -248,7 +253,7 @@ def main(argv=None) -> int:
     datas: list = []
     old_handlers = _install_signals()
     try:
-        with Progress(work_units(scn, settings), scn.name, enabled=not args.quiet) as bar:
+        with Progress(work_units(scn, settings), scn.name, interval=args.progress_every, enabled=not args.quiet) as bar:
             folder = run_scenario(scn, out, settings, progress=bar, executor=executor, checkpoint_dir=cache,
                                   resume=args.resume, collect=datas)
     except KeyboardInterrupt as exc:

@@ -210,6 +210,9 @@ def _worker_init(queue) -> None:
     global _WORKER_QUEUE
     _WORKER_QUEUE = queue
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for name in ("SIGTERM", "SIGHUP"):  # not the parent's handlers (forked): a worker ends when told to
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_DFL)
     try:
         import ctypes
 
@@ -251,17 +254,17 @@ class LocalExecutor:
                                              initargs=(self._queue,))
         self._batch += 1
         futs = {self._pool.submit(_run_task_reporting, (self._batch, i), t): i for i, t in enumerate(tasks)}
-        self._max_processes = max(self._max_processes, len(getattr(self._pool, "_processes", None) or ()))
-        try:
-            pending = set(futs)
-            while pending:
-                done, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
-                self._drain(progress)
-                for f in done:
-                    yield futs[f], f.result()
-        finally:
-            for f in futs:
-                f.cancel()
+        started = len(getattr(self._pool, "_processes", None) or ()) or self.jobs
+        self._max_processes = max(self._max_processes, min(started, len(tasks)))  # busy at most one task each
+        # no cancelling here when the caller stops early: close() cancels what has not started, abort()
+        # ends the workers (a cancelled future in a pool whose workers are then ended makes the pool's
+        # manager thread fail: CPython 3.11 sets the 'broken pool' exception on it)
+        pending = set(futs)
+        while pending:
+            done, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+            self._drain(progress)
+            for f in done:
+                yield futs[f], f.result()
 
     def _drain(self, progress) -> None:
         import queue as _queue
@@ -287,6 +290,11 @@ class LocalExecutor:
         pool, self._pool = self._pool, None
         if pool is None:
             return
+        items = getattr(pool, "_pending_work_items", None)
+        if isinstance(items, dict):  # cancelled ones would make the manager thread fail (see submit_all)
+            for k, item in list(items.items()):
+                if item.future.cancelled():
+                    items.pop(k, None)
         procs = list((getattr(pool, "_processes", None) or {}).values())
         for p in procs:
             try:

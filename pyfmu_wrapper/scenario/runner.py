@@ -301,22 +301,30 @@ def _pct(x) -> str:
 
 
 def _points(rows: pd.DataFrame, limit: int = 12, with_value: bool = False) -> str:
+    """'19.5, 20 rad/s', or for irregular points '20 rad/s (window scatter 67 %, not converged)'."""
     items = []
     for _, r in rows.head(limit).iterrows():
         s = _w(r["omega"])
         if with_value:
             s = f"({_w(r['value'])}, {s})"
-        if bool(r.get("irregular", False)) and np.isfinite(float(r.get("change", np.nan))):
-            s += f" (scatter {_pct(r['change'])})"
+        if bool(r.get("irregular", False)):
+            notes = []
+            if np.isfinite(float(r.get("change", np.nan))):
+                notes.append(f"window scatter {_pct(r['change'])}")
+            if not bool(r["converged"]):
+                notes.append("not converged")
+            s += " rad/s" + (f" ({', '.join(notes)})" if notes else "")
         items.append(s)
     more = f" and {len(rows) - limit} more" if len(rows) > limit else ""
-    return ", ".join(items) + more + " rad/s"
+    text = ", ".join(items) + more
+    return text if text.endswith(")") or text.endswith("rad/s") else text + " rad/s"
 
 
-def _flag_groups(t: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+def _flag_groups(t: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, int]:
+    """(regular points not converged, irregular points, number of points not converged in all)."""
     irr = t["irregular"].fillna(False).astype(bool) if "irregular" in t else pd.Series(False, index=t.index)
     conv = t["converged"].astype(bool)
-    return t[~conv & ~irr], t[irr]
+    return t[~conv & ~irr], t[irr], int((~conv).sum())
 
 
 def study_report(data) -> list[str]:
@@ -332,22 +340,22 @@ def study_report(data) -> list[str]:
         return lines
     t = data.table
     if isinstance(data, MapData):
-        nc, irr = _flag_groups(t)
+        nc, irr, n_nc = _flag_groups(t)
         if not len(nc) and not len(irr):
             lines.append(f"{st.name}: all {len(t)} points converged and periodic")
         else:
             parts = []
             if len(nc):
-                parts.append(f"not converged at (value, omega) = {_points(nc, with_value=True)}")
+                parts.append(f"not converged at ({st.parameter}, omega) = {_points(nc, with_value=True)}")
             if len(irr):
-                parts.append(f"irregular at (value, omega) = {_points(irr, with_value=True)}")
-            lines.append(f"{st.name} ({st.parameter}): {len(nc)} of {len(t)} points not converged, {len(irr)} irregular: "
+                parts.append(f"irregular at ({st.parameter}, omega) = {_points(irr, with_value=True)}")
+            lines.append(f"{st.name}: {n_nc} of {len(t)} points not converged, {len(irr)} irregular: "
                          + "; ".join(parts))
         return lines
     parts, n_nc, n_irr = [], 0, 0
     for (label, d), td in t.groupby(["curve", "direction"], sort=False):
-        nc, irr = _flag_groups(td)
-        n_nc, n_irr = n_nc + len(nc), n_irr + len(irr)
+        nc, irr, k = _flag_groups(td)
+        n_nc, n_irr = n_nc + k, n_irr + len(irr)
         sub = []
         if len(nc):
             sub.append(f"not converged at {_points(nc)}")
