@@ -232,7 +232,9 @@ def test_progress_lines_and_closing_lines_when_not_on_a_terminal(tmp_path):
     out = tmp_path / "out"
     cmd = [sys.executable, "-m", "pyfmu_wrapper.cli.run_scenario", str(p), "--out", str(out), "--executor",
            "sequential", "--progress-every", "0.5"]
-    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600)
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")])))
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=env)
     assert r.returncode == 0, r.stderr
     assert "\r" not in r.stderr and "it/s" not in r.stderr  # no tqdm bar in a log
     import re

@@ -250,12 +250,18 @@ def _alive(pid: int) -> bool:
     return state != "Z"
 
 
+def _env() -> dict:
+    """The subprocess imports this checkout's package (not whatever else is installed)."""
+    root = str(Path(__file__).resolve().parents[1])
+    return dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")])))
+
+
 def _start_slow_run(tmp_path):
     scn = _scn(tmp_path, SLOW)
     out = tmp_path / "out"
     log = open(tmp_path / "stderr.txt", "w")
     cmd = [sys.executable, "-m", "pyfmu_wrapper.cli.run_scenario", str(scn), "--out", str(out), "--workers", "2"]
-    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=log, cwd=tmp_path)
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=log, cwd=tmp_path, env=_env())
     deadline = time.monotonic() + 240
     workers: set[int] = set()
     while time.monotonic() < deadline:  # wait until the pool's two workers compute
