@@ -271,6 +271,13 @@ def test_progress_eta_is_the_speed_of_the_points_computed(monkeypatch):
     bar(10)
     assert bar.eta() == pytest.approx(80.0)
     assert bar.line() == "run-scenario: x: 60/100 points (60 %), 20 s elapsed, about 1 min 20 s left"
+    # points known to cost nothing (a sweep repeated from an earlier study) are not work left
+    bar = rs.Progress(100, "x", enabled=False, instant=30)
+    now[0] += 10.0
+    bar(10)
+    assert bar.eta() == pytest.approx(60 * 10.0 / 10)
+    bar.skip(30)  # they come: nothing changes in the estimate but the count
+    assert bar.eta() == pytest.approx(60 * 10.0 / 10)
 
 
 def test_one_parallelism_switch_recorded_as_used(tmp_path, capsys):

@@ -1,4 +1,4 @@
-"""``run-scenario PATH [--out DIR] [--engine cosim|monolithic|both] [--workers N]``: run a scenario file, write its results.
+"""``run-scenario PATH [--out DIR] [--engine ENGINE] [--workers N]``: run a scenario file, write its results.
 
 Exit codes: 0 success; 1 the run failed (nothing is left in the output folder); 2 bad input
 (command line, missing or invalid scenario file, an output folder it will not replace: a file, a
@@ -18,7 +18,7 @@ from ..scenario import ScenarioError, load_scenario
 from ..scenario.engines import DEFAULT_ENGINE, ENGINES, RunSettings
 from ..scenario.executors import EXECUTORS, make_executor
 from ..scenario.output import OutputError, check_output_dir, default_checkpoint_dir, default_output_dir, run_scenario
-from ..scenario.runner import study_report, work_units
+from ..scenario.runner import instant_units, study_report, work_units
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -80,8 +80,9 @@ class Progress:
     """
 
     def __init__(self, total: float, name: str, stream=None, tty: bool | None = None, interval: float = 5.0,
-                 enabled: bool = True):
+                 enabled: bool = True, instant: float = 0.0):
         self.total, self.name = float(total), name
+        self.instant = float(instant)  #: points known to cost nothing (closed form, repeated sweeps)
         self.stream = stream if stream is not None else sys.stderr
         self.tty = bool(getattr(self.stream, "isatty", lambda: False)()) if tty is None else tty
         self.interval = 1.0 if self.tty else float(interval)
@@ -113,9 +114,11 @@ class Progress:
             self.skipped += n
 
     def eta(self) -> float | None:
-        """Seconds left: the points to do at the speed of the points computed so far (None: unknown yet)."""
+        """Seconds left: the points still to compute (those known to cost nothing left out) at the
+        speed of the points computed so far (None: unknown yet)."""
         with self._lock:
-            computed, left = self.done - self.skipped, self.total - self.done
+            computed = self.done - self.skipped
+            left = self.total - self.done - max(0.0, self.instant - self.skipped)
         elapsed = time.monotonic() - self.t0
         if left <= 0:
             return 0.0
@@ -253,7 +256,8 @@ def main(argv=None) -> int:
     datas: list = []
     old_handlers = _install_signals()
     try:
-        with Progress(work_units(scn, settings), scn.name, interval=args.progress_every, enabled=not args.quiet) as bar:
+        with Progress(work_units(scn, settings), scn.name, interval=args.progress_every, enabled=not args.quiet,
+                      instant=instant_units(scn, settings)) as bar:
             folder = run_scenario(scn, out, settings, progress=bar, executor=executor, checkpoint_dir=cache,
                                   resume=args.resume, collect=datas)
     except KeyboardInterrupt as exc:

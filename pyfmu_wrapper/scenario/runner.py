@@ -58,6 +58,27 @@ def work_units(scn: Scenario, settings: RunSettings) -> int:
     return n
 
 
+def instant_units(scn: Scenario, settings: RunSettings) -> int:
+    """Progress units of a run that cost (almost) nothing: sweeps computed in closed form (the exact
+    response of linear configurations with the monolithic engine) and sweeps that repeat one computed
+    earlier in the run (shared between studies). An ETA leaves them out of the work still to do."""
+    nd = len(settings.directions())
+    seen, n = set(), 0
+    for st in scn.studies:
+        if isinstance(st, FRCStudy):
+            tmds = [c.tmd for c in st.curves]
+        elif isinstance(st, MapStudy):
+            tmds = list(st.tmds)
+        else:
+            continue
+        for tmd in tmds:
+            key = (tmd, np.asarray(st.omegas, float).tobytes())
+            if key in seen or uses_exact(tmd, settings):
+                n += len(st.omegas) * nd
+            seen.add(key)
+    return n
+
+
 class _Cache:
     """Sweeps already computed in this run, keyed by (parameters, frequencies).
 
@@ -77,7 +98,7 @@ class _Cache:
         key = (tmd, np.asarray(omegas, float).tobytes())
         if key in self.tables:
             if progress is not None:
-                progress(len(omegas) * len(settings.directions()))
+                getattr(progress, "skip", progress)(len(omegas) * len(settings.directions()))
             return self.tables[key]
         if settings.sweep.continuation or uses_exact(tmd, settings):
             table = compute_sweep(base, tmd, omegas, settings, progress)
@@ -98,8 +119,8 @@ class _Cache:
             key = (tmd, omegas.tobytes())
             if key in self.tables:
                 out[i] = self.tables[key]
-                if progress is not None:
-                    progress(len(omegas) * len(settings.directions()))
+                if progress is not None:  # computed earlier in this run: not in the speed of an ETA
+                    getattr(progress, "skip", progress)(len(omegas) * len(settings.directions()))
             elif uses_exact(tmd, settings) or (self.executor is None and self.checkpoint_dir is None):
                 out[i] = self.sweep(base, tmd, omegas, settings, progress)
             else:
@@ -117,7 +138,7 @@ class _Cache:
                 for i in todo[k]:
                     out[i] = t
                 if progress is not None and dup:
-                    progress(dup * len(omegas) * len(settings.directions()))
+                    getattr(progress, "skip", progress)(dup * len(omegas) * len(settings.directions()))
         return out
 
 
