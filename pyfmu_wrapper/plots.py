@@ -66,6 +66,7 @@ def frc_plot(data, ax=None) -> Figure:
     """
     tab = data.table
     has_ref = "reference" in tab and np.isfinite(tab["reference"].to_numpy(float)).any()
+    embedded = ax is not None  # a panel of someone else's figure: the legend stays inside it
     dax = None
     if ax is None and has_ref:  # engine 'both': FRCs on top, relative difference below
         fig = Figure(figsize=(9.5, 6.5), layout="constrained")
@@ -122,11 +123,17 @@ def frc_plot(data, ax=None) -> Figure:
     if has_ref:
         handles.append(Line2D([], [], ls=":", color="0.3"))
         labels.append("monolithic (dotted)")
-    handles += [Line2D([], [], ls="none", marker="x", color="0.3", ms=7, mew=1.5),
-                Line2D([], [], ls="none", marker="o", mfc="none", color="0.3", ms=8)]
-    labels += [NOTE_NOT_CONVERGED + ("" if any_bad else " (none)"), NOTE_IRREGULAR + ("" if any_irr else " (none)")]
-    ax.legend(handles, labels, fontsize=8, title=_units_title(data.study), title_fontsize=8, loc="upper left",
-              bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
+    notes = [(Line2D([], [], ls="none", marker="x", color="0.3", ms=7, mew=1.5), NOTE_NOT_CONVERGED, any_bad),
+             (Line2D([], [], ls="none", marker="o", mfc="none", color="0.3", ms=8), NOTE_IRREGULAR, any_irr)]
+    for h, text, present in notes:
+        if present or not embedded:
+            handles.append(h)
+            labels.append(text + ("" if present else " (none)"))
+    if embedded:
+        ax.legend(handles, labels, fontsize=6, title=_units_title(data.study), title_fontsize=6)
+    else:
+        ax.legend(handles, labels, fontsize=8, title=_units_title(data.study), title_fontsize=8, loc="upper left",
+                  bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
     return fig
 
 
