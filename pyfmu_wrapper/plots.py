@@ -106,8 +106,8 @@ def frc_plot(data, ax=None) -> Figure:
                 diff = 100.0 * td["difference"].to_numpy(float)
                 irr_both = irr.to_numpy() | (td["reference_irregular"].to_numpy(float) == 1.0
                                              if "reference_irregular" in td else False)
-                dax.plot(td["omega"], np.where(irr_both, np.nan, diff), ls if one_direction else _STYLE.get(d, "-"),
-                         color=line.get_color(), lw=1.2, marker=".", ms=3)
+                dax.plot(td["omega"], np.where(irr_both, np.nan, diff), ls=ls, color=line.get_color(), lw=1.2,
+                         marker=".", ms=3)
                 if irr_both.any():
                     dax.plot(td["omega"][irr_both], diff[irr_both], "o", mfc="none", color=line.get_color(), ms=6)
     ax.set_ylabel("max |x| [m]")

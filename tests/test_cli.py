@@ -335,3 +335,67 @@ def test_engine_both_headlines_the_regular_points_only(tmp_path, capsys):
     console = capsys.readouterr().out
     assert f"max |difference| = {100 * d['max_abs_difference']:.3g} % over the 2 regular points" in console
     assert "irregular points (not in that maximum): 20 rad/s" in console
+
+
+@pytest.mark.parametrize("both", [False, True])
+def test_frc_plot_every_curve_visible_units_and_notes_outside(both):
+    """Six curves, two of them identical (curve 1 of full_frc.png lay hidden under curve 2): every
+    curve gets its own (line style, marker) pair, the legend (with the units of the parameters the
+    labels name, and the x / o notes) sits outside the axes, so nothing is drawn over the data."""
+    from pyfmu_wrapper.physics.params import TMDParams as T
+    from pyfmu_wrapper.scenario.runner import FRCData
+    from pyfmu_wrapper.scenario.schema import Curve, FRCStudy
+
+    w = np.linspace(15.0, 25.0, 41)
+    labels = ["1: c = 0", "2: eps = 1e-4", "3: c = 10", "4: df = 10", "5: full", "6: c = 15"]
+    study = FRCStudy("frc", "t", w, tuple(Curve(lb, T(damping=float(k))) for k, lb in enumerate(labels)))
+    rows = []
+    for k, lb in enumerate(labels):
+        amp = exact_amplitude(BaseParams(), T(damping=10.0 if k != 1 else 10.0), w)  # curves 1 and 2 identical
+        rows.append(pd.DataFrame(dict(curve=lb, direction="up", omega=w, amplitude=amp, converged=True,
+                                      irregular=w == 20.0, change=0.1, reference=amp if both else np.nan,
+                                      difference=0.0 if both else np.nan, reference_irregular=0.0)))
+    fig = plots.frc_plot(FRCData(study, pd.concat(rows, ignore_index=True), {}))
+    ax = fig.axes[0]
+    curves = [ln for ln in ax.get_lines() if ln.get_label() in labels]
+    assert [ln.get_label() for ln in curves] == labels
+    styles = {(str(ln.get_linestyle()), ln.get_marker()) for ln in curves}
+    assert len(styles) == 6  # each curve distinct in both line style and marker
+    assert len({ln.get_marker() for ln in curves}) == 6
+    assert curves[0].get_linewidth() > curves[1].get_linewidth()  # the one underneath is wider
+    leg = ax.get_legend()
+    assert "c [N s/m]" in leg.get_title().get_text() and "df [N]" in leg.get_title().get_text()
+    assert "eps [m]" in leg.get_title().get_text()
+    texts = [t.get_text() for t in leg.get_texts()]
+    assert any(t.startswith("not converged") for t in texts) and any(t.startswith("irregular") for t in texts)
+    fig.canvas.draw()
+    lb, axb = leg.get_window_extent(), ax.get_window_extent()
+    assert lb.x0 >= axb.x1  # the legend and its notes lie outside the data area
+    assert not any(t.get_position()[1] < 0.05 and t.get_text().startswith("x:") for t in ax.texts)
+
+
+def test_phase_portrait_tick_labels_do_not_overlap():
+    """play_phase.png: two narrow panels of a +-6.5 mm orbit; the x tick labels used to run into
+    each other ('-0.00500.0025...'). Their boxes must be apart, on both axes, in every panel."""
+    from pyfmu_wrapper.scenario.engines import TimeSeries
+    from pyfmu_wrapper.scenario.runner import PhaseData
+    from pyfmu_wrapper.scenario.schema import Curve, PhasePortraitStudy
+
+    study = PhasePortraitStudy("phase", "Case 1", (21.0, 19.0), (Curve("eps = 0", TMDParams()),
+                                                                 Curve("eps = 1e-3", TMDParams())))
+    data = PhaseData(study)
+    t = np.linspace(0.0, 2 * np.pi / 20.0, 400)
+    for w in study.omegas:
+        for c in study.curves:
+            x = 6.5e-3 * np.cos(w * t)
+            data.series[(w, c.label)] = TimeSeries(t, np.column_stack([x, -w * 6.5e-3 * np.sin(w * t)] + [x * 0] * 4),
+                                                   "m", True, 1, 0.0, 6.5e-3)
+    fig = plots.phase_portrait_plot(data)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            boxes = [lb.get_window_extent(renderer) for lb in axis.get_ticklabels() if lb.get_visible() and lb.get_text()]
+            assert len(boxes) >= 3
+            for a, b in zip(boxes, boxes[1:]):
+                assert not a.overlaps(b), [lb.get_text() for lb in axis.get_ticklabels()]
