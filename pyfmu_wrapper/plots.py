@@ -90,7 +90,7 @@ def frc_plot(data, ax=None) -> Figure:
                               markevery=style["markevery"], mfc="white" if d == "down" else None, label=lab,
                               lw=style["lw"], zorder=style["zorder"], **kw)
             if has_ref:
-                ax.plot(td["omega"], td["reference"], ":", color=line.get_color(), lw=1.0)
+                ax.plot(td["omega"], td["reference"], ":", color=line.get_color(), lw=0.8, alpha=0.8)
             irr = (td["irregular"].fillna(False).astype(bool) if "irregular" in td
                    else pd.Series(False, index=td.index))
             bad = td[~td["converged"].astype(bool) & ~irr]
@@ -108,8 +108,9 @@ def frc_plot(data, ax=None) -> Figure:
                                              if "reference_irregular" in td else False)
                 dax.plot(td["omega"], np.where(irr_both, np.nan, diff), ls=ls, color=line.get_color(), lw=1.2,
                          marker=".", ms=3)
-                if irr_both.any():
-                    dax.plot(td["omega"][irr_both], diff[irr_both], "o", mfc="none", color=line.get_color(), ms=6)
+                if irr_both.any():  # clipped to the regular points' range below: drawn on its edge
+                    dax.plot(td["omega"][irr_both], diff[irr_both], "o", mfc="none", color=line.get_color(), ms=6,
+                             gid="irregular")
     ax.set_ylabel("max |x| [m]")
     if dax is not None:
         _difference_axes(dax, tab)
@@ -122,7 +123,7 @@ def frc_plot(data, ax=None) -> Figure:
     handles, labels = ax.get_legend_handles_labels()
     if has_ref:
         handles.append(Line2D([], [], ls=":", color="0.3"))
-        labels.append("monolithic (dotted)")
+        labels.append("monolithic (thin dotted)")
     notes = [(Line2D([], [], ls="none", marker="x", color="0.3", ms=7, mew=1.5), NOTE_NOT_CONVERGED, any_bad),
              (Line2D([], [], ls="none", marker="o", mfc="none", color="0.3", ms=8), NOTE_IRREGULAR, any_irr)]
     for h, text, present in notes:
@@ -147,16 +148,23 @@ def _difference_axes(dax, tab) -> None:
     reg = np.abs(d[~irr & np.isfinite(d)])
     head = f"max |difference| over {reg.size} regular points = {100 * reg.max():.3g} %" if reg.size else \
         "no regular point"
+    if reg.size and irr.any():  # the scale of the regular points; an irregular point outside sits on the edge
+        lim = max(1.3 * 100 * float(reg.max()), 0.05)
+        dax.set_ylim(-lim, lim)
+        for ln in dax.get_lines():
+            if ln.get_gid() == "irregular":
+                ln.set_ydata(np.clip(np.asarray(ln.get_ydata(), float), -lim, lim))
+                ln.set_clip_on(False)
     if irr.any():
         parts = []
         for (_, r) in tab[irr].iterrows():
             sc = r.get("change", np.nan)
             parts.append(f"{r['omega']:g} rad/s: {100 * r['difference']:.3g} % (window scatter {100 * sc:.2g} %)")
         shown = "; ".join(parts[:3]) + (f"; +{len(parts) - 3} more" if len(parts) > 3 else "")
-        head += f"\nirregular (o, not in the maximum): {shown}"
+        head += f"\nirregular (o, not in the maximum; on the edge when outside the scale): {shown}"
     dax.set_xlabel(r"$\omega$ [rad/s]")
     dax.set_ylabel("cosim / monolithic - 1 [%]")
-    dax.set_title(f"co-simulation (solid) against monolithic (dotted): {head}", fontsize=8)
+    dax.set_title(f"co-simulation against monolithic (thin dotted): {head}", fontsize=8)
     dax.grid(alpha=0.3)
 
 
