@@ -37,11 +37,11 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--coupling", default=None, choices=["impulse", "force"],
                    help="co-simulation coupling: impulse (default; momentum exchange, no algebraic loop) or force "
                         "(tmd.force -> base.f_link, the inerter's algebraic loop solved by Newton every step)")
-    p.add_argument("--workers", type=int, default=None,
+    p.add_argument("--workers", type=int, default=None, metavar="N",
                    help="processes that compute sweeps in parallel, one FRC curve or map row each (default 0: "
                         "all cores); the only parallelism switch. Every sweep is a strict continuation in one "
                         "process, so the numbers do not depend on N. With --executor sequential: 1 only")
-    p.add_argument("--jobs", type=int, default=None, help="deprecated alias of --workers")
+    p.add_argument("--jobs", type=int, default=None, metavar="N", help="deprecated alias of --workers")
     p.add_argument("--executor", default="local", choices=list(EXECUTORS),
                    help="where sweeps (map rows, FRC curves) run: local process pool of --workers processes "
                         "(default), a dask cluster (--scheduler; its workers decide), or sequential in this process")
