@@ -7,10 +7,22 @@ built without pyplot (Agg canvas), so it works headless and never touches global
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
+from matplotlib.lines import Line2D
+from matplotlib.ticker import MaxNLocator
 
 _STYLE = {"up": "-", "down": "--"}
+#: per curve: line style and marker, so that curves lying on top of each other stay visible
+_LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 1)))
+_MARKERS = ("o", "s", "^", "v", "D", "P", "X", "<", ">")
+#: units of the TMD parameters that curve labels name (legend title)
+_UNITS = (("c", "damping", "N s/m"), ("df", "friction_force", "N"), ("eps", "play_gap", "m"),
+          ("k", "stiffness", "N/m"), ("m", "mass", "kg"), ("I", "inertance", "kg"), ("ki", "mesh_stiffness", "N/m"),
+          ("ci", "mesh_damping", "N s/m"), ("Iratio", "inertance_ratio", "-"))
+NOTE_NOT_CONVERGED = "not converged"
+NOTE_IRREGULAR = "irregular (non-periodic): max over its windows"
 
 
 def _figure(width=7.0, height=4.5, ncols=1) -> tuple[Figure, list]:
@@ -20,58 +32,140 @@ def _figure(width=7.0, height=4.5, ncols=1) -> tuple[Figure, list]:
     return fig, list(axes)
 
 
+def _units_title(study) -> str | None:
+    """Legend title giving the units of the parameters the curve labels name or the curves differ in
+    (e.g. "units: c [N s/m], df [N], eps [m]")."""
+    import re
+
+    curves = getattr(study, "curves", ())
+    found = []
+    for short, name, unit in _UNITS:
+        named = any(re.search(rf"(?<![A-Za-z_]){short}\s*=", c.label) for c in curves)
+        differs = len({getattr(c.tmd, name, None) for c in curves}) > 1 and name != "mass" and name != "inertance"
+        if named or differs:
+            found.append(f"{short} [{unit}]")
+    return "units: " + ", ".join(found) if found else None
+
+
+def _curve_style(k: int, n_points: int, one_direction: bool) -> dict:
+    """Line style, marker and width of curve k: each curve differs from the others in all three,
+    the earlier ones wider (drawn underneath), so identical curves still show both."""
+    every = max(1, n_points // 8)
+    return dict(ls=_LINESTYLES[k % len(_LINESTYLES)] if one_direction else None,
+                marker=_MARKERS[k % len(_MARKERS)], ms=4.5, markevery=(k % every, every) if every > 1 else None,
+                lw=max(1.0, 2.6 - 0.3 * k), zorder=2 + 0.01 * k)
+
+
 def frc_plot(data, ax=None) -> Figure:
     """Frequency-response curves: base amplitude max|x| [m] against omega [rad/s].
 
-    Down-sweeps of nonlinear curves are dashed; the base alone (no TMD) is black.
+    Every curve has its own colour, line style and marker (a curve lying exactly on another stays
+    visible); with sweeps up and down, up is solid and down dashed. The base alone (no TMD) is
+    black. The legend sits outside the axes, with the parameters' units as its title and the
+    markers of points not converged (x) and irregular (open circle).
     """
     tab = data.table
     has_ref = "reference" in tab and np.isfinite(tab["reference"].to_numpy(float)).any()
+    embedded = ax is not None  # a panel of someone else's figure: the legend stays inside it
     dax = None
     if ax is None and has_ref:  # engine 'both': FRCs on top, relative difference below
-        fig = Figure(figsize=(7.0, 6.5), layout="constrained")
+        fig = Figure(figsize=(9.5, 6.5), layout="constrained")
         FigureCanvasAgg(fig)
         ax, dax = fig.subplots(2, 1, sharex=True, height_ratios=[2.2, 1])
     elif ax is None:
-        fig, (ax,) = _figure()
+        fig, (ax,) = _figure(width=9.5)
     else:
         fig = ax.figure
-    for label, t in data.table.groupby("curve", sort=False):
+    one_direction = tab["direction"].nunique() == 1
+    any_bad = any_irr = False
+    for k, (label, t) in enumerate(tab.groupby("curve", sort=False)):
         color = "black" if _without(data.study, label) else None  # the base alone: black, as in the paper
+        style = _curve_style(k, t["omega"].nunique(), one_direction)
         line = None
         for d, td in t.groupby("direction", sort=False):
             kw = dict(color=line.get_color()) if line is not None else (dict(color=color) if color else {})
             lab = label if line is None else f"{label} ({d})"
-            (line,) = ax.plot(td["omega"], td["amplitude"], _STYLE.get(d, "-"), label=lab,
-                              lw=1.0 if color else 1.4, zorder=3 if color else 2, **kw)
+            ls = style["ls"] if one_direction else _STYLE.get(d, "-")
+            (line,) = ax.plot(td["omega"], td["amplitude"], ls=ls, marker=style["marker"], ms=style["ms"],
+                              markevery=style["markevery"], mfc="white" if d == "down" else None, label=lab,
+                              lw=style["lw"], zorder=style["zorder"], **kw)
             if has_ref:
-                ax.plot(td["omega"], td["reference"], ":", color=line.get_color(), lw=1.0)
-                if dax is not None:
-                    dax.plot(td["omega"], 100.0 * td["difference"], _STYLE.get(d, "-"), color=line.get_color(),
-                             lw=1.2, marker=".", ms=3)
-            irr = td["irregular"].fillna(False).astype(bool) if "irregular" in td else np.zeros(len(td), bool)
+                ax.plot(td["omega"], td["reference"], ":", color=line.get_color(), lw=0.8, alpha=0.8)
+            irr = (td["irregular"].fillna(False).astype(bool) if "irregular" in td
+                   else pd.Series(False, index=td.index))
             bad = td[~td["converged"].astype(bool) & ~irr]
             if len(bad):
-                ax.plot(bad["omega"], bad["amplitude"], "x", color=line.get_color(), ms=6)
+                any_bad = True
+                ax.plot(bad["omega"], bad["amplitude"], "x", color=line.get_color(), ms=7, mew=1.5, zorder=5,
+                        clip_on=False)
             if irr.any():  # irregular (rattling, non-periodic): the maximum over its windows, marked
-                ax.plot(td["omega"][irr], td["amplitude"][irr], "o", mfc="none", color=line.get_color(), ms=5)
-    ax.set_xlabel(r"$\omega$ [rad/s]")
+                any_irr = True
+                ax.plot(td["omega"][irr], td["amplitude"][irr], "o", mfc="none", color=line.get_color(), ms=8,
+                        mew=1.3, zorder=5, clip_on=False)
+            if dax is not None:
+                diff = 100.0 * td["difference"].to_numpy(float)
+                irr_both = irr.to_numpy() | (td["reference_irregular"].to_numpy(float) == 1.0
+                                             if "reference_irregular" in td else False)
+                dax.plot(td["omega"], np.where(irr_both, np.nan, diff), ls=ls, color=line.get_color(), lw=1.2,
+                         marker=".", ms=3)
+                if irr_both.any():  # clipped to the regular points' range below: drawn on its edge
+                    dax.plot(td["omega"][irr_both], diff[irr_both], "o", mfc="none", color=line.get_color(), ms=6,
+                             gid="irregular")
     ax.set_ylabel("max |x| [m]")
-    ax.text(0.01, 0.01, "x: not converged   o: irregular (non-periodic; max over its windows)",
-            transform=ax.transAxes, fontsize=7, color="0.4", va="bottom")
     if dax is not None:
-        dmax = float(np.nanmax(np.abs(tab["difference"].to_numpy(float))))
-        dax.set_xlabel(r"$\omega$ [rad/s]")
-        dax.set_ylabel("cosim / monolithic - 1 [%]")
-        dax.set_title(f"co-simulation (solid) against monolithic (dotted): max |difference| = {100 * dmax:.3g} %",
-                      fontsize=9)
-        dax.grid(alpha=0.3)
+        _difference_axes(dax, tab)
+    else:
+        ax.set_xlabel(r"$\omega$ [rad/s]")
     ax.set_title(data.study.title)
     ax.set_xlim(float(np.min(data.study.omegas)), float(np.max(data.study.omegas)))
     ax.set_ylim(bottom=0)
     ax.grid(alpha=0.3)
-    ax.legend(fontsize=8)
+    handles, labels = ax.get_legend_handles_labels()
+    if has_ref:
+        handles.append(Line2D([], [], ls=":", color="0.3"))
+        labels.append("monolithic (thin dotted)")
+    notes = [(Line2D([], [], ls="none", marker="x", color="0.3", ms=7, mew=1.5), NOTE_NOT_CONVERGED, any_bad),
+             (Line2D([], [], ls="none", marker="o", mfc="none", color="0.3", ms=8), NOTE_IRREGULAR, any_irr)]
+    for h, text, present in notes:
+        if present or not embedded:
+            handles.append(h)
+            labels.append(text + ("" if present else " (none)"))
+    if embedded:
+        ax.legend(handles, labels, fontsize=6, title=_units_title(data.study), title_fontsize=6)
+    else:
+        ax.legend(handles, labels, fontsize=8, title=_units_title(data.study), title_fontsize=8, loc="upper left",
+                  bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
     return fig
+
+
+def _difference_axes(dax, tab) -> None:
+    """Engine 'both': the headline is the largest |difference| over the regular points; irregular
+    points (open circles) have no single amplitude and are shown apart with their own scatter."""
+    d = tab["difference"].to_numpy(float)
+    irr = tab["irregular"].fillna(False).astype(bool).to_numpy() if "irregular" in tab else np.zeros(len(d), bool)
+    if "reference_irregular" in tab:
+        irr = irr | (tab["reference_irregular"].to_numpy(float) == 1.0)
+    reg = np.abs(d[~irr & np.isfinite(d)])
+    head = f"max |difference| over {reg.size} regular points = {100 * reg.max():.3g} %" if reg.size else \
+        "no regular point"
+    if reg.size and irr.any():  # the scale of the regular points; an irregular point outside sits on the edge
+        lim = max(1.3 * 100 * float(reg.max()), 0.05)
+        dax.set_ylim(-lim, lim)
+        for ln in dax.get_lines():
+            if ln.get_gid() == "irregular":
+                ln.set_ydata(np.clip(np.asarray(ln.get_ydata(), float), -lim, lim))
+                ln.set_clip_on(False)
+    if irr.any():
+        parts = []
+        for (_, r) in tab[irr].iterrows():
+            sc = r.get("change", np.nan)
+            parts.append(f"{r['omega']:g} rad/s: {100 * r['difference']:.3g} % (window scatter {100 * sc:.2g} %)")
+        shown = "; ".join(parts[:3]) + (f"; +{len(parts) - 3} more" if len(parts) > 3 else "")
+        head += f"\nirregular (o, not in the maximum; on the edge when outside the scale): {shown}"
+    dax.set_xlabel(r"$\omega$ [rad/s]")
+    dax.set_ylabel("cosim / monolithic - 1 [%]")
+    dax.set_title(f"co-simulation against monolithic (thin dotted): {head}", fontsize=8)
+    dax.grid(alpha=0.3)
 
 
 def _without(study, label) -> bool:
@@ -108,16 +202,24 @@ def map_plot(data, ax=None) -> Figure:
 def phase_portrait_plot(data) -> Figure:
     """Steady-state phase portraits (x, xd) of the base, one panel per omega, one line per curve."""
     st = data.study
-    fig, axes = _figure(width=5.0, height=4.5, ncols=len(st.omegas))
+    fig, axes = _figure(width=5.0, height=4.8, ncols=len(st.omegas))
     for ax, w in zip(axes, st.omegas):
-        for c in st.curves:
+        for k, c in enumerate(st.curves):
             ts = data.series[(w, c.label)]
-            ax.plot(ts.states[:, 0], ts.states[:, 1], lw=0.9, label=c.label)
+            # earlier curves wider underneath, the last one thin and solid on top (its rattle kinks visible)
+            last = k == len(st.curves) - 1
+            ax.plot(ts.states[:, 0], ts.states[:, 1], ls="-" if last or k % 2 == 0 else "--",
+                    lw=max(0.8, 3.0 - 0.7 * k), label=c.label, zorder=2 + k)
         ax.set_xlabel("x [m]")
         ax.set_ylabel(r"$\dot x$ [m/s]")
         ax.set_title(rf"{st.title}: $\omega$ = {w:g} rad/s", fontsize=9)
+        ax.xaxis.set_major_locator(MaxNLocator(nbins=4, symmetric=True))  # readable ticks on narrow panels
+        ax.yaxis.set_major_locator(MaxNLocator(nbins=6, symmetric=True))
+        ax.ticklabel_format(axis="both", style="sci", scilimits=(-2, 3), useMathText=True)
         ax.grid(alpha=0.3)
-        ax.legend(fontsize=7)
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=8, loc="outside lower center", ncols=min(len(labels), 4),
+               title=_units_title(st), title_fontsize=8, frameon=False)
     return fig
 
 

@@ -62,7 +62,11 @@ def linear_run(tmp_path_factory):
 
 def test_outputs_exist(linear_run):
     names = sorted(os.listdir(linear_run))
-    assert names == ["frc.csv", "frc.png", "map.csv", "map.png", "phase.csv", "phase.png", "summary.json"]
+    files = ["frc.csv", "frc.png", "map.csv", "map.png", "phase.csv", "phase.png", "summary.json"]
+    assert names == [".run-scenario.json"] + files
+    marker = json.loads((linear_run / ".run-scenario.json").read_text())  # what marks the folder as ours
+    assert marker["tool"] == "run-scenario" and marker["kind"] == "result" and marker["scenario"] == "fig2_small"
+    assert marker["files"] == files
     for png in ("frc.png", "map.png", "phase.png"):
         assert (linear_run / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     # no temporary folders left beside it
@@ -201,3 +205,197 @@ def test_summary_records_the_engine_settings(linear_run):
     s = json.loads((linear_run / "summary.json").read_text())
     assert s["settings"]["engine"] == "monolithic" and s["settings"]["solver"]["linear"] == "exact"
     assert "cosim" not in s["settings"] and len(s["code_version"]) == 16
+
+
+# --- progress, closing lines, the parallelism switch (issue 17) -------------------------------------
+
+PLAY = """\
+schema_version: 2
+name: irr
+base: {mass: 100.0, stiffness: 40000.0, damping: 100.0, force_amplitude: 200.0}
+tmd: {case: 1, inerter: play, play_gap: 1.0e-4, stiffness: 4000.0, damping: 0.0, mesh_stiffness: 2.0e7,
+      mesh_damping: 0.01}
+frequencies: [19.5, 20.0]
+studies:
+  - kind: frc
+    name: frc
+    curves:
+      - {label: "play eps = 1e-4"}
+"""
+
+
+def test_progress_lines_and_closing_lines_when_not_on_a_terminal(tmp_path):
+    """stderr to a pipe: plain progress lines (no bar, no carriage returns) per point with an ETA; at
+    the end one line per study naming the irregular / unconverged points, the same as the CSV's flags.
+    The play model at its antiresonance (20 rad/s) rattles: an irregular point (paper Sect. 6)."""
+    p = write(tmp_path, PLAY)
+    out = tmp_path / "out"
+    cmd = [sys.executable, "-m", "pyfmu_wrapper.cli.run_scenario", str(p), "--out", str(out), "--executor",
+           "sequential", "--progress-every", "0.5"]
+    root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")])))
+    r = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=env)
+    assert r.returncode == 0, r.stderr
+    assert "\r" not in r.stderr and "it/s" not in r.stderr  # no tqdm bar in a log
+    import re
+
+    prog = [re.match(r"run-scenario: irr: (\d+)/(\d+) points \((\d+) %\), (.+) elapsed, (about (.+) left|"
+                     r"estimating the time left)$", ln) for ln in r.stderr.splitlines() if "points (" in ln]
+    assert len(prog) >= 2 and all(prog)
+    done = [int(m.group(1)) for m in prog]
+    assert done == sorted(done) and done[-1] == 2 and {int(m.group(2)) for m in prog} == {2}
+    assert prog[-1].group(6) == "0 s"
+    t = pd.read_csv(out / "frc.csv")
+    closing = [ln for ln in r.stdout.splitlines() if ln.startswith("run-scenario: frc:")]
+    assert len(closing) == 1
+    irregular = t[t["irregular"]]["omega"].tolist()
+    unconverged = t[~t["converged"]]["omega"].tolist()
+    assert irregular == [20.0]  # the premise: the rattling antiresonance point
+    assert f"{len(unconverged)} of 2 points not converged, 1 irregular" in closing[0]
+    assert "irregular at 20 rad/s (window scatter" in closing[0]
+    assert ("not converged)" in closing[0]) == (20.0 in unconverged)
+
+
+def test_progress_eta_is_the_speed_of_the_points_computed(monkeypatch):
+    """ETA = points left x (time so far / points computed); points read back from checkpoints
+    (skip) count as done but not in the speed. 50 skipped, 10 computed in 20 s, 40 left: 80 s."""
+    from pyfmu_wrapper.cli import run_scenario as rs
+
+    now = [1000.0]
+    monkeypatch.setattr(rs.time, "monotonic", lambda: now[0])
+    bar = rs.Progress(100, "x", enabled=False)
+    assert bar.eta() is None and "estimating" in bar.line()
+    bar.skip(50)
+    assert bar.eta() is None  # nothing computed yet: no speed
+    now[0] += 20.0
+    bar(10)
+    assert bar.eta() == pytest.approx(80.0)
+    assert bar.line() == "run-scenario: x: 60/100 points (60 %), 20 s elapsed, about 1 min 20 s left"
+    # points known to cost nothing (a sweep repeated from an earlier study) are not work left
+    bar = rs.Progress(100, "x", enabled=False, instant=30)
+    now[0] += 10.0
+    bar(10)
+    assert bar.eta() == pytest.approx(60 * 10.0 / 10)
+    bar.skip(30)  # they come: nothing changes in the estimate but the count
+    assert bar.eta() == pytest.approx(60 * 10.0 / 10)
+
+
+def test_one_parallelism_switch_recorded_as_used(tmp_path, capsys):
+    """--workers N is the number of processes the sweeps use, and summary.json says how many did;
+    the numbers do not depend on it (each sweep is one strict continuation in one process)."""
+    text = LINEAR.replace("count: 101}", "count: 4}").split("  - kind: map")[0].replace("schema_version: 1",
+                                                                                      "schema_version: 2")
+    text = text.replace('- {label: "Iratio = 0", tmd: {inertance_ratio: 0.0}}',
+                        '- {label: "df = 10", tmd: {case: 1, friction_force: 10.0}}')
+    text = text.replace('- {label: "Iratio = 1", tmd: {inertance_ratio: 1.0}}',
+                        '- {label: "df = 20", tmd: {case: 1, friction_force: 20.0}}')
+    p = write(tmp_path, text)
+    runs = {}
+    for n in (1, 2):
+        out = tmp_path / f"w{n}"
+        assert main([str(p), "--out", str(out), "--quiet", "--engine", "monolithic", "--workers", str(n),
+                     "--no-resume"]) == 0
+        s = json.loads((out / "summary.json").read_text())
+        assert s["workers"] == n and s["executor"]["processes_used"] == n
+        assert s["executor"]["processes_requested"] == n
+        runs[n] = pd.read_csv(out / "frc.csv")
+    pd.testing.assert_series_equal(runs[1]["amplitude"], runs[2]["amplitude"])  # bit-identical
+    # --jobs: a deprecated alias, said so
+    assert main([str(p), "--out", str(tmp_path / "j"), "--quiet", "--engine", "monolithic", "--jobs", "1"]) == 0
+    assert "--jobs is deprecated" in capsys.readouterr().err
+    assert json.loads((tmp_path / "j" / "summary.json").read_text())["workers"] == 1
+    # a number that would not be used is refused, not recorded
+    for opt, msg in ((["--executor", "sequential", "--workers", "2"], "--workers 2 would not be used"),
+                     (["--jobs", "2", "--workers", "3"], "disagree"), (["--workers", "-1"], "--workers must be >= 0")):
+        assert main([str(p), "--out", str(tmp_path / "bad"), "--quiet"] + opt) == 2
+        assert msg in capsys.readouterr().err
+    assert not (tmp_path / "bad").exists()
+
+
+def test_engine_both_headlines_the_regular_points_only(tmp_path, capsys):
+    """--engine both: the headline max |difference| is over the regular points; the irregular play
+    point at the antiresonance (no single amplitude: its windows scatter) is listed apart with the
+    window scatter of each engine, in summary.json, on the console and in the figure's title."""
+    p = write(tmp_path, PLAY.replace("frequencies: [19.5, 20.0]", "frequencies: [19.0, 19.5, 20.0]"))
+    out = tmp_path / "out"
+    assert main([str(p), "--out", str(out), "--quiet", "--engine", "both", "--executor", "sequential"]) == 0
+    t = pd.read_csv(out / "frc.csv")
+    irr = t["irregular"].astype(bool) | (t["reference_irregular"] == 1)
+    assert irr.tolist() == [False, False, True]  # the premise: 20 rad/s rattles
+    reg = t[~irr]
+    d = json.loads((out / "summary.json").read_text())["studies"][0]["curves"][0]["directions"]["up"]
+    assert d["regular_points"] == 2
+    assert d["max_abs_difference"] == pytest.approx(np.abs(reg["amplitude"] / reg["reference"] - 1).max(), rel=1e-6)
+    assert d["max_abs_difference"] <= 5e-3  # README: within 0.5 % of the monolithic solver
+    (ip,) = d["irregular_points"]
+    row = t[irr].iloc[0]
+    assert ip["omega"] == 20.0 and ip["scatter"] == pytest.approx(row["change"], rel=1e-8)
+    assert ip["reference_scatter"] == pytest.approx(row["reference_change"], rel=1e-8)
+    assert ip["difference"] == pytest.approx(row["amplitude"] / row["reference"] - 1, rel=1e-6)
+    console = capsys.readouterr().out
+    assert f"max |difference| = {100 * d['max_abs_difference']:.3g} % over the 2 regular points" in console
+    assert "irregular points (not in that maximum): 20 rad/s" in console
+
+
+@pytest.mark.parametrize("both", [False, True])
+def test_frc_plot_every_curve_visible_units_and_notes_outside(both):
+    """Six curves, two of them identical (curve 1 of full_frc.png lay hidden under curve 2): every
+    curve gets its own (line style, marker) pair, the legend (with the units of the parameters the
+    labels name, and the x / o notes) sits outside the axes, so nothing is drawn over the data."""
+    from pyfmu_wrapper.physics.params import TMDParams as T
+    from pyfmu_wrapper.scenario.runner import FRCData
+    from pyfmu_wrapper.scenario.schema import Curve, FRCStudy
+
+    w = np.linspace(15.0, 25.0, 41)
+    labels = ["1: c = 0", "2: eps = 1e-4", "3: c = 10", "4: df = 10", "5: full", "6: c = 15"]
+    study = FRCStudy("frc", "t", w, tuple(Curve(lb, T(damping=float(k))) for k, lb in enumerate(labels)))
+    rows = []
+    for k, lb in enumerate(labels):
+        amp = exact_amplitude(BaseParams(), T(damping=10.0 if k != 1 else 10.0), w)  # curves 1 and 2 identical
+        rows.append(pd.DataFrame(dict(curve=lb, direction="up", omega=w, amplitude=amp, converged=True,
+                                      irregular=w == 20.0, change=0.1, reference=amp if both else np.nan,
+                                      difference=0.0 if both else np.nan, reference_irregular=0.0)))
+    fig = plots.frc_plot(FRCData(study, pd.concat(rows, ignore_index=True), {}))
+    ax = fig.axes[0]
+    curves = [ln for ln in ax.get_lines() if ln.get_label() in labels]
+    assert [ln.get_label() for ln in curves] == labels
+    styles = {(str(ln.get_linestyle()), ln.get_marker()) for ln in curves}
+    assert len(styles) == 6  # each curve distinct in both line style and marker
+    assert len({ln.get_marker() for ln in curves}) == 6
+    assert curves[0].get_linewidth() > curves[1].get_linewidth()  # the one underneath is wider
+    leg = ax.get_legend()
+    assert "c [N s/m]" in leg.get_title().get_text() and "df [N]" in leg.get_title().get_text()
+    assert "eps [m]" in leg.get_title().get_text()
+    texts = [t.get_text() for t in leg.get_texts()]
+    assert any(t.startswith("not converged") for t in texts) and any(t.startswith("irregular") for t in texts)
+    fig.canvas.draw()
+    lb, axb = leg.get_window_extent(), ax.get_window_extent()
+    assert lb.x0 >= axb.x1  # the legend and its notes lie outside the data area
+    assert not any(t.get_position()[1] < 0.05 and t.get_text().startswith("x:") for t in ax.texts)
+
+
+def test_phase_portrait_tick_labels_do_not_overlap():
+    """play_phase.png: two narrow panels of a +-6.5 mm orbit; the x tick labels used to run into
+    each other ('-0.00500.0025...'). Their boxes must be apart, on both axes, in every panel."""
+    from pyfmu_wrapper.scenario.engines import TimeSeries
+    from pyfmu_wrapper.scenario.runner import PhaseData
+    from pyfmu_wrapper.scenario.schema import Curve, PhasePortraitStudy
+
+    study = PhasePortraitStudy("phase", "Case 1", (21.0, 19.0), (Curve("eps = 0", TMDParams()),
+                                                                 Curve("eps = 1e-3", TMDParams())))
+    data = PhaseData(study)
+    t = np.linspace(0.0, 2 * np.pi / 20.0, 400)
+    for w in study.omegas:
+        for c in study.curves:
+            x = 6.5e-3 * np.cos(w * t)
+            data.series[(w, c.label)] = TimeSeries(t, np.column_stack([x, -w * 6.5e-3 * np.sin(w * t)] + [x * 0] * 4),
+                                                   "m", True, 1, 0.0, 6.5e-3)
+    fig = plots.phase_portrait_plot(data)
+    fig.canvas.draw()
+    renderer = fig.canvas.get_renderer()
+    for ax in fig.axes:
+        for axis in (ax.xaxis, ax.yaxis):
+            boxes = [lb.get_window_extent(renderer) for lb in axis.get_ticklabels() if lb.get_visible() and lb.get_text()]
+            assert len(boxes) >= 3
+            for a, b in zip(boxes, boxes[1:]):
+                assert not a.overlaps(b), [lb.get_text() for lb in axis.get_ticklabels()]

@@ -147,7 +147,7 @@ def test_cli_resume(tmp_path):
     p.write_text(TINY)
     out = tmp_path / "res" / "tiny"
     assert run_main([str(p), "--out", str(out), "--executor", "sequential", "--engine", "monolithic", "--quiet"]) == 0
-    ckdir = tmp_path / "res" / ".cache" / "tiny" / "fmap"
+    ckdir = tmp_path / "res" / "tiny.checkpoints" / "fmap"  # <out>.checkpoints/<study>/
     files = sorted(ckdir.glob("*.csv"))
     assert len(files) == 3
     files[1].unlink()  # as if the run had been killed before this task finished

@@ -1,26 +1,33 @@
-"""``run-scenario PATH [--out DIR] [--engine cosim|monolithic|both]``: run a scenario file, write its results.
+"""``run-scenario PATH [--out DIR] [--engine ENGINE] [--workers N]``: run a scenario file, write its results.
 
 Exit codes: 0 success; 1 the run failed (nothing is left in the output folder); 2 bad input
-(command line, missing or invalid scenario file).
+(command line, missing or invalid scenario file, an output folder it will not replace: a file, a
+folder of files it did not write, the current folder or one of its parents); 128 + signal number
+when interrupted (130 SIGINT, 143 SIGTERM, 129 SIGHUP: workers ended, partial folder removed).
 """
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
+import threading
+import time
 import traceback
 
 from ..scenario import ScenarioError, load_scenario
 from .errors import cli_main
 from ..scenario.engines import DEFAULT_ENGINE, ENGINES, RunSettings
 from ..scenario.executors import EXECUTORS, make_executor
-from ..scenario.output import default_checkpoint_dir, default_output_dir, run_scenario
-from ..scenario.runner import work_units
+from ..scenario.output import OutputError, check_output_dir, default_checkpoint_dir, default_output_dir, run_scenario
+from ..scenario.runner import instant_units, study_report, work_units
 
 
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="run-scenario", description=__doc__.splitlines()[0])
     p.add_argument("path", help="scenario YAML file (see docs/scenarios.md)")
-    p.add_argument("--out", default=None, help="output folder (default: results/<scenario name>/)")
+    p.add_argument("--out", default=None,
+                   help="output folder (default: results/<scenario name>/); a new or empty folder or an earlier "
+                        "result of run-scenario, which is replaced in one step when the run is complete")
     p.add_argument("--engine", default=DEFAULT_ENGINE, choices=sorted(ENGINES),
                    help=f"computation engine (default: {DEFAULT_ENGINE}): cosim = co-simulation of the FMUs, "
                         "monolithic = single-system solver, both = co-simulation with its difference to the "
@@ -31,21 +38,181 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--coupling", default=None, choices=["impulse", "force"],
                    help="co-simulation coupling: impulse (default; momentum exchange, no algebraic loop) or force "
                         "(tmd.force -> base.f_link, the inerter's algebraic loop solved by Newton every step)")
-    p.add_argument("--workers", type=int, default=1,
-                   help="processes per nonlinear sweep (default 1: strict continuation; 0: all cores); "
-                        "only with --executor sequential (the other executors parallelise over sweeps)")
+    p.add_argument("--workers", type=int, default=None, metavar="N",
+                   help="processes that compute sweeps in parallel, one FRC curve or map row each (default 0: "
+                        "all cores); the only parallelism switch. Every sweep is a strict continuation in one "
+                        "process, so the numbers do not depend on N. With --executor sequential: 1 only")
+    p.add_argument("--jobs", type=int, default=None, metavar="N", help="deprecated alias of --workers")
     p.add_argument("--executor", default="local", choices=list(EXECUTORS),
-                   help="where sweeps (map rows, FRC curves) run: local process pool over the cores (default), "
-                        "a dask cluster (--scheduler), or sequential in this process")
-    p.add_argument("--jobs", type=int, default=0, help="processes of the local executor (default 0: all cores)")
+                   help="where sweeps (map rows, FRC curves) run: local process pool of --workers processes "
+                        "(default), a dask cluster (--scheduler; its workers decide), or sequential in this process")
     p.add_argument("--scheduler", default=None, help="dask scheduler address, e.g. tcp://host:8786 (--executor dask)")
     p.add_argument("--no-resume", dest="resume", action="store_false",
                    help="recompute every sweep instead of reusing the checkpoints of an earlier (killed) run")
     p.add_argument("--cache", default=None,
-                   help="checkpoint folder (default: <out parent>/.cache/<out name>/)")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+                   help="checkpoint folder (default: <out>.checkpoints/ beside the output folder)")
+    p.add_argument("--quiet", action="store_true", help="no progress report (the closing lines are still printed)")
+    p.add_argument("--progress-every", type=float, default=5.0, metavar="SECONDS",
+                   help="when stderr is not a terminal (a log, a pipe): one progress line every SECONDS "
+                        "(default 5); on a terminal the line is redrawn every second")
     p.add_argument("--traceback", action="store_true", help="print the full traceback on failure")
     return p
+
+
+def _fmt_time(s: float | None) -> str:
+    if s is None:
+        return "?"
+    s = max(0, int(round(s)))
+    if s < 60:
+        return f"{s} s"
+    if s < 3600:
+        return f"{s // 60} min {s % 60:02d} s"
+    return f"{s // 3600} h {s % 3600 // 60:02d} min"
+
+
+class Progress:
+    """Progress per frequency point, with an ETA from the speed of the points computed so far.
+
+    Called as ``progress(n)`` (n points finished, fractions allowed) or ``progress.skip(n)`` (points
+    read from checkpoints or closed-form: counted as done, not in the speed). A background thread
+    redraws one line every second on a terminal (``\\r``) and, when stderr is not a terminal (a log
+    file, a pipe), writes one plain line every ``interval`` seconds (every ``6 * interval`` s while
+    nothing has moved).
+    """
+
+    def __init__(self, total: float, name: str, stream=None, tty: bool | None = None, interval: float = 5.0,
+                 enabled: bool = True, instant: float = 0.0):
+        self.total, self.name = float(total), name
+        self.instant = float(instant)  #: points known to cost nothing (closed form, repeated sweeps)
+        self.stream = stream if stream is not None else sys.stderr
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)()) if tty is None else tty
+        self.interval = 1.0 if self.tty else float(interval)
+        self.enabled = enabled
+        self.done = self.skipped = 0.0
+        self.t0 = time.monotonic()
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._last = (0.0, -1.0)  # (time, done) of the last line written
+        self._thread = None
+
+    def __enter__(self):
+        if self.enabled:
+            self._thread = threading.Thread(target=self._loop, name="run-scenario-progress", daemon=True)
+            self._thread.start()
+        return self
+
+    def __exit__(self, *exc):
+        self.close(final=exc[0] is None)
+        return False
+
+    def __call__(self, n=1):
+        with self._lock:
+            self.done += n
+
+    def skip(self, n=1):
+        with self._lock:
+            self.done += n
+            self.skipped += n
+
+    def eta(self) -> float | None:
+        """Seconds left: the points still to compute (those known to cost nothing left out) at the
+        speed of the points computed so far (None: unknown yet)."""
+        with self._lock:
+            computed = self.done - self.skipped
+            left = self.total - self.done - max(0.0, self.instant - self.skipped)
+        elapsed = time.monotonic() - self.t0
+        if left <= 0:
+            return 0.0
+        if computed <= 0 or elapsed <= 0:
+            return None
+        return left * elapsed / computed
+
+    def line(self) -> str:
+        with self._lock:
+            done = self.done
+        pct = 100.0 * done / self.total if self.total else 100.0
+        eta = self.eta()
+        left = "estimating the time left" if eta is None else f"about {_fmt_time(eta)} left"
+        return (f"run-scenario: {self.name}: {done:.0f}/{self.total:.0f} points ({pct:.0f} %), "
+                f"{_fmt_time(time.monotonic() - self.t0)} elapsed, {left}")
+
+    def _emit(self, final=False) -> None:
+        text = self.line()
+        if self.tty:
+            self.stream.write("\r" + text.ljust(110) + ("\n" if final else ""))
+        else:
+            self.stream.write(text + "\n")
+        self.stream.flush()
+        self._last = (time.monotonic(), self.done)
+
+    def _loop(self) -> None:
+        while not self._stop.wait(0.2):
+            now = time.monotonic()
+            since = now - self._last[0]
+            moved = self.done != self._last[1]
+            if since >= self.interval and (moved or self.tty or since >= 6 * self.interval):
+                self._emit()
+
+    def close(self, final=True) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+            if final:
+                self._emit(final=True)
+            elif self.tty:
+                self.stream.write("\n")
+                self.stream.flush()
+
+
+class Interrupted(KeyboardInterrupt):
+    """SIGTERM or SIGHUP turned into the same clean stop as SIGINT (Ctrl-C)."""
+
+    def __init__(self, signum: int):
+        super().__init__(signum)
+        self.signum = signum
+
+
+def _raise_interrupt(signum, frame):
+    for name in ("SIGTERM", "SIGHUP"):  # one clean stop: a second signal does not break the cleanup
+        if getattr(signal, name, None) is not None:
+            signal.signal(getattr(signal, name), signal.SIG_IGN)
+    raise Interrupted(signum)
+
+
+def _install_signals() -> dict:
+    """SIGTERM and SIGHUP behave as SIGINT (only possible from the main thread)."""
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    old = {}
+    for name in ("SIGTERM", "SIGHUP"):
+        sig = getattr(signal, name, None)
+        if sig is not None:
+            old[sig] = signal.signal(sig, _raise_interrupt)
+    return old
+
+
+def _err(msg: str) -> int:
+    print(f"run-scenario: error: {msg}", file=sys.stderr)
+    return 2
+
+
+def _workers(args) -> tuple[int | None, str | None]:
+    """The one parallelism switch (--workers, --jobs its deprecated alias): (value, error)."""
+    if args.jobs is not None:
+        print("run-scenario: note: --jobs is deprecated; use --workers (the same number of processes)", file=sys.stderr)
+        if args.workers is not None and args.workers != args.jobs:
+            return None, f"--jobs {args.jobs} and --workers {args.workers} disagree; give --workers only"
+    n = args.workers if args.workers is not None else args.jobs
+    opt = "--workers" if args.workers is not None else "--jobs"
+    if n is not None and n < 0:
+        return None, f"{opt} must be >= 0 (0: all cores), got {n}"
+    if args.executor == "sequential" and n not in (None, 1):
+        return None, f"--executor sequential computes in this process only; {opt} {n} would not be used (drop it, " \
+                     "or use --executor local)"
+    if args.executor == "dask" and n is not None:
+        return None, f"with --executor dask the cluster's workers compute; {opt} {n} would not be used (drop it)"
+    return (0 if n is None else n), None
 
 
 @cli_main("run-scenario")
@@ -54,62 +221,75 @@ def main(argv=None) -> int:
     try:
         scn = load_scenario(args.path)
     except ScenarioError as exc:
-        print(f"run-scenario: error: {exc}", file=sys.stderr)
-        return 2
+        return _err(str(exc))
     out = args.out if args.out is not None else default_output_dir(scn)
-    if args.workers < 0:
-        print(f"run-scenario: error: --workers must be >= 0, got {args.workers}", file=sys.stderr)
-        return 2
+    workers, problem = _workers(args)
+    if problem:
+        return _err(problem)
     cosim = None
     if args.accuracy is not None or args.coupling is not None:
         from dataclasses import replace
 
         if args.engine == "monolithic":
-            print("run-scenario: error: --accuracy and --coupling are co-simulation settings; the monolithic engine "
-                  "does not use them (use --engine cosim or both)", file=sys.stderr)
-            return 2
+            return _err("--accuracy and --coupling are co-simulation settings; the monolithic engine "
+                        "does not use them (use --engine cosim or both)")
         if args.accuracy is not None and not (0 < args.accuracy < 1):
-            print(f"run-scenario: error: --accuracy must be in (0, 1), got {args.accuracy}", file=sys.stderr)
-            return 2
+            return _err(f"--accuracy must be in (0, 1), got {args.accuracy}")
         cosim = scn.cosim.settings()  # the scenario's cosim block, then the command line over it
         if args.accuracy is not None:
             cosim = replace(cosim, accuracy=args.accuracy, steps_per_period=None)
         if args.coupling is not None:
             cosim = replace(cosim, coupling=args.coupling)
-    settings = RunSettings.for_scenario(scn, engine=args.engine, workers=args.workers, cosim=cosim)
-    if args.jobs < 0:
-        print(f"run-scenario: error: --jobs must be >= 0, got {args.jobs}", file=sys.stderr)
-        return 2
+    settings = RunSettings.for_scenario(scn, engine=args.engine, workers=1, cosim=cosim)
     if args.executor == "dask" and not args.scheduler:
-        print("run-scenario: error: --executor dask needs --scheduler ADDRESS", file=sys.stderr)
-        return 2
-    try:
-        executor = make_executor(args.executor, jobs=args.jobs, scheduler=args.scheduler)
-    except Exception as exc:
-        print(f"run-scenario: error: cannot start the {args.executor} executor: {exc}", file=sys.stderr)
-        return 2
+        return _err("--executor dask needs --scheduler ADDRESS")
+    if not args.progress_every > 0:
+        return _err(f"--progress-every must be > 0 seconds, got {args.progress_every}")
     cache = args.cache if args.cache is not None else default_checkpoint_dir(out)
-    from tqdm import tqdm
+    try:  # before anything is computed: never replace what run-scenario did not write
+        for note in check_output_dir(out, scn.path, cache):
+            print(f"run-scenario: note: {note}", file=sys.stderr)
+    except OutputError as exc:
+        return _err(str(exc))
+    try:
+        executor = make_executor(args.executor, jobs=workers, scheduler=args.scheduler)
+    except Exception as exc:
+        return _err(f"cannot start the {args.executor} executor: {exc}")
+    datas: list = []
+    old_handlers = _install_signals()
+    try:
+        with Progress(work_units(scn, settings), scn.name, interval=args.progress_every, enabled=not args.quiet,
+                      instant=instant_units(scn, settings)) as bar:
+            folder = run_scenario(scn, out, settings, progress=bar, executor=executor, checkpoint_dir=cache,
+                                  resume=args.resume, collect=datas)
+    except KeyboardInterrupt as exc:
+        executor.abort()
+        signum = getattr(exc, "signum", signal.SIGINT)
+        name = signal.Signals(signum).name
+        print(f"\nrun-scenario: interrupted ({name}); workers ended, no results written to {out} (finished sweeps "
+              f"are kept in {cache}: run the same command again to resume); exit status {128 + signum}",
+              file=sys.stderr)
+        return 128 + signum
+    except OutputError as exc:  # the folder changed under us since the check
+        executor.abort()
+        return _err(str(exc))
+    except Exception as exc:  # a failed run: report it, leave nothing behind
+        executor.abort()
+        if args.traceback:
+            traceback.print_exc()
+        print(f"run-scenario: error: running {args.path} failed: {type(exc).__name__}: {exc}\n"
+              f"run-scenario: no results were written to {out}", file=sys.stderr)
+        return 1
+    finally:
+        for sig, h in old_handlers.items():
+            signal.signal(sig, h)
+        executor.close()
+    for d in datas:
+        for line in study_report(d):
+            print(f"run-scenario: {line}")
+    from pathlib import Path
 
-    with tqdm(total=work_units(scn, settings), desc=scn.name, unit="pt", disable=True if args.quiet else None,
-              file=sys.stderr) as bar:
-        try:
-            folder = run_scenario(scn, out, settings, progress=bar.update, executor=executor, checkpoint_dir=cache,
-                                  resume=args.resume)
-        except KeyboardInterrupt:
-            print(f"\nrun-scenario: interrupted; no results written (finished sweeps are kept in {cache}: "
-                  "run again to resume)", file=sys.stderr)
-            return 130
-        except Exception as exc:  # a failed run: report it, leave nothing behind
-            bar.close()
-            if args.traceback:
-                traceback.print_exc()
-            print(f"run-scenario: error: running {args.path} failed: {type(exc).__name__}: {exc}\n"
-                  f"run-scenario: no results were written to {out}", file=sys.stderr)
-            return 1
-        finally:
-            executor.close()
-    print(f"run-scenario: wrote {folder}")
+    print(f"run-scenario: wrote {folder}" + (f" (checkpoints: {cache})" if Path(cache).exists() else ""))
     return 0
 
 

@@ -10,7 +10,8 @@ portraits). An engine is a pair of functions registered in :data:`ENGINES`:
   steady-state solver otherwise.
 * ``both``: the co-simulation, held against the monolithic engine: the table has the
   co-simulated amplitude in ``amplitude``, the monolithic one in ``reference`` and the relative
-  difference cosim / monolithic - 1 in ``difference`` (NaN for the single engines).
+  difference cosim / monolithic - 1 in ``difference``, with the monolithic point's own
+  ``reference_irregular`` flag and window scatter ``reference_change`` (NaN for the single engines).
 """
 from __future__ import annotations
 
@@ -29,7 +30,8 @@ from .schema import SolverConfig, SweepConfig
 
 #: columns of every sweep table (one row per direction and omega)
 SWEEP_COLUMNS = ("engine", "method", "direction", "omega", "amplitude", "periods", "converged", "irregular",
-                 "change", "steps", "rejected", "wall_time", "reference", "difference")
+                 "change", "steps", "rejected", "wall_time", "reference", "difference", "reference_irregular",
+                 "reference_change")
 #: the engine run-scenario uses unless told otherwise
 DEFAULT_ENGINE = "cosim"
 #: a reference amplitude below this fraction of its curve's largest is zero to rounding: its
@@ -114,11 +116,12 @@ def _exact_table(base, tmd, omegas, settings, progress, engine) -> pd.DataFrame:
     dt = (time.perf_counter() - t0) / max(len(omegas), 1)
     n = len(omegas)
     direction = "down" if settings.sweep.direction == "down" else "up"  # no hysteresis: one branch
-    if progress is not None:
-        progress(n * len(settings.directions()))
+    if progress is not None:  # closed form, instantaneous: not counted in the speed of an ETA
+        getattr(progress, "skip", progress)(n * len(settings.directions()))
     return pd.DataFrame(dict(engine=engine, method="exact", direction=direction, omega=np.asarray(omegas, float),
                              amplitude=amp, periods=0, converged=True, irregular=False, change=0.0, steps=0, rejected=0,
-                             wall_time=dt, reference=np.nan, difference=np.nan))[list(SWEEP_COLUMNS)]
+                             wall_time=dt, reference=np.nan, difference=np.nan, reference_irregular=np.nan,
+                             reference_change=np.nan))[list(SWEEP_COLUMNS)]
 
 
 def _monolithic_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.DataFrame:
@@ -131,6 +134,8 @@ def _monolithic_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -
     table.insert(0, "engine", "monolithic")
     table["reference"] = np.nan
     table["difference"] = np.nan
+    table["reference_irregular"] = np.nan
+    table["reference_change"] = np.nan
     return table[list(SWEEP_COLUMNS)]
 
 
@@ -165,6 +170,8 @@ def _cosim_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.
     table.insert(0, "engine", "cosim")
     table["reference"] = np.nan
     table["difference"] = np.nan
+    table["reference_irregular"] = np.nan
+    table["reference_change"] = np.nan
     return table[list(SWEEP_COLUMNS)]
 
 
@@ -172,12 +179,22 @@ def _both_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.D
     """Co-simulation and monolithic engine; the co-simulated rows carry the monolithic amplitude
     ('reference') and the relative difference cosim / monolithic - 1 ('difference'; NaN where the
     reference is zero to rounding, :data:`ZERO_REFERENCE`)."""
-    co = _cosim_sweep(base, tmd, omegas, settings, None)
-    mono = _monolithic_sweep(base, tmd, omegas, settings, None)
-    ref = {(d, float(w)): a for d, w, a in zip(mono["direction"], mono["omega"], mono["amplitude"])}
+    half = None if progress is None else _Half(progress)  # each engine's points count one half
+    co = _cosim_sweep(base, tmd, omegas, settings, half)
+    mono = _monolithic_sweep(base, tmd, omegas, settings, half)
+    ref = {(d, float(w)): i for i, (d, w) in enumerate(zip(mono["direction"], mono["omega"]))}
     # the exact response has a single branch ('up' or 'down'): use it for both directions
-    one = {float(w): a for w, a in zip(mono["omega"], mono["amplitude"])}
-    co["reference"] = [ref.get((d, float(w)), one.get(float(w), np.nan)) for d, w in zip(co["direction"], co["omega"])]
+    one = {float(w): i for i, w in enumerate(mono["omega"])}
+    rows = [ref.get((d, float(w)), one.get(float(w))) for d, w in zip(co["direction"], co["omega"])]
+
+    def pick(col, missing=np.nan):
+        v = mono[col].to_numpy()
+        return [v[i] if i is not None else missing for i in rows]
+
+    co["reference"] = pick("amplitude")
+    co["reference_irregular"] = [float(bool(x)) if not (isinstance(x, float) and np.isnan(x)) else np.nan
+                                 for x in pick("irregular")]
+    co["reference_change"] = np.asarray(pick("change"), float)
     co["difference"] = co["amplitude"] / co["reference"] - 1.0
     # a reference that is zero to rounding (the undamped ideal inerter's antiresonance, ~1e-16 m
     # against a peak of ~0.1 m) has no relative difference: NaN there, not 1e10
@@ -187,9 +204,20 @@ def _both_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.D
         co.loc[zero, "difference"] = np.nan
     co["engine"] = "both"
     co["wall_time"] = co["wall_time"].to_numpy()  # co-simulation time per point
-    if progress is not None:
-        progress(len(co))
     return co[list(SWEEP_COLUMNS)]
+
+
+class _Half:
+    """progress(n) of one of the two engines of 'both': each of its points is half a table row."""
+
+    def __init__(self, progress):
+        self.progress = progress
+
+    def __call__(self, n):
+        self.progress(0.5 * n)
+
+    def skip(self, n):
+        getattr(self.progress, "skip", self.progress)(0.5 * n)
 
 
 def _cosim_time_series(base, tmd, omega, n_periods, samples_per_period, settings: RunSettings) -> TimeSeries:

@@ -22,14 +22,23 @@ the resolved settings of every engine that computes the rows (the monolithic sol
 written atomically (temporary file + rename) as soon as a task finishes, so a sweep that is killed
 restarts where it stopped: finished tasks are read back, only the missing ones are computed. A
 change of any input, or of any source file of the package, changes the hash, so a checkpoint
-written by other code or other settings is never reused. The default folder, used by
-``run-scenario`` and ``python -m pyfmu_wrapper.reproduce``, is ``<out>/../.cache/<out name>/<study>/``.
+written by other code or other settings is never reused. ``run-scenario`` keeps them in
+``<out>.checkpoints/<study>/`` beside its output folder (:func:`.output.default_checkpoint_dir`);
+``python -m pyfmu_wrapper.reproduce`` in ``<results>/.cache/<scenario>/<study>/``.
+
+Progress: the executors of this module report every finished frequency point (``progress(n)``,
+fractions allowed), from worker processes too (a queue the pool's workers share); other executor
+objects (anything with ``submit_all(tasks)``) report whole tasks. Interrupts: :meth:`LocalExecutor.abort`
+ends the worker processes at once (the CLI calls it on SIGINT, SIGTERM and SIGHUP); on Linux the
+workers also die with their parent (``PR_SET_PDEATHSIG``), so a killed run leaves no orphan worker.
 """
 from __future__ import annotations
 
 import hashlib
 import json
+import multiprocessing as mp
 import os
+import signal
 import tempfile
 import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
@@ -91,19 +100,20 @@ def _exact_json(obj):
     return repr(obj)
 
 
-def run_task(task: SweepTask, keep_workers: bool = False) -> pd.DataFrame:
+def run_task(task: SweepTask, keep_workers: bool = False, progress=None) -> pd.DataFrame:
     """Compute one task (the function every executor runs): the engine's sweep table.
 
     With ``sweep.continuation: false`` every frequency is its own one-point sweep, started from the
     engine's initial guess (the same rows, in the same order, as a continued sweep would give).
     keep_workers: keep ``settings.workers`` (the sequential executor); otherwise the executor is the
-    parallelism and each sweep runs in one process (strict continuation).
+    parallelism and each sweep runs in one process (strict continuation). progress(n): called as
+    frequency points finish (reporting only; the numbers do not depend on it).
     """
     settings = task.settings if keep_workers else replace(task.settings, workers=1)
     omegas = np.sort(np.asarray(task.omegas, float))
     if settings.sweep.continuation or len(omegas) < 2:
-        return compute_sweep(task.base, task.tmd, omegas, settings, None)
-    parts = [compute_sweep(task.base, task.tmd, omegas[i:i + 1], settings, None) for i in range(len(omegas))]
+        return compute_sweep(task.base, task.tmd, omegas, settings, progress)
+    parts = [compute_sweep(task.base, task.tmd, omegas[i:i + 1], settings, progress) for i in range(len(omegas))]
     table = pd.concat(parts, ignore_index=True)
     order = {d: k for k, d in enumerate(settings.directions())}
     key = table["direction"].map(order).fillna(0) * 1e9 + np.where(table["direction"] == "down", -1, 1) * table["omega"]
@@ -119,9 +129,10 @@ _DTYPES = dict(engine=str, method=str, direction=str, omega=float, amplitude=flo
 class Checkpoint:
     """A folder of finished tasks, one CSV per task (lossless: floats written with 17 digits)."""
 
-    def __init__(self, folder, resume: bool = True):
+    def __init__(self, folder, resume: bool = True, marker: dict | None = None):
         self.folder = Path(folder)
         self.resume = resume  #: False: never read back (recompute, overwrite)
+        self.marker = marker  #: written as ``../.run-scenario.json`` with the first file (run-scenario's own folder)
 
     def path(self, task: SweepTask) -> Path:
         return self.folder / f"{task.key()}.csv"
@@ -144,6 +155,9 @@ class Checkpoint:
 
     def save(self, task: SweepTask, table: pd.DataFrame) -> None:
         self.folder.mkdir(parents=True, exist_ok=True)
+        if self.marker is not None and not (self.folder.parent / ".run-scenario.json").exists():
+            (self.folder.parent / ".run-scenario.json").write_text(json.dumps(self.marker, indent=2) + "\n",
+                                                                   encoding="utf-8")
         fd, tmp = tempfile.mkstemp(prefix=".task-", suffix=".tmp", dir=self.folder)
         try:
             with os.fdopen(fd, "w", newline="") as f:
@@ -166,50 +180,141 @@ class SequentialExecutor:
     """Runs the tasks in this process, in order."""
 
     name = "sequential"
+    jobs = 1
+    reports_points = True  #: submit_all takes progress(i, n): n points of task i finished
 
-    def submit_all(self, tasks: list[SweepTask]) -> Iterator[tuple[int, pd.DataFrame]]:
+    def submit_all(self, tasks: list[SweepTask], progress=None) -> Iterator[tuple[int, pd.DataFrame]]:
         for i, t in enumerate(tasks):
-            yield i, run_task(t, keep_workers=True)
+            cb = None if progress is None else (lambda n, i=i: progress(i, n))
+            yield i, run_task(t, keep_workers=True, progress=cb)
 
     def close(self):
         pass
 
+    def abort(self):
+        pass
+
+    def processes_used(self) -> int:
+        return 1
+
     def describe(self) -> str:
         return "sequential (this process)"
+
+
+_WORKER_QUEUE = None  # set in each worker of a LocalExecutor's pool: where finished points are reported
+
+
+def _worker_init(queue) -> None:
+    """Initializer of the local pool's workers: report points through ``queue``; die with the parent
+    (Linux PR_SET_PDEATHSIG), leave SIGINT to the parent (which ends the workers itself)."""
+    global _WORKER_QUEUE
+    _WORKER_QUEUE = queue
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    for name in ("SIGTERM", "SIGHUP"):  # not the parent's handlers (forked): a worker ends when told to
+        if hasattr(signal, name):
+            signal.signal(getattr(signal, name), signal.SIG_DFL)
+    try:
+        import ctypes
+
+        ctypes.CDLL(None, use_errno=True).prctl(1, int(signal.SIGTERM), 0, 0, 0)  # PR_SET_PDEATHSIG
+        if os.getppid() == 1:  # the parent died before prctl: do not run on as an orphan
+            os._exit(1)
+    except (OSError, AttributeError):  # pragma: no cover - not Linux
+        pass
+
+
+def _run_task_reporting(token, task: SweepTask) -> pd.DataFrame:
+    q = _WORKER_QUEUE
+    cb = None if q is None else (lambda n: q.put((token, n)))
+    return run_task(task, progress=cb)
 
 
 class LocalExecutor:
     """A process pool over the local cores (``jobs`` processes; 0 or None: all cores)."""
 
     name = "local"
+    reports_points = True
 
     def __init__(self, jobs: int | None = 0):
         self.jobs = int(jobs) if jobs else (os.cpu_count() or 1)
         self._pool = None
+        self._queue = None
+        self._max_processes = 0  #: worker processes started (0: everything ran in this process)
+        self._batch = 0
 
-    def submit_all(self, tasks):
+    def submit_all(self, tasks, progress=None):
         if not tasks:
             return
         if self.jobs == 1 or len(tasks) == 1:
-            yield from SequentialExecutor().submit_all(tasks)
+            yield from SequentialExecutor().submit_all(tasks, progress)
             return
         if self._pool is None:
-            self._pool = ProcessPoolExecutor(max_workers=self.jobs)
-        futs = {self._pool.submit(run_task, t): i for i, t in enumerate(tasks)}
-        try:
-            pending = set(futs)
-            while pending:
-                done, pending = wait(pending, return_when=FIRST_COMPLETED)
-                for f in done:
-                    yield futs[f], f.result()
-        finally:
-            for f in futs:
-                f.cancel()
+            self._queue = mp.get_context("fork").Queue() if "fork" in mp.get_all_start_methods() else mp.Queue()
+            self._pool = ProcessPoolExecutor(max_workers=self.jobs, initializer=_worker_init,
+                                             initargs=(self._queue,))
+        self._batch += 1
+        futs = {self._pool.submit(_run_task_reporting, (self._batch, i), t): i for i, t in enumerate(tasks)}
+        started = len(getattr(self._pool, "_processes", None) or ()) or self.jobs
+        self._max_processes = max(self._max_processes, min(started, len(tasks)))  # busy at most one task each
+        # no cancelling here when the caller stops early: close() cancels what has not started, abort()
+        # ends the workers (a cancelled future in a pool whose workers are then ended makes the pool's
+        # manager thread fail: CPython 3.11 sets the 'broken pool' exception on it)
+        pending = set(futs)
+        while pending:
+            done, pending = wait(pending, timeout=0.5, return_when=FIRST_COMPLETED)
+            self._drain(progress)
+            for f in done:
+                yield futs[f], f.result()
+
+    def _drain(self, progress) -> None:
+        import queue as _queue
+
+        while True:
+            try:
+                (batch, i), n = self._queue.get_nowait()
+            except _queue.Empty:
+                return
+            if progress is not None and batch == self._batch:
+                progress(i, n)
 
     def close(self):
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
+        if self._queue is not None:
+            self._queue.close()
+            self._queue = None
+
+    def abort(self):
+        """End the worker processes now (an interrupt): no task finishes, no worker is left running."""
+        pool, self._pool = self._pool, None
+        if pool is None:
+            return
+        items = getattr(pool, "_pending_work_items", None)
+        if isinstance(items, dict):  # cancelled ones would make the manager thread fail (see submit_all)
+            for k, item in list(items.items()):
+                if item.future.cancelled():
+                    items.pop(k, None)
+        procs = list((getattr(pool, "_processes", None) or {}).values())
+        for p in procs:
+            try:
+                p.terminate()
+            except Exception:  # noqa: BLE001 - already gone
+                pass
+        for p in procs:
+            p.join(timeout=5)
+            if p.is_alive():
+                p.kill()
+                p.join(timeout=5)
+        pool.shutdown(wait=False, cancel_futures=True)
+        if self._queue is not None:
+            self._queue.cancel_join_thread()
+            self._queue.close()
+            self._queue = None
+
+    def processes_used(self) -> int:
+        """Processes that computed sweeps: the pool's workers started, or 1 (this process)."""
+        return max(1, self._max_processes)
 
     def describe(self) -> str:
         return f"local process pool ({self.jobs} processes)"
@@ -252,6 +357,15 @@ class DaskExecutor:
         if self._own:
             self.client.close()
 
+    def abort(self):
+        self.close()
+
+    def processes_used(self) -> int:
+        try:
+            return len(self.client.scheduler_info().get("workers", {})) or 1
+        except Exception:  # noqa: BLE001 - a closed client
+            return 1
+
     def describe(self) -> str:
         return f"dask ({self.client.scheduler.address})"
 
@@ -289,19 +403,31 @@ def run_tasks(tasks: list[SweepTask], executor=None, checkpoint: Checkpoint | No
         if got is not None:
             out[i] = got
             stats.cached += 1
-            if progress is not None:
-                progress(t.units())
+            if progress is not None:  # read back, not computed: not counted in the speed of an ETA
+                getattr(progress, "skip", progress)(t.units())
         else:
             missing.append(i)
     ex = executor if executor is not None else SequentialExecutor()
-    for j, table in ex.submit_all([tasks[i] for i in missing]):
+    reported = [0.0] * len(missing)  # points of each missing task already reported
+
+    def points(j, n):  # capped: a late report of a finished task is not counted twice
+        n = min(n, todo[j].units() - reported[j])
+        if n > 0:
+            reported[j] += n
+            progress(n)
+
+    todo = [tasks[i] for i in missing]
+    results = (ex.submit_all(todo, points) if getattr(ex, "reports_points", False) and progress is not None
+               else ex.submit_all(todo))
+    for j, table in results:
         i = missing[j]
         out[i] = table
         stats.computed += 1
         if checkpoint is not None:
             checkpoint.save(tasks[i], table)
-        if progress is not None:
-            progress(tasks[i].units())
+        if progress is not None and tasks[i].units() - reported[j] > 1e-9:
+            progress(tasks[i].units() - reported[j])
+        reported[j] = tasks[i].units()
     stats.wall_time += time.perf_counter() - t0
     return out  # type: ignore[return-value]
 

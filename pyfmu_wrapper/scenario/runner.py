@@ -58,6 +58,27 @@ def work_units(scn: Scenario, settings: RunSettings) -> int:
     return n
 
 
+def instant_units(scn: Scenario, settings: RunSettings) -> int:
+    """Progress units of a run that cost (almost) nothing: sweeps computed in closed form (the exact
+    response of linear configurations with the monolithic engine) and sweeps that repeat one computed
+    earlier in the run (shared between studies). An ETA leaves them out of the work still to do."""
+    nd = len(settings.directions())
+    seen, n = set(), 0
+    for st in scn.studies:
+        if isinstance(st, FRCStudy):
+            tmds = [c.tmd for c in st.curves]
+        elif isinstance(st, MapStudy):
+            tmds = list(st.tmds)
+        else:
+            continue
+        for tmd in tmds:
+            key = (tmd, np.asarray(st.omegas, float).tobytes())
+            if key in seen or uses_exact(tmd, settings):
+                n += len(st.omegas) * nd
+            seen.add(key)
+    return n
+
+
 class _Cache:
     """Sweeps already computed in this run, keyed by (parameters, frequencies).
 
@@ -65,8 +86,9 @@ class _Cache:
     in order) and through the study's checkpoint folder, so a killed run resumes where it stopped.
     """
 
-    def __init__(self, executor=None, checkpoint_dir=None, resume=True):
+    def __init__(self, executor=None, checkpoint_dir=None, resume=True, checkpoint_marker=None):
         self.resume = resume
+        self.checkpoint_marker = checkpoint_marker
         self.tables = {}
         self.executor = executor
         self.checkpoint_dir = None if checkpoint_dir is None else Path(checkpoint_dir)
@@ -76,7 +98,7 @@ class _Cache:
         key = (tmd, np.asarray(omegas, float).tobytes())
         if key in self.tables:
             if progress is not None:
-                progress(len(omegas) * len(settings.directions()))
+                getattr(progress, "skip", progress)(len(omegas) * len(settings.directions()))
             return self.tables[key]
         if settings.sweep.continuation or uses_exact(tmd, settings):
             table = compute_sweep(base, tmd, omegas, settings, progress)
@@ -97,8 +119,8 @@ class _Cache:
             key = (tmd, omegas.tobytes())
             if key in self.tables:
                 out[i] = self.tables[key]
-                if progress is not None:
-                    progress(len(omegas) * len(settings.directions()))
+                if progress is not None:  # computed earlier in this run: not in the speed of an ETA
+                    getattr(progress, "skip", progress)(len(omegas) * len(settings.directions()))
             elif uses_exact(tmd, settings) or (self.executor is None and self.checkpoint_dir is None):
                 out[i] = self.sweep(base, tmd, omegas, settings, progress)
             else:
@@ -106,7 +128,8 @@ class _Cache:
         if todo:
             keys = list(todo)
             tasks = [SweepTask(base, k[0], omegas, settings) for k in keys]
-            ckpt = None if self.checkpoint_dir is None else Checkpoint(self.checkpoint_dir / study_name, self.resume)
+            ckpt = None if self.checkpoint_dir is None else Checkpoint(self.checkpoint_dir / study_name, self.resume,
+                                                                   marker=self.checkpoint_marker)
             stats = self.stats.setdefault(study_name, TaskStats())
             extra = [len(todo[k]) - 1 for k in keys]
             tables = run_tasks(tasks, self.executor, ckpt, progress, stats)
@@ -115,7 +138,7 @@ class _Cache:
                 for i in todo[k]:
                     out[i] = t
                 if progress is not None and dup:
-                    progress(dup * len(omegas) * len(settings.directions()))
+                    getattr(progress, "skip", progress)(dup * len(omegas) * len(settings.directions()))
         return out
 
 
@@ -154,16 +177,38 @@ def _diagnostics(t: pd.DataFrame) -> dict:
                 wall_time=float(t["wall_time"].sum()))
 
 
+def _irregular_mask(t: pd.DataFrame) -> np.ndarray:
+    """Points whose response is irregular (rattling, non-periodic) in either engine."""
+    irr = t["irregular"].fillna(False).astype(bool).to_numpy() if "irregular" in t else np.zeros(len(t), bool)
+    if "reference_irregular" in t:
+        irr = irr | (t["reference_irregular"].to_numpy(float) == 1.0)
+    return irr
+
+
 def _differences(t: pd.DataFrame) -> dict:
-    """Engine 'both': the relative difference co-simulation / monolithic - 1 per frequency and its maximum."""
+    """Engine 'both': the relative difference co-simulation / monolithic - 1 per frequency; the
+    headline maximum is over the *regular* points only (an irregular point has no single amplitude:
+    it is listed apart with the window scatter of each engine)."""
     if "difference" not in t or not np.isfinite(t["difference"].to_numpy(float)).any():
         return {}
     d = t["difference"].to_numpy(float)
-    return dict(max_abs_difference=float(np.nanmax(np.abs(d))),
-                omega_max_difference=float(t["omega"].to_numpy(float)[int(np.nanargmax(np.abs(d)))]),
-                difference=[dict(omega=float(w), cosim=float(a), monolithic=float(r),
-                                 difference=float(x) if np.isfinite(x) else None)
-                            for w, a, r, x in zip(t["omega"], t["amplitude"], t["reference"], t["difference"])])
+    w = t["omega"].to_numpy(float)
+    irr = _irregular_mask(t)
+    reg = np.where(irr | ~np.isfinite(d), np.nan, np.abs(d))
+    out = dict(regular_points=int(np.isfinite(reg).sum()))
+    if np.isfinite(reg).any():
+        k = int(np.nanargmax(reg))
+        out.update(max_abs_difference=float(reg[k]), omega_max_difference=float(w[k]))
+    else:
+        out.update(max_abs_difference=None, omega_max_difference=None)
+    ref_change = t["reference_change"].to_numpy(float) if "reference_change" in t else np.full(len(t), np.nan)
+    out["irregular_points"] = [dict(omega=float(w[i]), difference=float(d[i]) if np.isfinite(d[i]) else None,
+                                    scatter=float(t["change"].iloc[i]), reference_scatter=float(ref_change[i]))
+                               for i in np.flatnonzero(irr)]
+    out["difference"] = [dict(omega=float(wi), cosim=float(a), monolithic=float(r),
+                              difference=float(x) if np.isfinite(x) else None, irregular=bool(ir))
+                         for wi, a, r, x, ir in zip(w, t["amplitude"], t["reference"], d, irr)]
+    return out
 
 
 def frc_response(scn: Scenario, study: FRCStudy, settings: RunSettings, progress=None, cache=None) -> FRCData:
@@ -211,14 +256,15 @@ def phase_portraits(scn: Scenario, study: PhasePortraitStudy, settings: RunSetti
 
 
 def run_studies(scn: Scenario, settings: RunSettings, progress=None, executor=None, checkpoint_dir=None,
-                stats: dict | None = None, resume: bool = True) -> list:
+                stats: dict | None = None, resume: bool = True, checkpoint_marker: dict | None = None) -> list:
     """Compute every study of the scenario, in order.
 
     executor: where nonlinear sweeps run (see :mod:`.executors`; None: here, in order);
     checkpoint_dir: folder of per-study checkpoints (``<dir>/<study>/``) for resuming, or None;
-    stats: optional dict filled with study name -> :class:`TaskStats` (tasks read back / computed).
+    stats: optional dict filled with study name -> :class:`TaskStats` (tasks read back / computed);
+    checkpoint_marker: written as ``.run-scenario.json`` into ``checkpoint_dir`` with its first checkpoint.
     """
-    cache = _Cache(executor, checkpoint_dir, resume)
+    cache = _Cache(executor, checkpoint_dir, resume, checkpoint_marker)
     if stats is not None:
         cache.stats = stats
     out = []
@@ -263,3 +309,97 @@ def study_summary(data) -> dict:
 def _grid(a) -> dict:
     a = np.asarray(a, float)
     return dict(start=float(a[0]), stop=float(a[-1]), count=int(a.size))
+
+
+# --- closing report ------------------------------------------------------------------------------
+
+def _w(x) -> str:
+    return f"{float(x):g}"
+
+
+def _pct(x) -> str:
+    return "n/a" if x is None or not np.isfinite(x) else f"{100.0 * float(x):.3g} %"
+
+
+def _points(rows: pd.DataFrame, limit: int = 12, with_value: bool = False) -> str:
+    """'19.5, 20 rad/s', or for irregular points '20 rad/s (window scatter 67 %, not converged)'."""
+    items = []
+    for _, r in rows.head(limit).iterrows():
+        s = _w(r["omega"])
+        if with_value:
+            s = f"({_w(r['value'])}, {s})"
+        if bool(r.get("irregular", False)):
+            notes = []
+            if np.isfinite(float(r.get("change", np.nan))):
+                notes.append(f"window scatter {_pct(r['change'])}")
+            if not bool(r["converged"]):
+                notes.append("not converged")
+            s += " rad/s" + (f" ({', '.join(notes)})" if notes else "")
+        items.append(s)
+    more = f" and {len(rows) - limit} more" if len(rows) > limit else ""
+    text = ", ".join(items) + more
+    return text if text.endswith(")") or text.endswith("rad/s") else text + " rad/s"
+
+
+def _flag_groups(t: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, int]:
+    """(regular points not converged, irregular points, number of points not converged in all)."""
+    irr = t["irregular"].fillna(False).astype(bool) if "irregular" in t else pd.Series(False, index=t.index)
+    conv = t["converged"].astype(bool)
+    return t[~conv & ~irr], t[irr], int((~conv).sum())
+
+
+def study_report(data) -> list[str]:
+    """One line per study for the end of a run: which points did not converge or are irregular
+    (and, for engine 'both', the difference over the regular points and the irregular ones apart)."""
+    st = data.study
+    lines = []
+    if isinstance(data, PhaseData):
+        bad = [f"{_w(w)} rad/s ({label})" for (w, label), ts in data.series.items() if not ts.converged]
+        n = len(data.series)
+        lines.append(f"{st.name}: all {n} phase portraits reached their steady state" if not bad else
+                     f"{st.name}: {len(bad)} of {n} phase portraits not converged: " + "; ".join(bad))
+        return lines
+    t = data.table
+    if isinstance(data, MapData):
+        nc, irr, n_nc = _flag_groups(t)
+        if not len(nc) and not len(irr):
+            lines.append(f"{st.name}: all {len(t)} points converged and periodic")
+        else:
+            parts = []
+            if len(nc):
+                parts.append(f"not converged at ({st.parameter}, omega) = {_points(nc, with_value=True)}")
+            if len(irr):
+                parts.append(f"irregular at ({st.parameter}, omega) = {_points(irr, with_value=True)}")
+            lines.append(f"{st.name}: {n_nc} of {len(t)} points not converged, {len(irr)} irregular: "
+                         + "; ".join(parts))
+        return lines
+    parts, n_nc, n_irr = [], 0, 0
+    for (label, d), td in t.groupby(["curve", "direction"], sort=False):
+        nc, irr, k = _flag_groups(td)
+        n_nc, n_irr = n_nc + k, n_irr + len(irr)
+        sub = []
+        if len(nc):
+            sub.append(f"not converged at {_points(nc)}")
+        if len(irr):
+            sub.append(f"irregular at {_points(irr)}")
+        if sub:
+            parts.append(f'"{label}" ({d}): ' + ", ".join(sub))
+    if not parts:
+        lines.append(f"{st.name}: all {len(t)} points converged and periodic")
+    else:
+        lines.append(f"{st.name}: {n_nc} of {len(t)} points not converged, {n_irr} irregular: " + "; ".join(parts))
+    if "difference" in t and np.isfinite(t["difference"].to_numpy(float)).any():
+        diff = _differences(t)
+        where = "" if diff["omega_max_difference"] is None else f" (at {_w(diff['omega_max_difference'])} rad/s)"
+        line = (f"{st.name}: co-simulation against monolithic: max |difference| = {_pct(diff['max_abs_difference'])} "
+                f"over the {diff['regular_points']} regular points{where}")
+        if diff["irregular_points"]:
+            irr_t = t[_irregular_mask(t)]
+            items = []
+            for (_, r), ip in zip(irr_t.iterrows(), diff["irregular_points"]):
+                items.append(f'{_w(ip["omega"])} rad/s "{r["curve"]}" ({r["direction"]}): difference '
+                             f'{_pct(ip["difference"])}, window scatter {_pct(ip["scatter"])} co-simulation / '
+                             f'{_pct(ip["reference_scatter"])} monolithic')
+            line += "; irregular points (not in that maximum): " + "; ".join(items)
+        lines.append(line)
+    return lines
