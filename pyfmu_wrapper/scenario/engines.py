@@ -31,7 +31,22 @@ from .schema import SolverConfig, SweepConfig
 #: columns of every sweep table (one row per direction and omega)
 SWEEP_COLUMNS = ("engine", "method", "direction", "omega", "amplitude", "periods", "converged", "irregular",
                  "change", "steps", "rejected", "wall_time", "reference", "difference", "reference_irregular",
-                 "reference_change")
+                 "reference_change", "fmu_time_base", "fmu_time_tmd", "master_loop_time", "python_step_time")
+#: co-simulation only (NaN for the monolithic engine): seconds inside each FMU's fmi2 calls of the
+#: compiled stepping loop, the loop's own work, and the steps taken on the Python path
+#: (``cosim.steady._time_split``); the rest of ``wall_time`` is the steady-state logic
+TIMING_COLUMNS = ("fmu_time_base", "fmu_time_tmd", "master_loop_time", "python_step_time")
+
+
+def _sweep_columns(table: pd.DataFrame) -> pd.DataFrame:
+    """The table with exactly :data:`SWEEP_COLUMNS`; a column an engine does not fill (the timing split
+    of the monolithic engine, of the Python stepping path) is NaN."""
+    for col in SWEEP_COLUMNS:
+        if col not in table:
+            table[col] = np.nan
+    return table[list(SWEEP_COLUMNS)]
+
+
 #: the engine run-scenario uses unless told otherwise
 DEFAULT_ENGINE = "cosim"
 #: a reference amplitude below this fraction of its curve's largest is zero to rounding: its
@@ -118,10 +133,11 @@ def _exact_table(base, tmd, omegas, settings, progress, engine) -> pd.DataFrame:
     direction = "down" if settings.sweep.direction == "down" else "up"  # no hysteresis: one branch
     if progress is not None:  # closed form, instantaneous: not counted in the speed of an ETA
         getattr(progress, "skip", progress)(n * len(settings.directions()))
-    return pd.DataFrame(dict(engine=engine, method="exact", direction=direction, omega=np.asarray(omegas, float),
+    omegas = np.asarray(omegas, float)
+    return _sweep_columns(pd.DataFrame(dict(engine=engine, method="exact", direction=direction, omega=omegas,
                              amplitude=amp, periods=0, converged=True, irregular=False, change=0.0, steps=0, rejected=0,
                              wall_time=dt, reference=np.nan, difference=np.nan, reference_irregular=np.nan,
-                             reference_change=np.nan))[list(SWEEP_COLUMNS)]
+                             reference_change=np.nan)))
 
 
 def _monolithic_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.DataFrame:
@@ -136,7 +152,7 @@ def _monolithic_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -
     table["difference"] = np.nan
     table["reference_irregular"] = np.nan
     table["reference_change"] = np.nan
-    return table[list(SWEEP_COLUMNS)]
+    return _sweep_columns(table)
 
 
 def _monolithic_time_series(base, tmd, omega, n_periods, samples_per_period, settings: RunSettings) -> TimeSeries:
@@ -172,7 +188,7 @@ def _cosim_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.
     table["difference"] = np.nan
     table["reference_irregular"] = np.nan
     table["reference_change"] = np.nan
-    return table[list(SWEEP_COLUMNS)]
+    return _sweep_columns(table)
 
 
 def _both_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.DataFrame:
@@ -204,7 +220,7 @@ def _both_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.D
         co.loc[zero, "difference"] = np.nan
     co["engine"] = "both"
     co["wall_time"] = co["wall_time"].to_numpy()  # co-simulation time per point
-    return co[list(SWEEP_COLUMNS)]
+    return _sweep_columns(co)
 
 
 class _Half:

@@ -323,6 +323,27 @@ def write_study_csv(data, path) -> None:
     pd.concat(rows, ignore_index=True).to_csv(path, index=False, float_format="%.10g")
 
 
+def cosim_time_split(datas) -> dict | None:
+    """Where the co-simulation's time went, summed over every study's sweep table: seconds inside each
+    FMU's fmi2 calls (``fmus``), in the compiled stepping loop's own work (``master_loop``), in steps
+    taken on the Python path (``python_steps``) and the rest of the points' wall time (``steady_state_logic``:
+    shooting, windows, re-initialisations). None when no point was co-simulated."""
+    from .engines import TIMING_COLUMNS
+
+    tables = [d.table for d in datas if getattr(d, "table", None) is not None]
+    rows = [t[t[list(TIMING_COLUMNS)].notna().any(axis=1)] for t in tables if set(TIMING_COLUMNS) <= set(t.columns)]
+    rows = [t for t in rows if len(t)]
+    if not rows:
+        return None
+    t = pd.concat(rows)
+    s = {c: float(np.nansum(t[c].to_numpy(float))) for c in TIMING_COLUMNS}
+    wall = float(np.nansum(t["wall_time"].to_numpy(float)))
+    fmus = {"base": s["fmu_time_base"], "tmd": s["fmu_time_tmd"]}
+    return dict(points=int(len(t)), wall_time=wall, fmus=fmus, master_loop=s["master_loop_time"],
+                python_steps=s["python_step_time"],
+                steady_state_logic=wall - sum(fmus.values()) - s["master_loop_time"] - s["python_step_time"])
+
+
 def make_summary(scn: Scenario, settings: RunSettings, datas, compute_time: float, total_time: float) -> dict:
     try:
         version = metadata.version("pyfmu-wrapper")
@@ -337,7 +358,8 @@ def make_summary(scn: Scenario, settings: RunSettings, datas, compute_time: floa
         settings=settings.used(),
         not_used=[b for b in ("solver", "cosim") if b in scn.raw and b not in settings.used()],
         code_version=code_version(),
-        timings=dict(compute=compute_time, total=total_time, studies={d.study.name: d.wall_time for d in datas}),
+        timings=dict(compute=compute_time, total=total_time, studies={d.study.name: d.wall_time for d in datas},
+                     cosim=cosim_time_split(datas)),
         studies=[study_summary(d) for d in datas],
         created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         versions=dict(pyfmu_wrapper=version, numpy=np.__version__),
