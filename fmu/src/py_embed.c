@@ -103,9 +103,10 @@ const char *BOOTSTRAP =
     "    why = cache[key]\n"
     "    if why:\n"
     "        raise FmuEnvironmentError('the Python running this FMU (%s, %s) cannot run its model: %s. '\n"
-    "            'Install what it needs into that Python: %s -m pip install %s'\n"
+    "            'Install what it needs into that Python: %s -m pip install %s '\n"
+    "            '(see documentation/index.html in the FMU)'\n"
     "            % (sys.executable, sys.version.split()[0], '; '.join(why), sys.executable,\n"
-    "               ' '.join(repr(r) for r in requires.split())))\n"
+    "               ' '.join('\"%s\"' % r for r in requires.split())))\n"
     "    spec = importlib.util.spec_from_file_location(modname, model_file)\n"
     "    mod = importlib.util.module_from_spec(spec)\n"
     "    sys.modules[modname] = mod\n"
@@ -294,11 +295,18 @@ static int find_python(const Config *cfg, const char *resdir, Probe *chosen, cha
         if (i == 1 ? bundled(cfg, resdir, chosen) : probe(cands[i], cfg, chosen)) return 1;
         snprintf(tried + k, sizeof tried - k, "%s%s = %s: %s", k ? "; " : "", labels[i], cands[i], chosen->unfit);
     }
+    char quoted[1100] = ""; /* "numpy>=1.26" "numba>=0.59": unquoted, a shell reads >= as a redirection */
+    char reqs[512];
+    snprintf(reqs, sizeof reqs, "%s", cfg->requires);
+    for (char *tok = strtok(reqs, " "); tok; tok = strtok(NULL, " ")) {
+        size_t k = strlen(quoted);
+        snprintf(quoted + k, sizeof quoted - k, "%s\"%s\"", k ? " " : "", tok);
+    }
     snprintf(err, nerr,
              "no Python that can run this FMU was found. Tried, in order: %s. Install Python >= %s built with "
              "--enable-shared, run `python -m pip install %s` in it, and set PYFMU_PYTHON to that python "
-             "executable or virtual environment folder (see docs/fmus.md)",
-             tried, cfg->min_python[0] ? cfg->min_python : "3.11", cfg->requires);
+             "executable or virtual environment folder (see %s)",
+             tried, cfg->min_python[0] ? cfg->min_python : "3.11", quoted, PYFMU_DOC);
     return 0;
 }
 

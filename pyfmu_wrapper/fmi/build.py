@@ -21,7 +21,10 @@ stub, compiled with the system gcc against the FMI 2.0 headers that fmpy ships) 
   bundled functions by that hash (a cache of other code can never be loaded), imports the slave;
 - ``pyfmu.cfg``: GUID, the requirements (Python >= 3.11, numpy, numba) and the build's
   interpreter (one of the places a pure C host looks for a Python, see ``docs/fmus.md``);
-- ``variables.tsv``: the stub's variable table.
+- ``variables.tsv``: the stub's variable table (with each variable's range, enforced at set time);
+
+and ``documentation/index.html`` (:mod:`.documentation`): the variables, their ranges, what the FMU
+needs and refuses, generated from the same table; the stub's messages point there.
 
 A *standalone* FMU (``build-fmus --standalone``, :func:`build_fmu` with ``standalone=True``) also
 carries ``resources/python/``: the build interpreter's runtime and the installed numpy, numba and
@@ -41,6 +44,7 @@ import tempfile
 import zipfile
 from pathlib import Path
 
+from .documentation import documentation_html
 from .model_description import guid_of, model_description_xml, variable_table_tsv
 from .variables import PROJECT_FMUS, SPECS, FmuSpec
 
@@ -150,7 +154,8 @@ def source_hash() -> str:
         h.update(f.name.encode())
         h.update(f.read_bytes())
     h.update(bundle_hash().encode())
-    h.update((PACKAGE_DIR / "fmi" / "build.py").read_bytes())
+    for f in ("build.py", "model_description.py", "documentation.py"):  # what writes the archive
+        h.update((PACKAGE_DIR / "fmi" / f).read_bytes())
     h.update(build_python().encode())
     h.update(sys.version.encode())
     return h.hexdigest()[:24]
@@ -348,6 +353,7 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
         part = out_dir / f".{spec.model_identifier}.fmu.{os.getpid()}.{os.urandom(4).hex()}.part"
         with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
             z.writestr("modelDescription.xml", model_description_xml(spec, guid))
+            z.writestr("documentation/index.html", documentation_html(spec, guid, REQUIRES, MIN_PYTHON))
             z.write(so, f"binaries/linux64/{spec.model_identifier}.so")
             z.writestr("resources/pyfmu.cfg", _config(spec, guid, shash, bhash, rt_cfg))
             z.writestr("resources/variables.tsv", variable_table_tsv(spec))
