@@ -283,13 +283,36 @@ def _install_cache_locator():
     impl._locator_classes.insert(0, loc)  # ahead of any locator the bundled code installs
 
 
-def _import_package():
-    if PACKAGE in sys.modules:
-        return
+def _check_bundle():
     found = bundle_hash()
     if found != BUNDLE_HASH:
         raise RuntimeError(f"the model code in {{os.path.join(HERE, PACKAGE)}} was modified after the build "
                            f"(SHA-256 {{found}}, recorded {{BUNDLE_HASH}}); rebuild the FMU")
+
+
+def _share_package():
+    """The package is imported already, by another FMU of this build, whose folder the host may
+    have deleted since (fmpy deletes an FMU's extraction folder when it is done with it). Put this
+    FMU's copy (checked) first on the search path of the package and of each of its subpackages,
+    and drop folders that are gone: a submodule no FMU imported yet is then found in a folder that
+    exists, whichever FMU of the build was loaded, freed or deleted first."""
+    pkgs = [(n, m) for n, m in list(sys.modules.items())
+            if (n == PACKAGE or n.startswith(PACKAGE + ".")) and isinstance(getattr(m, "__path__", None), list)]
+    mine = os.path.join(HERE, PACKAGE)
+    if all(os.path.join(mine, *n.split(".")[1:]) in m.__path__ for n, m in pkgs):
+        return
+    _check_bundle()
+    for n, m in pkgs:
+        here = os.path.join(mine, *n.split(".")[1:])
+        m.__path__[:] = [here] + [p for p in m.__path__ if p != here and os.path.isdir(p)]
+    importlib.invalidate_caches()
+
+
+def _import_package():
+    if PACKAGE in sys.modules:
+        _share_package()
+        return
+    _check_bundle()
     spec = importlib.util.spec_from_file_location(PACKAGE, os.path.join(HERE, PACKAGE, "__init__.py"),
                                                   submodule_search_locations=[os.path.join(HERE, PACKAGE)])
     mod = importlib.util.module_from_spec(spec)
