@@ -125,9 +125,9 @@ const char *var_name(const Comp *c, unsigned vr) {
     return c->vname && vr < (unsigned)c->nvr && c->vname[vr] ? c->vname[vr] : "?";
 }
 
-/* The shortest %g form that reads back as v (1e-10, not 1.0000000000000000364e-10). */
+/* The shortest %g form, from 6 digits on, that reads back as v (1e-10, -40000, 0.1; not 1.0000000000000000364e-10). */
 void fmt_double(double v, char *out, size_t n) {
-    for (int p = 1; p <= 17; p++) {
+    for (int p = 6; p <= 17; p++) {
         snprintf(out, n, "%.*g", p, v);
         if (strtod(out, NULL) == v) return;
     }
