@@ -63,6 +63,32 @@ class BuildError(RuntimeError):
     """The FMU could not be built (no compiler, no headers, no shared libpython...)."""
 
 
+class OutputError(BuildError):
+    """The output folder cannot take the FMUs (a file, not writable, or holding a file of the same
+    name that this tool did not write): refused before anything is written."""
+
+
+def check_output(out_dir: Path, names) -> None:
+    """Refuse an output folder that is a file or cannot be written, and an existing target that
+    is not an FMU built by this tool (a user's file is never overwritten); creates the folder."""
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise OutputError(f"--out {out_dir} is a file, not a folder; nothing was written")
+    for n in names:
+        target = out_dir / f"{SPECS[n].model_identifier}.fmu"
+        if target.is_dir() or (target.exists() and fmu_source_hash(target) is None):
+            raise OutputError(f"{target} exists and was not written by build-fmus (it is not an FMU with a "
+                              "resources/pyfmu.cfg of this tool); it is left as it is: move it away or choose "
+                              "another --out. Nothing was written")
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".build-fmus-probe-", dir=out_dir)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise OutputError(f"cannot write into --out {out_dir}: {e.strerror or e}; nothing was written") from None
+
+
 def stub_sources() -> list[Path]:
     """The C sources and headers of the stub (fmu/src)."""
     return sorted(STUB_DIR.glob("*.c")) + sorted(STUB_DIR.glob("*.h"))
@@ -352,7 +378,7 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
     standalone FMU, with :func:`.standalone.stub_flags`)."""
     spec = SPECS[name]
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    check_output(out_dir, [name])
     shash = source_hash()
     guid = guid_of(spec, shash)
     files = bundled_files()
@@ -374,23 +400,32 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
         target = out_dir / f"{spec.model_identifier}.fmu"
         # unique per builder: parallel workers may build the same stale FMU at once
         part = out_dir / f".{spec.model_identifier}.fmu.{os.getpid()}.{os.urandom(4).hex()}.part"
-        with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
-            z.writestr("modelDescription.xml", model_description_xml(spec, guid))
-            z.writestr("documentation/index.html", documentation_html(spec, guid, REQUIRES, MIN_PYTHON))
-            z.write(so, f"binaries/linux64/{spec.model_identifier}.so")
-            z.writestr("resources/pyfmu.cfg", _config(spec, guid, shash, bhash, rt_cfg))
-            z.writestr("resources/variables.tsv", variable_table_tsv(spec))
-            z.writestr("resources/model.py", _model_py(spec, package, bhash, files))
-            for rel in files:
-                z.write(PACKAGE_DIR / rel, f"resources/{package}/{rel}")
-            for src, arc in runtime or ():
-                z.write(src, f"resources/{arc}")
+        try:
+            _write_archive(part, spec, guid, shash, bhash, rt_cfg, so, package, files, runtime)
+        except BaseException:
+            part.unlink(missing_ok=True)  # ours: never left behind
+            raise
         os.replace(part, target)
     return target
 
 
+def _write_archive(part, spec, guid, shash, bhash, rt_cfg, so, package, files, runtime):
+    with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("modelDescription.xml", model_description_xml(spec, guid))
+        z.writestr("documentation/index.html", documentation_html(spec, guid, REQUIRES, MIN_PYTHON))
+        z.write(so, f"binaries/linux64/{spec.model_identifier}.so")
+        z.writestr("resources/pyfmu.cfg", _config(spec, guid, shash, bhash, rt_cfg))
+        z.writestr("resources/variables.tsv", variable_table_tsv(spec))
+        z.writestr("resources/model.py", _model_py(spec, package, bhash, files))
+        for rel in files:
+            z.write(PACKAGE_DIR / rel, f"resources/{package}/{rel}")
+        for src, arc in runtime or ():
+            z.write(src, f"resources/{arc}")
+
+
 def build_fmus(names=PROJECT_FMUS, out_dir: str | os.PathLike = DEFAULT_OUT, standalone: bool = False) -> list[Path]:
     """Build several FMUs (the stub is compiled once, a standalone runtime collected once)."""
+    check_output(Path(out_dir), names)  # all refused before any is written
     with tempfile.TemporaryDirectory() as tmp:
         so = Path(tmp) / "stub.so"
         runtime, flags = None, ()
@@ -445,6 +480,9 @@ def main(argv=None) -> int:
             paths = build_fmus(args.names, args.out)
         else:
             paths = list(ensure_fmus(args.out, args.names).values())
+    except OutputError as e:
+        print(f"build-fmus: {e}", file=sys.stderr)
+        return 2
     except BuildError as e:
         print(f"build-fmus: {e}", file=sys.stderr)
         return 1
