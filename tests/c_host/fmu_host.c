@@ -9,6 +9,11 @@
  *   fmu_host loop N DIR GUID                      instantiate/init/step/free N times, print RSS
  *   fmu_host bench N DIR GUID UVR YVR [r:VR=VAL]  us per (SetReal, DoStep, GetReal)
  *   fmu_host errors DIR GUID                      wrong call sequences and an injected exception
+ *
+ * How "run" ends (FMU_HOST_EXIT; the teardown check of tests/test_fmu_teardown.py): "free" (default:
+ * fmi2Terminate + fmi2FreeInstance, then return from main), "nofree" (exit with the instances alive,
+ * as a host that crashes or forgets would), "dlclose" (free, then dlclose every FMU binary), "exit"
+ * (free, then exit() from inside a function, atexit handlers running with the libraries loaded).
  */
 #include <dlfcn.h>
 #include <stdarg.h>
@@ -164,10 +169,16 @@ static int run(int argc, char **argv) {
         for (int j = 0; j < ni; j++)
             if (inst[j].a.do_step(inst[j].c, t, (k + 1) * step - t, fmi2True) != fmi2OK) return 7; /* as fmpy */
     }
+    const char *how = getenv("FMU_HOST_EXIT");
+    fflush(stdout);
+    if (how && !strcmp(how, "nofree")) exit(0); /* instances alive at process exit */
     for (int j = 0; j < ni; j++) {
         inst[j].a.terminate(inst[j].c);
         inst[j].a.free_instance(inst[j].c);
     }
+    if (how && !strcmp(how, "dlclose"))
+        for (int j = 0; j < ni; j++) dlclose(inst[j].a.h);
+    if (how && !strcmp(how, "exit")) exit(0);
     return 0;
 }
 
