@@ -32,7 +32,7 @@ static unsigned long g_counter = 0;
 static void free_comp(Comp *c) {
     if (!c) return;
     if (c->id) free_states_of(c->id); /* FMU states the host left alive die with their instance */
-    if (c->globals && g_py_ready) {
+    if (c->globals && py_usable()) { /* at process exit, after Py_Finalize began: the objects die with it */
         int g = gil_take();
         PyObject *unload = py.DictGetItemString(c->globals, "_unload");
         if (unload) {
@@ -250,6 +250,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceDefined,
                                fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2SetupExperiment", S_INSTANTIATED);
+    NEED_PY("fmi2SetupExperiment");
     if (!isfinite(startTime)) {
         logmsg(c, fmi2Error, "logStatusError", "fmi2SetupExperiment: startTime must be finite but was %g", startTime);
         return fmi2Error;
@@ -289,6 +290,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceDefined,
 fmi2Status fmi2EnterInitializationMode(fmi2Component comp) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2EnterInitializationMode", S_INSTANTIATED);
+    NEED_PY("fmi2EnterInitializationMode");
     int g = gil_take();
     fmi2Status s = py_status(c, "fmi2EnterInitializationMode", py.CallFunction(c->m_enter, NULL));
     GIL_DROP(g);
@@ -302,6 +304,7 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component comp) {
 fmi2Status fmi2ExitInitializationMode(fmi2Component comp) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2ExitInitializationMode", S_INIT);
+    NEED_PY("fmi2ExitInitializationMode");
     int g = gil_take();
     fmi2Status s = py_status(c, "fmi2ExitInitializationMode", py.CallFunction(c->m_exit, NULL));
     GIL_DROP(g);
@@ -315,6 +318,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component comp) {
 fmi2Status fmi2Terminate(fmi2Component comp) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2Terminate", S_STEP_COMPLETE | S_STEP_FAILED);
+    NEED_PY("fmi2Terminate");
     int g = gil_take();
     fmi2Status s = py_status(c, "fmi2Terminate", py.CallFunction(c->m_terminate, NULL));
     GIL_DROP(g);
@@ -325,6 +329,7 @@ fmi2Status fmi2Terminate(fmi2Component comp) {
 fmi2Status fmi2Reset(fmi2Component comp) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2Reset", M_ANY_BUT_FATAL);
+    NEED_PY("fmi2Reset");
     int g = gil_take();
     fmi2Status s = py_status(c, "fmi2Reset", py.CallFunction(c->m_reset, NULL));
     GIL_DROP(g);
@@ -339,6 +344,7 @@ fmi2Status fmi2Reset(fmi2Component comp) {
 /* Recompute outputs if inputs/parameters changed; call before reading outputs. */
 fmi2Status refresh(Comp *c, const char *f) {
     if (!c->dirty || !(c->state & (S_INIT | S_STEP_COMPLETE))) return fmi2OK;
+    NEED_PY(f);
     int g = gil_take();
     fmi2Status s = py_status(c, f, py.CallFunction(c->m_update, "i", c->state == S_INIT));
     GIL_DROP(g);
@@ -478,6 +484,7 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component comp, const fmi2ValueRefer
     Comp *c = (Comp *)comp;
     const char *f = "fmi2GetDirectionalDerivative";
     CHECK(f, M_GET);
+    NEED_PY(f);
     if (nUnknown == 0) return fmi2OK;
     NULLARG(f, vUnknown_ref);
     NULLARG(f, dvUnknown);
@@ -567,6 +574,7 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real currentCommunicationPoint, fm
     const char *f = "fmi2DoStep";
     double t = currentCommunicationPoint, h = communicationStepSize;
     CHECK(f, S_STEP_COMPLETE);
+    NEED_PY(f);
     if (!isfinite(t)) {
         logmsg(c, fmi2Error, "logStatusError", "%s: currentCommunicationPoint must be finite but was %g", f, t);
         return fmi2Error;

@@ -153,6 +153,7 @@ static FmuState *new_state(Comp *c) {
 fmi2Status fmi2GetFMUstate(fmi2Component comp, fmi2FMUstate *FMUstate) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2GetFMUstate", M_ANY_BUT_FATAL);
+    NEED_PY("fmi2GetFMUstate");
     NULLARG("fmi2GetFMUstate", FMUstate);
     FmuState *s = NULL;
     if (*FMUstate && !(s = own_state(c, "fmi2GetFMUstate", *FMUstate))) return fmi2Error;
@@ -204,6 +205,7 @@ fmi2Status fmi2GetFMUstate(fmi2Component comp, fmi2FMUstate *FMUstate) {
 fmi2Status fmi2SetFMUstate(fmi2Component comp, fmi2FMUstate FMUstate) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2SetFMUstate", M_ANY_BUT_FATAL);
+    NEED_PY("fmi2SetFMUstate");
     NULLARG("fmi2SetFMUstate", FMUstate);
     FmuState *s = own_state(c, "fmi2SetFMUstate", FMUstate);
     if (!s) return fmi2Error;

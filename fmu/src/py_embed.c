@@ -131,6 +131,8 @@ const char *BOOTSTRAP =
 static int resolve_python(void *h, char *err, size_t nerr) {
     RESOLVE(IsInitialized, "Py_IsInitialized", 0);
     RESOLVE(InitializeEx, "Py_InitializeEx", 0);
+    RESOLVE(IsFinalizing, "Py_IsFinalizing", 1);
+    if (!py.IsFinalizing) RESOLVE(IsFinalizing, "_Py_IsFinalizing", 1);
     RESOLVE(SetPythonHome, "Py_SetPythonHome", 1);
     RESOLVE(DecodeLocale, "Py_DecodeLocale", 0);
     RESOLVE(SaveThread, "PyEval_SaveThread", 0);
@@ -333,6 +335,10 @@ int ensure_python(const Config *cfg, const char *resdir, char *err, size_t nerr)
         if (ok) ok = resolve_python(h, err, nerr);
         if (ok) g_py_ready = 1;
     }
+    if (ok && py.IsFinalizing && py.IsFinalizing()) { /* the host's interpreter is shutting down */
+        snprintf(err, nerr, "the Python of this process is being shut down; the model cannot be loaded");
+        ok = 0;
+    }
     if (ok && !py.IsInitialized()) {
         if (!probed) ok = find_python(cfg, resdir, &pr, err, nerr); /* libpython of a host that did not start it */
         if (ok) {
@@ -369,6 +375,10 @@ int ensure_python(const Config *cfg, const char *resdir, char *err, size_t nerr)
 const char *python_site_paths(void) { return g_paths; }
 const char *python_origin(void) { return g_host_python ? "the host's running Python" : g_origin; }
 int python_is_host(void) { return g_host_python; }
+
+int py_usable(void) {
+    return g_py_ready && py.IsInitialized() && !(py.IsFinalizing && py.IsFinalizing());
+}
 
 /* Take the GIL; a thread calling for the first time gets a thread state that it keeps. */
 int gil_take(void) {

@@ -30,6 +30,7 @@ typedef ssize_t Py_ssize_t;
 
 typedef struct {
     int (*IsInitialized)(void);
+    int (*IsFinalizing)(void); /* Py_IsFinalizing (3.13+) or _Py_IsFinalizing; may be NULL */
     void (*InitializeEx)(int);
     void (*SetPythonHome)(const wchar_t *);
     wchar_t *(*DecodeLocale)(const char *, size_t *);
@@ -169,6 +170,19 @@ HIDDEN const char *var_name(const Comp *c, unsigned vr);
 extern HIDDEN const char *BOOTSTRAP;
 HIDDEN int ensure_python(const Config *cfg, const char *resdir, char *err, size_t nerr);
 HIDDEN int gil_take(void);
+/* Python can be entered: loaded and initialised, and not being finalised (Py_IsInitialized is 0
+ * from the start of Py_FinalizeEx). A host may call the FMU during or after its own exit (Ecos
+ * frees a simulation from a __del__ run by Py_FinalizeEx; C++ destructors run after it); taking
+ * the GIL then uses a finalised interpreter (thread states freed, modules torn down) or, on
+ * another thread, ends that thread inside the host (PyThread_exit_thread). */
+HIDDEN int py_usable(void);
+#define NEED_PY(f)                                                                                         \
+    if (!py_usable()) {                                                                                    \
+        logmsg(c, fmi2Error, "logStatusError",                                                             \
+               "%s: the Python that runs the model has been shut down (the host called the FMU during or " \
+               "after its exit); nothing done", f);                                                       \
+        return fmi2Error;                                                                                  \
+    }
 #define GIL_DROP(g) py.GILRelease(g)
 HIDDEN void report_py_exception(Comp *c, const char *f);
 HIDDEN fmi2Status py_status(Comp *c, const char *f, PyObject *r);
