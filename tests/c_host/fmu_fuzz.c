@@ -8,7 +8,9 @@
  * runs NCALLS random calls on two instances of each FMU: valid calls (steps, inputs, outputs,
  * state get/set/serialize, directional derivatives, the lifecycle) mixed with invalid ones
  * (wrong states, bad value references, NaN/Inf values, times and step sizes, zero/negative/huge
- * steps, states of the other FMU, garbage and freed state pointers, corrupt serialized bytes).
+ * steps, states of the other FMU, states of the other instance of the same FMU (a state belongs
+ * to the instance that made it), garbage and freed state pointers, states freed with their
+ * instance by fmi2FreeInstance, corrupt serialized bytes).
  * The harness tracks each instance's FMI state, so it knows which calls must be refused.
  * Checked per call: an invalid call returns neither fmi2OK nor fmi2Warning and logs an error;
  * a successful getReal gives finite values; a restored state gives bit-identical outputs and
