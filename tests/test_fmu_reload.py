@@ -132,3 +132,46 @@ def test_fmpy_simulate_fmu_one_after_the_other(tmp_path):
         t = np.arange(len(xs)) * 1e-3
         x, _ = damped_forced_response(t, **BASE)
         assert np.max(np.abs(np.array(xs) - x)) < 1e-7 * BASE["x0"]
+
+
+@pytest.mark.slow
+def test_two_builds_in_one_process_never_mix(tmp_path):
+    """Two builds of BaseOscillator (the second from a copy of the sources with one comment added
+    to a bundled module: another bundle hash, another package name) loaded, freed, deleted and
+    loaded again in one process: each gets its own package (both in sys.modules at the end), and
+    every run matches the exact response. (Slow the first time: build B's numba cache is cold.)"""
+    import shutil
+
+    from pyfmu_wrapper.fmi.build import PACKAGE_DIR, REPO_ROOT, fmu_source_hash
+
+    src = tmp_path / "src"
+    shutil.copytree(PACKAGE_DIR, src / PACKAGE_DIR.name, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(REPO_ROOT / "fmu" / "src", src / "fmu" / "src")
+    slaves = src / PACKAGE_DIR.name / "fmi" / "slaves.py"
+    slaves.write_text(slaves.read_text() + "\n# build B: the same code, another bundle hash\n")
+    r = subprocess.run([sys.executable, "-m", "pyfmu_wrapper.fmi.build", "--out", str(tmp_path / "b"),
+                        "BaseOscillator"], cwd=src, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr
+    fmu_b = tmp_path / "b" / "BaseOscillator.fmu"
+    fmu_a = built_fmus()["BaseOscillator"]
+    assert fmu_source_hash(fmu_b) != fmu_source_hash(fmu_a)
+    script = SCRIPT.replace('print("RESULT "', 'out["packages"] = sorted(n for n in sys.modules if n.startswith("_pyfmu_") '
+                            'and n.count(".") == 0 and "_model_" not in n)\nprint("RESULT "')
+    fmus = {"A": str(fmu_a), "B": str(fmu_b)}
+    ops = [["load", "a1", "A"], ["step", "a1", 100], ["free", "a1"], ["rm", "a1"],
+           ["load", "b1", "B"], ["step", "b1", 100], ["load", "a2", "A"], ["step", "a2", 100],
+           ["free", "b1"], ["rm", "b1"], ["load", "b2", "B"], ["step", "b2", 100], ["free", "a2"], ["free", "b2"]]
+    ops = [[op, key, *("BaseOscillator:" + a for a in arg)] if op == "load" else [op, key, *arg] for op, key, *arg in ops]
+    script = script.replace("md = fmpy.read_model_description(fmus[name])",
+                            "name, path = 'BaseOscillator', fmus[name.split(':')[1]]\n"
+                            "        md = fmpy.read_model_description(path)")
+    script = script.replace("fmpy.extract(fmus[name], d)", "fmpy.extract(path, d)")
+    env = {k: v for k, v in os.environ.items() if k != "PYFMU_NATIVE"}
+    r = subprocess.run([sys.executable, "-c", script, json.dumps(fmus), json.dumps(ops), str(tmp_path)],
+                       capture_output=True, text=True, timeout=1200, env=env)
+    assert r.returncode == 0, r.stderr[-4000:]
+    out = json.loads([x for x in r.stdout.splitlines() if x.startswith("RESULT ")][0][7:])
+    for key in ("a1", "b1", "a2", "b2"):
+        _assert_exact(out[key])
+    assert len(out["packages"]) == 2  # one package per build, never shared
+
