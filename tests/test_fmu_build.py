@@ -38,3 +38,57 @@ def test_xml_matches_variable_table(tmp_path):
     xdd = next(u for u in md.outputs if u.variable.name == "xdd")
     assert [d.name for d in xdd.dependencies] == ["f_link"]
     assert TMD_INERTER.by_name("force").depends_on == ("x", "xd", "xdd")
+
+
+# ---- bad input: a clear message, exit status 2, no traceback, nothing deleted or written --------
+
+def _user_files(root):
+    return {p: p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
+
+
+def _build_cli(*args, cwd):
+    import subprocess
+    import sys
+
+    return subprocess.run([sys.executable, "-m", "pyfmu_wrapper.fmi.build", *args], capture_output=True, text=True,
+                          cwd=cwd, timeout=600)
+
+
+def test_build_fmus_bad_input_is_refused_with_exit_2_and_nothing_lost(tmp_path):
+    import pytest
+
+    (tmp_path / "notes.txt").write_text("my notes\n")
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "BaseOscillator.fmu").write_text("not an FMU: a file of the user\n")
+    other = tmp_path / "other"
+    (other / "TMDInerter.fmu").mkdir(parents=True)
+    (other / "TMDInerter.fmu" / "keep.txt").write_text("keep\n")
+    before = _user_files(tmp_path)
+    cases = [  # (arguments, what the message must say)
+        (["--out", str(tmp_path / "notes.txt")], "is a file, not a folder"),
+        (["--out", str(mine)], "BaseOscillator.fmu exists and was not written by build-fmus"),
+        (["--force", "--out", str(mine)], "BaseOscillator.fmu exists and was not written by build-fmus"),
+        (["TMDInerter", "--out", str(other)], "TMDInerter.fmu exists and was not written by build-fmus"),
+        (["--out", str(tmp_path / "notes.txt" / "sub")], "cannot write into --out"),
+        (["--out", "/sys/pyfmu-build-test"], "cannot write into --out"),
+        (["NoSuchModel", "--out", str(tmp_path / "new")], "unknown FMU(s) ['NoSuchModel']"),
+        (["--bogus"], "unrecognized arguments: --bogus"),
+        (["--out"], "expected one argument"),
+    ]
+    for args, msg in cases:
+        r = _build_cli(*args, cwd=tmp_path)
+        assert r.returncode == 2, (args, r.returncode, r.stderr)
+        assert msg in r.stderr, (args, r.stderr)
+        assert "Traceback" not in r.stderr, (args, r.stderr)
+        assert _user_files(tmp_path) == before, args  # nothing deleted, changed or added
+    assert not (tmp_path / "new").exists()
+    # its own FMUs it replaces (a rebuild), and only those
+    r = _build_cli("Trivial", "--force", "--out", str(tmp_path / "new"), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    r = _build_cli("Trivial", "--force", "--out", str(tmp_path / "new"), cwd=tmp_path)
+    assert r.returncode == 0, r.stderr
+    assert sorted(p.name for p in (tmp_path / "new").iterdir()) == ["Trivial.fmu"]
+    with pytest.raises(build.OutputError):
+        build.build_fmus(["BaseOscillator"], mine)
+    assert _user_files(tmp_path / "mine") == {p: b for p, b in before.items() if p.parent == mine}

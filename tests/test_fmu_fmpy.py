@@ -135,10 +135,13 @@ def test_nonphysical_parameter_is_an_error_with_traceback(fmus, tmp_path):
     s.setupExperiment(startTime=0.0)
     s.enterInitializationMode()
     vr = {v.name: v.valueReference for v in md.modelVariables}
-    s.setReal([vr["m"]], [-1.0])
+    # each value within its range (out-of-range values are refused when set: test_fmu_ranges.py), the
+    # combination non-physical: no inerter (inerter = 0) with an inertance I = 1 kg
+    s.setInteger([vr["inerter"]], [0])
+    s.setReal([vr["I"]], [1.0])
     with pytest.raises(fmpy.fmi1.FMICallException) as e:
         s.exitInitializationMode()
     assert e.value.status == 3  # fmi2Error
     text = "\n".join(m for _, m in messages)
-    assert "Traceback (most recent call last)" in text and "ParameterError" in text and "mass" in text
+    assert "Traceback (most recent call last)" in text and "ParameterError" in text and "inertance" in text
     s.freeInstance()

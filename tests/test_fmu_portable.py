@@ -153,7 +153,9 @@ def test_no_fitting_python_is_a_clear_error(fresh, tmp_path):
     msg = r.stderr
     assert "no Python that can run this FMU was found" in msg
     assert f"PYFMU_PYTHON = {bare}" in msg and "numpy is not installed" in msg and "numba is not installed" in msg
-    assert "/nonexistent/bin/python3" in msg and "pip install numpy>=1.26 numba>=0.59" in msg
+    # copy-pasteable: quoted (unquoted, a shell reads >= as a redirection); the FMU's own documentation
+    assert "/nonexistent/bin/python3" in msg and 'python -m pip install "numpy>=1.26" "numba>=0.59"' in msg
+    assert "documentation/index.html in the FMU" in msg and "docs/fmus.md" not in msg
 
 
 def _other_python() -> str | None:
@@ -195,5 +197,6 @@ def test_python_host_of_another_version_gets_a_clear_error(fresh, tmp_path):
     assert r.returncode == 0, r.stderr[-3000:]
     assert r.stdout.startswith("NULL"), r.stdout
     assert "cannot run its model" in r.stdout and other.split("/")[-1][:6] in r.stdout
-    assert "numba is not installed" in r.stdout and "-m pip install" in r.stdout
+    assert "numba is not installed" in r.stdout and '-m pip install "numpy>=1.26" "numba>=0.59"' in r.stdout
+    assert "documentation/index.html in the FMU" in r.stdout
     assert "numba_loaded False" in r.stdout

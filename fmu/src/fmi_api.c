@@ -23,12 +23,16 @@
 /* A communication point may differ from the FMU's time by this fraction of the step. */
 #define PYFMU_TIME_SLACK 1e-6
 
+static void range_text(const Comp *c, fmi2ValueReference vr, char *out, size_t n);
+static int in_range(const Comp *c, fmi2ValueReference vr, double v);
+
 static pthread_mutex_t g_count_lock = PTHREAD_MUTEX_INITIALIZER;
 static unsigned long g_counter = 0;
 
 static void free_comp(Comp *c) {
     if (!c) return;
-    if (c->globals && g_py_ready) {
+    if (c->id) free_states_of(c->id); /* FMU states the host left alive die with their instance */
+    if (c->globals && py_usable()) { /* at process exit, after Py_Finalize began: the objects die with it */
         int g = gil_take();
         PyObject *unload = py.DictGetItemString(c->globals, "_unload");
         if (unload) {
@@ -37,7 +41,7 @@ static void free_comp(Comp *c) {
             else py.ErrClear();
         }
         PyObject **objs[] = {&c->m_setup, &c->m_enter, &c->m_exit, &c->m_update, &c->m_step, &c->m_reset,
-                             &c->m_terminate, &c->m_get, &c->m_set, &c->m_dd, &c->slave, &c->b_reals,
+                             &c->m_terminate, &c->m_get, &c->m_set, &c->m_dd, &c->m_restore, &c->slave, &c->b_reals,
                              &c->b_ints, &c->b_derivs, &c->b_scratch, &c->globals};
         for (size_t i = 0; i < sizeof objs / sizeof objs[0]; i++)
             if (*objs[i]) {
@@ -49,6 +53,12 @@ static void free_comp(Comp *c) {
     free(c->vtype);
     free(c->vcaus);
     free(c->vvar);
+    if (c->vname)
+        for (int i = 0; i < c->nvr; i++) free(c->vname[i]);
+    free(c->vname);
+    free(c->vmin);
+    free(c->vmax);
+    free(c->vexcl);
     free(c->instance_name);
     c->magic = 0;
     free(c);
@@ -90,11 +100,14 @@ static int query_native(Comp *c) {
     if (!r) return 0;
     char *buf = NULL;
     Py_ssize_t len = 0;
-    if (py.BytesAsStringAndSize(r, &buf, &len) == 0 && len == 7 * (Py_ssize_t)sizeof(uint64_t)) {
-        uint64_t a[7];
+    if (py.BytesAsStringAndSize(r, &buf, &len) == 0 && len == 8 * (Py_ssize_t)sizeof(uint64_t)) {
+        uint64_t a[8];
         memcpy(a, buf, sizeof a);
-        *(void **)&c->native = (void *)(uintptr_t)a[0];
-        for (int i = 0; i < 6; i++) c->nat[i] = (void *)(uintptr_t)a[i + 1];
+        c->m_restore = py.GetAttrString(c->slave, "native_restore");
+        if (c->m_restore) {
+            *(void **)&c->native = (void *)(uintptr_t)a[0];
+            for (int i = 0; i < 7; i++) c->nat[i] = (void *)(uintptr_t)a[i + 1];
+        }
     }
     py.ErrClear();
     py.DecRef(r);
@@ -160,6 +173,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     pthread_mutex_lock(&g_count_lock);
     unsigned long id = ++g_counter;
     pthread_mutex_unlock(&g_count_lock);
+    c->id = id;
     snprintf(c->modname, sizeof c->modname, "_pyfmu_%.60s_%lu_%lx", fmuGUID[0] == '{' ? "model" : "m", id,
              (unsigned long)(uintptr_t)c);
     for (char *p = c->modname; *p; p++)
@@ -236,6 +250,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceDefined,
                                fmi2Real startTime, fmi2Boolean stopTimeDefined, fmi2Real stopTime) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2SetupExperiment", S_INSTANTIATED);
+    NEED_PY("fmi2SetupExperiment");
     if (!isfinite(startTime)) {
         logmsg(c, fmi2Error, "logStatusError", "fmi2SetupExperiment: startTime must be finite but was %g", startTime);
         return fmi2Error;
@@ -243,6 +258,18 @@ fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceDefined,
     if (toleranceDefined && !(isfinite(tolerance) && tolerance > 0.0)) {
         logmsg(c, fmi2Error, "logStatusError", "fmi2SetupExperiment: tolerance must be finite and > 0 but was %g", tolerance);
         return fmi2Error;
+    }
+    if (toleranceDefined) { /* the tolerance becomes rtol: within its range */
+        for (int vr = 0; vr < c->nvr; vr++)
+            if (c->vname[vr] && !strcmp(c->vname[vr], "rtol") && c->vtype[vr] == 'R' && !in_range(c, vr, tolerance)) {
+                char val[40], range[120];
+                fmt_double(tolerance, val, sizeof val);
+                range_text(c, vr, range, sizeof range);
+                logmsg(c, fmi2Error, "logStatusError",
+                       "fmi2SetupExperiment: tolerance = %s is out of range: it sets rtol, which must be %s (see %s)", val,
+                       range, PYFMU_DOC);
+                return fmi2Error;
+            }
     }
     if (stopTimeDefined && !isfinite(stopTime)) {
         logmsg(c, fmi2Error, "logStatusError", "fmi2SetupExperiment: stopTime must be finite but was %g", stopTime);
@@ -263,6 +290,7 @@ fmi2Status fmi2SetupExperiment(fmi2Component comp, fmi2Boolean toleranceDefined,
 fmi2Status fmi2EnterInitializationMode(fmi2Component comp) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2EnterInitializationMode", S_INSTANTIATED);
+    NEED_PY("fmi2EnterInitializationMode");
     int g = gil_take();
     fmi2Status s = py_status(c, "fmi2EnterInitializationMode", py.CallFunction(c->m_enter, NULL));
     GIL_DROP(g);
@@ -276,6 +304,7 @@ fmi2Status fmi2EnterInitializationMode(fmi2Component comp) {
 fmi2Status fmi2ExitInitializationMode(fmi2Component comp) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2ExitInitializationMode", S_INIT);
+    NEED_PY("fmi2ExitInitializationMode");
     int g = gil_take();
     fmi2Status s = py_status(c, "fmi2ExitInitializationMode", py.CallFunction(c->m_exit, NULL));
     GIL_DROP(g);
@@ -289,6 +318,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component comp) {
 fmi2Status fmi2Terminate(fmi2Component comp) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2Terminate", S_STEP_COMPLETE | S_STEP_FAILED);
+    NEED_PY("fmi2Terminate");
     int g = gil_take();
     fmi2Status s = py_status(c, "fmi2Terminate", py.CallFunction(c->m_terminate, NULL));
     GIL_DROP(g);
@@ -299,6 +329,7 @@ fmi2Status fmi2Terminate(fmi2Component comp) {
 fmi2Status fmi2Reset(fmi2Component comp) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2Reset", M_ANY_BUT_FATAL);
+    NEED_PY("fmi2Reset");
     int g = gil_take();
     fmi2Status s = py_status(c, "fmi2Reset", py.CallFunction(c->m_reset, NULL));
     GIL_DROP(g);
@@ -313,6 +344,7 @@ fmi2Status fmi2Reset(fmi2Component comp) {
 /* Recompute outputs if inputs/parameters changed; call before reading outputs. */
 fmi2Status refresh(Comp *c, const char *f) {
     if (!c->dirty || !(c->state & (S_INIT | S_STEP_COMPLETE))) return fmi2OK;
+    NEED_PY(f);
     int g = gil_take();
     fmi2Status s = py_status(c, f, py.CallFunction(c->m_update, "i", c->state == S_INIT));
     GIL_DROP(g);
@@ -338,14 +370,44 @@ static int check_settable(Comp *c, const char *f, fmi2ValueReference vr) {
     return ok;
 }
 
-/* Real values must be finite; Booleans 0 or 1. */
+/* The range of a variable as people read it: "> 0", ">= 0 and <= 2", "any". */
+static void range_text(const Comp *c, fmi2ValueReference vr, char *out, size_t n) {
+    char lo[40], hi[40];
+    fmt_double(c->vmin[vr], lo, sizeof lo);
+    fmt_double(c->vmax[vr], hi, sizeof hi);
+    int has_lo = isfinite(c->vmin[vr]), has_hi = isfinite(c->vmax[vr]);
+    if (has_lo && has_hi) snprintf(out, n, "%s %s and <= %s", c->vexcl[vr] ? ">" : ">=", lo, hi);
+    else if (has_lo) snprintf(out, n, "%s %s", c->vexcl[vr] ? ">" : ">=", lo);
+    else if (has_hi) snprintf(out, n, "<= %s", hi);
+    else snprintf(out, n, "any finite value");
+}
+
+/* Whether v lies in the declared range of vr (from the variable table: registry bounds). */
+static int in_range(const Comp *c, fmi2ValueReference vr, double v) {
+    if (c->vexcl[vr] ? !(v > c->vmin[vr]) : !(v >= c->vmin[vr])) return 0;
+    return v <= c->vmax[vr];
+}
+
+/* Real values must be finite and Real/Integer values within the variable's range (declared as
+ * min/max in modelDescription.xml); Booleans 0 or 1. */
 static int check_value(Comp *c, const char *f, fmi2ValueReference vr, double v, char type) {
     if (type == 'R' && !isfinite(v)) {
-        logmsg(c, fmi2Error, "logStatusError", "%s: value of variable %u must be finite but was %g", f, vr, v);
+        logmsg(c, fmi2Error, "logStatusError", "%s: value of variable %u (%s) must be finite but was %g", f, vr,
+               var_name(c, vr), v);
         return 0;
     }
     if (type == 'B' && v != 0.0 && v != 1.0) {
-        logmsg(c, fmi2Error, "logStatusError", "%s: value of Boolean variable %u must be 0 or 1 but was %g", f, vr, v);
+        logmsg(c, fmi2Error, "logStatusError", "%s: value of Boolean variable %u (%s) must be 0 or 1 but was %g", f, vr,
+               var_name(c, vr), v);
+        return 0;
+    }
+    if (type != 'B' && !in_range(c, vr, v)) {
+        char val[40], range[120];
+        fmt_double(v, val, sizeof val);
+        range_text(c, vr, range, sizeof range);
+        logmsg(c, fmi2Error, "logStatusError",
+               "%s: %s = %s is out of range: %s must be %s (value reference %u; the ranges of all variables: %s)", f,
+               var_name(c, vr), val, var_name(c, vr), range, vr, PYFMU_DOC);
         return 0;
     }
     return 1;
@@ -422,6 +484,7 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component comp, const fmi2ValueRefer
     Comp *c = (Comp *)comp;
     const char *f = "fmi2GetDirectionalDerivative";
     CHECK(f, M_GET);
+    NEED_PY(f);
     if (nUnknown == 0) return fmi2OK;
     NULLARG(f, vUnknown_ref);
     NULLARG(f, dvUnknown);
@@ -511,6 +574,7 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real currentCommunicationPoint, fm
     const char *f = "fmi2DoStep";
     double t = currentCommunicationPoint, h = communicationStepSize;
     CHECK(f, S_STEP_COMPLETE);
+    NEED_PY(f);
     if (!isfinite(t)) {
         logmsg(c, fmi2Error, "logStatusError", "%s: currentCommunicationPoint must be finite but was %g", f, t);
         return fmi2Error;
@@ -539,18 +603,33 @@ fmi2Status fmi2DoStep(fmi2Component comp, fmi2Real currentCommunicationPoint, fm
         return fmi2Error;
     }
     int g = gil_take();
-    fmi2Status s;
+    fmi2Status s = fmi2OK;
     int rc = 1;
     if (c->native && h <= PYFMU_NATIVE_MAX_STEP) /* compiled step: no interpreter, no Python slave */
         rc = c->native(c->reals, c->ints, c->derivs, c->nat[0], c->nat[1], c->nat[2], c->nat[3], c->nat[4], c->nat[5],
-                       t, h);
-    if (rc == 0) s = fmi2OK;
-    else if (rc >= 2) {
-        logmsg(c, fmi2Error, "logStatusError", "%s: the integrator failed in the step from t = %.17g s of %g s: %s", f, t,
-               h, rc == 2 ? "the step size fell below the resolution of t" : "more than the cap of integrator steps");
-        s = fmi2Error;
-    } else /* no native step, a long step, or the native step asks for Python (debug_raise) */
+                       c->nat[6], t, h);
+    int raised = rc == 0;
+    if (raised) {
+        /* The compiled step raised: numba printed the exception to stderr and returned 0. Never
+         * fmi2OK on that: put the state back to the start of the step and retake it in Python,
+         * which raises the same exception, with its traceback, through the FMI logger. */
+        s = py_status(c, f, py.CallFunction(c->m_restore, NULL));
+        if (s <= fmi2Warning) rc = 1;
+    }
+    if (rc == PYFMU_NATIVE_OK) s = fmi2OK;
+    else if (rc == 1) { /* no native step, a long step, the native step asks for Python (debug_raise,
+                         * an integrator failure, to name it) or raised */
         s = py_status(c, f, py.CallFunction(c->m_step, "ddi", t, h, noSetFMUStatePriorToCurrentPoint));
+        if (raised && s <= fmi2Warning) {
+            logmsg(c, fmi2Warning, "logStatusWarning", "%s: the compiled step from t = %.17g s raised an exception "
+                   "(printed on stderr) that the same step in Python did not: its result is the Python one", f, t);
+            s = fmi2Warning;
+        }
+    } else if (rc != 0) {
+        logmsg(c, fmi2Error, "logStatusError", "%s: the compiled step from t = %.17g s of %g s failed (code %d)", f, t, h,
+               rc);
+        s = fmi2Error;
+    }
     GIL_DROP(g);
     if (s <= fmi2Warning) {
         c->time = t + h; /* the host's time is the truth: no drift accumulates */

@@ -3,7 +3,11 @@
  *
  * Every state handed out is registered; a pointer that is not a live state of this library is
  * refused without being dereferenced. Each state carries the fingerprint of its FMU's GUID, so a
- * state (or serialized bytes) of another FMU is refused. Sizes of serialized bytes are checked
+ * state (or serialized bytes) of another FMU is refused, and the id of the instance it belongs to:
+ * a state is used only by its own instance (another instance of the same FMU refuses it; moving a
+ * state between instances goes through fmi2SerializeFMUstate / fmi2DeSerializeFMUstate), and
+ * fmi2FreeInstance frees every state of the instance that the host left alive, after which those
+ * pointers are refused like any freed state. Sizes of serialized bytes are checked
  * with overflow-safe arithmetic: the fixed part is computed from this FMU's own table, and the
  * variable part must equal what is left of the given size.
  */
@@ -20,6 +24,7 @@ typedef struct {
     int32_t state, dirty;
     double time;
     uint64_t fingerprint;
+    uint64_t owner; /* Comp.id of the instance the state belongs to */
     double *reals, *derivs;
     int32_t *ints;
     char *pystate;
@@ -78,15 +83,48 @@ static void free_state(FmuState *s) {
     free(s);
 }
 
-/* A live state of this FMU, or NULL (logged). */
+/* Free every state of one instance (fmi2FreeInstance); the number freed. */
+size_t free_states_of(uint64_t instance_id) {
+    size_t n = 0;
+    pthread_mutex_lock(&g_states_lock);
+    for (size_t i = 0; i < g_nstates;) {
+        FmuState *s = g_states[i];
+        if (s->owner == instance_id) {
+            g_states[i] = g_states[--g_nstates];
+            free(s->reals);
+            free(s->derivs);
+            free(s->ints);
+            free(s->pystate);
+            s->magic = 0;
+            free(s);
+            n++;
+        } else i++;
+    }
+    if (g_nstates == 0) { /* the last state is gone: give the table back too */
+        free(g_states);
+        g_states = NULL;
+        g_capstates = 0;
+    }
+    pthread_mutex_unlock(&g_states_lock);
+    return n;
+}
+
+/* A live state of this instance, or NULL (logged). */
 static FmuState *own_state(Comp *c, const char *f, const void *p) {
     if (!registry_has(p)) {
-        logmsg(c, fmi2Error, "logStatusError", "%s: %p is not an FMU state of this FMU (unknown or freed)", f, p);
+        logmsg(c, fmi2Error, "logStatusError",
+               "%s: %p is not a live FMU state (unknown, freed, or freed with its instance by fmi2FreeInstance)", f, p);
         return NULL;
     }
     FmuState *s = (FmuState *)p;
     if (s->magic != STATE_MAGIC || s->fingerprint != c->fingerprint || s->nvr != (uint32_t)c->nvr) {
         logmsg(c, fmi2Error, "logStatusError", "%s: the FMU state belongs to another FMU", f);
+        return NULL;
+    }
+    if (s->owner != c->id) {
+        logmsg(c, fmi2Error, "logStatusError",
+               "%s: the FMU state belongs to another instance of this FMU (a state is used by the instance that "
+               "made it; to move one, serialize it and deserialize it in the other instance)", f);
         return NULL;
     }
     return s;
@@ -98,6 +136,7 @@ static FmuState *new_state(Comp *c) {
     s->magic = STATE_MAGIC;
     s->nvr = (uint32_t)c->nvr;
     s->fingerprint = c->fingerprint;
+    s->owner = c->id;
     s->reals = malloc(sizeof(double) * (size_t)c->nvr);
     s->derivs = malloc(2 * sizeof(double) * (size_t)c->nvr);
     s->ints = malloc(sizeof(int32_t) * (size_t)c->nvr);
@@ -114,6 +153,7 @@ static FmuState *new_state(Comp *c) {
 fmi2Status fmi2GetFMUstate(fmi2Component comp, fmi2FMUstate *FMUstate) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2GetFMUstate", M_ANY_BUT_FATAL);
+    NEED_PY("fmi2GetFMUstate");
     NULLARG("fmi2GetFMUstate", FMUstate);
     FmuState *s = NULL;
     if (*FMUstate && !(s = own_state(c, "fmi2GetFMUstate", *FMUstate))) return fmi2Error;
@@ -165,6 +205,7 @@ fmi2Status fmi2GetFMUstate(fmi2Component comp, fmi2FMUstate *FMUstate) {
 fmi2Status fmi2SetFMUstate(fmi2Component comp, fmi2FMUstate FMUstate) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2SetFMUstate", M_ANY_BUT_FATAL);
+    NEED_PY("fmi2SetFMUstate");
     NULLARG("fmi2SetFMUstate", FMUstate);
     FmuState *s = own_state(c, "fmi2SetFMUstate", FMUstate);
     if (!s) return fmi2Error;

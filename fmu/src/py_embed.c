@@ -103,9 +103,10 @@ const char *BOOTSTRAP =
     "    why = cache[key]\n"
     "    if why:\n"
     "        raise FmuEnvironmentError('the Python running this FMU (%s, %s) cannot run its model: %s. '\n"
-    "            'Install what it needs into that Python: %s -m pip install %s'\n"
+    "            'Install what it needs into that Python: %s -m pip install %s '\n"
+    "            '(see documentation/index.html in the FMU)'\n"
     "            % (sys.executable, sys.version.split()[0], '; '.join(why), sys.executable,\n"
-    "               ' '.join(repr(r) for r in requires.split())))\n"
+    "               ' '.join('\"%s\"' % r for r in requires.split())))\n"
     "    spec = importlib.util.spec_from_file_location(modname, model_file)\n"
     "    mod = importlib.util.module_from_spec(spec)\n"
     "    sys.modules[modname] = mod\n"
@@ -130,6 +131,8 @@ const char *BOOTSTRAP =
 static int resolve_python(void *h, char *err, size_t nerr) {
     RESOLVE(IsInitialized, "Py_IsInitialized", 0);
     RESOLVE(InitializeEx, "Py_InitializeEx", 0);
+    RESOLVE(IsFinalizing, "Py_IsFinalizing", 1);
+    if (!py.IsFinalizing) RESOLVE(IsFinalizing, "_Py_IsFinalizing", 1);
     RESOLVE(SetPythonHome, "Py_SetPythonHome", 1);
     RESOLVE(DecodeLocale, "Py_DecodeLocale", 0);
     RESOLVE(SaveThread, "PyEval_SaveThread", 0);
@@ -294,11 +297,18 @@ static int find_python(const Config *cfg, const char *resdir, Probe *chosen, cha
         if (i == 1 ? bundled(cfg, resdir, chosen) : probe(cands[i], cfg, chosen)) return 1;
         snprintf(tried + k, sizeof tried - k, "%s%s = %s: %s", k ? "; " : "", labels[i], cands[i], chosen->unfit);
     }
+    char quoted[1100] = ""; /* "numpy>=1.26" "numba>=0.59": unquoted, a shell reads >= as a redirection */
+    char reqs[512];
+    snprintf(reqs, sizeof reqs, "%s", cfg->requires);
+    for (char *tok = strtok(reqs, " "); tok; tok = strtok(NULL, " ")) {
+        size_t k = strlen(quoted);
+        snprintf(quoted + k, sizeof quoted - k, "%s\"%s\"", k ? " " : "", tok);
+    }
     snprintf(err, nerr,
              "no Python that can run this FMU was found. Tried, in order: %s. Install Python >= %s built with "
              "--enable-shared, run `python -m pip install %s` in it, and set PYFMU_PYTHON to that python "
-             "executable or virtual environment folder (see docs/fmus.md)",
-             tried, cfg->min_python[0] ? cfg->min_python : "3.11", cfg->requires);
+             "executable or virtual environment folder (see %s)",
+             tried, cfg->min_python[0] ? cfg->min_python : "3.11", quoted, PYFMU_DOC);
     return 0;
 }
 
@@ -324,6 +334,10 @@ int ensure_python(const Config *cfg, const char *resdir, char *err, size_t nerr)
         }
         if (ok) ok = resolve_python(h, err, nerr);
         if (ok) g_py_ready = 1;
+    }
+    if (ok && py.IsFinalizing && py.IsFinalizing()) { /* the host's interpreter is shutting down */
+        snprintf(err, nerr, "the Python of this process is being shut down; the model cannot be loaded");
+        ok = 0;
     }
     if (ok && !py.IsInitialized()) {
         if (!probed) ok = find_python(cfg, resdir, &pr, err, nerr); /* libpython of a host that did not start it */
@@ -361,6 +375,10 @@ int ensure_python(const Config *cfg, const char *resdir, char *err, size_t nerr)
 const char *python_site_paths(void) { return g_paths; }
 const char *python_origin(void) { return g_host_python ? "the host's running Python" : g_origin; }
 int python_is_host(void) { return g_host_python; }
+
+int py_usable(void) {
+    return g_py_ready && py.IsInitialized() && !(py.IsFinalizing && py.IsFinalizing());
+}
 
 /* Take the GIL; a thread calling for the first time gets a thread state that it keeps. */
 int gil_take(void) {

@@ -30,6 +30,7 @@ typedef ssize_t Py_ssize_t;
 
 typedef struct {
     int (*IsInitialized)(void);
+    int (*IsFinalizing)(void); /* Py_IsFinalizing (3.13+) or _Py_IsFinalizing; may be NULL */
     void (*InitializeEx)(int);
     void (*SetPythonHome)(const wchar_t *);
     wchar_t *(*DecodeLocale)(const char *, size_t *);
@@ -92,7 +93,11 @@ enum { C_PARAMETER = 1, C_INPUT, C_OUTPUT, C_LOCAL, C_CALCPAR, C_INDEPENDENT };
 enum { V_CONSTANT = 1, V_FIXED, V_TUNABLE, V_DISCRETE, V_CONTINUOUS };
 
 typedef int32_t (*NativeStep)(double *reals, int32_t *ints, double *derivs, void *z, void *p, void *stats, void *th,
-                              void *u, void *atol, double t, double h);
+                              void *u, void *atol, void *backup, double t, double h);
+/* What a successful native step returns. Never 0: a numba cfunc that raised prints the exception
+ * to stderr and returns 0, which the stub reads as "the compiled step raised" (fmi_api.c). Keep in
+ * sync with NATIVE_OK in pyfmu_wrapper/fmi/native.py. */
+#define PYFMU_NATIVE_OK 0x4F4B
 /* Longest step taken by the native function; longer ones go through Python (in pieces). */
 #define PYFMU_NATIVE_MAX_STEP 1.0
 
@@ -106,12 +111,16 @@ typedef struct {
     int dirty;
     double time;
     uint64_t fingerprint; /* of the GUID: FMU states of another FMU are refused */
+    uint64_t id;          /* unique per instance in the process: its FMU states carry it */
     /* variable table */
     int nvr;            /* max value reference + 1 */
     int nvars;
     char *vtype;        /* 'R', 'I', 'B' or 0 per value reference */
     char *vcaus;
     char *vvar;
+    char **vname;       /* variable names (messages) */
+    double *vmin, *vmax; /* range per value reference (-inf / inf: none) */
+    char *vexcl;        /* 1: the minimum itself is out of range */
     /* buffers shared with Python (bytearrays) */
     double *reals;
     int32_t *ints;
@@ -120,11 +129,12 @@ typedef struct {
     int nscratch;
     /* Python objects */
     PyObject *globals, *slave, *b_reals, *b_ints, *b_derivs, *b_scratch;
-    PyObject *m_setup, *m_enter, *m_exit, *m_update, *m_step, *m_reset, *m_terminate, *m_get, *m_set, *m_dd;
+    PyObject *m_setup, *m_enter, *m_exit, *m_update, *m_step, *m_reset, *m_terminate, *m_get, *m_set, *m_dd,
+        *m_restore;
     char modname[160];
     /* native step (pyfmu_wrapper/fmi/native.py): a compiled function and the slave's arrays */
     NativeStep native;
-    void *nat[6]; /* z, p, stats, th, u, atol */
+    void *nat[7]; /* z, p, stats, th, u, atol, backup */
 } Comp;
 #define COMP_MAGIC 0x434f4d50u
 
@@ -151,11 +161,28 @@ HIDDEN void uri_to_path(const char *uri, char *out, size_t n);
 HIDDEN void resources_from_library(char *out, size_t n);
 HIDDEN int code_of(const char *s, const char *const *names, int n);
 HIDDEN uint64_t fingerprint_of(const char *s);
+HIDDEN void fmt_double(double v, char *out, size_t n);
+HIDDEN const char *var_name(const Comp *c, unsigned vr);
+/* Where the FMU's own documentation is, for messages (inside the FMU archive). */
+#define PYFMU_DOC "documentation/index.html in the FMU"
 
 /* ---- py_embed.c ---------------------------------------------------------------------------- */
 extern HIDDEN const char *BOOTSTRAP;
 HIDDEN int ensure_python(const Config *cfg, const char *resdir, char *err, size_t nerr);
 HIDDEN int gil_take(void);
+/* Python can be entered: loaded and initialised, and not being finalised (Py_IsInitialized is 0
+ * from the start of Py_FinalizeEx). A host may call the FMU during or after its own exit (Ecos
+ * frees a simulation from a __del__ run by Py_FinalizeEx; C++ destructors run after it); taking
+ * the GIL then uses a finalised interpreter (thread states freed, modules torn down) or, on
+ * another thread, ends that thread inside the host (PyThread_exit_thread). */
+HIDDEN int py_usable(void);
+#define NEED_PY(f)                                                                                         \
+    if (!py_usable()) {                                                                                    \
+        logmsg(c, fmi2Error, "logStatusError",                                                             \
+               "%s: the Python that runs the model has been shut down (the host called the FMU during or " \
+               "after its exit); nothing done", f);                                                       \
+        return fmi2Error;                                                                                  \
+    }
 #define GIL_DROP(g) py.GILRelease(g)
 HIDDEN void report_py_exception(Comp *c, const char *f);
 HIDDEN fmi2Status py_status(Comp *c, const char *f, PyObject *r);
@@ -169,5 +196,6 @@ HIDDEN int pyconfig_start_isolated(void *lib, const char *home, char *err, size_
 /* ---- fmi_api.c / fmi_state.c --------------------------------------------------------------- */
 HIDDEN fmi2Status refresh(Comp *c, const char *f);
 HIDDEN int check_vr(Comp *c, const char *f, fmi2ValueReference vr, char type);
+HIDDEN size_t free_states_of(uint64_t instance_id); /* fmi2FreeInstance: every state of the instance */
 
 #endif

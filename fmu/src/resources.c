@@ -3,6 +3,7 @@
  * variables.tsv (the variable table) and the resource location URI. */
 #define _GNU_SOURCE
 #include <dlfcn.h>
+#include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -86,23 +87,50 @@ int read_variables(Comp *c, const char *resdir, char *err, size_t nerr) {
     c->vtype = calloc(c->nvr, 1);
     c->vcaus = calloc(c->nvr, 1);
     c->vvar = calloc(c->nvr, 1);
-    if (!c->vtype || !c->vcaus || !c->vvar) {
+    c->vname = calloc(c->nvr, sizeof(char *));
+    c->vmin = malloc(c->nvr * sizeof(double));
+    c->vmax = malloc(c->nvr * sizeof(double));
+    c->vexcl = calloc(c->nvr, 1);
+    if (!c->vtype || !c->vcaus || !c->vvar || !c->vname || !c->vmin || !c->vmax || !c->vexcl) {
         fclose(f);
         snprintf(err, nerr, "out of memory");
         return 0;
     }
+    for (int i = 0; i < c->nvr; i++) {
+        c->vmin[i] = -INFINITY;
+        c->vmax[i] = INFINITY;
+    }
     rewind(f);
     while (fgets(line, sizeof line, f)) {
-        int vr;
-        char t[8], ca[32], va[32];
-        if (sscanf(line, "%d %7s %31s %31s", &vr, t, ca, va) != 4 || vr < 0 || vr >= c->nvr) continue;
+        int vr, excl = 0;
+        char t[8], ca[32], va[32], name[256] = "", lo[64] = "-inf", hi[64] = "inf";
+        int n = sscanf(line, "%d %7s %31s %31s %255s %63s %63s %d", &vr, t, ca, va, name, lo, hi, &excl);
+        if (n < 4 || vr < 0 || vr >= c->nvr) continue;
         c->vtype[vr] = t[0];
         c->vcaus[vr] = (char)code_of(ca, caus, 6);
         c->vvar[vr] = (char)code_of(va, var, 5);
+        if (n >= 5) c->vname[vr] = strdup(name);
+        if (n >= 7) {
+            c->vmin[vr] = strtod(lo, NULL);
+            c->vmax[vr] = strtod(hi, NULL);
+        }
+        if (n >= 8) c->vexcl[vr] = excl != 0;
         c->nvars++;
     }
     fclose(f);
     return 1;
+}
+
+const char *var_name(const Comp *c, unsigned vr) {
+    return c->vname && vr < (unsigned)c->nvr && c->vname[vr] ? c->vname[vr] : "?";
+}
+
+/* The shortest %g form, from 6 digits on, that reads back as v (1e-10, -40000, 0.1; not 1.0000000000000000364e-10). */
+void fmt_double(double v, char *out, size_t n) {
+    for (int p = 6; p <= 17; p++) {
+        snprintf(out, n, "%.*g", p, v);
+        if (strtod(out, NULL) == v) return;
+    }
 }
 
 void uri_to_path(const char *uri, char *out, size_t n) {

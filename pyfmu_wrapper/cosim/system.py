@@ -27,6 +27,10 @@ from ..solvers.monolithic import initial_guess, play_atol
 
 CONNECTIONS = ("base.x -> tmd.x", "base.xd -> tmd.xd", "base.xdd -> tmd.xdd", "tmd.force -> base.f_link")
 RECORD = ("tmd.y", "tmd.yd")
+#: smallest absolute tolerance [m] given to the FMUs: with no forcing (F = 0) the scale 1e-8 F/K is 0,
+#: which the FMUs refuse (atol must be > 0); any forced configuration of the paper is far above it
+ATOL_FLOOR = 1e-14
+
 #: how the TMD force reaches the base (CosimSettings.coupling)
 COUPLINGS = ("impulse", "force")
 
@@ -37,7 +41,7 @@ def fmu_parameters(base: BaseParams, tmd: TMDParams, omega: float, z0, fmu_rtol:
     out = registry.fmu_start_values(base, tmd, omega)
     out.update({
         "base.x0": z[0], "base.xd0": z[1], "base.rtol": fmu_rtol,
-        "base.atol": 1e-8 * abs(base.force_amplitude) / base.stiffness,
+        "base.atol": max(1e-8 * abs(base.force_amplitude) / base.stiffness, ATOL_FLOOR),
         "tmd.y0": z[2], "tmd.yd0": z[3], "tmd.d0": z[4], "tmd.dd0": z[5], "tmd.rtol": fmu_rtol,
         "tmd.atol": _tmd_atol(base, tmd),
     })
@@ -45,7 +49,7 @@ def fmu_parameters(base: BaseParams, tmd: TMDParams, omega: float, z0, fmu_rtol:
 
 
 def _tmd_atol(base: BaseParams, tmd: TMDParams) -> float:
-    a = 1e-8 * abs(base.force_amplitude) / base.stiffness
+    a = max(1e-8 * abs(base.force_amplitude) / base.stiffness, ATOL_FLOOR)
     if has_gap(tmd):
         a = min(a, play_atol(base, tmd))
     return a

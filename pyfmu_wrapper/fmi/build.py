@@ -21,7 +21,10 @@ stub, compiled with the system gcc against the FMI 2.0 headers that fmpy ships) 
   bundled functions by that hash (a cache of other code can never be loaded), imports the slave;
 - ``pyfmu.cfg``: GUID, the requirements (Python >= 3.11, numpy, numba) and the build's
   interpreter (one of the places a pure C host looks for a Python, see ``docs/fmus.md``);
-- ``variables.tsv``: the stub's variable table.
+- ``variables.tsv``: the stub's variable table (with each variable's range, enforced at set time);
+
+and ``documentation/index.html`` (:mod:`.documentation`): the variables, their ranges, what the FMU
+needs and refuses, generated from the same table; the stub's messages point there.
 
 A *standalone* FMU (``build-fmus --standalone``, :func:`build_fmu` with ``standalone=True``) also
 carries ``resources/python/``: the build interpreter's runtime and the installed numpy, numba and
@@ -42,6 +45,7 @@ import zipfile
 from pathlib import Path
 
 from ..cli.errors import cli_main
+from .documentation import documentation_html
 from .model_description import guid_of, model_description_xml, variable_table_tsv
 from .variables import PROJECT_FMUS, SPECS, FmuSpec
 
@@ -58,6 +62,32 @@ SLAVE_MODULE = "fmi/slaves.py"
 
 class BuildError(RuntimeError):
     """The FMU could not be built (no compiler, no headers, no shared libpython...)."""
+
+
+class OutputError(BuildError):
+    """The output folder cannot take the FMUs (a file, not writable, or holding a file of the same
+    name that this tool did not write): refused before anything is written."""
+
+
+def check_output(out_dir: Path, names) -> None:
+    """Refuse an output folder that is a file or cannot be written, and an existing target that
+    is not an FMU built by this tool (a user's file is never overwritten); creates the folder."""
+    out_dir = Path(out_dir)
+    if out_dir.exists() and not out_dir.is_dir():
+        raise OutputError(f"--out {out_dir} is a file, not a folder; nothing was written")
+    for n in names:
+        target = out_dir / f"{SPECS[n].model_identifier}.fmu"
+        if target.is_dir() or (target.exists() and fmu_source_hash(target) is None):
+            raise OutputError(f"{target} exists and was not written by build-fmus (it is not an FMU with a "
+                              "resources/pyfmu.cfg of this tool); it is left as it is: move it away or choose "
+                              "another --out. Nothing was written")
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        fd, probe = tempfile.mkstemp(prefix=".build-fmus-probe-", dir=out_dir)
+        os.close(fd)
+        os.unlink(probe)
+    except OSError as e:
+        raise OutputError(f"cannot write into --out {out_dir}: {e.strerror or e}; nothing was written") from None
 
 
 def stub_sources() -> list[Path]:
@@ -151,7 +181,8 @@ def source_hash() -> str:
         h.update(f.name.encode())
         h.update(f.read_bytes())
     h.update(bundle_hash().encode())
-    h.update((PACKAGE_DIR / "fmi" / "build.py").read_bytes())
+    for f in ("build.py", "model_description.py", "documentation.py"):  # what writes the archive
+        h.update((PACKAGE_DIR / "fmi" / f).read_bytes())
     h.update(build_python().encode())
     h.update(sys.version.encode())
     return h.hexdigest()[:24]
@@ -279,13 +310,36 @@ def _install_cache_locator():
     impl._locator_classes.insert(0, loc)  # ahead of any locator the bundled code installs
 
 
-def _import_package():
-    if PACKAGE in sys.modules:
-        return
+def _check_bundle():
     found = bundle_hash()
     if found != BUNDLE_HASH:
         raise RuntimeError(f"the model code in {{os.path.join(HERE, PACKAGE)}} was modified after the build "
                            f"(SHA-256 {{found}}, recorded {{BUNDLE_HASH}}); rebuild the FMU")
+
+
+def _share_package():
+    """The package is imported already, by another FMU of this build, whose folder the host may
+    have deleted since (fmpy deletes an FMU's extraction folder when it is done with it). Put this
+    FMU's copy (checked) first on the search path of the package and of each of its subpackages,
+    and drop folders that are gone: a submodule no FMU imported yet is then found in a folder that
+    exists, whichever FMU of the build was loaded, freed or deleted first."""
+    pkgs = [(n, m) for n, m in list(sys.modules.items())
+            if (n == PACKAGE or n.startswith(PACKAGE + ".")) and isinstance(getattr(m, "__path__", None), list)]
+    mine = os.path.join(HERE, PACKAGE)
+    if all(os.path.join(mine, *n.split(".")[1:]) in m.__path__ for n, m in pkgs):
+        return
+    _check_bundle()
+    for n, m in pkgs:
+        here = os.path.join(mine, *n.split(".")[1:])
+        m.__path__[:] = [here] + [p for p in m.__path__ if p != here and os.path.isdir(p)]
+    importlib.invalidate_caches()
+
+
+def _import_package():
+    if PACKAGE in sys.modules:
+        _share_package()
+        return
+    _check_bundle()
     spec = importlib.util.spec_from_file_location(PACKAGE, os.path.join(HERE, PACKAGE, "__init__.py"),
                                                   submodule_search_locations=[os.path.join(HERE, PACKAGE)])
     mod = importlib.util.module_from_spec(spec)
@@ -325,7 +379,7 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
     standalone FMU, with :func:`.standalone.stub_flags`)."""
     spec = SPECS[name]
     out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    check_output(out_dir, [name])
     shash = source_hash()
     guid = guid_of(spec, shash)
     files = bundled_files()
@@ -347,22 +401,32 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
         target = out_dir / f"{spec.model_identifier}.fmu"
         # unique per builder: parallel workers may build the same stale FMU at once
         part = out_dir / f".{spec.model_identifier}.fmu.{os.getpid()}.{os.urandom(4).hex()}.part"
-        with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
-            z.writestr("modelDescription.xml", model_description_xml(spec, guid))
-            z.write(so, f"binaries/linux64/{spec.model_identifier}.so")
-            z.writestr("resources/pyfmu.cfg", _config(spec, guid, shash, bhash, rt_cfg))
-            z.writestr("resources/variables.tsv", variable_table_tsv(spec))
-            z.writestr("resources/model.py", _model_py(spec, package, bhash, files))
-            for rel in files:
-                z.write(PACKAGE_DIR / rel, f"resources/{package}/{rel}")
-            for src, arc in runtime or ():
-                z.write(src, f"resources/{arc}")
+        try:
+            _write_archive(part, spec, guid, shash, bhash, rt_cfg, so, package, files, runtime)
+        except BaseException:
+            part.unlink(missing_ok=True)  # ours: never left behind
+            raise
         os.replace(part, target)
     return target
 
 
+def _write_archive(part, spec, guid, shash, bhash, rt_cfg, so, package, files, runtime):
+    with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
+        z.writestr("modelDescription.xml", model_description_xml(spec, guid))
+        z.writestr("documentation/index.html", documentation_html(spec, guid, REQUIRES, MIN_PYTHON))
+        z.write(so, f"binaries/linux64/{spec.model_identifier}.so")
+        z.writestr("resources/pyfmu.cfg", _config(spec, guid, shash, bhash, rt_cfg))
+        z.writestr("resources/variables.tsv", variable_table_tsv(spec))
+        z.writestr("resources/model.py", _model_py(spec, package, bhash, files))
+        for rel in files:
+            z.write(PACKAGE_DIR / rel, f"resources/{package}/{rel}")
+        for src, arc in runtime or ():
+            z.write(src, f"resources/{arc}")
+
+
 def build_fmus(names=PROJECT_FMUS, out_dir: str | os.PathLike = DEFAULT_OUT, standalone: bool = False) -> list[Path]:
     """Build several FMUs (the stub is compiled once, a standalone runtime collected once)."""
+    check_output(Path(out_dir), names)  # all refused before any is written
     with tempfile.TemporaryDirectory() as tmp:
         so = Path(tmp) / "stub.so"
         runtime, flags = None, ()
@@ -420,6 +484,9 @@ def main(argv=None) -> int:
             paths = build_fmus(args.names, args.out)
         else:
             paths = list(ensure_fmus(args.out, args.names).values())
+    except OutputError as e:
+        print(f"build-fmus: {e}", file=sys.stderr)
+        return 2
     except BuildError as e:
         print(f"build-fmus: {e}", file=sys.stderr)
         return 1

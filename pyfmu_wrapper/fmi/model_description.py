@@ -5,6 +5,8 @@ Both are produced from one :class:`~.variables.FmuSpec`; nothing is written by h
 from __future__ import annotations
 
 import hashlib
+import math
+import sys
 import uuid
 from xml.sax.saxutils import quoteattr
 
@@ -50,7 +52,28 @@ def _variable_xml(v: Variable) -> str:
     if v.start is not None:
         start = bool(v.start) if v.type == BOOLEAN else (int(v.start) if v.type == INTEGER else float(v.start))
         inner += f' start="{_fmt(start)}"'
+    lo, hi = declared_range(v)
+    if lo is not None:
+        inner += f' min="{_fmt(lo)}"'
+    if hi is not None:
+        inner += f' max="{_fmt(hi)}"'
     return f'    <ScalarVariable {attrs}>\n      <{v.type}{inner}/>\n    </ScalarVariable>'
+
+
+def declared_range(v: Variable):
+    """(min, max) as declared in modelDescription.xml: FMI's min is inclusive, so an exclusive
+    minimum m is declared as the next value above m (the next double, 2.2250738585072014e-308 for
+    m = 0; m + 1 for an Integer); the stub refuses m itself."""
+    lo = v.min
+    if lo is not None:
+        if v.type == INTEGER:
+            lo = int(lo) + (1 if v.min_exclusive else 0)
+        else:
+            lo = float(lo)
+            if v.min_exclusive:  # > 0: the smallest normal double (a subnormal may not parse everywhere)
+                lo = sys.float_info.min if lo == 0.0 else math.nextafter(lo, math.inf)
+    hi = None if v.max is None else (int(v.max) if v.type == INTEGER else float(v.max))
+    return lo, hi
 
 
 def _unknown(spec: FmuSpec, v: Variable, deps, kinds) -> str:
@@ -122,6 +145,12 @@ def model_description_xml(spec: FmuSpec, guid: str, generation_tool: str = "pyfm
 
 
 def variable_table_tsv(spec: FmuSpec) -> str:
-    """The table the C stub reads: vr, type code, causality, variability, name (one per line)."""
-    rows = [f"{v.vr}\t{TYPE_CODE[v.type]}\t{v.causality}\t{v.variability}\t{v.name}" for v in spec.variables]
+    """The table the C stub reads, one variable per line: vr, type code, causality, variability,
+    name, minimum, maximum (``-inf`` / ``inf``: none; exact bounds, not the declared ones) and 1 if
+    the minimum is exclusive, else 0."""
+    def bound(x, default):
+        return default if x is None else repr(float(x))
+
+    rows = [f"{v.vr}\t{TYPE_CODE[v.type]}\t{v.causality}\t{v.variability}\t{v.name}\t{bound(v.min, '-inf')}\t"
+            f"{bound(v.max, 'inf')}\t{int(v.min_exclusive)}" for v in spec.variables]
     return "\n".join(rows) + "\n"

@@ -10,14 +10,22 @@ derivatives. Python is entered only to instantiate, to set up, for long steps, a
 C signature (all pointers to the slave's own arrays, which keep their address for its life)::
 
     int32 step(double *reals, int32 *ints, double *derivs, double *z, double *p, int64 *stats,
-               double *th /* [t, suggested h] */, double *u, double *atol, double t, double h)
+               double *th /* [t, suggested h] */, double *u, double *atol, double *backup,
+               double t, double h)
 
-Returns 0 on success, 1 to ask the stub for the Python path: ``debug_raise`` is set (the Python
-slave raises with a traceback), or the integration failed (step size underflow, or more than
-:data:`~.slaves.MAX_INTEGRATOR_STEPS` steps): the state is put back to the start of the step and
-the Python slave retakes it, which fails the same way and reports where the integrator stopped,
-why, the state and its mode (:func:`~pyfmu_wrapper.solvers.rodas.failure_message`). (The stub
-still understands 2 and 3 as failures without a message.)
+Returns :data:`NATIVE_OK` on success, 1 to ask the stub for the Python path: ``debug_raise`` is
+set (the Python slave raises with a traceback), or the integration failed (step size underflow, or
+more than :data:`~.slaves.MAX_INTEGRATOR_STEPS` steps): the state is put back to the start of the
+step and the Python slave retakes it, which fails the same way and reports where the integrator
+stopped, why, the state and its mode (:func:`~pyfmu_wrapper.solvers.rodas.failure_message`).
+
+An exception inside the compiled code (e.g. a ZeroDivisionError) cannot leave a ``cfunc``: numba
+prints it to stderr and the function returns 0, the null value of its return type. That is why
+success is :data:`NATIVE_OK` and never 0: the stub reads 0 as "the compiled step raised", puts the
+state back from ``backup`` (z and the integrator counters as they were at the start of the step,
+saved there before integrating; :meth:`~.slaves.Slave.native_restore`) and retakes the step in
+Python, which raises the same exception with its traceback: fmi2Error, with the message sent to
+the FMI logger. ``debug_raise`` = 2 raises inside the compiled step (a test of that path).
 """
 from __future__ import annotations
 
@@ -35,7 +43,12 @@ from .variables import BASE_OSCILLATOR, TMD_INERTER
 SIGNATURE = types.int32(types.CPointer(types.float64), types.CPointer(types.int32), types.CPointer(types.float64),
                         types.CPointer(types.float64), types.CPointer(types.float64), types.CPointer(types.int64),
                         types.CPointer(types.float64), types.CPointer(types.float64), types.CPointer(types.float64),
-                        types.float64, types.float64)
+                        types.CPointer(types.float64), types.float64, types.float64)
+#: What a successful step returns (never 0: a cfunc that raised returns 0); keep in sync with
+#: PYFMU_NATIVE_OK in fmu/src/pyfmu.h.
+NATIVE_OK = 0x4F4B
+#: debug_raise value that makes the compiled step itself raise
+DEBUG_RAISE_NATIVE = 2
 
 NP = N_PARAMS
 # value references (frozen into the compiled code)
@@ -56,7 +69,7 @@ def base_step():
     """The BaseOscillator step (compiled on first use, cached on disk)."""
 
     @cfunc(SIGNATURE, cache=True)
-    def step(reals_p, ints_p, derivs_p, z_p, p_p, stats_p, th_p, u_p, atol_p, t, h):
+    def step(reals_p, ints_p, derivs_p, z_p, p_p, stats_p, th_p, u_p, atol_p, backup_p, t, h):
         reals = carray(reals_p, (B_NVR,))
         ints = carray(ints_p, (B_NVR,))
         derivs = carray(derivs_p, (2 * B_NVR,))
@@ -66,6 +79,13 @@ def base_step():
         th = carray(th_p, (2,))
         u = carray(u_p, (4,))
         atol = carray(atol_p, (2,))
+        backup = carray(backup_p, (2 + 4,))
+        for i in range(2):
+            backup[i] = z[i]
+        for i in range(4):
+            backup[2 + i] = stats[i]
+        if ints[B_DEBUG] == DEBUG_RAISE_NATIVE:
+            raise ZeroDivisionError("debug_raise = 2: exception injected in the compiled step")
         if ints[B_DEBUG] != 0:
             return 1
         u[0] = t
@@ -94,7 +114,7 @@ def base_step():
         reals[B_XDDF] = kn.base_acceleration(z[0], z[1], 0.0, 0.0, fexc, p)
         derivs[2 * B_FLINK] = 0.0
         derivs[2 * B_FLINK + 1] = 0.0
-        return 0
+        return NATIVE_OK
 
     return step
 
@@ -104,7 +124,7 @@ def tmd_step():
     """The TMDInerter step (compiled on first use, cached on disk)."""
 
     @cfunc(SIGNATURE, cache=True)
-    def step(reals_p, ints_p, derivs_p, z_p, p_p, stats_p, th_p, u_p, atol_p, t, h):
+    def step(reals_p, ints_p, derivs_p, z_p, p_p, stats_p, th_p, u_p, atol_p, backup_p, t, h):
         reals = carray(reals_p, (T_NVR,))
         ints = carray(ints_p, (T_NVR,))
         derivs = carray(derivs_p, (2 * T_NVR,))
@@ -114,6 +134,13 @@ def tmd_step():
         th = carray(th_p, (2,))
         u = carray(u_p, (U_KAPPA + 1,))  # u[U_KAPPA]: the mounting compliance, set by configure
         atol = carray(atol_p, (4,))
+        backup = carray(backup_p, (4 + 4,))
+        for i in range(4):
+            backup[i] = z[i]
+        for i in range(4):
+            backup[4 + i] = stats[i]
+        if ints[T_DEBUG] == DEBUG_RAISE_NATIVE:
+            raise ZeroDivisionError("debug_raise = 2: exception injected in the compiled step")
         if ints[T_DEBUG] != 0:
             return 1
         u[0] = t
@@ -151,6 +178,6 @@ def tmd_step():
         for vr in (T_X, T_XD, T_XDD):
             derivs[2 * vr] = 0.0
             derivs[2 * vr + 1] = 0.0
-        return 0
+        return NATIVE_OK
 
     return step

@@ -106,13 +106,23 @@ class Slave:
 
     def native(self):
         """Addresses for the stub's native step (:mod:`.native`): the C function and the arrays it
-        updates in place, as 7 native-endian uint64; empty bytes when this slave has none."""
+        updates in place, as 8 native-endian uint64; empty bytes when this slave has none."""
         step = self._native_step()
         if step is None:
             return b""
         self._native_ref = step  # keep the compiled function alive with the slave
-        arrays = (self.z, self.p, self.stats, self._th, self._u, self._atol)
+        # z and the integrator counters at the start of the native step (put back if it raised)
+        self._native_backup = np.zeros(self.n_state + self.stats.size)
+        arrays = (self.z, self.p, self.stats, self._th, self._u, self._atol, self._native_backup)
         return np.array([step.address] + [a.ctypes.data for a in arrays], dtype=np.uint64).tobytes()
+
+    @_guarded
+    def native_restore(self):
+        """The compiled step raised (numba printed the exception and returned 0): put z and the
+        counters back to where the step started, so the Python path retakes the same step."""
+        b = self._native_backup
+        self.z[:] = b[:self.n_state]
+        self.stats[:] = b[self.n_state:].astype(np.int64)
 
     def _native_step(self):
         return None
@@ -201,7 +211,8 @@ class Slave:
         if abs(t - self.t) > max(TIME_SLACK * h, 8.0 * np.spacing(abs(self.t))):
             raise FmuStepError(f"Expected currentCommunicationPoint = {self.t:.17g} but was {t:.17g}")
         if self._debug_vr is not None and self.i[self._debug_vr]:
-            raise InjectedError(f"debug_raise is set: exception injected at t = {t:.16g}")
+            raise InjectedError(f"debug_raise = {self.i[self._debug_vr]} is set: exception injected at t = {t:.16g}"
+                                + (" (in the compiled step, then again here)" if self.i[self._debug_vr] == 2 else ""))
         u = self._taylor_inputs(t)
         self.advance(t, h, u)
         self.t = t + h

@@ -13,6 +13,12 @@ Dependencies in the ModelStructure (FMI 2.0, Sect. 2.2.8): ``depends_on`` lists 
 output depends on directly (algebraic feed-through within one communication point), with the
 matching ``dependencies_kind``; ``initial_depends_on`` lists the knowns (inputs and exact
 parameters) an initial unknown depends on during initialisation.
+
+Ranges: ``min`` / ``max`` (inclusive; ``min_exclusive``: the minimum itself is refused) come from
+the parameter registry for the model parameters and are declared here for the others. They go
+into ``modelDescription.xml`` (an exclusive minimum m as the next double above m: FMI's min is
+inclusive) and into the stub's table, which refuses an out-of-range value in fmi2SetReal /
+fmi2SetInteger with a message naming the variable, the value and the range.
 """
 from __future__ import annotations
 
@@ -39,6 +45,9 @@ class Variable:
     depends_on: tuple[str, ...] = ()
     dependencies_kind: tuple[str, ...] = ()
     initial_depends_on: tuple[str, ...] | None = None
+    min: float | None = None
+    max: float | None = None
+    min_exclusive: bool = False
 
     def __post_init__(self):
         if self.type not in (REAL, INTEGER, BOOLEAN):
@@ -49,6 +58,25 @@ class Variable:
             raise ValueError(f"{self.name}: a calculated output takes no start value")
         if len(self.depends_on) != len(self.dependencies_kind):
             raise ValueError(f"{self.name}: depends_on and dependencies_kind differ in length")
+        if (self.min is not None or self.max is not None) and self.type == BOOLEAN:
+            raise ValueError(f"{self.name}: a Boolean has no range")
+        if self.start is not None and not self.in_range(self.start):
+            raise ValueError(f"{self.name}: start value {self.start!r} is outside its range {self.range_text()}")
+
+    def in_range(self, value) -> bool:
+        """Whether value lies within min/max (what the stub accepts)."""
+        if self.min is not None and (value <= self.min if self.min_exclusive else value < self.min):
+            return False
+        return self.max is None or value <= self.max
+
+    def range_text(self) -> str:
+        """The range as people read it: ``> 0``, ``>= 0``, ``0 ... 2``, ``any``."""
+        lo = None if self.min is None else f"{'>' if self.min_exclusive else '>='} {self.min:g}"
+        if self.max is None:
+            return lo or "any"
+        if lo is None:
+            return f"<= {self.max:g}"
+        return f"{self.min:g} ... {self.max:g}" if not self.min_exclusive else f"{lo} and <= {self.max:g}"
 
 
 @dataclass(frozen=True)
@@ -95,19 +123,22 @@ class FmuSpec:
         return [v.name for v in self.variables].index(name) + 1
 
 
-def _par(name, vr, start, unit, description, type_=REAL):
-    return Variable(name, vr, type_, "parameter", "fixed", description, unit, start, "exact")
+def _par(name, vr, start, unit, description, type_=REAL, lo=None, hi=None, exclusive=False):
+    return Variable(name, vr, type_, "parameter", "fixed", description, unit, start, "exact",
+                    min=lo, max=hi, min_exclusive=exclusive)
 
 
 def _registry_parameters(subsystem: str) -> tuple[Variable, ...]:
-    """The model parameters of one FMU, from the parameter registry (name, vr, unit, default)."""
+    """The model parameters of one FMU, from the parameter registry (name, vr, unit, default, bounds)."""
     out = []
     for p in registry.of(subsystem):
         if p.kind == "enum":
-            out.append(_par(p.fmu_name, p.fmu_vr, int(p.default), None, p.description, INTEGER))
+            out.append(_par(p.fmu_name, p.fmu_vr, int(p.default), None, p.description, INTEGER,
+                            None if p.minimum is None else int(p.minimum), None if p.maximum is None else int(p.maximum)))
         else:
             unit = None if p.unit == "1" else p.unit
-            out.append(_par(p.fmu_name, p.fmu_vr, float(p.default), unit, f"{p.symbol}: {p.description}"))
+            out.append(_par(p.fmu_name, p.fmu_vr, float(p.default), unit, f"{p.symbol}: {p.description}",
+                            lo=p.minimum, hi=p.maximum, exclusive=p.strict and p.minimum is not None))
     return tuple(out)
 
 
@@ -117,11 +148,13 @@ _TMD_PARS = tuple(p.fmu_name for p in registry.of("tmd"))
 
 
 _INTEGRATOR = (
-    _par("rtol", 90, 1e-8, None, "relative tolerance of the RODAS4 integrator inside doStep"),
-    _par("atol", 91, 1e-10, None, "absolute tolerance of the integrator (all states, SI units)"),
+    _par("rtol", 90, 1e-8, None, "relative tolerance of the RODAS4 integrator inside doStep (> 0, <= 1)",
+         lo=0.0, hi=1.0, exclusive=True),
+    _par("atol", 91, 1e-10, None, "absolute tolerance of the integrator (all states, SI units; > 0)",
+         lo=0.0, exclusive=True),
     Variable("debug_raise", 99, INTEGER, "parameter", "tunable",
-             "testing aid: 1 makes the next doStep raise a Python exception (reported as fmi2Error)",
-             None, 0, "exact"),
+             "testing aid: 1 makes the next doStep raise a Python exception, 2 raise inside the compiled step "
+             "(both reported as fmi2Error)", None, 0, "exact", min=0, max=2),
 )
 
 BASE_OSCILLATOR = FmuSpec(
@@ -167,7 +200,7 @@ TMD_INERTER = FmuSpec(
         _par("base_compliance", 15, 0.0, "1/kg",
              "interface Jacobian -d xdd/d force = 1/M of the body the TMD is mounted on. 0 (default): "
              "xdd is the base acceleration. > 0: xdd is the base acceleration without this TMD's force "
-             "(BaseOscillator.xdd_free) and the TMD adds the base's reaction -force/M within each step"),
+             "(BaseOscillator.xdd_free) and the TMD adds the base's reaction -force/M within each step", lo=0.0),
         Variable("x", 30, REAL, "input", "continuous", "base displacement", "m", 0.0),
         Variable("xd", 31, REAL, "input", "continuous", "base velocity", "m/s", 0.0),
         Variable("xdd", 32, REAL, "input", "continuous",

@@ -38,7 +38,9 @@ class Parameter:
     modelica_type: its ``TMDInerter.Units`` type; models: the inerter models it applies to;
     field: it is a field of the subsystem's parameter class (False for the excitation
     frequency, which the solvers take separately); kind: ``real`` or ``enum``;
-    mappable: a scenario map may sweep it.
+    mappable: a scenario map may sweep it; maximum: upper bound, inclusive (None: none).
+    The bounds are declared as min/max in the FMUs' modelDescription.xml and enforced by
+    fmi2SetReal/fmi2SetInteger (an exclusive minimum m is declared as the next double above m).
     """
 
     name: str
@@ -57,6 +59,7 @@ class Parameter:
     field: bool = True
     kind: str = "real"
     mappable: bool = True
+    maximum: float | None = None
 
     @property
     def label(self) -> str:
@@ -94,8 +97,8 @@ PARAMETERS: tuple[Parameter, ...] = (
        "ci", 7, "ci", "TranslationalDampingConstant", models=(PLAY,)),
     _P("play_gap", "eps", "tmd", "m", 0.0, 0.0, False,
        "half the backlash of the gear (free while |r - y| < eps)", "eps", 8, "eps", "Position", models=(PLAY,)),
-    _P("inerter", "-", "tmd", "1", IDEAL, None, False, "inerter model: 0 none (I must be 0), 1 ideal, 2 with play",
-       "inerter", 9, None, None, kind="enum", mappable=False),
+    _P("inerter", "-", "tmd", "1", IDEAL, NONE, False, "inerter model: 0 none (I must be 0), 1 ideal, 2 with play",
+       "inerter", 9, None, None, kind="enum", mappable=False, maximum=PLAY),
     _P("cubic_stiffness", "k3", "tmd", "N/m3", 0.0, None, False,
        "cubic term of the TMD spring, k3 (x - y)^3 (> 0 hardening, < 0 softening)", "k3", 10, "k3",
        "CubicSpringConstant"),
@@ -145,6 +148,8 @@ def markdown_table(subsystem: str) -> str:
     names = {NONE: "none", IDEAL: "ideal", PLAY: "play"}
     for p in of(subsystem):
         bound = "any" if p.minimum is None else (f"> {p.minimum:g}" if p.strict else f">= {p.minimum:g}")
+        if p.maximum is not None:
+            bound = f"<= {p.maximum:g}" if p.minimum is None else f"{bound}, <= {p.maximum:g}"
         if p.kind == "enum":
             bound = "0, 1, 2"
         applies = "all" if p.models == ALL_MODELS else ", ".join(names[m] for m in p.models)

@@ -8,7 +8,9 @@
  * runs NCALLS random calls on two instances of each FMU: valid calls (steps, inputs, outputs,
  * state get/set/serialize, directional derivatives, the lifecycle) mixed with invalid ones
  * (wrong states, bad value references, NaN/Inf values, times and step sizes, zero/negative/huge
- * steps, states of the other FMU, garbage and freed state pointers, corrupt serialized bytes).
+ * steps, states of the other FMU, states of the other instance of the same FMU (a state belongs
+ * to the instance that made it), garbage and freed state pointers, states freed with their
+ * instance by fmi2FreeInstance, corrupt serialized bytes).
  * The harness tracks each instance's FMI state, so it knows which calls must be refused.
  * Checked per call: an invalid call returns neither fmi2OK nor fmi2Warning and logs an error;
  * a successful getReal gives finite values; a restored state gives bit-identical outputs and
@@ -138,6 +140,7 @@ typedef struct {
 #define MAXS 24
 typedef struct {
     Fmu *f;
+    void *owner; /* the Inst whose fmi2GetFMUstate / DeSerialize made it: only it may use the state */
     fmi2FMUstate s;
     int st;
     double t;
@@ -156,6 +159,16 @@ static int is_live_state(void *p) {
     for (int i = 0; i < nsaved; i++)
         if (saved[i].s == p) return 1;
     return 0;
+}
+
+/* The instance is about to be freed: its states die with it (fmi2FreeInstance frees them); their
+ * addresses join the freed ones, which every instance must refuse. */
+static void drop_states_of(Inst *in) {
+    for (int i = 0; i < nsaved;)
+        if (saved[i].owner == in) {
+            if (nfreed < 64) freed[nfreed++] = saved[i].s;
+            saved[i] = saved[--nsaved];
+        } else i++;
 }
 
 static void instantiate(Inst *in) {
@@ -188,6 +201,7 @@ static void recover(Inst *in) { /* after a refused valid call: back to a known s
         in->st = INSTANTIATED;
         in->t = 0.0;
     } else {
+        drop_states_of(in);
         in->f->free_instance(in->c);
         instantiate(in);
     }
@@ -296,7 +310,7 @@ static void op(void) {
         int w = pick(3);
         Saved *sv = NULL;
         if (w > 0 && nsaved) sv = &saved[pick(nsaved)];
-        if (sv && sv->f != f) {
+        if (sv && (sv->f != f || sv->owner != in)) { /* another FMU's or another instance's state */
             fmi2FMUstate st = sv->s;
             s = f->get_state(in->c, &st);
             judge(0, s, L);
@@ -307,7 +321,7 @@ static void op(void) {
         s = f->get_state(in->c, &st);
         if (judge(1, s, L)) {
             if (!sv) sv = &saved[nsaved++];
-            sv->f = f; sv->s = st; sv->st = in->st; sv->t = in->t;
+            sv->f = f; sv->owner = in; sv->s = st; sv->st = in->st; sv->t = in->t;
             sv->have_out = in->st == STEPPING && f->get_real(in->c, f->out, (size_t)f->nout, sv->out) == fmi2OK;
         }
         break;
@@ -317,7 +331,7 @@ static void op(void) {
         if (w <= 1 && nsaved) {
             Saved *sv = &saved[pick(nsaved)];
             s = f->set_state(in->c, sv->s);
-            if (judge(sv->f == f, s, L) && sv->f == f) {
+            if (judge(sv->owner == in, s, L) && sv->owner == in) {
                 in->st = sv->st; in->t = sv->t;
                 if (sv->have_out) {
                     double v[16];
@@ -342,7 +356,7 @@ static void op(void) {
     case 18: { /* free a state */
         if (!nsaved) break;
         int i = pick(nsaved);
-        if (saved[i].f != f) {
+        if (saved[i].owner != in) {
             fmi2FMUstate st = saved[i].s;
             s = f->free_state(in->c, &st);
             judge(0, s, L);
@@ -360,7 +374,7 @@ static void op(void) {
         Saved *sv = NULL;
         for (int tries = 0; tries < 4 && nsaved && !sv; tries++) {
             Saved *c = &saved[pick(nsaved)];
-            if (c->f == f) sv = c;
+            if (c->owner == in) sv = c;
         }
         if (!sv) break;
         size_t n = 0;
@@ -403,6 +417,7 @@ static void op(void) {
                 if (nsaved < MAXS) {
                     Saved *d = &saved[nsaved++];
                     *d = *sv;
+                    d->owner = in;
                     d->s = st;
                 } else f->free_state(in->c, &st);
             } else if (s == fmi2OK && st) target->free_state(tin->c, &st);
@@ -446,9 +461,14 @@ static void op(void) {
             if (c) { K.invalid_ok++; f->free_instance(c); }
             else if (g_errors_logged == L) K.unlogged++;
         } else {
-            for (int i = 0; i < nsaved;) /* states outlive nothing: free this instance's FMU states first */
-                if (saved[i].f == f && pick(2) == 0) { f->free_state(in->c, &saved[i].s); saved[i] = saved[--nsaved]; }
-                else i++;
+            for (int i = 0; i < nsaved;) /* free some of this instance's FMU states; fmi2FreeInstance frees the rest */
+                if (saved[i].owner == in && pick(2) == 0) {
+                    void *p = saved[i].s;
+                    s = f->free_state(in->c, &saved[i].s);
+                    if (judge(1, s, L) && nfreed < 64) freed[nfreed++] = p;
+                    saved[i] = saved[--nsaved];
+                } else i++;
+            drop_states_of(in);
             f->free_instance(in->c);
             instantiate(in);
         }

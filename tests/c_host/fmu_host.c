@@ -9,6 +9,11 @@
  *   fmu_host loop N DIR GUID                      instantiate/init/step/free N times, print RSS
  *   fmu_host bench N DIR GUID UVR YVR [r:VR=VAL]  us per (SetReal, DoStep, GetReal)
  *   fmu_host errors DIR GUID                      wrong call sequences and an injected exception
+ *
+ * How "run" ends (FMU_HOST_EXIT; the teardown check of tests/test_fmu_teardown.py): "free" (default:
+ * fmi2Terminate + fmi2FreeInstance, then return from main), "nofree" (exit with the instances alive,
+ * as a host that crashes or forgets would), "dlclose" (free, then dlclose every FMU binary), "exit"
+ * (free, then exit() from inside a function, atexit handlers running with the libraries loaded).
  */
 #include <dlfcn.h>
 #include <stdarg.h>
@@ -38,6 +43,7 @@ typedef struct {
 
 static int g_log_count = 0;
 static int g_traceback_seen = 0;
+static int g_range_seen = 0;
 
 static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status st, fmi2String cat, fmi2String msg, ...) {
     char buf[16384];
@@ -47,6 +53,7 @@ static void logger(fmi2ComponentEnvironment env, fmi2String name, fmi2Status st,
     va_end(ap);
     g_log_count++;
     if (strstr(buf, "Traceback (most recent call last)")) g_traceback_seen = 1;
+    if (strstr(buf, "is out of range")) g_range_seen = 1;
     if (getenv("FMU_HOST_VERBOSE")) fprintf(stderr, "[%s|%d|%s] %s\n", name, st, cat, buf);
 }
 static fmi2CallbackFunctions callbacks = {logger, calloc, free, NULL, NULL};
@@ -164,10 +171,16 @@ static int run(int argc, char **argv) {
         for (int j = 0; j < ni; j++)
             if (inst[j].a.do_step(inst[j].c, t, (k + 1) * step - t, fmi2True) != fmi2OK) return 7; /* as fmpy */
     }
+    const char *how = getenv("FMU_HOST_EXIT");
+    fflush(stdout);
+    if (how && !strcmp(how, "nofree")) exit(0); /* instances alive at process exit */
     for (int j = 0; j < ni; j++) {
         inst[j].a.terminate(inst[j].c);
         inst[j].a.free_instance(inst[j].c);
     }
+    if (how && !strcmp(how, "dlclose"))
+        for (int j = 0; j < ni; j++) dlclose(inst[j].a.h);
+    if (how && !strcmp(how, "exit")) exit(0);
     return 0;
 }
 
@@ -254,6 +267,16 @@ static int errors(int argc, char **argv) {
     EXPECT("exitInit_before_enter", a.exit_init(c) == fmi2Error);
     EXPECT("setReal_null_values", a.set_real(c, &vr0, 1, NULL) == fmi2Error);
     EXPECT("setReal_bad_vr", a.set_real(c, &vr_bad, 1, &v) == fmi2Error);
+    /* ranges (TMDInerter: inerter vr 9 in 0 ... 2, atol vr 91 > 0) */
+    fmi2ValueReference vr_inerter = 9, vr_atol = 91;
+    int three = 3;
+    double zero = 0.0;
+    g_range_seen = 0;
+    EXPECT("setInteger_out_of_range_refused", a.set_integer(c, &vr_inerter, 1, &three) == fmi2Error);
+    EXPECT("range_message_logged", g_range_seen);
+    g_range_seen = 0;
+    EXPECT("setReal_atol_zero_refused", a.set_real(c, &vr_atol, 1, &zero) == fmi2Error);
+    EXPECT("range_message_logged_atol", g_range_seen);
     EXPECT("setup", a.setup(c, 0, 0, 0, 0, 0) == fmi2OK);
     EXPECT("enter", a.enter(c) == fmi2OK);
     EXPECT("enter_twice", a.enter(c) == fmi2Error);
@@ -272,6 +295,15 @@ static int errors(int argc, char **argv) {
     EXPECT("reset_after_error", a.reset(c) == fmi2OK);
     EXPECT("reinit", a.setup(c, 0, 0, 0, 0, 0) == fmi2OK && a.enter(c) == fmi2OK && a.exit_init(c) == fmi2OK);
     EXPECT("doStep_after_reset", a.do_step(c, 0, 1e-3, 1) == fmi2OK);
+    /* an exception raised inside the compiled (native) step: fmi2Error with the traceback logged */
+    int two = 2;
+    g_traceback_seen = 0;
+    EXPECT("set_debug_raise_native", a.set_integer(c, &vr_debug, 1, &two) == fmi2OK);
+    EXPECT("doStep_native_exception_is_error", a.do_step(c, 1e-3, 1e-3, 1) == fmi2Error);
+    EXPECT("native_traceback_logged", g_traceback_seen);
+    EXPECT("reset_after_native_error", a.reset(c) == fmi2OK);
+    EXPECT("reinit2", a.setup(c, 0, 0, 0, 0, 0) == fmi2OK && a.enter(c) == fmi2OK && a.exit_init(c) == fmi2OK);
+    EXPECT("doStep_after_reset2", a.do_step(c, 0, 1e-3, 1) == fmi2OK);
     EXPECT("terminate", a.terminate(c) == fmi2OK);
     EXPECT("doStep_after_terminate", a.do_step(c, 1e-3, 1e-3, 1) == fmi2Error);
     a.free_instance(c);
