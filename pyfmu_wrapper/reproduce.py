@@ -246,7 +246,7 @@ CAPTIONS = {
 SLIPS = [
     ("Units", "The paper's 'Hz' are rad/s (w_n = sqrt(K/M) = 20 rad/s = 3.18 Hz); the figures only match F cos(w t) with w in rad/s."),
     ("Table 1 vs text", "Table 1 gives ki = 1e7 N/m for the play model, the text 2e7 N/m; the text's value is used."),
-    ("Signs", "Table 1 / Eq. (4) as extracted give negative damping and, for Case 3, an indefinite mass matrix; the passive convention is used (shared/physics-notes.md)."),
+    ("Signs", "Table 1 / Eq. (4) as extracted give negative damping and, for Case 3, an indefinite mass matrix; the passive convention is used (docs/physics.md)."),
     ("Sect. 5", "Points to Fig. 3 (d, f) and 'Fig. 3f' where it means Fig. 4; says '(c, d) for Case 3' for (e, f); the Fig. 4 caption says c where it means df."),
     ("Sect. 6", "'The amplitude of the damped body is at least 100 times bigger than the play gap': false near w = 20 rad/s (see the claims)."),
     ("Sect. 7", "Calls c = 15 N s/m 'c_opt(Case 1)'; it is the +50 % rule applied to c = 10 (1.5 x 10), not an optimum, and Case 2 uses the same 15 N s/m; the best-fit c is in the table above."),
