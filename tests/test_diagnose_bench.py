@@ -180,3 +180,24 @@ def test_score_classifies_oov_results():
     summ = sysscore.summarise(rows)
     assert summ["singles_top1"] == 1.0 and summ["oov_honest_or_right"] == 0.5
     assert summ["oov_confidently_wrong"] == 0.5 and summ["unexplained_on_invocab_or_clean"] == 0.0
+
+
+def test_make_benchmark_never_prints_labels(tmp_path, capsys):
+    import json
+
+    from pyfmu_wrapper.diagnose.cli import main_make_benchmark
+    from pyfmu_wrapper.diagnose.sysbench_oov import OOV_EFFECTS
+    from pyfmu_wrapper.diagnose.sysbench_suite import RANGES, TRUTH_KEY
+
+    assert main_make_benchmark(["--out", str(tmp_path), "-n", "4", "--seed", "4"]) == 0
+    out = capsys.readouterr().out
+    assert not [e for e in list(RANGES) + list(OOV_EFFECTS) if e in out]
+    man = json.loads((tmp_path / "manifest.json").read_text())
+    rows = man["datasets"]
+    assert sorted(r["class"] for r in rows) == ["clean", "oov", "pair", "single"]
+    for r in rows:
+        meta = yaml.safe_load((tmp_path / r["dataset"] / "dataset.yaml").read_text())
+        assert meta.get("acquisition") == r["acquisition"]
+        assert set(r["truth"]) == {TRUTH_KEY[e] for e in r["hidden"] if e in TRUTH_KEY}
+        assert (r["visibility"]["chi2"] == 0.0) == (r["class"] == "clean")
+        assert r["visibility"]["visible"] == (r["visibility"]["chi2"] > man["visible_chi2"])
