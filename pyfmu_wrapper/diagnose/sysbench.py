@@ -1,7 +1,10 @@
-"""System-level withheld-effect benchmark: the coupled base + TMD simulated with the project's
-solver (``solvers.monolithic``) and measured as a test rig does.
+"""System-level withheld-effect datasets under fixed conditions (the tests of ``diagnose`` use
+:func:`make_system_dataset`); the field-like suite of ``make-benchmark`` is
+:mod:`sysbench_suite` (drawing), :mod:`sysbench_field` (simulation and acquisition chain) and
+:mod:`sysbench_oov` (out-of-vocabulary truths), see docs/diagnose.md "Check 1".
 
-Per dataset: paper Case 1 or Case 2 nominal (ideal inerter, c = 15 N s/m, no friction, no play);
+The coupled base + TMD simulated with the project's solver (``solvers.monolithic``) and measured
+as a test rig does. Per dataset of :func:`make_system_dataset`: paper Case 1 or Case 2 nominal (ideal inerter, c = 15 N s/m, no friction, no play);
 four steady-state time records (t, force, x, y, xdd, ydd at 1 kHz over 10 forcing periods, no
 velocity channel) at four distinct frequencies drawn from 16-24 rad/s and force amplitudes from
 100-300 N; independent white noise of 0.5-2 % of each channel's rms, drawn per channel and per

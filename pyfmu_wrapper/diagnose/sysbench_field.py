@@ -31,6 +31,7 @@ from .data import write_record
 DENSE_HZ = 20000.0
 PREROLL_PERIODS = 2
 CHANNELS = ("force", "x", "y", "xdd", "ydd")
+PLAY_PERIODS = 40  #: play (rattling): settle at most 40 periods; x_max = max over the last 20-period window
 
 
 # -- acquisition ------------------------------------------------------------------------------------
@@ -92,7 +93,7 @@ def truth_dense(truth: dict, omega: float, F_rec: float, tau: np.ndarray) -> dic
     from ..physics.params import pack
     from ..solvers.monolithic import SolverSettings, simulate, steady_state
 
-    ss = steady_state(base, tmd, omega, settings=SolverSettings(max_periods_window=80))
+    ss = steady_state(base, tmd, omega, settings=SolverSettings(max_periods_window=PLAY_PERIODS))
     _, z = simulate(base, tmd, omega, float(tau[-1]), z0=ss.state, sample_times=tau, rtol=1e-9)
     p = pack(base, tmd, omega)
     dz = np.empty(6)
@@ -182,9 +183,14 @@ def frc_amplitudes(truth: dict, omegas, F_rec) -> np.ndarray:
         return exact_amplitude(base, tmd, np.asarray(omegas, dtype=float))
     from ..solvers.monolithic import SolverSettings, steady_state
 
-    out, z = [], None
-    for w in omegas:  # a sweep: each point starts from the previous one's state
-        ss = steady_state(base, tmd, float(w), z0=z, settings=SolverSettings(max_periods_window=80))
+    from ..physics.params import has_gap
+
+    out, z, hint = [], None, {}
+    rattle = has_gap(tmd)
+    for w in omegas:  # a sweep: each point starts from the previous one's state (play: from the
+        # continued companion orbit, which settles in about two windows)
+        ss = steady_state(base, tmd, float(w), z0=None if rattle else z,
+                          settings=SolverSettings(max_periods_window=PLAY_PERIODS), hint=hint if rattle else None)
         z = ss.state
         out.append(ss.amplitude)
     return np.array(out)
