@@ -117,11 +117,14 @@ def summarise(rows: list) -> dict:
     per = {}
     for r in by["single"] + by["pair"]:
         for e in r["hidden"]:
-            d = per.setdefault(e, {"n": 0, "named": 0, "errors": []})
+            d = per.setdefault(e, {"n": 0, "named": 0, "n_single": 0, "single_top1": 0, "errors": []})
             d["n"] += 1
             d["named"] += int(e in r["found"])
+            d["n_single"] += int(r["class"] == "single")
+            d["single_top1"] += int(r["class"] == "single" and r["correct"])
             d["errors"] += [v for k, v in r["param_rel_error"].items() if k.split(".")[0] == e]
-    s["per_effect"] = {e: {"n": d["n"], "named": d["named"],
+    s["per_effect"] = {e: {"n": d["n"], "named": d["named"], "n_single": d["n_single"],
+                           "single_top1": d["single_top1"],
                            "param_rel_error_median": statistics.median(d["errors"]) if d["errors"] else None}
                        for e, d in sorted(per.items())}
     po = {}
@@ -170,7 +173,9 @@ def table(summary: dict) -> str:
     """The score as a Markdown table (the one in docs/diagnose.md)."""
     s = summary
     n = {c: s[f"n_{c}"] for c in ("clean", "single", "pair", "oov")}
-    lines = ["| measure | value | target | met |", "|---|---|---|---|"]
+    lines = [f"{s['n_datasets']} datasets: {n['clean']} clean, {n['single']} singles, {n['pair']} pairs, "
+             f"{n['oov']} out of vocabulary ({s['oov_invisible']} of them invisible)", "",
+             "| measure | value | target | met |", "|---|---|---|---|"]
 
     def add(name, key, frac):
         t = s["targets"].get(key)
@@ -197,10 +202,11 @@ def table(summary: dict) -> str:
                  f"{_pct(s['oov_missed'])} / {s['oov_invisible']} | | |")
     lines.append(f"| verdict text and `unexplained` flag disagree | {s['text_flag_disagreements']} | | |")
     lines.append(f"| diagnose refused or failed | {s['errors']} | | |")
-    lines += ["", "| effect | datasets | named | param. error median |", "|---|---|---|---|"]
+    lines += ["", "| effect | singles: top-1 | singles + pairs: named | param. error median |", "|---|---|---|---|"]
     for e, d in s["per_effect"].items():
         pe = d["param_rel_error_median"]
-        lines.append(f"| {e} | {d['n']} | {d['named']} | {'-' if pe is None else f'{100 * pe:.2f} %'} |")
+        lines.append(f"| {e} | {d['single_top1']}/{d['n_single']} | {d['named']}/{d['n']} | "
+                     f"{'-' if pe is None else f'{100 * pe:.2f} %'} |")
     lines += ["", "| OOV effect | datasets | honest | right | confidently wrong | missed | error |",
               "|---|---|---|---|---|---|---|"]
     for e, d in s["per_oov_effect"].items():
