@@ -183,7 +183,9 @@ def make_field_benchmark(out: Path, n: int | None = None, seed: int = 1, n_clean
                "nominal_damping": spec["nominal"]["tmd"]["damping"], "fs": spec["fs"],
                "accel_only": spec["accel_only"], "acquisition": spec["acquisition"],
                "n_records": len(spec["records"]),
-               "frc": [{"force": f["force"], "direction": f["direction"]} for f in spec["frc"]],
+               "records": [{k: r[k] for k in ("frequency_hz", "force", "periods", "phase", "noise")}
+                           for r in spec["records"]],
+               "frc": [{"force": f["force"], "direction": f["direction"], "noise": f["noise"]} for f in spec["frc"]],
                "hidden": sorted(hidden) + sorted(oov_names), "severity": {**hidden, **oov},
                "truth": {TRUTH_KEY[e]: v for e, v in hidden.items()}, "oov": oov,
                "visibility": vis, "seconds": round(time.perf_counter() - t0, 2)}
