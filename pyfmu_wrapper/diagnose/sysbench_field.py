@@ -104,7 +104,7 @@ def truth_dense(truth: dict, omega: float, F_rec: float, tau: np.ndarray) -> dic
     return {"x": z[:, 0], "y": z[:, 2], "xdd": acc[:, 0], "ydd": acc[:, 1]}
 
 
-def measure(tr: dict, truth: dict, omega, F_rec, phi, tau, t_dense, acq, fd, channels):
+def measure(tr: dict, truth: dict, omega, F_rec, phi, t_dense, acq, fd, channels):
     """Noise-free measured channels on the dense grid (readings, delay, filter)."""
     gains = truth.get("oov", {})
     out = {}
@@ -142,10 +142,9 @@ def time_record(truth, nom, omega, F_rec, fs, n_periods, phi, acq, accel_only, r
     """(columns, noise-free difference chi-square against the nominal, noise stds)."""
     tau, t_dense, k, j0, n, fd = record_grid(omega, fs, n_periods, phi)
     chans = ("force", "xdd", "ydd") if accel_only else CHANNELS
-    meas = measure(truth_dense(truth, omega, F_rec, tau), truth, omega, F_rec, phi, tau, t_dense, acq, fd, chans)
+    meas = measure(truth_dense(truth, omega, F_rec, tau), truth, omega, F_rec, phi, t_dense, acq, fd, chans)
     nom_truth = {"base": nom["base"], "tmd": nom["tmd"]}
-    ref = measure(truth_dense(nom_truth, omega, F_rec, tau), nom_truth, omega, F_rec, phi, tau, t_dense, acq,
-                  fd, chans)
+    ref = measure(truth_dense(nom_truth, omega, F_rec, tau), nom_truth, omega, F_rec, phi, t_dense, acq, fd, chans)
     idx = j0 + k * np.arange(n)
     cols = {"t": np.arange(n) / fs}
     chi2, sig = 0.0, {}
@@ -230,10 +229,8 @@ def write_dataset(folder: Path, spec: dict, rng) -> dict:
     for i, f in enumerate(spec["frc"]):
         cols, c2 = frc_record(truth, nom, f, acq, rng)
         chi2_f += c2
-        cols["direction"] = None
         name = f"frc{i + 1}_{f['direction']}_F{f['force']:g}N.csv"
-        om = cols.pop("omega")
-        _write_frc(folder / name, om, cols["force_amplitude"], cols["x_max"], f["direction"])
+        _write_frc(folder / name, cols["omega"], cols["force_amplitude"], cols["x_max"], f["direction"])
         recs.append({"file": name})
     meta = {"level": "system", "description": "field-like benchmark dataset (system level, simulated rig)",
             "nominal": nom, "records": recs}
