@@ -220,3 +220,46 @@ def test_make_benchmark_never_prints_labels(tmp_path, capsys):
         assert set(r["truth"]) == {TRUTH_KEY[e] for e in r["hidden"] if e in TRUTH_KEY}
         assert (r["visibility"]["chi2"] == 0.0) == (r["class"] == "clean")
         assert r["visibility"]["visible"] == (r["visibility"]["chi2"] > man["visible_chi2"])
+
+
+def test_make_benchmark_and_score_refuse_to_overwrite_foreign_files(tmp_path, capsys):
+    from pyfmu_wrapper.diagnose.cli import main_make_benchmark, main_score
+
+    (tmp_path / "notes.txt").write_text("mine")
+    assert main_make_benchmark(["--out", str(tmp_path), "-n", "3"]) == 2
+    assert "not empty" in capsys.readouterr().err and sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+    with pytest.raises(SystemExit) as e:
+        main_make_benchmark(["--out", str(tmp_path / "b"), "-n", "0"])
+    assert e.value.code == 2
+    b = tmp_path / "s"
+    b.mkdir()
+    (b / "manifest.json").write_text('{"suite": "system", "datasets": []}')
+    (b / "score.json").write_text("my own notes")
+    assert main_score([str(b)]) == 2
+    assert (b / "score.json").read_text() == "my own notes"
+
+
+def test_score_system_on_given_results(tmp_path):
+    import json
+
+    man = {"suite": "system", "visible_chi2": 100.0, "datasets": [
+        {"dataset": "a", "class": "clean", "hidden": [], "truth": {}},
+        {"dataset": "b", "class": "pair", "hidden": ["viscous", "base_mass"],
+         "truth": {"viscous.delta_damping": 5.0, "base_mass.delta_mass": -4.0}},
+        {"dataset": "c", "class": "oov", "hidden": ["quadratic_damping"], "truth": {},
+         "visibility": {"chi2": 1e5, "visible": True}}]}
+    (tmp_path / "manifest.json").write_text(json.dumps(man))
+    res = {"a": {"verdict": {"effects": [], "text": "No structural effect"}},
+           "b": {"verdict": {"effects": ["base_mass", "viscous"], "text": "t",
+                             "parameters": {"viscous.delta_damping": {"value": 5.5},
+                                            "base_mass.delta_mass": {"value": -4.0}}}},
+           "c": {"verdict": {"effects": ["viscous"], "unexplained": True, "text": "a structural gap remains "
+                             "that none of the candidates explains; hint: viscous"}}}
+    out = sysscore.score_system(tmp_path, results=res)
+    s = out["summary"]
+    assert s["clean_false_positive_rate"] == 0.0 and s["pairs_both_named"] == 1.0
+    assert s["oov_honest_or_right"] == 1.0 and s["oov_confidently_wrong"] == 0.0
+    assert s["text_flag_disagreements"] == 0 and s["param_rel_error_median"] == pytest.approx(0.05)
+    assert s["per_effect"]["viscous"]["param_rel_error_median"] == pytest.approx(0.1)
+    tab = sysscore.table(s)
+    assert "| pairs: both effects named | 1/1 (100 %) |" in tab and "| quadratic_damping | 1 | 1 | 0 | 0 | 0 | 0 |" in tab

@@ -134,8 +134,15 @@ def main_make_benchmark(argv=None):
     ap.add_argument("--pair-fraction", type=float, default=0.2)
     ap.add_argument("--noise", type=float, default=0.5, help="link suite: force noise std [N]")
     a = ap.parse_args(argv)
+    if a.n is not None and a.n < 1:
+        ap.error(f"-n must be >= 1, got {a.n}")
     if a.suite == "system":
         from .sysbench import make_system_benchmark
+        from .sysbench_suite import out_problem
+
+        if out_problem(Path(a.out)):
+            print(f"make-benchmark: {out_problem(Path(a.out))}", file=sys.stderr)
+            return 2
 
         man = make_system_benchmark(Path(a.out), n=a.n, seed=a.seed, progress=lambda r: print(
             f"{r['dataset']} written ({r['seconds']:.1f} s)", flush=True))  # the labels only in manifest.json
