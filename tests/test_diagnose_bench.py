@@ -263,3 +263,23 @@ def test_score_system_on_given_results(tmp_path):
     assert s["per_effect"]["viscous"]["param_rel_error_median"] == pytest.approx(0.1)
     tab = sysscore.table(s)
     assert "| pairs: both effects named | 1/1 (100 %) |" in tab and "| quadratic_damping | 1 | 1 | 0 | 0 | 0 | 0 |" in tab
+
+
+def test_frc_record_carries_the_declared_chain_gain(tmp_path):
+    """x_max = |H_x(i w)| |X(w)| (to its noise) and the reported force amplitude = |H_force(i w)| F,
+    with |X| written out here; the sweep's direction as declared."""
+    fs = 256.0
+    filt = {"type": "bessel", "order": 8, "cutoff_hz": 64.0}
+    sp = spec(fs=fs, acq={"all": {"filter": filt}})
+    om = np.arange(25.0, 14.9, -0.5)
+    sp["frc"] = [{"force": 150.0, "direction": "down", "omegas": om.tolist(), "noise": 1e-4}]
+    write_dataset(tmp_path, sp, np.random.default_rng(4))
+    meta = yaml.safe_load((tmp_path / "dataset.yaml").read_text())
+    df = pd.read_csv(tmp_path / meta["records"][-1]["file"])
+    assert list(df["direction"].unique()) == ["down"] and np.all(np.diff(df["omega"]) < 0)
+    b, a = signal.bessel(8, 2 * math.pi * 64.0, analog=True, norm="phase")
+    H = np.abs(signal.freqs(b, a, om)[1])
+    X = np.array([abs(linear_response(sp["nominal"], w, 150.0)[0]) for w in om])
+    assert np.allclose(df["force_amplitude"], 150.0 * H, rtol=1e-8, atol=0)
+    assert np.all(np.abs(df["x_max"] / (H * X) - 1) < 5e-4)
+    assert np.max(1 - H) > 4e-3  # the gain is there to see against the 0.01 % noise

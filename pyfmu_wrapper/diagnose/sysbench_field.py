@@ -8,6 +8,7 @@ filter's transient dies there: its slowest time constant is < 5 ms); each channe
 2. the declared analog anti-alias filter (Butterworth or Bessel prototype, discretised by the
    bilinear transform at the dense rate: at the forcing frequency the phase and gain are exact to
    ~1e-7) and a declared delay (force channel only: the load-cell conditioner),
+   (FRC records: x_max and the force amplitude carry the gain |H(i w)| of the x and force chains),
 3. sampled at fs (every k-th dense point), t = 0 at an arbitrary phase phi of the cycle
    (force channel F cos(w (t - delay) + phi) before its filter), over a non-whole number of periods,
 4. plus white Gaussian noise added **after** the filter (electrical noise at the ADC), std a
@@ -31,6 +32,7 @@ from .data import write_record
 DENSE_HZ = 20000.0
 PREROLL_PERIODS = 2
 CHANNELS = ("force", "x", "y", "xdd", "ydd")
+BESSEL_NORM = "phase"  #: the agreed meaning of a Bessel filter's cutoff_hz (issue 19's acquisition key)
 PLAY_PERIODS = 40  #: play (rattling): settle at most 40 periods; x_max = max over the last 20-period window
 
 
@@ -42,7 +44,7 @@ def analog_zpk(spec: dict):
     if spec["type"] == "butterworth":
         return signal.butter(n, wc, analog=True, output="zpk")
     if spec["type"] == "bessel":
-        return signal.bessel(n, wc, analog=True, norm="phase", output="zpk")
+        return signal.bessel(n, wc, analog=True, norm=BESSEL_NORM, output="zpk")
     raise ValueError(f"unknown filter type {spec['type']!r}")
 
 
@@ -207,7 +209,9 @@ def frc_record(truth, nom, frc: dict, acq, rng):
     xn = xn * hx
     std = frc["noise"] * np.abs(xm)
     chi2 = float(np.sum(((xm - xn) / std) ** 2))
-    cols = {"omega": om, "force_amplitude": np.full(om.size, float(frc["force"])),
+    fspec = channel_spec(acq, "force").get("filter")  # the amplitude the load cell reports
+    hf = np.abs(filter_response(fspec, om)) if fspec else np.ones(om.size)
+    cols = {"omega": om, "force_amplitude": float(frc["force"]) * hf,
             "x_max": xm + rng.normal(0.0, 1.0, om.size) * std}
     return cols, chi2
 
