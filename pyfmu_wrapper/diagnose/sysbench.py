@@ -4,8 +4,8 @@
 :mod:`sysbench_oov` (out-of-vocabulary truths), see docs/diagnose.md "Check 1".
 
 The coupled base + TMD simulated with the project's solver (``solvers.monolithic``) and measured
-as a test rig does. Per dataset of :func:`make_system_dataset`: paper Case 1 or Case 2 nominal (ideal inerter, c = 15 N s/m, no friction, no play);
-four steady-state time records (t, force, x, y, xdd, ydd at 1 kHz over 10 forcing periods, no
+as a test rig does. Per dataset of :func:`make_system_dataset`: paper Case 1 or Case 2 nominal
+(ideal inerter, c = 15 N s/m, no friction, no play); four steady-state time records (t, force, x, y, xdd, ydd at 1 kHz over 10 forcing periods, no
 velocity channel) at four distinct frequencies drawn from 16-24 rad/s and force amplitudes from
 100-300 N; independent white noise of 0.5-2 % of each channel's rms, drawn per channel and per
 record; one stepped-sine FRC (200 N, 15-25 rad/s in 0.5 rad/s steps, x_max = max x over the
@@ -29,7 +29,6 @@ sensor_offset   x reads x + b (time records and x_max)                 |b| 3e-4-
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from pathlib import Path
 
@@ -159,15 +158,6 @@ def make_system_dataset(folder: Path, hidden: dict, seed: int, case: int = 1, n_
     meta = {"level": "system", "description": "withheld-effect benchmark dataset (system level, simulated rig)",
             "nominal": nom, "records": recs}
     (folder / "dataset.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
-
-
-def draw(rng, effect, strength=None):
-    lo, hi = RANGES[effect]
-    u = rng.uniform() if strength is None else strength
-    v = float(lo * (hi / lo) ** u)
-    if effect in SIGNED and rng.uniform() < 0.5:
-        v = -v
-    return v
 
 
 def make_system_benchmark(out: Path, n: int | None = None, seed: int = 1, n_clean: int | None = None,

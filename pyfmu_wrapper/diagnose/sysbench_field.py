@@ -217,7 +217,7 @@ def frc_record(truth, nom, frc: dict, acq, rng):
 
 
 def write_dataset(folder: Path, spec: dict, rng) -> dict:
-    """Write dataset.yaml and the records of one drawn dataset ``spec`` (see sysbench.draw_dataset);
+    """Write dataset.yaml and the records of one drawn dataset ``spec`` (see sysbench_suite.draw_dataset);
     returns the visibility measure."""
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
