@@ -130,17 +130,18 @@ def score(bench: Path, results: dict | None = None, progress=None) -> dict:
 
     A dataset is correct when the verdict's set of effects equals the hidden set (clean: empty);
     a pair counts as "both named" when both hidden effects are in the verdict. Parameter errors
-    are taken for the hidden effects the verdict names."""
+    are taken for the hidden effects the verdict names. The system suite is scored by
+    :func:`sysscore.score_system` (its own classes: out of vocabulary, unexplained)."""
+    from .sysscore import is_system_suite, score_system
+
+    if is_system_suite(bench):
+        return score_system(bench, results, progress)
     import time
 
     from .cli import run_diagnosis
 
     bench = Path(bench)
-    man = json.loads((bench / "manifest.json").read_text())
-    if man.get("suite") == "system":  # the system suite has its own classes (OOV) and measures
-        from .sysscore import score_system
-        return score_system(bench, results, progress)
-    man = man["datasets"]
+    man = json.loads((bench / "manifest.json").read_text())["datasets"]
     rows = []
     for m in man:
         t0 = time.perf_counter()

@@ -140,6 +140,14 @@ def summarise(rows: list) -> dict:
     return s
 
 
+def is_system_suite(bench) -> bool:
+    """True when ``bench/manifest.json`` says it is the system suite (False when unreadable)."""
+    try:
+        return json.loads((Path(bench) / "manifest.json").read_text()).get("suite") == "system"
+    except (OSError, ValueError, AttributeError):
+        return False
+
+
 def score_system(bench: Path, results: dict | None = None, progress=None) -> dict:
     """Diagnose every dataset of a system-suite folder (or take ``results[name]``) and score it."""
     from .cli import run_diagnosis
