@@ -223,8 +223,8 @@ def test_make_benchmark_never_prints_labels(tmp_path, capsys):
         assert r["visibility"]["visible"] == (r["visibility"]["chi2"] > man["visible_chi2"])
 
 
-def test_make_benchmark_and_score_refuse_to_overwrite_foreign_files(tmp_path, capsys):
-    from pyfmu_wrapper.diagnose.cli import main_make_benchmark, main_score
+def test_make_benchmark_refuses_to_overwrite_foreign_files(tmp_path, capsys):
+    from pyfmu_wrapper.diagnose.cli import main_make_benchmark
 
     def status(main, args):  # bad input: exit status 2, whether returned or raised by argparse
         try:
@@ -237,12 +237,7 @@ def test_make_benchmark_and_score_refuse_to_overwrite_foreign_files(tmp_path, ca
     assert "not empty" in capsys.readouterr().err and sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
     assert status(main_make_benchmark, ["--out", str(tmp_path / "b"), "-n", "0"]) == 2
     assert not (tmp_path / "b").exists()
-    b = tmp_path / "s"
-    b.mkdir()
-    (b / "manifest.json").write_text('{"suite": "system", "datasets": []}')
-    (b / "score.json").write_text("my own notes")
-    assert status(main_score, [str(b)]) == 2
-    assert (b / "score.json").read_text() == "my own notes"
+
 
 
 def test_score_system_on_given_results(tmp_path):
@@ -267,6 +262,8 @@ def test_score_system_on_given_results(tmp_path):
     assert s["oov_honest_or_right"] == 1.0 and s["oov_confidently_wrong"] == 0.0
     assert s["text_flag_disagreements"] == 0 and s["param_rel_error_median"] == pytest.approx(0.05)
     assert s["per_effect"]["viscous"]["param_rel_error_median"] == pytest.approx(0.1)
+    assert sysscore.score_summary(out) == sysscore.table(s)
+    assert sysscore.score_line(dict(out["rows"][2])).startswith("c [oov]: hidden ['quadratic_damping'] found")
     tab = sysscore.table(s)
     assert "| pairs: both effects named | 1/1 (100 %) |" in tab
     assert "| quadratic_damping | 1 | 1 | 0 | 0 | 0 | 0 |" in tab

@@ -155,30 +155,14 @@ def main_make_benchmark(argv=None):
 
 def main_score(argv=None):
     from .benchmark import score
+    from .sysscore import score_line, score_summary  # system suite: one line per dataset, then a table
 
     ap = argparse.ArgumentParser(prog="score", description="Run diagnose on a benchmark and score it.")
     ap.add_argument("benchmark", help="folder written by make-benchmark")
-    ap.add_argument("--out", help="write score.json here (system suite default: BENCHMARK/score.json)")
+    ap.add_argument("--out", help="write score.json here")
     a = ap.parse_args(argv)
-    man = Path(a.benchmark) / "manifest.json"
-    if not man.is_file():
-        print(f"score: {man}: file not found (a folder written by make-benchmark)", file=sys.stderr)
-        return 2
-    if json.loads(man.read_text()).get("suite") == "system":
-        from .sysscore import row_line, score_system, table
-
-        out = Path(a.out) if a.out else Path(a.benchmark) / "score.json"
-        if not a.out and out.exists() and '"written_by": "score"' not in out.read_text():
-            print(f"score: {out} exists and was not written by score; give --out", file=sys.stderr)
-            return 2
-        res = score_system(Path(a.benchmark), progress=lambda r: print(row_line(r), flush=True))
-        print(table(res["summary"]))
-        out.write_text(json.dumps(res, indent=1))
-        print(f"score: {out}")
-        return 0
-    res = score(Path(a.benchmark), progress=lambda r: print(
-        f"{r['dataset']}: hidden {r['hidden'] or '-'} found {r['found'] or '-'} {'ok' if r['correct'] else 'WRONG'}"))
-    print(json.dumps(res["summary"], indent=1))
+    res = score(Path(a.benchmark), progress=lambda r: print(score_line(r), flush=True))
+    print(score_summary(res))
     if a.out:
         Path(a.out).write_text(json.dumps(res, indent=1))
     return 0

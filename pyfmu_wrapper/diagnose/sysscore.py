@@ -235,3 +235,18 @@ def row_line(r: dict) -> str:
     err = f" ({r['error']})" if r["error"] else ""
     return (f"{r['dataset']} [{r['class']}]: hidden {r['hidden'] or '-'} found {r['found'] or '-'}{un} {st}"
             f"{err} ({r['seconds']:.1f} s)")
+
+
+def score_line(r: dict) -> str:
+    """The progress line of ``score`` for a row of either suite."""
+    if "class" in r:
+        return row_line(r)
+    return (f"{r['dataset']}: hidden {r['hidden'] or '-'} found {r['found'] or '-'} "
+            f"{'ok' if r['correct'] else 'WRONG'}")
+
+
+def score_summary(res: dict) -> str:
+    """What ``score`` prints at the end: the table (system suite) or the summary as JSON (link suite)."""
+    if res.get("suite") == "system":
+        return table(res["summary"])
+    return json.dumps(res["summary"], indent=1)
