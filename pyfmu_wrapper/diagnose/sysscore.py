@@ -83,6 +83,7 @@ def score_row(m: dict, res: dict | None, error: str | None = None) -> dict:
         vis = bool(m.get("visibility", {}).get("visible", True))
         row["visible"] = vis
         row["oov_outcome"] = oov_outcome(row["unexplained"], row["found"], vis, res is None)
+        row["correct"] = row["oov_outcome"] in ("honest", "right")  # an acceptable answer
     return row
 
 
