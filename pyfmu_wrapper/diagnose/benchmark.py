@@ -130,7 +130,12 @@ def score(bench: Path, results: dict | None = None, progress=None) -> dict:
 
     A dataset is correct when the verdict's set of effects equals the hidden set (clean: empty);
     a pair counts as "both named" when both hidden effects are in the verdict. Parameter errors
-    are taken for the hidden effects the verdict names."""
+    are taken for the hidden effects the verdict names. The system suite is scored by
+    :func:`sysscore.score_system` (its own classes: out of vocabulary, unexplained)."""
+    from .sysscore import is_system_suite, score_system
+
+    if is_system_suite(bench):
+        return score_system(bench, results, progress)
     import time
 
     from .cli import load_manifest, run_diagnosis

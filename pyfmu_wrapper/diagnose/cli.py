@@ -349,13 +349,13 @@ def main_make_benchmark(argv=None):
     ap.add_argument("--suite", choices=["system", "link"], default="system",
                     help="system: the coupled base + TMD simulated and measured as a rig does (default); "
                          "link: one TMD link on a displacement-controlled rig")
-    ap.add_argument("-n", type=int, default=40, help="number of datasets (default 40)")
+    ap.add_argument("-n", type=int, default=None, help="number of datasets (default: system 52, link 40)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--clean-fraction", type=float, default=0.25)
     ap.add_argument("--pair-fraction", type=float, default=0.2)
     ap.add_argument("--noise", type=float, default=0.5, help="link suite: force noise std [N]")
     a = ap.parse_args(argv)
-    if a.n < 1:
+    if a.n is not None and a.n < 1:
         raise InputError(f"-n {a.n}: the number of datasets must be >= 1")
     for name, v in (("--clean-fraction", a.clean_fraction), ("--pair-fraction", a.pair_fraction)):
         if not 0.0 <= v <= 1.0:
@@ -371,9 +371,9 @@ def main_make_benchmark(argv=None):
 
             # progress without the labels: a blind benchmark does not print what it hides
             man = make_system_benchmark(tmp, n=a.n, seed=a.seed, progress=lambda r: print(
-                f"{r['dataset']}: written", flush=True))
+                f"{r['dataset']}: written" + (f" ({r['seconds']:.1f} s)" if "seconds" in r else ""), flush=True))
         else:
-            man = make_benchmark(tmp, n=a.n, seed=a.seed, clean_fraction=a.clean_fraction,
+            man = make_benchmark(tmp, n=40 if a.n is None else a.n, seed=a.seed, clean_fraction=a.clean_fraction,
                                  pair_fraction=a.pair_fraction, noise=a.noise)
     print(f"wrote {len(man)} {'system' if a.suite == 'system' else 'link'}-level datasets and manifest.json "
           f"(the hidden labels) to {out}")
@@ -430,6 +430,9 @@ def main_score(argv=None):
     res = score(Path(a.benchmark), progress=lambda r: print(
         f"{r['dataset']}: hidden {r['hidden'] or '-'} found {r['found'] or '-'} {'ok' if r['correct'] else 'WRONG'}"))
     print(json.dumps(res["summary"], indent=1))
+    if res.get("suite") == "system":  # the system suite's table (OOV classes, unexplained), docs/diagnose.md
+        from .sysscore import table
+        print(table(res["summary"]))
     if a.out:
         tmp = Path(a.out).with_name(f".{Path(a.out).name}.partial-{os.getpid()}")
         tmp.write_text(json.dumps(res, indent=1))

@@ -1,8 +1,11 @@
-"""System-level withheld-effect benchmark: the coupled base + TMD simulated with the project's
-solver (``solvers.monolithic``) and measured as a test rig does.
+"""System-level withheld-effect datasets under fixed conditions (the tests of ``diagnose`` use
+:func:`make_system_dataset`); the field-like suite of ``make-benchmark`` is
+:mod:`sysbench_suite` (drawing), :mod:`sysbench_field` (simulation and acquisition chain) and
+:mod:`sysbench_oov` (out-of-vocabulary truths), see docs/diagnose.md "Check 1".
 
-Per dataset: paper Case 1 or Case 2 nominal (ideal inerter, c = 15 N s/m, no friction, no play);
-four steady-state time records (t, force, x, y, xdd, ydd at 1 kHz over 10 forcing periods, no
+The coupled base + TMD simulated with the project's solver (``solvers.monolithic``) and measured
+as a test rig does. Per dataset of :func:`make_system_dataset`: paper Case 1 or Case 2 nominal
+(ideal inerter, c = 15 N s/m, no friction, no play); four steady-state time records (t, force, x, y, xdd, ydd at 1 kHz over 10 forcing periods, no
 velocity channel) at four distinct frequencies drawn from 16-24 rad/s and force amplitudes from
 100-300 N; independent white noise of 0.5-2 % of each channel's rms, drawn per channel and per
 record; one stepped-sine FRC (200 N, 15-25 rad/s in 0.5 rad/s steps, x_max = max x over the
@@ -26,7 +29,6 @@ sensor_offset   x reads x + b (time records and x_max)                 |b| 3e-4-
 from __future__ import annotations
 
 import dataclasses
-import json
 import math
 from pathlib import Path
 
@@ -64,10 +66,11 @@ def system_effects() -> list:
     return [e for e in RANGES if e != "cubic" or has_cubic()]
 
 
-def nominal(case: int) -> dict:
-    m, I = {1: (9.0, 1.0), 2: (5.0, 5.0)}[case]
+def nominal(case: int, damping: float = 15.0) -> dict:
+    """Paper Case 1, 2 or 3 (m, I) = (9, 1), (5, 5), (1, 9) kg with an ideal inerter and TMD damping c."""
+    m, I = {1: (9.0, 1.0), 2: (5.0, 5.0), 3: (1.0, 9.0)}[case]
     return {"base": {"mass": 100.0, "stiffness": 4.0e4, "damping": 100.0, "force_amplitude": 200.0},
-            "tmd": {"mass": m, "stiffness": 4.0e3, "damping": 15.0, "friction_force": 0.0,
+            "tmd": {"mass": m, "stiffness": 4.0e3, "damping": float(damping), "friction_force": 0.0,
                     "friction_slope": 1.0e6, "inertance": I, "inerter": "ideal"}}
 
 
@@ -157,47 +160,10 @@ def make_system_dataset(folder: Path, hidden: dict, seed: int, case: int = 1, n_
     (folder / "dataset.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
 
 
-def draw(rng, effect, strength=None):
-    lo, hi = RANGES[effect]
-    u = rng.uniform() if strength is None else strength
-    v = float(lo * (hi / lo) ** u)
-    if effect in SIGNED and rng.uniform() < 0.5:
-        v = -v
-    return v
+def make_system_benchmark(out: Path, n: int | None = None, seed: int = 1, n_clean: int | None = None,
+                          n_pair: int | None = None, n_oov: int | None = None, progress=None):
+    """The field-like system suite (module :mod:`sysbench_suite`); labels in manifest.json only."""
+    from .sysbench_suite import make_field_benchmark
 
-
-def make_system_benchmark(out: Path, n: int = 40, seed: int = 1, n_clean: int | None = None,
-                          n_pair: int | None = None, progress=None):
-    """n system-level datasets: ~25 % clean, 3 (or ~8 %) pairs, the rest single effects cycling over
-    the effects with random severities; Case 1 or 2 drawn per dataset. Labels in manifest.json."""
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
-    rng = np.random.default_rng(seed)
-    effects = system_effects()
-    n_clean = int(round(0.25 * n)) if n_clean is None else n_clean
-    n_pair = max(1, int(round(0.075 * n))) if n_pair is None else n_pair
-    man = []
-    order = rng.permutation(n)
-    for i in range(n):
-        j = int(order[i])
-        case = int(rng.integers(1, 3))
-        if j < n_clean:
-            hidden = {}
-        elif j < n_clean + n_pair:
-            e1, e2 = rng.choice(effects, 2, replace=False)
-            hidden = {str(e): draw(rng, str(e), rng.uniform(0.4, 1.0)) for e in (e1, e2)}
-        else:
-            k = j - n_clean - n_pair
-            e = effects[k % len(effects)]
-            hidden = {e: draw(rng, e)}
-        if case == 1 and hidden.get("mass_split", 0.0) < -0.5:
-            hidden["mass_split"] = -0.5 * abs(hidden["mass_split"])
-        name = f"sys{i:03d}"
-        make_system_dataset(out / name, hidden, seed=int(rng.integers(1 << 31)), case=case)
-        row = {"dataset": name, "case": case, "hidden": sorted(hidden), "severity": hidden,
-               "truth": {TRUTH_KEY[e]: v for e, v in hidden.items()}}
-        man.append(row)
-        if progress:
-            progress(row)
-    (out / "manifest.json").write_text(json.dumps({"suite": "system", "seed": seed, "datasets": man}, indent=1))
-    return man
+    return make_field_benchmark(out, n=n, seed=seed, n_clean=n_clean, n_pair=n_pair, n_oov=n_oov,
+                                progress=progress)
