@@ -172,12 +172,11 @@ def run_ecos(cfg, h, periods, fmus):
 def run_libcosim(cfg, h, periods, fmus, ecco=False):
     from libcosimpy.CosimAlgorithm import CosimAlgorithm, EccoParams
     from libcosimpy.CosimExecution import CosimExecution
+    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
     from libcosimpy.CosimObserver import CosimObserver
     from libcosimpy.CosimSlave import CosimLocalSlave
 
     from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters
-
-    from libcosimpy.CosimLogging import CosimLogLevel, log_output_level
 
     log_output_level(CosimLogLevel.ERROR)
     base, tmd, w, z0 = _setup(cfg)
@@ -200,7 +199,7 @@ def run_libcosim(cfg, h, periods, fmus, ecco=False):
                            idx["tmd"], vr[("tmd", "force")], vr[("tmd", "xd")])
     for key, val in fmu_parameters(base, tmd, w, z0).items():
         inst, var = key.split(".", 1)
-        if isinstance(val, bool) or isinstance(val, int):
+        if isinstance(val, (bool, int)):
             ex.integer_initial_value(idx[inst], vr[(inst, var)], int(val))
         else:
             ex.real_initial_value(idx[inst], vr[(inst, var)], float(val))

@@ -136,9 +136,9 @@ def main(argv=None):
                 res[key + "_fmpy"] = _bench_fmpy(f, dr, u, y, args.real_steps // 4, start)
             os.environ.pop("PYFMU_NATIVE", None)
         if args.fuzz:
-            from _fmu_support import run_fuzz  # noqa: E402
-
             import time
+
+            from _fmu_support import run_fuzz  # noqa: E402
             t0 = time.perf_counter()
             fz = run_fuzz(tmp / "fuzz", args.fuzz, 160, seed=2026)
             fz.pop("stderr", None)

@@ -22,8 +22,16 @@ import time
 
 import numpy as np
 
-from pyfmu_wrapper.optimise import (OBJECTIVES, PAPER_C_OPT, PAPER_DF_OPT, Evaluator, Objective, get_objective,
-                                    OptimiseConfig, optimise)
+from pyfmu_wrapper.optimise import (
+    OBJECTIVES,
+    PAPER_C_OPT,
+    PAPER_DF_OPT,
+    Evaluator,
+    Objective,
+    OptimiseConfig,
+    get_objective,
+    optimise,
+)
 from pyfmu_wrapper.physics.params import BaseParams, paper_case
 
 BASE = BaseParams()
@@ -128,7 +136,7 @@ def grid_study():
                            "up", use_exact=False)
             J = np.array([ev(d) for d in dfs])
             i = int(np.argmin(J))
-            near = dfs[J <= J[i] * (1 + 5e-6)]  # values within 5e-6 of the minimum: the flat bottom
+            near = dfs[J[i] * (1 + 5e-6) >= J]  # values within 5e-6 of the minimum: the flat bottom
             rows.append(dict(case=k, points=n, argmin=float(dfs[i]), flat_lo=float(near.min()), flat_hi=float(near.max()),
                              error_pct=100.0 * (dfs[i] / PAPER_DF_OPT[k] - 1.0)))
             print(f"  Case {k}, {n} frequencies: argmin {dfs[i]:.3f} (flat within 5e-6: {near.min():.3f}..{near.max():.3f})",

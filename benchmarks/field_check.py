@@ -119,7 +119,7 @@ def generate(out: Path, n: int, seed: int):
         t0 = time.time()
         records = []
         omegas = np.sort(rng.choice(np.arange(16.0, 24.5, 0.5), 4, replace=False))
-        for k, w in enumerate(omegas):
+        for w in omegas:
             F = float(rng.choice([100.0, 150.0, 200.0, 250.0, 300.0]))
             t, cols, conv = _record(base, tmd, F, float(w), F_scale, offset, rng)
             fname = f"w{w:g}_F{F:g}.csv"

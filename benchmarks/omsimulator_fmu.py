@@ -66,8 +66,8 @@ def main(argv=None) -> int:
               "https://github.com/OpenModelica/OMSimulator. Nothing was run.")
         return 2
 
-    from pyfmu_wrapper.fmi.build import ensure_fmus
     from pyfmu_wrapper.cosim.system import export_tmd_system
+    from pyfmu_wrapper.fmi.build import ensure_fmus
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
     from pyfmu_wrapper.solvers import monolithic as mono
 

@@ -23,8 +23,9 @@ BAND = (15.0, 25.0)
 
 
 def _trapz(y, x) -> float:
-    f = np.trapezoid if hasattr(np, "trapezoid") else np.trapz
-    return float(f(y, x))
+    if hasattr(np, "trapezoid"):  # numpy >= 2
+        return float(np.trapezoid(y, x))
+    return float(np.trapz(y, x))  # type: ignore[attr-defined]  # numpy < 2 (removed in numpy 2.4)
 
 
 # --- reading the results ---------------------------------------------------------------------------

@@ -11,12 +11,13 @@ from __future__ import annotations
 
 import math
 import traceback
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from . import claim_data as cd
-from .claim_data import FULL_C, PAPER_COPT, PAPER_DFOPT, PAPER_SIMPLIFIED
+from .claim_data import FULL_C, PAPER_COPT, PAPER_DFOPT
 
 CASES = (1, 2, 3)
 _OPS = {"<=": lambda a, b: a <= b, "<": lambda a, b: a < b, ">=": lambda a, b: a >= b, ">": lambda a, b: a > b}
@@ -112,7 +113,7 @@ class Entry:
     claim: str
     paper: str
     needs: tuple
-    compute: object  #: callable(Context) -> (project text, checks, note)
+    compute: Callable[[Context], tuple]  #: callable(Context) -> (project text, checks, note)
 
 
 CLAIMS: list[Entry] = []

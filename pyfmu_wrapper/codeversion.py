@@ -34,7 +34,7 @@ def _digest(files: dict[str, bytes]) -> str:
     return h.hexdigest()
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def source_hash(root: Path = PACKAGE_DIR) -> str:
     """SHA-256 over every ``.py`` file of the package (names and contents)."""
     return _digest(_sources(Path(root)))
@@ -72,7 +72,7 @@ def _imports(root: Path, rel: str, source: bytes) -> set[str]:
     return found
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def compiled_files(root: Path = PACKAGE_DIR) -> tuple[str, ...]:
     """Package-relative files of the compiled layer: numba users and their imports, transitively."""
     root = Path(root)
@@ -88,7 +88,7 @@ def compiled_files(root: Path = PACKAGE_DIR) -> tuple[str, ...]:
     return tuple(sorted(seen))
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def compiled_hash(root: Path = PACKAGE_DIR) -> str:
     """SHA-256 over the compiled layer (:func:`compiled_files`)."""
     root = Path(root)

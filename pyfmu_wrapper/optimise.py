@@ -40,8 +40,8 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field, replace
-from typing import Callable
 
 import numpy as np
 import pandas as pd
@@ -129,8 +129,8 @@ class Objective:
 
     name: str
     summary: str
-    reduce: Callable | None = None
-    exact: Callable | None = None
+    reduce: Callable[[np.ndarray, np.ndarray], float]
+    exact: Callable[[BaseParams, TMDParams], float] | None = None
     relative: bool = False
 
 
@@ -233,8 +233,9 @@ class Evaluator:
             return self._cache[key]
         t0 = time.perf_counter()
         base, tmd = with_parameter(self.base, self.tmd, self.parameter, value)
-        if self.use_exact and self.objective.exact is not None and tmd.is_linear and self.linear == "exact":
-            J, method, conv = self.objective.exact(base, tmd), "exact", True
+        exact = self.objective.exact
+        if self.use_exact and exact is not None and tmd.is_linear and self.linear == "exact":
+            J, method, conv = exact(base, tmd), "exact", True
         else:
             amp, method, conv = self.curve(value)
             J = self.objective.reduce(np.sort(self.omegas), amp)
@@ -347,6 +348,7 @@ def optimise(base: BaseParams, tmd: TMDParams, parameter: str, objective="h2", c
     except ParameterError as exc:
         raise OptimisationError(f"bounds {bounds!r}: {exc}") from None
     nonlinear = not (t_lo.is_linear and t_hi.is_linear) or linear == "simulate"
+    used_band: tuple[float, float] | None  # the band of the objective (None: exact over all frequencies)
     if omegas is None:
         omegas = frequency_grid(band, points if points is not None else (101 if nonlinear else 2001))
         used_band = (float(band[0]), float(band[1]))

@@ -66,7 +66,8 @@ def _passes(mono, co, rel) -> np.ndarray:
     return (np.abs(rel) <= TOL) | (irregular & overlap)
 
 
-def _relative_differences(tmd, omegas, cosim=cs.CosimSettings()):
+def _relative_differences(tmd, omegas, cosim=None):
+    cosim = cs.CosimSettings() if cosim is None else cosim
     mono = sweep(BASE, tmd, omegas, "up", SolverSettings()).table
     co = cs.sweep(BASE, tmd, omegas, "up", cosim)
     a, b = mono["amplitude"].to_numpy(), co["amplitude"].to_numpy()

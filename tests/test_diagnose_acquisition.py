@@ -15,7 +15,8 @@ import yaml
 from scipy import signal
 
 from pyfmu_wrapper.diagnose import acquisition as acq
-from pyfmu_wrapper.diagnose.cli import main_diagnose as main, run_diagnosis
+from pyfmu_wrapper.diagnose.cli import main_diagnose as main
+from pyfmu_wrapper.diagnose.cli import run_diagnosis
 from pyfmu_wrapper.diagnose.data import DataError, load_dataset, write_record
 from pyfmu_wrapper.diagnose.harmonic import fit_series
 

@@ -219,10 +219,10 @@ def test_result_folder_replaced_as_a_whole_user_files_never_touched(tmp_path):
         (tmp / "old.png").write_text("png")
     assert sorted(p.name for p in out.iterdir()) == [DIAGNOSE_MARKER, "old.png", "report.md"]
     check_out_folder(out, "diagnose", DIAGNOSE_MARKER)  # a previous result: accepted
-    with pytest.raises(RuntimeError):  # a failed run leaves the previous result and no partial folder
-        with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
-            (tmp / "report.md").write_text("half")
-            raise RuntimeError("boom")
+    # a failed run leaves the previous result and no partial folder
+    with pytest.raises(RuntimeError), ResultFolder(out, DIAGNOSE_MARKER) as tmp:
+        (tmp / "report.md").write_text("half")
+        raise RuntimeError("boom")
     assert (out / "report.md").read_text() == "one"
     with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
         (tmp / "report.md").write_text("two")
@@ -260,10 +260,9 @@ def test_sigterm_removes_the_partial_folder_and_stale_ones_are_cleaned(tmp_path)
     out = tmp_path / "res"
     with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
         (tmp / "report.md").write_text("one")
-    with pytest.raises(KeyboardInterrupt):
-        with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
-            (tmp / "report.md").write_text("half")
-            os.kill(os.getpid(), signal.SIGTERM)
+    with pytest.raises(KeyboardInterrupt), ResultFolder(out, DIAGNOSE_MARKER) as tmp:
+        (tmp / "report.md").write_text("half")
+        os.kill(os.getpid(), signal.SIGTERM)
     assert (out / "report.md").read_text() == "one"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
     dead = tmp_path / ".res.partial-999999999-abc"  # no such process

@@ -7,7 +7,6 @@ import subprocess
 import fmpy
 import numpy as np
 import pytest
-
 from _fmu_support import built_fmus, compile_c_host, extract, guid
 
 BASE = dict(M=100.0, K=4.0e4, C=100.0, F=200.0, w=18.0, x0=0.01, xd0=0.0)

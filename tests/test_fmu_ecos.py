@@ -14,15 +14,14 @@ from __future__ import annotations
 
 import ctypes
 import math
-import os
 import shutil
 import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-
 from _fmu_support import built_fmus
+
 from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
 from pyfmu_wrapper.solvers import monolithic as mono

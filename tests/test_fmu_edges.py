@@ -10,11 +10,9 @@ import math
 import struct
 
 import fmpy
-import numpy as np
 import pytest
-from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2FMUstate
-
 from _fmu_support import built_fmus, damped_forced_response
+from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2FMUstate
 
 ERROR = 3
 

@@ -1,16 +1,12 @@
 """The FMUs in fmpy: validation, exact solutions, directional derivatives, input derivatives."""
 from __future__ import annotations
 
-import math
-import shutil
-
 import fmpy
 import numpy as np
 import pytest
+from _fmu_support import built_fmus, damped_forced_response
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
-
-from _fmu_support import built_fmus, damped_forced_response
 
 
 @pytest.fixture(scope="module")
@@ -88,7 +84,9 @@ def test_directional_derivative_of_force(fmus, tmp_path):
     s, vr = open_slave(fmus["TMDInerter"], tmp_path, start=dict(m=m, I=I, k=k, c=c, y0=0.003))
     try:
         s.setReal([vr["x"], vr["xd"], vr["xdd"]], [0.001, 0.02, -0.3])
-        dd = lambda known: s.getDirectionalDerivative([vr["force"]], [vr[known]], [1.0])[0]
+        def dd(known):
+            return s.getDirectionalDerivative([vr["force"]], [vr[known]], [1.0])[0]
+
         # force = m/(m+I) (k (x-y) + c (xd-yd) + I xdd): exact partial derivatives
         assert dd("xdd") == pytest.approx(m * I / (m + I), rel=1e-14)
         assert dd("x") == pytest.approx(m * k / (m + I), rel=1e-14)
@@ -119,8 +117,14 @@ def test_input_derivatives_extrapolate_over_the_step(fmus, tmp_path):
 
 
 def test_nonphysical_parameter_is_an_error_with_traceback(fmus, tmp_path):
-    from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2CallbackAllocateMemoryTYPE, \
-        fmi2CallbackFreeMemoryTYPE, calloc, free
+    from fmpy.fmi2 import (
+        calloc,
+        fmi2CallbackAllocateMemoryTYPE,
+        fmi2CallbackFreeMemoryTYPE,
+        fmi2CallbackFunctions,
+        fmi2CallbackLoggerTYPE,
+        free,
+    )
     messages = []
     cb = fmi2CallbackFunctions()
     cb.logger = fmi2CallbackLoggerTYPE(lambda env, name, status, cat, msg: messages.append((status, msg.decode())))

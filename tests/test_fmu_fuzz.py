@@ -9,7 +9,6 @@ The default run keeps 40 sequences; the slow test runs 2,000 (numbers in benchma
 from __future__ import annotations
 
 import pytest
-
 from _fmu_support import run_fuzz
 
 

@@ -14,9 +14,8 @@ import sys
 import fmpy
 import numpy as np
 import pytest
-from fmpy.fmi2 import FMU2Slave
-
 from _fmu_support import built_fmus, compile_c_host, extract, guid
+from fmpy.fmi2 import FMU2Slave
 
 BASE = dict(M=100.0, K=4.0e4, C=100.0, F=200.0, w=18.0, x0=0.01, xd0=0.0)
 TMD = dict(m=9.0, k=4.0e3, c=10.0, df=5.0, I=1.0, y0=0.01)

@@ -15,7 +15,6 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from _fmu_support import built_fmus, compile_c_host, damped_forced_response, extract, guid
 
 REPO = Path(__file__).resolve().parents[1]

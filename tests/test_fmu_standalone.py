@@ -21,8 +21,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 from _fmu_support import damped_forced_response, guid
+
 from pyfmu_wrapper.fmi.build import REPO_ROOT, build_fmus, fmi_headers_dir
 from pyfmu_wrapper.fmi.standalone import runtime_config, runtime_files
 

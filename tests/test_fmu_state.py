@@ -4,9 +4,8 @@ from __future__ import annotations
 import fmpy
 import numpy as np
 import pytest
-from fmpy.fmi2 import FMU2Slave
-
 from _fmu_support import built_fmus
+from fmpy.fmi2 import FMU2Slave
 
 TMD = dict(m=9.0, k=4.0e3, c=10.0, df=5.0, I=1.0, y0=0.002, yd0=-0.01)
 

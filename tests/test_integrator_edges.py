@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from pyfmu_wrapper.physics.kernels import SYS_COUPLED
-from pyfmu_wrapper.physics.params import BaseParams, paper_case, pack
+from pyfmu_wrapper.physics.params import BaseParams, pack, paper_case
 from pyfmu_wrapper.solvers.monolithic import SolverError, SolverSettings, simulate, steady_state
 from pyfmu_wrapper.solvers.rodas import OK, STAT_STEPS, STEP_CAP, failure_message, integrate
 

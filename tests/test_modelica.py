@@ -28,7 +28,6 @@ from __future__ import annotations
 import functools
 import math
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -87,7 +86,7 @@ def rel_err(a, b, mask=None):
     return np.max(np.abs(a - b), axis=0) / scale
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _case_result(name: str):
     s = rumoca.Session(roots=[str(PKG_DIR.parent)])
     spec = CASES[name]

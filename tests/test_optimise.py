@@ -12,8 +12,18 @@ import numpy as np
 import pytest
 
 from pyfmu_wrapper.cli.optimise import main
-from pyfmu_wrapper.optimise import (OBJECTIVES, PAPER_C_OPT, PAPER_DF_OPT, Objective, OptimisationError, h2_exact,
-                                    OptimiseConfig, linear_response, optimise, split_parameter)
+from pyfmu_wrapper.optimise import (
+    OBJECTIVES,
+    PAPER_C_OPT,
+    PAPER_DF_OPT,
+    Objective,
+    OptimisationError,
+    OptimiseConfig,
+    h2_exact,
+    linear_response,
+    optimise,
+    split_parameter,
+)
 from pyfmu_wrapper.physics.params import BaseParams, paper_case
 from pyfmu_wrapper.solvers.frequency_response import exact_response
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from pyfmu_wrapper.physics import kernels as K
-from pyfmu_wrapper.physics.params import (BaseParams, ParameterError, TMDParams, pack, paper_case)
+from pyfmu_wrapper.physics.params import BaseParams, ParameterError, TMDParams, pack, paper_case
 from pyfmu_wrapper.solvers.frequency_response import exact_amplitude, exact_response
 
 BASE = BaseParams()

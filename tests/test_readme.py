@@ -1,4 +1,4 @@
-"""The README's two commands, and .ci/run running exactly the README's test command."""
+"""The README's two commands, and .ci/run running exactly the README's test command (plus the linters)."""
 import re
 from pathlib import Path
 
@@ -17,10 +17,26 @@ def test_readme_has_exactly_two_commands():
     assert '.[test]' in blocks[1] and "pytest" in blocks[1]
 
 
-def test_ci_runs_the_readme_test_command():
-    test_cmd = _bash_blocks((ROOT / "README.md").read_text())[1]
+# the steps .ci/run may add to the README's test command: the linters configured in pyproject.toml
+LINTER_STEPS = ("ruff check .", "mypy")
+
+
+def _steps(command):
+    return [s.strip() for s in command.split("&&")]
+
+
+def test_ci_runs_the_readme_test_command_with_the_linters_before_the_tests():
+    test_steps = _steps(_bash_blocks((ROOT / "README.md").read_text())[1])
     ci_lines = [ln.strip() for ln in (ROOT / ".ci" / "run").read_text().splitlines()]
-    assert test_cmd in ci_lines
+    runs = [_steps(ln) for ln in ci_lines if "pytest" in ln and not ln.startswith("#")]
+    assert len(runs) == 1, ".ci/run must run the tests in exactly one command line"
+    ci_steps = runs[0]
+    # without the linter steps, .ci/run's command is exactly the README's
+    assert [s for s in ci_steps if s not in LINTER_STEPS] == test_steps
+    # every linter runs, and before the tests (a lint failure stops CI before the long test run)
+    pytest_at = next(i for i, s in enumerate(ci_steps) if "pytest" in s)
+    for linter in LINTER_STEPS:
+        assert linter in ci_steps and ci_steps.index(linter) < pytest_at, linter
 
 
 def test_main_scenario_exists():

@@ -21,8 +21,8 @@ import pytest
 from scipy.optimize import brentq, minimize_scalar
 
 from pyfmu_wrapper import docs_gen
-from pyfmu_wrapper.fmi.variables import BASE_OSCILLATOR, INTEGER, TMD_INERTER
 from pyfmu_wrapper.cosim.system import fmu_parameters
+from pyfmu_wrapper.fmi.variables import BASE_OSCILLATOR, INTEGER, TMD_INERTER
 from pyfmu_wrapper.physics import kernels as K
 from pyfmu_wrapper.physics import params as P
 from pyfmu_wrapper.physics import registry
@@ -42,6 +42,14 @@ def test_parameter_classes_follow_the_registry(cls, sub):
     obj = cls()
     for p in registry.fields(sub):
         assert getattr(obj, p.name) == p.default, p.name
+
+
+@pytest.mark.parametrize("mixin, sub", [(P._BaseMixin, "base"), (P._TMDMixin, "tmd")])
+def test_the_field_types_declared_for_the_type_checker_follow_the_registry(mixin, sub):
+    declared = {k: v for k, v in mixin.__annotations__.items() if k != "source"}
+    assert sorted(declared) == sorted(p.name for p in registry.fields(sub))
+    for p in registry.fields(sub):
+        assert declared[p.name] == ("InerterModel" if p.kind == "enum" else "float"), p.name
 
 
 @pytest.mark.parametrize("par", [p for p in registry.PARAMETERS if p.field and p.kind == "real"],
@@ -183,9 +191,9 @@ def test_hardening_shift_of_the_upper_peak_matches_harmonic_balance():
     peaks = {}
     for k3 in (0.0, 2e5):
         tmd = paper_case(1, damping=56.38, cubic_stiffness=k3)
-        sim = minimize_scalar(lambda w: -steady_state(BASE, tmd, w).amplitude, bounds=(21.0, 25.0),
+        sim = minimize_scalar(lambda w, tmd=tmd: -steady_state(BASE, tmd, w).amplitude, bounds=(21.0, 25.0),
                               method="bounded", options=dict(xatol=1e-4))
-        hb = minimize_scalar(lambda w: -_harmonic_balance_amplitude(w, tmd), bounds=(21.0, 25.0),
+        hb = minimize_scalar(lambda w, tmd=tmd: -_harmonic_balance_amplitude(w, tmd), bounds=(21.0, 25.0),
                              method="bounded", options=dict(xatol=1e-4))
         peaks[k3] = (sim.x, -sim.fun, hb.x, -hb.fun)
     shift = peaks[2e5][0] - peaks[0.0][0]
@@ -201,8 +209,8 @@ def test_cubic_spring_in_the_fmus_matches_the_monolithic_solver():
     k3 on that run is far larger than the agreement (so the FMU did not ignore it)."""
     import math
 
-    from pyfmu_wrapper.fmi.build import ensure_fmus
     from pyfmu_wrapper.cosim.system import make_master
+    from pyfmu_wrapper.fmi.build import ensure_fmus
     from pyfmu_wrapper.solvers import monolithic as mono
 
     paths = ensure_fmus()

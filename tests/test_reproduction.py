@@ -13,8 +13,16 @@ from pyfmu_wrapper.cli.run_scenario import main as run_main
 from pyfmu_wrapper.physics.params import BaseParams, paper_case
 from pyfmu_wrapper.scenario import load_scenario
 from pyfmu_wrapper.scenario.engines import RunSettings, compute_sweep
-from pyfmu_wrapper.scenario.executors import (Checkpoint, LocalExecutor, SequentialExecutor, SweepTask, TaskStats,
-                                              make_executor, run_task, run_tasks)
+from pyfmu_wrapper.scenario.executors import (
+    Checkpoint,
+    LocalExecutor,
+    SequentialExecutor,
+    SweepTask,
+    TaskStats,
+    make_executor,
+    run_task,
+    run_tasks,
+)
 from pyfmu_wrapper.scenario.runner import _Cache, map_response
 from pyfmu_wrapper.scenario.schema import SolverConfig, SweepConfig
 

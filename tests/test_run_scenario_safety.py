@@ -104,7 +104,7 @@ def test_out_is_a_folder_of_user_files(tmp_path, capsys, no_computing):
 def test_out_is_the_current_folder_or_a_parent(tmp_path, monkeypatch, capsys, no_computing, out):
     work = tmp_path / "work"
     (work / "sub").mkdir(parents=True)
-    scn = _scn(work)
+    _scn(work)
     monkeypatch.chdir(work)
     before = _snapshot(tmp_path)
     assert main(["scn.yaml", "--out", out] + MONO) == 2
@@ -259,7 +259,7 @@ def _env() -> dict:
 def _start_slow_run(tmp_path):
     scn = _scn(tmp_path, SLOW)
     out = tmp_path / "out"
-    log = open(tmp_path / "stderr.txt", "w")
+    log = open(tmp_path / "stderr.txt", "w")  # noqa: SIM115 - the child's stderr; the caller closes it
     cmd = [sys.executable, "-m", "pyfmu_wrapper.cli.run_scenario", str(scn), "--out", str(out), "--workers", "2"]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=log, cwd=tmp_path, env=_env())
     deadline = time.monotonic() + 240

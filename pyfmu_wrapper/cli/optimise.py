@@ -19,6 +19,7 @@ import argparse
 import json
 import sys
 import traceback
+from typing import Any
 
 from ..optimise import OBJECTIVES, OptimisationError, OptimiseConfig, optimise, split_parameter, with_parameter
 from ..physics.params import BaseParams, ParameterError, paper_case
@@ -98,7 +99,7 @@ def main(argv=None) -> int:
     why = _check_json_target(args.json_out)
     if why:
         return _fail(why)
-    kw = {}
+    kw: dict[str, Any] = {}  # OptimiseConfig's settings from the scenario
     if args.scenario is not None:
         from ..scenario import ScenarioError, load_scenario
 

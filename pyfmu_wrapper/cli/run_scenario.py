@@ -15,11 +15,11 @@ import time
 import traceback
 
 from ..scenario import ScenarioError, load_scenario
-from .errors import cli_main
 from ..scenario.engines import DEFAULT_ENGINE, ENGINES, RunSettings
 from ..scenario.executors import EXECUTORS, make_executor
 from ..scenario.output import OutputError, check_output_dir, default_checkpoint_dir, default_output_dir, run_scenario
 from ..scenario.runner import instant_units, study_report, work_units
+from .errors import cli_main
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -26,6 +26,7 @@ import json
 import math
 import statistics
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
@@ -184,7 +185,7 @@ def score(bench: Path, results: dict | None = None, progress=None) -> dict:
         "median_seconds": statistics.median(r["seconds"] for r in rows) if rows else None,
         "max_seconds": max(r["seconds"] for r in rows) if rows else None,
     }
-    per = {}
+    per: dict[str, dict[str, Any]] = {}  # per hidden effect
     for r in single:
         e = r["hidden"][0]
         d = per.setdefault(e, {"n": 0, "correct": 0, "param_errors": [], "gap_closed": []})

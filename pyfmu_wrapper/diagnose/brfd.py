@@ -89,8 +89,13 @@ def derive(src: Path, out: Path, test_amplitude_in=1.0, test_frequency_hz=2.0, t
         stride = max(1, int(round(n_cyc / SAMPLES_PER_CYCLE)))
         sl = slice(i0, i1)
         k = (i1 - i0) // stride
-        box = lambda x: x[sl][: k * stride].reshape(k, stride).mean(axis=1)
-        take = lambda x: x[sl][: k * stride : stride]
+
+        def box(x, sl=sl, k=k, stride=stride):
+            return x[sl][: k * stride].reshape(k, stride).mean(axis=1)
+
+        def take(x, sl=sl, k=k, stride=stride):
+            return x[sl][: k * stride : stride]
+
         tt = take(t) - t[i0]
         cols = {"t": tt, "displacement": take(d), "velocity": take(v), "force": box(F)}
         # the boxcar delays the force by (stride - 1) / 2 samples: sample the motion at the same time

@@ -234,7 +234,7 @@ def _run(ds, out, red) -> dict:
     if any(r.kind == "frc" for r in ds.records):
         from .frc import diagnose_frc
         frc = diagnose_frc(ds)
-    if not any(r.kind != "frc" for r in ds.records):
+    if frc is not None and not any(r.kind != "frc" for r in ds.records):  # FRC records only
         res = finish(frc.result())
         res["verdict"] = frc_verdict(res)
         if out is not None:

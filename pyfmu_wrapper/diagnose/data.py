@@ -270,9 +270,9 @@ def read_record(file: Path, level: str, entry: dict | None = None, log=_stderr) 
     if rec.omega is not None and not rec.omega > 0:
         raise _err(file, f"omega must be > 0 rad/s, got {_plainf(rec.omega)}")
     if kind == "time" and rec.omega is not None:
-        span, period = float(cols["t"][-1] - cols["t"][0]), 2 * math.pi / rec.omega
-        if span < period:
-            raise _err(file, f"the record spans {span:.4g} s, less than one period of w = {rec.omega:.4g} rad/s "
+        span_s, period = float(cols["t"][-1] - cols["t"][0]), 2 * math.pi / rec.omega
+        if span_s < period:
+            raise _err(file, f"the record spans {span_s:.4g} s, less than one period of w = {rec.omega:.4g} rad/s "
                              f"({period:.4g} s): the harmonic analysis of a system time record needs whole periods "
                              "(at least 2)")
     if kind == "link" and rec.amplitude is None:
@@ -362,25 +362,25 @@ def load_dataset(path, model_override: dict | None = None, log=_stderr, model_so
     if not isinstance(entries, list) or not entries:
         raise _err(yml, "'records' must be a non-empty list of {file: ..., ...}", line=_line(raw, "records"))
     records = []
-    for i, e in enumerate(entries):
+    for i, entry in enumerate(entries):
         ln = _line(entries, i)
-        if isinstance(e, str):
-            e = {"file": e}
-        if not isinstance(e, dict) or "file" not in e:
+        if isinstance(entry, str):
+            entry = {"file": entry}
+        if not isinstance(entry, dict) or "file" not in entry:
             raise _err(yml, f"records[{i}] needs a 'file' key (a CSV file name)", line=ln)
-        _unknown_keys(e, ALLOWED_KEYS["record"], yml, f"records[{i}] ({e.get('file')})")
-        if not isinstance(e["file"], str) or not e["file"].strip():
-            raise _err(yml, f"records[{i}].file must be a file name, got {e['file']!r}", line=_line(e, "file") or ln)
+        _unknown_keys(entry, ALLOWED_KEYS["record"], yml, f"records[{i}] ({entry.get('file')})")
+        if not isinstance(entry["file"], str) or not entry["file"].strip():
+            raise _err(yml, f"records[{i}].file must be a file name, got {entry['file']!r}", line=_line(entry, "file") or ln)
         for key in ("omega", "force_amplitude", "amplitude", "frequency_hz"):
-            if key in e:
-                e[key] = _number(e[key], yml, f"records[{i}].{key}", _line(e, key) or ln, 0.0, strict=True,
+            if key in entry:
+                entry[key] = _number(entry[key], yml, f"records[{i}].{key}", _line(entry, key) or ln, 0.0, strict=True,
                                  unit={"omega": "rad/s", "frequency_hz": "Hz"}.get(key, ""))
-        if e.get("role") not in (None, "train", "test"):
-            raise _err(yml, f"records[{i}].role must be 'train' or 'test', got {e['role']!r}", line=_line(e, "role") or ln)
-        if e.get("kind") not in (None, *REQUIRED):
-            raise _err(yml, f"records[{i}].kind must be one of {list(REQUIRED)}, got {e['kind']!r}",
-                       line=_line(e, "kind") or ln)
-        records.append(read_record(path / e["file"], level, _plain_data(e), log=log))
+        if entry.get("role") not in (None, "train", "test"):
+            raise _err(yml, f"records[{i}].role must be 'train' or 'test', got {entry['role']!r}", line=_line(entry, "role") or ln)
+        if entry.get("kind") not in (None, *REQUIRED):
+            raise _err(yml, f"records[{i}].kind must be one of {list(REQUIRED)}, got {entry['kind']!r}",
+                       line=_line(entry, "kind") or ln)
+        records.append(read_record(path / entry["file"], level, _plain_data(entry), log=log))
     roles = [r.role for r in records if r.kind != "frc"]
     if any(roles) and "test" not in roles:
         raise _err(yml, "every record has role 'train': mark at least one record 'role: test' (held out), or give "

@@ -120,11 +120,8 @@ def fit_effects(effects, ld: LinkData, train, test) -> Fit:
 
     theta = np.zeros(0)
     if grids:
-        best = None
-        for th in itertools.product(*grids):
-            v = rss(np.array(th))
-            if best is None or v < best[0]:
-                best = (v, np.array(th))
+        # the grid point of least rss (the first of equal ones)
+        best = min(((rss(np.array(th)), np.array(th)) for th in itertools.product(*grids)), key=lambda vt: vt[0])
         theta = best[1]
         lo = np.array([min(g) - 0.5 for g in grids])
         hi = np.array([max(g) + 0.5 for g in grids])
@@ -138,14 +135,14 @@ def fit_effects(effects, ld: LinkData, train, test) -> Fit:
     rss_te = float(r[test] @ r[test])
     params, std = {}, {}
     # Jacobian in (beta, theta) on the training samples
-    J = [Phi[train]]
+    cols = [Phi[train]]
     for j in range(theta.size):
         th = theta.copy()
         h = 1e-3
         th[j] += h
         o2, P2 = _combined_basis(effects, ld, th)
-        J.append(((o2 + P2 @ beta - pred)[train] / h)[:, None])
-    J = np.hstack(J)
+        cols.append(((o2 + P2 @ beta - pred)[train] / h)[:, None])
+    J = np.hstack(cols)
     n, p = int(train.sum()), J.shape[1]
     rho = _rho(r[train])
     s2 = rss_tr / max(n - p, 1) * (1 + rho) / (1 - rho)
@@ -230,7 +227,7 @@ def diagnose_link(ld: LinkData, max_pairs_from: int = 7) -> Diagnosis:
     structural = excess > EXCESS_THRESHOLD and fits[0].bic < bic0 - BIC_THRESHOLD
     chosen = fits[0] if structural else None
     ranking = list(fits)
-    if structural:
+    if chosen is not None:  # structural
         by = {e.name: e for e in effects}
         top = [f.effects[0] for f in fits[:max_pairs_from]]
         pairs = [fit_effects([by[a], by[b]], ld, train, test) for a, b in itertools.combinations(top, 2)]

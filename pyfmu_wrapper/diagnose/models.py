@@ -17,8 +17,8 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
-from .._jit import njit
 
+from .._jit import njit
 from ..physics.kernels import chain_force, friction_force
 from ..physics.params import N_PARAMS, P_ci, P_eps, P_ki
 from .data import DataError, Dataset

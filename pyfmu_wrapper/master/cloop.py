@@ -219,7 +219,11 @@ class CompiledLoop:
         if m.history.generation != self.generation:
             c.n_w = 0
             self.generation = m.history.generation
-        c.scheme = _SCHEME_CODE[scheme_of(m)]
+        scheme = scheme_of(m)
+        if scheme is None:
+            raise MasterError("the compiled loop cannot take these steps (Newton on the coupling equations "
+                              "runs in Python)")
+        c.scheme = _SCHEME_CODE[scheme]
         c.order = st.order
         c.timing = int(self.timing)
         c.t, c.h, c.h_prev = m.t, h, st.h_prev
@@ -232,7 +236,9 @@ class CompiledLoop:
             if len(ins.rate_pos):
                 self.rate_prev[k][:] = ins.rate_prev
                 self.insts[k].rate_ready = int(ins.rate_ready)
-        if rec_t is not None:
+        if (rec_t is None) != (rec_y is None):
+            raise ValueError("rec_t and rec_y are given together or not at all")
+        if rec_t is not None and rec_y is not None:
             assert rec_t.flags.c_contiguous and rec_y.flags.c_contiguous and rec_y.shape[1] == m.nsig
         done = 0
         try:

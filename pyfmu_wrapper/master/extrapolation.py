@@ -68,6 +68,7 @@ class History:
     def weights(self, k: int, t: float):
         """Cached derivative weights at t of the polynomial through the last k points."""
         ht = self.t
+        key: tuple[float, ...]  # (k, the node offsets rounded): nodes at the same offsets share weights
         if k == 3:
             key = (3, round(float(ht[0]) - t, 13), round(float(ht[1]) - t, 13))
         elif k == 2:

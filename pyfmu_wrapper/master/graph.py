@@ -68,7 +68,7 @@ class Connection:
         return self.dst.split(".", 1)[1]
 
     @staticmethod
-    def parse(item) -> "Connection":
+    def parse(item) -> Connection:
         if isinstance(item, Connection):
             return item
         if isinstance(item, str):
@@ -140,7 +140,7 @@ def build_graph(descriptions: dict[str, ModelDescription], connections) -> Conne
     variables = {name: {v.name: v for v in md.modelVariables} for name, md in descriptions.items()}
     dsts = set()
     for c in conns:
-        for inst, var, role in ((c.src_instance, c.src_variable, "src"), (c.dst_instance, c.dst_variable, "dst")):
+        for inst, var in ((c.src_instance, c.src_variable), (c.dst_instance, c.dst_variable)):
             if inst not in variables:
                 raise GraphError(f"connection {c.src} -> {c.dst}: unknown instance {inst!r}")
             if var not in variables[inst]:

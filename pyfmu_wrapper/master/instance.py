@@ -12,6 +12,7 @@ fmpy's public :class:`fmpy.fmi2.FMU2Slave` methods.
 """
 from __future__ import annotations
 
+import contextlib
 import ctypes
 from pathlib import Path
 
@@ -49,7 +50,15 @@ def _raw_function(slave: FMU2Slave, name: str, required: bool = True):
         if required:
             raise MasterError(f"{slave.instanceName}: the FMU does not export {name}") from None
         return None
-    return _PROTOTYPES[name](ctypes.cast(sym, ctypes.c_void_p).value)
+    return _PROTOTYPES[name](_address(sym))
+
+
+def _address(f) -> int:
+    """The address of a ctypes function (never NULL for a symbol the library exports)."""
+    addr = ctypes.cast(f, ctypes.c_void_p).value
+    if addr is None:
+        raise MasterError(f"NULL address of {f!r}")
+    return addr
 
 
 class Instance:
@@ -59,6 +68,19 @@ class Instance:
     :meth:`finalize_ports` allocates their buffers. The wiring (:mod:`.wiring`) sets the signal
     indices (``sig_in``, ``sig_out``, ``conn_idx``) and the rate-connection fields (``rate_*``).
     """
+
+    # set by the wiring (:func:`.wiring.wire`, :func:`.wiring.reset_rate`)
+    sig_in: np.ndarray  #: signal index of each connected input
+    sig_out: np.ndarray  #: signal index of each output read
+    conn_idx: np.ndarray  #: connection index of each connected input
+    rate_pos: np.ndarray  #: positions (in ``inputs``) of the rate inputs
+    rate_src: np.ndarray  #: their source signals
+    rate_gain: np.ndarray  #: their gains
+    rate_init: list[int | None]  #: the signal giving each one's initial value (None: none)
+    rate_int: np.ndarray  #: the signal of each one's exact integral (-1: none)
+    rate_has_int: np.ndarray  #: rate_int >= 0
+    rate_prev: np.ndarray  #: mean rate of the previous step
+    rate_ready: bool  #: rate_prev holds a step
 
     def __init__(self, name: str, path: Path, md, unzipdir: str):
         self.name = name
@@ -118,8 +140,8 @@ class Instance:
         repeats the FMU's own last error message."""
         if call != "fmi2DoStep":
             return MasterError(f"{self.name}: {call} failed")
-        said = self.last_error.strip().splitlines()
-        said = f": {said[-1]}" if said else ""
+        lines = self.last_error.strip().splitlines()
+        said = f": {lines[-1]}" if lines else ""
         return MasterError(f"{self.name}: fmi2DoStep failed at t = {t:.16g} s, h = {h:.6g} s (status {status}){said}")
 
     def raw_address(self, name: str) -> int:
@@ -127,7 +149,7 @@ class Instance:
         compiled loop."""
         f = {"fmi2SetReal": self._set_real, "fmi2GetReal": self._get_real,
              "fmi2SetRealInputDerivatives": self._set_der, "fmi2DoStep": self._do_step}[name]
-        return 0 if f is None else ctypes.cast(f, ctypes.c_void_p).value
+        return 0 if f is None else _address(f)
 
     def set_inputs(self):
         if self.n_in and self._set_real(self._c, self.p_in_vr, self.n_in, self.p_in_val) > 1:
@@ -152,8 +174,15 @@ class Instance:
         """FMI callbacks whose logger prints as fmpy's does and keeps the last error message, so
         that a failed call raises an error saying what the FMU said (e.g. where its integrator
         stopped, in which state and mode)."""
-        from fmpy.fmi2 import (calloc, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE,
-                               fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, free, printLogMessage)
+        from fmpy.fmi2 import (
+            calloc,
+            fmi2CallbackAllocateMemoryTYPE,
+            fmi2CallbackFreeMemoryTYPE,
+            fmi2CallbackFunctions,
+            fmi2CallbackLoggerTYPE,
+            free,
+            printLogMessage,
+        )
 
         def logger(env, instance, status, category, message):
             if status > 1:
@@ -203,14 +232,10 @@ class Instance:
     # --- life cycle -------------------------------------------------------------------------
     def close(self):
         """Terminate and free the instance (errors of an FMU already in a failed state are ignored)."""
-        try:
+        with contextlib.suppress(Exception):
             self.slave.terminate()
-        except Exception:  # noqa: BLE001
-            pass
-        try:
+        with contextlib.suppress(Exception):
             self.slave.freeInstance()
-        except Exception:  # noqa: BLE001
-            pass
 
 
 # --- FMU states of a set of instances (rollback) ------------------------------------------------

@@ -34,8 +34,8 @@ class CouplingSolver:
         self.order_gs = order_gs
         self.has_loops = has_loops
         self.tol, self.max_iter = tol, max_iter
-        self.jac_inv = None  #: (I - dG/du)^-1, None until the first solve
-        self.uscale = None  #: running scale max |u|, |G(u)| of the loop unknowns
+        self.jac_inv: np.ndarray | None = None  #: (I - dG/du)^-1, None until the first solve
+        self.uscale: np.ndarray | None = None  #: running scale max |u|, |G(u)| of the loop unknowns
 
     def reset(self):
         """Forget the Jacobian (new parameters or a new initialisation)."""
@@ -56,8 +56,9 @@ class CouplingSolver:
                 J[i, j] = self.instances[ci.src_instance].partial(ci.src_variable, cj.dst_variable)
         return J
 
-    def _refresh(self, n: int):
+    def _refresh(self, n: int) -> np.ndarray:
         self.jac_inv = np.linalg.inv(np.eye(n) - self.coupling_jacobian())
+        return self.jac_inv
 
     def _set_all_inputs(self, u: np.ndarray):
         for ins in self.inst_list:
@@ -87,9 +88,10 @@ class CouplingSolver:
                 y[ins.sig_out] = ins.out_val
             return 1
         u = y[self.conn_sig].copy() if u0 is None else u0.copy()
-        if self.jac_inv is None:
+        jac = self.jac_inv
+        if jac is None:
             self._set_all_inputs(u)
-            self._refresh(len(u))
+            jac = self._refresh(len(u))
         self.uscale = np.abs(u) + 1e-300
         scale = 1e-300 + np.abs(u)
         for it in range(1, self.max_iter + 1):
@@ -100,9 +102,9 @@ class CouplingSolver:
             err = np.max(np.abs(r) / (self.tol * np.maximum(scale, np.abs(g)) + 1e-300))
             if err <= 1.0 or not np.any(r):
                 return it
-            u = u + self.jac_inv @ r
+            u = u + jac @ r
             if it == 3:  # slow: refresh the Jacobian
-                self._refresh(len(u))
+                jac = self._refresh(len(u))
         raise MasterError(f"coupling equations did not converge at t = {t:.16g} s")
 
     def correct(self, u: np.ndarray, t: float) -> int:
@@ -110,17 +112,19 @@ class CouplingSolver:
         corrections u <- u + (I - dG/du)^-1 (G(u) - u) until the coupling equations hold at t [s].
         Needs a previous :meth:`solve` (the Jacobian and the scale)."""
         y = self.y
+        jac, sc = self.jac_inv, self.uscale
+        if jac is None or sc is None:
+            raise MasterError("the coupling correction needs a previous solve (its Jacobian and scale)")
         g = y[self.conn_sig]
         for it in range(self.max_iter):
             r = g - u
-            u = u + self.jac_inv @ r
+            u = u + jac @ r
             self._set_all_inputs(u)
             self._read_all()
             g = y[self.conn_sig]
-            sc = self.uscale
             np.maximum(sc, np.abs(g), out=sc)
             if np.all(np.abs(g - u) <= self.tol * sc):
                 return it + 1
             if it == 2:
-                self._refresh(len(u))
+                jac = self._refresh(len(u))
         raise MasterError(f"coupling equations did not converge at t = {t:.16g} s")

@@ -239,17 +239,19 @@ class Master:
         rec_t, rec_y: if given, arrays of at least n rows (rec_y: C-contiguous, one column per
         signal) that receive t and the signals after every step."""
         n = int(n)
+        if (rec_t is None) != (rec_y is None):
+            raise ValueError("rec_t and rec_y are given together or not at all")
         i = 0
         loop = self._compiled_loop()
         while i < n and (loop is None or self._startup_step()):
             t0 = time.perf_counter()
             self.step(h)
             self.python_seconds += time.perf_counter() - t0
-            if rec_t is not None:
+            if rec_t is not None and rec_y is not None:
                 rec_t[i] = self.t
                 rec_y[i] = self.y
             i += 1
-        if i < n:
+        if i < n and loop is not None:  # (without a compiled loop, the Python steps above took all n)
             loop.run(n - i, h, None if rec_t is None else rec_t[i:], None if rec_y is None else rec_y[i:])
 
     def timing(self) -> dict:
@@ -265,7 +267,10 @@ class Master:
 
     def error_estimate(self, rtol: float, atol: float) -> float:
         """Scaled local coupling error of the last step: |extrapolated - found| at the new point."""
-        return self._error(self.stepper.pred, self.y, rtol, atol)
+        pred = self.stepper.pred
+        if pred is None:
+            raise MasterError("no step taken yet: there is no coupling error to estimate")
+        return self._error(pred, self.y, rtol, atol)
 
     def run(self, t_end: float, step: float | None = None, tol: float | None = None, atol: float = 1e-9,
             h0: float | None = None, h_max: float | None = None) -> Result:

@@ -45,7 +45,7 @@ class Stepper:
         self.scheme, self.order = scheme, order
         self.startup_iterations = int(startup_iterations)
         self.can_rollback = all(ins.can_state for ins in self.inst_list)
-        self.pred = None
+        self.pred: np.ndarray | None = None  #: the sources extrapolated to t + h (None before a step)
         self.reset()
 
     def reset(self):

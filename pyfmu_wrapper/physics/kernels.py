@@ -36,8 +36,7 @@ from numba import types
 from numba.extending import overload
 
 from .._jit import njit
-from .params import (P_C, P_F, P_I, P_K, P_M, P_MODEL, P_W, P_c, P_ci, P_df, P_eps, P_k, P_k3, P_ki,
-                     P_m, P_s)
+from .params import P_C, P_F, P_I, P_K, P_M, P_MODEL, P_W, P_c, P_ci, P_df, P_eps, P_k, P_k3, P_ki, P_m, P_s
 
 MODEL_NONE, MODEL_IDEAL, MODEL_PLAY = 0, 1, 2
 NSTATE = 6
@@ -321,10 +320,12 @@ def chain_force_gradient(d, dd, p):
     ki, ci, eps = p[P_ki], p[P_ci], p[P_eps]
     if eps == 0.0:
         return ki, ci
-    if d > eps:
+    # the two engagement sides, each with its own force test (kept nested: with the tests merged, a
+    # failing first test would fall through to the second side)
+    if d > eps:  # noqa: SIM102
         if ki * (d - eps) + ci * dd > 0.0:
             return ki, ci
-    elif d < -eps:
+    elif d < -eps:  # noqa: SIM102
         if ki * (d + eps) + ci * dd < 0.0:
             return ki, ci
     return 0.0, 0.0
@@ -524,7 +525,7 @@ def power_balance(t, z, p):
 
     Dissipation: C xd^2 + c v^2 + Ffric v + ci dd_rel^2 in the engaged chain (v = xd - yd).
     """
-    x, xd, y, yd, d, dd = z[0], z[1], z[2], z[3], z[4], z[5]
+    xd, yd, d, dd = z[1], z[3], z[4], z[5]
     v = xd - yd
     pin = excitation(t, p) * xd
     pd = p[P_C] * xd * xd + p[P_c] * v * v + friction_force(v, p[P_df], p[P_s]) * v

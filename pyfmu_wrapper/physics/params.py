@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, field, fields, make_dataclass, replace
 from enum import IntEnum
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -51,6 +52,14 @@ def _check(name: str, value, *, source: str | None, minimum=None, strict=False, 
 class _BaseMixin:
     """Methods of :class:`BaseParams` (its fields come from the registry)."""
 
+    # the fields' types, for the type checker only (annotations without values make no dataclass field
+    # of the generated class; tests/test_registry.py checks these names against the registry)
+    mass: float
+    stiffness: float
+    damping: float
+    force_amplitude: float
+    source: str | None
+
     def __post_init__(self):
         _validate_fields(self, "base")
 
@@ -62,6 +71,20 @@ class _BaseMixin:
 
 class _TMDMixin:
     """Methods and cross-field checks of :class:`TMDParams` (its fields come from the registry)."""
+
+    # the fields' types, for the type checker only (see _BaseMixin)
+    mass: float
+    stiffness: float
+    damping: float
+    friction_force: float
+    friction_slope: float
+    inertance: float
+    mesh_stiffness: float
+    mesh_damping: float
+    play_gap: float
+    inerter: InerterModel
+    cubic_stiffness: float
+    source: str | None
 
     def __post_init__(self):
         s = self.source
@@ -119,8 +142,8 @@ def _class_doc(title: str, subsystem: str) -> str:
     return "\n".join(lines)
 
 
-def _make_class(name: str, subsystem: str, mixin, title: str):
-    specs = []
+def _make_class(name: str, subsystem: str, mixin: type, title: str) -> type:
+    specs: list[tuple[str, Any, Any]] = []
     for par in registry.fields(subsystem):
         default = InerterModel(int(par.default)) if par.kind == "enum" else float(par.default)
         specs.append((par.name, InerterModel if par.kind == "enum" else float, field(default=default)))
@@ -130,16 +153,31 @@ def _make_class(name: str, subsystem: str, mixin, title: str):
     return cls
 
 
-#: Base oscillator: M xdd + C xd + K x = F cos(omega t) - (force of the TMD links). The
-#: excitation frequency omega [rad/s] is passed to the solvers, not stored here.
-BaseParams = _make_class("BaseParams", "base", _BaseMixin,
-                         "Base oscillator: M xdd + C xd + K x = F cos(w t) - (force of the TMD links).")
-#: TMD mass m and its links to the base (paper Table 1). Link forces are counted positive when
-#: they push the base in -x and the TMD in +y:
-#: Fs = k (x - y) + k3 (x - y)^3 + c (xd - yd) + df (2/pi) atan(s (xd - yd)), and the inerter force P.
-TMDParams = _make_class("TMDParams", "tmd", _TMDMixin,
-                        "TMD mass m and its links to the base (paper Table 1): spring k + k3 (x-y)^3, "
-                        "damper c, dry friction df, inerter I (none / ideal / with play ki, ci, eps).")
+if TYPE_CHECKING:
+    # what the type checker sees: the generated classes, frozen dataclasses with the mixins' field types
+    # and keyword-only constructors (the registry decides the fields at run time)
+    from dataclasses import Field
+
+    class BaseParams(_BaseMixin):
+        __dataclass_fields__: ClassVar[dict[str, Field[Any]]]
+
+        def __init__(self, **fields: Any) -> None: ...
+
+    class TMDParams(_TMDMixin):
+        __dataclass_fields__: ClassVar[dict[str, Field[Any]]]
+
+        def __init__(self, **fields: Any) -> None: ...
+else:
+    #: Base oscillator: M xdd + C xd + K x = F cos(omega t) - (force of the TMD links). The
+    #: excitation frequency omega [rad/s] is passed to the solvers, not stored here.
+    BaseParams = _make_class("BaseParams", "base", _BaseMixin,
+                             "Base oscillator: M xdd + C xd + K x = F cos(w t) - (force of the TMD links).")
+    #: TMD mass m and its links to the base (paper Table 1). Link forces are counted positive when
+    #: they push the base in -x and the TMD in +y:
+    #: Fs = k (x - y) + k3 (x - y)^3 + c (xd - yd) + df (2/pi) atan(s (xd - yd)), and the inerter force P.
+    TMDParams = _make_class("TMDParams", "tmd", _TMDMixin,
+                            "TMD mass m and its links to the base (paper Table 1): spring k + k3 (x-y)^3, "
+                            "damper c, dry friction df, inerter I (none / ideal / with play ki, ci, eps).")
 
 
 def with_values(obj, source: str | None = None, **changes):

@@ -16,8 +16,8 @@ portraits). An engine is a pair of functions registered in :data:`ENGINES`:
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 import pandas as pd
@@ -74,7 +74,7 @@ class RunSettings:
     sweep: SweepConfig = SweepConfig()
 
     @classmethod
-    def for_scenario(cls, scn, engine: str = "monolithic", workers: int = 1, cosim=None) -> "RunSettings":
+    def for_scenario(cls, scn, engine: str = "monolithic", workers: int = 1, cosim=None) -> RunSettings:
         """The settings of a scenario for ``engine``; ``cosim`` replaces the scenario's cosim block."""
         _engine(engine)
         if cosim is None and engine in BLOCK_USERS["cosim"]:

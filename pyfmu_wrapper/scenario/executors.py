@@ -34,6 +34,7 @@ workers also die with their parent (``PR_SET_PDEATHSIG``), so a killed run leave
 """
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import multiprocessing as mp
@@ -41,10 +42,11 @@ import os
 import signal
 import tempfile
 import time
+from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
-from typing import Callable, Iterator
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -164,10 +166,8 @@ class Checkpoint:
                 table[list(SWEEP_COLUMNS)].to_csv(f, index=False, float_format="%.17g")
             os.replace(tmp, self.path(task))
         except BaseException:
-            try:
+            with contextlib.suppress(OSError):
                 os.unlink(tmp)
-            except OSError:
-                pass
             raise
 
     def finished(self) -> int:
@@ -237,8 +237,8 @@ class LocalExecutor:
 
     def __init__(self, jobs: int | None = 0):
         self.jobs = int(jobs) if jobs else (os.cpu_count() or 1)
-        self._pool = None
-        self._queue = None
+        self._pool: ProcessPoolExecutor | None = None
+        self._queue: Any = None  #: a multiprocessing queue while the pool runs (its type depends on the context)
         self._max_processes = 0  #: worker processes started (0: everything ran in this process)
         self._batch = 0
 
@@ -297,10 +297,8 @@ class LocalExecutor:
                     items.pop(k, None)
         procs = list((getattr(pool, "_processes", None) or {}).values())
         for p in procs:
-            try:
+            with contextlib.suppress(Exception):  # already gone
                 p.terminate()
-            except Exception:  # noqa: BLE001 - already gone
-                pass
         for p in procs:
             p.join(timeout=5)
             if p.is_alive():
@@ -391,7 +389,7 @@ class TaskStats:
 
 
 def run_tasks(tasks: list[SweepTask], executor=None, checkpoint: Checkpoint | None = None,
-              progress: Callable[[int], object] | None = None, stats: TaskStats | None = None) -> list[pd.DataFrame]:
+              progress: Callable[[float], object] | None = None, stats: TaskStats | None = None) -> list[pd.DataFrame]:
     """Results of ``tasks`` in order: read from ``checkpoint`` where finished, computed by ``executor``
     (None: sequentially here) otherwise; each computed result is checkpointed as soon as it arrives."""
     stats = stats if stats is not None else TaskStats()
@@ -429,5 +427,5 @@ def run_tasks(tasks: list[SweepTask], executor=None, checkpoint: Checkpoint | No
             progress(tasks[i].units() - reported[j])
         reported[j] = tasks[i].units()
     stats.wall_time += time.perf_counter() - t0
-    return out  # type: ignore[return-value]
+    return out
 

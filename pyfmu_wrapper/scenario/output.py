@@ -200,10 +200,10 @@ def check_output_dir(out, scenario_path=None, checkpoint_dir=None) -> list[str]:
     ck = _abs(checkpoint_dir) if checkpoint_dir is not None else None
     if ck is not None and ck == default_checkpoint_dir(out) and ck.exists():
         m = read_marker(ck)
-        if not ck.is_dir() or ck.is_symlink() or m is None or m.get("kind") != "checkpoints":
-            if not (ck.is_dir() and not os.listdir(ck)):
-                raise OutputError(f"--out {given}: the checkpoint folder {ck} exists but was not written by "
-                                  "run-scenario; refusing to write into it (move it, or choose another --out)")
+        foreign_ck = not ck.is_dir() or ck.is_symlink() or m is None or m.get("kind") != "checkpoints"
+        if foreign_ck and not (ck.is_dir() and not os.listdir(ck)):
+            raise OutputError(f"--out {given}: the checkpoint folder {ck} exists but was not written by "
+                              "run-scenario; refusing to write into it (move it, or choose another --out)")
     return clean_stale_partials(out)
 
 
@@ -225,7 +225,7 @@ def run_scenario(scn: Scenario, out_dir, settings: RunSettings, progress=None, e
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-{os.getpid()}-", dir=out.parent))
     try:
-        started = _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds")
+        started = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
         _write_marker(tmp, kind="partial", out=str(out), pid=os.getpid(), host=socket.gethostname(), started=started,
                       scenario=scn.name)
         umask = os.umask(0)
@@ -361,7 +361,7 @@ def make_summary(scn: Scenario, settings: RunSettings, datas, compute_time: floa
         timings=dict(compute=compute_time, total=total_time, studies={d.study.name: d.wall_time for d in datas},
                      cosim=cosim_time_split(datas)),
         studies=[study_summary(d) for d in datas],
-        created=_dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        created=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         versions=dict(pyfmu_wrapper=version, numpy=np.__version__),
     )
 

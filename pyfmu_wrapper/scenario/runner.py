@@ -9,6 +9,7 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -16,7 +17,7 @@ from scipy.optimize import minimize_scalar
 
 from ..physics.params import as_dict
 from ..solvers.frequency_response import exact_amplitude
-from .engines import RunSettings, TimeSeries, compute_sweep, compute_time_series, uses_exact
+from .engines import RunSettings, compute_sweep, compute_time_series, uses_exact
 from .executors import Checkpoint, SweepTask, TaskStats, run_task, run_tasks
 from .schema import FRCStudy, MapStudy, PhasePortraitStudy, Scenario
 
@@ -114,7 +115,7 @@ class _Cache:
         """Tables of several configurations over the same frequencies, in order."""
         omegas = np.asarray(omegas, float)
         out = [None] * len(tmds)
-        todo = {}  # key -> indices (identical configurations are computed once)
+        todo: dict[tuple, list[int]] = {}  # key -> indices (identical configurations are computed once)
         for i, tmd in enumerate(tmds):
             key = (tmd, omegas.tobytes())
             if key in self.tables:
@@ -195,7 +196,7 @@ def _differences(t: pd.DataFrame) -> dict:
     w = t["omega"].to_numpy(float)
     irr = _irregular_mask(t)
     reg = np.where(irr | ~np.isfinite(d), np.nan, np.abs(d))
-    out = dict(regular_points=int(np.isfinite(reg).sum()))
+    out: dict[str, Any] = dict(regular_points=int(np.isfinite(reg).sum()))
     if np.isfinite(reg).any():
         k = int(np.nanargmax(reg))
         out.update(max_abs_difference=float(reg[k]), omega_max_difference=float(w[k]))
@@ -214,7 +215,8 @@ def _differences(t: pd.DataFrame) -> dict:
 def frc_response(scn: Scenario, study: FRCStudy, settings: RunSettings, progress=None, cache=None) -> FRCData:
     cache = cache or _Cache()
     t0 = time.perf_counter()
-    parts, peaks = [], {}
+    parts: list[pd.DataFrame] = []
+    peaks: dict[str, dict[str, dict[str, Any]]] = {}  # curve label -> direction -> peak and diagnostics
     tables = cache.sweeps(scn.base, [c.tmd for c in study.curves], study.omegas, settings, progress, study.name)
     for curve, table in zip(study.curves, tables):
         table = table.copy()
@@ -267,7 +269,7 @@ def run_studies(scn: Scenario, settings: RunSettings, progress=None, executor=No
     cache = _Cache(executor, checkpoint_dir, resume, checkpoint_marker)
     if stats is not None:
         cache.stats = stats
-    out = []
+    out: list[FRCData | MapData | PhaseData] = []
     for st in scn.studies:
         if isinstance(st, FRCStudy):
             out.append(frc_response(scn, st, settings, progress, cache))
