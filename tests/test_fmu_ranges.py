@@ -15,7 +15,6 @@
 """
 from __future__ import annotations
 
-import ctypes
 import os
 import struct
 import subprocess
@@ -24,13 +23,19 @@ import textwrap
 import zipfile
 
 import fmpy
-import numpy as np
 import pytest
-from fmpy.fmi2 import (FMU2Slave, fmi2CallbackAllocateMemoryTYPE, fmi2CallbackFreeMemoryTYPE, fmi2CallbackFunctions,
-                       fmi2CallbackLoggerTYPE, calloc, free)
-from fmpy.fmi1 import FMICallException
-
 from _fmu_support import built_fmus
+from fmpy.fmi1 import FMICallException
+from fmpy.fmi2 import (
+    FMU2Slave,
+    calloc,
+    fmi2CallbackAllocateMemoryTYPE,
+    fmi2CallbackFreeMemoryTYPE,
+    fmi2CallbackFunctions,
+    fmi2CallbackLoggerTYPE,
+    free,
+)
+
 from pyfmu_wrapper.fmi.variables import SPECS
 from pyfmu_wrapper.physics import registry
 

@@ -18,7 +18,6 @@ import textwrap
 
 import numpy as np
 import pytest
-
 from _fmu_support import built_fmus, damped_forced_response
 
 BASE = dict(M=100.0, K=4.0e4, C=100.0, F=200.0, w=18.0, x0=0.01, xd0=0.0)

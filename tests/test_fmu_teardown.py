@@ -25,7 +25,6 @@ from pathlib import Path
 
 import fmpy
 import pytest
-
 from _fmu_support import built_fmus, compile_c_host, extract, guid
 
 BASE = dict(M=100.0, K=4.0e4, C=100.0, F=200.0, w=17.0)

@@ -72,7 +72,6 @@ def channel_spec(acq: dict | None, ch: str) -> dict:
 def truth_dense(truth: dict, omega: float, F_rec: float, tau: np.ndarray) -> dict:
     """x, y, xdd, ydd of the true system at solver times tau (true force (1 + a) F_rec cos(w tau))."""
     from ..physics.params import BaseParams, TMDParams
-
     from .sysbench_oov import has_dynamics, oov_model
 
     Ft = F_rec * (1.0 + truth.get("force_error", 0.0))
@@ -164,7 +163,6 @@ def time_record(truth, nom, omega, F_rec, fs, n_periods, phi, acq, accel_only, r
 def frc_amplitudes(truth: dict, omegas, F_rec) -> np.ndarray:
     """Noise-free steady-state max |x| of the truth along a sweep (in the order given)."""
     from ..physics.params import BaseParams, TMDParams
-
     from .sysbench_oov import has_dynamics, oov_model
 
     Ft = F_rec * (1.0 + truth.get("force_error", 0.0))
@@ -182,9 +180,8 @@ def frc_amplitudes(truth: dict, omegas, F_rec) -> np.ndarray:
         from ..solvers.frequency_response import exact_amplitude
 
         return exact_amplitude(base, tmd, np.asarray(omegas, dtype=float))
-    from ..solvers.monolithic import SolverSettings, steady_state
-
     from ..physics.params import has_gap
+    from ..solvers.monolithic import SolverSettings, steady_state
 
     out, z, hint = [], None, {}
     rattle = has_gap(tmd)

@@ -73,7 +73,7 @@ def true_parts(nom: dict, hidden: dict, oov: dict) -> dict:
 
 def draw_acquisition(rng, fs: float, accel_only: bool):
     mode = rng.choice(["none", "accel", "all"], p=[0.3, 0.3, 0.4])
-    acq = {}
+    acq: dict[str, dict] = {}
     if mode != "none":
         typ = str(rng.choice(["butterworth", "bessel"]))
         filt = {"type": typ, "order": int(rng.integers(2, 9)),
@@ -138,7 +138,7 @@ def plan(rng, n=None, n_clean=None, n_pair=None, n_oov=None) -> list:
 
     nc, ns, npair, no = composition(n, n_clean, n_pair, n_oov)
     eff = in_vocab()
-    items = [("clean", {}, {})] * nc
+    items: list[tuple[str, dict, dict]] = [("clean", {}, {})] * nc
     start = int(rng.integers(len(eff)))
     for j in range(ns):
         e = eff[(start + j) % len(eff)]
@@ -150,7 +150,7 @@ def plan(rng, n=None, n_clean=None, n_pair=None, n_oov=None) -> list:
     start = int(rng.integers(len(OOV_EFFECTS)))
     for j in range(no):
         e = OOV_EFFECTS[(start + j) % len(OOV_EFFECTS)]
-        o = {e: draw_value(rng, OOV_RANGES[e], e in OOV_SIGNED)}
+        o: dict[str, float | str] = {e: draw_value(rng, OOV_RANGES[e], e in OOV_SIGNED)}
         if e == "accel_gain":
             o["accel_gain_channel"] = str(rng.choice(["xdd", "ydd"]))
         items.append(("oov", {}, o))

@@ -115,7 +115,7 @@ def summarise(rows: list) -> dict:
         "median_seconds": statistics.median(r["seconds"] for r in rows) if rows else None,
         "max_seconds": max(r["seconds"] for r in rows) if rows else None,
     }
-    per = {}
+    per: dict[str, dict] = {}
     for r in by["single"] + by["pair"]:
         for e in r["hidden"]:
             d = per.setdefault(e, {"n": 0, "named": 0, "n_single": 0, "single_top1": 0, "errors": []})
@@ -128,7 +128,7 @@ def summarise(rows: list) -> dict:
                            "single_top1": d["single_top1"],
                            "param_rel_error_median": statistics.median(d["errors"]) if d["errors"] else None}
                        for e, d in sorted(per.items())}
-    po = {}
+    po: dict[str, dict] = {}
     for r in oov:
         e = r["hidden"][0] if r["hidden"] else "?"
         d = po.setdefault(e, {"n": 0, "honest": 0, "right": 0, "confidently_wrong": 0, "missed": 0, "error": 0})

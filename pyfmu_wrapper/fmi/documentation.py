@@ -12,6 +12,7 @@ from html import escape
 from .model_description import declared_range
 from .variables import FmuSpec, Variable
 
+
 def install_command(requires, python: str = "python") -> str:
     """The command that installs what the model needs, quoted for any POSIX shell."""
     return f"{python} -m pip install " + " ".join(f'"{r}"' for r in requires)
