@@ -62,6 +62,9 @@ def build_system_result(ds, sd, frc=None) -> dict:
     verdict = {
         "structural": bool(sd.chosen), "effects": list(sd.chosen), "labels": [LABELS[e] for e in sd.chosen],
         "text": sd.verdict_text(), "parameters": params,
+        "unexplained": bool(sd.unexplained), "unexplained_share": _f(sd.unexplained_share),
+        "localisation": sd.localisation,
+        "hint": ({"effects": list(sd.hint[0]), "gap_closed": _f(sd.hint[1])} if sd.hint is not None else None),
         "held_out": {"gap_before": ho["excess_before"], "gap_after": ho["excess_after"], "gap_closed": _f(ho["gap_closed"]),
                      "chi2_before": ho["chi2_before"], "chi2_after": ho["chi2_after"], "dof": ho["dof"]},
         "sources": {"time_records": [v.name for v in sd.views],

@@ -14,7 +14,9 @@ variances of X_h, Y_h, F_h (the linear part of the model); residuals and regress
 with it, so a chi-square is in units of the measured noise of that record and channel.
 
 Every candidate effect adds ``offset + Phi beta`` to the residual model (Phi: one column per
-linear parameter, for A and for B). Parameters are fitted by weighted least squares; held-out
+linear parameter, for A and for B). The nominal's own parameters are candidates too (true =
+nominal + delta): base mass ``(-(h w)^2 X, 0)``, base stiffness ``(X, 0)``, base damping
+``(i h w X, 0)``, TMD spring stiffness ``(X - Y, X - Y)``. Parameters are fitted by weighted least squares; held-out
 evidence is leave-one-record-out (or the dataset's roles): the chi-square of each record with the
 parameters fitted on the others.
 """
@@ -195,6 +197,16 @@ class SystemModel:
             return [(-(b.stiffness + t.stiffness) * e0, -t.stiffness * e0), (t.stiffness * e0, t.stiffness * e0)]
         if effect == "play":  # the inertance the gear loses on average while it rattles
             return [(a, a)]
+        # the nominal's own parameters: true = nominal + delta; the nominal's residual is the
+        # force the delta adds (base equation: (dK + i h w dC - dM (h w)^2) X; link: dk (x - y))
+        if effect == "base_mass":
+            return [(-(hw ** 2) * v.X, z)]
+        if effect == "base_stiffness":
+            return [(v.X.copy(), z)]
+        if effect == "base_damping":
+            return [(1j * hw * v.X, z)]
+        if effect == "tmd_stiffness":
+            return [(D, D)]
         raise KeyError(effect)
 
     def unit_link_force(self, v, index):
@@ -233,6 +245,8 @@ EFFECT_PARAMS = {
     "friction": ("friction_force",), "play": ("delta_inertance_eff",), "viscous": ("delta_damping",),
     "mass_split": ("delta_inertance",), "cubic": ("cubic_stiffness",), "force_error": ("force_gain_error",),
     "sensor_offset": ("x_offset", "y_offset"),
+    "base_mass": ("delta_mass",), "base_stiffness": ("delta_stiffness",), "base_damping": ("delta_damping",),
+    "tmd_stiffness": ("delta_stiffness",),
 }
 SIGN = {"force_error": -1.0}  # beta = -alpha
 
@@ -258,6 +272,7 @@ class EqFit:
     n_params: int
     params: dict = field(default_factory=dict)
     std: dict = field(default_factory=dict)
+    resid_ho: list = field(default_factory=list)  #: per record, the whitened held-out residual (None: never held out)
 
 
 def fit_eq(model: SystemModel, effects, folds, theta=None) -> EqFit:
@@ -276,6 +291,7 @@ def fit_eq(model: SystemModel, effects, folds, theta=None) -> EqFit:
     ys = [v.r for v in model.views]
     train_all = sorted({i for tr, _ in folds for i in tr})
     chi_rec = [0.0] * len(ys)
+    res_rec = [None] * len(ys)
     for tr, te in folds:
         Phi = np.vstack([des[i][1] for i in tr])
         y = np.concatenate([ys[i] - des[i][0] for i in tr])
@@ -283,6 +299,7 @@ def fit_eq(model: SystemModel, effects, folds, theta=None) -> EqFit:
         for i in te:
             r = ys[i] - des[i][0] - des[i][1] @ beta
             chi_rec[i] += float(r @ r)
+            res_rec[i] = r
     Phi = np.vstack([des[i][1] for i in train_all])
     y = np.concatenate([ys[i] - des[i][0] for i in train_all])
     beta, cov = _lstsq(Phi, y)
@@ -291,7 +308,8 @@ def fit_eq(model: SystemModel, effects, folds, theta=None) -> EqFit:
     dof = max(y.size - beta.size, 1)
     cov = cov * max(1.0, chi_fit / dof)
     test_ids = sorted({i for _, te in folds for i in te})
-    f = EqFit(tuple(effects), theta, beta, cov, sum(chi_rec[i] for i in test_ids), chi_rec, chi_fit, beta.size)
+    f = EqFit(tuple(effects), theta, beta, cov, sum(chi_rec[i] for i in test_ids), chi_rec, chi_fit, beta.size,
+              resid_ho=res_rec)
     k = 0
     sd = np.sqrt(np.clip(np.diag(cov), 0, None))
     for e in effects:
