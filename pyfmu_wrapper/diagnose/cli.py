@@ -128,7 +128,7 @@ def main_make_benchmark(argv=None):
     ap.add_argument("--suite", choices=["system", "link"], default="system",
                     help="system: the coupled base + TMD simulated and measured as a rig does (default); "
                          "link: one TMD link on a displacement-controlled rig")
-    ap.add_argument("-n", type=int, default=40, help="number of datasets (default 40)")
+    ap.add_argument("-n", type=int, default=None, help="number of datasets (default: system 52, link 40)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--clean-fraction", type=float, default=0.25)
     ap.add_argument("--pair-fraction", type=float, default=0.2)
@@ -138,10 +138,10 @@ def main_make_benchmark(argv=None):
         from .sysbench import make_system_benchmark
 
         man = make_system_benchmark(Path(a.out), n=a.n, seed=a.seed, progress=lambda r: print(
-            f"{r['dataset']}: case {r['case']}, hidden {r['severity'] or '-'}"))
+            f"{r['dataset']} written ({r['seconds']:.1f} s)", flush=True))  # the labels only in manifest.json
         print(f"wrote {len(man)} system-level datasets and manifest.json to {a.out}")
         return 0
-    man = make_benchmark(Path(a.out), n=a.n, seed=a.seed, clean_fraction=a.clean_fraction, pair_fraction=a.pair_fraction, noise=a.noise)
+    man = make_benchmark(Path(a.out), n=40 if a.n is None else a.n, seed=a.seed, clean_fraction=a.clean_fraction, pair_fraction=a.pair_fraction, noise=a.noise)
     print(f"wrote {len(man)} datasets and manifest.json to {a.out}")
     return 0
 
@@ -151,8 +151,24 @@ def main_score(argv=None):
 
     ap = argparse.ArgumentParser(prog="score", description="Run diagnose on a benchmark and score it.")
     ap.add_argument("benchmark", help="folder written by make-benchmark")
-    ap.add_argument("--out", help="write score.json here")
+    ap.add_argument("--out", help="write score.json here (system suite default: BENCHMARK/score.json)")
     a = ap.parse_args(argv)
+    man = Path(a.benchmark) / "manifest.json"
+    if not man.is_file():
+        print(f"score: {man}: file not found (a folder written by make-benchmark)", file=sys.stderr)
+        return 2
+    if json.loads(man.read_text()).get("suite") == "system":
+        from .sysscore import row_line, score_system, table
+
+        out = Path(a.out) if a.out else Path(a.benchmark) / "score.json"
+        if not a.out and out.exists() and '"written_by": "score"' not in out.read_text():
+            print(f"score: {out} exists and was not written by score; give --out", file=sys.stderr)
+            return 2
+        res = score_system(Path(a.benchmark), progress=lambda r: print(row_line(r), flush=True))
+        print(table(res["summary"]))
+        out.write_text(json.dumps(res, indent=1))
+        print(f"score: {out}")
+        return 0
     res = score(Path(a.benchmark), progress=lambda r: print(
         f"{r['dataset']}: hidden {r['hidden'] or '-'} found {r['found'] or '-'} {'ok' if r['correct'] else 'WRONG'}"))
     print(json.dumps(res["summary"], indent=1))

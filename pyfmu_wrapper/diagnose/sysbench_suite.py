@@ -1,0 +1,195 @@
+"""The field-like system suite of ``make-benchmark`` (docs/diagnose.md, "Check 1").
+
+Per dataset, drawn with the seed: paper Case 1, 2 or 3 nominal with c = 10 or 15 N s/m (ideal
+inerter); sampling rate 256 Hz-5 kHz; an acquisition chain (none, anti-alias filters on the
+accelerometers only, or on every channel: Butterworth or Bessel, order 2-8, cut-off 0.25-0.45 fs;
+sometimes a load-cell delay) declared in ``dataset.yaml`` under ``acquisition``; 3-6 time records
+at distinct frequencies (15-25 rad/s, on a 0.01 Hz grid) and forces (100-300 N), each a non-whole
+number (8.1-15.9) of periods long, starting at an arbitrary phase; noise 0.3-2 % on the force
+channel and 0.5-3 % on the others (per channel and record, added after the filter); about one in
+five datasets acceleration-only (t, force, xdd, ydd); one or two stepped-sine FRC records
+(15-25 rad/s in 0.5 rad/s steps, 100-250 N, swept up or down, 0.3-1 % noise on x_max).
+
+Classes: clean, single in-vocabulary effects (cycling over the 11 names of ``IN_VOCAB``), pairs
+and out-of-vocabulary effects (:mod:`sysbench_oov`). Labels, severities, the drawn conditions and
+the visibility of the truth (chi-square of the noise-free difference from the nominal, all records)
+go to ``manifest.json`` only.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+
+from .sysbench import RANGES as BASE_RANGES
+from .sysbench import SIGNED as BASE_SIGNED
+from .sysbench import TRUTH_KEY as BASE_TRUTH_KEY
+from .sysbench import has_cubic, nominal
+
+RANGES = dict(BASE_RANGES, base_mass=(2.0, 8.0), base_stiffness=(800.0, 3200.0), base_damping=(10.0, 50.0),
+              tmd_stiffness=(80.0, 320.0))
+SIGNED = set(BASE_SIGNED) | {"base_mass", "base_stiffness", "base_damping", "tmd_stiffness"}
+TRUTH_KEY = dict(BASE_TRUTH_KEY, base_mass="base_mass.delta_mass", base_stiffness="base_stiffness.delta_stiffness",
+                 base_damping="base_damping.delta_damping", tmd_stiffness="tmd_stiffness.delta_stiffness")
+OOV_RANGES = {"quadratic_damping": (1.0, 20.0), "base_friction": (1.0, 10.0), "base_hardening": (5e4, 5e5),
+              "x_gain": (0.03, 0.10), "accel_gain": (0.03, 0.10)}
+OOV_SIGNED = {"x_gain", "accel_gain"}
+FS_CHOICES = (256.0, 500.0, 512.0, 1000.0, 1024.0, 2000.0, 2048.0, 2500.0, 2560.0, 5000.0)
+VISIBLE_CHI2 = 100.0  #: a truth is "visible" when the noise-free difference has chi-square above this
+
+
+def in_vocab() -> list:
+    return [e for e in RANGES if e != "cubic" or has_cubic()]
+
+
+def draw_value(rng, lo_hi, signed: bool, strength=None) -> float:
+    lo, hi = lo_hi
+    u = rng.uniform() if strength is None else strength
+    v = float(lo * (hi / lo) ** u)
+    return -v if signed and rng.uniform() < 0.5 else v
+
+
+def true_parts(nom: dict, hidden: dict, oov: dict) -> dict:
+    base = dict(nom["base"])
+    base["mass"] += hidden.get("base_mass", 0.0)
+    base["stiffness"] += hidden.get("base_stiffness", 0.0)
+    base["damping"] += hidden.get("base_damping", 0.0)
+    tk = dict(nom["tmd"])
+    tk["damping"] += hidden.get("viscous", 0.0)
+    tk["stiffness"] += hidden.get("tmd_stiffness", 0.0)
+    tk["friction_force"] = hidden.get("friction", 0.0)
+    dI = hidden.get("mass_split", 0.0)
+    tk["inertance"] += dI
+    tk["mass"] -= dI
+    if "play" in hidden:
+        tk.update(inerter="play", play_gap=hidden["play"])
+    if "cubic" in hidden:
+        tk["cubic_stiffness"] = hidden["cubic"]
+    return {"base": base, "tmd": tk, "force_error": hidden.get("force_error", 0.0),
+            "sensor_offset": hidden.get("sensor_offset", 0.0), "oov": dict(oov)}
+
+
+def draw_acquisition(rng, fs: float, accel_only: bool):
+    mode = rng.choice(["none", "accel", "all"], p=[0.3, 0.3, 0.4])
+    acq = {}
+    if mode != "none":
+        typ = str(rng.choice(["butterworth", "bessel"]))
+        filt = {"type": typ, "order": int(rng.integers(2, 9)),
+                "cutoff_hz": round(float(rng.uniform(0.25, 0.45)) * fs, 1)}
+        chans = ["xdd", "ydd"] if mode == "accel" else (["force", "xdd", "ydd"] if accel_only
+                                                          else ["force", "x", "y", "xdd", "ydd"])
+        for c in chans:
+            acq[c] = {"filter": dict(filt)}
+    if rng.uniform() < 0.25:  # a load-cell conditioner delay
+        acq.setdefault("force", {})["delay_s"] = round(float(rng.uniform(1e-4, 1e-3)), 6)
+    if mode == "all" and "delay_s" not in acq.get("force", {}) and not accel_only:
+        acq = {"all": {"filter": acq["x"]["filter"]}}
+    return acq or None
+
+
+def draw_dataset(rng, hidden: dict, oov: dict, accel_only: bool | None = None) -> dict:
+    case = int(rng.integers(1, 4))
+    c = float(rng.choice([10.0, 15.0]))
+    nom = nominal(case, c)
+    if "mass_split" in hidden:  # keep m and I positive: -I/2 < dI < m/2
+        I0, m0 = nom["tmd"]["inertance"], nom["tmd"]["mass"]
+        hidden["mass_split"] = float(np.clip(hidden["mass_split"], -0.5 * I0, 0.5 * m0))
+    if accel_only is None:
+        accel_only = rng.uniform() < 0.2 and "sensor_offset" not in hidden and "x_gain" not in oov
+    fs = float(rng.choice(FS_CHOICES))
+    n_rec = int(rng.integers(3, 7))
+    fhz = np.sort(rng.choice(np.arange(math.ceil(1500 / (2 * math.pi)), int(2500 / (2 * math.pi)) + 1),
+                             n_rec, replace=False)) / 100.0
+    recs = []
+    for f in fhz:
+        periods = int(rng.integers(8, 16)) + float(rng.uniform(0.1, 0.9))
+        noise = {"force": float(rng.uniform(0.003, 0.02))}
+        noise.update({ch: float(rng.uniform(0.005, 0.03)) for ch in ("x", "y", "xdd", "ydd")})
+        recs.append({"frequency_hz": float(f), "omega": 2 * math.pi * float(f),
+                     "force": float(5 * round(rng.uniform(100, 300) / 5)), "periods": periods,
+                     "phase": float(rng.uniform(0, 2 * math.pi)), "noise": noise})
+    frcs = []
+    for _ in range(int(rng.integers(1, 3))):
+        d = str(rng.choice(["up", "down"]))
+        om = np.arange(15.0, 25.001, 0.5)
+        frcs.append({"force": float(10 * round(rng.uniform(100, 250) / 10)), "direction": d,
+                     "omegas": (om if d == "up" else om[::-1]).tolist(), "noise": float(rng.uniform(0.003, 0.01))})
+    return {"case": case, "nominal": nom, "fs": fs, "accel_only": bool(accel_only),
+            "acquisition": draw_acquisition(rng, fs, accel_only), "records": recs, "frc": frcs,
+            "truth": true_parts(nom, hidden, oov)}
+
+
+def composition(n: int | None, n_clean=None, n_pair=None, n_oov=None):
+    n = 52 if n is None else int(n)
+    n_clean = int(round(0.19 * n)) if n_clean is None else n_clean
+    n_pair = int(round(0.15 * n)) if n_pair is None else n_pair
+    n_oov = int(round(0.23 * n)) if n_oov is None else n_oov
+    n_single = n - n_clean - n_pair - n_oov
+    if n_single < 0:
+        raise ValueError(f"n = {n} is smaller than clean + pairs + OOV = {n_clean + n_pair + n_oov}")
+    return n_clean, n_single, n_pair, n_oov
+
+
+def plan(rng, n=None, n_clean=None, n_pair=None, n_oov=None) -> list:
+    """[(class, hidden, oov)] in a shuffled order."""
+    from .sysbench_oov import OOV_EFFECTS
+
+    nc, ns, npair, no = composition(n, n_clean, n_pair, n_oov)
+    eff = in_vocab()
+    items = [("clean", {}, {})] * nc
+    start = int(rng.integers(len(eff)))
+    for j in range(ns):
+        e = eff[(start + j) % len(eff)]
+        items.append(("single", {e: draw_value(rng, RANGES[e], e in SIGNED)}, {}))
+    for _ in range(npair):
+        e1, e2 = (str(e) for e in rng.choice(eff, 2, replace=False))
+        items.append(("pair", {e: draw_value(rng, RANGES[e], e in SIGNED, rng.uniform(0.3, 1.0)) for e in (e1, e2)},
+                      {}))
+    start = int(rng.integers(len(OOV_EFFECTS)))
+    for j in range(no):
+        e = OOV_EFFECTS[(start + j) % len(OOV_EFFECTS)]
+        o = {e: draw_value(rng, OOV_RANGES[e], e in OOV_SIGNED)}
+        if e == "accel_gain":
+            o["accel_gain_channel"] = str(rng.choice(["xdd", "ydd"]))
+        items.append(("oov", {}, o))
+    return [items[i] for i in rng.permutation(len(items))]
+
+
+def make_field_benchmark(out: Path, n: int | None = None, seed: int = 1, n_clean=None, n_pair=None, n_oov=None,
+                         progress=None) -> list:
+    """Write the suite to ``out`` (one folder per dataset + manifest.json); ``progress(row)`` is
+    called with the public part of each row (name, seconds) -- never the labels."""
+    import time
+
+    from .sysbench_field import write_dataset
+
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(seed)
+    man = []
+    for i, (cls, hidden, oov) in enumerate(plan(rng, n, n_clean, n_pair, n_oov)):
+        t0 = time.perf_counter()
+        name = f"sys{i:03d}"
+        sub = np.random.default_rng(int(rng.integers(1 << 31)))
+        spec = draw_dataset(sub, dict(hidden), dict(oov))
+        if "mass_split" in hidden:
+            hidden["mass_split"] = spec["truth"]["tmd"]["inertance"] - spec["nominal"]["tmd"]["inertance"]
+        vis = write_dataset(out / name, spec, sub)
+        vis["visible"] = bool(vis["chi2"] > VISIBLE_CHI2)
+        oov_names = [k for k in oov if k != "accel_gain_channel"]
+        row = {"dataset": name, "class": cls, "case": spec["case"],
+               "nominal_damping": spec["nominal"]["tmd"]["damping"], "fs": spec["fs"],
+               "accel_only": spec["accel_only"], "acquisition": spec["acquisition"],
+               "n_records": len(spec["records"]),
+               "frc": [{"force": f["force"], "direction": f["direction"]} for f in spec["frc"]],
+               "hidden": sorted(hidden) + sorted(oov_names), "severity": {**hidden, **oov},
+               "truth": {TRUTH_KEY[e]: v for e, v in hidden.items()}, "oov": oov,
+               "visibility": vis, "seconds": round(time.perf_counter() - t0, 2)}
+        man.append(row)
+        if progress:
+            progress({"dataset": name, "seconds": row["seconds"]})
+    (out / "manifest.json").write_text(json.dumps({"suite": "system", "generator": "field", "seed": seed,
+                                                   "visible_chi2": VISIBLE_CHI2, "datasets": man}, indent=1))
+    return man

@@ -1,0 +1,203 @@
+"""The field-like system benchmark (make-benchmark's system suite) against independent checks, and
+score's classification of out-of-vocabulary results."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+from scipy import signal
+
+from pyfmu_wrapper.diagnose import sysscore
+from pyfmu_wrapper.diagnose.sysbench import nominal
+from pyfmu_wrapper.diagnose.sysbench_field import write_dataset
+from pyfmu_wrapper.diagnose.sysbench_oov import OOVModel
+from pyfmu_wrapper.diagnose.sysbench_suite import true_parts
+
+
+def linear_response(nom, omega, F):
+    """(X, Y) complex amplitudes written out here from Eq. (1)-(2) with the ideal inerter:
+    [[M+I, -I], [-I, m+I]] a + C v + K x = (F, 0)."""
+    b, t = nom["base"], nom["tmd"]
+    M, K, C, m, k, c, I = b["mass"], b["stiffness"], b["damping"], t["mass"], t["stiffness"], t["damping"], t["inertance"]
+    w = omega
+    A = np.array([[K + k - w * w * (M + I) + 1j * w * (C + c), -k + w * w * I - 1j * w * c],
+                  [-k + w * w * I - 1j * w * c, k - w * w * (m + I) + 1j * w * c]])
+    X, Y = np.linalg.solve(A, [F, 0.0])
+    return X, Y
+
+
+def phasor(t, s, w):
+    """Least-squares complex amplitude S of s = Re(S e^{i w t}) + const, and its std per part."""
+    A = np.column_stack([np.cos(w * t), -np.sin(w * t), np.ones_like(t)])
+    coef, res, *_ = np.linalg.lstsq(A, s, rcond=None)
+    sd = math.sqrt(res[0] / (t.size - 3)) * math.sqrt(2.0 / t.size)
+    return coef[0] + 1j * coef[1], sd
+
+
+def spec(case=2, c=15.0, fs=1000.0, f_hz=3.1, F=180.0, periods=9.37, phase=2.1, acq=None, hidden=None,
+         accel_only=False, noise=0.01):
+    nom = nominal(case, c)
+    rec = {"frequency_hz": f_hz, "omega": 2 * math.pi * f_hz, "force": F, "periods": periods, "phase": phase,
+           "noise": {ch: noise for ch in ("force", "x", "y", "xdd", "ydd")}}
+    return {"case": case, "nominal": nom, "fs": fs, "accel_only": accel_only, "acquisition": acq,
+            "records": [rec], "frc": [], "truth": true_parts(nom, hidden or {}, {})}
+
+
+def read(folder):
+    meta = yaml.safe_load((folder / "dataset.yaml").read_text())
+    return meta, pd.read_csv(folder / meta["records"][0]["file"])
+
+
+def test_clean_linear_record_is_the_exact_frequency_response(tmp_path):
+    sp = spec()
+    write_dataset(tmp_path, sp, np.random.default_rng(1))
+    meta, df = read(tmp_path)
+    r = sp["records"][0]
+    w, T = r["omega"], 2 * math.pi / r["omega"]
+    t = df["t"].to_numpy()
+    # the record: n samples at fs, not a whole number of periods, t = 0 at phase phi of the force
+    assert t.size == int(r["periods"] * T * sp["fs"]) and np.allclose(np.diff(t), 1 / sp["fs"])
+    assert abs(t.size / sp["fs"] / T - round(t.size / sp["fs"] / T)) > 0.1
+    Fp, sdF = phasor(t, df["force"].to_numpy(), w)
+    assert abs(abs(Fp) - r["force"]) < 5 * sdF and abs(np.angle(Fp) - r["phase"]) < 5 * sdF / r["force"]
+    X, Y = linear_response(sp["nominal"], w, r["force"])
+    rot = np.exp(1j * r["phase"])
+    for ch, Z in (("x", X), ("y", Y), ("xdd", -w * w * X), ("ydd", -w * w * Y)):
+        S, sd = phasor(t, df[ch].to_numpy(), w)
+        assert abs(S - Z * rot) < 5 * sd + 1e-9 * abs(Z), ch  # to noise level, amplitude and phase
+        assert sd < 0.1 * abs(Z)
+
+
+@pytest.mark.parametrize("typ,order,frac", [("butterworth", 4, 0.4), ("bessel", 6, 0.25), ("butterworth", 8, 0.3)])
+def test_declared_filter_gives_H_at_the_forcing_frequency(tmp_path, typ, order, frac):
+    fs = 256.0
+    filt = {"type": typ, "order": order, "cutoff_hz": round(frac * fs, 1)}
+    acq = {"xdd": {"filter": filt}, "force": {"filter": filt, "delay_s": 8e-4}}
+    sp = spec(fs=fs, f_hz=3.4, acq=acq, noise=0.002)
+    write_dataset(tmp_path, sp, np.random.default_rng(2))
+    meta, df = read(tmp_path)
+    assert meta["acquisition"] == acq
+    r = sp["records"][0]
+    w = r["omega"]
+    t = df["t"].to_numpy()
+    wc = 2 * math.pi * filt["cutoff_hz"]  # the analog prototype, in transfer-function form
+    b, a = (signal.butter(order, wc, analog=True) if typ == "butterworth"
+            else signal.bessel(order, wc, analog=True, norm="phase"))
+    H = signal.freqs(b, a, [w])[1][0]
+    X, _ = linear_response(sp["nominal"], w, r["force"])
+    rot = np.exp(1j * r["phase"])
+    S, sd = phasor(t, df["xdd"].to_numpy(), w)
+    resid = df["xdd"].to_numpy() - np.real(S * np.exp(1j * w * t))
+    resid -= resid.mean()
+    # the filter starts on the steady state: no transient at the record's start
+    assert np.sqrt(np.mean(resid[:10] ** 2)) < 3 * np.sqrt(np.mean(resid ** 2))
+    ratio = S / (-w * w * X * rot)
+    assert abs(abs(ratio) - abs(H)) < 5 * sd / abs(w * w * X) + 1e-6
+    assert abs(np.angle(ratio) - np.angle(H)) < 5 * sd / abs(w * w * X) + 1e-6
+    assert abs(np.angle(H)) > 0.02  # the lag is there to see (> 1 degree)
+    Fp, sdF = phasor(t, df["force"].to_numpy(), w)
+    ratio = Fp / (r["force"] * rot)
+    assert abs(np.angle(ratio) - np.angle(H * np.exp(-1j * w * 8e-4))) < 5 * sdF / r["force"] + 1e-6
+    assert abs(abs(ratio) - abs(H)) < 5 * sdF / r["force"] + 1e-6
+    S, sd = phasor(t, df["x"].to_numpy(), w)  # an undeclared channel is not filtered
+    assert abs(S - X * rot) < 5 * sd + 1e-9
+
+
+def test_acceleration_only_record_has_no_displacement(tmp_path):
+    write_dataset(tmp_path, spec(accel_only=True), np.random.default_rng(3))
+    _, df = read(tmp_path)
+    assert list(df.columns) == ["t", "force", "xdd", "ydd"]
+
+
+def test_oov_integrator_matches_the_project_with_the_effect_off():
+    from pyfmu_wrapper.physics.params import BaseParams, TMDParams
+    from pyfmu_wrapper.solvers.frequency_response import exact_response
+
+    nom = nominal(3, 10.0)
+    w, F = 19.0, 220.0
+    mod = OOVModel(nom["base"], nom["tmd"], F)
+    T = 2 * math.pi / w
+    tau = np.linspace(0.3, 0.3 + 2 * T, 257)
+    d, _ = mod.dense(w, tau)
+    Z = exact_response(BaseParams(**{**nom["base"], "force_amplitude": F}), TMDParams(**nom["tmd"]), [w])[0]
+    e = np.exp(1j * w * tau)
+    for k, i, s in (("x", 0, 1), ("y", 2, 1), ("xdd", 0, -w * w), ("ydd", 2, -w * w)):
+        ref = np.real(s * Z[i] * e)
+        assert np.max(np.abs(d[k] - ref)) < 1e-7 * np.max(np.abs(ref)), k
+
+
+@pytest.mark.parametrize("kw", [{"c2": 15.0}, {"mu": 6.0}, {"K3": 3e5}])
+def test_oov_integrator_energy_balance_on_the_orbit(kw):
+    """On a periodic orbit the work of the force over a period equals the energy dissipated by
+    C, c, c2 |v|^3 and the base friction (the springs and masses return theirs)."""
+    nom = nominal(1, 15.0)
+    w, F = 21.0, 200.0
+    mod = OOVModel(nom["base"], nom["tmd"], F, **kw)
+    T = 2 * math.pi / w
+    tau = np.linspace(0.0, T, 4001)
+    d, zs = mod.dense(w, tau)
+    v = d["xd"] - d["yd"]
+    p_in = F * np.cos(w * tau) * d["xd"]
+    p_out = (mod.C * d["xd"] ** 2 + mod.c * v ** 2 + mod.c2 * np.abs(v) ** 3
+             + mod.mu * np.tanh(d["xd"] / 1e-3) * d["xd"])
+    W_in, W_out = np.trapezoid(p_in, tau), np.trapezoid(p_out, tau)
+    assert abs(W_in - W_out) < 1e-4 * W_in
+    assert np.max(np.abs(mod.period_map(zs, w) - zs) / mod._scale(w)) < 1e-8  # periodic
+
+
+def test_score_classifies_oov_results():
+    m = {"dataset": "d", "class": "oov", "hidden": ["x_gain"], "truth": {}, "visibility": {"visible": True}}
+
+    def res(effects, unexplained=None, text="x"):
+        v = {"effects": effects, "text": text, "parameters": {}}
+        if unexplained is not None:
+            v["unexplained"] = unexplained
+        return {"verdict": v}
+
+    row = sysscore.score_row
+    assert row(m, res(["viscous"], True, "a structural gap remains that none of the candidates explains"))[
+        "oov_outcome"] == "honest"
+    assert row(m, res([], True, "unexplained"))["oov_outcome"] == "honest"
+    assert row(m, res(["viscous"], False))["oov_outcome"] == "confidently_wrong"
+    assert row(m, res(["viscous"]))["oov_outcome"] == "confidently_wrong"  # a missing key is false
+    assert row(m, res([], False, "No structural effect"))["oov_outcome"] == "missed"
+    inv = dict(m, visibility={"visible": False})
+    assert row(inv, res([], False, "No structural effect"))["oov_outcome"] == "right"
+    assert row(inv, res(["cubic"], False))["oov_outcome"] == "confidently_wrong"
+    assert row(m, None, "bad data")["oov_outcome"] == "error"
+    r = row(m, res([], False, "a structural gap remains that none of the candidates explains"))
+    assert r["text_flag_disagree"] and r["oov_outcome"] == "missed"
+    # in-vocabulary rows: parameter error only for named hidden effects
+    s = {"dataset": "s", "class": "single", "hidden": ["base_mass"], "truth": {"base_mass.delta_mass": 4.0}}
+    r = row(s, {"verdict": {"effects": ["base_mass"], "text": "t",
+                            "parameters": {"base_mass.delta_mass": {"value": 4.2}}}})
+    assert r["correct"] and abs(r["param_rel_error"]["base_mass.delta_mass"] - 0.05) < 1e-12
+    rows = [dict(r, seconds=1.0), dict(row(m, res(["viscous"], False)), seconds=1.0),
+            dict(row(m, res([], True)), seconds=1.0)]
+    summ = sysscore.summarise(rows)
+    assert summ["singles_top1"] == 1.0 and summ["oov_honest_or_right"] == 0.5
+    assert summ["oov_confidently_wrong"] == 0.5 and summ["unexplained_on_invocab_or_clean"] == 0.0
+
+
+def test_make_benchmark_never_prints_labels(tmp_path, capsys):
+    import json
+
+    from pyfmu_wrapper.diagnose.cli import main_make_benchmark
+    from pyfmu_wrapper.diagnose.sysbench_oov import OOV_EFFECTS
+    from pyfmu_wrapper.diagnose.sysbench_suite import RANGES, TRUTH_KEY
+
+    assert main_make_benchmark(["--out", str(tmp_path), "-n", "4", "--seed", "4"]) == 0
+    out = capsys.readouterr().out
+    assert not [e for e in list(RANGES) + list(OOV_EFFECTS) if e in out]
+    man = json.loads((tmp_path / "manifest.json").read_text())
+    rows = man["datasets"]
+    assert sorted(r["class"] for r in rows) == ["clean", "oov", "pair", "single"]
+    for r in rows:
+        meta = yaml.safe_load((tmp_path / r["dataset"] / "dataset.yaml").read_text())
+        assert meta.get("acquisition") == r["acquisition"]
+        assert set(r["truth"]) == {TRUTH_KEY[e] for e in r["hidden"] if e in TRUTH_KEY}
+        assert (r["visibility"]["chi2"] == 0.0) == (r["class"] == "clean")
+        assert r["visibility"]["visible"] == (r["visibility"]["chi2"] > man["visible_chi2"])
