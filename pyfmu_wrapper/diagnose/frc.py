@@ -179,8 +179,8 @@ class FRCDiagnosis:
             try:
                 p = pred(v)
             except (SolverError, ParameterError, ValueError, FloatingPointError):
-                return 1e300
-            return self.chi2(p) if p is not None and np.all(np.isfinite(p)) else 1e300
+                return 1e20
+            return self.chi2(p) if p is not None and np.all(np.isfinite(p)) else 1e20
 
         nonlinear = key.startswith(("cubic.", "friction.")) or not self.tmd.is_linear
         grid = np.linspace(lo, hi, 9 if nonlinear else 17)
@@ -192,7 +192,7 @@ class FRCDiagnosis:
         res = minimize_scalar(obj, bounds=(a, c), method="bounded",
                               options=dict(maxiter=10 if nonlinear else 30, xatol=1e-6 * max(abs(hi - lo), 1e-300)))
         v0 = float(res.x) if res.fun <= vals[j] else float(grid[j])
-        if obj(v0) >= 1e300:
+        if obj(v0) >= 1e20:
             return None
         h = max(0.02 * abs(v0), 1e-4 * (hi - lo))
         try:
@@ -276,7 +276,7 @@ class FRCDiagnosis:
                     try:
                         return float(np.sum(((self.x - model([v], only=self.train)) / sc)[self.train] ** 2))
                     except (SolverError, ParameterError, ValueError, FloatingPointError):
-                        return 1e300
+                        return 1e20
                 lo, upper = p0 if isinstance(p0, tuple) else (0.0, 0.5 * float(np.max(np.abs(self.F))))
                 if isinstance(p0, tuple):  # decades: the best of a log grid, then Brent next to it
                     grid = np.unique(np.concatenate([[0.0], -np.geomspace(1e-3 * -lo, -lo, 3), np.geomspace(1e-3 * upper, upper, 6)]))
