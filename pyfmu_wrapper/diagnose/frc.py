@@ -320,6 +320,20 @@ class FRCDiagnosis:
             f["delta_bic"] = f["bic"] - self.bic0
         self.chosen = best if self.structural else None
         self.excess = excess
+        # the honest part (gates.py): in noise units over every point, does the best candidate
+        # explain at least MIN_SHARE of the gap, and is what it leaves still structural?
+        from .gates import noise_gate, remaining_gate, share_gate
+        n = self.x.size
+        c0, c1 = self.chi2(self.pred0), self.chi2(best["pred"])
+        G0, G1 = max(c0 - n, 0.0), max(c1 - n, 0.0)
+        self.hint = None
+        if self.chosen is not None and not share_gate(G0, G1):
+            self.hint, self.chosen = best, None
+        gap = noise_gate(c0, n)
+        self.unexplained = bool(gap and (self.chosen is None or remaining_gate(c1, n, G0)))
+        self.unexplained_share = (G1 / G0 if self.chosen is not None else 1.0) if (gap and G0 > 0) else 0.0
+        if gap and self.chosen is None and self.hint is None:
+            self.hint = best
         return self
 
     def result(self):
@@ -329,11 +343,19 @@ class FRCDiagnosis:
         best = c or self.fits[0]
         verdict = (f"FRC: gap attributed to {c['effects'][0]}" if c else
                    "FRC: no structural effect (held-out gap at the noise floor or no candidate beats it)")
+        if getattr(self, "unexplained", False):
+            h = self.hint["effects"][0] if getattr(self, "hint", None) else None
+            verdict = ((verdict + "; a structural gap remains that it does not explain") if c else
+                       "FRC: a structural gap remains that none of the candidates explains; it lives in the FRC"
+                       f" between {self.w.min():.4g} and {self.w.max():.4g} rad/s"
+                       + (f" (closest candidate, a hint not a cause: {h})" if h else ""))
         return {
             "records": self.names, "noise_floor": self.noise, "noise_relative": self.noise_rel,
             "where": {"omega": self.w.tolist(), "residual": (self.x - self.pred0).tolist()},
             "candidates": [{k: v for k, v in f.items() if k != "pred"} for f in self.fits],
             "attribution": {"structural": self.structural, "verdict": verdict, "effects": c["effects"] if c else [],
+                            "unexplained": bool(getattr(self, "unexplained", False)),
+                            "unexplained_share": getattr(self, "unexplained_share", None),
                             "params": c["params"] if c else {}, "std": c["std"] if c else {}},
             "held_out": {"nrmse_before": math.sqrt(self.rss0 / nt) / xr, "nrmse_after": math.sqrt(best["rss_test"] / nt) / xr,
                          "gap_closed": best["gap_closed"] if c else None, "best_candidate": best["effects"][0]},

@@ -43,6 +43,7 @@ LABELS = {
 UNITS = {"friction_force": "N", "friction_slope": "s/m", "play_gap": "m", "delta_inertance_eff": "kg", "signature_scale": "1",
          "delta_damping": "N s/m", "delta_inertance": "kg", "cubic_stiffness": "N/m^3",
          "force_gain_error": "1", "x_offset": "m", "y_offset": "m", "delta_mass": "kg", "delta_stiffness": "N/m"}
+TMD_EFFECTS = ("viscous", "tmd_stiffness", "friction", "cubic", "mass_split")  #: effects that change the rattle
 EQ_EFFECTS = ("friction", "viscous", "mass_split", "cubic", "force_error", "sensor_offset",
               "base_mass", "base_stiffness", "base_damping", "tmd_stiffness")
 
@@ -147,6 +148,8 @@ class SystemDiagnosis:
             src = {"frc": "; parameter from the FRC (3-fold held out)", "time": "", "": "", "none": ""}[cur.frc_source]
             self.log.append(("added", tuple(chosen), [f"held-out evidence {pick[0]:.1f}{src}"]))
         self.chosen, self.cur = chosen, cur
+        if len(chosen) == 2 and chosen[0] == "play" and chosen[1] in TMD_EFFECTS:
+            self._refit_play(cur)
         self.final = cur.fit
         # the honest part: do the named effects explain the gap, and is anything structural left?
         self.hint = None
@@ -223,6 +226,30 @@ class SystemDiagnosis:
         (with play) the rattle statistic."""
         ho = self.held_out()
         return ho["excess_before"], ho["excess_after"]
+
+    def _refit_play(self, c):
+        """Play + a second effect in the TMD link: the rattle curves S(eps) were simulated with the
+        nominal link; extra damping (or stiffness, friction, ...) changes the rattle, so the gap is
+        fitted again on curves simulated with the second effect's fitted parameters."""
+        t, p = self.model.tmd, c.params
+        kw = {"viscous": lambda: {"damping": max(t.damping + p["viscous.delta_damping"], 0.0)},
+              "tmd_stiffness": lambda: {"stiffness": t.stiffness + p["tmd_stiffness.delta_stiffness"]},
+              "friction": lambda: {"friction_force": max(p["friction.friction_force"], 0.0),
+                                   "friction_slope": p["friction.friction_slope"]},
+              "cubic": lambda: {"cubic_stiffness": p["cubic.cubic_stiffness"]},
+              "mass_split": lambda: {"inertance": t.inertance + p["mass_split.delta_inertance"],
+                                     "mass": t.mass - p["mass_split.delta_inertance"]}}[c.effects[1]]()
+        try:
+            pf = PlayFit(self.model.base, replace(t, **kw), self.views)
+            pf.fit(self.train_ids, self.folds)
+        except (SolverError, ValueError, FloatingPointError, KeyError) as err:
+            self.log.append(("note", c.effects, [f"play not refitted with {c.effects[1]}: {err}"]))
+            return
+        self.log.append(("note", c.effects, [f"play gap refitted on rattle curves simulated with {c.effects[1]}: "
+                                             f"{self.play.eps:.4g} -> {pf.eps:.4g} m"]))
+        self.play.eps, self.play.std, self.play.ho = pf.eps, pf.std, pf.ho
+        self.play.n_sim += pf.n_sim
+        c.params["play.play_gap"], c.std["play.play_gap"] = pf.eps, pf.std
 
     def _refine_play(self, factor=1.25):
         """The rattle statistic fixes the gap to ~10-25 %; the periodic part of the chain force is

@@ -29,7 +29,7 @@ def disagreements(sd, frc_res) -> list:
         e = next(iter(f_eff))
         ev_t = next((c["evidence"] for c in sd.candidates() if c["effects"][-1] == e), None)
         out.append(f"The FRC records alone point to {LABELS.get(e, e)}; the verdict does not include it because on the "
-                   f"time records it has held-out evidence {ev_t:.3g} (chi-square units) against "
+                   f"time records it has held-out evidence {ev_t if ev_t is None else format(ev_t, '.3g')} (chi-square units) against "
                    + (" + ".join(sorted(chosen)) if chosen else "the noise")
                    + " -- the FRC fits one scalar to 21 amplitudes and lets other effects that shift the resonance "
                    "mimic it, while the time records separate the base and TMD equations.")
