@@ -89,6 +89,16 @@ def test_remaining_gate_on_numbers():
     assert gates.remaining_gate(dof + 200.0, dof, 1000.0) is True  # z = 10, 20 %
 
 
+def test_significance_gate_on_numbers():
+    assert gates.significance_gate({"tmd_stiffness.delta_stiffness": -0.5}, {"tmd_stiffness.delta_stiffness": 0.56},
+                                    "tmd_stiffness") is False
+    assert gates.significance_gate({"tmd_stiffness.delta_stiffness": -5.0}, {"tmd_stiffness.delta_stiffness": 0.56},
+                                   "tmd_stiffness") is True
+    # two parameters: one away from zero is enough
+    assert gates.significance_gate({"sensor_offset.x_offset": 1e-3, "sensor_offset.y_offset": 1e-6},
+                                   {"sensor_offset.x_offset": 1e-5, "sensor_offset.y_offset": 1e-5}, "sensor_offset") is True
+
+
 def test_plausibility_bounds_of_nominal_parameters():
     from pyfmu_wrapper.physics.params import BaseParams, paper_case
 

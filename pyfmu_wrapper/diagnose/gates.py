@@ -10,6 +10,7 @@ gate                question                                                    
 ``evidence_gate``   does an effect lower the held-out chi-square by more than its cost?     10 + p ln n
 ``pair_gate``       does a second effect close a real part of what the first leaves?       >= 25 %
 ``relevance_gate``  does a second effect change the link force measurably?                 > 0.1 % rms
+``significance_gate`` is a second effect's parameter away from zero?                       > 3 std
 ``share_gate``      do the named effects explain a real share of the held-out gap?         >= 50 %
 ``remaining_gate``  is the gap the named effects leave still structural?                   z > 5 and > 5 %
 ``plausibility``    is the fitted parameter physical (signs, bounds, stroke)?              see code
@@ -83,6 +84,19 @@ def remaining_gate(chi2_after, dof, gap_before, z=None, share=None):
     share = REMAIN_SHARE if share is None else share
     left = chi2_after - dof
     return noise_gate(chi2_after, dof, z) and gap_before > 0 and left > share * gap_before
+
+
+Z_SIGNIF = 3.0  #: a second effect's parameter must differ from zero by more than this many std
+
+
+def significance_gate(params: dict, std: dict, effect: str, z=None):
+    """True when at least one parameter of ``effect`` differs from zero by more than z std in the
+    fit on all the evidence (a second effect whose parameter is zero within its uncertainty only
+    reshuffles the held-out folds; it is not named)."""
+    z = Z_SIGNIF if z is None else z
+    vals = [(v, std.get(k, 0.0)) for k, v in params.items()
+            if k.startswith(effect + ".") and not k.endswith(("friction_slope", "delta_inertance_eff"))]
+    return any(not (np.isfinite(s) and s > 0) or abs(v) > z * s for v, s in vals)
 
 
 def plausibility(params: dict, std: dict, tmd, motion: dict, base=None) -> list:

@@ -29,7 +29,7 @@ from . import gates
 from .gates import (BOUNDS, EVIDENCE, MIN_SHARE, PAIR_SHARE, RELEVANCE, REMAIN_SHARE, Z_NOISE, Z_REMAIN,  # noqa: F401
                     evidence_gate, noise_gate, pair_gate, plausibility, relevance_gate, remaining_gate, share_gate)
 from .play import PlayFit
-from .system import EFFECT_PARAMS, SystemModel, fit_eq, folds_for, record_views, steady_signature
+from .system import EFFECT_PARAMS, SIGN, SystemModel, fit_eq, folds_for, record_views, steady_signature
 
 MAX_EFFECTS = 2
 LABELS = {
@@ -43,6 +43,8 @@ LABELS = {
 UNITS = {"friction_force": "N", "friction_slope": "s/m", "play_gap": "m", "delta_inertance_eff": "kg", "signature_scale": "1",
          "delta_damping": "N s/m", "delta_inertance": "kg", "cubic_stiffness": "N/m^3",
          "force_gain_error": "1", "x_offset": "m", "y_offset": "m", "delta_mass": "kg", "delta_stiffness": "N/m"}
+FRC_PRIOR = ("viscous", "mass_split", "cubic", "force_error", "base_mass", "base_stiffness", "base_damping",
+             "tmd_stiffness")  #: effects whose FRC-alone fit is a prior for the time-record folds
 TMD_EFFECTS = ("viscous", "tmd_stiffness", "friction", "cubic", "mass_split")  #: effects that change the rattle
 EQ_EFFECTS = ("friction", "viscous", "mass_split", "cubic", "force_error", "sensor_offset",
               "base_mass", "base_stiffness", "base_damping", "tmd_stiffness")
@@ -112,7 +114,11 @@ class SystemDiagnosis:
         self.frc_ev = {}
         self.cands = {}
         start = self._cand(base) if base else Cand((), None, self.chi0_t, self.chi0_f, {}, {})
-        self.singles = {e: fit_eq(m, base + (e,), self.folds) for e in EQ_EFFECTS}
+        self.singles = {}
+        for e in EQ_EFFECTS:
+            f = fit_eq(m, base + (e,), self.folds)
+            pr = self._frc_prior(base, e, f)
+            self.singles[e] = fit_eq(m, base + (e,), self.folds, prior=pr) if pr else f
         self._refine_friction(base)
         chosen, cur = list(base), start
         while len(chosen) < MAX_EFFECTS and noise_gate(cur.chi, self.dof):
@@ -129,6 +135,9 @@ class SystemDiagnosis:
                     break
                 if c.why:
                     self.log.append(("rejected", c.effects, c.why))
+                    continue
+                if chosen and not gates.significance_gate(c.params, c.std, e):
+                    self.log.append(("not added", c.effects, [f"{e}'s parameter is within {gates.Z_SIGNIF:.0f} std of 0"]))
                     continue
                 if chosen and not relevance_gate(*self._effect_rms(c.fit, e)):
                     er, lr = self._effect_rms(c.fit, e)
@@ -176,6 +185,26 @@ class SystemDiagnosis:
         self.localisation = localise(self)
         return self
 
+    def _frc_prior(self, base, e, f_time):
+        """The FRC's own fit of effect ``e`` (fitted on two thirds of its frequencies) as a prior on
+        its time-record parameter, so one informative record held out is predicted from the other
+        records **and** the FRC (issue 19: a single informative record vetoed a cubic). Used only
+        when it agrees with the fit on all time records (within 3 combined std)."""
+        if self.frc is None or e not in FRC_PRIOR or not hasattr(self.frc, "fits"):
+            return None
+        f = next((f for f in self.frc.fits if f["effects"] == [e]), None)
+        key = f"{e}.{EFFECT_PARAMS[e][0]}"
+        if f is None or key not in f["params"]:
+            return None
+        v, sd = f["params"][key], f["std"].get(key, 0.0)
+        if not (np.isfinite(v) and np.isfinite(sd) and sd > 0):
+            return None
+        vt, st = f_time.params.get(key), f_time.std.get(key, math.inf)
+        if vt is None or not np.isfinite(st) or abs(vt - v) > 3 * math.hypot(st, sd):
+            return None
+        k = sum(len(EFFECT_PARAMS[b]) for b in base)
+        return {k: (SIGN.get(e, 1.0) * v, sd)}
+
     def _cand(self, effects, parent=None) -> Cand:
         """Fit ``effects`` on the time records; its FRC chi-square from the time-record parameters
         or, when that leaves a structural FRC gap, from the last effect's parameter fitted on the FRC."""
@@ -206,6 +235,9 @@ class SystemDiagnosis:
                     fe = fr.fit_effect(key, fixed, params[key], std.get(key), self.motion["d"])
                 except (SolverError, ValueError, FloatingPointError):
                     fe = None
+                st0 = std.get(key, math.inf)
+                if fe is not None and np.isfinite(st0) and abs(fe["value"] - params[key]) > 3 * math.hypot(st0, fe["std"]):
+                    fe = None  # the FRC's value contradicts the time records': no FRC fit for this candidate
                 if fe is not None and (chi_f is None or fe["chi2_cv"] < chi_f):
                     st, sf = std.get(key, math.inf), fe["std"]
                     wt = 1 / st ** 2 if np.isfinite(st) and st > 0 else 0.0

@@ -275,15 +275,28 @@ class EqFit:
     resid_ho: list = field(default_factory=list)  #: per record, the whitened held-out residual (None: never held out)
 
 
-def fit_eq(model: SystemModel, effects, folds, theta=None) -> EqFit:
+def _with_prior(Phi, y, prior):
+    """Append one row per prior (column k: value b with std sd) to a whitened least-squares problem."""
+    if not prior:
+        return Phi, y
+    R = np.zeros((len(prior), Phi.shape[1]))
+    v = np.empty(len(prior))
+    for j, (k, (b, sd)) in enumerate(prior.items()):
+        R[j, k], v[j] = 1.0 / sd, b / sd
+    return np.vstack([Phi, R]), np.concatenate([y, v])
+
+
+def fit_eq(model: SystemModel, effects, folds, theta=None, prior=None) -> EqFit:
     """Fit the linear parameters of ``effects`` on all training records; held-out chi-square by folds.
 
-    folds: list of (train record ids, test record ids)."""
+    folds: list of (train record ids, test record ids). prior: {column: (value, std)} -- evidence
+    on a parameter from outside the time records (the FRC fit), added to every fold's training
+    data, so a record held out is predicted from all the other evidence."""
     theta = dict(theta or {})
     if "friction" in effects and "friction" not in theta:
         best = None
         for s in SLOPES:
-            f = fit_eq(model, effects, folds, {**theta, "friction": (s,)})
+            f = fit_eq(model, effects, folds, {**theta, "friction": (s,)}, prior)
             if best is None or f.chi2_fit < best.chi2_fit:
                 best = f
         return best
@@ -295,13 +308,13 @@ def fit_eq(model: SystemModel, effects, folds, theta=None) -> EqFit:
     for tr, te in folds:
         Phi = np.vstack([des[i][1] for i in tr])
         y = np.concatenate([ys[i] - des[i][0] for i in tr])
-        beta, _ = _lstsq(Phi, y)
+        beta, _ = _lstsq(*_with_prior(Phi, y, prior))
         for i in te:
             r = ys[i] - des[i][0] - des[i][1] @ beta
             chi_rec[i] += float(r @ r)
             res_rec[i] = r
-    Phi = np.vstack([des[i][1] for i in train_all])
-    y = np.concatenate([ys[i] - des[i][0] for i in train_all])
+    Phi, y = _with_prior(np.vstack([des[i][1] for i in train_all]),
+                         np.concatenate([ys[i] - des[i][0] for i in train_all]), prior)
     beta, cov = _lstsq(Phi, y)
     r = y - Phi @ beta
     chi_fit = float(r @ r)
