@@ -45,7 +45,8 @@ UNITS = {"friction_force": "N", "friction_slope": "s/m", "play_gap": "m", "delta
          "force_gain_error": "1", "x_offset": "m", "y_offset": "m", "delta_mass": "kg", "delta_stiffness": "N/m"}
 FRC_PRIOR = ("viscous", "mass_split", "cubic", "force_error", "base_mass", "base_stiffness", "base_damping",
              "tmd_stiffness")  #: effects whose FRC-alone fit is a prior for the time-record folds
-TMD_EFFECTS = ("viscous", "tmd_stiffness", "friction", "cubic", "mass_split")  #: effects that change the rattle
+TMD_EFFECTS = ("viscous", "tmd_stiffness", "friction", "cubic", "mass_split", "base_damping", "base_mass",
+               "base_stiffness")  #: effects that change the rattle (play is refitted with them)
 EQ_EFFECTS = ("friction", "viscous", "mass_split", "cubic", "force_error", "sensor_offset",
               "base_mass", "base_stiffness", "base_damping", "tmd_stiffness")
 
@@ -263,7 +264,18 @@ class SystemDiagnosis:
         """Play + a second effect in the TMD link: the rattle curves S(eps) were simulated with the
         nominal link; extra damping (or stiffness, friction, ...) changes the rattle, so the gap is
         fitted again on curves simulated with the second effect's fitted parameters."""
-        t, p = self.model.tmd, c.params
+        t, b, p = self.model.tmd, self.model.base, c.params
+        bkw = {"base_damping": lambda: {"damping": max(b.damping + p["base_damping.delta_damping"], 0.0)},
+               "base_mass": lambda: {"mass": b.mass + p["base_mass.delta_mass"]},
+               "base_stiffness": lambda: {"stiffness": b.stiffness + p["base_stiffness.delta_stiffness"]}}
+        if c.effects[1] in bkw:
+            try:
+                pf = PlayFit(replace(b, **bkw[c.effects[1]]()), t, self.views)
+                pf.fit(self.train_ids, self.folds)
+            except (SolverError, ValueError, FloatingPointError, KeyError) as err:
+                self.log.append(("note", c.effects, [f"play not refitted with {c.effects[1]}: {err}"]))
+                return
+            return self._take_play(c, pf)
         kw = {"viscous": lambda: {"damping": max(t.damping + p["viscous.delta_damping"], 0.0)},
               "tmd_stiffness": lambda: {"stiffness": t.stiffness + p["tmd_stiffness.delta_stiffness"]},
               "friction": lambda: {"friction_force": max(p["friction.friction_force"], 0.0),
@@ -277,6 +289,9 @@ class SystemDiagnosis:
         except (SolverError, ValueError, FloatingPointError, KeyError) as err:
             self.log.append(("note", c.effects, [f"play not refitted with {c.effects[1]}: {err}"]))
             return
+        self._take_play(c, pf)
+
+    def _take_play(self, c, pf):
         self.log.append(("note", c.effects, [f"play gap refitted on rattle curves simulated with {c.effects[1]}: "
                                              f"{self.play.eps:.4g} -> {pf.eps:.4g} m"]))
         self.play.eps, self.play.std, self.play.ho = pf.eps, pf.std, pf.ho
