@@ -9,6 +9,12 @@
    steady-state FRC sweep (21 points, Case 1) measured in the same run (the ratio is what carries
    over between machines and loads).
 3. The link suite (40 datasets) and the BRFD measurements (data/brfd_link).
+4. Speed target of issue 19: one ``diagnose`` of 6 time records + an FRC (<= 30 s on the 2-core
+   machine), for a clean set, an in-vocabulary effect, an FRC-led effect (cubic) and an
+   out-of-vocabulary x-sensor gain (every candidate then gets its FRC fit: the slowest path); the
+   wall time, the same ratio against the sweep baseline and the load average are recorded.
+
+    python benchmarks/bench_diagnose.py --speed-only [--out DIR]
 """
 from __future__ import annotations
 
@@ -39,15 +45,56 @@ def sweep_baseline():
     return time.perf_counter() - t0
 
 
+def speed_six_records(out: Path) -> dict:
+    """Wall time of one diagnose of 6 time records + an FRC (issue 19 target: <= 30 s)."""
+    import os
+
+    import pandas as pd
+    import yaml
+
+    from pyfmu_wrapper.diagnose.sysbench import make_system_dataset
+
+    rows = {}
+    for name, hidden, gain in (("clean", {}, 0.0), ("viscous", {"viscous": 6.0}, 0.0), ("cubic", {"cubic": 1e5}, 0.0),
+                               ("x_gain_oov", {}, 0.03)):
+        d = out / "speed6" / name
+        make_system_dataset(d, hidden, seed=61, case=1, n_records=6, frc=True)
+        if gain:
+            for r in yaml.safe_load((d / "dataset.yaml").read_text())["records"]:
+                df = pd.read_csv(d / r["file"], comment="#")
+                for c in ("x", "x_max"):
+                    if c in df:
+                        df[c] *= 1 + gain
+                df.to_csv(d / r["file"], index=False, float_format="%.9g")
+        b0 = sweep_baseline()
+        load0 = os.getloadavg()[0]
+        t0 = time.perf_counter()
+        res = run_diagnosis(d)
+        dt = time.perf_counter() - t0
+        b1 = sweep_baseline()
+        rows[name] = {"seconds": round(dt, 2), "over_sweep": round(dt / (0.5 * (b0 + b1)), 1),
+                      "load_average_1min": round(0.5 * (load0 + os.getloadavg()[0]), 2),
+                      "effects": res["verdict"]["effects"], "unexplained": res["verdict"].get("unexplained")}
+        print(name, rows[name], flush=True)
+    return rows
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--out", default="/tmp/bench_diagnose")
     ap.add_argument("-n", type=int, default=40)
     ap.add_argument("--seed", type=int, default=11)
     ap.add_argument("--skip-link", action="store_true")
+    ap.add_argument("--speed-only", action="store_true", help="only the 6-record + FRC timing (issue 19)")
     a = ap.parse_args()
     out = Path(a.out)
     res = {}
+    if a.speed_only:
+        res["speed_6_records"] = speed_six_records(out)
+        out.mkdir(parents=True, exist_ok=True)
+        (out / "bench_speed6.json").write_text(json.dumps(res, indent=1))
+        return
+    res["speed_6_records"] = speed_six_records(out)
     t0 = time.perf_counter()
     make_system_benchmark(out / "system", n=a.n, seed=a.seed)
     t1 = time.perf_counter()

@@ -4,7 +4,8 @@ Each mutation replaces one exact snippet of one source file in a fresh copy of t
 (the checkout itself is never touched) and runs the named tests there with the current
 interpreter; the mutation is *caught* when pytest exits non-zero with failures (a collection error
 or a crash counts as not caught: it would hide the mutation). The list holds the seven mutations no
-test caught in the structure review (issue 12, item 6), each with the tests meant to catch it.
+test caught in the structure review (issue 12, item 6) and later ones (the honest-verdict gates of
+issue 19), each with the tests meant to catch it.
 
     python benchmarks/check_mutations.py            # all mutations
     python benchmarks/check_mutations.py -k window  # those whose name contains 'window'
@@ -42,12 +43,24 @@ MUTATIONS = (
     Mutation("play window off by one", "pyfmu_wrapper/solvers/steady.py",
              "wins.append(max(self.period_max[-W:]))", "wins.append(max(self.period_max[-W + 1:]))",
              ("tests/test_steady_rules.py", "tests/test_solver.py")),
-    Mutation("diagnose noise gate dropped", "pyfmu_wrapper/diagnose/sysdiag.py",
+    Mutation("diagnose noise gate dropped", "pyfmu_wrapper/diagnose/gates.py",
              "return (chi2 - dof) / math.sqrt(2.0 * max(dof, 1)) > z", "return True",
              ("tests/test_diagnose_system.py",)),
-    Mutation("evidence threshold sign flipped", "pyfmu_wrapper/diagnose/sysdiag.py",
+    Mutation("evidence threshold sign flipped", "pyfmu_wrapper/diagnose/gates.py",
              "n_new_params * math.log(max(n, 2)) > threshold", "n_new_params * math.log(max(n, 2)) > -threshold",
              ("tests/test_diagnose_system.py",)),
+    Mutation("diagnose share gate dropped (any effect named as the cause)", "pyfmu_wrapper/diagnose/gates.py",
+             "return gap_before > 0 and 1.0 - max(gap_after, 0.0) / gap_before >= share", "return True",
+             ("tests/test_diagnose_honest.py",)),
+    Mutation("diagnose remaining-gap check dropped", "pyfmu_wrapper/diagnose/gates.py",
+             "return noise_gate(chi2_after, dof, z) and gap_before > 0 and left > share * gap_before", "return False",
+             ("tests/test_diagnose_honest.py",)),
+    Mutation("diagnose share gate bypassed in the decision", "pyfmu_wrapper/diagnose/sysdiag.py",
+             "if self.chosen and not share_gate(g0, g1):", "if False:",
+             ("tests/test_diagnose_honest.py",)),
+    Mutation("diagnose remaining-gap check bypassed in the decision", "pyfmu_wrapper/diagnose/sysdiag.py",
+             "remaining_gate(self.dof + g1, self.dof, g0)", "False",
+             ("tests/test_diagnose_honest.py",)),
     Mutation("solver settings removed from the checkpoint key", "pyfmu_wrapper/scenario/executors.py",
              "omegas=[float(w).hex() for w in np.asarray(self.omegas, float)], settings=s.used())",
              "omegas=[float(w).hex() for w in np.asarray(self.omegas, float)])",

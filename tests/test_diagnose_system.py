@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from pyfmu_wrapper.diagnose import sysdiag
+from pyfmu_wrapper.diagnose import gates, sysdiag
 from pyfmu_wrapper.diagnose.cli import run_diagnosis
 from pyfmu_wrapper.diagnose.harmonic import estimate_omega, fit_series, fuse
 from pyfmu_wrapper.diagnose.sysbench import has_cubic, make_system_dataset
@@ -69,7 +69,7 @@ def test_diagnosis_json_and_report(data, tmp_path):
 # --- each gate on its own -------------------------------------------------------------------------
 def test_noise_gate_alone_stops_clean_data(data, monkeypatch):
     """With the evidence threshold removed, only the noise gate keeps clean data clean."""
-    monkeypatch.setattr(sysdiag, "EVIDENCE", -1e9)
+    monkeypatch.setattr(gates, "EVIDENCE", -1e9)
     assert run_diagnosis(data["clean"])["verdict"]["effects"] == []
     assert sysdiag.noise_gate(200 + 3 * 20, 200) is False and sysdiag.noise_gate(200 + 6 * 20, 200) is True
 
@@ -77,7 +77,7 @@ def test_noise_gate_alone_stops_clean_data(data, monkeypatch):
 def test_evidence_gate_alone_stops_clean_data(data, monkeypatch):
     """With the noise gate removed, only the held-out evidence keeps clean data clean; the same gate
     lets a real effect through."""
-    monkeypatch.setattr(sysdiag, "Z_NOISE", -1e9)
+    monkeypatch.setattr(gates, "Z_NOISE", -1e9)
     assert run_diagnosis(data["clean"])["verdict"]["effects"] == []
     assert run_diagnosis(data["viscous"])["verdict"]["effects"] == ["viscous"]
     assert sysdiag.evidence_gate(100.0, 50.0, 1, 200) is True

@@ -303,6 +303,7 @@ def frc_verdict(res: dict) -> dict:
     """The top-level ``verdict`` of an FRC-only diagnosis."""
     a = res["attribution"]
     return {"structural": a["structural"], "effects": a["effects"], "text": a["verdict"],
+            "unexplained": a.get("unexplained", False), "unexplained_share": a.get("unexplained_share"),
             "parameters": {k: {"value": v, "std": a["std"].get(k)} for k, v in a["params"].items()},
             "held_out": {"gap_closed": res["held_out"]["gap_closed"]}, "sources": {"frc_records": res["records"]},
             "disagreements": [], "rejected": []}

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from . import gates
 from .sysdiag import LABELS, UNITS
 
 
@@ -28,11 +29,19 @@ def disagreements(sd, frc_res) -> list:
     if f_eff and not f_eff <= chosen:
         e = next(iter(f_eff))
         ev_t = next((c["evidence"] for c in sd.candidates() if c["effects"][-1] == e), None)
-        out.append(f"The FRC records alone point to {LABELS.get(e, e)}; the verdict does not include it because on the "
-                   f"time records it has held-out evidence {ev_t:.3g} (chi-square units) against "
-                   + (" + ".join(sorted(chosen)) if chosen else "the noise")
-                   + " -- the FRC fits one scalar to 21 amplitudes and lets other effects that shift the resonance "
-                   "mimic it, while the time records separate the base and TMD equations.")
+        hint = getattr(sd, "hint", None)
+        if hint is not None and e in hint[0] and hint[1] is not None:
+            out.append(f"The FRC records alone point to {LABELS.get(e, e)}; with the time records it closes only "
+                       f"{100 * max(hint[1], 0):.0f} % of the held-out gap of all records (< {100 * gates.MIN_SHARE:.0f} %), "
+                       "so it is offered as a hint, not a cause"
+                       + (" (on x_max alone a forcing error and a displacement-sensor gain are the same scale factor)."
+                          if e == "force_error" else "."))
+        else:
+            out.append(f"The FRC records alone point to {LABELS.get(e, e)}; the verdict does not include it because on the "
+                       f"time records it has held-out evidence {ev_t if ev_t is None else format(ev_t, '.3g')} (chi-square units) against "
+                       + (" + ".join(sorted(chosen)) if chosen else "the noise")
+                       + " -- the FRC fits one scalar to 21 amplitudes and lets other effects that shift the resonance "
+                       "mimic it, while the time records separate the base and TMD equations.")
     if chosen and not f_eff:
         why = []
         if "play" in chosen:
@@ -69,6 +78,9 @@ def build_system_result(ds, sd, frc=None) -> dict:
     verdict = {
         "structural": bool(sd.chosen), "effects": list(sd.chosen), "labels": [LABELS[e] for e in sd.chosen],
         "text": text, "parameters": params, "unobservable": unobs,
+        "unexplained": bool(sd.unexplained), "unexplained_share": _f(sd.unexplained_share),
+        "localisation": sd.localisation,
+        "hint": ({"effects": list(sd.hint[0]), "gap_closed": _f(sd.hint[1])} if sd.hint is not None else None),
         "held_out": {"gap_before": ho["excess_before"], "gap_after": ho["excess_after"], "gap_closed": _f(ho["gap_closed"]),
                      "chi2_before": ho["chi2_before"], "chi2_after": ho["chi2_after"], "dof": ho["dof"]},
         "sources": {"time_records": [v.name for v in sd.views],

@@ -14,7 +14,9 @@ variances of X_h, Y_h, F_h (the linear part of the model); residuals and regress
 with it, so a chi-square is in units of the measured noise of that record and channel.
 
 Every candidate effect adds ``offset + Phi beta`` to the residual model (Phi: one column per
-linear parameter, for A and for B). Parameters are fitted by weighted least squares; held-out
+linear parameter, for A and for B). The nominal's own parameters are candidates too (true =
+nominal + delta): base mass ``(-(h w)^2 X, 0)``, base stiffness ``(X, 0)``, base damping
+``(i h w X, 0)``, TMD spring stiffness ``(X - Y, X - Y)``. Parameters are fitted by weighted least squares; held-out
 evidence is leave-one-record-out (or the dataset's roles): the chi-square of each record with the
 parameters fitted on the others.
 """
@@ -216,6 +218,16 @@ class SystemModel:
             return [(-(b.stiffness + t.stiffness) * e0, -t.stiffness * e0), (t.stiffness * e0, t.stiffness * e0)]
         if effect == "play":  # the inertance the gear loses on average while it rattles
             return [(a, a)]
+        # the nominal's own parameters: true = nominal + delta; the nominal's residual is the
+        # force the delta adds (base equation: (dK + i h w dC - dM (h w)^2) X; link: dk (x - y))
+        if effect == "base_mass":
+            return [(-(hw ** 2) * v.X, z)]
+        if effect == "base_stiffness":
+            return [(v.X.copy(), z)]
+        if effect == "base_damping":
+            return [(1j * hw * v.X, z)]
+        if effect == "tmd_stiffness":
+            return [(D, D)]
         raise KeyError(effect)
 
     def unit_link_force(self, v, index):
@@ -254,6 +266,8 @@ EFFECT_PARAMS = {
     "friction": ("friction_force",), "play": ("delta_inertance_eff",), "viscous": ("delta_damping",),
     "mass_split": ("delta_inertance",), "cubic": ("cubic_stiffness",), "force_error": ("force_gain_error",),
     "sensor_offset": ("x_offset", "y_offset"),
+    "base_mass": ("delta_mass",), "base_stiffness": ("delta_stiffness",), "base_damping": ("delta_damping",),
+    "tmd_stiffness": ("delta_stiffness",),
 }
 SIGN = {"force_error": -1.0}  # beta = -alpha
 
@@ -279,17 +293,31 @@ class EqFit:
     n_params: int
     params: dict = field(default_factory=dict)
     std: dict = field(default_factory=dict)
+    resid_ho: list = field(default_factory=list)  #: per record, the whitened held-out residual (None: never held out)
 
 
-def fit_eq(model: SystemModel, effects, folds, theta=None) -> EqFit:
+def _with_prior(Phi, y, prior):
+    """Append one row per prior (column k: value b with std sd) to a whitened least-squares problem."""
+    if not prior:
+        return Phi, y
+    R = np.zeros((len(prior), Phi.shape[1]))
+    v = np.empty(len(prior))
+    for j, (k, (b, sd)) in enumerate(prior.items()):
+        R[j, k], v[j] = 1.0 / sd, b / sd
+    return np.vstack([Phi, R]), np.concatenate([y, v])
+
+
+def fit_eq(model: SystemModel, effects, folds, theta=None, prior=None) -> EqFit:
     """Fit the linear parameters of ``effects`` on all training records; held-out chi-square by folds.
 
-    folds: list of (train record ids, test record ids)."""
+    folds: list of (train record ids, test record ids). prior: {column: (value, std)} -- evidence
+    on a parameter from outside the time records (the FRC fit), added to every fold's training
+    data, so a record held out is predicted from all the other evidence."""
     theta = dict(theta or {})
     if "friction" in effects and "friction" not in theta:
         best = None
         for s in SLOPES:
-            f = fit_eq(model, effects, folds, {**theta, "friction": (s,)})
+            f = fit_eq(model, effects, folds, {**theta, "friction": (s,)}, prior)
             if best is None or f.chi2_fit < best.chi2_fit:
                 best = f
         return best
@@ -297,22 +325,25 @@ def fit_eq(model: SystemModel, effects, folds, theta=None) -> EqFit:
     ys = [v.r for v in model.views]
     train_all = sorted({i for tr, _ in folds for i in tr})
     chi_rec = [0.0] * len(ys)
+    res_rec = [None] * len(ys)
     for tr, te in folds:
         Phi = np.vstack([des[i][1] for i in tr])
         y = np.concatenate([ys[i] - des[i][0] for i in tr])
-        beta, _ = _lstsq(Phi, y)
+        beta, _ = _lstsq(*_with_prior(Phi, y, prior))
         for i in te:
             r = ys[i] - des[i][0] - des[i][1] @ beta
             chi_rec[i] += float(r @ r)
-    Phi = np.vstack([des[i][1] for i in train_all])
-    y = np.concatenate([ys[i] - des[i][0] for i in train_all])
+            res_rec[i] = r
+    Phi, y = _with_prior(np.vstack([des[i][1] for i in train_all]),
+                         np.concatenate([ys[i] - des[i][0] for i in train_all]), prior)
     beta, cov = _lstsq(Phi, y)
     r = y - Phi @ beta
     chi_fit = float(r @ r)
     dof = max(y.size - beta.size, 1)
     cov = cov * max(1.0, chi_fit / dof)
     test_ids = sorted({i for _, te in folds for i in te})
-    f = EqFit(tuple(effects), theta, beta, cov, sum(chi_rec[i] for i in test_ids), chi_rec, chi_fit, beta.size)
+    f = EqFit(tuple(effects), theta, beta, cov, sum(chi_rec[i] for i in test_ids), chi_rec, chi_fit, beta.size,
+              resid_ho=res_rec)
     k = 0
     sd = np.sqrt(np.clip(np.diag(cov), 0, None))
     for e in effects:

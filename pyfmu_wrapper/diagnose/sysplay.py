@@ -1,0 +1,82 @@
+"""Play in a system diagnosis: the gap refined on the periodic evidence and refitted next to a
+second effect (methods of :class:`sysdiag.SystemDiagnosis`, kept apart by job)."""
+from __future__ import annotations
+
+import math
+from dataclasses import replace
+
+import numpy as np
+
+from ..solvers.monolithic import SolverError
+from .play import PlayFit
+from .system import fit_eq
+
+
+class PlayMixin:
+    def _refit_play(self, c):
+        """Play + a second effect in the TMD link: the rattle curves S(eps) were simulated with the
+        nominal link; extra damping (or stiffness, friction, ...) changes the rattle, so the gap is
+        fitted again on curves simulated with the second effect's fitted parameters."""
+        t, b, p = self.model.tmd, self.model.base, c.params
+        bkw = {"base_damping": lambda: {"damping": max(b.damping + p["base_damping.delta_damping"], 0.0)},
+               "base_mass": lambda: {"mass": b.mass + p["base_mass.delta_mass"]},
+               "base_stiffness": lambda: {"stiffness": b.stiffness + p["base_stiffness.delta_stiffness"]}}
+        if c.effects[1] in bkw:
+            try:
+                pf = PlayFit(replace(b, **bkw[c.effects[1]]()), t, self.views)
+                pf.fit(self.train_ids, self.folds)
+            except (SolverError, ValueError, FloatingPointError, KeyError) as err:
+                self.log.append(("note", c.effects, [f"play not refitted with {c.effects[1]}: {err}"]))
+                return
+            return self._take_play(c, pf)
+        kw = {"viscous": lambda: {"damping": max(t.damping + p["viscous.delta_damping"], 0.0)},
+              "tmd_stiffness": lambda: {"stiffness": t.stiffness + p["tmd_stiffness.delta_stiffness"]},
+              "friction": lambda: {"friction_force": max(p["friction.friction_force"], 0.0),
+                                   "friction_slope": p["friction.friction_slope"]},
+              "cubic": lambda: {"cubic_stiffness": p["cubic.cubic_stiffness"]},
+              "mass_split": lambda: {"inertance": t.inertance + p["mass_split.delta_inertance"],
+                                     "mass": t.mass - p["mass_split.delta_inertance"]}}[c.effects[1]]()
+        try:
+            pf = PlayFit(self.model.base, replace(t, **kw), self.views)
+            pf.fit(self.train_ids, self.folds)
+        except (SolverError, ValueError, FloatingPointError, KeyError) as err:
+            self.log.append(("note", c.effects, [f"play not refitted with {c.effects[1]}: {err}"]))
+            return
+        self._take_play(c, pf)
+
+    def _take_play(self, c, pf):
+        self.log.append(("note", c.effects, [f"play gap refitted on rattle curves simulated with {c.effects[1]}: "
+                                             f"{self.play.eps:.4g} -> {pf.eps:.4g} m"]))
+        self.play.eps, self.play.std, self.play.ho = pf.eps, pf.std, pf.ho
+        self.play.n_sim += pf.n_sim
+        c.params["play.play_gap"], c.std["play.play_gap"] = pf.eps, pf.std
+
+    def _refine_play(self, factor=1.25):
+        """The rattle statistic fixes the gap to ~10-25 %; the periodic part of the chain force is
+        more sensitive to it: compare the equation error of the simulated signature at eps / factor,
+        eps, eps * factor (training chi-square) and keep the vertex of the parabola in log eps."""
+        m, pf = self.model, self.play
+        e0 = pf.eps
+        grid = [e0 / factor, e0, e0 * factor]
+        sigs, chi = {}, []
+        for e in grid:
+            m.play_signature = sigs[e] = pf.signature(m, e)
+            chi.append(fit_eq(m, ("play",), self.folds).chi2_fit)
+        x = np.log(grid)
+        c = np.polyfit(x, chi, 2)
+        best = grid[int(np.argmin(chi))]
+        if c[0] > 0:
+            xv = -c[1] / (2 * c[0])
+            if x[0] <= xv <= x[-1]:
+                best = float(np.exp(xv))
+        if best not in sigs:
+            sigs[best] = pf.signature(m, best)
+        pf.eps = best
+        m.play_signature = sigs[best]
+
+    def _spike_sd(self):
+        out = []
+        for w in self.views:
+            ex, ey = w.series.resid.get("xdd"), w.series.resid.get("ydd")
+            out.append(self.model.base.mass * self.model.tmd.mass * float(np.std(ex) * np.std(ey)) / math.sqrt(ex.size))
+        return out
