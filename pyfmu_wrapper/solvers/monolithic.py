@@ -42,11 +42,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..physics.kernels import NSTATE, SYS_COUPLED, inerter_force, rhs
+from ..physics.kernels import NSTATE, inerter_force, rhs
+from ..physics.models import COUPLED
 from ..physics.params import BaseParams, InerterModel, TMDParams, has_gap, pack
 from .shooting import shoot
 from .steady import Checks, SteadySettings, WindowCriterion
-from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, integrate
+from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, make_integrator
+
+#: the compiled integrator of the coupled base + TMD model
+integrate = make_integrator(COUPLED)
 
 
 class SolverError(RuntimeError):
@@ -140,11 +144,11 @@ class _Runner:
     def period(self, z, t0, sample_times=None, samples=None):
         st = self.no_samples if sample_times is None else sample_times
         sa = self.no_out if samples is None else samples
-        h, xmax, status, t = integrate(SYS_COUPLED, z, t0, t0 + self.T, self.p, self.u, self.rtol, self.atol,
+        h, xmax, status, t = integrate(z, t0, t0 + self.T, self.p, self.u, self.rtol, self.atol,
                                        self.h, self.hmax, st, sa, self.band, self.stats, self.max_steps)
         if status != OK:
             raise SolverError(f"omega = {2 * math.pi / self.T:.10g} rad/s, period from t0 = {t0:.6g} s: "
-                              + failure_message(status, SYS_COUPLED, t, z, self.p, self.atol, self.band,
+                              + failure_message(status, COUPLED, t, z, self.p, self.atol, self.band,
                                                 self.max_steps))
         if not np.all(np.isfinite(z)):
             raise SolverError(f"omega = {2 * math.pi / self.T:.10g} rad/s: non-finite state {z} after the "
@@ -297,10 +301,10 @@ def simulate(base: BaseParams, tmd: TMDParams, omega: float, t_end: float, z0=No
     atol = np.asarray(atol, dtype=float)
     if max_steps is None:  # the per-period cap, for every period of the run
         max_steps = DEFAULT_MAX_STEPS * max(1, math.ceil(t_end / T))
-    _, _, status, tf = integrate(SYS_COUPLED, z, 0.0, float(t_end), p, np.zeros(1), rtol, atol,
+    _, _, status, tf = integrate(z, 0.0, float(t_end), p, np.zeros(1), rtol, atol,
                                  T / 200, T / 20, t, out, 1.0 / tmd.friction_slope, stats, int(max_steps))
     if status != OK:
-        raise SolverError(failure_message(status, SYS_COUPLED, tf, z, p, atol, 1.0 / tmd.friction_slope, max_steps))
+        raise SolverError(failure_message(status, COUPLED, tf, z, p, atol, 1.0 / tmd.friction_slope, max_steps))
     return t, out
 
 
