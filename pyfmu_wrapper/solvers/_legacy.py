@@ -11,10 +11,9 @@ from __future__ import annotations
 
 from .._jit import njit
 from ..physics import models as _models
-from ..physics.kernels import SYS_BASE, SYS_COUPLED
+from ..physics.kernels import SYS_BASE, SYS_TMD
 from .rodas import DEFAULT_MAX_STEPS, SURFACE_TOL, make_integrator
 
-_integrate_coupled = make_integrator(_models.COUPLED)
 _integrate_base = make_integrator(_models.BASE)
 _integrate_tmd = make_integrator(_models.TMD)
 
@@ -30,10 +29,12 @@ def model_of(system: int):
 @njit(cache=True)
 def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, samples, friction_band, stats,
               max_steps=DEFAULT_MAX_STEPS, surface_tol=SURFACE_TOL):
-    """The integrator of the model with kernels system id ``system`` (see rodas.make_integrator)."""
-    if system == SYS_COUPLED:
-        return _integrate_coupled(z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, samples, friction_band,
-                                  stats, max_steps, surface_tol)
+    """The integrator of the FMU subsystem with kernels system id ``system``: SYS_BASE or SYS_TMD
+    (see rodas.make_integrator; the coupled system is make_integrator(models.COUPLED), not here, so
+    that the FMU code compiles only its two integrators)."""
+    if system != SYS_BASE and system != SYS_TMD:
+        raise ValueError("rodas.integrate(system, ...): system must be SYS_BASE or SYS_TMD; the coupled "
+                         "system's integrator is make_integrator(physics.models.COUPLED)")
     if system == SYS_BASE:
         return _integrate_base(z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, samples, friction_band,
                                stats, max_steps, surface_tol)

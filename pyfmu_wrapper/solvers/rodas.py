@@ -364,8 +364,8 @@ def _integrate_template(z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, samp
 _INTEGRATORS: dict = {}
 
 
-def make_integrator(model):
-    """The compiled integrator of ``model`` (built once per model name, cached on disk by numba).
+def make_integrator(model, cache: bool | None = None):
+    """The compiled integrator of ``model`` (built once per model name; on disk by numba's cache).
 
     model supplies ``name`` (a Python identifier), ``rhs``, ``jacobian``, ``switching``, ``mode``
     (numba-compiled functions), ``n_switches``, ``n_modes`` and ``switch_tolerance`` (see
@@ -377,6 +377,11 @@ def make_integrator(model):
     Each model's integrator is the template's code with the model's functions as its globals and a
     name of its own (``integrate_<name>``), so numba caches it in a file of its own and inlines the
     model's calls as direct calls (the numbers are those of a hand-specialised integrator).
+
+    cache: keep the compiled integrator in numba's on-disk cache. The cache is keyed to this
+    package's compiled layer (see :mod:`pyfmu_wrapper._jit`), so by default (None) only a model
+    whose functions are all defined in this package is cached; a model of another package (or of
+    a test) is compiled afresh in each process, never loaded stale.
     """
     name = str(model.name)
     if not name.isidentifier():
@@ -399,7 +404,11 @@ def make_integrator(model):
     fn.__qualname__ = f"integrate_{name}"
     fn.__doc__ = tpl.__doc__
     fn.__module__ = tpl.__module__
-    compiled = njit(cache=True)(fn)
+    if cache is None:
+        pkg = __name__.split(".")[0] + "."
+        funcs = (model.rhs, model.jacobian, model.switching, model.mode)
+        cache = all(str(getattr(getattr(f, "py_func", f), "__module__", "")).startswith(pkg) for f in funcs)
+    compiled = njit(cache=bool(cache))(fn)
     _INTEGRATORS[name] = (model, compiled)
     return compiled
 
