@@ -46,7 +46,9 @@ from ..physics.kernels import NSTATE, inerter_force, rhs
 from ..physics.models import COUPLED
 from ..physics.params import BaseParams, InerterModel, TMDParams, has_gap, pack
 from .shooting import shoot
-from .steady import Checks, SteadySettings, WindowCriterion
+from . import settings_table as _table
+from .settings_table import MONO
+from .steady import SteadySettings, WindowCriterion
 from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, make_integrator
 
 #: the compiled integrator of the coupled base + TMD model
@@ -72,18 +74,11 @@ class SolverSettings(SteadySettings):
     :class:`SolverError` naming time, state and mode, never a hang).
     """
 
-    rtol: float = 1e-8
-    atol_scale: float = 1e-6
-    max_periods_window: int = 600
-    max_steps: int = DEFAULT_MAX_STEPS
-
-    def validate(self):
-        super().validate()
-        c = Checks(self)
-        c.number("rtol", positive=True)
-        c.number("atol_scale", positive=True)
-        c.integer("max_periods_window", 1)
-        c.integer("max_steps", 1)
+    rtol: float = _table.default("rtol", MONO)
+    atol_scale: float = _table.default("atol_scale", MONO)
+    max_periods_window: int = _table.default("max_periods_window", MONO)
+    max_steps: int = _table.default("max_steps", MONO)
+    # (validated by SteadySettings.validate against solvers/settings_table.py)
 
 
 @dataclass
