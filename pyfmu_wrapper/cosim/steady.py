@@ -29,7 +29,8 @@ from ..physics.params import BaseParams, InerterModel, TMDParams, has_gap
 from ..solvers.rodas import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
 from ..solvers.shooting import shoot
 from ..solvers.sweep import run_sweep_pieces
-from ..solvers.monolithic import SolverSettings, companion_start, initial_guess
+from ..solvers.monolithic import SolverSettings
+from ..solvers.start import companion_start, initial_guess
 from ..solvers import settings_table as _table
 from ..solvers.settings_table import COSIM
 from ..solvers.steady import SteadySettings, WindowCriterion
