@@ -66,7 +66,7 @@ MUTATIONS = (
              "omegas=[float(w).hex() for w in np.asarray(self.omegas, float)])",
              ("tests/test_scenarios.py",)),
     Mutation("co-simulation Hermite maximum replaced by end points", "pyfmu_wrapper/cosim/steady.py",
-             "        return _hermite_absmax(x, v, h)", "        return float(np.max(np.abs(x)))",
+             "        return _hermite_absmax(self.x, self.v, self.h)", "        return float(np.max(np.abs(self.x)))",
              ("tests/test_master.py",)),
     Mutation("antiresonance verdict inverted", "pyfmu_wrapper/claims.py",
              'Check("max |w_min - 20|", dev, "<=", 1e-3, "rad/s")', 'Check("max |w_min - 20|", dev, ">", 1e-3, "rad/s")',

@@ -1,6 +1,7 @@
 """Generate the documentation tables that restate declarations: ``docs/parameters.md`` (from the
-parameter registry) and the "Variables" section at the end of ``docs/fmus.md`` (from the FMU
-variable tables, :mod:`pyfmu_wrapper.fmi.variables`).
+parameter registry), the "Variables" section at the end of ``docs/fmus.md`` (from the FMU
+variable tables, :mod:`pyfmu_wrapper.fmi.variables`) and the settings table of
+``docs/scenarios.md`` (from :mod:`pyfmu_wrapper.solvers.settings_table`).
 
 Run ``python -m pyfmu_wrapper.docs_gen`` to rewrite them, ``--check`` to fail when a committed
 file differs (the test suite does the same check).
@@ -17,6 +18,10 @@ DOCS_FILE = Path(__file__).resolve().parent.parent / "docs" / "parameters.md"
 FMUS_FILE = DOCS_FILE.parent / "fmus.md"
 #: the generated section of docs/fmus.md runs from this heading to the end of the file
 VARIABLES_HEADING = "## Variables\n"
+SCENARIOS_FILE = DOCS_FILE.parent / "scenarios.md"
+#: the generated settings table of docs/scenarios.md lies between these two marker lines
+SETTINGS_BEGIN = "<!-- BEGIN settings table"
+SETTINGS_END = "<!-- END settings table -->"
 
 
 def parameters_text() -> str:
@@ -60,12 +65,26 @@ def fmus_text(current: str) -> str:
     return head.rstrip("\n") + "\n\n" + variables_text()
 
 
+def scenarios_text(current: str) -> str:
+    """``docs/scenarios.md`` with the settings table between its markers regenerated."""
+    from .solvers.settings_table import docs_table
+
+    i = current.find(SETTINGS_BEGIN)
+    j = current.find(SETTINGS_END)
+    if i < 0 or j < i:
+        raise SystemExit(f"{SCENARIOS_FILE}: the markers {SETTINGS_BEGIN!r} ... {SETTINGS_END!r} are missing")
+    i = current.index("\n", i) + 1
+    return current[:i] + "\n" + docs_table() + "\n" + current[j:]
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true", help="only check that the files are up to date")
     a = ap.parse_args(argv)
     fmus_now = FMUS_FILE.read_text(encoding="utf-8") if FMUS_FILE.is_file() else ""
-    targets = ((DOCS_FILE, parameters_text()), (FMUS_FILE, fmus_text(fmus_now)))
+    scen_now = SCENARIOS_FILE.read_text(encoding="utf-8")
+    targets = ((DOCS_FILE, parameters_text()), (FMUS_FILE, fmus_text(fmus_now)),
+               (SCENARIOS_FILE, scenarios_text(scen_now)))
     if a.check:
         stale = [p for p, text in targets if not p.is_file() or p.read_text(encoding="utf-8") != text]
         for p in stale:

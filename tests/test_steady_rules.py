@@ -17,7 +17,7 @@ from dataclasses import fields
 import numpy as np
 import pytest
 
-from pyfmu_wrapper.physics.kernels import SYS_COUPLED
+from pyfmu_wrapper.physics.models import COUPLED
 from pyfmu_wrapper.physics.params import BaseParams, pack, paper_case
 from pyfmu_wrapper.solvers import rodas
 from pyfmu_wrapper.solvers.monolithic import SolverSettings, initial_guess
@@ -75,9 +75,8 @@ def test_integrator_lands_on_gear_contacts():
     for rtol in (1e-8, 1e-10):
         z = z0.copy()
         stats = np.zeros(4, dtype=np.int64)
-        res = rodas.integrate(SYS_COUPLED, z, 0.0, T, p, np.zeros(1),
-                              rtol, rtol * 1e-2 * scale, T / 200, T / 20, np.zeros(0), np.zeros((0, 6)),
-                              1.0 / tmd.friction_slope, stats)
+        res = rodas.make_integrator(COUPLED)(z, 0.0, T, p, np.zeros(1), rtol, rtol * 1e-2 * scale, T / 200,
+                                             T / 20, np.zeros(0), np.zeros((0, 6)), 1.0 / tmd.friction_slope, stats)
         assert res[2] == rodas.OK
         runs[rtol] = (z, stats.copy())
     z_lo, st = runs[1e-8]

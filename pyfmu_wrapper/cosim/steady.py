@@ -24,14 +24,16 @@ import numpy as np
 import pandas as pd
 
 from ..master.master import Master
-from ..master.schemes import SCHEMES
 from ..physics.params import BaseParams, InerterModel, TMDParams, has_gap
 from ..solvers.rodas import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
 from ..solvers.shooting import shoot
 from ..solvers.sweep import run_sweep_pieces
-from ..solvers.monolithic import SolverSettings, companion_start, initial_guess
-from ..solvers.steady import Checks, SteadySettings, WindowCriterion
-from .system import COUPLINGS, fmu_parameters, make_master
+from ..solvers.monolithic import SolverSettings
+from ..solvers.start import companion_start, initial_guess
+from ..solvers import settings_table as _table
+from ..solvers.settings_table import COSIM
+from ..solvers.steady import SteadySettings, WindowCriterion
+from .system import fmu_parameters, make_master
 
 
 @dataclass(frozen=True)
@@ -52,27 +54,16 @@ class CosimSettings(SteadySettings):
     acceleration without the link force (:func:`impulse_connections`).
     """
 
-    max_periods: int = 240
-    max_newton: int = 12
-    steps_per_period: int | None = None
-    accuracy: float | None = None
-    coupling: str = "impulse"
-    scheme: str = "loop"
-    order: int = 2
-    fmu_rtol: float = 1e-8
-    interface_jacobian: bool = True
-
-    def validate(self):
-        super().validate()
-        c = Checks(self)
-        c.integer("steps_per_period", 1, optional=True)
-        c.number("accuracy", positive=True, optional=True)
-        c.choice("coupling", COUPLINGS)
-        c.choice("scheme", SCHEMES)
-        c.integer("order", 0)
-        c.choice("order", (0, 1, 2))
-        c.number("fmu_rtol", positive=True)
-        c.boolean("interface_jacobian")
+    max_periods: int = _table.default("max_periods", COSIM)
+    max_newton: int = _table.default("max_newton", COSIM)
+    steps_per_period: int | None = _table.default("steps_per_period", COSIM)
+    accuracy: float | None = _table.default("accuracy", COSIM)
+    coupling: str = _table.default("coupling", COSIM)
+    scheme: str = _table.default("scheme", COSIM)
+    order: int = _table.default("order", COSIM)
+    fmu_rtol: float = _table.default("fmu_rtol", COSIM)
+    interface_jacobian: bool = _table.default("interface_jacobian", COSIM)
+    # (validated by SteadySettings.validate against solvers/settings_table.py)
 
     def steps_for(self, tmd: TMDParams) -> int:
         if self.steps_per_period is not None:

@@ -23,7 +23,7 @@ from ..master.master import Master
 from ..master.ssp import export_ssp
 from ..physics import registry
 from ..physics.params import BaseParams, TMDParams, has_gap
-from ..solvers.monolithic import initial_guess, play_atol
+from ..solvers.start import initial_guess, play_atol
 
 CONNECTIONS = ("base.x -> tmd.x", "base.xd -> tmd.xd", "base.xdd -> tmd.xdd", "tmd.force -> base.f_link")
 RECORD = ("tmd.y", "tmd.yd")

@@ -15,6 +15,7 @@ import numpy as np
 import yaml
 
 from ..physics.params import BaseParams, CASES, InerterModel, ParameterError, TMDParams, field_names
+from ..solvers import settings_table as _settings
 from ..solvers.steady import SettingsError
 from .schema import (COSIM_KEYS, DIRECTIONS, LINEAR_METHODS, MAP_PARAMETERS, READ_VERSIONS, SCHEMA_VERSION,
                      STUDY_KINDS, CosimConfig, Curve, FRCStudy, MapStudy, PhasePortraitStudy, Scenario, ScenarioError,
@@ -338,7 +339,9 @@ def _base_fails(b, key) -> bool:
 
 
 _SWEEP_KEYS = ("direction", "continuation")
-_SOLVER_KEYS = ("rtol", "atol_scale", "tol", "tol_window", "window", "min_periods", "max_periods", "linear")
+#: the solver: block's settings (rows of solvers/settings_table.py read by the monolithic engine's block)
+_SOLVER_SETTINGS = tuple(s.name for s in _settings.SETTINGS if _settings.MONO in s.blocks)
+_SOLVER_KEYS = _SOLVER_SETTINGS + ("linear",)
 _TO_SWEEP = {k: f"shared by both engines: write it as sweep.{k}" for k in _SWEEP_KEYS}
 _TO_COSIM = {k: f"a co-simulation setting: write it under cosim: (cosim.{k})"
              for k in COSIM_KEYS if k not in _SOLVER_KEYS}
@@ -357,42 +360,32 @@ def _sweep(rd: _Reader, node, line) -> SweepConfig:
 def _solver(rd: _Reader, node, line) -> SolverConfig:
     rd.mapping(node, "solver", line, optional=_SOLVER_KEYS, hints={**_TO_SWEEP, **_TO_COSIM})
     d = SolverConfig()
-    cfg = SolverConfig(
-        rtol=rd.number(node, "rtol", "solver", minimum=0, strict=True, maximum=0.1, default=d.rtol),
-        atol_scale=rd.number(node, "atol_scale", "solver", minimum=0, strict=True, default=d.atol_scale),
-        tol=rd.number(node, "tol", "solver", minimum=0, strict=True, maximum=0.5, default=d.tol),
-        tol_window=rd.number(node, "tol_window", "solver", minimum=0, strict=True, maximum=0.5, default=d.tol_window),
-        window=rd.integer(node, "window", "solver", minimum=1, default=d.window, allow_null=True),
-        min_periods=rd.integer(node, "min_periods", "solver", minimum=1, default=d.min_periods),
-        max_periods=rd.integer(node, "max_periods", "solver", minimum=1, default=d.max_periods),
-        linear=rd.string(node, "linear", "solver", choices=LINEAR_METHODS, default=d.linear),
-    )
+    values = {k: _setting(rd, node, k, "solver") if k in node else getattr(d, k) for k in _SOLVER_SETTINGS}
+    cfg = SolverConfig(**values, linear=rd.string(node, "linear", "solver", choices=LINEAR_METHODS, default=d.linear))
     _check_settings(rd, "solver", node, line, cfg.settings)
     return cfg
 
 
 def _cosim(rd: _Reader, node, line) -> CosimConfig:
     rd.mapping(node, "cosim", line, optional=COSIM_KEYS, hints={**_TO_SWEEP, **_TO_SOLVER})
-    p = "cosim"
-    read = dict(
-        accuracy=lambda: rd.number(node, "accuracy", p, minimum=0, strict=True, maximum=0.5),
-        steps_per_period=lambda: rd.integer(node, "steps_per_period", p, minimum=8, maximum=100_000, allow_null=True),
-        coupling=lambda: rd.string(node, "coupling", p, choices=("impulse", "force")),
-        order=lambda: rd.integer(node, "order", p, minimum=0, maximum=2),
-        scheme=lambda: rd.string(node, "scheme", p, choices=("loop", "jacobi", "gauss-seidel")),
-        tol=lambda: rd.number(node, "tol", p, minimum=0, strict=True, maximum=0.5),
-        tol_window=lambda: rd.number(node, "tol_window", p, minimum=0, strict=True, maximum=0.5),
-        window=lambda: rd.integer(node, "window", p, minimum=1, allow_null=True),
-        min_periods=lambda: rd.integer(node, "min_periods", p, minimum=1),
-        max_periods=lambda: rd.integer(node, "max_periods", p, minimum=1),
-        fmu_rtol=lambda: rd.number(node, "fmu_rtol", p, minimum=0, strict=True, maximum=0.1),
-        shooting=lambda: rd.boolean(node, "shooting", p),
-        interface_jacobian=lambda: rd.boolean(node, "interface_jacobian", p),
-    )
-    overrides = tuple((k, read[k]()) for k in node)
+    overrides = tuple((k, _setting(rd, node, k, "cosim")) for k in node)
     cfg = CosimConfig(overrides)
     _check_settings(rd, "cosim", node, line, cfg.settings)
     return cfg
+
+
+def _setting(rd: _Reader, node, key: str, block: str):
+    """The value of setting ``key`` of a solver: / cosim: block, checked against its one rule (its
+    row of :data:`pyfmu_wrapper.solvers.settings_table.SETTINGS`, which the engines' settings
+    classes apply too); a float for a number, an int for an integer."""
+    s = _settings.BY_NAME[key]
+    v = node[key]
+    why = s.problem(v)
+    if why is not None:
+        rd.fail(_join(block, key), _line(node, key), why, v)
+    if v is None:
+        return None
+    return float(v) if s.kind == "number" else int(v) if s.kind == "integer" else v
 
 
 def _check_settings(rd: _Reader, block: str, node, line, make):

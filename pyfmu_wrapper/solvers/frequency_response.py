@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics.kernels import NSTATE, SYS_COUPLED, rhs_fext, system_jacobian
+from ..physics.kernels import NSTATE, jacobian, rhs_fext
 from ..physics.params import BaseParams, InerterModel, ParameterError, TMDParams, pack
 
 
@@ -29,7 +29,7 @@ def linear_system(base: BaseParams, tmd: TMDParams, linearise: bool = False) -> 
                                  f"friction_force = {tmd.friction_force} and play_gap = {gap} must be 0")
         p = pack(base, tmd)
         A = np.empty((NSTATE, NSTATE))
-        system_jacobian(SYS_COUPLED, 0.0, np.zeros(NSTATE), p, np.zeros(1), A)
+        jacobian(0.0, np.zeros(NSTATE), p, A)  # the coupled system's, by the complex step
         b = np.empty(NSTATE)
         rhs_fext(np.zeros(NSTATE), 1.0, p, b)
         return A, b

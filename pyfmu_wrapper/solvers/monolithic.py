@@ -42,11 +42,18 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..physics.kernels import NSTATE, SYS_COUPLED, inerter_force, rhs
+from ..physics.kernels import NSTATE
+from ..physics.models import COUPLED
 from ..physics.params import BaseParams, InerterModel, TMDParams, has_gap, pack
 from .shooting import shoot
-from .steady import Checks, SteadySettings, WindowCriterion
-from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, integrate
+from . import settings_table as _table
+from .settings_table import MONO
+from .steady import SteadySettings, WindowCriterion
+from .start import companion_start, initial_guess, play_atol  # noqa: F401 (shared; re-exported)
+from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, make_integrator
+
+#: the compiled integrator of the coupled base + TMD model
+integrate = make_integrator(COUPLED)
 
 
 class SolverError(RuntimeError):
@@ -68,18 +75,11 @@ class SolverSettings(SteadySettings):
     :class:`SolverError` naming time, state and mode, never a hang).
     """
 
-    rtol: float = 1e-8
-    atol_scale: float = 1e-6
-    max_periods_window: int = 600
-    max_steps: int = DEFAULT_MAX_STEPS
-
-    def validate(self):
-        super().validate()
-        c = Checks(self)
-        c.number("rtol", positive=True)
-        c.number("atol_scale", positive=True)
-        c.integer("max_periods_window", 1)
-        c.integer("max_steps", 1)
+    rtol: float = _table.default("rtol", MONO)
+    atol_scale: float = _table.default("atol_scale", MONO)
+    max_periods_window: int = _table.default("max_periods_window", MONO)
+    max_steps: int = _table.default("max_steps", MONO)
+    # (validated by SteadySettings.validate against solvers/settings_table.py)
 
 
 @dataclass
@@ -98,14 +98,6 @@ class SteadyState:
     period_max: np.ndarray = field(repr=False)  #: max |x| of every period [m]
     wall_time: float = 0.0
     irregular: bool = False  #: settled into irregular motion; ``change`` is then its scatter
-
-
-def play_atol(base: BaseParams, tmd: TMDParams) -> float:
-    """Absolute tolerance [m] on the gear-chain deflection d of the play model, shared by both
-    engines (the monolithic integrator and the TMD FMU): the gear penetration is ~ F / ki, so
-    resolve it, not just the gap: 1e-3 of the larger of gap and penetration, plus the penetration."""
-    pen = max(abs(base.force_amplitude) / tmd.mesh_stiffness, 1e-12)
-    return 1e-3 * max(tmd.play_gap, pen) + pen
 
 
 def _atol(base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettings) -> np.ndarray:
@@ -140,57 +132,17 @@ class _Runner:
     def period(self, z, t0, sample_times=None, samples=None):
         st = self.no_samples if sample_times is None else sample_times
         sa = self.no_out if samples is None else samples
-        h, xmax, status, t = integrate(SYS_COUPLED, z, t0, t0 + self.T, self.p, self.u, self.rtol, self.atol,
+        h, xmax, status, t = integrate(z, t0, t0 + self.T, self.p, self.u, self.rtol, self.atol,
                                        self.h, self.hmax, st, sa, self.band, self.stats, self.max_steps)
         if status != OK:
             raise SolverError(f"omega = {2 * math.pi / self.T:.10g} rad/s, period from t0 = {t0:.6g} s: "
-                              + failure_message(status, SYS_COUPLED, t, z, self.p, self.atol, self.band,
+                              + failure_message(status, COUPLED, t, z, self.p, self.atol, self.band,
                                                 self.max_steps))
         if not np.all(np.isfinite(z)):
             raise SolverError(f"omega = {2 * math.pi / self.T:.10g} rad/s: non-finite state {z} after the "
                               f"period from t0 = {t0:.6g} s")
         self.h = h
         return xmax
-
-
-def companion_start(base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettings,
-                    hint: dict | None = None) -> np.ndarray:
-    """Start state for the play model: the periodic orbit of its smooth companion (the same
-    links with an ideal inerter), with the gear chain at the contact the ideal inerter force
-    asks for (d = sign(P) (eps + |P| / ki), dd = 0).
-
-    The play response differs from the companion's only by the rattling, so the windowed
-    steady state settles in about two windows from here, where a start from the previous
-    frequency's state drags a transient that decays with the 2.5 %-damped base (~100 periods).
-    With ``hint`` (carried along a sweep) the companion orbit itself is continued.
-    """
-    from dataclasses import replace
-
-    ideal = replace(tmd, inerter=InerterModel.IDEAL, play_gap=0.0)
-    sub = None if hint is None else hint.setdefault("companion", {})
-    z0 = None if sub is None else sub.get("z")
-    ss = steady_state(base, ideal, omega, z0, replace(settings, window=1), sub)
-    z = ss.state.copy() if ss.converged else initial_guess(base, ideal, omega)
-    if sub is not None and ss.converged:
-        sub["z"] = ss.state.copy()
-    p = pack(base, ideal, omega)
-    f = np.empty(NSTATE)
-    rhs(0.0, z, p, f)
-    P = inerter_force(z, f[1], p)
-    z[4] = math.copysign(tmd.play_gap + abs(P) / tmd.mesh_stiffness, P)
-    z[5] = 0.0
-    return z
-
-
-def initial_guess(base: BaseParams, tmd: TMDParams, omega: float) -> np.ndarray:
-    """A starting state: the exact steady state of the nearest linear configuration (friction and
-    gap removed), which is the right answer in the linear case and a close one otherwise."""
-    from dataclasses import replace
-
-    from .frequency_response import exact_state
-
-    # (exact_response itself handles an undamped companion exactly at a resonance)
-    return exact_state(base, replace(tmd, friction_force=0.0, play_gap=0.0, cubic_stiffness=0.0), omega)
 
 
 def steady_state(base: BaseParams, tmd: TMDParams, omega: float, z0=None,
@@ -297,10 +249,10 @@ def simulate(base: BaseParams, tmd: TMDParams, omega: float, t_end: float, z0=No
     atol = np.asarray(atol, dtype=float)
     if max_steps is None:  # the per-period cap, for every period of the run
         max_steps = DEFAULT_MAX_STEPS * max(1, math.ceil(t_end / T))
-    _, _, status, tf = integrate(SYS_COUPLED, z, 0.0, float(t_end), p, np.zeros(1), rtol, atol,
+    _, _, status, tf = integrate(z, 0.0, float(t_end), p, np.zeros(1), rtol, atol,
                                  T / 200, T / 20, t, out, 1.0 / tmd.friction_slope, stats, int(max_steps))
     if status != OK:
-        raise SolverError(failure_message(status, SYS_COUPLED, tf, z, p, atol, 1.0 / tmd.friction_slope, max_steps))
+        raise SolverError(failure_message(status, COUPLED, tf, z, p, atol, 1.0 / tmd.friction_slope, max_steps))
     return t, out
 
 

@@ -7,9 +7,13 @@ error estimate, L-stable and stiffly accurate, in the formulation
     G K_i = f(t0 + alpha_i h, y0 + sum_j A_ij K_j) + sum_j C_ij / h K_j + gamma_i h df/dt
     y1 = y0 + sum_i M_i K_i,     err = sum_i E_i K_i
 
-The Jacobian comes from the physics kernels: analytic for the coupled system and the TMD
-subsystem (held against the complex-step derivative in the tests), by the complex-step
-derivative otherwise; all are exact, so the method keeps its order on the stiff friction branch.
+The model is an argument: :func:`make_integrator` builds the compiled integrator of a model from
+its right-hand side, Jacobian, switching functions and mode function (an
+:class:`~pyfmu_wrapper.physics.models.OdeModel`, or any object with the same attributes), so a new
+model needs no edit here. The Jacobians of this package's models come from the physics kernels:
+analytic for the coupled system and the TMD subsystem (held against the complex-step derivative in
+the tests), by the complex-step derivative otherwise; all are exact, so the method keeps its order
+on the stiff friction branch.
 
 Non-smooth points. The dry-friction law is smooth but has a slope of df (2/pi) s (6.4e6 N s/m
 for df = 10 N) in a band |xd - yd| < ~1/s; the play chain has kinks at |d| = eps. A large step
@@ -35,12 +39,10 @@ maximum of |x| over each period is taken from it, not from samples.
 from __future__ import annotations
 
 import math
+import types
 
 import numpy as np
 from .._jit import njit
-
-from ..physics.kernels import (SYS_COUPLED, SYS_TMD, coupled_jacobian, system_dfdt_work, system_jacobian_work,
-                               system_rhs, system_switching, tmd_jacobian)
 
 # RODAS4 coefficients (Hairer & Wanner 1996), lower-triangular A and C stored as full matrices.
 _GAMMA = 0.25
@@ -175,10 +177,12 @@ def _hermite_state(z0, f0, z1, f1, h, theta, out):
         out[i] = h00 * z0[i] + h10 * h * f0[i] + h01 * z1[i] + h11 * h * f1[i]
 
 
-@njit(cache=True)
-def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, samples, friction_band, stats,
-              max_steps=DEFAULT_MAX_STEPS, surface_tol=SURFACE_TOL):
-    """Integrate system from t0 to t1 in place on z; return (next step size, max |z[0]|, status, t).
+def _integrate_template(z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, samples, friction_band, stats,
+                       max_steps=DEFAULT_MAX_STEPS, surface_tol=SURFACE_TOL):
+    """Integrate the model from t0 to t1 in place on z; return (next step size, max |z[0]|, status, t).
+
+    (The template of :func:`make_integrator`: the model's functions are the globals ``_model_*``
+    and its constants ``_NSWITCH``, ``_NMODES``, ``_SWITCH_TOL_INDEX``; it is never compiled itself.)
 
     status is OK (0) when t1 was reached, else the failure code and t the time reached, with z the
     state there (:func:`failure_message` turns them into a sentence naming time, state and mode):
@@ -189,8 +193,8 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
 
     Surfaces. A step whose end point has a switching function of the other sign than its start is
     retaken, shortened to end just past the estimated crossing, unless the start or the end lies
-    on the surface: within surface_tol * atol of the state the function depends on (friction:
-    within friction_band = 1/s [m/s]). A state on a surface is in that surface's mode (a gear
+    on the surface: within surface_tol * atol of the state the function depends on (the model's
+    ``switch_tolerance``; friction: within friction_band = 1/s [m/s]). A state on a surface is in that surface's mode (a gear
     chain resting on its contact, a grazing contact, a TMD stuck to the base): it is integrated
     with the ordinary error control and never retaken to land on the surface again. Retakes shorter
     than 100 hmin are not made (the step is then judged by its error estimate alone).
@@ -211,8 +215,8 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
     fs = np.empty(n)
     ys = np.empty(n)
     ynew = np.empty(n)
-    g0 = np.empty(3)
-    g1 = np.empty(3)
+    g0 = np.empty(_NSWITCH)
+    g1 = np.empty(_NSWITCH)
     zc = np.empty(n, dtype=np.complex128)
     oc = np.empty(n, dtype=np.complex128)
     t = t0
@@ -220,7 +224,7 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
     hmin = 1e-14 * max(1.0, abs(t1))
     if h <= 0.0 or h > hmax:
         h = min(hmax, span * 1e-3)
-    system_rhs(system, t, z, p, u, f0)
+    _model_rhs(t, z, p, u, f0)
     xmax = abs(z[0])
     isample = 0
     nsample = sample_times.shape[0]
@@ -228,37 +232,32 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
         for i in range(n):
             samples[isample, i] = z[i]
         isample += 1
-    # the last accepted step size in each contact mode (-1, 0, +1 -> 0, 1, 2): on entering a mode
-    # the step starts from what worked there before instead of being rejected down to it
-    hmode = np.full(3, hmax)
+    # the last accepted step size in each mode of the model: on entering a mode the step starts
+    # from what worked there before instead of being rejected down to it
+    hmode = np.full(_NMODES, hmax)
     rejected_last = False
-    # surface tolerances: friction by its band, the gear contact by the tolerance on d
-    gtol = np.empty(3)
-    gtol[0] = friction_band
-    di = 4 if system == SYS_COUPLED else 2
-    gtol[1] = surface_tol * atol[di] if n > di else 0.0
-    gtol[2] = gtol[1]
+    # surface tolerances: by the caller's band (-1: friction) or by the tolerance of a state
+    gtol = np.empty(_NSWITCH)
+    for k in range(_NSWITCH):
+        di = _SWITCH_TOL_INDEX[k]
+        if di < 0:
+            gtol[k] = friction_band
+        else:
+            gtol[k] = surface_tol * atol[di] if n > di else 0.0
     ncalls = 0
-    system_switching(system, z, p, g0)
-    mode_prev = (1 if g0[1] > 0.0 else 0) - (1 if g0[2] < 0.0 else 0)
+    _model_switching(z, p, g0)
+    mode_prev = _model_mode(g0)
     while t < t1:
-        system_switching(system, z, p, g0)
-        mode = (1 if g0[1] > 0.0 else 0) - (1 if g0[2] < 0.0 else 0)
+        _model_switching(z, p, g0)
+        mode = _model_mode(g0)
         if mode != mode_prev:
-            h = min(h, hmode[mode + 1])
+            h = min(h, hmode[mode])
         hs = h
         final = False
         if t + hs >= t1 - 1e-12 * abs(span):
             hs = t1 - t
             final = True
-        if system == SYS_COUPLED:
-            coupled_jacobian(t, z, p, J, ft)
-        elif system == SYS_TMD:
-            tmd_jacobian(t, z, p, u, J)
-            system_dfdt_work(system, t, z, p, u, ft, zc, oc)
-        else:
-            system_jacobian_work(system, t, z, p, u, J, zc, oc)
-            system_dfdt_work(system, t, z, p, u, ft, zc, oc)
+        _model_jacobian(t, z, p, u, J, ft, zc, oc)
         while True:
             ncalls += 1
             if ncalls > max_steps:
@@ -284,7 +283,7 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
                         for j in range(st):
                             acc += _A[st, j] * K[j, i]
                         ys[i] = acc
-                    system_rhs(system, t + _ALPHA[st] * hs, ys, p, u, fs)
+                    _model_rhs(t + _ALPHA[st] * hs, ys, p, u, fs)
                 for i in range(n):
                     acc = fs[i] + _GAMMAI[st] * hs * ft[i]
                     for j in range(st):
@@ -310,13 +309,12 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
             # events first: a step that jumps across a switching surface is retaken shorter (its
             # error estimate is meaningless across the kink, so do not let it drive rejections)
             if finite:
-                system_switching(system, ynew, p, g1)
+                _model_switching(ynew, p, g1)
             else:
-                g1[0] = g0[0]
-                g1[1] = g0[1]
-                g1[2] = g0[2]
+                for k in range(_NSWITCH):
+                    g1[k] = g0[k]
             theta = 1.0
-            for k in range(3):
+            for k in range(_NSWITCH):
                 if g0[k] * g1[k] < 0.0:
                     if abs(g0[k]) <= gtol[k] or abs(g1[k]) <= gtol[k]:
                         continue  # starts or ends on the surface: in its mode, nothing to land on
@@ -339,7 +337,7 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
                 continue
             break
         # accepted
-        system_rhs(system, t + hs, ynew, p, u, f1)
+        _model_rhs(t + hs, ynew, p, u, f1)
         xmax = max(xmax, _hermite_absmax(z[0], f0[0], ynew[0], f1[0], hs))
         while isample < nsample and sample_times[isample] <= t + hs:
             theta_s = (sample_times[isample] - t) / hs
@@ -350,7 +348,7 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
             z[i] = ynew[i]
             f0[i] = f1[i]
         stats[STAT_STEPS] += 1
-        hmode[mode + 1] = hs
+        hmode[mode] = hs
         mode_prev = mode
         # (a PI controller was tried: fewer rejections but more steps in total on the rattling gear)
         fac = min(6.0, max(0.2, 0.9 * max(enorm, 1e-10) ** (-0.25)))
@@ -363,36 +361,90 @@ def integrate(system, z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, sample
     return h, xmax, OK, t
 
 
-_STATE_NAMES = {SYS_COUPLED: ("x", "xd", "y", "yd", "d", "dd"), SYS_TMD: ("y", "yd", "d", "dd")}
+_INTEGRATORS: dict = {}
 
 
-def contact_mode(system, z, p, atol, friction_band) -> str:
-    """Name the mode of state z: gear contact (engaged in compression / extension, free, or on a
-    contact surface within the surface tolerance) and friction (stuck or sliding)."""
-    g = np.empty(3)
-    system_switching(system, np.asarray(z, dtype=float), p, g)
-    parts = []
-    if system == SYS_COUPLED and g[0] != 1.0:
-        parts.append("friction stuck" if abs(g[0]) <= friction_band else "friction sliding")
-    if g[1] != 1.0 or g[2] != 1.0:
-        di = 4 if system == SYS_COUPLED else 2
-        tol = SURFACE_TOL * float(np.asarray(atol)[di])
-        if abs(g[1]) <= tol or abs(g[2]) <= tol:
-            parts.append("gear chain on its contact surface")
-        elif g[1] > 0.0:
-            parts.append("gear engaged in compression (d > eps)")
-        elif g[2] < 0.0:
-            parts.append("gear engaged in extension (d < -eps)")
-        else:
-            parts.append("gear free (|d| < eps)")
-    return ", ".join(parts) if parts else "smooth"
+def make_integrator(model, cache: bool | None = None):
+    """The compiled integrator of ``model`` (built once per model name; on disk by numba's cache).
+
+    model supplies ``name`` (a Python identifier), ``rhs``, ``jacobian``, ``switching``, ``mode``
+    (numba-compiled functions), ``n_switches``, ``n_modes`` and ``switch_tolerance`` (see
+    :mod:`pyfmu_wrapper.physics.models`). The result is called as
+    ``integrate(z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, samples, friction_band, stats,
+    max_steps=DEFAULT_MAX_STEPS, surface_tol=SURFACE_TOL)`` and returns (next step size,
+    max |z[0]|, status, t) (see the template's doc).
+
+    Each model's integrator is the template's code with the model's functions as its globals and a
+    name of its own (``integrate_<name>``), so numba caches it in a file of its own and inlines the
+    model's calls as direct calls (the numbers are those of a hand-specialised integrator).
+
+    cache: keep the compiled integrator in numba's on-disk cache. The cache is keyed to this
+    package's compiled layer (see :mod:`pyfmu_wrapper._jit`), so by default (None) only a model
+    whose functions are all defined in this package is cached; a model of another package (or of
+    a test) is compiled afresh in each process, never loaded stale.
+    """
+    name = str(model.name)
+    if not name.isidentifier():
+        raise ValueError(f"make_integrator: model name {name!r} is not a Python identifier")
+    hit = _INTEGRATORS.get(name)
+    if hit is not None:
+        if hit[0] is not model:
+            raise ValueError(f"make_integrator: two different models are named {name!r}")
+        return hit[1]
+    tol_index = tuple(int(k) for k in model.switch_tolerance)
+    if len(tol_index) != int(model.n_switches):
+        raise ValueError(f"make_integrator: model {name!r} has {model.n_switches} switching functions but "
+                         f"{len(tol_index)} entries in switch_tolerance")
+    g = dict(globals())
+    g.update(_model_rhs=model.rhs, _model_jacobian=model.jacobian, _model_switching=model.switching,
+             _model_mode=model.mode, _NSWITCH=int(model.n_switches), _NMODES=int(model.n_modes),
+             _SWITCH_TOL_INDEX=tol_index)
+    tpl = _integrate_template
+    fn = types.FunctionType(tpl.__code__, g, f"integrate_{name}", tpl.__defaults__)
+    fn.__qualname__ = f"integrate_{name}"
+    fn.__doc__ = tpl.__doc__
+    fn.__module__ = tpl.__module__
+    if cache is None:
+        pkg = __name__.split(".")[0] + "."
+        funcs = (model.rhs, model.jacobian, model.switching, model.mode)
+        cache = all(str(getattr(getattr(f, "py_func", f), "__module__", "")).startswith(pkg) for f in funcs)
+    compiled = njit(cache=bool(cache))(fn)
+    _INTEGRATORS[name] = (model, compiled)
+    return compiled
 
 
-def failure_message(status, system, t, z, p, atol, friction_band, max_steps=DEFAULT_MAX_STEPS) -> str:
-    """A sentence naming why :func:`integrate` stopped, at which time, in which state and mode."""
+def contact_mode(model, z, p, atol, friction_band) -> str:
+    """Name the mode of state z of ``model`` (its ``describe``): e.g. gear contact (engaged in
+    compression / extension, free, or on a contact surface within the surface tolerance) and
+    friction (stuck or sliding)."""
+    return model.describe(z, p, atol, friction_band)
+
+
+def failure_message(status, model, t, z, p, atol, friction_band, max_steps=DEFAULT_MAX_STEPS) -> str:
+    """A sentence naming why an integrator of :func:`make_integrator` stopped, at which time, in
+    which state and mode (``model``: the model, or for the FMU code a kernels system id)."""
+    if isinstance(model, (int, np.integer)):
+        model = _legacy_model(int(model))
     why = {STEP_UNDERFLOW: "the step size fell below the resolution of t (error test failed at the minimum step)",
            STEP_CAP: f"the cap of {max_steps} steps per call was reached"}.get(int(status), f"status {status}")
-    names = _STATE_NAMES.get(system, tuple(f"z{i}" for i in range(len(z))))
+    names = tuple(model.state_names)
+    if len(names) != len(z):
+        names = tuple(f"z{i}" for i in range(len(z)))
     state = ", ".join(f"{k} = {float(v):.17g}" for k, v in zip(names, z))
-    mode = contact_mode(system, z, p, atol, friction_band)
+    mode = contact_mode(model, z, p, atol, friction_band)
     return f"integrator stopped at t = {float(t):.12g} s: {why}; state {state}; mode: {mode}"
+
+
+def _legacy_model(system: int):
+    """Compatibility for code that still passes kernels system ids (fmi/): the model of an id."""
+    from . import _legacy
+    return _legacy.model_of(system)
+
+
+def __getattr__(name):
+    # Compatibility: ``integrate(system, ...)`` switching on kernels system ids, for the FMU code
+    # (fmi/native.py, fmi/slaves.py) until it calls make_integrator itself (solvers/_legacy.py).
+    if name == "integrate":
+        from . import _legacy
+        return _legacy.integrate
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

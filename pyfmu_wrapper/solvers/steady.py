@@ -16,6 +16,8 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ..physics.params import BaseParams, TMDParams, has_gap
+from . import settings_table as _table
+from .settings_table import MONO
 
 #: where a windowed solve starts (SteadySettings.play_start)
 PLAY_STARTS = ("companion", "previous")
@@ -92,35 +94,36 @@ class SteadySettings:
     window 1 and its iteration cap. Each engine's settings class sets its own defaults.
     """
 
-    tol: float = 1e-6
-    tol_window: float = 1e-4
-    amp_atol: float | None = None
-    window: int | None = None
-    min_periods: int = 3
-    max_periods: int = 3000
-    scatter_tol: float = 5e-3
-    play_start: str = "companion"
-    shooting: bool = True
-    max_newton: int = 8
+    tol: float = _table.default("tol", MONO)
+    tol_window: float = _table.default("tol_window", MONO)
+    amp_atol: float | None = _table.default("amp_atol", MONO)
+    window: int | None = _table.default("window", MONO)
+    min_periods: int = _table.default("min_periods", MONO)
+    max_periods: int = _table.default("max_periods", MONO)
+    scatter_tol: float = _table.default("scatter_tol", MONO)
+    play_start: str = _table.default("play_start", MONO)
+    shooting: bool = _table.default("shooting", MONO)
+    max_newton: int = _table.default("max_newton", MONO)
 
     def __post_init__(self):
         self.validate()
 
     def validate(self):
-        """Raise :class:`SettingsError` on the first value out of range (subclasses add theirs)."""
+        """Raise :class:`SettingsError` on the first value out of range: the rule of every field is
+        its row of :data:`~pyfmu_wrapper.solvers.settings_table.SETTINGS` (subclasses included),
+        plus max_periods >= min_periods."""
         c = Checks(self)
-        c.number("tol")
-        c.number("tol_window")
-        c.number("amp_atol", optional=True)
-        c.integer("window", 1, optional=True)
-        c.integer("min_periods", 1)
-        c.integer("max_periods", 1)
-        if self.max_periods < self.min_periods:
-            c.fail("max_periods", f"must be >= min_periods = {self.min_periods}")
-        c.number("scatter_tol")
-        c.choice("play_start", PLAY_STARTS)
-        c.boolean("shooting")
-        c.integer("max_newton", 1)
+        names = [f.name for f in fields(self)]
+        for name in names:
+            setting = _table.BY_NAME.get(name)
+            if setting is None:
+                raise TypeError(f"{type(self).__name__}.{name} is not declared in solvers/settings_table.py")
+            why = setting.problem(getattr(self, name))
+            if why is not None:
+                c.fail(name, why)
+            if name == "max_periods" and "min_periods" in names and _table.BY_NAME["min_periods"].problem(
+                    self.min_periods) is None and self.max_periods < self.min_periods:
+                c.fail("max_periods", f"must be >= min_periods = {self.min_periods}")
 
     def window_for(self, tmd: TMDParams) -> int:
         return default_window(tmd, self.window)
