@@ -68,7 +68,7 @@ class _HashedCacheLocator(_caching._SourceFileBackedLocatorMixin, _caching._Cach
 
 
 # numba >= 0.61 names the class CacheImpl, older releases _CacheImpl
-_IMPL = getattr(_caching, "CacheImpl", None) or getattr(_caching, "_CacheImpl")
+_IMPL = getattr(_caching, "CacheImpl", None) or _caching._CacheImpl  # type: ignore[attr-defined]
 if _HashedCacheLocator not in _IMPL._locator_classes:
     _IMPL._locator_classes.insert(0, _HashedCacheLocator)
 

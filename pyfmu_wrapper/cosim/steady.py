@@ -25,14 +25,14 @@ import pandas as pd
 
 from ..master.master import Master
 from ..physics.params import BaseParams, InerterModel, TMDParams, has_gap
-from ..solvers.rodas import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
-from ..solvers.shooting import shoot
-from ..solvers.sweep import run_sweep_pieces
-from ..solvers.monolithic import SolverSettings
-from ..solvers.start import companion_start, initial_guess
 from ..solvers import settings_table as _table
+from ..solvers.monolithic import SolverSettings
+from ..solvers.rodas import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
 from ..solvers.settings_table import COSIM
+from ..solvers.shooting import shoot
+from ..solvers.start import companion_start, initial_guess
 from ..solvers.steady import SteadySettings, WindowCriterion
+from ..solvers.sweep import run_sweep_pieces
 from .system import fmu_parameters, make_master
 
 
@@ -115,7 +115,7 @@ class CosimSteadyState:
     change: float
     steps: int
     wall_time: float
-    period_max: np.ndarray = field(repr=False, default=None)
+    period_max: np.ndarray | None = field(repr=False, default=None)
     irregular: bool = False  #: settled into irregular motion; ``change`` is then its scatter
 
 
@@ -157,7 +157,7 @@ def _start(master: Master, base, tmd, omega, z, settings):
     master.initialize(0.0, fmu_parameters(base, tmd, omega, z, settings.fmu_rtol))
 
 
-def _shoot(master: Master, base, tmd, omega, z0, settings: CosimSettings, run: "_Periods", hint: dict):
+def _shoot(master: Master, base, tmd, omega, z0, settings: CosimSettings, run: _Periods, hint: dict):
     """Newton shooting (:func:`~pyfmu_wrapper.solvers.shooting.shoot`, the one shared with the
     monolithic solver) on the co-simulated period map z -> z(T) over z = (x, xd, y, yd); each
     evaluation re-initialises the FMUs from z. The Jacobian comes from the previous frequency of
@@ -301,8 +301,9 @@ def periodic_time_series(base: BaseParams, tmd: TMDParams, omega: float, n_perio
     ``samples_per_period`` overrides the communication steps per period (the record is at the
     communication points)."""
     own = master is None
-    m = make_master(base, tmd, settings.scheme, settings.order, coupling=settings.coupling,
-                         interface_jacobian=settings.interface_jacobian) if own else master
+    m = master if master is not None else make_master(base, tmd, settings.scheme, settings.order,
+                                                      coupling=settings.coupling,
+                                                      interface_jacobian=settings.interface_jacobian)
     try:
         if samples_per_period is not None:
             settings = replace(settings, steps_per_period=int(samples_per_period))

@@ -27,9 +27,8 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares, minimize_scalar
 
-from ..physics.params import BaseParams, TMDParams
+from ..physics.params import BaseParams, ParameterError, TMDParams
 from ..solvers.frequency_response import exact_amplitude
-from ..physics.params import ParameterError
 from ..solvers.monolithic import SolverError, steady_state
 
 BIC_THRESHOLD = 6.0
@@ -86,7 +85,9 @@ class FRCDiagnosis:
         the diagnosis: ``effect.parameter``); None when an effect cannot be evaluated on FRC
         records (play: its effect on x_max is below the solver's steady-state scatter)."""
         b, t = self.base, self.tmd
-        kw, bkw, gain, bias = {}, {}, 1.0, 0.0
+        kw: dict = {}
+        bkw: dict = {}
+        gain, fit_bias = 1.0, False
         for k, v in params.items():
             e, name = k.split(".", 1)
             if e == "play":
@@ -115,9 +116,9 @@ class FRCDiagnosis:
             elif k == "force_error.force_gain_error":
                 gain = 1.0 + v
             elif k == "sensor_offset.x_offset":
-                bias = None  # x_max may be a peak (+b) or half a peak-to-peak (0): fitted below
+                fit_bias = True  # x_max may be a peak (+b) or half a peak-to-peak (0): fitted below
         pred = self.amplitude(replace(b, **bkw), replace(t, **kw), gain=gain)
-        if bias is None:  # the offset of x_max, least squares in relative units
+        if fit_bias:  # the offset of x_max, least squares in relative units
             wgt = 1.0 / np.abs(self.x) ** 2
             pred = pred + float(np.sum(wgt * (self.x - pred)) / np.sum(wgt))
         return pred
@@ -216,9 +217,9 @@ class FRCDiagnosis:
         sd = h / math.sqrt(max(float(g @ g), 1e-300))
         return {"value": v0, "std": sd, "chi2_all": self.chi2(P[1]), "chi2_cv": cv}
 
-    def evidence(self, params: dict) -> float:
+    def evidence(self, params: dict) -> float | None:
         """Chi-square drop on every FRC point when the nominal is changed by ``params`` (fitted on
-        other records: all FRC points are held out). 0 when the effect cannot be evaluated."""
+        other records: all FRC points are held out). None when the effect cannot be evaluated."""
         try:
             pred = self.predict(params)
         except (SolverError, ParameterError, ValueError, FloatingPointError):
@@ -272,7 +273,7 @@ class FRCDiagnosis:
         self.fits = []
         for name, pnames, p0, model in self._candidates():
             if p0 is None or isinstance(p0, tuple):  # friction, cubic: bounded scalar search on the training points
-                def obj(v):
+                def obj(v, model=model):
                     try:
                         return float(np.sum(((self.x - model([v], only=self.train)) / sc)[self.train] ** 2))
                     except (SolverError, ParameterError, ValueError, FloatingPointError):
@@ -286,7 +287,7 @@ class FRCDiagnosis:
                 res = minimize_scalar(obj, bounds=(lo, upper), method="bounded", options=dict(maxiter=7, xatol=1e-3 * (upper - lo)))
                 p = np.array([res.x])
             else:
-                p = least_squares(lambda q: ((self.x - model(q)) / sc)[self.train], p0, diff_step=1e-4).x
+                p = least_squares(lambda q, model=model: ((self.x - model(q)) / sc)[self.train], p0, diff_step=1e-4).x
             try:
                 pred = model(p)
             except (SolverError, ParameterError, ValueError, FloatingPointError):

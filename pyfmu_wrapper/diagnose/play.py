@@ -135,7 +135,7 @@ class PlayFit:
         from .harmonic import fuse
 
         out = {}
-        for i, v in enumerate(self.views):
+        for v in self.views:
             # a longer run than the record: the periodic part of a chaotic rattle scatters less
             nper = SIGNATURE_PERIODS * max(2, int(round(v.series.n * v.dt * v.omega / (2 * math.pi))))
             _, s = simulated_stat(self.base, self.tmd, v.omega, v.amplitude, self.eps if eps is None else eps, v.dt, nper)

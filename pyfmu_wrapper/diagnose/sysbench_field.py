@@ -169,7 +169,8 @@ def frc_amplitudes(truth: dict, omegas, F_rec) -> np.ndarray:
     oov = truth.get("oov", {})
     if has_dynamics(oov):
         mod = oov_model({"base": truth["base"], "tmd": truth["tmd"]}, oov, Ft)
-        hint, z, out = {}, None, []
+        hint: dict = {}
+        z, out = None, []
         for w in omegas:
             a, z = mod.amplitude(float(w), z0=z, hint=hint)
             out.append(a)
@@ -219,7 +220,8 @@ def write_dataset(folder: Path, spec: dict, rng) -> dict:
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
     truth, nom, acq = spec["truth"], spec["nominal"], spec.get("acquisition")
-    recs, chi2_t, chi2_f = [], 0.0, 0.0
+    recs: list = []
+    chi2_t, chi2_f = 0.0, 0.0
     for r in spec["records"]:
         cols, c2, _ = time_record(truth, nom, r["omega"], r["force"], spec["fs"], r["periods"], r["phase"], acq,
                                   spec["accel_only"], rng, r["noise"])

@@ -26,13 +26,28 @@ import numpy as np
 
 from ..solvers.monolithic import SolverError
 from . import gates
-from .gates import (BOUNDS, EVIDENCE, MIN_SHARE, PAIR_SHARE, RELEVANCE, REMAIN_SHARE, Z_NOISE, Z_REMAIN,  # noqa: F401
-                    evidence_gate, noise_gate, pair_gate, plausibility, relevance_gate, remaining_gate, share_gate)
+from .acquisition import unobservable
+from .gates import (  # noqa: F401
+    BOUNDS,
+    EVIDENCE,
+    MIN_SHARE,
+    PAIR_SHARE,
+    RELEVANCE,
+    REMAIN_SHARE,
+    Z_NOISE,
+    Z_REMAIN,
+    evidence_gate,
+    noise_gate,
+    pair_gate,
+    plausibility,
+    relevance_gate,
+    remaining_gate,
+    share_gate,
+)
 from .play import PlayFit
 from .sysplay import PlayMixin
 from .system import EFFECT_PARAMS, SIGN, SystemModel, fit_eq, folds_for, record_views, steady_signature
 
-from .acquisition import unobservable
 MAX_EFFECTS = 2
 LABELS = {
     "friction": "dry friction in the TMD link", "play": "play in the inerter gear",

@@ -20,7 +20,7 @@ def _f(x):
 
 def disagreements(sd, frc_res) -> list:
     """Where the FRC records and the time records disagree, and why."""
-    out = []
+    out: list[str] = []
     if frc_res is None:
         return out
     fa = frc_res["attribution"]
@@ -172,7 +172,7 @@ def _plot_harmonics(sd, path):
     import matplotlib.pyplot as plt
 
     fig, ax = plt.subplots(figsize=(8, 4))
-    for i, v in enumerate(sd.views):
+    for v in sd.views:
         H = v.X.size - 1
         r = v.r
         o = 2 if v.dc else 0  # acceleration-only records have no h = 0 rows

@@ -25,10 +25,10 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from .._jit import njit
 
+from .._jit import njit
 from ..physics.kernels import friction_force, static_link_force
-from ..physics.params import N_PARAMS, P_k3, BaseParams, TMDParams, pack
+from ..physics.params import N_PARAMS, BaseParams, P_k3, TMDParams, pack
 from .data import DataError
 from .harmonic import PERIODIC_R2, fit_series, fuse, grid_coef, grid_values
 
@@ -66,8 +66,8 @@ class RecView:
     F: np.ndarray
     vF: np.ndarray
     grid: dict = field(default_factory=dict)  #: x, xd, xdd, y, yd, ydd on one period
-    W: np.ndarray = None  #: whitening matrices per harmonic (H+1, 2, 2)
-    r: np.ndarray = None  #: whitened nominal residual, real vector
+    W: np.ndarray = field(default_factory=lambda: np.empty((0, 2, 2)))  #: whitening matrices per harmonic (H+1, 2, 2)
+    r: np.ndarray = field(default_factory=lambda: np.empty(0))  #: whitened nominal residual, real vector (set by SystemModel)
     role: str | None = None
     dt: float = 1e-3  #: sampling interval [s]
     spike: dict = field(default_factory=dict)
@@ -320,6 +320,7 @@ def fit_eq(model: SystemModel, effects, folds, theta=None, prior=None) -> EqFit:
             f = fit_eq(model, effects, folds, {**theta, "friction": (s,)}, prior)
             if best is None or f.chi2_fit < best.chi2_fit:
                 best = f
+        assert best is not None  # SLOPES is not empty
         return best
     des = model.design(effects, theta)
     ys = [v.r for v in model.views]

@@ -9,6 +9,7 @@ Shares are of the positive excess (chi-square minus its dof), so noise alone giv
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 
@@ -24,7 +25,9 @@ def localise(sd) -> dict:
     """Where the held-out gap left by the named effects lives (module doc)."""
     cur = sd.cur if sd.chosen else None
     fit = cur.fit if cur is not None else None
-    rec, harm, eq = {}, {}, {"base": 0.0, "tmd": 0.0}
+    rec: dict[str, float] = {}
+    harm: dict[int, float] = {}
+    eq = {"base": 0.0, "tmd": 0.0}
     for i in sd.test_ids:
         v = sd.views[i]
         r = fit.resid_ho[i] if fit is not None and fit.resid_ho and fit.resid_ho[i] is not None else v.r
@@ -42,7 +45,7 @@ def localise(sd) -> dict:
             S = L @ L.conj().T
             for k, name in ((0, "base"), (1, "tmd")):
                 eq[name] += float(abs(AB[k]) ** 2 / max(S[k, k].real, 1e-300)) - nc / 2
-    out = {"time_records_share": None, "frc_share": None, "equation": _share(eq),
+    out: dict[str, Any] = {"time_records_share": None, "frc_share": None, "equation": _share(eq),
            "records": sorted(({"record": k, "omega": sd.views[[w.name for w in sd.views].index(k)].omega, "share": s}
                               for k, s in _share(rec).items()), key=lambda d: -d["share"]),
            "harmonics": {str(h): s for h, s in sorted(_share(harm).items()) if s >= 0.01},

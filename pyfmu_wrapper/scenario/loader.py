@@ -10,16 +10,32 @@ from __future__ import annotations
 import math
 import os
 import re
+from typing import Any
 
 import numpy as np
 import yaml
 
-from ..physics.params import BaseParams, CASES, InerterModel, ParameterError, TMDParams, field_names
+from ..physics.params import CASES, BaseParams, InerterModel, ParameterError, TMDParams, field_names
 from ..solvers import settings_table as _settings
 from ..solvers.steady import SettingsError
-from .schema import (COSIM_KEYS, DIRECTIONS, LINEAR_METHODS, MAP_PARAMETERS, READ_VERSIONS, SCHEMA_VERSION,
-                     STUDY_KINDS, CosimConfig, Curve, FRCStudy, MapStudy, PhasePortraitStudy, Scenario, ScenarioError,
-                     SolverConfig, SweepConfig)
+from .schema import (
+    COSIM_KEYS,
+    DIRECTIONS,
+    LINEAR_METHODS,
+    MAP_PARAMETERS,
+    READ_VERSIONS,
+    SCHEMA_VERSION,
+    STUDY_KINDS,
+    CosimConfig,
+    Curve,
+    FRCStudy,
+    MapStudy,
+    PhasePortraitStudy,
+    Scenario,
+    ScenarioError,
+    SolverConfig,
+    SweepConfig,
+)
 from .yamlio import MarkedDict, MarkedList, load_marked
 
 TMD_FIELDS = tuple(field_names(TMDParams))
@@ -172,7 +188,7 @@ class _TMDSpec:
         self.values = dict(values or {})
         self.origin = dict(origin or {})
 
-    def over(self, rd: _Reader, node, path, line) -> "_TMDSpec":
+    def over(self, rd: _Reader, node, path, line) -> _TMDSpec:
         rd.mapping(node, path, line, optional=TMD_KEYS)
         new = _TMDSpec(self.values, self.origin)
         # a new case / ratio / explicit inertia split replaces the inherited one
@@ -206,7 +222,7 @@ class _TMDSpec:
     def build(self, rd: _Reader, path, line) -> TMDParams:
         """Resolve into TMDParams: defaults <- case <- explicit fields <- inertance_ratio."""
         v = self.values
-        kw = {}
+        kw: dict[str, Any] = {}
         if "case" in v:
             kw.update(CASES[v["case"]])
         kw.update({k: v[k] for k in TMD_FIELDS if k in v})

@@ -45,12 +45,12 @@ import numpy as np
 from ..physics.kernels import NSTATE
 from ..physics.models import COUPLED
 from ..physics.params import BaseParams, InerterModel, TMDParams, has_gap, pack
-from .shooting import shoot
 from . import settings_table as _table
-from .settings_table import MONO
-from .steady import SteadySettings, WindowCriterion
-from .start import companion_start, initial_guess, play_atol  # noqa: F401 (shared; re-exported)
 from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, make_integrator
+from .settings_table import MONO
+from .shooting import shoot
+from .start import companion_start, initial_guess, play_atol  # noqa: F401 (shared; re-exported)
+from .steady import SteadySettings, WindowCriterion
 
 #: the compiled integrator of the coupled base + TMD model
 integrate = make_integrator(COUPLED)

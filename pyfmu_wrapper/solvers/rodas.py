@@ -42,6 +42,7 @@ import math
 import types
 
 import numpy as np
+
 from .._jit import njit
 
 # RODAS4 coefficients (Hairer & Wanner 1996), lower-triangular A and C stored as full matrices.

@@ -12,7 +12,8 @@ both relative to max(|z_i|, scale_i) per state.
 """
 from __future__ import annotations
 
-from typing import Callable, NamedTuple
+from collections.abc import Callable
+from typing import NamedTuple
 
 import numpy as np
 
@@ -23,7 +24,7 @@ class ShootingResult(NamedTuple):
     amplitude: float  #: max |x| over the period from z, as the period map reported it
     periods: int  #: periods integrated (Newton iterations and finite differences)
     change: float  #: max(last relative correction, relative residual)
-    jacobian: np.ndarray  #: the last Jacobian D - I (for the next frequency)
+    jacobian: np.ndarray | None  #: the last Jacobian D - I (for the next frequency; None if never formed)
 
 
 def shoot(period_map: Callable[[np.ndarray], tuple[np.ndarray, float]], z0, scale, tol: float,

@@ -166,7 +166,7 @@ class WindowCriterion:
         self.wins: list[float] = []
         self.diffs: list[float] = []
         self.res: list[float] = []
-        self._z_prev = None
+        self._z_prev: np.ndarray | None = None
         self.converged = False
         self.irregular = False
         self.change = math.inf
@@ -176,7 +176,7 @@ class WindowCriterion:
 
     @classmethod
     def from_settings(cls, settings: SteadySettings, window: int, base: BaseParams,
-                      omega: float | None = None) -> "WindowCriterion":
+                      omega: float | None = None) -> WindowCriterion:
         """From an engine's settings (:class:`SteadySettings`; ``max_periods_window``, which only
         the monolithic engine has, bounds the windowed run when present)."""
         if window == 1:

@@ -54,12 +54,14 @@ def _sweep_piece(base, tmd, seq, d, settings, z0, queue=None):
 
 
 def sweep(base: BaseParams, tmd: TMDParams, omegas, direction: str = "up",
-          settings: SolverSettings = SolverSettings(), progress=None, z0=None, workers: int = 1) -> SweepResult:
+          settings: SolverSettings | None = None, progress=None, z0=None, workers: int = 1) -> SweepResult:
     """Steady-state amplitude of the base at each omega [rad/s], sweeping up, down or both.
 
+    settings: the solver settings (default ``SolverSettings()``).
     progress: optional callable(n_done) called after every frequency (e.g. tqdm.update).
     workers: processes to use (0 or None: all cores); see the module doc.
     """
+    settings = SolverSettings() if settings is None else settings
     rows, finals = run_sweep_pieces(_sweep_piece, base, tmd, omegas, direction, settings, progress, z0, workers)
     return SweepResult(pd.DataFrame(rows), finals)
 
