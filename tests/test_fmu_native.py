@@ -22,21 +22,27 @@ BASE = dict(M=100.0, K=4.0e4, C=100.0, F=200.0, w=18.0, x0=0.01, xd0=0.0)
 TMD = dict(m=9.0, k=4.0e3, c=10.0, df=5.0, I=1.0, y0=0.01)
 
 
-def _args(d, name, start, outputs):
+#: the play model (gear chain with a gap, Case 1 of the paper): the rattle, with the per-state tolerances
+PLAY = dict(TMD, c=0.0, df=0.0, ki=2.0e7, ci=0.01, eps=1e-4)
+
+
+def _args(d, name, start, outputs, ints=None):
     md = fmpy.read_model_description(str(d))
     vr = {v.name: v for v in md.modelVariables}
     args = [str(d), guid(d), name]
     args += [f"r:{vr[k].valueReference}={v!r}" for k, v in start.items()]
+    args += [f"i:{vr[k].valueReference}={v:d}" for k, v in (ints or {}).items()]
     return args + [f"o:{vr[o].valueReference}" for o in outputs]
 
 
-def test_native_and_python_paths_bit_identical(tmp_path):
+@pytest.mark.parametrize("tmd,ints", [(TMD, None), (PLAY, {"inerter": 2})], ids=["ideal", "play"])
+def test_native_and_python_paths_bit_identical(tmp_path, tmd, ints):
     fmus = built_fmus()
     dirs = {n: extract(p, tmp_path) for n, p in fmus.items()}
     exe = compile_c_host(tmp_path)
     cmd = [str(exe), "run", "0.3", "0.001",
            *_args(dirs["BaseOscillator"], "base", BASE, ["x", "xd", "xdd", "f_exc"]), "--",
-           *_args(dirs["TMDInerter"], "tmd", TMD, ["force", "y", "yd", "inerter_force"])]
+           *_args(dirs["TMDInerter"], "tmd", tmd, ["force", "y", "yd", "inerter_force"], ints)]
     env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV", "PYFMU_NATIVE"))}
     runs = {}
     for native in ("1", "0"):
@@ -92,3 +98,28 @@ def test_ordinary_steps_do_not_enter_the_python_slave(tmp_path, monkeypatch):
     finally:
         s.terminate()
         s.freeInstance()
+
+
+def test_rates_get_atol_times_their_natural_frequency():
+    """The FMU's atol is the tolerance of the positions; a rate gets atol x the natural frequency of
+    its state (the monolithic solver's scaling), the gear chain's rate dd that of the mesh,
+    sqrt(ki/I): held to the tolerance of a position, the rattle cost 2.9x the steps (issue 20)."""
+    from pyfmu_wrapper.fmi.native import fill_atol
+    from pyfmu_wrapper.physics import kernels as kn
+    from pyfmu_wrapper.physics.params import BaseParams, TMDParams, pack
+
+    a = 1e-10
+    base = BaseParams(mass=100.0, stiffness=4.0e4)
+    play = TMDParams(mass=9.0, stiffness=4.0e3, inertance=1.0, mesh_stiffness=2.0e7, inerter="play", play_gap=1e-4)
+    ideal = TMDParams(mass=9.0, stiffness=4.0e3, inertance=1.0)
+    expected = {
+        (kn.SYS_BASE, base, ideal): [a, a * 20.0],  # sqrt(4e4 / 100) = 20 rad/s
+        (kn.SYS_TMD, base, play): [a, a * np.sqrt(4.0e3 / 9.0), a, a * np.sqrt(2.0e7)],
+        (kn.SYS_TMD, base, ideal): [a, a * np.sqrt(4.0e3 / 9.0), a, a * np.sqrt(4.0e3 / 9.0)],
+        # a slow subsystem (below 1 rad/s) never gets a tolerance tighter than its positions'
+        (kn.SYS_TMD, base, TMDParams(mass=9.0, stiffness=1.0, inertance=1.0)): [a, a, a, a],
+    }
+    for (system, b, t), want in expected.items():
+        atol = np.zeros(len(want))
+        fill_atol(system, a, pack(b, t, 0.0), atol)
+        np.testing.assert_allclose(atol, want, rtol=1e-15)
