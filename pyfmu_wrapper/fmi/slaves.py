@@ -327,7 +327,7 @@ class Slave:
         tol_vr = getattr(self, "_tol_vr", None)
         if tol_vr is None:  # value references of rtol/atol, resolved once
             tol_vr = self._tol_vr = (self.spec.by_name("rtol").vr, self.spec.by_name("atol").vr)
-        from .native import fill_atol  # positions get atol, rates atol x their natural frequency
+        from .native import fill_atol  # atol, the gear chain's rate atol x sqrt(ki/I)
 
         rtol = float(self.r[tol_vr[0]])
         fill_atol(system, float(self.r[tol_vr[1]]), self.p, self._atol)
