@@ -21,21 +21,27 @@ BASE = dict(M=100.0, K=4.0e4, C=100.0, F=200.0, w=18.0, x0=0.01, xd0=0.0)
 TMD = dict(m=9.0, k=4.0e3, c=10.0, df=5.0, I=1.0, y0=0.01)
 
 
-def _args(d, name, start, outputs):
+#: the play model (gear chain with a gap, Case 1 of the paper): the rattle, with the per-state tolerances
+PLAY = dict(TMD, c=0.0, df=0.0, ki=2.0e7, ci=0.01, eps=1e-4)
+
+
+def _args(d, name, start, outputs, ints=None):
     md = fmpy.read_model_description(str(d))
     vr = {v.name: v for v in md.modelVariables}
     args = [str(d), guid(d), name]
     args += [f"r:{vr[k].valueReference}={v!r}" for k, v in start.items()]
+    args += [f"i:{vr[k].valueReference}={v:d}" for k, v in (ints or {}).items()]
     return args + [f"o:{vr[o].valueReference}" for o in outputs]
 
 
-def test_native_and_python_paths_bit_identical(tmp_path):
+@pytest.mark.parametrize("tmd,ints", [(TMD, None), (PLAY, {"inerter": 2})], ids=["ideal", "play"])
+def test_native_and_python_paths_bit_identical(tmp_path, tmd, ints):
     fmus = built_fmus()
     dirs = {n: extract(p, tmp_path) for n, p in fmus.items()}
     exe = compile_c_host(tmp_path)
     cmd = [str(exe), "run", "0.3", "0.001",
            *_args(dirs["BaseOscillator"], "base", BASE, ["x", "xd", "xdd", "f_exc"]), "--",
-           *_args(dirs["TMDInerter"], "tmd", TMD, ["force", "y", "yd", "inerter_force"])]
+           *_args(dirs["TMDInerter"], "tmd", tmd, ["force", "y", "yd", "inerter_force"], ints)]
     env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV", "PYFMU_NATIVE"))}
     runs = {}
     for native in ("1", "0"):
@@ -91,3 +97,29 @@ def test_ordinary_steps_do_not_enter_the_python_slave(tmp_path, monkeypatch):
     finally:
         s.terminate()
         s.freeInstance()
+
+
+def test_gear_chain_rate_gets_atol_times_the_mesh_frequency():
+    """The FMU's atol holds every state, except the play chain's rate dd: atol x sqrt(ki/I), the
+    mesh frequency (the monolithic solver's scaling). Held to atol like the deflection d, the
+    rattle cost the TMD FMU 2.7x the integrator steps per period (issue 20)."""
+    from pyfmu_wrapper.fmi.native import fill_atol
+    from pyfmu_wrapper.physics import kernels as kn
+    from pyfmu_wrapper.physics.params import BaseParams, TMDParams, pack
+
+    a = 1e-10
+    base = BaseParams(mass=100.0, stiffness=4.0e4)
+    play = TMDParams(mass=9.0, stiffness=4.0e3, inertance=4.0, mesh_stiffness=1.6e7, inerter="play", play_gap=1e-4)
+    ideal = TMDParams(mass=9.0, stiffness=4.0e3, inertance=1.0)
+    expected = {
+        (kn.SYS_TMD, play): [a, a, a, a * 2000.0],  # sqrt(1.6e7 / 4) = 2000 rad/s
+        (kn.SYS_TMD, ideal): [a, a, a, a],
+        (kn.SYS_BASE, ideal): [a, a],
+        # a soft mesh (below 1 rad/s) never makes dd's tolerance tighter than d's
+        (kn.SYS_TMD, TMDParams(mass=9.0, stiffness=4.0e3, inertance=4.0, mesh_stiffness=1.0, inerter="play")):
+            [a, a, a, a],
+    }
+    for (system, t), want in expected.items():
+        atol = np.zeros(len(want))
+        fill_atol(system, a, pack(base, t, 0.0), atol)
+        np.testing.assert_array_equal(atol, want)

@@ -30,12 +30,14 @@ the FMI logger. ``debug_raise`` = 2 raises inside the compiled step (a test of t
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 from numba import carray, cfunc, types
 
+from .._jit import njit
 from ..physics import kernels as kn
-from ..physics.params import N_PARAMS, P_s
+from ..physics.params import N_PARAMS, P_I, P_MODEL, P_ki, P_s
 from ..solvers.rodas import integrate
 from .slaves import MAX_INTEGRATOR_STEPS
 from .variables import BASE_OSCILLATOR, TMD_INERTER
@@ -62,6 +64,23 @@ T_FORCE, T_Y, T_YD, T_P, T_CONTACT = (TMD_INERTER.vr(n) for n in ("force", "y", 
 T_RTOL, T_ATOL, T_DEBUG = (TMD_INERTER.vr(n) for n in ("rtol", "atol", "debug_raise"))
 SYS_BASE, SYS_TMD, U_KAPPA = kn.SYS_BASE, kn.SYS_TMD, kn.U_KAPPA
 MAX_STEPS = MAX_INTEGRATOR_STEPS
+
+
+@njit(cache=True)
+def fill_atol(system, a, p, atol):
+    """The integrator's absolute tolerance per state from the FMU parameter ``atol`` = a.
+
+    Every state gets a, except the gear chain's rate dd of the play model, which gets
+    a sqrt(ki/I) (at least a): the rate of a chain ringing at the mesh frequency sqrt(ki/I) is
+    sqrt(ki/I) times its deflection d, so this asks the same of dd as of d (the monolithic
+    solver's scaling, ``solvers.monolithic._atol``). Held to a alone, dd was resolved 4472 times
+    finer than d (Case 1) and the rattling chain cost the TMD FMU 2.7x the integrator steps per
+    period (docs/cosimulation.md, issue 20). Both step paths (native and Python) call this, so
+    they stay bit-identical; without the play model the tolerances are a, as before."""
+    for i in range(atol.shape[0]):
+        atol[i] = a
+    if system == SYS_TMD and int(p[P_MODEL]) == kn.MODEL_PLAY and p[P_ki] > 0.0 and p[P_I] > 0.0:
+        atol[3] = a * max(1.0, math.sqrt(p[P_ki] / p[P_I]))
 
 
 @functools.cache
@@ -92,9 +111,7 @@ def base_step():
         u[1] = reals[B_FLINK]
         u[2] = derivs[2 * B_FLINK]
         u[3] = derivs[2 * B_FLINK + 1]
-        a = reals[B_ATOL]
-        atol[0] = a
-        atol[1] = a
+        fill_atol(SYS_BASE, reals[B_ATOL], p, atol)
         band = 1.0 / p[P_s] if p[P_s] > 0 else 1e-6
         z0, z1 = z[0], z[1]
         hn, _, status, _ = integrate(SYS_BASE, z, t, t + h, p, u, reals[B_RTOL], atol, th[1], h,
@@ -153,9 +170,7 @@ def tmd_step():
         u[7] = reals[T_XDD]
         u[8] = derivs[2 * T_XDD]
         u[9] = derivs[2 * T_XDD + 1]
-        a = reals[T_ATOL]
-        for i in range(4):
-            atol[i] = a
+        fill_atol(SYS_TMD, reals[T_ATOL], p, atol)
         band = 1.0 / p[P_s] if p[P_s] > 0 else 1e-6
         z0, z1, z2, z3 = z[0], z[1], z[2], z[3]
         hn, _, status, _ = integrate(SYS_TMD, z, t, t + h, p, u, reals[T_RTOL], atol, th[1], h,

@@ -327,8 +327,10 @@ class Slave:
         tol_vr = getattr(self, "_tol_vr", None)
         if tol_vr is None:  # value references of rtol/atol, resolved once
             tol_vr = self._tol_vr = (self.spec.by_name("rtol").vr, self.spec.by_name("atol").vr)
-        rtol, a = float(self.r[tol_vr[0]]), float(self.r[tol_vr[1]])
-        self._atol[:] = a
+        from .native import fill_atol  # atol, the gear chain's rate atol x sqrt(ki/I)
+
+        rtol = float(self.r[tol_vr[0]])
+        fill_atol(system, float(self.r[tol_vr[1]]), self.p, self._atol)
         band = 1.0 / self.p[P_s] if self.p[P_s] > 0 else 1e-6
         n = 1 if h <= CHUNK else int(np.ceil(h / CHUNK))  # long steps in pieces, within a budget of steps
         start = int(self.stats[STAT_STEPS])

@@ -150,8 +150,8 @@ _TMD_PARS = tuple(p.fmu_name for p in registry.of("tmd"))
 _INTEGRATOR = (
     _par("rtol", 90, 1e-8, None, "relative tolerance of the RODAS4 integrator inside doStep (> 0, <= 1)",
          lo=0.0, hi=1.0, exclusive=True),
-    _par("atol", 91, 1e-10, None, "absolute tolerance of the integrator (all states, SI units; > 0)",
-         lo=0.0, exclusive=True),
+    _par("atol", 91, 1e-10, None, "absolute tolerance of the integrator (all states, SI units; the play "
+         "chain's rate dd: atol x sqrt(ki/I); > 0)", lo=0.0, exclusive=True),
     Variable("debug_raise", 99, INTEGER, "parameter", "tunable",
              "testing aid: 1 makes the next doStep raise a Python exception, 2 raise inside the compiled step "
              "(both reported as fmi2Error)", None, 0, "exact", min=0, max=2),
