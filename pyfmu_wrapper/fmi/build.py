@@ -181,8 +181,8 @@ def source_hash() -> str:
         h.update(f.name.encode())
         h.update(f.read_bytes())
     h.update(bundle_hash().encode())
-    for f in ("build.py", "model_description.py", "documentation.py"):  # what writes the archive
-        h.update((PACKAGE_DIR / "fmi" / f).read_bytes())
+    for writer in ("build.py", "model_description.py", "documentation.py"):  # what writes the archive
+        h.update((PACKAGE_DIR / "fmi" / writer).read_bytes())
     h.update(build_python().encode())
     h.update(sys.version.encode())
     return h.hexdigest()[:24]
@@ -385,9 +385,10 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
     files = bundled_files()
     bhash = bundle_hash(files)
     package = bundle_package(bhash)
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
-        rt_cfg, flags = None, ()
+    with tempfile.TemporaryDirectory() as tmp_name:
+        tmp = Path(tmp_name)
+        rt_cfg = None
+        flags: tuple[str, ...] = ()
         if standalone:
             from .standalone import runtime_config, runtime_files, stub_flags
 
@@ -429,7 +430,8 @@ def build_fmus(names=PROJECT_FMUS, out_dir: str | os.PathLike = DEFAULT_OUT, sta
     check_output(Path(out_dir), names)  # all refused before any is written
     with tempfile.TemporaryDirectory() as tmp:
         so = Path(tmp) / "stub.so"
-        runtime, flags = None, ()
+        runtime = None
+        flags: tuple[str, ...] = ()
         if standalone:
             from .standalone import runtime_files, stub_flags
 

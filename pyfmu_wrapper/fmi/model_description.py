@@ -134,9 +134,7 @@ def model_description_xml(spec: FmuSpec, guid: str, generation_tool: str = "pyfm
     if init_unknowns:
         lines.append("    <InitialUnknowns>")
         for v in sorted(init_unknowns, key=lambda v: spec.index(v.name)):
-            deps = v.initial_depends_on
-            if deps is not None:
-                deps = sorted(deps, key=spec.index)
+            deps = None if v.initial_depends_on is None else sorted(v.initial_depends_on, key=spec.index)
             lines.append(_unknown(spec, v, deps, None))
         lines.append("    </InitialUnknowns>")
     lines.append("  </ModelStructure>")

@@ -33,7 +33,7 @@ import numpy as np
 
 from ..physics import kernels as kn
 from ..physics import registry
-from ..physics.params import N_PARAMS, P_s, BaseParams, ParameterError, TMDParams, pack
+from ..physics.params import N_PARAMS, BaseParams, P_s, ParameterError, TMDParams, pack
 from ..solvers.rodas import STAT_STEPS, failure_message, integrate
 from .variables import BASE_OSCILLATOR, BOOLEAN, INTEGER, TMD_INERTER, TRIVIAL, FmuSpec
 
@@ -73,7 +73,7 @@ def _guarded(method):
 class Slave:
     """Common machinery: buffers, start values, time keeping, state (de)serialisation."""
 
-    spec: FmuSpec = None
+    spec: FmuSpec  #: set by each FMU's subclass
     n_state = 0
 
     def __init__(self, reals, ints, derivs, scratch, instance_name="", resources=""):

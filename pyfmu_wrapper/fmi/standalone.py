@@ -106,7 +106,7 @@ def runtime_files(pyc_dir: Path) -> list[tuple[Path, str]]:
         except metadata.PackageNotFoundError:
             raise BuildError(f"{name} is not installed in the build interpreter {sys.executable}") from None
         for f in dist.files or ():
-            src = Path(dist.locate_file(f)).resolve()
+            src = Path(str(dist.locate_file(f))).resolve()
             if "__pycache__" in f.parts or f.parts[0] == ".." or not src.is_file() or src.suffix == ".pyc":
                 continue
             if "tests" in f.parts[1:-1]:
