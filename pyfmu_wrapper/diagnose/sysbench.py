@@ -77,6 +77,11 @@ def nominal(case: int, damping: float = 15.0) -> dict:
 def true_tmd(nom: dict, hidden: dict):
     from ..physics.params import TMDParams
 
+    return TMDParams(**true_tmd_kwargs(nom, hidden))
+
+
+def true_tmd_kwargs(nom: dict, hidden: dict) -> dict:
+    """TMDParams keyword arguments of the nominal's TMD with the hidden TMD-link effects applied."""
     tk = dict(nom["tmd"])
     tk["damping"] += hidden.get("viscous", 0.0)
     tk["friction_force"] = hidden.get("friction", 0.0)
@@ -87,7 +92,7 @@ def true_tmd(nom: dict, hidden: dict):
         tk.update(inerter="play", play_gap=hidden["play"])
     if "cubic" in hidden:
         tk["cubic_stiffness"] = hidden["cubic"]
-    return TMDParams(**tk)
+    return tk
 
 
 def steady_record(base, tmd, omega, n_periods=N_PERIODS, fs=FS, settle_periods=None, rtol=1e-9):

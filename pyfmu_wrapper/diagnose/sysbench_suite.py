@@ -26,7 +26,7 @@ import numpy as np
 from .sysbench import RANGES as BASE_RANGES
 from .sysbench import SIGNED as BASE_SIGNED
 from .sysbench import TRUTH_KEY as BASE_TRUTH_KEY
-from .sysbench import has_cubic, nominal
+from .sysbench import has_cubic, nominal, true_tmd_kwargs
 
 RANGES = dict(BASE_RANGES, base_mass=(2.0, 8.0), base_stiffness=(800.0, 3200.0), base_damping=(10.0, 50.0),
               tmd_stiffness=(80.0, 320.0))
@@ -56,17 +56,8 @@ def true_parts(nom: dict, hidden: dict, oov: dict) -> dict:
     base["mass"] += hidden.get("base_mass", 0.0)
     base["stiffness"] += hidden.get("base_stiffness", 0.0)
     base["damping"] += hidden.get("base_damping", 0.0)
-    tk = dict(nom["tmd"])
-    tk["damping"] += hidden.get("viscous", 0.0)
+    tk = true_tmd_kwargs(nom, hidden)
     tk["stiffness"] += hidden.get("tmd_stiffness", 0.0)
-    tk["friction_force"] = hidden.get("friction", 0.0)
-    dI = hidden.get("mass_split", 0.0)
-    tk["inertance"] += dI
-    tk["mass"] -= dI
-    if "play" in hidden:
-        tk.update(inerter="play", play_gap=hidden["play"])
-    if "cubic" in hidden:
-        tk["cubic_stiffness"] = hidden["cubic"]
     return {"base": base, "tmd": tk, "force_error": hidden.get("force_error", 0.0),
             "sensor_offset": hidden.get("sensor_offset", 0.0), "oov": dict(oov)}
 
