@@ -43,6 +43,7 @@ class FRCDiagnosis:
         self.F = np.concatenate([r["force_amplitude"] for r in recs])
         self.x = np.concatenate([r["x_max"] for r in recs])
         role = np.concatenate([np.full(r["omega"].size, r.role or "") for r in recs])
+        self.rec = np.concatenate([np.full(r["omega"].size, i) for i, r in enumerate(recs)])  #: record of each point
         self.base = BaseParams(**ds.nominal["base"])
         self.tmd = TMDParams(**ds.nominal["tmd"])
         if (role == "test").any():
@@ -57,6 +58,8 @@ class FRCDiagnosis:
         self.pred0 = self.amplitude(self.base, self.tmd)
         self.noise_rel = _d2_noise(self.x / self.pred0 - 1.0, self.w) \
             or self.noise / max(float(np.abs(self.x).mean()), 1e-300)
+        #: relative noise of every point, estimated per FRC record (two sweeps may have other noise)
+        self.noise_rel_pt = self._per_record(self.x / self.pred0 - 1.0, self.noise_rel)
         try:  # the TMD's relative stroke |x - y| the nominal predicts (sets the cubic's plausible range)
             from ..solvers.frequency_response import exact_response
             Z = exact_response(replace(self.base, force_amplitude=1.0), replace(self.tmd, friction_force=0.0), self.w)
@@ -128,7 +131,18 @@ class FRCDiagnosis:
         """Noise std of every x_max [m]: x_max_noise when given, else the relative estimate."""
         if self.noise_given:
             return np.full(self.x.size, self.noise_given)
-        return np.abs(self.x) * max(self.noise_rel, 1e-12)
+        return np.abs(self.x) * np.maximum(self.noise_rel_pt, 1e-12)
+
+    def _per_record(self, rel, pooled: float) -> np.ndarray:
+        """Robust relative noise per FRC record (:func:`_d2_noise` on each record's own points; the
+        pooled value for a record of fewer than 5 points), one value per point."""
+        out = np.full(self.x.size, float(pooled))
+        if len(self.names) > 1:
+            for i in range(len(self.names)):
+                m = self.rec == i
+                if m.sum() >= 5:
+                    out[m] = _d2_noise(rel[m], self.w[m]) or pooled
+        return out
 
     def chi2(self, pred, mask=None):
         r = (self.x - pred) / self.sigma
@@ -309,6 +323,7 @@ class FRCDiagnosis:
         best = self.fits[0]
         # the noise a structural residual cannot inflate: the residual the best candidate leaves
         self.noise_rel = min(self.noise_rel, _d2_noise(self.x / best["pred"] - 1.0, self.w) or self.noise_rel)
+        self.noise_rel_pt = np.minimum(self.noise_rel_pt, self._per_record(self.x / best["pred"] - 1.0, self.noise_rel))
         if self.noise_given:
             self.noise_rel = self.noise_given / max(float(np.abs(self.x).mean()), 1e-300)
         nr = max(self.noise_rel, 1e-300)
