@@ -202,3 +202,31 @@ def test_cubic_visible_only_in_the_frc_is_named(root):
     assert v["effects"] == ["cubic"], v["text"]
     assert abs(v["parameters"]["cubic.cubic_stiffness"]["value"] / 1e5 - 1) < 0.05
     assert v["unexplained"] is False
+
+
+def test_frc_noise_is_estimated_per_record(tmp_path):
+    """Two stepped sines with other noise levels (0.2 % and 1 % of x_max) on an exact linear response:
+    each record's relative noise is recovered on its own (a pooled estimate sits between them and
+    mis-weights both), and the clean FRCs alone give no structural effect and nothing unexplained."""
+    from pyfmu_wrapper.diagnose.data import load_dataset
+    from pyfmu_wrapper.diagnose.frc import FRCDiagnosis
+    from pyfmu_wrapper.physics.params import BaseParams, TMDParams
+    from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
+
+    nom = nominal(1)
+    rng = np.random.default_rng(3)
+    w = np.linspace(15.0, 25.0, 41)
+    recs = []
+    for name, F, noise in (("frc_a.csv", 150.0, 0.002), ("frc_b.csv", 200.0, 0.010)):
+        base = BaseParams(**{**nom["base"], "force_amplitude": F})
+        x = exact_amplitude(base, TMDParams(**nom["tmd"]), w) * (1 + rng.normal(0.0, noise, w.size))
+        write_record(tmp_path / name, {"omega": w, "force_amplitude": np.full(w.size, F), "x_max": x})
+        recs.append({"file": name})
+    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump({"level": "system", "nominal": nom, "records": recs}))
+    fr = FRCDiagnosis(load_dataset(tmp_path)).run()
+    rel = fr.sigma / np.abs(fr.x)
+    for i, noise in enumerate((0.002, 0.010)):
+        est = rel[fr.rec == i]
+        assert np.allclose(est, est[0], rtol=1e-12) and 0.6 * noise < est[0] < 1.5 * noise
+    res = run_diagnosis(tmp_path)
+    assert res["verdict"]["effects"] == [] and not res["verdict"]["unexplained"]
