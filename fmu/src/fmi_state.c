@@ -72,15 +72,20 @@ static void registry_remove(const void *s) {
     pthread_mutex_unlock(&g_states_lock);
 }
 
-static void free_state(FmuState *s) {
-    if (!s) return;
-    registry_remove(s);
+/* The memory of one state (already out of the registry). */
+static void release_state(FmuState *s) {
     free(s->reals);
     free(s->derivs);
     free(s->ints);
     free(s->pystate);
     s->magic = 0;
     free(s);
+}
+
+static void free_state(FmuState *s) {
+    if (!s) return;
+    registry_remove(s);
+    release_state(s);
 }
 
 /* Free every state of one instance (fmi2FreeInstance); the number freed. */
@@ -91,12 +96,7 @@ size_t free_states_of(uint64_t instance_id) {
         FmuState *s = g_states[i];
         if (s->owner == instance_id) {
             g_states[i] = g_states[--g_nstates];
-            free(s->reals);
-            free(s->derivs);
-            free(s->ints);
-            free(s->pystate);
-            s->magic = 0;
-            free(s);
+            release_state(s);
             n++;
         } else i++;
     }
