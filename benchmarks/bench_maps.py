@@ -5,7 +5,7 @@
 fig4a: scenarios/paper/fig4_case1.yaml, study friction_map (df 0..100 N x omega, 51 x 101, Case 1);
 fig5a: scenarios/paper/fig5_case1.yaml, study play_map (eps 0..2e-3 m x omega, 51 x 101, Case 1).
 Targets: fig4a <= 60 s and fig5a <= 10 min on 2 cores. Each map is computed from scratch (no
-checkpoint is read, but the finished rows are checkpointed where ``python -m pyfmu_wrapper.reproduce``
+checkpoint is read, but the finished rows are checkpointed where ``reproduce``
 looks for them, results/paper/.cache/<scenario>/<study>/, so the report reuses them); the map is written to benchmarks/results/bench_maps_<which>.csv and the timings
 to benchmarks/results/bench_maps.json (merged with earlier entries).
 """

@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from pyfmu_wrapper.optimise import (
+from pyfmu_wrapper.paper.optimise import (
     OBJECTIVES,
     PAPER_C_OPT,
     PAPER_DF_OPT,

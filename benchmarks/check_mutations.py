@@ -68,7 +68,7 @@ MUTATIONS = (
     Mutation("co-simulation Hermite maximum replaced by end points", "pyfmu_wrapper/cosim/steady.py",
              "        return _hermite_absmax(self.x, self.v, self.h)", "        return float(np.max(np.abs(self.x)))",
              ("tests/test_master.py",)),
-    Mutation("antiresonance verdict inverted", "pyfmu_wrapper/claims.py",
+    Mutation("antiresonance verdict inverted", "pyfmu_wrapper/paper/claims/sect2_5.py",
              'Check("max |w_min - 20|", dev, "<=", 1e-3, "rad/s")', 'Check("max |w_min - 20|", dev, ">", 1e-3, "rad/s")',
              ("tests/test_reproduction.py",)),
     Mutation("interface Jacobian ignored by the TMD kernel", "pyfmu_wrapper/physics/kernels.py",

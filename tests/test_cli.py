@@ -13,9 +13,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pyfmu_wrapper import plots
 from pyfmu_wrapper.cli.run_scenario import main
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
+from pyfmu_wrapper.scenario import plots
 from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
 
 LINEAR = """\

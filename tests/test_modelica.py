@@ -34,7 +34,7 @@ import pytest
 
 rumoca = pytest.importorskip("rumoca")
 
-from pyfmu_wrapper import modelica_gen as gen  # noqa: E402
+from pyfmu_wrapper.generate import modelica as gen  # noqa: E402
 from pyfmu_wrapper.physics import kernels  # noqa: E402
 from pyfmu_wrapper.physics.params import BaseParams, InerterModel, TMDParams, pack  # noqa: E402
 from pyfmu_wrapper.solvers.monolithic import simulate  # noqa: E402
@@ -100,8 +100,8 @@ def _case_result(name: str):
 # --- generation and parameters -----------------------------------------------------------------
 
 def test_generated_files_are_current():
-    """The committed Defaults.mo and Cases.mo are exactly what modelica_gen writes."""
-    assert gen.stale_files() == [], "run `python -m pyfmu_wrapper.modelica_gen`"
+    """The committed Defaults.mo and Cases.mo are exactly what pyfmu_wrapper.generate.modelica writes."""
+    assert gen.stale_files() == [], "run `python -m pyfmu_wrapper.generate.modelica`"
 
 
 def test_every_file_validates():

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from pyfmu_wrapper.cli.optimise import main
-from pyfmu_wrapper.optimise import (
+from pyfmu_wrapper.paper.optimise import (
     OBJECTIVES,
     PAPER_C_OPT,
     PAPER_DF_OPT,

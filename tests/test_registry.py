@@ -20,9 +20,9 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq, minimize_scalar
 
-from pyfmu_wrapper import docs_gen
 from pyfmu_wrapper.cosim.system import fmu_parameters
 from pyfmu_wrapper.fmi.variables import BASE_OSCILLATOR, INTEGER, TMD_INERTER
+from pyfmu_wrapper.generate import docs as docs_gen
 from pyfmu_wrapper.physics import kernels as K
 from pyfmu_wrapper.physics import params as P
 from pyfmu_wrapper.physics import registry
@@ -104,7 +104,7 @@ def test_master_start_values_cover_every_registry_parameter():
 def test_map_parameters_and_docs_are_derived():
     assert "cubic_stiffness" in MAP_PARAMETERS and "inerter" not in MAP_PARAMETERS
     assert set(MAP_PARAMETERS) - {"inertance_ratio"} == {p.name for p in registry.fields("tmd") if p.mappable}
-    assert docs_gen.main(["--check"]) == 0, "run `python -m pyfmu_wrapper.docs_gen`"
+    assert docs_gen.main(["--check"]) == 0, "run `python -m pyfmu_wrapper.generate.docs`"
 
 
 # --- k3 = 0 is today's model, bit for bit -------------------------------------------------------
@@ -270,7 +270,7 @@ def test_modelica_generated_blocks_follow_the_registry(tmp_path):
     parameters all appear in the regenerated declarations."""
     import shutil
 
-    from pyfmu_wrapper import modelica_gen as gen
+    from pyfmu_wrapper.generate import modelica as gen
 
     pkg = tmp_path / gen.PACKAGE
     shutil.copytree(gen.PACKAGE_DIR, pkg)

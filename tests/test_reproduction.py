@@ -182,7 +182,7 @@ def test_independent_points_match_single_point_sweeps():
 
 
 def test_best_fit_viscous_against_brute_force():
-    from pyfmu_wrapper.reproduce import best_fit_viscous, viscous_errors
+    from pyfmu_wrapper.paper.claim_data import best_fit_viscous, viscous_errors
 
     w = np.linspace(15.0, 25.0, 41)
     settings = RunSettings(solver=SolverConfig(rtol=1e-7, atol_scale=1e-7, tol=1e-5))
@@ -204,7 +204,7 @@ def test_best_fit_viscous_against_brute_force():
 
 
 def test_report_quick(tmp_path):
-    from pyfmu_wrapper.reproduce import main
+    from pyfmu_wrapper.cli.reproduce import main
 
     out = tmp_path / "docs"
     assert main(["--quick", "--out", str(out), "--results", str(tmp_path / "results"), "--jobs", "2", "--quiet"]) == 0
@@ -250,7 +250,7 @@ def test_report_quick(tmp_path):
 # --- computed verdicts ---------------------------------------------------------------------------
 
 def test_check_and_claim_verdicts():
-    from pyfmu_wrapper.claims import Check, Claim
+    from pyfmu_wrapper.paper.claims import Check, Claim
 
     ok, bad = Check("x", 1.0, "<=", 2.0), Check("y", 3.0, "<", 2.0)
     assert ok.passed and not bad.passed and not Check("z", float("nan"), "<=", 1.0).passed
@@ -269,8 +269,8 @@ def test_check_and_claim_verdicts():
 def _fig2_context(text_edit=None):
     import yaml
 
-    from pyfmu_wrapper.claims import Context
-    from pyfmu_wrapper.reproduce import Run, load_paper_scenario
+    from pyfmu_wrapper.paper.claims import Context
+    from pyfmu_wrapper.paper.reproduce import Run, load_paper_scenario
     from pyfmu_wrapper.scenario.loader import _plain, parse_scenario
     from pyfmu_wrapper.scenario.runner import run_studies
 
@@ -285,7 +285,7 @@ def _fig2_context(text_edit=None):
 def test_antiresonance_verdict_follows_the_numbers():
     """The antiresonance claim agrees for the paper's TMD (k = 4000 N/m: sqrt(k/(m+I)) = 20 rad/s) and
     disagrees when the TMD is tuned to 21 rad/s (k = 4410 N/m): the verdict is computed, not written."""
-    from pyfmu_wrapper.claims import evaluate
+    from pyfmu_wrapper.paper.claims import evaluate
 
     rows = {r.claim: r for r in evaluate(_fig2_context())}
     anti = next(r for n, r in rows.items() if n.startswith("Antiresonance"))
@@ -304,7 +304,7 @@ def test_antiresonance_verdict_follows_the_numbers():
 
 
 def test_failing_claim_is_an_error_row(monkeypatch):
-    from pyfmu_wrapper import claim_data, claims
+    from pyfmu_wrapper.paper import claim_data, claims
 
     def boom(*a, **k):
         raise RuntimeError("optimiser failed")

@@ -2,7 +2,7 @@
 
 The engines' settings classes take their defaults and ranges from it, the scenario loader refuses
 exactly what the classes refuse (one rule, not the two that disagreed on steps_per_period and tol),
-and the table in docs/scenarios.md is generated from it (``docs_gen --check``).
+and the table in docs/scenarios.md is generated from it (``python -m pyfmu_wrapper.generate.docs --check``).
 """
 from __future__ import annotations
 
@@ -10,7 +10,7 @@ from dataclasses import fields
 
 import pytest
 
-from pyfmu_wrapper import docs_gen
+from pyfmu_wrapper.generate import docs as docs_gen
 from pyfmu_wrapper.scenario.loader import parse_scenario
 from pyfmu_wrapper.scenario.schema import COSIM_KEYS, ScenarioError
 from pyfmu_wrapper.solvers import settings_table as T

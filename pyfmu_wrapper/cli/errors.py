@@ -27,7 +27,7 @@ INPUT_ERROR_TYPES = (
     ("pyfmu_wrapper.diagnose.data", "DataError"),
     ("pyfmu_wrapper.physics.params", "ParameterError"),
     ("pyfmu_wrapper.solvers.steady", "SettingsError"),
-    ("pyfmu_wrapper.optimise", "OptimisationError"),
+    ("pyfmu_wrapper.paper.optimise", "OptimisationError"),
     ("pyfmu_wrapper.scenario.engines", "EngineError"),
     ("pyfmu_wrapper.master.graph", "GraphError"),
 )

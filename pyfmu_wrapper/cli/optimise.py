@@ -21,7 +21,7 @@ import sys
 import traceback
 from typing import Any
 
-from ..optimise import OBJECTIVES, OptimisationError, OptimiseConfig, optimise, split_parameter, with_parameter
+from ..paper.optimise import OBJECTIVES, OptimisationError, OptimiseConfig, optimise, split_parameter, with_parameter
 from ..physics.params import BaseParams, ParameterError, paper_case
 from .errors import cli_main, plain_text
 

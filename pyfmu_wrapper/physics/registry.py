@@ -11,7 +11,7 @@ applies to. Everything else is derived from this table:
 * the parameter variables of the FMUs (:mod:`pyfmu_wrapper.fmi.variables`) and the values a
   master sets on them (:func:`fmu_start_values`);
 * the parameters a scenario map may sweep (``scenario.schema.MAP_PARAMETERS``);
-* the Modelica defaults and parameter declarations (:mod:`pyfmu_wrapper.modelica_gen`);
+* the Modelica defaults and parameter declarations (:mod:`pyfmu_wrapper.generate.modelica`);
 * the parameter tables of the documentation (``docs/parameters.md``, :func:`markdown_table`).
 
 The tests hold every derived artefact against this table. To add a parameter, see

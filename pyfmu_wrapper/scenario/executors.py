@@ -24,7 +24,7 @@ restarts where it stopped: finished tasks are read back, only the missing ones a
 change of any input, or of any source file of the package, changes the hash, so a checkpoint
 written by other code or other settings is never reused. ``run-scenario`` keeps them in
 ``<out>.checkpoints/<study>/`` beside its output folder (:func:`.output.default_checkpoint_dir`);
-``python -m pyfmu_wrapper.reproduce`` in ``<results>/.cache/<scenario>/<study>/``.
+``reproduce`` in ``<results>/.cache/<scenario>/<study>/``.
 
 Progress: the executors of this module report every finished frequency point (``progress(n)``,
 fractions allowed), from worker processes too (a queue the pool's workers share); other executor

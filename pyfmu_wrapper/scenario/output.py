@@ -44,8 +44,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from .. import plots
 from ..physics.params import as_dict
+from . import plots
 from .engines import RunSettings
 from .executors import code_version
 from .runner import FRCData, MapData, run_studies, study_summary

@@ -10,7 +10,7 @@ co-simulation engine (:class:`~pyfmu_wrapper.cosim.steady.CosimSettings`) is one
 * the scenario loader's checks (a value the settings class refuses becomes an error naming the
   file, the line, ``block.key`` and the value: one rule, not two);
 * the table of settings in docs/scenarios.md (:func:`docs_table`, kept current by
-  ``python -m pyfmu_wrapper.docs_gen --check``).
+  ``python -m pyfmu_wrapper.generate.docs --check``).
 
 One rule per setting: where the loader and the settings classes disagreed, the stricter one is
 kept: tol and tol_window at most 0.5 (a relative tolerance above one half accepts any response;

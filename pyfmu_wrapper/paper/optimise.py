@@ -48,9 +48,9 @@ import pandas as pd
 from scipy.linalg import solve_continuous_lyapunov
 from scipy.optimize import minimize_scalar
 
-from .physics.params import BaseParams, InerterModel, ParameterError, TMDParams, field_names
-from .solvers.frequency_response import linear_system
-from .solvers.monolithic import SolverSettings
+from ..physics.params import BaseParams, InerterModel, ParameterError, TMDParams, field_names
+from ..solvers.frequency_response import linear_system
+from ..solvers.monolithic import SolverSettings
 
 #: the paper's optimised values (Sects. 4 and 5), Case -> value
 PAPER_C_OPT = {1: 56.38, 2: 31.73, 3: 6.45}
@@ -220,7 +220,7 @@ class Evaluator:
         if self.objective.relative:
             raise OptimisationError(f"objective {self.objective.name!r} needs a linear configuration "
                                     "(exact frequency response); this one is nonlinear")
-        from .solvers.sweep import sweep
+        from ..solvers.sweep import sweep
 
         tab = sweep(base, tmd, self.omegas, self.direction, self.settings, workers=self.workers).table
         amp = tab.groupby("omega")["amplitude"].max()  # 'both': the envelope of the two branches

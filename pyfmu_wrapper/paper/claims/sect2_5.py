@@ -1,140 +1,15 @@
-"""The claims of Brzeski & Perlikowski (2017), each judged by a computed comparison.
-
-A claim is a row: what the paper says, the number the project computes (:mod:`.claim_data`), the
-reference value, the threshold beside it, and the verdict *from* the comparison (:class:`Check`):
-'agrees' when every check passes, 'disagrees' when none does, 'partly' otherwise. A claim whose
-scenario was not run is a flagged row ('not computed'); one whose computation fails is a flagged
-row ('error') carrying the exception, and the report command exits non-zero. No verdict is written
-by hand. The table :data:`CLAIMS` lists the claims in report order with the scenarios they need.
-"""
+"""The claims of Sections 2-5 of the paper (Figs. 2-4: inertance ratio, viscous damping, dry friction),
+in report order."""
 from __future__ import annotations
 
 import math
-import traceback
-from collections.abc import Callable
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 
 import numpy as np
 
-from . import claim_data as cd
-from .claim_data import FULL_C, PAPER_COPT, PAPER_DFOPT
-
-CASES = (1, 2, 3)
-_OPS = {"<=": lambda a, b: a <= b, "<": lambda a, b: a < b, ">=": lambda a, b: a >= b, ">": lambda a, b: a > b}
-
-
-def fmt(x, nd=3) -> str:
-    if x is None or (isinstance(x, float) and not math.isfinite(x)):
-        return "-"
-    if isinstance(x, str):
-        return x
-    ax = abs(x)
-    if ax != 0 and (ax < 1e-2 or ax >= 1e4):
-        return f"{x:.{nd - 1}e}"
-    return f"{x:.{nd}g}"
-
-
-@dataclass(frozen=True)
-class Check:
-    """One comparison: ``value op threshold`` (NaN never passes)."""
-
-    quantity: str  #: what is compared
-    value: float
-    op: str  #: '<=', '<', '>=' or '>'
-    threshold: float
-    unit: str = ""
-
-    def __post_init__(self):
-        if self.op not in _OPS:
-            raise ValueError(f"op must be one of {list(_OPS)}, got {self.op!r}")
-
-    @property
-    def passed(self) -> bool:
-        v = float(self.value)
-        return math.isfinite(v) and bool(_OPS[self.op](v, float(self.threshold)))
-
-    def text(self) -> str:
-        u = f" {self.unit}" if self.unit else ""
-        mark = "yes" if self.passed else "NO"
-        return f"{self.quantity} = {fmt(float(self.value))}{u} {self.op} {fmt(float(self.threshold))}{u}: {mark}"
-
-
-@dataclass
-class Claim:
-    """A row of the claims table; ``verdict`` is computed from ``checks``."""
-
-    section: str
-    claim: str
-    paper: str  #: the reference value as the paper states it
-    project: str = ""  #: the computed numbers, in words
-    checks: tuple = ()
-    note: str = ""
-    status: str = "ok"  #: 'ok', 'not computed' (scenario not run), 'error' (the computation failed)
-    detail: str = ""  #: why not computed / the error
-
-    @property
-    def verdict(self) -> str:
-        if self.status != "ok":
-            return self.status
-        if not self.checks:
-            raise ValueError(f"claim {self.claim!r} has no check: a verdict must come from a comparison")
-        n = sum(c.passed for c in self.checks)
-        return "agrees" if n == len(self.checks) else ("disagrees" if n == 0 else "partly")
-
-    def as_row(self) -> dict:
-        return dict(section=self.section, claim=self.claim, paper=self.paper, project=self.project,
-                    checks=[dict(quantity=c.quantity, value=float(c.value), op=c.op, threshold=float(c.threshold),
-                                 unit=c.unit, passed=c.passed) for c in self.checks],
-                    verdict=self.verdict, note=self.note, detail=self.detail)
-
-
-@dataclass
-class Context:
-    """What the claim functions read: the runs (name -> reproduce.Run), quick mode, shared results."""
-
-    runs: dict
-    quick: bool = False
-    shared: dict = field(default_factory=dict)
-
-    def data(self, name: str, study: str):
-        return self.runs[name].datas[study]
-
-    def fits(self) -> dict:
-        """Simplified-model errors per Case of the Fig. 6 runs (computed once)."""
-        if "fits" not in self.shared:
-            self.shared["fits"] = {c: cd.simplified_fits(self.runs[f"fig6_case{c}"], c) for c in CASES
-                                   if f"fig6_case{c}" in self.runs}
-        return self.shared["fits"]
-
-
-@dataclass(frozen=True)
-class Entry:
-    section: str
-    claim: str
-    paper: str
-    needs: tuple
-    compute: Callable[[Context], tuple]  #: callable(Context) -> (project text, checks, note)
-
-
-CLAIMS: list[Entry] = []
-
-
-def claim(section, text, paper, needs):
-    def deco(fn):
-        CLAIMS.append(Entry(section, text, paper, tuple(needs), fn))
-        return fn
-    return deco
-
-
-def _not_run(ctx, prefix: str) -> str:
-    """'; Case k: not run' for the Cases whose scenario ``prefix``k is missing."""
-    miss = [c for c in CASES if f"{prefix}{c}" not in ctx.runs]
-    return "".join(f"; Case {c}: scenario {prefix}{c} not run" for c in miss)
-
-
-def _nc_note(n: int) -> str:
-    return f" [{n} steady states of the data not converged]" if n else ""
-
+from .. import claim_data as cd
+from ..claim_data import PAPER_COPT, PAPER_DFOPT
+from .table import CASES, FIG3, FIG4, Check, _nc_note, claim, fmt
 
 # --- Sect. 2-3, Fig. 2 ------------------------------------------------------------------------------
 
@@ -209,9 +84,6 @@ def _antiresonance(ctx):
 
 # --- Sect. 4, Fig. 3 --------------------------------------------------------------------------------
 
-FIG3 = [f"fig3_case{c}" for c in CASES]
-FIG4 = [f"fig4_case{c}" for c in CASES]
-FIG6 = [f"fig6_case{c}" for c in CASES]
 
 
 @claim("4", "c = 10, 56.38, 90, 100 N s/m are 2.5, 14, 22.5, 25 % of critical damping of the TMD with Iratio = 0",
@@ -236,7 +108,7 @@ def _copt(ctx):
         mm.append(cd.minmax_opt(r.scenario.base, tmd0, "damping", 0.0, 100.0, np.linspace(15, 25, 2001))[0])
     ctx.shared["copt_minmax"] = mm
     dev = max(abs(h - PAPER_COPT[c]) / PAPER_COPT[c] for h, c in zip(h2s, CASES))
-    return ("H2 optimum (min of int |X|^2 dw over all frequencies, pyfmu_wrapper.optimise): "
+    return ("H2 optimum (min of int |X|^2 dw over all frequencies, pyfmu_wrapper.paper.optimise): "
             + " / ".join(f"{h:.2f}" for h in h2s) + " N s/m; min-max of the peak over 15-25 rad/s: "
             + " / ".join(f"{x:.2f}" for x in mm) + " N s/m",
             (Check("max relative deviation of the H2 optimum", dev, "<=", 0.03),),
@@ -294,7 +166,7 @@ def _dfopt(ctx):
     else:
         best = [cd.h2_optimum(ctx.runs[n].scenario.base, replace(ctx.data(n, "friction_map").study.tmds[0], friction_force=0.0),
                               "tmd.friction_force", ctx.runs[n].scenario.solver.settings()) for n in FIG4]
-        how = "H2 optimum over 15-25 rad/s (pyfmu_wrapper.optimise, 101 frequencies)"
+        how = "H2 optimum over 15-25 rad/s (pyfmu_wrapper.paper.optimise, 101 frequencies)"
     ctx.shared["dfopt"] = best
     dev = max(abs(h - PAPER_DFOPT[c]) / PAPER_DFOPT[c] for h, c in zip(best, CASES))
     nc = sum(cd.not_converged(ctx.data(n, "friction_map")) for n in FIG4)
@@ -378,7 +250,7 @@ def _large_df(ctx):
 @claim("5 (notes)", "The TMD sticks to the base for part of each cycle above df ~ 20-30 N (Case 1)",
        "physics notes, not the paper", ["fig4_case1"])
 def _sticking(ctx):
-    from .scenario.engines import RunSettings
+    from ...scenario.engines import RunSettings
 
     r = ctx.runs["fig4_case1"]
     tmd = r.datas["friction_map"].study.tmds[0]
@@ -392,162 +264,3 @@ def _sticking(ctx):
             + ", ".join(f"{df:g} N: {fr[df]:.0%}" for df in dfs),
             (Check("first df with sticking", first, ">=", 15.0, "N"), Check("first df with sticking", first, "<=", 40.0, "N")),
             "Monolithic time series (1 period, 2000 samples).")
-
-
-# --- Sect. 6, Fig. 5 --------------------------------------------------------------------------------
-
-FIG5 = [f"fig5_case{c}" for c in CASES]
-
-
-@claim("6 / Fig. 5a-c", "No overall macroscopic influence of play on max|x| for eps up to 2e-3 m", "qualitative", FIG5)
-def _play_macro(ctx):
-    cells, checks, pts = [], [], {}
-    for c in CASES:
-        m = ctx.data(f"fig5_case{c}", "play_map")
-        A = m.amplitude
-        d = float(np.abs(A - A[0][None, :]).max() / A[0].max())
-        rel_peak = float(np.abs(A.max(axis=1) - A[0].max()).max() / A[0].max())
-        pts[c] = d
-        cells.append(f"Case {c}: max |A(eps) - A(0)| = {d:.1%} of the peak, row peaks within {rel_peak:.2%}"
-                     + _nc_note(cd.not_converged(m)))
-        checks += [Check(f"Case {c}: row peaks", rel_peak, "<=", 0.02), Check(f"Case {c}: any point", d, "<=", 0.05)]
-    ctx.shared["play_influence"] = pts
-    return ("; ".join(cells), tuple(checks), "Map points are independent steady states.")
-
-
-@claim("6", "With the TMD active the base amplitude is at least 100 x the gap (eps = 1e-4 m)", ">= 1e-2 m", FIG6[:1])
-def _hundred_gap(ctx):
-    cells, checks = [], []
-    for c in CASES:
-        if f"fig6_case{c}" not in ctx.runs:
-            continue
-        d6 = ctx.data(f"fig6_case{c}", "full_frc")
-        w, a = cd.curve(d6, "2:")
-        k = int(np.argmin(a))
-        cells.append(f"Case {c}: min {a[k]:.2e} m at {w[k]:.1f} rad/s ({a[k] / 1e-4:.2f} x eps)" + _nc_note(cd.not_converged(d6)))
-        checks.append(Check(f"Case {c}: min amplitude / eps", a[k] / 1e-4, ">=", 100.0))
-    return ("; ".join(cells) + _not_run(ctx, "fig6_case"), tuple(checks), "Near w = 20 rad/s (antiresonance, c = 0) the base amplitude is smaller "
-            "than the gap itself.")
-
-
-@claim("6 / Fig. 5d-i", "Phase portraits get less smooth, with more and larger fluctuations, as the gap grows "
-       "(eps = 0, 5e-5, 1e-4, 1e-3)", "qualitative", FIG5)
-def _rough(ctx):
-    cells, checks, spread = [], [], {}
-    for c in CASES:
-        ph = ctx.data(f"fig5_case{c}", "play_phase")
-        labels = [cv.label for cv in ph.study.curves]
-        mean = [float(np.mean([cd.roughness(ph.series[(w, lab)], ph.study.n_periods) for w in ph.study.omegas]))
-                for lab in labels]
-        spread[c] = mean[-1]
-        cells.append(f"Case {c}: " + ", ".join(fmt(x, 2) for x in mean))
-        checks += [Check(f"Case {c}: distortion at eps = 1e-3 minus at eps = 0", mean[-1] - mean[0], ">", 1e-3),
-                   Check(f"Case {c}: eps = 1e-3 / largest of the smaller gaps", mean[-1] / max(mean[:-1]), ">=", 1.0)]
-    ctx.shared["roughness"] = spread
-    return ("distortion of xd (RMS of the non-forcing harmonics / forcing harmonic, mean of w = 19, 21), "
-            "eps = 0, 5e-5, 1e-4, 1e-3: " + " | ".join(cells), tuple(checks),
-            "Less smooth read as: a distortion larger by more than 1e-3 at eps = 1e-3 than at eps = 0, and the largest "
-            "at the largest gap.")
-
-
-@claim("6 / Fig. 5", "The effects of play do not depend on Iratio", "qualitative", FIG5)
-def _play_iratio(ctx):
-    if "roughness" not in ctx.shared:
-        _rough(ctx)
-    if "play_influence" not in ctx.shared:
-        _play_macro(ctx)
-    sp, pts = ctx.shared["roughness"], ctx.shared["play_influence"]
-    rs = max(sp.values()) / max(min(sp.values()), 1e-12)
-    ra = max(pts.values()) / max(min(pts.values()), 1e-12)
-    return ("distortion of xd at eps = 1e-3, Cases 1-3: " + " / ".join(fmt(sp[c], 2) for c in CASES)
-            + "; largest change of max|x| by the gap: " + " / ".join(f"{pts[c]:.1%}" for c in CASES),
-            (Check("largest / smallest distortion", rs, "<", 3.0), Check("largest / smallest change of max|x|", ra, "<", 3.0)),
-            "Independence read as: both measures within a factor 3 between Cases.")
-
-
-# --- Sect. 7, Fig. 6 --------------------------------------------------------------------------------
-
-@claim("7 / Fig. 6", "Play alone causes no macroscopic change of the FRC (curve 2 overlapped by curve 1)", "overlapped",
-       FIG6[:1])
-def _play_alone(ctx):
-    cells, checks = [], []
-    for c in CASES:
-        if f"fig6_case{c}" not in ctx.runs:
-            continue
-        d6 = ctx.data(f"fig6_case{c}", "full_frc")
-        _, a1 = cd.curve(d6, "1:")
-        _, a2 = cd.curve(d6, "2:")
-        d = float(np.abs(a2 - a1).max() / a1.max())
-        cells.append(f"Case {c}: {d:.2%}" + _nc_note(cd.not_converged(d6)))
-        checks.append(Check(f"Case {c}: max |A2 - A1| / max A1", d, "<=", 0.02))
-    return ("; ".join(cells) + _not_run(ctx, "fig6_case"), tuple(checks), "'Overlapped' read as within 2 % of the peak.")
-
-
-@claim("7 / Fig. 6b, d, f", "Simplified model (viscous c raised by 50 %: 15 / 15 / 7.5 N s/m) matches the full model "
-       "with only slight disagreement", "15 / 15 / 7.5", FIG6[:1])
-def _simplified(ctx):
-    fits = ctx.fits()
-    return ("; ".join(f"Case {c}: max error {f['paper']['max']:.2e} m ({f['paper']['rel_max']:.1%} of the peak), area "
-                      f"{f['paper']['rel_area']:.1%}; best-fit c (area) {f['area']['c']:.2f}" for c, f in fits.items())
-            + _not_run(ctx, "fig6_case"),
-            tuple(Check(f"Case {c}: max error / peak", f["paper"]["rel_max"], "<", 0.10) for c, f in fits.items()),
-            "'Slight' read as a maximum error below 10 % of the full model's peak. Best fits: table below.")
-
-
-@claim("7", "The agreement of the simplified model is the greater, the bigger Iratio", "Case 3 best", FIG6)
-def _simplified_order(ctx):
-    fits = ctx.fits()
-    ra = [fits[c]["paper"]["rel_area"] for c in CASES]
-    return ("relative area between the curves, paper's c: " + " / ".join(f"{x:.1%}" for x in ra),
-            (Check("largest step of the error from one Case to the next", float(np.diff(ra).max()), "<", 0.0),), "")
-
-
-@claim("7 / Sect. 8", "The simplified model holds only for relatively small c and df", "qualitative", FIG4)
-def _simplified_small(ctx):
-    from .scenario.engines import RunSettings
-
-    scales = (1.0, 9.0)  # the paper's c = df = 10 (5 for Case 3) and its 'large' 90 (45)
-    w = np.linspace(15.0, 25.0, 21 if ctx.quick else 101)
-    cells, checks = [], []
-    for c in CASES:
-        r = ctx.runs[f"fig4_case{c}"]
-        tmd = r.datas["friction_map"].study.tmds[0]
-        res = cd.simplified_error_by_size(r.scenario.base, replace(tmd, friction_force=0.0), w,
-                                          RunSettings(solver=r.scenario.solver), FULL_C[c], scales)
-        small, large = res[0], res[-1]
-        cells.append(f"Case {c}: c = df = {small['c']:g}: {small['rule']['rel_max']:.1%} (best fit {small['best']['rel_max']:.1%}); "
-                     f"c = df = {large['c']:g}: {large['rule']['rel_max']:.1%} (best fit {large['best']['rel_max']:.1%})"
-                     + _nc_note(small["not_converged"] + large["not_converged"]))
-        checks += [Check(f"Case {c}: best-fit error, large / small", large["best"]["rel_max"] / small["best"]["rel_max"],
-                         ">", 2.0),
-                   Check(f"Case {c}: best-fit error at c = df = {large['c']:g}", large["best"]["rel_max"], ">=", 0.10)]
-    return ("max error / peak of the simplified model (+50 % rule, and the best-fit c) against the model with c and df "
-            "(ideal inerter): " + "; ".join(cells), tuple(checks),
-            "Play left out (it alone changes no FRC macroscopically). 'Holds only for small' read as: at nine times the "
-            "paper's c and df (90 N s/m and 90 N, the paper's 'large' values; 45 for Case 3) even the best viscous c "
-            "misses by >= 10 % of the peak, more than twice the error at the paper's values.")
-
-
-# --- the table --------------------------------------------------------------------------------------
-
-def evaluate(ctx: Context, only=None) -> list[Claim]:
-    """Every claim of :data:`CLAIMS` in order (``only``: those whose text starts with one of these
-    strings): computed, not computed (scenario missing) or error."""
-    rows = []
-    for e in CLAIMS:
-        if only is not None and not e.claim.startswith(tuple(only)):
-            continue
-        missing = [n for n in e.needs if n not in ctx.runs]
-        if missing:
-            rows.append(Claim(e.section, e.claim, e.paper, status="not computed",
-                              detail=f"scenarios not run: {', '.join(missing)}"))
-            continue
-        try:
-            project, checks, note = e.compute(ctx)
-            rows.append(Claim(e.section, e.claim, e.paper, project, tuple(checks), note))
-            rows[-1].verdict  # noqa: B018 - a claim without checks is an error
-        except Exception as exc:  # noqa: BLE001 - a flagged row, and a failing exit code
-            rows.append(Claim(e.section, e.claim, e.paper, status="error",
-                              detail=f"{type(exc).__name__}: {exc}",
-                              note=traceback.format_exc(limit=2).splitlines()[-1]))
-    return rows

@@ -1,4 +1,4 @@
-"""The numbers behind the claims of the reproduction report (:mod:`pyfmu_wrapper.claims`).
+"""The numbers behind the claims of the reproduction report (:mod:`pyfmu_wrapper.paper.claims`).
 
 Every function here computes data from the scenario results (or from the exact frequency response,
 or from new steady-state sweeps) and returns plain numbers; none of them judges. Failures raise.
@@ -11,9 +11,9 @@ from dataclasses import replace
 import numpy as np
 from scipy.optimize import minimize_scalar
 
-from .physics.params import BaseParams, InerterModel, TMDParams
-from .scenario.engines import compute_sweep, compute_time_series
-from .solvers.frequency_response import exact_amplitude
+from ..physics.params import BaseParams, InerterModel, TMDParams
+from ..scenario.engines import compute_sweep, compute_time_series
+from ..solvers.frequency_response import exact_amplitude
 
 PAPER_COPT = {1: 56.38, 2: 31.73, 3: 6.45}
 PAPER_DFOPT = {1: 45.78, 2: 37.65, 3: 15.44}
