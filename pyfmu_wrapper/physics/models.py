@@ -31,17 +31,8 @@ from typing import Any
 import numpy as np
 
 from .._jit import njit
-from .kernels import (
-    SYS_BASE,
-    SYS_COUPLED,
-    SYS_TMD,
-    coupled_jacobian,
-    system_dfdt_work,
-    system_jacobian_work,
-    system_rhs,
-    system_switching,
-    tmd_jacobian,
-)
+from .jacobians import coupled_jacobian, system_dfdt_work, system_jacobian_work, tmd_jacobian
+from .kernels import SYS_BASE, SYS_COUPLED, SYS_TMD, system_rhs, system_switching
 
 
 @dataclass(frozen=True)

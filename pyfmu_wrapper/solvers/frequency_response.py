@@ -16,7 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..physics.kernels import NSTATE, jacobian, rhs_fext
+from ..physics.jacobians import jacobian
+from ..physics.kernels import NSTATE, rhs_fext
 from ..physics.params import BaseParams, InerterModel, ParameterError, TMDParams, pack
 
 
