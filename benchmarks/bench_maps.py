@@ -20,8 +20,9 @@ from pathlib import Path
 
 from pyfmu_wrapper.scenario import load_scenario
 from pyfmu_wrapper.scenario.engines import RunSettings
-from pyfmu_wrapper.scenario.executors import code_version, make_executor
+from pyfmu_wrapper.scenario.executors import make_executor
 from pyfmu_wrapper.scenario.runner import _Cache, map_response
+from pyfmu_wrapper.scenario.tasks import code_version
 
 ROOT = Path(__file__).resolve().parents[1]
 MAPS = {"fig4a": ("scenarios/paper/fig4_case1.yaml", "friction_map"),

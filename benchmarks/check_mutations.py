@@ -61,7 +61,7 @@ MUTATIONS = (
     Mutation("diagnose remaining-gap check bypassed in the decision", "pyfmu_wrapper/diagnose/sysdiag.py",
              "remaining_gate(self.dof + g1, self.dof, g0)", "False",
              ("tests/test_diagnose_honest.py",)),
-    Mutation("solver settings removed from the checkpoint key", "pyfmu_wrapper/scenario/executors.py",
+    Mutation("solver settings removed from the checkpoint key", "pyfmu_wrapper/scenario/tasks.py",
              "omegas=[float(w).hex() for w in np.asarray(self.omegas, float)], settings=s.used())",
              "omegas=[float(w).hex() for w in np.asarray(self.omegas, float)])",
              ("tests/test_scenarios.py",)),

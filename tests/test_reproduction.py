@@ -13,18 +13,10 @@ from pyfmu_wrapper.cli.run_scenario import main as run_main
 from pyfmu_wrapper.physics.params import BaseParams, paper_case
 from pyfmu_wrapper.scenario import load_scenario
 from pyfmu_wrapper.scenario.engines import RunSettings, compute_sweep
-from pyfmu_wrapper.scenario.executors import (
-    Checkpoint,
-    LocalExecutor,
-    SequentialExecutor,
-    SweepTask,
-    TaskStats,
-    make_executor,
-    run_task,
-    run_tasks,
-)
+from pyfmu_wrapper.scenario.executors import LocalExecutor, SequentialExecutor, make_executor, run_tasks
 from pyfmu_wrapper.scenario.runner import _Cache, map_response
 from pyfmu_wrapper.scenario.schema import SolverConfig, SweepConfig
+from pyfmu_wrapper.scenario.tasks import Checkpoint, SweepTask, TaskStats, run_task
 
 ROOT = Path(__file__).resolve().parents[1]
 BASE = BaseParams(mass=100.0, stiffness=4.0e4, damping=100.0, force_amplitude=200.0)
@@ -210,7 +202,7 @@ def test_report_quick(tmp_path):
     assert main(["--quick", "--out", str(out), "--results", str(tmp_path / "results"), "--jobs", "2", "--quiet"]) == 0
     md = (out / "reproduction.md").read_text()
     assert "Quick configuration" in md and "**Engine: `monolithic`**" in md
-    from pyfmu_wrapper.scenario.executors import code_version
+    from pyfmu_wrapper.scenario.tasks import code_version
 
     assert f"code version `{code_version()}`" in md
     assert "| # | section | claim | paper | project (computed) | check: value vs threshold | verdict | note |" in md

@@ -330,8 +330,8 @@ def test_settings_used_by_each_engine(tmp_path):
 
 from pyfmu_wrapper.physics.params import BaseParams, paper_case  # noqa: E402
 from pyfmu_wrapper.scenario.engines import RunSettings  # noqa: E402
-from pyfmu_wrapper.scenario.executors import Checkpoint, SweepTask  # noqa: E402
 from pyfmu_wrapper.scenario.schema import SolverConfig, SweepConfig  # noqa: E402
+from pyfmu_wrapper.scenario.tasks import Checkpoint, SweepTask  # noqa: E402
 
 BASE = BaseParams(mass=100.0, stiffness=4.0e4, damping=100.0, force_amplitude=200.0)
 
@@ -387,23 +387,23 @@ def test_checkpoint_key_follows_every_setting(tmp_path):
 def test_checkpoint_key_follows_the_code(tmp_path, monkeypatch):
     import shutil
 
-    from pyfmu_wrapper.scenario import executors
+    from pyfmu_wrapper.scenario import tasks
 
     w = np.array([18.0, 22.0])
     task = SweepTask(BASE, paper_case(1, friction_force=20.0), w, RunSettings())
     ck = Checkpoint(tmp_path / "ck")
     ck.save(task, _fake_table(task))
     assert ck.load(task) is not None
-    assert task.key_payload()["code"] == executors.source_hash(executors.PACKAGE_DIR)[:16]
+    assert task.key_payload()["code"] == tasks.source_hash(tasks.PACKAGE_DIR)[:16]
     # a copy of the package with one kernel line changed has another source hash ...
     same, edited = tmp_path / "same" / "pkg", tmp_path / "edited" / "pkg"
     for d in (same, edited):
-        shutil.copytree(executors.PACKAGE_DIR, d, ignore=shutil.ignore_patterns("__pycache__", "*.so", "*.pyc"))
-    assert executors.source_hash(same) == executors.source_hash(executors.PACKAGE_DIR)
+        shutil.copytree(tasks.PACKAGE_DIR, d, ignore=shutil.ignore_patterns("__pycache__", "*.so", "*.pyc"))
+    assert tasks.source_hash(same) == tasks.source_hash(tasks.PACKAGE_DIR)
     kern = edited / "physics" / "kernels.py"
     kern.write_text(kern.read_text() + "\n# edited\n")
-    other = executors.source_hash(edited)[:16]
-    assert other != executors.code_version()
+    other = tasks.source_hash(edited)[:16]
+    assert other != tasks.code_version()
     # ... and a checkpoint written by the old code is not read back by the new one
-    monkeypatch.setattr(executors, "code_version", lambda: other)
+    monkeypatch.setattr(tasks, "code_version", lambda: other)
     assert ck.load(task) is None

@@ -18,7 +18,8 @@ from ..scenario import ScenarioError, load_scenario
 from ..scenario.engines import DEFAULT_ENGINE, ENGINES, RunSettings
 from ..scenario.executors import EXECUTORS, make_executor
 from ..scenario.output import OutputError, check_output_dir, default_checkpoint_dir, default_output_dir, run_scenario
-from ..scenario.runner import instant_units, study_report, work_units
+from ..scenario.runner import instant_units, work_units
+from ..scenario.summary import study_report
 from .errors import cli_main
 
 

@@ -26,11 +26,11 @@ import pandas as pd
 from ..master.master import Master
 from ..physics.params import BaseParams, InerterModel, TMDParams, has_gap
 from ..solvers import settings_table as _table
-from ..solvers.monolithic import SolverSettings
+from ..solvers.monolithic import SolverSettings, companion_start
 from ..solvers.rodas import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
 from ..solvers.settings_table import COSIM
 from ..solvers.shooting import shoot
-from ..solvers.start import companion_start, initial_guess
+from ..solvers.start import initial_guess
 from ..solvers.steady import SteadySettings, WindowCriterion
 from ..solvers.sweep import run_sweep_pieces
 from .system import fmu_parameters, make_master

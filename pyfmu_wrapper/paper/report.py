@@ -8,7 +8,7 @@ import json
 from pathlib import Path
 
 from ..scenario.engines import ENGINES
-from ..scenario.executors import code_version
+from ..scenario.tasks import code_version
 from .claim_data import FULL_C
 from .claims import Claim
 from .reproduce import ROOT

@@ -3,7 +3,7 @@
 The unit of parallel work is a :class:`SweepTask`: one parameter configuration swept over all the
 frequencies of a study with continuation (one row of a two-parameter map, or one FRC curve). A
 101 x 51 map is 51 independent tasks of 101 steady states. Every executor runs the *same* task
-function, :func:`run_task`, so a map computed sequentially, over local processes or on a Dask
+function, :func:`.tasks.run_task`, so a map computed sequentially, over local processes or on a Dask
 cluster is the same map, number for number.
 
 Executors (``make_executor(name, ...)``):
@@ -14,17 +14,8 @@ Executors (``make_executor(name, ...)``):
   (``--scheduler tcp://host:8786``), or on a given ``Client`` (e.g. of a ``LocalCluster``). The
   workers need ``pyfmu_wrapper`` importable (the same environment). No other machinery is used.
 
-Resume: a :class:`Checkpoint` folder holds one file per finished task, named by a hash of everything
-the result depends on: the code version (:func:`code_version`, a hash of the package's sources), the
-base and TMD parameters, the frequencies, the engine, the sweep block (direction, continuation) and
-the resolved settings of every engine that computes the rows (the monolithic solver's for
-'monolithic', the co-simulation's for 'cosim', both for 'both'; see :meth:`SweepTask.key`). It is
-written atomically (temporary file + rename) as soon as a task finishes, so a sweep that is killed
-restarts where it stopped: finished tasks are read back, only the missing ones are computed. A
-change of any input, or of any source file of the package, changes the hash, so a checkpoint
-written by other code or other settings is never reused. ``run-scenario`` keeps them in
-``<out>.checkpoints/<study>/`` beside its output folder (:func:`.output.default_checkpoint_dir`);
-``reproduce`` in ``<results>/.cache/<scenario>/<study>/``.
+:func:`run_tasks` reads finished tasks back from a :class:`~.tasks.Checkpoint` (resume) and has the
+executor compute the missing ones, checkpointing each as it arrives.
 
 Progress: the executors of this module report every finished frequency point (``progress(n)``,
 fractions allowed), from worker processes too (a queue the pool's workers share); other executor
@@ -35,143 +26,19 @@ workers also die with their parent (``PR_SET_PDEATHSIG``), so a killed run leave
 from __future__ import annotations
 
 import contextlib
-import hashlib
-import json
 import multiprocessing as mp
 import os
 import signal
-import tempfile
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from dataclasses import asdict, dataclass, replace
-from pathlib import Path
 from typing import Any
 
-import numpy as np
 import pandas as pd
 
-from ..codeversion import PACKAGE_DIR, source_hash
-from ..physics.params import BaseParams, TMDParams, as_dict
-from .engines import SWEEP_COLUMNS, RunSettings, compute_sweep
+from .tasks import Checkpoint, SweepTask, TaskStats, run_task
 
 EXECUTORS = ("local", "dask", "sequential")
-#: bump when the layout or meaning of a checkpoint file changes
-CHECKPOINT_FORMAT = 2
-def code_version() -> str:
-    """The code version a checkpoint key includes: :func:`pyfmu_wrapper.codeversion.source_hash`, the
-    sha256 of every source file of the package (first 16 hex digits; computed once per process)."""
-    return source_hash(PACKAGE_DIR)[:16]
-
-
-@dataclass(frozen=True)
-class SweepTask:
-    """One configuration swept over the frequencies: the natural unit of parallel work."""
-
-    base: BaseParams
-    tmd: TMDParams
-    omegas: np.ndarray
-    settings: RunSettings
-
-    def units(self) -> int:
-        """Progress units of this task (one per frequency and direction)."""
-        return len(self.omegas) * len(self.settings.directions())
-
-    def key_payload(self) -> dict:
-        """Everything the result depends on: code version, parameters, frequencies, engine and the
-        resolved settings of the engines that compute the rows (:meth:`RunSettings.used`)."""
-        s = self.settings
-        payload = dict(format=CHECKPOINT_FORMAT, code=code_version(), base=as_dict(self.base), tmd=as_dict(self.tmd),
-                       omegas=[float(w).hex() for w in np.asarray(self.omegas, float)], settings=s.used())
-        if s.workers != 1 and s.sweep.continuation:  # split sweeps (sequential executor) differ slightly
-            payload["workers"] = s.workers
-        return payload
-
-    def key(self) -> str:
-        """Hash of :meth:`key_payload` (the checkpoint file name)."""
-        text = json.dumps(self.key_payload(), sort_keys=True, default=_exact_json)
-        return hashlib.sha256(text.encode()).hexdigest()[:32]
-
-
-def _exact_json(obj):
-    """JSON of values json cannot write itself (numpy scalars, enums, dataclasses), without rounding."""
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if hasattr(obj, "__dataclass_fields__"):
-        return asdict(obj)
-    return repr(obj)
-
-
-def run_task(task: SweepTask, keep_workers: bool = False, progress=None) -> pd.DataFrame:
-    """Compute one task (the function every executor runs): the engine's sweep table.
-
-    With ``sweep.continuation: false`` every frequency is its own one-point sweep, started from the
-    engine's initial guess (the same rows, in the same order, as a continued sweep would give).
-    keep_workers: keep ``settings.workers`` (the sequential executor); otherwise the executor is the
-    parallelism and each sweep runs in one process (strict continuation). progress(n): called as
-    frequency points finish (reporting only; the numbers do not depend on it).
-    """
-    settings = task.settings if keep_workers else replace(task.settings, workers=1)
-    omegas = np.sort(np.asarray(task.omegas, float))
-    if settings.sweep.continuation or len(omegas) < 2:
-        return compute_sweep(task.base, task.tmd, omegas, settings, progress)
-    parts = [compute_sweep(task.base, task.tmd, omegas[i:i + 1], settings, progress) for i in range(len(omegas))]
-    table = pd.concat(parts, ignore_index=True)
-    order = {d: k for k, d in enumerate(settings.directions())}
-    key = table["direction"].map(order).fillna(0) * 1e9 + np.where(table["direction"] == "down", -1, 1) * table["omega"]
-    return table.iloc[np.argsort(key.to_numpy(), kind="stable")].reset_index(drop=True)
-
-
-# --- checkpoints ---------------------------------------------------------------------------------
-
-_DTYPES = dict(engine=str, method=str, direction=str, omega=float, amplitude=float, periods=int,
-               converged=bool, irregular=bool, change=float, steps=int, rejected=int, wall_time=float)
-
-
-class Checkpoint:
-    """A folder of finished tasks, one CSV per task (lossless: floats written with 17 digits)."""
-
-    def __init__(self, folder, resume: bool = True, marker: dict | None = None):
-        self.folder = Path(folder)
-        self.resume = resume  #: False: never read back (recompute, overwrite)
-        self.marker = marker  #: written as ``../.run-scenario.json`` with the first file (run-scenario's own folder)
-
-    def path(self, task: SweepTask) -> Path:
-        return self.folder / f"{task.key()}.csv"
-
-    def load(self, task: SweepTask) -> pd.DataFrame | None:
-        p = self.path(task)
-        if not self.resume or not p.is_file():
-            return None
-        try:
-            t = pd.read_csv(p, keep_default_na=True)
-            for col in SWEEP_COLUMNS:  # columns added to the sweep table later (e.g. 'reference'): NaN
-                if col not in t.columns and col not in _DTYPES:
-                    t[col] = np.nan
-            t = t[list(SWEEP_COLUMNS)].astype({k: v for k, v in _DTYPES.items() if k in SWEEP_COLUMNS})
-        except Exception:  # a damaged file: compute the task again
-            return None
-        if len(t) != task.units():
-            return None
-        return t
-
-    def save(self, task: SweepTask, table: pd.DataFrame) -> None:
-        self.folder.mkdir(parents=True, exist_ok=True)
-        if self.marker is not None and not (self.folder.parent / ".run-scenario.json").exists():
-            (self.folder.parent / ".run-scenario.json").write_text(json.dumps(self.marker, indent=2) + "\n",
-                                                                   encoding="utf-8")
-        fd, tmp = tempfile.mkstemp(prefix=".task-", suffix=".tmp", dir=self.folder)
-        try:
-            with os.fdopen(fd, "w", newline="") as f:
-                table[list(SWEEP_COLUMNS)].to_csv(f, index=False, float_format="%.17g")
-            os.replace(tmp, self.path(task))
-        except BaseException:
-            with contextlib.suppress(OSError):
-                os.unlink(tmp)
-            raise
-
-    def finished(self) -> int:
-        return len(list(self.folder.glob("*.csv"))) if self.folder.is_dir() else 0
 
 
 # --- executors -----------------------------------------------------------------------------------
@@ -379,15 +246,6 @@ def make_executor(name: str = "local", jobs: int | None = 0, scheduler=None):
     raise ValueError(f"unknown executor {name!r}; available: {list(EXECUTORS)}")
 
 
-@dataclass
-class TaskStats:
-    """How many tasks a run read from checkpoints and how many it computed."""
-
-    cached: int = 0
-    computed: int = 0
-    wall_time: float = 0.0
-
-
 def run_tasks(tasks: list[SweepTask], executor=None, checkpoint: Checkpoint | None = None,
               progress: Callable[[float], object] | None = None, stats: TaskStats | None = None) -> list[pd.DataFrame]:
     """Results of ``tasks`` in order: read from ``checkpoint`` where finished, computed by ``executor``
@@ -428,4 +286,3 @@ def run_tasks(tasks: list[SweepTask], executor=None, checkpoint: Checkpoint | No
         reported[j] = tasks[i].units()
     stats.wall_time += time.perf_counter() - t0
     return out
-

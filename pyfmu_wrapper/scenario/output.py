@@ -47,9 +47,10 @@ import pandas as pd
 from ..physics.params import as_dict
 from . import plots
 from .engines import RunSettings
-from .executors import code_version
-from .runner import FRCData, MapData, run_studies, study_summary
+from .runner import FRCData, MapData, run_studies
 from .schema import Scenario
+from .summary import study_summary
+from .tasks import code_version
 
 #: the marker file of every folder run-scenario writes (results, partial folders, checkpoints)
 MARKER = ".run-scenario.json"

@@ -1,0 +1,147 @@
+"""Reading a scenario document with located errors: :class:`Reader` checks mappings, lists, numbers,
+strings and grids and raises :class:`~.schema.ScenarioError` naming the file, the line, the key path
+(``tmd.friction_force``, ``studies[2].values[3]``) and the offending value."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ..physics.params import ParameterError
+from .schema import ScenarioError
+from .yamlio import MarkedDict, MarkedList
+
+MAX_GRID = 100_000
+
+
+def key_path(path: str, key) -> str:
+    if isinstance(key, int):
+        return f"{path}[{key}]"
+    return f"{path}.{key}" if path else str(key)
+
+
+class Reader:
+    """Validation context: the file name and helpers that raise located errors."""
+
+    def __init__(self, file: str):
+        self.file = file
+
+    # -- errors ---------------------------------------------------------------------------------
+    def fail(self, path: str, line, reason: str, value=None, *, show_value=True):
+        where = f"{self.file}:{line}" if line else self.file
+        got = f" (got {value!r})" if show_value else ""
+        raise ScenarioError(f"{where}: {path or '<top level>'}: {reason}{got}",
+                            file=self.file, line=line, path=path, value=value)
+
+    def parameter_error(self, exc: ParameterError, path: str, line, value):
+        """Re-raise a ParameterError built with ``source=self.source(path, line)`` as a ScenarioError."""
+        text = str(exc).replace(f" (from {self.source(path, line)})", "")
+        where = f"{self.file}:{line}" if line else self.file
+        raise ScenarioError(f"{where}: {path}: {text}", file=self.file, line=line, path=path, value=value) from None
+
+    def source(self, path: str, line) -> str:
+        return f"{self.file}:{line} {path}" if line else f"{self.file} {path}"
+
+    # -- structure ------------------------------------------------------------------------------
+    def mapping(self, node, path, line, *, required=(), optional=(), hints=None):
+        """Check a mapping's keys; ``hints``: key -> where it belongs instead (a clearer refusal)."""
+        if not isinstance(node, dict):
+            self.fail(path, line, f"must be a mapping with keys {list(required) + list(optional)}", node)
+        allowed = set(required) | set(optional)
+        for key in node:
+            if key not in allowed:
+                hint = (hints or {}).get(key)
+                reason = (f"does not apply here: {hint}" if hint else
+                          f"unknown key {key!r}; allowed keys: {sorted(map(str, allowed))}")
+                self.fail(key_path(path, key), line_of(node, key), reason, node[key])
+        for key in required:
+            if key not in node:
+                self.fail(key_path(path, key), line_of(node), "missing required key", show_value=False)
+        return node
+
+    def sequence(self, node, path, line, *, nonempty=True):
+        if not isinstance(node, list):
+            self.fail(path, line, "must be a list", node)
+        if nonempty and not node:
+            self.fail(path, line, "must not be empty", node)
+        return node
+
+    # -- scalars ------------------------------------------------------------------------------
+    def number(self, node, key, path, *, minimum=None, strict=False, maximum=None, default=None):
+        p = key_path(path, key)
+        if key not in node:
+            return default
+        v, line = node[key], line_of(node, key)
+        return self.check_number(v, p, line, minimum=minimum, strict=strict, maximum=maximum)
+
+    def check_number(self, v, p, line, *, minimum=None, strict=False, maximum=None):
+        if isinstance(v, bool) or not isinstance(v, (int, float)):
+            self.fail(p, line, "must be a number", v)
+        if not math.isfinite(v):
+            self.fail(p, line, "must be finite", v)
+        if minimum is not None and (v <= minimum if strict else v < minimum):
+            self.fail(p, line, f"must be {'>' if strict else '>='} {minimum:g}", v)
+        if maximum is not None and v > maximum:
+            self.fail(p, line, f"must be <= {maximum:g}", v)
+        return float(v)
+
+    def integer(self, node, key, path, *, minimum=None, maximum=None, default=None, allow_null=False):
+        p = key_path(path, key)
+        if key not in node:
+            return default
+        v, line = node[key], line_of(node, key)
+        if v is None and allow_null:
+            return None
+        if isinstance(v, bool) or not isinstance(v, int):
+            self.fail(p, line, "must be an integer" + (" or null" if allow_null else ""), v)
+        if minimum is not None and v < minimum:
+            self.fail(p, line, f"must be >= {minimum}", v)
+        if maximum is not None and v > maximum:
+            self.fail(p, line, f"must be <= {maximum}", v)
+        return int(v)
+
+    def string(self, node, key, path, *, default=None, choices=None, pattern=None):
+        p = key_path(path, key)
+        if key not in node:
+            return default
+        v, line = node[key], line_of(node, key)
+        if not isinstance(v, str):
+            self.fail(p, line, "must be a string", v)
+        if choices is not None and v not in choices:
+            self.fail(p, line, f"must be one of {list(choices)}", v)
+        if pattern is not None and not pattern.match(v):
+            self.fail(p, line, "must be a simple name (letters, digits, '_', '-', '.')", v)
+        return v
+
+    def boolean(self, node, key, path, *, default=False):
+        if key not in node:
+            return default
+        v = node[key]
+        if not isinstance(v, bool):
+            self.fail(key_path(path, key), line_of(node, key), "must be true or false", v)
+        return v
+
+    # -- grids ----------------------------------------------------------------------------------
+    def grid(self, node, path, line, *, positive=False):
+        """{start, stop, count} (evenly spaced, both ends included) or an explicit list of numbers."""
+        minimum = 0.0 if positive else None
+        if isinstance(node, list):
+            self.sequence(node, path, line)
+            vals = [self.check_number(v, key_path(path, i), line_of(node, i), minimum=minimum, strict=positive)
+                    for i, v in enumerate(node)]
+            return np.array(vals)
+        self.mapping(node, path, line, required=("start", "stop", "count"))
+        start = self.number(node, "start", path, minimum=minimum, strict=positive)
+        stop = self.number(node, "stop", path, minimum=minimum, strict=positive)
+        count = self.integer(node, "count", path, minimum=1, maximum=MAX_GRID)
+        if stop < start:
+            self.fail(key_path(path, "stop"), line_of(node, "stop"), f"must be >= start = {start:g}", stop)
+        if count == 1 and stop != start:
+            self.fail(key_path(path, "count"), line_of(node, "count"), "must be >= 2 when stop != start", count)
+        return np.linspace(start, stop, count)
+
+
+def line_of(node, key=None):
+    if key is not None and isinstance(node, (MarkedDict, MarkedList)):
+        return node.line_of(key)
+    return getattr(node, "line", None)

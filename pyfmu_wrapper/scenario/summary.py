@@ -1,0 +1,137 @@
+"""The words and numbers of a run about its studies: :func:`study_summary` (the ``summary.json`` entry of a
+study) and :func:`study_report` (the closing lines ``run-scenario`` prints: frequencies not converged or
+irregular, the co-simulation's difference from the monolithic engine)."""
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from ..physics.params import as_dict
+from .runner import FRCData, MapData, PhaseData
+from .sweeptable import engine_differences, irregular_mask, sweep_diagnostics
+
+# --- summary -----------------------------------------------------------------------------------
+
+def study_summary(data) -> dict:
+    st = data.study
+    d = dict(kind=st.kind, name=st.name, title=st.title, wall_time=data.wall_time)
+    if isinstance(data, FRCData):
+        d["omegas"] = _grid(st.omegas)
+        d["curves"] = [dict(label=c.label, without_tmd=c.without_tmd, tmd=as_dict(c.tmd),
+                            inertance_ratio=c.tmd.inertance_ratio, directions=data.peaks[c.label])
+                       for c in st.curves]
+    elif isinstance(data, MapData):
+        d.update(parameter=st.parameter, values=_grid(st.values), omegas=_grid(st.omegas),
+                 amplitude_min=float(data.amplitude.min()), amplitude_max=float(data.amplitude.max()),
+                 **{k: v for k, v in sweep_diagnostics(data.table).items() if k != "method"},
+                 methods=sorted(set(data.table["method"])))
+        d["peak_per_value"] = [dict(value=float(v), peak_amplitude=float(row.max()),
+                                    peak_omega=float(st.omegas[int(np.argmax(row))]))
+                               for v, row in zip(st.values, data.amplitude)]
+    else:
+        d.update(n_periods=st.n_periods, samples_per_period=st.samples_per_period, portraits=[])
+        for (w, label), ts in data.series.items():
+            x, xd = ts.states[:, 0], ts.states[:, 1]
+            d["portraits"].append(dict(omega=w, curve=label, method=ts.method, converged=ts.converged,
+                                       periods=ts.periods, change=ts.change, amplitude=ts.amplitude,
+                                       x_max=float(np.abs(x).max()), xd_max=float(np.abs(xd).max())))
+    return d
+
+
+def _grid(a) -> dict:
+    a = np.asarray(a, float)
+    return dict(start=float(a[0]), stop=float(a[-1]), count=int(a.size))
+
+
+# --- closing report ------------------------------------------------------------------------------
+
+def _w(x) -> str:
+    return f"{float(x):g}"
+
+
+def _pct(x) -> str:
+    return "n/a" if x is None or not np.isfinite(x) else f"{100.0 * float(x):.3g} %"
+
+
+def _points(rows: pd.DataFrame, limit: int = 12, with_value: bool = False) -> str:
+    """'19.5, 20 rad/s', or for irregular points '20 rad/s (window scatter 67 %, not converged)'."""
+    items = []
+    for _, r in rows.head(limit).iterrows():
+        s = _w(r["omega"])
+        if with_value:
+            s = f"({_w(r['value'])}, {s})"
+        if bool(r.get("irregular", False)):
+            notes = []
+            if np.isfinite(float(r.get("change", np.nan))):
+                notes.append(f"window scatter {_pct(r['change'])}")
+            if not bool(r["converged"]):
+                notes.append("not converged")
+            s += " rad/s" + (f" ({', '.join(notes)})" if notes else "")
+        items.append(s)
+    more = f" and {len(rows) - limit} more" if len(rows) > limit else ""
+    text = ", ".join(items) + more
+    return text if text.endswith(")") or text.endswith("rad/s") else text + " rad/s"
+
+
+def _flag_groups(t: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, int]:
+    """(regular points not converged, irregular points, number of points not converged in all)."""
+    irr = t["irregular"].fillna(False).astype(bool) if "irregular" in t else pd.Series(False, index=t.index)
+    conv = t["converged"].astype(bool)
+    return t[~conv & ~irr], t[irr], int((~conv).sum())
+
+
+def study_report(data) -> list[str]:
+    """One line per study for the end of a run: which points did not converge or are irregular
+    (and, for engine 'both', the difference over the regular points and the irregular ones apart)."""
+    st = data.study
+    lines = []
+    if isinstance(data, PhaseData):
+        bad = [f"{_w(w)} rad/s ({label})" for (w, label), ts in data.series.items() if not ts.converged]
+        n = len(data.series)
+        lines.append(f"{st.name}: all {n} phase portraits reached their steady state" if not bad else
+                     f"{st.name}: {len(bad)} of {n} phase portraits not converged: " + "; ".join(bad))
+        return lines
+    t = data.table
+    if isinstance(data, MapData):
+        nc, irr, n_nc = _flag_groups(t)
+        if not len(nc) and not len(irr):
+            lines.append(f"{st.name}: all {len(t)} points converged and periodic")
+        else:
+            parts = []
+            if len(nc):
+                parts.append(f"not converged at ({st.parameter}, omega) = {_points(nc, with_value=True)}")
+            if len(irr):
+                parts.append(f"irregular at ({st.parameter}, omega) = {_points(irr, with_value=True)}")
+            lines.append(f"{st.name}: {n_nc} of {len(t)} points not converged, {len(irr)} irregular: "
+                         + "; ".join(parts))
+        return lines
+    parts, n_nc, n_irr = [], 0, 0
+    for (label, d), td in t.groupby(["curve", "direction"], sort=False):
+        nc, irr, k = _flag_groups(td)
+        n_nc, n_irr = n_nc + k, n_irr + len(irr)
+        sub = []
+        if len(nc):
+            sub.append(f"not converged at {_points(nc)}")
+        if len(irr):
+            sub.append(f"irregular at {_points(irr)}")
+        if sub:
+            parts.append(f'"{label}" ({d}): ' + ", ".join(sub))
+    if not parts:
+        lines.append(f"{st.name}: all {len(t)} points converged and periodic")
+    else:
+        lines.append(f"{st.name}: {n_nc} of {len(t)} points not converged, {n_irr} irregular: " + "; ".join(parts))
+    if "difference" in t and np.isfinite(t["difference"].to_numpy(float)).any():
+        diff = engine_differences(t)
+        where = "" if diff["omega_max_difference"] is None else f" (at {_w(diff['omega_max_difference'])} rad/s)"
+        line = (f"{st.name}: co-simulation against monolithic: max |difference| = {_pct(diff['max_abs_difference'])} "
+                f"over the {diff['regular_points']} regular points{where}")
+        if diff["irregular_points"]:
+            irr_t = t[irregular_mask(t)]
+            items = []
+            for (_, r), ip in zip(irr_t.iterrows(), diff["irregular_points"]):
+                items.append(f'{_w(ip["omega"])} rad/s "{r["curve"]}" ({r["direction"]}): difference '
+                             f'{_pct(ip["difference"])}, window scatter {_pct(ip["scatter"])} co-simulation / '
+                             f'{_pct(ip["reference_scatter"])} monolithic')
+            line += "; irregular points (not in that maximum): " + "; ".join(items)
+        lines.append(line)
+    return lines

@@ -1,0 +1,78 @@
+"""What a sweep table says: its peaks (:func:`find_peaks`), its steady-state diagnostics, its irregular
+points, and (engine 'both') the co-simulation's difference from the monolithic engine per frequency."""
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from scipy.optimize import minimize_scalar
+
+
+def find_peaks(omegas, amplitudes, refine=None) -> dict:
+    """Peak summary of one curve: global maximum and the interior local maxima.
+
+    refine: optional callable(omegas array) -> amplitudes for a smooth (exact) curve; each local
+    maximum is then located to 1e-9 rad/s between its grid neighbours instead of on the grid.
+    """
+    w = np.asarray(omegas, float)
+    a = np.asarray(amplitudes, float)
+    local = []
+    for i in range(1, len(a) - 1):
+        if a[i] >= a[i - 1] and a[i] > a[i + 1]:
+            wi, ai = w[i], a[i]
+            if refine is not None:
+                r = minimize_scalar(lambda x: -float(refine(np.array([x]))[0]), bounds=(w[i - 1], w[i + 1]),
+                                    method="bounded", options=dict(xatol=1e-9))
+                if -r.fun >= ai:
+                    wi, ai = float(r.x), float(-r.fun)
+            local.append(dict(omega=float(wi), amplitude=float(ai)))
+    k = int(np.argmax(a))
+    best = dict(omega=float(w[k]), amplitude=float(a[k]))
+    for p in local:
+        if p["amplitude"] >= best["amplitude"]:
+            best = dict(p)
+    return dict(peak_amplitude=best["amplitude"], peak_omega=best["omega"], local_maxima=local)
+
+
+def sweep_diagnostics(t: pd.DataFrame) -> dict:
+    return dict(method=str(t["method"].iloc[0]), all_converged=bool(t["converged"].all()),
+                not_converged=int((~t["converged"].astype(bool)).sum()),
+                irregular=int(t["irregular"].fillna(False).astype(bool).sum()) if "irregular" in t else 0,
+                periods_min=int(t["periods"].min()), periods_max=int(t["periods"].max()),
+                periods_mean=float(t["periods"].mean()), max_change=float(t["change"].max()),
+                wall_time=float(t["wall_time"].sum()))
+
+
+def irregular_mask(t: pd.DataFrame) -> np.ndarray:
+    """Points whose response is irregular (rattling, non-periodic) in either engine."""
+    irr = t["irregular"].fillna(False).astype(bool).to_numpy() if "irregular" in t else np.zeros(len(t), bool)
+    if "reference_irregular" in t:
+        irr = irr | (t["reference_irregular"].to_numpy(float) == 1.0)
+    return irr
+
+
+def engine_differences(t: pd.DataFrame) -> dict:
+    """Engine 'both': the relative difference co-simulation / monolithic - 1 per frequency; the
+    headline maximum is over the *regular* points only (an irregular point has no single amplitude:
+    it is listed apart with the window scatter of each engine)."""
+    if "difference" not in t or not np.isfinite(t["difference"].to_numpy(float)).any():
+        return {}
+    d = t["difference"].to_numpy(float)
+    w = t["omega"].to_numpy(float)
+    irr = irregular_mask(t)
+    reg = np.where(irr | ~np.isfinite(d), np.nan, np.abs(d))
+    out: dict[str, Any] = dict(regular_points=int(np.isfinite(reg).sum()))
+    if np.isfinite(reg).any():
+        k = int(np.nanargmax(reg))
+        out.update(max_abs_difference=float(reg[k]), omega_max_difference=float(w[k]))
+    else:
+        out.update(max_abs_difference=None, omega_max_difference=None)
+    ref_change = t["reference_change"].to_numpy(float) if "reference_change" in t else np.full(len(t), np.nan)
+    out["irregular_points"] = [dict(omega=float(w[i]), difference=float(d[i]) if np.isfinite(d[i]) else None,
+                                    scatter=float(t["change"].iloc[i]), reference_scatter=float(ref_change[i]))
+                               for i in np.flatnonzero(irr)]
+    out["difference"] = [dict(omega=float(wi), cosim=float(a), monolithic=float(r),
+                              difference=float(x) if np.isfinite(x) else None, irregular=bool(ir))
+                         for wi, a, r, x, ir in zip(w, t["amplitude"], t["reference"], d, irr)]
+    return out
