@@ -264,3 +264,51 @@ def test_cosimulation_through_fmi3_equals_fmi2_bit_for_bit(tmd_kw):
 
     mono = steady_state(base, tmd, 17.0).amplitude
     assert r[3]["amplitude"].iloc[0] == pytest.approx(mono, rel=5e-3)
+
+
+def test_fmi3_runs_from_a_copy_in_a_numpy_numba_fmpy_venv(fmus3, tmp_path):
+    """The portability check of tests/test_fmu_portable.py on the FMI 3.0 variants: copied elsewhere,
+    run by fmpy in a venv with only numpy, numba and fmpy, the checkout out of reach, exact numbers."""
+    from test_fmu_portable import _check_run, cached_venv
+
+    root = tmp_path / "portable3"
+    root.mkdir()
+    fmus = {n: Path(shutil.copy(fmus3[n], root / Path(fmus3[n]).name)) for n in ("BaseOscillator", "TMDInerter")}
+    py = cached_venv(root)
+    _check_run(root, fmus, py.parent.parent, py)
+
+
+SCENARIO3 = """\
+schema_version: 2
+name: fmi3_check
+description: Case 1 with play, a short FRC, co-simulated through FMI {v} FMUs.
+base: {{mass: 100.0, stiffness: 40000.0, damping: 100.0, force_amplitude: 200.0}}
+tmd: {{case: 1, inerter: play, stiffness: 4000.0, mesh_stiffness: 2.0e7, mesh_damping: 0.01, play_gap: 1.0e-4}}
+frequencies: {{start: 18.0, stop: 20.0, count: 2}}
+cosim: {{fmi_version: {v}}}
+studies:
+  - kind: frc
+    name: frc
+    curves:
+      - {{label: "play eps = 1e-4"}}
+"""
+
+
+def test_run_scenario_cosim_fmi3_equals_fmi2(tmp_path):
+    """The user's path: run-scenario with `cosim: {fmi_version: 3}` writes the FMI 2.0 numbers; a
+    version the builder does not write is refused (exit 2, naming the key)."""
+    import csv
+
+    from pyfmu_wrapper.cli.run_scenario import main
+
+    rows = {}
+    for v in (2, 3):
+        (tmp_path / f"s{v}.yaml").write_text(SCENARIO3.format(v=v))
+        assert main([str(tmp_path / f"s{v}.yaml"), "--engine", "cosim", "--out", str(tmp_path / f"o{v}"),
+                     "--no-resume", "--workers", "1"]) == 0
+        with open(tmp_path / f"o{v}" / "frc.csv") as f:
+            rows[v] = [{k: x for k, x in r.items() if "time" not in k} for r in csv.DictReader(f)]
+    assert rows[2] == rows[3] and len(rows[3]) == 2
+    (tmp_path / "s4.yaml").write_text(SCENARIO3.format(v=4))
+    assert main([str(tmp_path / "s4.yaml"), "--engine", "cosim", "--out", str(tmp_path / "o4")]) == 2
+    assert not (tmp_path / "o4").exists()
