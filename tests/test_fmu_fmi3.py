@@ -249,16 +249,21 @@ def test_invalid_fmi3_calls_are_refused_and_logged(fmus3, tmp_path):
 
 @pytest.mark.parametrize("tmd_kw", [dict(damping=10.0), dict(inerter="play", play_gap=1e-4, mesh_stiffness=2e7)],
                          ids=["ideal-c10", "play"])
-def test_cosimulation_through_fmi3_equals_fmi2_bit_for_bit(tmd_kw):
+def test_cosimulation_through_fmi3_equals_fmi2_bit_for_bit(tmd_kw, monkeypatch):
     """run-scenario's co-simulation engine on the FMI 3.0 FMUs gives the FMI 2.0 numbers to the last bit
-    (Case 1; the impulse coupling with its input derivatives and interface Jacobian)."""
+    (Case 1; the impulse coupling with its input derivatives and interface Jacobian), in the compiled
+    stepping loop (its fmi3 adapters) and on the Python path."""
     from pyfmu_wrapper.cosim.steady import CosimSettings, sweep
     from pyfmu_wrapper.physics.params import BaseParams, paper_case
 
     base, tmd = BaseParams(), paper_case(1, **tmd_kw)
     r = {v: sweep(base, tmd, [17.0], settings=CosimSettings(fmi_version=v)) for v in (2, 3)}
+    monkeypatch.setenv("PYFMU_COMPILED_LOOP", "0")
+    r["3py"] = sweep(base, tmd, [17.0], settings=CosimSettings(fmi_version=3))
     for col in ("amplitude", "periods", "steps", "change"):
         assert np.array_equal(r[2][col].to_numpy(), r[3][col].to_numpy()), col
+        assert np.array_equal(r[3][col].to_numpy(), r["3py"][col].to_numpy()), col
+    assert r[3]["master_loop_time"].iloc[0] > 0 and r["3py"]["master_loop_time"].iloc[0] == 0  # which path ran
     # and the numbers are the physics: within 0.5 % of the monolithic solver (docs/cosimulation.md)
     from pyfmu_wrapper.solvers.monolithic import steady_state
 

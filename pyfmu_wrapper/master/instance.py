@@ -160,6 +160,7 @@ class Instance:
 
     # --- lean calls -------------------------------------------------------------------------
     #: the lean calls, in the numbering of the compiled loop's error report (:mod:`.cloop`)
+    fmi_version = 2
     LEAN_CALLS = ("fmi2SetReal", "fmi2SetRealInputDerivatives", "fmi2DoStep", "fmi2GetReal")
 
     def failure(self, call: str, status: int = 3, t: float = 0.0, h: float = 0.0) -> MasterError:
@@ -307,11 +308,10 @@ def derivative_name(input_name: str, order: int) -> str:
 class Instance3(Instance):
     """One FMI 3.0 co-simulation instance behind the same interface as :class:`Instance`.
 
-    The compiled loop (:mod:`.cloop`) calls fmi2 function pointers, so a master with an FMI 3.0
-    instance takes its steps on the Python path (:attr:`compiled` False); the numbers are the
-    same (the two paths agree bit for bit)."""
+    The compiled loop (:mod:`.cloop`) calls it through its fmi3 adapters (:attr:`der3_vr`: the
+    FMI 3.0 variable of each position of the derivative arrays); both paths agree bit for bit."""
 
-    compiled = False
+    fmi_version = 3
     LEAN_CALLS = ("fmi3SetFloat64", "fmi3SetFloat64", "fmi3DoStep", "fmi3GetFloat64")
 
     def __init__(self, name: str, path: Path, md, unzipdir: str):  # not super().__init__: that one is FMI 2.0
@@ -364,9 +364,12 @@ class Instance3(Instance):
     def finalize_ports(self):
         super().finalize_ports()
         ni = self.n_in
+        #: the FMI 3.0 variable of each position of der_vr / der_order / der_val (empty: none)
+        self.der3_vr = np.array([self.vars[derivative_name(n, k)].valueReference
+                                 for k in (1, 2) for n in self.inputs] if self.can_interpolate else [],
+                                dtype=np.uint32)
         if self.can_interpolate:
-            self.der_vr = np.array([self.vars[derivative_name(n, k)].valueReference
-                                    for k in (1, 2) for n in self.inputs], dtype=np.uint32)
+            self.der_vr = self.der3_vr
         # an input set resets its derivatives (FMI 2.0's rule, which the Python path and the
         # numbers rely on): inputs and zero derivatives go in one fmi3SetFloat64
         self.set_vr = np.concatenate([self.in_vr, self.der_vr if self.can_interpolate else []]).astype(np.uint32)
@@ -377,7 +380,12 @@ class Instance3(Instance):
         self.n_in = ni
 
     def raw_address(self, name: str) -> int:
-        raise MasterError(f"{self.name}: an FMI 3.0 instance has no fmi2 functions for the compiled loop")
+        raise MasterError(f"{self.name}: an FMI 3.0 instance has no {name} (the compiled loop uses raw3_address)")
+
+    def raw3_address(self, name: str) -> int:
+        """Address of the raw fmi3 function ``name``, for the compiled loop's adapters."""
+        return _address({"fmi3SetFloat64": self._set_real, "fmi3GetFloat64": self._get_real,
+                         "fmi3DoStep": self._do_step}[name])
 
     def set_inputs(self):
         if self.n_in:

@@ -128,8 +128,7 @@ class Master:
         self._error = ErrorEstimate()
         if compiled is None:  # $PYFMU_COMPILED_LOOP=0: every step on the Python reference path
             compiled = os.environ.get("PYFMU_COMPILED_LOOP", "1") != "0"
-        # the compiled loop calls fmi2 functions: FMI 3.0 instances step on the Python path
-        self.compiled = bool(compiled) and all(getattr(i, "compiled", True) for i in self.instances.values())  #: fixed steps in the compiled loop (:mod:`.cloop`) where it applies
+        self.compiled = bool(compiled)  #: fixed steps in the compiled loop (:mod:`.cloop`) where it applies
         self._cloop = None
         self.python_seconds = 0.0  #: wall time of the steps taken on the Python path by :meth:`advance`
         self.t = 0.0
