@@ -1,14 +1,16 @@
 /*
- * Shared declarations of the FMI 2.0 co-simulation stub that runs a Python slave.
+ * Shared declarations of the co-simulation stub that runs a Python slave (FMI 2.0 and 3.0).
  *
  * The stub is split along its jobs:
  *   py_embed.c   finding, loading and entering a Python interpreter (C-API resolved with dlsym)
  *   py_config.c  starting the bundled runtime of a standalone FMU isolated (PyConfig API)
  *   resources.c  reading resources/: pyfmu.cfg, variables.tsv, the resource URI
- *   fmi_api.c    the FMI 2.0 API: state machine, argument checks, values, doStep, derivatives
+ *   fmi_api.c    the core, as the FMI 2.0 API: state machine, argument checks, values, doStep, derivatives
+ *   fmi3_api.c   the FMI 3.0 API: a thin layer mapping each fmi3 function onto the core
  *   fmi_state.c  FMU state get/set/free/serialize (overflow-safe, ownership-checked)
  *   log.c        messages to the host's logger
- * Only the fmi2* functions are exported (compiled with -fvisibility=hidden).
+ * Only the fmi2* (FMI 2.0 FMU) or the fmi3* (FMI 3.0 FMU) functions are exported (compiled with
+ * -fvisibility=hidden and a linker version script, pyfmu_wrapper/fmi/build.py).
  */
 #ifndef PYFMU_H
 #define PYFMU_H

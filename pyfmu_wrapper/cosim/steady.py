@@ -51,7 +51,8 @@ class CosimSettings(SteadySettings):
     (:func:`impulse_connections`) or "force" (:data:`CONNECTIONS`); scheme / order: see
     :mod:`pyfmu_wrapper.master.master`; fmu_rtol: tolerance of the integrators inside the FMUs;
     interface_jacobian: with the impulse coupling, hand the TMD the base's compliance 1/M and its
-    acceleration without the link force (:func:`impulse_connections`).
+    acceleration without the link force (:func:`impulse_connections`); fmi_version: run the FMI
+    2.0 or the FMI 3.0 variants of the FMUs (the same core: the same numbers).
     """
 
     max_periods: int = _table.default("max_periods", COSIM)
@@ -63,6 +64,7 @@ class CosimSettings(SteadySettings):
     order: int = _table.default("order", COSIM)
     fmu_rtol: float = _table.default("fmu_rtol", COSIM)
     interface_jacobian: bool = _table.default("interface_jacobian", COSIM)
+    fmi_version: int = _table.default("fmi_version", COSIM)
     # (validated by SteadySettings.validate against solvers/settings_table.py)
 
     def steps_for(self, tmd: TMDParams) -> int:
@@ -256,7 +258,7 @@ def continuation_start(base: BaseParams, tmd: TMDParams, z_prev, w_prev: float, 
 
 def _sweep_piece(base, tmd, seq, direction, settings, z0, queue=None):
     master = make_master(base, tmd, settings.scheme, settings.order, coupling=settings.coupling,
-                         interface_jacobian=settings.interface_jacobian)
+                         interface_jacobian=settings.interface_jacobian, fmi_version=settings.fmi_version)
     rows = []
     z = None if z0 is None else np.asarray(z0, dtype=float)
     hint: dict = {}
@@ -303,7 +305,8 @@ def periodic_time_series(base: BaseParams, tmd: TMDParams, omega: float, n_perio
     own = master is None
     m = master if master is not None else make_master(base, tmd, settings.scheme, settings.order,
                                                       coupling=settings.coupling,
-                                                      interface_jacobian=settings.interface_jacobian)
+                                                      interface_jacobian=settings.interface_jacobian,
+                                                      fmi_version=settings.fmi_version)
     try:
         if samples_per_period is not None:
             settings = replace(settings, steps_per_period=int(samples_per_period))

@@ -79,16 +79,16 @@ def impulse_connections(tmd: TMDParams, interface_jacobian: bool = True) -> list
 
 def make_master(base: BaseParams | None = None, tmd: TMDParams | None = None, scheme: str = "loop",
                 order: int = 2, fmus: dict | None = None, coupling: str = "force",
-                interface_jacobian: bool = True) -> Master:
+                interface_jacobian: bool = True, fmi_version: int = 2) -> Master:
     """A master for the base + TMD pair (the FMUs are built if missing or stale).
 
     coupling: "force" (tmd.force -> base.f_link, the algebraic loop of the ideal inerter) or
     "impulse" (:func:`impulse_connections`; needs ``tmd``; ``interface_jacobian`` sets
-    ``tmd.base_compliance`` = 1/M of ``base``)."""
+    ``tmd.base_compliance`` = 1/M of ``base``); fmi_version: 2 or 3 (the FMUs of that version)."""
     if fmus is None:
         from ..fmi.build import ensure_fmus
 
-        paths = ensure_fmus()
+        paths = ensure_fmus(fmi_version=fmi_version)
         fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
     if coupling == "impulse":
         pars = {"tmd.base_compliance": 1.0 / (base or BaseParams()).mass} if interface_jacobian else {}

@@ -47,12 +47,24 @@ from pathlib import Path
 from ..cli.errors import cli_main
 from .documentation import documentation_html
 from .model_description import guid_of, model_description_xml, variable_table_tsv
+from .model_description3 import model_description3_xml
 from .variables import PROJECT_FMUS, SPECS, FmuSpec
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1]  # pyfmu_wrapper/
 REPO_ROOT = PACKAGE_DIR.parent
 STUB_DIR = REPO_ROOT / "fmu" / "src"
 DEFAULT_OUT = REPO_ROOT / "fmu" / "build"
+#: FMI versions build-fmus writes; an FMI 3.0 variant goes into <out>/fmi3/ (same file names)
+FMI_VERSIONS = (2, 3)
+#: where the binary is in the archive, per FMI version (platform tuple of FMI 2.0 and 3.0)
+BINARY_DIR = {2: "binaries/linux64", 3: "binaries/x86_64-linux"}
+
+
+def fmi_out_dir(out_dir: str | os.PathLike, fmi_version: int) -> Path:
+    """The folder of the FMUs of one FMI version: out_dir (FMI 2.0) or out_dir/fmi3 (FMI 3.0)."""
+    if fmi_version not in FMI_VERSIONS:
+        raise ValueError(f"FMI version {fmi_version!r}: this builder writes {FMI_VERSIONS}")
+    return Path(out_dir) if fmi_version == 2 else Path(out_dir) / "fmi3"
 #: What the bundled model code needs in the interpreter that runs it (mirrors pyproject.toml).
 REQUIRES = ("numpy>=1.26", "numba>=0.59")
 MIN_PYTHON = "3.11"
@@ -181,26 +193,33 @@ def source_hash() -> str:
         h.update(f.name.encode())
         h.update(f.read_bytes())
     h.update(bundle_hash().encode())
-    for writer in ("build.py", "model_description.py", "documentation.py"):  # what writes the archive
+    for writer in ("build.py", "model_description.py", "model_description3.py", "documentation.py"):  # what writes the archive
         h.update((PACKAGE_DIR / "fmi" / writer).read_bytes())
     h.update(build_python().encode())
     h.update(sys.version.encode())
     return h.hexdigest()[:24]
 
 
-def compile_stub(out_so: Path, cc: str | None = None, extra_flags: tuple = ()) -> None:
+def compile_stub(out_so: Path, cc: str | None = None, extra_flags: tuple = (), fmi_version: int = 2) -> None:
     """Compile the C stub into a shared library with the system C compiler (``extra_flags``: the
-    standalone stub's, :func:`.standalone.stub_flags`)."""
+    standalone stub's, :func:`.standalone.stub_flags`). One core and both API layers are compiled;
+    a linker version script exports the functions of ``fmi_version`` only (fmi2* or fmi3*)."""
     cc = cc or os.environ.get("CC", "gcc")
     if shutil.which(cc) is None:
         raise BuildError(f"C compiler {cc!r} not found")
     out_so.parent.mkdir(parents=True, exist_ok=True)
+    version_script = out_so.parent / f".{out_so.name}.fmi{fmi_version}.map"
+    version_script.write_text(f"{{ global: fmi{fmi_version}*; local: *; }};\n")
     cmd = [cc, "-shared", "-fPIC", "-O2", "-std=gnu11", "-Wall", "-Wextra", "-Wno-unused-parameter",
            "-Wno-format-truncation", "-fvisibility=hidden", f"-I{fmi_headers_dir()}", *extra_flags,
            *[str(f) for f in stub_sources() if f.suffix == ".c"], "-o", str(out_so),
            # keep libdl NEEDED: on glibc < 2.34 the pre-2.34 dl* symbols the stub binds to live there
-           "-Wl,--no-as-needed", "-l:libdl.so.2", "-Wl,--as-needed", "-lpthread", "-lm"]
-    r = subprocess.run(cmd, capture_output=True, text=True)
+           "-Wl,--no-as-needed", "-l:libdl.so.2", "-Wl,--as-needed", "-lpthread", "-lm",
+           f"-Wl,--version-script={version_script}"]
+    try:
+        r = subprocess.run(cmd, capture_output=True, text=True)
+    finally:
+        version_script.unlink(missing_ok=True)
     if r.returncode != 0:
         raise BuildError(f"compiling the stub failed:\n{' '.join(cmd)}\n{r.stderr}")
 
@@ -370,15 +389,18 @@ def _model_py(spec: FmuSpec, package: str, bhash: str, files: list[str]) -> str:
 
 
 def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path | None = None,
-              standalone: bool = False, runtime: list | None = None) -> Path:
+              standalone: bool = False, runtime: list | None = None, fmi_version: int = 2) -> Path:
     """Build one FMU (name: a key of :data:`~.variables.SPECS`); return the path of the .fmu.
 
     standalone: also bundle the Python runtime and numpy/numba/llvmlite (``resources/python/``);
     runtime: the (source, archive name) pairs of that runtime, if already collected
     (:func:`.standalone.runtime_files`); stub_so: the compiled stub, if already compiled (for a
-    standalone FMU, with :func:`.standalone.stub_flags`)."""
+    standalone FMU, with :func:`.standalone.stub_flags`; for ``fmi_version``); fmi_version: 2 or 3
+    (written into ``out_dir`` itself: :func:`fmi_out_dir` is the caller's choice of folder)."""
     spec = SPECS[name]
     out_dir = Path(out_dir)
+    if fmi_version not in FMI_VERSIONS:
+        raise ValueError(f"FMI version {fmi_version!r}: this builder writes {FMI_VERSIONS}")
     check_output(out_dir, [name])
     shash = source_hash()
     guid = guid_of(spec, shash)
@@ -398,12 +420,12 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
         so = stub_so
         if so is None:
             so = tmp / "stub.so"
-            compile_stub(so, extra_flags=flags)
+            compile_stub(so, extra_flags=flags, fmi_version=fmi_version)
         target = out_dir / f"{spec.model_identifier}.fmu"
         # unique per builder: parallel workers may build the same stale FMU at once
         part = out_dir / f".{spec.model_identifier}.fmu.{os.getpid()}.{os.urandom(4).hex()}.part"
         try:
-            _write_archive(part, spec, guid, shash, bhash, rt_cfg, so, package, files, runtime)
+            _write_archive(part, spec, guid, shash, bhash, rt_cfg, so, package, files, runtime, fmi_version)
         except BaseException:
             part.unlink(missing_ok=True)  # ours: never left behind
             raise
@@ -411,11 +433,12 @@ def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path
     return target
 
 
-def _write_archive(part, spec, guid, shash, bhash, rt_cfg, so, package, files, runtime):
+def _write_archive(part, spec, guid, shash, bhash, rt_cfg, so, package, files, runtime, fmi_version=2):
+    md = model_description_xml(spec, guid) if fmi_version == 2 else model_description3_xml(spec, guid)
     with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
-        z.writestr("modelDescription.xml", model_description_xml(spec, guid))
+        z.writestr("modelDescription.xml", md)
         z.writestr("documentation/index.html", documentation_html(spec, guid, REQUIRES, MIN_PYTHON))
-        z.write(so, f"binaries/linux64/{spec.model_identifier}.so")
+        z.write(so, f"{BINARY_DIR[fmi_version]}/{spec.model_identifier}.so")
         z.writestr("resources/pyfmu.cfg", _config(spec, guid, shash, bhash, rt_cfg))
         z.writestr("resources/variables.tsv", variable_table_tsv(spec))
         z.writestr("resources/model.py", _model_py(spec, package, bhash, files))
@@ -425,8 +448,10 @@ def _write_archive(part, spec, guid, shash, bhash, rt_cfg, so, package, files, r
             z.write(src, f"resources/{arc}")
 
 
-def build_fmus(names=PROJECT_FMUS, out_dir: str | os.PathLike = DEFAULT_OUT, standalone: bool = False) -> list[Path]:
-    """Build several FMUs (the stub is compiled once, a standalone runtime collected once)."""
+def build_fmus(names=PROJECT_FMUS, out_dir: str | os.PathLike = DEFAULT_OUT, standalone: bool = False,
+               fmi_version: int = 2) -> list[Path]:
+    """Build several FMUs (the stub is compiled once, a standalone runtime collected once) of one
+    FMI version into ``out_dir``."""
     check_output(Path(out_dir), names)  # all refused before any is written
     with tempfile.TemporaryDirectory() as tmp:
         so = Path(tmp) / "stub.so"
@@ -436,8 +461,9 @@ def build_fmus(names=PROJECT_FMUS, out_dir: str | os.PathLike = DEFAULT_OUT, sta
             from .standalone import runtime_files, stub_flags
 
             runtime, flags = runtime_files(Path(tmp) / "pyc"), stub_flags()
-        compile_stub(so, extra_flags=flags)
-        return [build_fmu(n, out_dir, stub_so=so, standalone=standalone, runtime=runtime) for n in names]
+        compile_stub(so, extra_flags=flags, fmi_version=fmi_version)
+        return [build_fmu(n, out_dir, stub_so=so, standalone=standalone, runtime=runtime, fmi_version=fmi_version)
+                for n in names]
 
 
 def fmu_source_hash(fmu: Path) -> str | None:
@@ -452,14 +478,15 @@ def fmu_source_hash(fmu: Path) -> str | None:
     return None
 
 
-def ensure_fmus(out_dir: str | os.PathLike = DEFAULT_OUT, names=PROJECT_FMUS) -> dict[str, Path]:
-    """Paths of the FMUs, building those that are missing or stale (source hash)."""
-    out_dir = Path(out_dir)
+def ensure_fmus(out_dir: str | os.PathLike = DEFAULT_OUT, names=PROJECT_FMUS, fmi_version: int = 2) -> dict[str, Path]:
+    """Paths of the FMUs, building those that are missing or stale (source hash); FMI 3.0 ones in
+    ``out_dir/fmi3`` (:func:`fmi_out_dir`)."""
+    out_dir = fmi_out_dir(out_dir, fmi_version)
     shash = source_hash()
     paths = {n: out_dir / f"{SPECS[n].model_identifier}.fmu" for n in names}
     stale = [n for n, p in paths.items() if fmu_source_hash(p) != shash]
     if stale:
-        build_fmus(stale, out_dir)
+        build_fmus(stale, out_dir, fmi_version=fmi_version)
     return paths
 
 
@@ -472,20 +499,26 @@ def main(argv=None) -> int:
     ap.add_argument("--standalone", action="store_true",
                     help="also bundle a relocatable Python runtime with numpy, numba and llvmlite, so the FMU runs "
                          "where no Python is installed (always rebuilt; default --out fmu/build/standalone)")
+    ap.add_argument("--fmi-version", default="2", choices=["2", "3", "2,3", "both"],
+                    help="FMI version of the FMUs: 2 (default, into --out), 3 (FMI 3.0 co-simulation, into "
+                         "<out>/fmi3/), or both")
     args = ap.parse_args(argv)
+    versions = [2, 3] if args.fmi_version in ("2,3", "both") else [int(args.fmi_version)]
     unknown = [n for n in args.names if n not in SPECS]
     if unknown:
         ap.error(f"unknown FMU(s) {unknown}; choose from {sorted(SPECS)}")
     if Path(args.out).exists() and not Path(args.out).is_dir():  # before compiling anything
         ap.error(f"--out {args.out}: is a file, not a folder (build-fmus writes the FMUs into a folder)")
     try:
-        if args.standalone:
-            out = DEFAULT_OUT / "standalone" if args.out == str(DEFAULT_OUT) else args.out
-            paths = build_fmus(args.names, out, standalone=True)
-        elif args.force:
-            paths = build_fmus(args.names, args.out)
-        else:
-            paths = list(ensure_fmus(args.out, args.names).values())
+        paths = []
+        for v in versions:
+            if args.standalone:
+                out = DEFAULT_OUT / "standalone" if args.out == str(DEFAULT_OUT) else args.out
+                paths += build_fmus(args.names, fmi_out_dir(out, v), standalone=True, fmi_version=v)
+            elif args.force:
+                paths += build_fmus(args.names, fmi_out_dir(args.out, v), fmi_version=v)
+            else:
+                paths += list(ensure_fmus(args.out, args.names, fmi_version=v).values())
     except OutputError as e:
         print(f"build-fmus: {e}", file=sys.stderr)
         return 2

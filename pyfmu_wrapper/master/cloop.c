@@ -383,3 +383,56 @@ int cl_plain(cl_inst *ins, int64_t n_inst, double t, double h, int64_t n_steps)
     }
     return 0;
 }
+
+/* ---- FMI 3.0 instances ----------------------------------------------------------------------
+   The loop calls every FMU through the fmi2 signatures above; for an FMI 3.0 instance the master
+   passes these adapters and, as `comp`, a cl_fmi3 holding the instance and its fmi3 functions.
+   FMI 3.0 has no fmi3SetInputDerivatives: the derivatives go to the FMU's der(u), der(u,2) input
+   variables (der_vr: the variable of each position of the master's derivative arrays), and, as
+   fmi2SetReal does in FMI 2.0, setting the inputs resets them to zero (the Python path,
+   master/instance.py Instance3, does the same in one call: the FMU ends in the same state). */
+typedef int (*f3_set64_t)(void *, const unsigned int *, size_t, const double *, size_t);
+typedef int (*f3_get64_t)(void *, const unsigned int *, size_t, double *, size_t);
+typedef int (*f3_step_t)(void *, double, double, _Bool, _Bool *, _Bool *, _Bool *, double *);
+
+typedef struct {
+    void *inst;
+    f3_set64_t set64;
+    f3_get64_t get64;
+    f3_step_t step;
+    int64_t n_der; /* 2 n_in when the FMU declares der(u) and der(u,2) of its inputs, else 0 */
+    const unsigned int *der_vr;
+    const double *zeros; /* n_der zeros */
+} cl_fmi3;
+
+int cl_f3_set_real(void *p, const unsigned int *vr, size_t n, const double *v)
+{
+    cl_fmi3 *f = (cl_fmi3 *)p;
+    int s = f->set64(f->inst, vr, n, v, n);
+    if (s > 1 || !f->n_der)
+        return s;
+    int s2 = f->set64(f->inst, f->der_vr, (size_t)f->n_der, f->zeros, (size_t)f->n_der);
+    return s2 > s ? s2 : s;
+}
+
+int cl_f3_set_der(void *p, const unsigned int *vr, size_t n, const int *order, const double *v)
+{
+    (void)vr;
+    (void)order; /* position i of the master's arrays is der_vr[i] */
+    cl_fmi3 *f = (cl_fmi3 *)p;
+    return f->set64(f->inst, f->der_vr, n, v, n);
+}
+
+int cl_f3_get_real(void *p, const unsigned int *vr, size_t n, double *v)
+{
+    cl_fmi3 *f = (cl_fmi3 *)p;
+    return f->get64(f->inst, vr, n, v, n);
+}
+
+int cl_f3_do_step(void *p, double t, double h, int no_set)
+{
+    cl_fmi3 *f = (cl_fmi3 *)p;
+    _Bool event = 0, terminate = 0, early = 0;
+    double last = 0.0;
+    return f->step(f->inst, t, h, no_set != 0, &event, &terminate, &early, &last);
+}

@@ -60,6 +60,13 @@ class _Ctx(ctypes.Structure):
                 ("err_inst", _i64), ("err_func", _i64), ("err_status", _i64), ("loop_time", _dbl)]
 
 
+class _Fmi3(ctypes.Structure):
+    """cl_fmi3 of cloop.c: an FMI 3.0 instance behind the loop's fmi2 signatures."""
+
+    _fields_ = [("inst", _vp), ("set64", _vp), ("get64", _vp), ("step", _vp), ("n_der", _i64), ("der_vr", _vp),
+                ("zeros", _vp)]
+
+
 DONE, NEED_WEIGHTS, FMU_ERROR = 0, 1, 2
 _SCHEME_CODE = {"jacobi": 0, "rate": 1, "gauss-seidel": 2}
 _lib = None
@@ -108,6 +115,8 @@ def library():
         lib.cl_run.restype = ctypes.c_int
         lib.cl_plain.argtypes = [ctypes.POINTER(_Inst), _i64, _dbl, _dbl, _i64]
         lib.cl_plain.restype = ctypes.c_int
+        for name in ("cl_f3_set_real", "cl_f3_set_der", "cl_f3_get_real", "cl_f3_do_step"):
+            getattr(lib, name).restype = ctypes.c_int
         _lib = lib
     return _lib
 
@@ -148,11 +157,14 @@ class CompiledLoop:
         self.rate_prev = []
         for k, ins in enumerate(inst):
             s = self.insts[k]
-            s.comp = ins._c
-            s.set_real = ins.raw_address("fmi2SetReal")
-            s.get_real = ins.raw_address("fmi2GetReal")
-            s.set_der = ins.raw_address("fmi2SetRealInputDerivatives")
-            s.do_step = ins.raw_address("fmi2DoStep")
+            if getattr(ins, "fmi_version", 2) == 3:
+                self._fmi3_adapter(s, ins)
+            else:
+                s.comp = ins._c
+                s.set_real = ins.raw_address("fmi2SetReal")
+                s.get_real = ins.raw_address("fmi2GetReal")
+                s.set_der = ins.raw_address("fmi2SetRealInputDerivatives")
+                s.do_step = ins.raw_address("fmi2DoStep")
             s.n_in, s.n_out = ins.n_in, ins.n_out
             arrays = dict(in_vr=ins.in_vr, out_vr=ins.out_vr, der_vr=ins.der_vr, der_order=ins.der_order,
                           in_val=ins.in_val, out_val=ins.out_val, der_val=ins.der_val,
@@ -187,6 +199,24 @@ class CompiledLoop:
         c.w_key, c.w_val, c.max_w, c.n_w = _addr(self.w_key), _addr(self.w_val), self.MAX_WEIGHTS, 0
         self.generation = m.history.generation
         self.timing = True
+
+    def _fmi3_adapter(self, s, ins):
+        """Point the loop's calls of an FMI 3.0 instance at the adapters of cloop.c."""
+        f = _Fmi3()
+        f.inst = ins._c
+        f.set64, f.get64, f.step = (ins.raw3_address(n) for n in ("fmi3SetFloat64", "fmi3GetFloat64", "fmi3DoStep"))
+        der = np.ascontiguousarray(ins.der3_vr, np.uint32)
+        zeros = np.zeros(max(1, len(der)))
+        f.n_der = len(der)
+        f.der_vr = _addr(der) if der.size else None
+        f.zeros = _addr(zeros)
+        self._keep += [f, der, zeros]
+        s.comp = ctypes.addressof(f)
+        lib = self.lib
+        s.set_real = ctypes.cast(lib.cl_f3_set_real, _vp).value
+        s.get_real = ctypes.cast(lib.cl_f3_get_real, _vp).value
+        s.set_der = ctypes.cast(lib.cl_f3_set_der, _vp).value if der.size else None
+        s.do_step = ctypes.cast(lib.cl_f3_do_step, _vp).value
 
     def _check_buffers(self):
         m = self.m

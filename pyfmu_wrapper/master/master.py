@@ -68,7 +68,7 @@ from fmpy import extract, read_model_description
 from . import cloop, stepcontrol
 from .extrapolation import History
 from .graph import ConnectionGraph, build_graph
-from .instance import Instance, MasterError
+from .instance import Instance, MasterError, open_instance
 from .loop import CouplingSolver
 from .schemes import SCHEMES, Stepper
 from .stepcontrol import ErrorEstimate, Result
@@ -113,7 +113,7 @@ class Master:
             md = read_model_description(str(path))
             mds[name] = md
             unzip = extract(str(path), unzipdir=str(Path(self._tmp) / name))
-            self.instances[name] = Instance(name, Path(path), md, unzip)
+            self.instances[name] = open_instance(name, Path(path), md, unzip)
         self.graph: ConnectionGraph = build_graph(mds, connections)
         self.parameters = dict(parameters or {})
         self.wiring = wire(self.instances, self.graph, list(record), scheme, order)
@@ -171,15 +171,14 @@ class Master:
         inst = self.stepper.inst_list
         for ins in inst:
             if ins.initialized:
-                ins.slave.reset()
+                ins.reset()
         for key, val in self.parameters.items():
             name, var = key.split(".", 1)
             if name not in self.instances:
                 raise MasterError(f"parameter {key!r}: unknown instance {name!r}")
             self.instances[name].set_value(var, val)
         for ins in inst:
-            ins.slave.setupExperiment(tolerance=tol, startTime=t0)
-            ins.slave.enterInitializationMode()
+            ins.enter_initialization(tol, t0)
         # propagate the connections in initialisation mode (fixed-point / Newton on the loops)
         self._read_all()
         self.loop.reset()
@@ -191,7 +190,7 @@ class Master:
         else:
             self.loop.solve(t0)
         for ins in inst:
-            ins.slave.exitInitializationMode()
+            ins.exit_initialization()
             ins.initialized = True
         self._read_all()
         if self.wiring.has_loops and self.scheme == "loop":

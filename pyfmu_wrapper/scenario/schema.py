@@ -85,7 +85,7 @@ class SolverConfig:
 
 #: keys of the ``cosim:`` block (fields of pyfmu_wrapper.cosim.steady.CosimSettings a scenario may set)
 COSIM_KEYS = ("accuracy", "steps_per_period", "coupling", "order", "scheme", "tol", "tol_window", "window",
-              "min_periods", "max_periods", "fmu_rtol", "shooting", "interface_jacobian")
+              "min_periods", "max_periods", "fmu_rtol", "shooting", "interface_jacobian", "fmi_version")
 
 
 @dataclass(frozen=True)

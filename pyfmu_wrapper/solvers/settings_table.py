@@ -156,6 +156,9 @@ SETTINGS: tuple[Setting, ...] = (
        minimum=0.0, strict=True, maximum=0.1),
     _s("interface_jacobian", "boolean", {COSIM: True}, "-",
        "impulse coupling: hand the TMD the base's compliance 1/M (no delay of the base's reaction)"),
+    _s("fmi_version", "integer", {COSIM: 2}, "-",
+       "FMI version of the two FMUs the master runs (2: FMI 2.0, 3: FMI 3.0 built from the same declaration; "
+       "same numbers)", minimum=2, maximum=3),
 )
 
 BY_NAME = {s.name: s for s in SETTINGS}
