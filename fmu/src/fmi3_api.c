@@ -11,8 +11,9 @@
  *  - input derivatives (FMI 2.0: fmi2SetRealInputDerivatives) are input variables of their own,
  *    declared in modelDescription.xml (fmi/model_description3.py): the derivative of order k
  *    (1, 2) of the Real input with value reference v has the value reference N + 1 + 2 v + k - 1,
- *    where N = (largest value reference of the FMI 2.0 table) + 1; they hold their values until
- *    set again (FMI 3.0 semantics: setting the input itself does not clear them);
+ *    where N = (largest value reference of the FMI 2.0 table) + 1; they apply to the
+ *    next doStep only (the core resets them after each step, as in FMI 2.0); setting the input
+ *    itself does not clear them (FMI 3.0 semantics);
  *  - the independent variable `time` (required in FMI 3.0) has the value reference N;
  *  - Float64 = fmi2Real, Int32 = fmi2Integer, Boolean = bool; no other types are declared, so
  *    every other getter and setter answers fmi3Error for any value reference;

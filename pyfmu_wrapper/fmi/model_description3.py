@@ -11,7 +11,8 @@ What FMI 3.0 declares differently, and the rule this writer shares with the stub
   Real input ``u`` with value reference v is an input variable of its own, ``der(u)`` /
   ``der(u,2)``, with value reference ``N + 1 + 2 v + k - 1`` (what ``fmi2SetRealInputDerivatives``
   set in FMI 2.0: the FMU integrates with the input's Taylor polynomial over the step). They start
-  at 0 and hold their values until set again.
+  at 0 and apply to the next doStep only: the FMU resets them to 0 after each step (as it does with
+  FMI 2.0's input derivatives); setting the input itself leaves them as they are.
 * ``<ModelStructure>`` refers to value references (FMI 2.0: indices).
 """
 from __future__ import annotations
@@ -68,7 +69,7 @@ def input_derivatives(spec: FmuSpec) -> list[tuple[Variable, int, str | None]]:
                 v = Variable(name, derivative_vr(spec, u.vr, k), REAL, "input", "continuous",
                              f"{what} time derivative of the input {u.name} at the start of the step: the FMU "
                              f"integrates with the input's Taylor polynomial over the step (FMI 2.0: "
-                             f"fmi2SetRealInputDerivatives order {k}); holds its value until set again", None, 0.0)
+                             f"fmi2SetRealInputDerivatives order {k}); applies to the next doStep only (reset to 0 after it)", None, 0.0)
                 out.append((v, k, _derived_unit(u.unit, k)))
     return out
 
