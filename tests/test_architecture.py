@@ -23,11 +23,6 @@ PACKAGE = "pyfmu_wrapper"
 # EMPTIES THIS LIST as the branches merge: an entry whose cycle is gone fails the test as stale, so the
 # list cannot outlive the cycles it excuses. A new cycle is never excused here: break it.
 KNOWN_CYCLES: list[frozenset[str]] = [
-    # h18-fmi: fmi/build.py <-> fmi/standalone.py and fmi/native.py <-> fmi/slaves.py
-    frozenset({"fmi.build", "fmi.standalone"}),
-    frozenset({"fmi.native", "fmi.slaves"}),
-    # h18-fmi: solvers/_legacy.py (the system-id entry of the integrator) is deleted; rodas.py imports it lazily
-    frozenset({"solvers._legacy", "solvers.rodas"}),
     # h18-diag: diagnose/benchmark.py imports the CLI module (and sysscore.py does too); data <-> acquisition;
     # sysbench <-> sysbench_suite
     frozenset({"diagnose.benchmark", "diagnose.cli", "diagnose.sysscore"}),
@@ -37,10 +32,7 @@ KNOWN_CYCLES: list[frozenset[str]] = [
 
 # Imports that break a rule of docs/architecture.md today and are being removed in parallel, as
 # (importing module, imported module). Emptied by the lead like KNOWN_CYCLES; a stale entry fails.
-KNOWN_VIOLATIONS: list[tuple[str, str]] = [
-    # h18-fmi deletes solvers/_legacy.py (the integrator's old system-id entry, which imports the physics)
-    ("solvers.rodas", "solvers._legacy"),
-]
+KNOWN_VIOLATIONS: list[tuple[str, str]] = []
 
 
 # --- the import graph ----------------------------------------------------------------------------------

@@ -50,7 +50,7 @@ def _build_cli(*args, cwd):
     import subprocess
     import sys
 
-    return subprocess.run([sys.executable, "-m", "pyfmu_wrapper.fmi.build", *args], capture_output=True, text=True,
+    return subprocess.run([sys.executable, "-m", "pyfmu_wrapper.cli.build_fmus", *args], capture_output=True, text=True,
                           cwd=cwd, timeout=600)
 
 

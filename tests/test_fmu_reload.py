@@ -148,7 +148,7 @@ def test_two_builds_in_one_process_never_mix(tmp_path):
     shutil.copytree(REPO_ROOT / "fmu" / "src", src / "fmu" / "src")
     slaves = src / PACKAGE_DIR.name / "fmi" / "slaves.py"
     slaves.write_text(slaves.read_text() + "\n# build B: the same code, another bundle hash\n")
-    r = subprocess.run([sys.executable, "-m", "pyfmu_wrapper.fmi.build", "--out", str(tmp_path / "b"),
+    r = subprocess.run([sys.executable, "-m", "pyfmu_wrapper.cli.build_fmus", "--out", str(tmp_path / "b"),
                         "BaseOscillator"], cwd=src, capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr
     fmu_b = tmp_path / "b" / "BaseOscillator.fmu"

@@ -23,12 +23,12 @@ import numpy as np
 import pytest
 import yaml
 
+from pyfmu_wrapper.cli.build_fmus import main as build_main
 from pyfmu_wrapper.cli.optimise import main as optimise_main
 from pyfmu_wrapper.cli.reproduce import main as reproduce_main
 from pyfmu_wrapper.cli.run_scenario import main as run_scenario_main
 from pyfmu_wrapper.diagnose.cli import main_diagnose, main_make_benchmark, main_score
 from pyfmu_wrapper.diagnose.data import write_record
-from pyfmu_wrapper.fmi.build import main as build_main
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = (ROOT / "scenarios" / "viscous_case2.yaml").read_text(encoding="utf-8")

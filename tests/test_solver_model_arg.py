@@ -1,7 +1,7 @@
 """The integrator takes the model as an argument (issue 18).
 
 * ``solvers/`` names no physics system by id: the imports and identifiers of every solver module
-  are scanned (the one exemption, solvers/_legacy.py, is the temporary id adapter for fmi/);
+  are scanned, without exemption (the FMUs build their integrators with make_integrator too);
 * a model that the solver has never seen (a linear oscillator, written here) integrated by
   :func:`~pyfmu_wrapper.solvers.rodas.make_integrator` matches its exact solution, lands its steps
   on the switching function's zeros at the exact times and reports the exact maximum: a new model
@@ -21,8 +21,6 @@ import pyfmu_wrapper
 from pyfmu_wrapper.solvers import rodas
 
 SOLVERS = Path(pyfmu_wrapper.__file__).resolve().parent / "solvers"
-#: the temporary adapter that maps kernels system ids to models for fmi/ (delete with it)
-EXEMPT = {"_legacy.py"}
 #: names that identify a system by id, or switch on one
 ID_NAMES = ("SYS_", "system_rhs", "system_switching", "system_jacobian", "system_dfdt", "SYSTEM_SIZE")
 
@@ -34,8 +32,6 @@ def _by_id(name: str) -> bool:
 def test_solvers_import_no_physics_system_by_id():
     offences = []
     for path in sorted(SOLVERS.glob("*.py")):
-        if path.name in EXEMPT:
-            continue
         tree = ast.parse(path.read_text(), filename=str(path))
         for node in ast.walk(tree):
             if isinstance(node, ast.ImportFrom):

@@ -16,12 +16,8 @@
 #include <string.h>
 
 #include "pyfmu.h"
-
-/* Longest communication step accepted [s]: the cost of one doStep grows with its length (tens of
- * integrator steps per excitation period), so a longer step is refused, not run for minutes. */
-#define PYFMU_MAX_STEP 100.0
-/* A communication point may differ from the FMU's time by this fraction of the step. */
-#define PYFMU_TIME_SLACK 1e-6
+/* PYFMU_MAX_STEP, PYFMU_TIME_SLACK (and pyfmu.h's PYFMU_NATIVE_*) come from pyfmu_contract.h, which
+ * the build generates from pyfmu_wrapper/fmi/contract.py: the one declaration of the doStep contract. */
 
 static void range_text(const Comp *c, fmi2ValueReference vr, char *out, size_t n);
 static int in_range(const Comp *c, fmi2ValueReference vr, double v);

@@ -96,12 +96,10 @@ enum { V_CONSTANT = 1, V_FIXED, V_TUNABLE, V_DISCRETE, V_CONTINUOUS };
 
 typedef int32_t (*NativeStep)(double *reals, int32_t *ints, double *derivs, void *z, void *p, void *stats, void *th,
                               void *u, void *atol, void *backup, double t, double h);
-/* What a successful native step returns. Never 0: a numba cfunc that raised prints the exception
- * to stderr and returns 0, which the stub reads as "the compiled step raised" (fmi_api.c). Keep in
- * sync with NATIVE_OK in pyfmu_wrapper/fmi/native.py. */
-#define PYFMU_NATIVE_OK 0x4F4B
-/* Longest step taken by the native function; longer ones go through Python (in pieces). */
-#define PYFMU_NATIVE_MAX_STEP 1.0
+/* PYFMU_NATIVE_OK (what a successful native step returns; never 0: a numba cfunc that raised
+ * returns 0, which the stub reads as "the compiled step raised") and PYFMU_NATIVE_MAX_STEP (longest
+ * step taken by the native function; longer ones go through Python, in pieces): see below. */
+#include "pyfmu_contract.h"
 
 typedef struct {
     uint32_t magic;     /* COMP_MAGIC while alive */

@@ -33,7 +33,6 @@ all.
 """
 from __future__ import annotations
 
-import argparse
 import ast
 import hashlib
 import os
@@ -44,7 +43,8 @@ import tempfile
 import zipfile
 from pathlib import Path
 
-from ..cli.errors import cli_main
+from .buildinfo import BuildError, version_of
+from .contract import c_header
 from .documentation import documentation_html
 from .model_description import guid_of, model_description_xml, variable_table_tsv
 from .model_description3 import model_description3_xml
@@ -70,10 +70,6 @@ REQUIRES = ("numpy>=1.26", "numba>=0.59")
 MIN_PYTHON = "3.11"
 #: The module the slaves live in (the root of the bundled import closure).
 SLAVE_MODULE = "fmi/slaves.py"
-
-
-class BuildError(RuntimeError):
-    """The FMU could not be built (no compiler, no headers, no shared libpython...)."""
 
 
 class OutputError(BuildError):
@@ -193,7 +189,7 @@ def source_hash() -> str:
         h.update(f.name.encode())
         h.update(f.read_bytes())
     h.update(bundle_hash().encode())
-    for writer in ("build.py", "model_description.py", "model_description3.py", "documentation.py"):  # what writes the archive
+    for writer in ("build.py", "contract.py", "model_description.py", "model_description3.py", "documentation.py"):  # what writes the archive
         h.update((PACKAGE_DIR / "fmi" / writer).read_bytes())
     h.update(build_python().encode())
     h.update(sys.version.encode())
@@ -208,10 +204,12 @@ def compile_stub(out_so: Path, cc: str | None = None, extra_flags: tuple = (), f
     if shutil.which(cc) is None:
         raise BuildError(f"C compiler {cc!r} not found")
     out_so.parent.mkdir(parents=True, exist_ok=True)
-    version_script = out_so.parent / f".{out_so.name}.fmi{fmi_version}.map"
+    gen = Path(tempfile.mkdtemp(prefix=f".{out_so.name}.gen-", dir=out_so.parent))  # generated sources
+    version_script = gen / f"fmi{fmi_version}.map"
     version_script.write_text(f"{{ global: fmi{fmi_version}*; local: *; }};\n")
+    (gen / "pyfmu_contract.h").write_text(c_header())  # the doStep contract, from fmi/contract.py
     cmd = [cc, "-shared", "-fPIC", "-O2", "-std=gnu11", "-Wall", "-Wextra", "-Wno-unused-parameter",
-           "-Wno-format-truncation", "-fvisibility=hidden", f"-I{fmi_headers_dir()}", *extra_flags,
+           "-Wno-format-truncation", "-fvisibility=hidden", f"-I{gen}", f"-I{fmi_headers_dir()}", *extra_flags,
            *[str(f) for f in stub_sources() if f.suffix == ".c"], "-o", str(out_so),
            # keep libdl NEEDED: on glibc < 2.34 the pre-2.34 dl* symbols the stub binds to live there
            "-Wl,--no-as-needed", "-l:libdl.so.2", "-Wl,--as-needed", "-lpthread", "-lm",
@@ -219,25 +217,16 @@ def compile_stub(out_so: Path, cc: str | None = None, extra_flags: tuple = (), f
     try:
         r = subprocess.run(cmd, capture_output=True, text=True)
     finally:
-        version_script.unlink(missing_ok=True)
+        shutil.rmtree(gen, ignore_errors=True)
     if r.returncode != 0:
         raise BuildError(f"compiling the stub failed:\n{' '.join(cmd)}\n{r.stderr}")
-
-
-def _version_of(name: str) -> str:
-    from importlib import metadata
-
-    try:
-        return metadata.version(name)
-    except metadata.PackageNotFoundError:
-        return "none"
 
 
 def _config(spec: FmuSpec, guid: str, shash: str, bhash: str, runtime: dict | None = None) -> str:
     lines = [f"guid={guid}", f"model_identifier={spec.model_identifier}", "model=model.py",
              f"python={build_python()}", f"python_version={sys.version.split()[0]}", f"min_python={MIN_PYTHON}",
              f"requires={' '.join(REQUIRES)}",
-             f"built_with=numpy=={_version_of('numpy')} numba=={_version_of('numba')}",
+             f"built_with=numpy=={version_of('numpy')} numba=={version_of('numba')}",
              f"bundle={bundle_package(bhash)}", f"bundle_hash={bhash}", f"source_hash={shash}"]
     lines += [f"{k}={v}" for k, v in (runtime or {}).items()]
     return "\n".join(lines) + "\n"
@@ -488,47 +477,3 @@ def ensure_fmus(out_dir: str | os.PathLike = DEFAULT_OUT, names=PROJECT_FMUS, fm
     if stale:
         build_fmus(stale, out_dir, fmi_version=fmi_version)
     return paths
-
-
-@cli_main("build-fmus")
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="build-fmus", description=__doc__.split("\n\n")[0])
-    ap.add_argument("names", nargs="*", default=list(PROJECT_FMUS), help=f"FMUs to build, of {sorted(SPECS)}")
-    ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory (default fmu/build)")
-    ap.add_argument("--force", action="store_true", help="rebuild even when up to date")
-    ap.add_argument("--standalone", action="store_true",
-                    help="also bundle a relocatable Python runtime with numpy, numba and llvmlite, so the FMU runs "
-                         "where no Python is installed (always rebuilt; default --out fmu/build/standalone)")
-    ap.add_argument("--fmi-version", default="2", choices=["2", "3", "2,3", "both"],
-                    help="FMI version of the FMUs: 2 (default, into --out), 3 (FMI 3.0 co-simulation, into "
-                         "<out>/fmi3/), or both")
-    args = ap.parse_args(argv)
-    versions = [2, 3] if args.fmi_version in ("2,3", "both") else [int(args.fmi_version)]
-    unknown = [n for n in args.names if n not in SPECS]
-    if unknown:
-        ap.error(f"unknown FMU(s) {unknown}; choose from {sorted(SPECS)}")
-    if Path(args.out).exists() and not Path(args.out).is_dir():  # before compiling anything
-        ap.error(f"--out {args.out}: is a file, not a folder (build-fmus writes the FMUs into a folder)")
-    try:
-        paths = []
-        for v in versions:
-            if args.standalone:
-                out = DEFAULT_OUT / "standalone" if args.out == str(DEFAULT_OUT) else args.out
-                paths += build_fmus(args.names, fmi_out_dir(out, v), standalone=True, fmi_version=v)
-            elif args.force:
-                paths += build_fmus(args.names, fmi_out_dir(args.out, v), fmi_version=v)
-            else:
-                paths += list(ensure_fmus(args.out, args.names, fmi_version=v).values())
-    except OutputError as e:
-        print(f"build-fmus: {e}", file=sys.stderr)
-        return 2
-    except BuildError as e:
-        print(f"build-fmus: {e}", file=sys.stderr)
-        return 1
-    for p in paths:
-        print(p)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

@@ -1,9 +1,9 @@
 """Native-speed doStep: the step of a slave as a C-callable function (numba ``cfunc``).
 
-The C stub calls it directly for an ordinary step (h <= :data:`~.slaves.CHUNK`), so a step enters
+The C stub calls it directly for an ordinary step (h <= :data:`~.contract.NATIVE_MAX_STEP`), so a step enters
 neither the interpreter nor the Python slave: it reads the inputs and their derivatives from the
 stub's value buffers, integrates the subsystem over [t, t + h] with the same compiled RODAS4
-integrator (:func:`~pyfmu_wrapper.solvers.rodas.integrate`, the same specialisation the Python
+integrator (:mod:`.integrators`, built by :func:`~pyfmu_wrapper.solvers.rodas.make_integrator`: the one the Python
 path calls, so the numbers are bit-identical), writes the outputs at t + h and clears the input
 derivatives. Python is entered only to instantiate, to set up, for long steps, and on errors.
 
@@ -15,7 +15,7 @@ C signature (all pointers to the slave's own arrays, which keep their address fo
 
 Returns :data:`NATIVE_OK` on success, 1 to ask the stub for the Python path: ``debug_raise`` is
 set (the Python slave raises with a traceback), or the integration failed (step size underflow, or
-more than :data:`~.slaves.MAX_INTEGRATOR_STEPS` steps): the state is put back to the start of the
+more than :data:`~.contract.MAX_INTEGRATOR_STEPS` steps): the state is put back to the start of the
 step and the Python slave retakes it, which fails the same way and reports where the integrator
 stopped, why, the state and its mode (:func:`~pyfmu_wrapper.solvers.rodas.failure_message`).
 
@@ -38,17 +38,14 @@ from numba import carray, cfunc, types
 from .._jit import njit
 from ..physics import kernels as kn
 from ..physics.params import N_PARAMS, P_I, P_MODEL, P_ki, P_s
-from ..solvers.rodas import integrate
-from .slaves import MAX_INTEGRATOR_STEPS
+from .contract import MAX_INTEGRATOR_STEPS, NATIVE_OK
+from .integrators import integrate_base, integrate_tmd
 from .variables import BASE_OSCILLATOR, TMD_INERTER
 
 SIGNATURE = types.int32(types.CPointer(types.float64), types.CPointer(types.int32), types.CPointer(types.float64),
                         types.CPointer(types.float64), types.CPointer(types.float64), types.CPointer(types.int64),
                         types.CPointer(types.float64), types.CPointer(types.float64), types.CPointer(types.float64),
                         types.CPointer(types.float64), types.float64, types.float64)
-#: What a successful step returns (never 0: a cfunc that raised returns 0); keep in sync with
-#: PYFMU_NATIVE_OK in fmu/src/pyfmu.h.
-NATIVE_OK = 0x4F4B
 #: debug_raise value that makes the compiled step itself raise
 DEBUG_RAISE_NATIVE = 2
 
@@ -114,7 +111,7 @@ def base_step():
         fill_atol(SYS_BASE, reals[B_ATOL], p, atol)
         band = 1.0 / p[P_s] if p[P_s] > 0 else 1e-6
         z0, z1 = z[0], z[1]
-        hn, _, status, _ = integrate(SYS_BASE, z, t, t + h, p, u, reals[B_RTOL], atol, th[1], h,
+        hn, _, status, _ = integrate_base(z, t, t + h, p, u, reals[B_RTOL], atol, th[1], h,
                                      np.zeros(0), np.zeros((0, 2)), band, stats, MAX_STEPS)
         if status != 0:  # back to the start of the step: the Python path retakes it and names the failure
             z[0], z[1] = z0, z1
@@ -173,7 +170,7 @@ def tmd_step():
         fill_atol(SYS_TMD, reals[T_ATOL], p, atol)
         band = 1.0 / p[P_s] if p[P_s] > 0 else 1e-6
         z0, z1, z2, z3 = z[0], z[1], z[2], z[3]
-        hn, _, status, _ = integrate(SYS_TMD, z, t, t + h, p, u, reals[T_RTOL], atol, th[1], h,
+        hn, _, status, _ = integrate_tmd(z, t, t + h, p, u, reals[T_RTOL], atol, th[1], h,
                                      np.zeros(0), np.zeros((0, 4)), band, stats, MAX_STEPS)
         if status != 0:  # back to the start of the step: the Python path retakes it and names the failure
             z[0], z[1], z[2], z[3] = z0, z1, z2, z3

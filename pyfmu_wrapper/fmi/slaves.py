@@ -20,7 +20,7 @@ never raises: an exception is caught by :func:`_guarded`, its full traceback is 
 ``last_error`` and the stub forwards it to the FMI logger.
 
 The physics is not restated here: parameters go through :func:`~pyfmu_wrapper.physics.params.pack`,
-a step is one call of :func:`~pyfmu_wrapper.solvers.rodas.integrate` on the subsystem kernels
+a step is one call of the subsystem's integrator (:mod:`.integrators`) on the subsystem kernels
 (``SYS_BASE``, ``SYS_TMD``), outputs come from the kernels.
 """
 from __future__ import annotations
@@ -34,20 +34,18 @@ import numpy as np
 from ..physics import kernels as kn
 from ..physics import registry
 from ..physics.params import N_PARAMS, BaseParams, P_s, ParameterError, TMDParams, pack
-from ..solvers.rodas import STAT_STEPS, failure_message, integrate
+from ..solvers.rodas import STAT_STEPS, failure_message
+from .contract import MAX_INTEGRATOR_STEPS, NATIVE_MAX_STEP
+from .integrators import BASE_MODEL, TMD_MODEL, integrate_base, integrate_tmd
 from .variables import BASE_OSCILLATOR, BOOLEAN, INTEGER, TMD_INERTER, TRIVIAL, FmuSpec
 
 OK, WARNING, ERROR, FATAL = 0, 1, 3, 4
 _CSTEP = 1e-30
-#: A communication point may differ from the slave's time by this fraction of the step (hosts that
-#: compute t = k h differ from a running sum of steps by rounding); the host's time is then taken.
-TIME_SLACK = 1e-6
-#: Longest communication step [s] (the stub refuses longer ones before entering Python).
-MAX_STEP = 100.0
-#: A doStep is integrated in pieces of at most this length [s] ...
-CHUNK = 1.0
-#: ... and fails when it needs more integrator steps than this (bounded cost of any doStep).
-MAX_INTEGRATOR_STEPS = 200_000
+#: A doStep is integrated in pieces of at most this length [s] (the native step's longest step) and
+#: fails when it needs more integrator steps than MAX_INTEGRATOR_STEPS; the step itself (finite,
+#: 0 < h <= MAX_STEP, on the FMU's time within TIME_SLACK h) is checked by the C stub before Python
+#: is entered: fmi/contract.py.
+CHUNK = NATIVE_MAX_STEP
 
 
 class FmuStepError(RuntimeError):
@@ -205,11 +203,7 @@ class Slave:
 
     @_guarded
     def do_step(self, t, h, no_set_prior):
-        if not (np.isfinite(t) and np.isfinite(h) and 0.0 < h <= MAX_STEP and t + h > t):
-            raise FmuStepError(f"doStep: invalid currentCommunicationPoint {t!r} or step size {h!r} "
-                               f"(finite, 0 < h <= {MAX_STEP} s, above the resolution of t)")
-        if abs(t - self.t) > max(TIME_SLACK * h, 8.0 * np.spacing(abs(self.t))):
-            raise FmuStepError(f"Expected currentCommunicationPoint = {self.t:.17g} but was {t:.17g}")
+        # (t, h) were checked by the C stub, the one guard of the doStep contract (fmi/contract.py)
         if self._debug_vr is not None and self.i[self._debug_vr]:
             raise InjectedError(f"debug_raise = {self.i[self._debug_vr]} is set: exception injected at t = {t:.16g}"
                                 + (" (in the compiled step, then again here)" if self.i[self._debug_vr] == 2 else ""))
@@ -324,6 +318,7 @@ class Slave:
                 self.r[v.vr] = float(np.real(val))
 
     def _integrate(self, system, t, h, u):
+        integrate, model = (integrate_base, BASE_MODEL) if system == kn.SYS_BASE else (integrate_tmd, TMD_MODEL)
         tol_vr = getattr(self, "_tol_vr", None)
         if tol_vr is None:  # value references of rtol/atol, resolved once
             tol_vr = self._tol_vr = (self.spec.by_name("rtol").vr, self.spec.by_name("atol").vr)
@@ -337,12 +332,12 @@ class Slave:
         hn = self.h
         for k in range(n):
             a, b = (t, t + h) if n == 1 else (t + h * k / n, (t + h if k == n - 1 else t + h * (k + 1) / n))
-            hn, _, status, tf = integrate(system, self.z, a, b, self.p, u, rtol, self._atol, hn,
+            hn, _, status, tf = integrate(self.z, a, b, self.p, u, rtol, self._atol, hn,
                                           h if n == 1 else b - a,
                                           self._empty_t, self._empty_s, band, self.stats, MAX_INTEGRATOR_STEPS)
             if status != 0:
                 raise FmuStepError(f"doStep from t = {t:.16g} s: " + failure_message(
-                    status, system, tf, self.z, self.p, self._atol, band, MAX_INTEGRATOR_STEPS))
+                    status, model, tf, self.z, self.p, self._atol, band, MAX_INTEGRATOR_STEPS))
             if self.stats[STAT_STEPS] - start > MAX_INTEGRATOR_STEPS:
                 raise FmuStepError(f"doStep of {h:g} s from t = {t:.16g} needs more than {MAX_INTEGRATOR_STEPS} "
                                    "integrator steps; use shorter communication steps")

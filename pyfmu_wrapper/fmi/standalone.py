@@ -25,7 +25,7 @@ import sys
 import sysconfig
 from pathlib import Path
 
-from .build import BuildError, _version_of
+from .buildinfo import BuildError, version_of
 
 #: Distributions bundled into a standalone FMU (with what they import at run time: numba needs
 #: numpy and llvmlite; llvmlite's libllvmlite.so and numpy's numpy.libs are in their file lists).
@@ -45,7 +45,7 @@ def runtime_config() -> dict:
     """What ``pyfmu.cfg`` records about the bundled runtime (paths relative to ``resources/``)."""
     return {"runtime": RUNTIME_DIR, "runtime_libpython": f"{RUNTIME_DIR}/lib/lib{_pyver()}.so",
             "runtime_version": sys.version.split()[0],
-            "runtime_packages": " ".join(f"{n}=={_version_of(n)}" for n in RUNTIME_PACKAGES)}
+            "runtime_packages": " ".join(f"{n}=={version_of(n)}" for n in RUNTIME_PACKAGES)}
 
 
 def _pyc(src: Path, arc: str, pyc_dir: Path, out: list) -> None:

@@ -423,9 +423,7 @@ def contact_mode(model, z, p, atol, friction_band) -> str:
 
 def failure_message(status, model, t, z, p, atol, friction_band, max_steps=DEFAULT_MAX_STEPS) -> str:
     """A sentence naming why an integrator of :func:`make_integrator` stopped, at which time, in
-    which state and mode (``model``: the model, or for the FMU code a kernels system id)."""
-    if isinstance(model, (int, np.integer)):
-        model = _legacy_model(int(model))
+    which state and mode."""
     why = {STEP_UNDERFLOW: "the step size fell below the resolution of t (error test failed at the minimum step)",
            STEP_CAP: f"the cap of {max_steps} steps per call was reached"}.get(int(status), f"status {status}")
     names = tuple(model.state_names)
@@ -435,17 +433,3 @@ def failure_message(status, model, t, z, p, atol, friction_band, max_steps=DEFAU
     mode = contact_mode(model, z, p, atol, friction_band)
     return f"integrator stopped at t = {float(t):.12g} s: {why}; state {state}; mode: {mode}"
 
-
-def _legacy_model(system: int):
-    """Compatibility for code that still passes kernels system ids (fmi/): the model of an id."""
-    from . import _legacy
-    return _legacy.model_of(system)
-
-
-def __getattr__(name):
-    # Compatibility: ``integrate(system, ...)`` switching on kernels system ids, for the FMU code
-    # (fmi/native.py, fmi/slaves.py) until it calls make_integrator itself (solvers/_legacy.py).
-    if name == "integrate":
-        from . import _legacy
-        return _legacy.integrate
-    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")

@@ -1,0 +1,66 @@
+"""``build-fmus``: build the FMUs (FMI 2.0, FMI 3.0 or both) into a folder.
+
+The console entry point; the building is :mod:`pyfmu_wrapper.fmi.build`.
+"""
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from ..fmi.build import (
+    DEFAULT_OUT,
+    BuildError,
+    OutputError,
+    build_fmus,
+    ensure_fmus,
+    fmi_out_dir,
+)
+from ..fmi.build import __doc__ as BUILD_DOC
+from ..fmi.variables import PROJECT_FMUS, SPECS
+from .errors import cli_main
+
+
+@cli_main("build-fmus")
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(prog="build-fmus", description=(BUILD_DOC or "").split("\n\n")[0])
+    ap.add_argument("names", nargs="*", default=list(PROJECT_FMUS), help=f"FMUs to build, of {sorted(SPECS)}")
+    ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory (default fmu/build)")
+    ap.add_argument("--force", action="store_true", help="rebuild even when up to date")
+    ap.add_argument("--standalone", action="store_true",
+                    help="also bundle a relocatable Python runtime with numpy, numba and llvmlite, so the FMU runs "
+                         "where no Python is installed (always rebuilt; default --out fmu/build/standalone)")
+    ap.add_argument("--fmi-version", default="2", choices=["2", "3", "2,3", "both"],
+                    help="FMI version of the FMUs: 2 (default, into --out), 3 (FMI 3.0 co-simulation, into "
+                         "<out>/fmi3/), or both")
+    args = ap.parse_args(argv)
+    versions = [2, 3] if args.fmi_version in ("2,3", "both") else [int(args.fmi_version)]
+    unknown = [n for n in args.names if n not in SPECS]
+    if unknown:
+        ap.error(f"unknown FMU(s) {unknown}; choose from {sorted(SPECS)}")
+    if Path(args.out).exists() and not Path(args.out).is_dir():  # before compiling anything
+        ap.error(f"--out {args.out}: is a file, not a folder (build-fmus writes the FMUs into a folder)")
+    try:
+        paths = []
+        for v in versions:
+            if args.standalone:
+                out = DEFAULT_OUT / "standalone" if args.out == str(DEFAULT_OUT) else args.out
+                paths += build_fmus(args.names, fmi_out_dir(out, v), standalone=True, fmi_version=v)
+            elif args.force:
+                paths += build_fmus(args.names, fmi_out_dir(args.out, v), fmi_version=v)
+            else:
+                paths += list(ensure_fmus(args.out, args.names, fmi_version=v).values())
+    except OutputError as e:
+        print(f"build-fmus: {e}", file=sys.stderr)
+        return 2
+    except BuildError as e:
+        print(f"build-fmus: {e}", file=sys.stderr)
+        return 1
+    for p in paths:
+        print(p)
+    return 0
+
+
+
+if __name__ == "__main__":
+    sys.exit(main())

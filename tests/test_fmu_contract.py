@@ -1,0 +1,82 @@
+"""The doStep contract is declared once (pyfmu_wrapper/fmi/contract.py) and the compiled stub keeps it.
+
+The C sources define none of its constants (they include the header the build generates from the
+table), and the built FMU accepts and refuses steps exactly at the table's limits: the longest
+step MAX_STEP and the time slack TIME_SLACK h (issue 18: "a test ties C and Python").
+"""
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import fmpy
+import pytest
+from _fmu_support import built_fmus
+from fmpy.fmi2 import FMU2Slave
+
+from pyfmu_wrapper.fmi import contract
+
+SRC = Path(__file__).resolve().parents[1] / "fmu" / "src"
+
+
+def test_c_sources_define_none_of_the_contract():
+    for f in sorted(SRC.glob("*.[ch]")):
+        for name in contract.C_CONSTANTS:
+            assert not re.search(rf"#define\s+{name}\b", f.read_text()), f"{f.name} defines {name}"
+    header = contract.c_header()
+    for name, value in contract.C_CONSTANTS.items():
+        assert f"#define {name} {value}" in header
+    # the literals are the Python values, exactly
+    assert float(contract.C_CONSTANTS["PYFMU_MAX_STEP"]) == contract.MAX_STEP
+    assert float(contract.C_CONSTANTS["PYFMU_TIME_SLACK"]) == contract.TIME_SLACK
+    assert int(contract.C_CONSTANTS["PYFMU_NATIVE_OK"], 16) == contract.NATIVE_OK
+
+
+@pytest.fixture()
+def trivial(tmp_path):
+    fmu = built_fmus()["Trivial"]
+    md = fmpy.read_model_description(str(fmu))
+    d = tmp_path / "trivial"
+    fmpy.extract(str(fmu), str(d))
+    log = []
+
+    s = FMU2Slave(guid=md.guid, unzipDirectory=str(d), modelIdentifier="Trivial", instanceName="contract")
+    from fmpy.fmi2 import fmi2CallbackFunctions, fmi2CallbackLoggerTYPE
+
+    cb = fmi2CallbackFunctions()
+    cb.logger = fmi2CallbackLoggerTYPE(lambda env, inst, status, cat, msg: log.append(msg.decode()))
+    s.instantiate(callbacks=cb)
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    s.exitInitializationMode()
+    yield s, log, cb
+    s.terminate()
+    s.freeInstance()
+
+
+def _step(s, t, h) -> int:
+    """fmi2DoStep's status, from the raw function (fmpy's wrapper raises on an error status)."""
+    import ctypes
+
+    f = s.dll.fmi2DoStep
+    f.argtypes, f.restype = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int], ctypes.c_int
+    return f(s.component, t, h, 1)
+
+
+def test_longest_step_is_the_tables(trivial):
+    s, log, _ = trivial
+    too_long = math.nextafter(contract.MAX_STEP, math.inf)
+    assert _step(s, 0.0, too_long) == 3
+    assert f"{contract.MAX_STEP:g} s this FMU accepts" in log[-1]
+    assert _step(s, 0.0, contract.MAX_STEP) == 0  # exactly the limit: accepted
+
+
+def test_time_slack_is_the_tables(trivial):
+    s, log, _ = trivial
+    h = 1.0
+    assert _step(s, 0.0, h) == 0  # the FMU's time is now 1.0
+    off = contract.TIME_SLACK * h
+    assert _step(s, 1.0 + 1.5 * off, h) == 3  # beyond the slack: refused
+    assert "expected currentCommunicationPoint" in log[-1]
+    assert _step(s, 1.0 + 0.5 * off, h) == 0  # within it: accepted (the host's time is taken)
