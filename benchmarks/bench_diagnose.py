@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 
 from pyfmu_wrapper.diagnose.benchmark import make_benchmark, score
-from pyfmu_wrapper.diagnose.cli import run_diagnosis
+from pyfmu_wrapper.diagnose.run import run_diagnosis
 from pyfmu_wrapper.diagnose.sysbench import make_system_benchmark
 
 ROOT = Path(__file__).resolve().parents[1]

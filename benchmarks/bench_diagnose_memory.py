@@ -101,7 +101,7 @@ def write_system(folder: Path, rows: int, seed: int = 5, chunk: int = 500_000) -
 
 
 CHILD = ("import resource, sys, time\n"
-         "from pyfmu_wrapper.diagnose.cli import main_diagnose\n"
+         "from pyfmu_wrapper.cli.diagnose import main_diagnose\n"
          "t0 = time.perf_counter()\n"
          "rc = main_diagnose(sys.argv[1:])\n"
          "print(f'@@ wall {time.perf_counter() - t0:.2f} maxrss_kb '"

@@ -22,13 +22,7 @@ PACKAGE = "pyfmu_wrapper"
 # is the set of modules of one cycle (a strongly connected component of the import graph). THE LEAD
 # EMPTIES THIS LIST as the branches merge: an entry whose cycle is gone fails the test as stale, so the
 # list cannot outlive the cycles it excuses. A new cycle is never excused here: break it.
-KNOWN_CYCLES: list[frozenset[str]] = [
-    # h18-diag: diagnose/benchmark.py imports the CLI module (and sysscore.py does too); data <-> acquisition;
-    # sysbench <-> sysbench_suite
-    frozenset({"diagnose.benchmark", "diagnose.cli", "diagnose.sysscore"}),
-    frozenset({"diagnose.acquisition", "diagnose.data"}),
-    frozenset({"diagnose.sysbench", "diagnose.sysbench_suite"}),
-]
+KNOWN_CYCLES: list[frozenset[str]] = []
 
 # Imports that break a rule of docs/architecture.md today and are being removed in parallel, as
 # (importing module, imported module). Emptied by the lead like KNOWN_CYCLES; a stale entry fails.

@@ -6,8 +6,9 @@ from pathlib import Path
 
 import pytest
 
+from pyfmu_wrapper.cli.diagnose import main_diagnose
 from pyfmu_wrapper.diagnose.benchmark import make_benchmark, make_dataset, score
-from pyfmu_wrapper.diagnose.cli import main_diagnose, run_diagnosis
+from pyfmu_wrapper.diagnose.run import run_diagnosis
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -14,11 +14,11 @@ import pytest
 import yaml
 from scipy import signal
 
+from pyfmu_wrapper.cli.diagnose import main_diagnose as main
 from pyfmu_wrapper.diagnose import acquisition as acq
-from pyfmu_wrapper.diagnose.cli import main_diagnose as main
-from pyfmu_wrapper.diagnose.cli import run_diagnosis
 from pyfmu_wrapper.diagnose.data import DataError, load_dataset, write_record
 from pyfmu_wrapper.diagnose.harmonic import fit_series
+from pyfmu_wrapper.diagnose.run import run_diagnosis
 
 FS = 256.0
 DENSE = 32  # dense samples per ADC sample

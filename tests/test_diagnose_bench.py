@@ -205,7 +205,7 @@ def test_score_classifies_oov_results():
 def test_make_benchmark_never_prints_labels(tmp_path, capsys):
     import json
 
-    from pyfmu_wrapper.diagnose.cli import main_make_benchmark
+    from pyfmu_wrapper.cli.diagnose import main_make_benchmark
     from pyfmu_wrapper.diagnose.sysbench_oov import OOV_EFFECTS
     from pyfmu_wrapper.diagnose.sysbench_suite import RANGES, TRUTH_KEY
 
@@ -224,7 +224,7 @@ def test_make_benchmark_never_prints_labels(tmp_path, capsys):
 
 
 def test_make_benchmark_refuses_to_overwrite_foreign_files(tmp_path, capsys):
-    from pyfmu_wrapper.diagnose.cli import main_make_benchmark
+    from pyfmu_wrapper.cli.diagnose import main_make_benchmark
 
     def status(main, args):  # bad input: exit status 2, whether returned or raised by argparse
         try:

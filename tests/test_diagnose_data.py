@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 import yaml
 
-from pyfmu_wrapper.diagnose.cli import main_diagnose
+from pyfmu_wrapper.cli.diagnose import main_diagnose
 from pyfmu_wrapper.diagnose.data import DataError, load_dataset
 
 NOM = {"stiffness": 4000.0, "damping": 40.0, "inertance": 1.0}
@@ -86,7 +86,7 @@ def test_all_train_roles_is_a_data_error_exit_2(tmp_path, capsys):
     import numpy as np
     import yaml
 
-    from pyfmu_wrapper.diagnose.cli import main_diagnose
+    from pyfmu_wrapper.cli.diagnose import main_diagnose
     from pyfmu_wrapper.diagnose.data import write_record
 
     recs = []
@@ -211,7 +211,7 @@ def test_acquisition_key_allowed_unknown_keys_refused(tmp_path):
 
 def test_result_folder_replaced_as_a_whole_user_files_never_touched(tmp_path):
     from pyfmu_wrapper.cli.errors import InputError
-    from pyfmu_wrapper.diagnose.cli import DIAGNOSE_MARKER, ResultFolder, check_out_folder
+    from pyfmu_wrapper.diagnose.run import DIAGNOSE_MARKER, ResultFolder, check_out_folder
 
     out = check_out_folder(tmp_path / "res", "diagnose", DIAGNOSE_MARKER)
     with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
@@ -237,7 +237,7 @@ def test_result_folder_replaced_as_a_whole_user_files_never_touched(tmp_path):
 
 def test_flagged_records_are_printed(tmp_path, capsys, monkeypatch):
     """Records the analysis leaves out (or partly out) appear in the printed verdict, not only in the report."""
-    from pyfmu_wrapper.diagnose import cli
+    from pyfmu_wrapper.cli import diagnose as cli
 
     res = {"verdict": {"text": "No structural effect."}, "held_out": {},
            "time_records": {"flagged": [{"record": "a.csv", "reason": "no 'y' column"}]},
@@ -255,7 +255,7 @@ def test_sigterm_removes_the_partial_folder_and_stale_ones_are_cleaned(tmp_path)
     import os
     import signal
 
-    from pyfmu_wrapper.diagnose.cli import DIAGNOSE_MARKER, ResultFolder
+    from pyfmu_wrapper.diagnose.run import DIAGNOSE_MARKER, ResultFolder
 
     out = tmp_path / "res"
     with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
@@ -278,7 +278,8 @@ def test_make_benchmark_prints_no_hidden_labels(tmp_path, capsys, monkeypatch):
     """A blind benchmark does not print what it hides: the progress lines name the datasets only."""
     import json
 
-    from pyfmu_wrapper.diagnose import cli, sysbench
+    from pyfmu_wrapper.cli import diagnose as cli
+    from pyfmu_wrapper.diagnose import sysbench_suite as sysbench
 
     def fake(out, n, seed, progress=None):
         man = []

@@ -24,10 +24,10 @@ import pytest
 import yaml
 
 from pyfmu_wrapper.cli.build_fmus import main as build_main
+from pyfmu_wrapper.cli.diagnose import main_diagnose, main_make_benchmark, main_score
 from pyfmu_wrapper.cli.optimise import main as optimise_main
 from pyfmu_wrapper.cli.reproduce import main as reproduce_main
 from pyfmu_wrapper.cli.run_scenario import main as run_scenario_main
-from pyfmu_wrapper.diagnose.cli import main_diagnose, main_make_benchmark, main_score
 from pyfmu_wrapper.diagnose.data import write_record
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -118,7 +118,7 @@ def rig_samples(chains: dict, t, channels: dict, step: int = 1) -> dict:
 
 
 def _err(file, msg):
-    from .data import DataError
+    from .errors import DataError
 
     return DataError(f"{file}: {msg}")
 

@@ -139,7 +139,7 @@ def score(bench: Path, results: dict | None = None, progress=None) -> dict:
         return score_system(bench, results, progress)
     import time
 
-    from .cli import load_manifest, run_diagnosis
+    from .run import load_manifest, run_diagnosis
 
     bench = Path(bench)
     man = load_manifest(bench)  # InputError for a folder without a manifest or an empty benchmark

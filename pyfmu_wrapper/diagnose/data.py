@@ -21,6 +21,8 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from .errors import DataError
+
 REQUIRED = {
     "link": ["t", "displacement", "force"],
     "time": ["t", "force"],
@@ -33,9 +35,6 @@ OPTIONAL = {
 }
 LINK_NOMINAL = ("stiffness", "damping", "friction_force", "friction_slope", "inertance")
 
-
-class DataError(ValueError):
-    """Bad measured data; the message names the file, row and column."""
 
 
 @dataclass

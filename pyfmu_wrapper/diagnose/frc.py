@@ -377,29 +377,6 @@ class FRCDiagnosis:
                          "gap_closed": best["gap_closed"] if c else None, "best_candidate": best["effects"][0]},
         }
 
-    def plot(self, path):
-        import matplotlib
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        o = np.argsort(self.w)
-        fig, ax = plt.subplots(1, 2, figsize=(11, 4))
-        ax[0].plot(self.w[self.train], self.x[self.train], "o", label="measured (train)")
-        ax[0].plot(self.w[self.test], self.x[self.test], "s", label="measured (held out)")
-        ax[0].plot(self.w[o], self.pred0[o], "-", label="nominal")
-        b = self.chosen or self.fits[0]
-        ax[0].plot(self.w[o], b["pred"][o], "--", label=f"nominal + {b['effects'][0]}")
-        ax[0].set(xlabel="w [rad/s]", ylabel="x_max [m]", title="frequency response")
-        ax[0].legend(fontsize=8)
-        ax[1].plot(self.w[o], (self.x - self.pred0)[o], "o-", label="nominal")
-        ax[1].plot(self.w[o], (self.x - b["pred"])[o], "s-", label="fitted")
-        ax[1].axhline(0, color="k", lw=0.5)
-        ax[1].set(xlabel="w [rad/s]", ylabel="residual x_max [m]", title="gap by frequency")
-        ax[1].legend(fontsize=8)
-        fig.tight_layout()
-        fig.savefig(path, dpi=90)
-        plt.close(fig)
-
     def markdown(self):
         res = self.result()
         h = res["held_out"]
@@ -414,7 +391,9 @@ class FRCDiagnosis:
 
     def write(self, out: Path, res=None):
         out.mkdir(parents=True, exist_ok=True)
-        self.plot(out / "frc.png")
+        from .plotting import plot_frc
+
+        plot_frc(self, out / "frc.png")
         (out / "diagnosis.json").write_text(json.dumps(res or self.result(), indent=1))
         (out / "report.md").write_text("# FRC diagnosis\n\n" + "\n".join(self.markdown()) + "\n")
 

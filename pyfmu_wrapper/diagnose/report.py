@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import localise
+from . import localise, plotting
 from .fit import per_band
 
 
@@ -65,12 +65,12 @@ def write_report(res: dict, ld, diag, out: Path, frc=None):
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     best = diag.chosen or diag.ranking[0]
-    localise.plot_where(ld, ld.F - ld.F_nom, ld.F - best.pred, out / "where.png",
+    plotting.plot_where(ld, ld.F - ld.F_nom, ld.F - best.pred, out / "where.png",
                         title=f"gap of the nominal model; fitted: {best.name}")
-    localise.plot_loops(ld, ld.F_nom, best.pred, diag.test, out / "loops.png")
-    localise.plot_candidates(diag.ranking, out / "candidates.png")
+    plotting.plot_loops(ld, ld.F_nom, best.pred, diag.test, out / "loops.png")
+    plotting.plot_candidates(diag.ranking, out / "candidates.png")
     if frc is not None:
-        frc.plot(out / "frc.png")
+        plotting.plot_frc(frc, out / "frc.png")
     (out / "diagnosis.json").write_text(json.dumps(res, indent=1, default=_json_default))
     a, h = res["attribution"], res["held_out"]
     L = [f"# Diagnosis of `{res['dataset']}`", "",

@@ -163,12 +163,3 @@ def make_system_dataset(folder: Path, hidden: dict, seed: int, case: int = 1, n_
     meta = {"level": "system", "description": "withheld-effect benchmark dataset (system level, simulated rig)",
             "nominal": nom, "records": recs}
     (folder / "dataset.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
-
-
-def make_system_benchmark(out: Path, n: int | None = None, seed: int = 1, n_clean: int | None = None,
-                          n_pair: int | None = None, n_oov: int | None = None, progress=None):
-    """The field-like system suite (module :mod:`sysbench_suite`); labels in manifest.json only."""
-    from .sysbench_suite import make_field_benchmark
-
-    return make_field_benchmark(out, n=n, seed=seed, n_clean=n_clean, n_pair=n_pair, n_oov=n_oov,
-                                progress=progress)

@@ -204,3 +204,10 @@ def make_field_benchmark(out: Path, n: int | None = None, seed: int = 1, n_clean
     (out / "manifest.json").write_text(json.dumps({"suite": "system", "generator": "field", "seed": seed,
                                                    "visible_chi2": VISIBLE_CHI2, "datasets": man}, indent=1))
     return man
+
+
+def make_system_benchmark(out: Path, n: int | None = None, seed: int = 1, n_clean: int | None = None,
+                          n_pair: int | None = None, n_oov: int | None = None, progress=None):
+    """The field-like system suite (:func:`make_field_benchmark`); labels in manifest.json only."""
+    return make_field_benchmark(out, n=n, seed=seed, n_clean=n_clean, n_pair=n_pair, n_oov=n_oov,
+                                progress=progress)

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import gates
+from . import gates, plotting
 from .sysdiag import LABELS, UNITS
 
 
@@ -161,29 +161,8 @@ def write_system_report(res: dict, sd, out: Path, frc=None):
         L += ["", "## FRC records", "", f"FRC alone: {fa['verdict']}", "", "![frc](frc.png)"]
     (out / "report.md").write_text("\n".join(L) + "\n")
     if frc is not None:
-        frc.plot(out / "frc.png")
-    _plot_harmonics(sd, out / "where.png")
-
-
-def _plot_harmonics(sd, path):
-    """Whitened residual per harmonic and record, nominal and fitted (periodic records only)."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(figsize=(8, 4))
-    for v in sd.views:
-        H = v.X.size - 1
-        r = v.r
-        o = 2 if v.dc else 0  # acceleration-only records have no h = 0 rows
-        mag = np.concatenate([[abs(r[0]) + abs(r[1])] if v.dc else [np.nan], np.hypot(r[o:o + 2 * H], r[o + 2 * H:])[0::2]])
-        ax.semilogy(np.arange(mag.size), np.maximum(mag, 1e-3), "o-", ms=3, label=f"{v.name}")
-    ax.axhline(1.0, color="k", lw=0.8, label="noise (1 std)")
-    ax.set(xlabel="harmonic k of w", ylabel="whitened residual |A_k| (nominal)", title="gap per harmonic (noise units)")
-    ax.legend(fontsize=7)
-    fig.tight_layout()
-    fig.savefig(path, dpi=90)
-    plt.close(fig)
+        plotting.plot_frc(frc, out / "frc.png")
+    plotting.plot_system_harmonics(sd, out / "where.png")
 
 
 def _json_default(o):

@@ -1,0 +1,130 @@
+"""Console scripts: ``diagnose``, ``make-benchmark``, ``score``.
+
+Bad input (data, model file, command line, output folder) is one line on stderr naming the file,
+row/line and key, exit status 2 (:mod:`pyfmu_wrapper.cli.errors`). The diagnosis and the output
+folders are :mod:`pyfmu_wrapper.diagnose.run`.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+from pathlib import Path
+
+from ..diagnose.run import (
+    BENCHMARK_MARKER,
+    DIAGNOSE_MARKER,
+    ResultFolder,
+    check_out_folder,
+    flagged_lines,
+    load_manifest,
+    run_diagnosis,
+)
+from .errors import InputError, cli_main
+
+
+@cli_main("diagnose")
+def main_diagnose(argv=None):
+    ap = argparse.ArgumentParser(prog="diagnose", description="Localise, attribute and quantify the gap "
+                                 "between a nominal model and measurements (see docs/diagnose.md).")
+    ap.add_argument("dataset", help="folder with dataset.yaml and CSV records")
+    ap.add_argument("--model", help="YAML with the nominal model (overrides the dataset's 'nominal')")
+    ap.add_argument("--out", required=True, help="output folder (report.md, diagnosis.json, PNGs): new, empty, or "
+                    "a previous diagnose result (replaced as a whole)")
+    a = ap.parse_args(argv)
+    out = check_out_folder(a.out, "diagnose", DIAGNOSE_MARKER)
+    with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
+        res = run_diagnosis(a.dataset, tmp, a.model)
+    if "verdict" in res:
+        print(res["verdict"]["text"])
+        for d in res["verdict"].get("disagreements", []):
+            print("note:", d)
+    else:
+        print(res["attribution"]["verdict"])
+    for line in flagged_lines(res):
+        print("flagged:", line)
+    for r in res.get("input_reduced", []):
+        print(f"reduced: {r['record']}: {r['rows']:,} rows -> {r['samples']:,} samples (averages of {r['block']})")
+    h = res.get("held_out")
+    if h and "nrmse_before" in h:
+        gc = h["gap_closed"]
+        print(f"held-out NRMSE {h['nrmse_before']:.4f} -> {h['nrmse_after']:.4f}"
+              + ("" if gc is None else f", gap closed {100 * gc:.1f} %"))
+    print(f"report: {out / 'report.md'}")
+    return 0
+
+
+@cli_main("make-benchmark")
+def main_make_benchmark(argv=None):
+    from ..diagnose.benchmark import make_benchmark
+
+    ap = argparse.ArgumentParser(prog="make-benchmark", description="Generate withheld-effect datasets "
+                                 "(labels in OUT/manifest.json, never read by diagnose and never printed).")
+    ap.add_argument("--out", required=True, help="output folder: new, empty, or a previous make-benchmark result")
+    ap.add_argument("--suite", choices=["system", "link"], default="system",
+                    help="system: the coupled base + TMD simulated and measured as a rig does (default); "
+                         "link: one TMD link on a displacement-controlled rig")
+    ap.add_argument("-n", type=int, default=None, help="number of datasets (default: system 52, link 40)")
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--clean-fraction", type=float, default=0.25)
+    ap.add_argument("--pair-fraction", type=float, default=0.2)
+    ap.add_argument("--noise", type=float, default=0.5, help="link suite: force noise std [N]")
+    a = ap.parse_args(argv)
+    if a.n is not None and a.n < 1:
+        raise InputError(f"-n {a.n}: the number of datasets must be >= 1")
+    for name, v in (("--clean-fraction", a.clean_fraction), ("--pair-fraction", a.pair_fraction)):
+        if not 0.0 <= v <= 1.0:
+            raise InputError(f"{name} {v}: must be in [0, 1]")
+    if a.clean_fraction + a.pair_fraction > 1.0:
+        raise InputError(f"--clean-fraction + --pair-fraction = {a.clean_fraction + a.pair_fraction:g}: must be <= 1")
+    if not a.noise >= 0.0 or a.noise == float("inf"):
+        raise InputError(f"--noise {a.noise}: must be a finite force noise std >= 0 N")
+    out = check_out_folder(a.out, "make-benchmark", BENCHMARK_MARKER)
+    with ResultFolder(out, BENCHMARK_MARKER) as tmp:
+        if a.suite == "system":
+            from ..diagnose.sysbench_suite import make_system_benchmark
+
+            # progress without the labels: a blind benchmark does not print what it hides
+            man = make_system_benchmark(tmp, n=a.n, seed=a.seed, progress=lambda r: print(
+                f"{r['dataset']}: written" + (f" ({r['seconds']:.1f} s)" if "seconds" in r else ""), flush=True))
+        else:
+            man = make_benchmark(tmp, n=40 if a.n is None else a.n, seed=a.seed, clean_fraction=a.clean_fraction,
+                                 pair_fraction=a.pair_fraction, noise=a.noise)
+    print(f"wrote {len(man)} {'system' if a.suite == 'system' else 'link'}-level datasets and manifest.json "
+          f"(the hidden labels) to {out}")
+    return 0
+
+
+@cli_main("score")
+def main_score(argv=None):
+    from ..diagnose.benchmark import score
+
+    ap = argparse.ArgumentParser(prog="score", description="Run diagnose on a benchmark and score it.")
+    ap.add_argument("benchmark", help="folder written by make-benchmark")
+    ap.add_argument("--out", help="write score.json here (a new file, or a previous score.json)")
+    a = ap.parse_args(argv)
+    load_manifest(Path(a.benchmark))
+    if a.out:
+        o = Path(a.out)
+        if o.is_dir():
+            raise InputError(f"--out {o}: is a folder; give a file name for score.json")
+        if o.exists():
+            try:
+                prev = json.loads(o.read_text(encoding="utf-8"))
+                ours = isinstance(prev, dict) and {"summary", "rows"} <= set(prev)
+            except (ValueError, OSError):
+                ours = False
+            if not ours:
+                raise InputError(f"--out {o}: the file exists and is not a previous score result: choose a new name "
+                                 "(score never overwrites files it did not write)")
+    res = score(Path(a.benchmark), progress=lambda r: print(
+        f"{r['dataset']}: hidden {r['hidden'] or '-'} found {r['found'] or '-'} {'ok' if r['correct'] else 'WRONG'}"))
+    print(json.dumps(res["summary"], indent=1))
+    if res.get("suite") == "system":  # the system suite's table (OOV classes, unexplained), docs/diagnose.md
+        from ..diagnose.sysscore import table
+        print(table(res["summary"]))
+    if a.out:
+        tmp = Path(a.out).with_name(f".{Path(a.out).name}.partial-{os.getpid()}")
+        tmp.write_text(json.dumps(res, indent=1))
+        os.replace(tmp, a.out)
+    return 0

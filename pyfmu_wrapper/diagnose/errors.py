@@ -1,0 +1,6 @@
+"""The error of bad measured data, shared by the data reader and the acquisition corrections."""
+from __future__ import annotations
+
+
+class DataError(ValueError):
+    """Bad measured data; the message names the file, row and column."""
