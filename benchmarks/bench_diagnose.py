@@ -26,9 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pyfmu_wrapper.diagnose.benchmark import make_benchmark, score
+from pyfmu_wrapper.diagnose.link.benchmark import make_benchmark, score
 from pyfmu_wrapper.diagnose.run import run_diagnosis
-from pyfmu_wrapper.diagnose.sysbench import make_system_benchmark
+from pyfmu_wrapper.diagnose.system.bench import make_system_benchmark
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -52,7 +52,7 @@ def speed_six_records(out: Path) -> dict:
     import pandas as pd
     import yaml
 
-    from pyfmu_wrapper.diagnose.sysbench import make_system_dataset
+    from pyfmu_wrapper.diagnose.system.bench import make_system_dataset
 
     rows = {}
     for name, hidden, gain in (("clean", {}, 0.0), ("viscous", {"viscous": 6.0}, 0.0), ("cubic", {"cubic": 1e5}, 0.0),

@@ -37,7 +37,7 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from pyfmu_wrapper.diagnose.benchmark import NOMINAL, link_force
+from pyfmu_wrapper.diagnose.link.benchmark import NOMINAL, link_force
 
 W, AMP, FS, DF, NOISE = 20.0, 0.02, 1.0e5, 6.0, 0.5
 

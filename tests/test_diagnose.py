@@ -7,7 +7,7 @@ from pathlib import Path
 import pytest
 
 from pyfmu_wrapper.cli.diagnose import main_diagnose
-from pyfmu_wrapper.diagnose.benchmark import make_benchmark, make_dataset, score
+from pyfmu_wrapper.diagnose.link.benchmark import make_benchmark, make_dataset, score
 from pyfmu_wrapper.diagnose.run import run_diagnosis
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -94,7 +94,7 @@ def test_frc_viscous(tmp_path):
 def test_model_override_scenario_and_nominal_yaml(tmp_path):
     import yaml
 
-    from pyfmu_wrapper.diagnose.sysbench import make_system_dataset
+    from pyfmu_wrapper.diagnose.system.bench import make_system_dataset
 
     data = tmp_path / "data"
     make_system_dataset(data, {}, seed=15, case=1, frc=False)  # generated with c = 15 N s/m

@@ -10,11 +10,11 @@ import pytest
 import yaml
 from scipy import signal
 
-from pyfmu_wrapper.diagnose import sysscore
-from pyfmu_wrapper.diagnose.sysbench import nominal
-from pyfmu_wrapper.diagnose.sysbench_field import write_dataset
-from pyfmu_wrapper.diagnose.sysbench_oov import OOVModel
-from pyfmu_wrapper.diagnose.sysbench_suite import true_parts
+from pyfmu_wrapper.diagnose.system import score as sysscore
+from pyfmu_wrapper.diagnose.system.bench import nominal
+from pyfmu_wrapper.diagnose.system.field import write_dataset
+from pyfmu_wrapper.diagnose.system.oov import OOVModel
+from pyfmu_wrapper.diagnose.system.suite import true_parts
 
 
 def linear_response(nom, omega, F):
@@ -206,8 +206,8 @@ def test_make_benchmark_never_prints_labels(tmp_path, capsys):
     import json
 
     from pyfmu_wrapper.cli.diagnose import main_make_benchmark
-    from pyfmu_wrapper.diagnose.sysbench_oov import OOV_EFFECTS
-    from pyfmu_wrapper.diagnose.sysbench_suite import RANGES, TRUTH_KEY
+    from pyfmu_wrapper.diagnose.system.oov import OOV_EFFECTS
+    from pyfmu_wrapper.diagnose.system.suite import RANGES, TRUTH_KEY
 
     assert main_make_benchmark(["--out", str(tmp_path), "-n", "4", "--seed", "4"]) == 0
     out = capsys.readouterr().out

@@ -107,7 +107,7 @@ def test_brfd_names_any_tension_and_header(tmp_path):
     import numpy as np
     import yaml
 
-    from pyfmu_wrapper.diagnose.brfd import _parse, derive
+    from pyfmu_wrapper.diagnose.link.brfd import _parse, derive
 
     assert _parse("0.5Hz30lbtension1amplitude.json") == (0.5, 1.0, 30.0)
     assert _parse("2Hz_45lbtension_0.5inamplitude.json") == (2.0, 0.5, 45.0)
@@ -279,7 +279,7 @@ def test_make_benchmark_prints_no_hidden_labels(tmp_path, capsys, monkeypatch):
     import json
 
     from pyfmu_wrapper.cli import diagnose as cli
-    from pyfmu_wrapper.diagnose import sysbench_suite as sysbench
+    from pyfmu_wrapper.diagnose.system import suite as sysbench
 
     def fake(out, n, seed, progress=None):
         man = []

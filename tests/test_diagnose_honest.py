@@ -17,7 +17,7 @@ import yaml
 from pyfmu_wrapper.diagnose import gates
 from pyfmu_wrapper.diagnose.data import write_record
 from pyfmu_wrapper.diagnose.run import run_diagnosis
-from pyfmu_wrapper.diagnose.sysbench import FRC_OMEGAS, make_system_dataset, nominal, steady_record, true_tmd
+from pyfmu_wrapper.diagnose.system.bench import FRC_OMEGAS, make_system_dataset, nominal, steady_record, true_tmd
 
 
 def _restate(folder, group, key, factor):
@@ -163,8 +163,8 @@ def test_x_gain_is_unexplained_not_a_confident_cause(root, monkeypatch):
 def quadratic(root):
     """Extra viscous damping (in the vocabulary) plus a quadratic damping law c2 |v| v in the link
     (outside it), simulated with the benchmark's own integrator."""
-    from pyfmu_wrapper.diagnose.sysbench_field import write_dataset
-    from pyfmu_wrapper.diagnose.sysbench_suite import draw_dataset
+    from pyfmu_wrapper.diagnose.system.field import write_dataset
+    from pyfmu_wrapper.diagnose.system.suite import draw_dataset
 
     rng = np.random.default_rng(21)
     spec = draw_dataset(rng, {}, {"quadratic_damping": 20.0}, accel_only=False)
@@ -209,7 +209,7 @@ def test_frc_noise_is_estimated_per_record(tmp_path):
     each record's relative noise is recovered on its own (a pooled estimate sits between them and
     mis-weights both), and the clean FRCs alone give no structural effect and nothing unexplained."""
     from pyfmu_wrapper.diagnose.data import load_dataset
-    from pyfmu_wrapper.diagnose.frc import FRCDiagnosis
+    from pyfmu_wrapper.diagnose.system.frc import FRCDiagnosis
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
     from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
 

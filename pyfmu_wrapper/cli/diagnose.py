@@ -56,7 +56,7 @@ def main_diagnose(argv=None):
 
 @cli_main("make-benchmark")
 def main_make_benchmark(argv=None):
-    from ..diagnose.benchmark import make_benchmark
+    from ..diagnose.link.benchmark import make_benchmark
 
     ap = argparse.ArgumentParser(prog="make-benchmark", description="Generate withheld-effect datasets "
                                  "(labels in OUT/manifest.json, never read by diagnose and never printed).")
@@ -82,7 +82,7 @@ def main_make_benchmark(argv=None):
     out = check_out_folder(a.out, "make-benchmark", BENCHMARK_MARKER)
     with ResultFolder(out, BENCHMARK_MARKER) as tmp:
         if a.suite == "system":
-            from ..diagnose.sysbench_suite import make_system_benchmark
+            from ..diagnose.system.suite import make_system_benchmark
 
             # progress without the labels: a blind benchmark does not print what it hides
             man = make_system_benchmark(tmp, n=a.n, seed=a.seed, progress=lambda r: print(
@@ -97,7 +97,7 @@ def main_make_benchmark(argv=None):
 
 @cli_main("score")
 def main_score(argv=None):
-    from ..diagnose.benchmark import score
+    from ..diagnose.link.benchmark import score
 
     ap = argparse.ArgumentParser(prog="score", description="Run diagnose on a benchmark and score it.")
     ap.add_argument("benchmark", help="folder written by make-benchmark")
@@ -121,7 +121,7 @@ def main_score(argv=None):
         f"{r['dataset']}: hidden {r['hidden'] or '-'} found {r['found'] or '-'} {'ok' if r['correct'] else 'WRONG'}"))
     print(json.dumps(res["summary"], indent=1))
     if res.get("suite") == "system":  # the system suite's table (OOV classes, unexplained), docs/diagnose.md
-        from ..diagnose.sysscore import table
+        from ..diagnose.system.score import table
         print(table(res["summary"]))
     if a.out:
         tmp = Path(a.out).with_name(f".{Path(a.out).name}.partial-{os.getpid()}")

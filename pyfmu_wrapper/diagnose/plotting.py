@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .localise import by_phase, by_record, by_state, harmonics
+from .link.localise import by_phase, by_record, by_state, harmonics
 
 
 def plot_where(ld, r0, r1, path, title=""):

@@ -217,9 +217,9 @@ def run_diagnosis(dataset, out=None, model: str | None = None, log=None) -> dict
 
 
 def _run(ds, out, red) -> dict:
-    from .fit import diagnose_link
-    from .models import build_link_data
-    from .report import build_result, write_report
+    from .link.fit import diagnose_link
+    from .link.models import build_link_data
+    from .link.report import build_result, write_report
 
     def finish(res):
         if red:
@@ -231,7 +231,7 @@ def _run(ds, out, red) -> dict:
 
     frc = None
     if any(r.kind == "frc" for r in ds.records):
-        from .frc import diagnose_frc
+        from .system.frc import diagnose_frc
         frc = diagnose_frc(ds)
     if frc is not None and not any(r.kind != "frc" for r in ds.records):  # FRC records only
         res = finish(frc.result())
@@ -240,8 +240,8 @@ def _run(ds, out, red) -> dict:
             frc.write(out, res)
         return res
     if ds.level == "system":
-        from .sysdiag import SystemDiagnosis
-        from .sysreport import build_system_result, write_system_report
+        from .system.diagnosis import SystemDiagnosis
+        from .system.report import build_system_result, write_system_report
 
         sd = SystemDiagnosis(ds, frc)
         if not sd.views and frc is not None:  # no periodic time record: the FRC records alone

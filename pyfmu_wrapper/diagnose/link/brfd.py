@@ -9,7 +9,7 @@ Steps per record: unit conversion to SI (in -> m, kip -> N, in/s -> m/s); keep 3
 keep every stride-th sample (about 256 samples per cycle). The force is the measured damper
 ("friction") force column, unchanged in sign.
 
-    python -m pyfmu_wrapper.diagnose.brfd BRFD_DIR data/brfd_link --dataset '"Dataset 2" (April 2023)'
+    python -m pyfmu_wrapper.diagnose.link.brfd BRFD_DIR data/brfd_link --dataset '"Dataset 2" (April 2023)'
 """
 from __future__ import annotations
 
@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .data import write_record
+from ..data import write_record
 
 IN, KIP = 0.0254, 4448.2216
 SAMPLES_PER_CYCLE = 256
@@ -119,7 +119,7 @@ def derive(src: Path, out: Path, test_amplitude_in=1.0, test_frequency_hz=2.0, t
                                    "Nominal model in dataset.yaml: plain Coulomb friction, df = 11 kN "
                                    "(regularised with friction_slope 1e3 s/m). Held-out records (role: test): "
                                    "all 1 in amplitude tests and the 2 Hz test.\n\n"
-                                   "Regenerate: `python -m pyfmu_wrapper.diagnose.brfd BRFD_DIR data/brfd_link`, with BRFD_DIR a copy of the ARTS-Lab repository above\n")
+                                   "Regenerate: `python -m pyfmu_wrapper.diagnose.link.brfd BRFD_DIR data/brfd_link`, with BRFD_DIR a copy of the ARTS-Lab repository above\n")
     return recs
 
 

@@ -23,10 +23,10 @@ from pathlib import Path
 
 import numpy as np
 
-from .sysbench import RANGES as BASE_RANGES
-from .sysbench import SIGNED as BASE_SIGNED
-from .sysbench import TRUTH_KEY as BASE_TRUTH_KEY
-from .sysbench import has_cubic, nominal, true_tmd_kwargs
+from .bench import RANGES as BASE_RANGES
+from .bench import SIGNED as BASE_SIGNED
+from .bench import TRUTH_KEY as BASE_TRUTH_KEY
+from .bench import has_cubic, nominal, true_tmd_kwargs
 
 RANGES = dict(BASE_RANGES, base_mass=(2.0, 8.0), base_stiffness=(800.0, 3200.0), base_damping=(10.0, 50.0),
               tmd_stiffness=(80.0, 320.0))
@@ -125,7 +125,7 @@ def composition(n: int | None, n_clean=None, n_pair=None, n_oov=None):
 
 def plan(rng, n=None, n_clean=None, n_pair=None, n_oov=None) -> list:
     """[(class, hidden, oov)] in a shuffled order."""
-    from .sysbench_oov import OOV_EFFECTS
+    from .oov import OOV_EFFECTS
 
     nc, ns, npair, no = composition(n, n_clean, n_pair, n_oov)
     eff = in_vocab()
@@ -172,7 +172,7 @@ def make_field_benchmark(out: Path, n: int | None = None, seed: int = 1, n_clean
     called with the public part of each row (name, seconds) -- never the labels."""
     import time
 
-    from .sysbench_field import write_dataset
+    from .field import write_dataset
 
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)

@@ -26,11 +26,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .._jit import njit
-from ..physics.kernels import friction_force, static_link_force
-from ..physics.params import N_PARAMS, BaseParams, P_k3, TMDParams, pack
-from .data import DataError
-from .harmonic import PERIODIC_R2, fit_series, fuse, grid_coef, grid_values
+from ..._jit import njit
+from ...physics.kernels import friction_force, static_link_force
+from ...physics.params import N_PARAMS, BaseParams, P_k3, TMDParams, pack
+from ..data import DataError
+from ..harmonic import PERIODIC_R2, fit_series, fuse, grid_coef, grid_values
 
 H_EQ = 12  #: harmonics used in the equation error
 N_GRID = 256  #: samples per period for nonlinear force laws
@@ -88,7 +88,7 @@ def record_views(ds):
     gets its displacements h >= 1 from xdd, ydd; its mean is unobservable (``dc = False``): the
     h = 0 equation errors are left out and the means are put at the nominal static equilibrium with
     no relative offset (X_0 = Y_0 = F_0 / K), about which the link force is evaluated."""
-    from .acquisition import correct_series
+    from ..acquisition import correct_series
 
     chains = getattr(ds, "acquisition", None) or {}
     views, flagged = [], []
@@ -388,7 +388,7 @@ def steady_signature(model: SystemModel, v: RecView, tmd) -> tuple:
     simulated motion (e.g. dry friction with its stick phases)."""
     from dataclasses import replace
 
-    from ..solvers.monolithic import periodic_time_series
+    from ...solvers.monolithic import periodic_time_series
 
     base = replace(model.base, force_amplitude=v.amplitude)
     t, z, _ = periodic_time_series(base, tmd, v.omega, 1, N_GRID)

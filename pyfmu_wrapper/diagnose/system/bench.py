@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from .data import write_record
+from ..data import write_record
 
 RANGES = {
     "friction": (1.5, 20.0),
@@ -58,7 +58,7 @@ FRC_NOISE = 0.005
 
 
 def has_cubic() -> bool:
-    from ..physics.params import TMDParams
+    from ...physics.params import TMDParams
     return "cubic_stiffness" in {f.name for f in dataclasses.fields(TMDParams)}
 
 
@@ -75,7 +75,7 @@ def nominal(case: int, damping: float = 15.0) -> dict:
 
 
 def true_tmd(nom: dict, hidden: dict):
-    from ..physics.params import TMDParams
+    from ...physics.params import TMDParams
 
     return TMDParams(**true_tmd_kwargs(nom, hidden))
 
@@ -97,22 +97,22 @@ def true_tmd_kwargs(nom: dict, hidden: dict) -> dict:
 
 def steady_record(base, tmd, omega, n_periods=N_PERIODS, fs=FS, settle_periods=None, rtol=1e-9):
     """(t, states, accelerations [n, 2]) of n_periods of the steady state sampled at fs."""
-    from ..physics.kernels import rhs
-    from ..physics.params import pack
-    from ..solvers.monolithic import SolverSettings, simulate, steady_state
+    from ...physics.kernels import rhs
+    from ...physics.params import pack
+    from ...solvers.monolithic import SolverSettings, simulate, steady_state
 
     T = 2 * math.pi / omega
     if settle_periods is None:
         ss = steady_state(base, tmd, omega, settings=SolverSettings(max_periods_window=80))
         z0, t0 = ss.state, 0.0
     else:  # the play model's companion orbit, then a fixed number of settling periods
-        from ..solvers.monolithic import companion_start
+        from ...solvers.monolithic import companion_start
         ss = None
         z0, t0 = companion_start(base, tmd, omega, SolverSettings()), settle_periods * T
     t = np.arange(0.0, n_periods * T, 1.0 / fs)
     atol = None
     if rtol > 1e-9:
-        from ..solvers.monolithic import _atol
+        from ...solvers.monolithic import _atol
         atol = _atol(base, tmd, omega, SolverSettings())
     _, z = simulate(base, tmd, omega, t0 + n_periods * T, z0=z0, sample_times=t + t0, rtol=rtol, atol=atol)
     p = pack(base, tmd, omega)
@@ -127,7 +127,7 @@ def steady_record(base, tmd, omega, n_periods=N_PERIODS, fs=FS, settle_periods=N
 def make_system_dataset(folder: Path, hidden: dict, seed: int, case: int = 1, n_records: int = 4,
                         frc: bool = True, n_periods: int = N_PERIODS):
     """Write one system-level dataset (time records + FRC) with the hidden effects ``hidden``."""
-    from ..physics.params import BaseParams
+    from ...physics.params import BaseParams
 
     folder = Path(folder)
     folder.mkdir(parents=True, exist_ok=True)
@@ -151,7 +151,7 @@ def make_system_dataset(folder: Path, hidden: dict, seed: int, case: int = 1, n_
         write_record(folder / name, cols, fmt="%.8g")
         recs.append({"file": name, "omega": float(w), "force_amplitude": float(F)})
     if frc:
-        from ..solvers.monolithic import SolverSettings, steady_state
+        from ...solvers.monolithic import SolverSettings, steady_state
 
         base = BaseParams(**{**nom["base"], "force_amplitude": FRC_FORCE * (1 + alpha)})
         xm = np.array([steady_state(base, tmd, float(w), settings=SolverSettings(max_periods_window=80)).amplitude

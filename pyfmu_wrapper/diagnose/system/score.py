@@ -151,8 +151,8 @@ def is_system_suite(bench) -> bool:
 
 def score_system(bench: Path, results: dict | None = None, progress=None) -> dict:
     """Diagnose every dataset of a system-suite folder (or take ``results[name]``) and score it."""
-    from .data import DataError
-    from .run import run_diagnosis
+    from ..data import DataError
+    from ..run import run_diagnosis
 
     bench = Path(bench)
     man = json.loads((bench / "manifest.json").read_text())

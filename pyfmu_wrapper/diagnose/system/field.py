@@ -27,7 +27,7 @@ import numpy as np
 import yaml
 from scipy import signal
 
-from .data import write_record
+from ..data import write_record
 
 DENSE_HZ = 20000.0
 PREROLL_PERIODS = 2
@@ -71,8 +71,8 @@ def channel_spec(acq: dict | None, ch: str) -> dict:
 # -- truth on a dense grid ------------------------------------------------------------------------
 def truth_dense(truth: dict, omega: float, F_rec: float, tau: np.ndarray) -> dict:
     """x, y, xdd, ydd of the true system at solver times tau (true force (1 + a) F_rec cos(w tau))."""
-    from ..physics.params import BaseParams, TMDParams
-    from .sysbench_oov import has_dynamics, oov_model
+    from ...physics.params import BaseParams, TMDParams
+    from .oov import has_dynamics, oov_model
 
     Ft = F_rec * (1.0 + truth.get("force_error", 0.0))
     oov = truth.get("oov", {})
@@ -83,16 +83,16 @@ def truth_dense(truth: dict, omega: float, F_rec: float, tau: np.ndarray) -> dic
     base = BaseParams(**{**truth["base"], "force_amplitude": Ft})
     tmd = TMDParams(**truth["tmd"])
     if tmd.is_linear:
-        from ..solvers.frequency_response import exact_response
+        from ...solvers.frequency_response import exact_response
 
         Z = exact_response(base, tmd, [omega])[0]
         e = np.exp(1j * omega * tau)
         X, Y = Z[0], Z[2]
         return {"x": np.real(X * e), "y": np.real(Y * e), "xdd": np.real(-omega ** 2 * X * e),
                 "ydd": np.real(-omega ** 2 * Y * e)}
-    from ..physics.kernels import rhs
-    from ..physics.params import pack
-    from ..solvers.monolithic import SolverSettings, simulate, steady_state
+    from ...physics.kernels import rhs
+    from ...physics.params import pack
+    from ...solvers.monolithic import SolverSettings, simulate, steady_state
 
     ss = steady_state(base, tmd, omega, settings=SolverSettings(max_periods_window=PLAY_PERIODS))
     _, z = simulate(base, tmd, omega, float(tau[-1]), z0=ss.state, sample_times=tau, rtol=1e-9)
@@ -162,8 +162,8 @@ def time_record(truth, nom, omega, F_rec, fs, n_periods, phi, acq, accel_only, r
 
 def frc_amplitudes(truth: dict, omegas, F_rec) -> np.ndarray:
     """Noise-free steady-state max |x| of the truth along a sweep (in the order given)."""
-    from ..physics.params import BaseParams, TMDParams
-    from .sysbench_oov import has_dynamics, oov_model
+    from ...physics.params import BaseParams, TMDParams
+    from .oov import has_dynamics, oov_model
 
     Ft = F_rec * (1.0 + truth.get("force_error", 0.0))
     oov = truth.get("oov", {})
@@ -178,11 +178,11 @@ def frc_amplitudes(truth: dict, omegas, F_rec) -> np.ndarray:
     base = BaseParams(**{**truth["base"], "force_amplitude": Ft})
     tmd = TMDParams(**truth["tmd"])
     if tmd.is_linear:
-        from ..solvers.frequency_response import exact_amplitude
+        from ...solvers.frequency_response import exact_amplitude
 
         return exact_amplitude(base, tmd, np.asarray(omegas, dtype=float))
-    from ..physics.params import has_gap
-    from ..solvers.monolithic import SolverSettings, steady_state
+    from ...physics.params import has_gap
+    from ...solvers.monolithic import SolverSettings, steady_state
 
     out, z, hint = [], None, {}
     rattle = has_gap(tmd)

@@ -7,7 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import localise, plotting
+from .. import plotting
+from . import localise
 from .fit import per_band
 
 

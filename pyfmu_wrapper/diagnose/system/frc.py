@@ -27,9 +27,9 @@ from pathlib import Path
 import numpy as np
 from scipy.optimize import least_squares, minimize_scalar
 
-from ..physics.params import BaseParams, ParameterError, TMDParams
-from ..solvers.frequency_response import exact_amplitude
-from ..solvers.monolithic import SolverError, steady_state
+from ...physics.params import BaseParams, ParameterError, TMDParams
+from ...solvers.frequency_response import exact_amplitude
+from ...solvers.monolithic import SolverError, steady_state
 
 BIC_THRESHOLD = 6.0
 EXCESS_THRESHOLD = 0.15
@@ -61,7 +61,7 @@ class FRCDiagnosis:
         #: relative noise of every point, estimated per FRC record (two sweeps may have other noise)
         self.noise_rel_pt = self._per_record(self.x / self.pred0 - 1.0, self.noise_rel)
         try:  # the TMD's relative stroke |x - y| the nominal predicts (sets the cubic's plausible range)
-            from ..solvers.frequency_response import exact_response
+            from ...solvers.frequency_response import exact_response
             Z = exact_response(replace(self.base, force_amplitude=1.0), replace(self.tmd, friction_force=0.0), self.w)
             self.stroke = float(np.max(np.abs(Z[:, 0] - Z[:, 2]) * np.abs(self.F)))
         except Exception:  # noqa: BLE001 -- a nominal without a linear response (e.g. play): x_max instead
@@ -338,7 +338,7 @@ class FRCDiagnosis:
         self.excess = excess
         # the honest part (gates.py): in noise units over every point, does the best candidate
         # explain at least MIN_SHARE of the gap, and is what it leaves still structural?
-        from .gates import noise_gate, remaining_gate, share_gate
+        from ..gates import noise_gate, remaining_gate, share_gate
         n = self.x.size
         c0, c1 = self.chi2(self.pred0), self.chi2(best["pred"])
         G0, G1 = max(c0 - n, 0.0), max(c1 - n, 0.0)
@@ -391,7 +391,7 @@ class FRCDiagnosis:
 
     def write(self, out: Path, res=None):
         out.mkdir(parents=True, exist_ok=True)
-        from .plotting import plot_frc
+        from ..plotting import plot_frc
 
         plot_frc(self, out / "frc.png")
         (out / "diagnosis.json").write_text(json.dumps(res or self.result(), indent=1))

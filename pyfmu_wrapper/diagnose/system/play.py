@@ -25,7 +25,7 @@ from dataclasses import replace
 
 import numpy as np
 
-from .harmonic import fit_series
+from ..harmonic import fit_series
 
 Z_GATE = 6.0  #: rattle statistic (in noise std) above which a record shows contact spikes
 EPS_LADDER = (1e-5, 1e-4, 1e-3)  #: gaps [m] of the first simulations
@@ -46,8 +46,8 @@ def rattle_stat(s, M, m):
 
 
 def simulated_stat(base, tmd, omega, force, eps, dt, n_periods):
-    from ..physics.params import InerterModel
-    from .sysbench import steady_record
+    from ...physics.params import InerterModel
+    from .bench import steady_record
 
     b = replace(base, force_amplitude=force)
     t = replace(tmd, inerter=InerterModel.PLAY, play_gap=float(eps))
@@ -132,7 +132,7 @@ class PlayFit:
         """Per record, the equation error (A_h, B_h) the nominal model leaves on the record simulated
         with the fitted gap (the periodic part of the rattling chain force minus I a), in the phase
         of the measured force: the play candidate's prediction for the harmonic residuals."""
-        from .harmonic import fuse
+        from ..harmonic import fuse
 
         out = {}
         for v in self.views:

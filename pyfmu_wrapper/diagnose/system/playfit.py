@@ -7,9 +7,9 @@ from dataclasses import replace
 
 import numpy as np
 
-from ..solvers.monolithic import SolverError
+from ...solvers.monolithic import SolverError
+from .model import fit_eq
 from .play import PlayFit
-from .system import fit_eq
 
 
 class PlayMixin:

@@ -24,10 +24,10 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..solvers.monolithic import SolverError
-from . import gates
-from .acquisition import unobservable
-from .gates import (  # noqa: F401
+from ...solvers.monolithic import SolverError
+from .. import gates
+from ..acquisition import unobservable
+from ..gates import (  # noqa: F401
     BOUNDS,
     EVIDENCE,
     MIN_SHARE,
@@ -44,9 +44,9 @@ from .gates import (  # noqa: F401
     remaining_gate,
     share_gate,
 )
+from .model import EFFECT_PARAMS, SIGN, SystemModel, fit_eq, folds_for, record_views, steady_signature
 from .play import PlayFit
-from .sysplay import PlayMixin
-from .system import EFFECT_PARAMS, SIGN, SystemModel, fit_eq, folds_for, record_views, steady_signature
+from .playfit import PlayMixin
 
 MAX_EFFECTS = 2
 LABELS = {
@@ -201,7 +201,7 @@ class SystemDiagnosis(PlayMixin):
         g0, g1 = self.gaps()
         self.unexplained = bool(self.noise_ok and (not self.chosen or remaining_gate(self.dof + g1, self.dof, g0)))
         self.unexplained_share = (max(g1, 0.0) / g0 if g0 > 0 else 0.0) if self.noise_ok else 0.0
-        from .verdict import localise
+        from ..verdict import localise
         self.localisation = localise(self)
         return self
 
@@ -395,5 +395,5 @@ class SystemDiagnosis(PlayMixin):
         return rows
 
     def verdict_text(self):
-        from .verdict import verdict_text
+        from ..verdict import verdict_text
         return verdict_text(self, LABELS, UNITS)

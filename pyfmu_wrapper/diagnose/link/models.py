@@ -18,10 +18,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._jit import njit
-from ..physics.kernels import chain_force, friction_force
-from ..physics.params import N_PARAMS, P_ci, P_eps, P_ki
-from .data import DataError, Dataset
+from ..._jit import njit
+from ...physics.kernels import chain_force, friction_force
+from ...physics.params import N_PARAMS, P_ci, P_eps, P_ki
+from ..data import DataError, Dataset
 
 MAX_SAMPLES_PER_RECORD = 4000
 
@@ -106,7 +106,7 @@ class LinkData:
 def link_nominal(ds: Dataset) -> dict:
     if ds.level == "link":
         return dict(ds.nominal)
-    from ..physics.params import TMDParams
+    from ...physics.params import TMDParams
 
     t = TMDParams(**ds.nominal["tmd"])  # the physics' own defaults for missing keys
     return dict(stiffness=t.stiffness, damping=t.damping, friction_force=t.friction_force,
@@ -116,8 +116,8 @@ def link_nominal(ds: Dataset) -> dict:
 def nominal_force(nom, d, v, a):
     """Nominal link force: the kernels' static link force (spring, damper, friction) at relative
     displacement d and velocity v, plus the ideal inerter I a."""
-    from ..physics.params import P_c, P_df, P_k, P_s
-    from .system import link_force_grid
+    from ...physics.params import P_c, P_df, P_k, P_s
+    from ..system.model import link_force_grid
 
     p = np.zeros(N_PARAMS)
     p[P_k], p[P_c], p[P_df], p[P_s] = nom["stiffness"], nom["damping"], nom["friction_force"], nom["friction_slope"]
@@ -132,7 +132,7 @@ def _deriv(t, x, omega=None, order=1):
     """Derivative of a measured signal: from its Fourier series over whole periods when the record
     is periodic at omega (exact for the steady state, noise averaged over the periods), else from a
     cubic Savitzky-Golay smoother over SAVGOL_POINTS samples (cut-off ~ fs / SAVGOL_POINTS)."""
-    from .harmonic import fit_series
+    from ..harmonic import fit_series
 
     if omega:
         s = fit_series(t, {"s": x}, omega, H=40)
@@ -171,7 +171,7 @@ def build_link_data(ds: Dataset) -> LinkData:
             if not rec.has("y"):
                 raise DataError(f"{rec.name}: column 'y' is needed for the restoring-force diagnosis of a "
                                 "system time record (the TMD displacement); add it or give FRC records")
-            from ..physics.params import BaseParams
+            from ...physics.params import BaseParams
 
             bp = BaseParams(**ds.nominal["base"])
             b = {"mass": bp.mass, "damping": bp.damping, "stiffness": bp.stiffness}

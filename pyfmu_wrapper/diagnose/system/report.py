@@ -7,8 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
-from . import gates, plotting
-from .sysdiag import LABELS, UNITS
+from .. import gates, plotting
+from .diagnosis import LABELS, UNITS
 
 
 def _f(x):

@@ -19,7 +19,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import minimize
 
-from .data import DataError
+from ..data import DataError
 from .models import Effect, LinkData, basis, effect_list, report_params
 
 EXCESS_THRESHOLD = 0.15  #: nominal held-out rms above (1 + this) x noise floor -> gap is structural

@@ -31,9 +31,9 @@ from typing import Any
 import numpy as np
 import yaml
 
-from ..physics.kernels import chain_force
-from ..physics.params import N_PARAMS, P_ci, P_eps, P_ki
-from .data import write_record
+from ...physics.kernels import chain_force
+from ...physics.params import N_PARAMS, P_ci, P_eps, P_ki
+from ..data import write_record
 from .models import friction_vec
 
 NOMINAL = dict(stiffness=4.0e3, damping=40.0, friction_force=0.0, friction_slope=1.0e6, inertance=1.0)
@@ -133,13 +133,13 @@ def score(bench: Path, results: dict | None = None, progress=None) -> dict:
     a pair counts as "both named" when both hidden effects are in the verdict. Parameter errors
     are taken for the hidden effects the verdict names. The system suite is scored by
     :func:`sysscore.score_system` (its own classes: out of vocabulary, unexplained)."""
-    from .sysscore import is_system_suite, score_system
+    from ..system.score import is_system_suite, score_system
 
     if is_system_suite(bench):
         return score_system(bench, results, progress)
     import time
 
-    from .run import load_manifest, run_diagnosis
+    from ..run import load_manifest, run_diagnosis
 
     bench = Path(bench)
     man = load_manifest(bench)  # InputError for a folder without a manifest or an empty benchmark
