@@ -19,20 +19,39 @@ from numba.core import caching as _caching
 
 from .codeversion import PACKAGE_DIR, compiled_hash
 
-__all__ = ["njit"]
+__all__ = ["njit", "use_bundle_cache"]
+
+
+#: Set when this package is an FMU's bundled copy (:func:`use_bundle_cache`, called by the FMU's
+#: loader, pyfmu_wrapper/fmi/fmu_loader.py): (cache root, bundle hash).
+_BUNDLE: tuple[str, str] | None = None
+
+
+def use_bundle_cache(root: str | None, bundle_hash: str) -> None:
+    """This package is the bundled copy inside an FMU: cache its compiled functions in
+    ``<root>/<package folder name>/<subfolders>`` stamped with the bundle hash (the FMU's extraction
+    folder is temporary: a cache there would be lost, and recompiled, with every extraction). Without
+    a root, numba's own locators (beside the source files)."""
+    global _BUNDLE
+    _BUNDLE = (root, bundle_hash) if root else None
 
 
 class _HashedCacheLocator(_caching._SourceFileBackedLocatorMixin, _caching._CacheLocator):
-    """Cache locator for this package's functions: a directory per compiled-layer hash."""
+    """The package's one cache locator: a directory per compiled-layer hash (a checkout), or per
+    bundle hash (the bundled copy inside an FMU, :func:`use_bundle_cache`)."""
 
     _user_dir: str | None = None
 
     def __init__(self, py_func, py_file, root):
         self._py_file = py_file
         self._lineno = py_func.__code__.co_firstlineno
-        self._stamp = compiled_hash(root)
-        self._cache_path = os.path.join(root, os.path.dirname(os.path.relpath(py_file, root)), "__pycache__",
-                                        f"numba-{self._stamp[:16]}")
+        sub = os.path.dirname(os.path.relpath(py_file, root))
+        if _BUNDLE is not None:
+            cache_root, self._stamp = _BUNDLE
+            self._cache_path = os.path.normpath(os.path.join(cache_root, Path(root).name, sub))
+        else:
+            self._stamp = compiled_hash(root)
+            self._cache_path = os.path.join(root, sub, "__pycache__", f"numba-{self._stamp[:16]}")
 
     def get_cache_path(self):
         return self._cache_path
@@ -43,20 +62,30 @@ class _HashedCacheLocator(_caching._SourceFileBackedLocatorMixin, _caching._Cach
     @classmethod
     def from_function(cls, py_func, py_file):
         try:
-            root = Path(py_file).resolve().parent
+            path = Path(os.path.abspath(py_file))
         except (OSError, TypeError):
             return None
-        # the package root: the closest ancestor holding codeversion.py (works for bundled copies)
-        while not (root / "codeversion.py").is_file():
-            if root.parent == root:
+        if _BUNDLE is not None:
+            # the bundled copy of an FMU: found by the package's (unique) folder name, not on disk: several
+            # FMUs of one build share the imported package, whose first folder a host may have deleted
+            if PACKAGE_DIR.name not in path.parts[:-1]:
                 return None
-            root = root.parent
-        if root != PACKAGE_DIR:
-            return None
+            root = Path(*path.parts[:path.parts.index(PACKAGE_DIR.name) + 1])
+        else:
+            # the package root: the closest ancestor holding codeversion.py
+            root = path.resolve().parent
+            while not (root / "codeversion.py").is_file():
+                if root.parent == root:
+                    return None
+                root = root.parent
+            if root != PACKAGE_DIR:
+                return None
         self = cls(py_func, py_file, root)
         try:
             self.ensure_cache_path()
         except OSError:
+            if _BUNDLE is not None:
+                return None  # numba's own locators
             user = os.path.join(os.path.expanduser("~"), ".cache", "pyfmu_wrapper", "numba",
                                 self._stamp[:16], self.get_suitable_cache_subpath(py_file))
             self._cache_path = user

@@ -70,6 +70,8 @@ REQUIRES = ("numpy>=1.26", "numba>=0.59")
 MIN_PYTHON = "3.11"
 #: The module the slaves live in (the root of the bundled import closure).
 SLAVE_MODULE = "fmi/slaves.py"
+#: the bundled loader of the model code (loaded by the FMU's model.py)
+LOADER_MODULE = "fmi/fmu_loader.py"
 
 
 class OutputError(BuildError):
@@ -137,7 +139,7 @@ def _relative_imports(rel: str, source: bytes) -> set[str]:
 def bundled_files() -> list[str]:
     """Package-relative files the slaves need: fmi/slaves.py and its package imports, transitively,
     with the ``__init__.py`` of every package on the way."""
-    todo, seen = [SLAVE_MODULE], set()
+    todo, seen = [SLAVE_MODULE, LOADER_MODULE], set()
     while todo:
         rel = todo.pop()
         if rel in seen:
@@ -232,143 +234,20 @@ def _config(spec: FmuSpec, guid: str, shash: str, bhash: str, runtime: dict | No
     return "\n".join(lines) + "\n"
 
 
-MODEL_PY = '''"""Model code of the {model} FMU: the slave from the package bundled beside this file.
-
-Loaded by the FMU's binary under a unique module name per instance. The bundled package
-{package!r} is checked against its recorded SHA-256 before it is imported, and numba's on-disk
-cache of its compiled functions is kept in <cache root>/{package}/ with the bundle hash as the
-source stamp: a cache entry of other code cannot be loaded, and extracting the FMU anew (new
-folder, new file times) does not recompile. Cache root: $PYFMU_CACHE_DIR, else
-$XDG_CACHE_HOME/pyfmu-fmus, else ~/.cache/pyfmu-fmus (if none is writable, numba's own locators).
-"""
-import hashlib
-import importlib
+#: The FMU's resources/model.py: it names the bundle and hands over to the bundled loader
+#: (pyfmu_wrapper/fmi/fmu_loader.py, a real module of this package).
+MODEL_PY = """\"\"\"Model code of the {model} FMU: the slave from the package bundled beside this file, loaded
+by the bundled pyfmu_wrapper/fmi/fmu_loader.py (see its documentation).\"\"\"
 import importlib.util
 import os
-import sys
 
-PACKAGE = {package!r}
-BUNDLE_HASH = {bhash!r}
-FILES = {files!r}
-SLAVE = {slave!r}
-HERE = os.path.dirname(os.path.abspath(__file__))
-
-
-def bundle_hash():
-    h = hashlib.sha256()
-    for rel in FILES:
-        with open(os.path.join(HERE, PACKAGE, rel), "rb") as f:
-            h.update(rel.encode() + b"\\0" + hashlib.sha256(f.read()).digest())
-    return h.hexdigest()
-
-
-def cache_root():
-    for d in (os.environ.get("PYFMU_CACHE_DIR"),
-              os.path.join(os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "pyfmu-fmus")):
-        if d:
-            return d
-    return None
-
-
-def _install_cache_locator():
-    from numba.core import caching
-
-    impl = getattr(caching, "CacheImpl", None) or getattr(caching, "_CacheImpl")
-    bundles = getattr(caching, "_pyfmu_bundles", None)
-    if bundles is None:
-        bundles = caching._pyfmu_bundles = {{}}
-
-        class BundleCacheLocator(caching._CacheLocator):
-            """numba cache of a bundled FMU package: one folder per bundle hash, hash as stamp."""
-
-            def __init__(self, py_func, path, stamp):
-                self._lineno = py_func.__code__.co_firstlineno
-                self._cache_path, self._stamp = path, stamp
-
-            def get_cache_path(self):
-                return self._cache_path
-
-            def get_source_stamp(self):
-                return self._stamp
-
-            def get_disambiguator(self):
-                return str(self._lineno)
-
-            @classmethod
-            def from_function(cls, py_func, py_file):
-                parts = os.path.abspath(py_file).split(os.sep)
-                for k, part in enumerate(parts):
-                    if part in bundles:
-                        root, stamp = bundles[part]
-                        self = cls(py_func, os.path.join(root, part, *parts[k + 1:-1]), stamp)
-                        try:
-                            self.ensure_cache_path()
-                        except OSError:
-                            return None
-                        return self
-                return None
-
-        caching._pyfmu_locator = BundleCacheLocator
-    root = cache_root()
-    if root:
-        bundles[PACKAGE] = (root, BUNDLE_HASH)
-    loc = caching._pyfmu_locator
-    if loc in impl._locator_classes:
-        impl._locator_classes.remove(loc)
-    impl._locator_classes.insert(0, loc)  # ahead of any locator the bundled code installs
-
-
-def _check_bundle():
-    found = bundle_hash()
-    if found != BUNDLE_HASH:
-        raise RuntimeError(f"the model code in {{os.path.join(HERE, PACKAGE)}} was modified after the build "
-                           f"(SHA-256 {{found}}, recorded {{BUNDLE_HASH}}); rebuild the FMU")
-
-
-def _share_package():
-    """The package is imported already, by another FMU of this build, whose folder the host may
-    have deleted since (fmpy deletes an FMU's extraction folder when it is done with it). Put this
-    FMU's copy (checked) first on the search path of the package and of each of its subpackages,
-    and drop folders that are gone: a submodule no FMU imported yet is then found in a folder that
-    exists, whichever FMU of the build was loaded, freed or deleted first."""
-    pkgs = [(n, m) for n, m in list(sys.modules.items())
-            if (n == PACKAGE or n.startswith(PACKAGE + ".")) and isinstance(getattr(m, "__path__", None), list)]
-    mine = os.path.join(HERE, PACKAGE)
-    if all(os.path.join(mine, *n.split(".")[1:]) in m.__path__ for n, m in pkgs):
-        return
-    _check_bundle()
-    for n, m in pkgs:
-        here = os.path.join(mine, *n.split(".")[1:])
-        m.__path__[:] = [here] + [p for p in m.__path__ if p != here and os.path.isdir(p)]
-    importlib.invalidate_caches()
-
-
-def _import_package():
-    if PACKAGE in sys.modules:
-        _share_package()
-        return
-    _check_bundle()
-    spec = importlib.util.spec_from_file_location(PACKAGE, os.path.join(HERE, PACKAGE, "__init__.py"),
-                                                  submodule_search_locations=[os.path.join(HERE, PACKAGE)])
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[PACKAGE] = mod
-    try:
-        spec.loader.exec_module(mod)
-        if os.path.isfile(os.path.join(HERE, PACKAGE, "_jit.py")):
-            importlib.import_module(PACKAGE + "._jit")  # installs its locator; ours goes in front
-        _install_cache_locator()
-    except BaseException:
-        for name in [n for n in sys.modules if n == PACKAGE or n.startswith(PACKAGE + ".")]:
-            del sys.modules[name]
-        raise
-
-
-def create(reals, ints, derivs, scratch, instance_name, resources):
-    _import_package()
-    module, _, cls = SLAVE.partition(":")
-    slave_class = getattr(importlib.import_module(PACKAGE + "." + module), cls)
-    return slave_class(reals, ints, derivs, scratch, instance_name, resources)
-'''
+_HERE = os.path.dirname(os.path.abspath(__file__))
+_spec = importlib.util.spec_from_file_location(__name__ + "_loader", os.path.join(_HERE, {package!r}, "fmi",
+                                                                                    "fmu_loader.py"))
+_loader = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(_loader)
+create = _loader.Bundle(_HERE, {package!r}, {bhash!r}, {files!r}, {slave!r}).create
+"""
 
 
 def _model_py(spec: FmuSpec, package: str, bhash: str, files: list[str]) -> str:
