@@ -87,7 +87,7 @@ def test_all_train_roles_is_a_data_error_exit_2(tmp_path, capsys):
     import yaml
 
     from pyfmu_wrapper.cli.diagnose import main_diagnose
-    from pyfmu_wrapper.diagnose.data import write_record
+    from pyfmu_wrapper.diagnose.records import write_record
 
     recs = []
     for k, w in enumerate((15.0, 20.0, 25.0)):
@@ -142,11 +142,11 @@ def test_long_record_is_block_averaged_in_chunks(tmp_path, monkeypatch):
     """A record longer than MAX_SAMPLES is read in chunks and averaged over q = ceil(n / MAX) samples:
     the result equals the block means computed directly from the raw columns (rows that do not fill
     a last block dropped), and the console says so."""
-    from pyfmu_wrapper.diagnose import data
-    from pyfmu_wrapper.diagnose.data import write_record
+    from pyfmu_wrapper.diagnose import records
+    from pyfmu_wrapper.diagnose.records import write_record
 
-    monkeypatch.setattr(data, "MAX_SAMPLES", 1000)
-    monkeypatch.setattr(data, "CHUNK_ROWS", 700)
+    monkeypatch.setattr(records, "MAX_SAMPLES", 1000)
+    monkeypatch.setattr(records, "CHUNK_ROWS", 700)
     t, d, F = _long_link(tmp_path, 4321)
     write_record(tmp_path / "long.csv", {"t": t, "displacement": d, "force": F}, fmt="%.17g")
     said = []
@@ -170,10 +170,10 @@ def test_long_record_is_block_averaged_in_chunks(tmp_path, monkeypatch):
 def test_long_record_errors_name_the_global_row(tmp_path, monkeypatch, row, line, match):
     """Errors in a later chunk name the row of the file (1-based data row), also across a chunk boundary
     (row 1401 is the first row of the third chunk of 700)."""
-    from pyfmu_wrapper.diagnose import data
+    from pyfmu_wrapper.diagnose import records
 
-    monkeypatch.setattr(data, "MAX_SAMPLES", 1000)
-    monkeypatch.setattr(data, "CHUNK_ROWS", 700)
+    monkeypatch.setattr(records, "MAX_SAMPLES", 1000)
+    monkeypatch.setattr(records, "CHUNK_ROWS", 700)
     t, d, F = _long_link(tmp_path, 3000)
     lines = ["t,displacement,force"] + [f"{a:.4f},{b:.6g},{c:.6g}" for a, b, c in zip(t, d, F)]
     lines[row] = line
@@ -183,10 +183,10 @@ def test_long_record_errors_name_the_global_row(tmp_path, monkeypatch, row, line
 
 
 def test_dead_channel_in_a_long_record(tmp_path, monkeypatch):
-    from pyfmu_wrapper.diagnose import data
-    from pyfmu_wrapper.diagnose.data import write_record
+    from pyfmu_wrapper.diagnose import records
+    from pyfmu_wrapper.diagnose.records import write_record
 
-    monkeypatch.setattr(data, "MAX_SAMPLES", 1000)
+    monkeypatch.setattr(records, "MAX_SAMPLES", 1000)
     t, d, F = _long_link(tmp_path, 2500)
     write_record(tmp_path / "long.csv", {"t": t, "displacement": d, "force": 0 * F})
     with pytest.raises(DataError, match=r"long\.csv, column 'force': the channel is constant \(every value = 0\)"):

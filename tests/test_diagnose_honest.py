@@ -15,7 +15,7 @@ import pytest
 import yaml
 
 from pyfmu_wrapper.diagnose import gates
-from pyfmu_wrapper.diagnose.data import write_record
+from pyfmu_wrapper.diagnose.records import write_record
 from pyfmu_wrapper.diagnose.run import run_diagnosis
 from pyfmu_wrapper.diagnose.system.bench import FRC_OMEGAS, make_system_dataset, nominal, steady_record, true_tmd
 

@@ -142,7 +142,7 @@ def test_non_periodic_record_flagged_rest_still_runs(data, tmp_path):
 
     import yaml
 
-    from pyfmu_wrapper.diagnose.data import write_record
+    from pyfmu_wrapper.diagnose.records import write_record
 
     d = tmp_path / "ds"
     shutil.copytree(data["viscous"], d)

@@ -28,7 +28,7 @@ from pyfmu_wrapper.cli.diagnose import main_diagnose, main_make_benchmark, main_
 from pyfmu_wrapper.cli.optimise import main as optimise_main
 from pyfmu_wrapper.cli.reproduce import main as reproduce_main
 from pyfmu_wrapper.cli.run_scenario import main as run_scenario_main
-from pyfmu_wrapper.diagnose.data import write_record
+from pyfmu_wrapper.diagnose.records import write_record
 
 ROOT = Path(__file__).resolve().parents[1]
 SCENARIO = (ROOT / "scenarios" / "viscous_case2.yaml").read_text(encoding="utf-8")

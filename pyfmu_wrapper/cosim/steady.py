@@ -26,8 +26,8 @@ import pandas as pd
 from ..master.master import Master
 from ..physics.params import BaseParams, InerterModel, TMDParams, has_gap
 from ..solvers import settings_table as _table
+from ..solvers.hermite import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
 from ..solvers.monolithic import SolverSettings, companion_start
-from ..solvers.rodas import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
 from ..solvers.settings_table import COSIM
 from ..solvers.shooting import shoot
 from ..solvers.start import initial_guess

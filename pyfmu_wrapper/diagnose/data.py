@@ -1,4 +1,5 @@
-"""Measured datasets for ``diagnose``: a folder with ``dataset.yaml`` and CSV files (SI units).
+"""Measured datasets for ``diagnose``: a folder with ``dataset.yaml`` and CSV files (SI units); the
+CSV records themselves are read by :mod:`.records`.
 
 Record kinds (told apart by their columns):
 
@@ -17,41 +18,12 @@ import math
 from dataclasses import dataclass, field
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
 import yaml
 
 from .errors import DataError
+from .records import REQUIRED, _err, _stderr, read_record
 
-REQUIRED = {
-    "link": ["t", "displacement", "force"],
-    "time": ["t", "force"],
-    "frc": ["omega", "force_amplitude", "x_max"],
-}
-OPTIONAL = {
-    "link": ["velocity", "acceleration"],
-    "time": ["x", "y", "xd", "yd", "xdd", "ydd"],
-    "frc": ["direction"],
-}
 LINK_NOMINAL = ("stiffness", "damping", "friction_force", "friction_slope", "inertance")
-
-
-
-@dataclass
-class Record:
-    name: str  #: file name
-    kind: str  #: link | time | frc
-    columns: dict  #: column name -> float array (direction: array of str)
-    omega: float | None = None  #: forcing / drive frequency [rad/s]
-    amplitude: float | None = None  #: force amplitude [N] (system) or displacement amplitude [m] (link)
-    role: str | None = None  #: train | test | None (automatic)
-    meta: dict = field(default_factory=dict)
-
-    def __getitem__(self, k):
-        return self.columns[k]
-
-    def has(self, k):
-        return k in self.columns
 
 
 @dataclass
@@ -65,23 +37,6 @@ class Dataset:
     acquisition: dict = field(default_factory=dict)  #: channel -> acquisition.Chain (dataset.yaml 'acquisition')
 
 
-def _err(file, msg, row=None, column=None, line=None):
-    where = str(file) if line is None else f"{file}:{line}"
-    if row is not None:
-        where += f", row {row}"
-    if column is not None:
-        where += f", column '{column}'"
-    return DataError(f"{where}: {msg}")
-
-
-def _kind_of(cols, level, file):
-    if "omega" in cols or "x_max" in cols:
-        return "frc"
-    if level == "link" or "displacement" in cols:
-        return "link"
-    return "time"
-
-
 #: keys allowed in dataset.yaml (top level) and in each entry of ``records``; anything else is
 #: refused with this list (a typo such as ``rol: test`` must not be ignored silently).
 ALLOWED_KEYS = {
@@ -89,203 +44,6 @@ ALLOWED_KEYS = {
     "record": ("file", "kind", "omega", "frequency_hz", "force_amplitude", "amplitude", "role", "source_file",
                "description"),
 }
-#: channels that must move in a record of each kind: constant means a dead sensor
-LIVE_CHANNELS = {"link": ("displacement", "force"), "time": ("force", "x", "y", "xdd", "ydd")}
-MAX_SAMPLES = 100_000  #: samples kept per record; a longer record is block-averaged down to at most this
-CHUNK_ROWS = 500_000  #: rows parsed at a time from a long CSV (bounded memory)
-
-
-def _stderr(msg):
-    import sys
-
-    print(msg, file=sys.stderr, flush=True)
-
-
-def _plainf(x) -> str:
-    return repr(float(x))
-
-
-def _columns(df, file, kind, row0=0, t_prev=None):
-    """Validated numeric columns of (a block of) a record; rows counted from row0."""
-    cols = {}
-    for c in REQUIRED[kind] + OPTIONAL[kind]:
-        if c not in df.columns:
-            continue
-        if c == "direction":
-            vals = df[c].astype(str).str.strip().str.lower().to_numpy()
-            bad = np.nonzero(~np.isin(vals, ["up", "down"]))[0]
-            if bad.size:
-                raise _err(file, f"direction must be 'up' or 'down', got {df[c].iloc[bad[0]]!r}",
-                           row=row0 + int(bad[0]) + 1, column=c)
-            cols[c] = vals
-            continue
-        num = pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float)
-        bad = np.nonzero(~np.isfinite(num))[0]
-        if bad.size:
-            raw = df[c].iloc[bad[0]]
-            raw = raw.item() if hasattr(raw, "item") else raw
-            raise _err(file, f"value {raw!r} is not a finite number ({bad.size} bad value(s) in this column"
-                             + (")" if row0 == 0 and t_prev is None else " in this block of rows)"),
-                       row=row0 + int(bad[0]) + 1, column=c)
-        cols[c] = num
-    if "t" in cols:
-        t = cols["t"] if t_prev is None else np.concatenate([[t_prev], cols["t"]])
-        bad = np.nonzero(np.diff(t) <= 0)[0]
-        if bad.size:
-            i = int(bad[0])
-            raise _err(file, f"time must be strictly increasing: t = {_plainf(t[i + 1])} after {_plainf(t[i])}",
-                       row=row0 + i + (2 if t_prev is None else 1), column="t")
-    if kind == "frc":
-        bad = np.nonzero(cols["omega"] <= 0)[0]
-        if bad.size:
-            raise _err(file, "omega must be > 0 rad/s", row=row0 + int(bad[0]) + 1, column="omega")
-    return cols
-
-
-def _check_header(df, file, level, entry):
-    df.columns = [str(c).strip() for c in df.columns]
-    kind = entry.get("kind") or _kind_of(df.columns, level, file)
-    if kind not in REQUIRED:
-        raise _err(file, f"unknown record kind {kind!r} (link, time or frc)")
-    if level == "link" and kind != "link":
-        raise _err(file, f"a link-level dataset needs columns {REQUIRED['link']}, got {list(df.columns)}")
-    missing = [c for c in REQUIRED[kind] if c not in df.columns]
-    if missing:
-        raise _err(file, f"missing column(s) {missing} for a {kind} record (needs {REQUIRED[kind]}, "
-                         f"optional {OPTIONAL[kind]}); found {list(df.columns)}", column=missing[0])
-    if kind == "time":  # displacements or accelerations of both bodies (acceleration-only records)
-        opts = [[c for c in pair if c not in df.columns] for pair in (("x", "y"), ("xdd", "ydd"))]
-        if all(opts):
-            miss = min(opts, key=len)
-            raise _err(file, f"missing column(s) {miss} for a time record (needs {REQUIRED[kind]} and the "
-                             f"displacements ['x', 'y'] or the accelerations ['xdd', 'ydd'], or both); "
-                             f"found {list(df.columns)}", column=miss[0])
-    return kind
-
-
-def _read_csv(file, **kw):
-    try:
-        return pd.read_csv(file, comment="#", skipinitialspace=True, **kw)
-    except UnicodeDecodeError as e:  # pragma: no cover - caught by the byte scan first
-        raise _err(file, f"not UTF-8 text: {e}") from None
-    except Exception as e:  # pandas parser errors (message names the line)
-        raise _err(file, f"cannot be read as CSV: {' '.join(str(e).split())}") from None
-
-
-def _read_long(file, level, entry, n_rows, log):
-    """A record with more than MAX_SAMPLES rows, read in blocks of CHUNK_ROWS rows (bounded memory):
-    every q consecutive samples are averaged (a boxcar anti-alias filter, then one sample per block),
-    q = ceil(rows / MAX_SAMPLES). For a linear model the averaged record obeys the same equations as
-    the raw one (averaging commutes with derivatives and linear force laws); the drive-frequency
-    amplitude is scaled by sinc(pi / samples per period after averaging), equally in every channel."""
-    import time as _time
-
-    q = max(1, math.ceil(n_rows / MAX_SAMPLES))
-    chunk = q * max(1, CHUNK_ROWS // q)
-    log(f"{file.name}: {n_rows:,} lines after the header, more than {MAX_SAMPLES:,}: reading {chunk:,} rows at a time and averaging "
-        f"every {q} consecutive samples (boxcar anti-alias filter) -> about {n_rows // q:,} samples")
-    parts, lo, hi = {}, {}, {}
-    kind, t_prev, row0, dropped = None, None, 0, 0
-    t0 = last = _time.monotonic()
-    try:
-        reader = _read_csv(file, chunksize=chunk)
-        for df in reader:
-            if kind is None:
-                kind = _check_header(df, file, level, entry)
-                if kind == "frc":
-                    raise _err(file, f"an FRC record (one line per frequency) with {n_rows:,} rows: at most "
-                                     f"{MAX_SAMPLES:,} are read")
-            else:
-                df.columns = [str(c).strip() for c in df.columns]
-            cols = _columns(df, file, kind, row0, t_prev)
-            if "t" in cols and len(cols["t"]):
-                t_prev = cols["t"][-1]
-            m = len(df) // q * q
-            dropped += len(df) - m
-            for c, v in cols.items():
-                parts.setdefault(c, []).append(v[:m].reshape(-1, q).mean(axis=1))
-                if len(v):
-                    lo[c] = min(lo.get(c, np.inf), float(v.min()))
-                    hi[c] = max(hi.get(c, -np.inf), float(v.max()))
-            row0 += len(df)
-            if _time.monotonic() - last >= 2.0:
-                last = _time.monotonic()
-                log(f"{file.name}: read {row0:,} of about {n_rows:,} rows ({100 * row0 / n_rows:.0f} %, "
-                    f"{last - t0:.0f} s)")
-    except DataError:
-        raise
-    except Exception as e:  # pandas parser errors in a later block
-        raise _err(file, f"cannot be read as CSV: {' '.join(str(e).split())}") from None
-    if kind is None:
-        raise _err(file, "has no data rows")
-    cols = {c: np.concatenate(v) for c, v in parts.items()}
-    info = {"rows": row0, "block": q, "samples": int(len(cols["t"])), "dropped_rows": dropped,
-            "method": f"boxcar average of {q} consecutive samples, one sample kept per block"}
-    log(f"{file.name}: {row0:,} rows read in {_time.monotonic() - t0:.0f} s -> {info['samples']:,} samples "
-        f"(averages of {q})" + (f"; the last {dropped} rows (less than one block) are not used" if dropped else ""))
-    return kind, cols, (lo, hi), info
-
-
-def read_record(file: Path, level: str, entry: dict | None = None, log=_stderr) -> Record:
-    """Read and validate one CSV record (records longer than MAX_SAMPLES rows: see :func:`_read_long`)."""
-    from ..cli.errors import scan_utf8_lines
-
-    entry = entry or {}
-    file = Path(file)
-    if not file.is_file():
-        raise _err(file, "file not found")
-    n_rows = max(scan_utf8_lines(file, error=DataError) - 1, 0)  # header excluded (comments counted)
-    reduced = None
-    if n_rows <= MAX_SAMPLES:
-        df = _read_csv(file)
-        kind = _check_header(df, file, level, entry)
-        if len(df) < 3:
-            raise _err(file, f"needs at least 3 data rows, has {len(df)}")
-        cols = _columns(df, file, kind)
-        span = ({c: float(np.min(v)) for c, v in cols.items() if c != "direction"},
-                {c: float(np.max(v)) for c, v in cols.items() if c != "direction"})
-    else:
-        kind, cols, span, reduced = _read_long(file, level, entry, n_rows, log)
-        if len(cols["t"]) < 3:
-            raise _err(file, f"needs at least 3 data rows, has {len(cols['t'])}")
-    for c in LIVE_CHANNELS.get(kind, ()):
-        if c in cols and span[0][c] == span[1][c]:
-            raise _err(file, f"the channel is constant (every value = {span[0][c]:g}): a dead channel (sensor not "
-                             "connected or not recorded?); the diagnosis needs it measured", column=c)
-    omega = entry.get("omega")
-    if omega is None and entry.get("frequency_hz") is not None:
-        omega = 2 * math.pi * float(entry["frequency_hz"])
-    amp = entry.get("force_amplitude", entry.get("amplitude"))
-    rec = Record(name=file.name, kind=kind, columns=cols, omega=None if omega is None else float(omega),
-                 amplitude=None if amp is None else float(amp), role=entry.get("role"),
-                 meta={k: v for k, v in entry.items() if k not in ("file",)})
-    if reduced is not None:
-        rec.meta["reduced"] = reduced
-    if kind in ("link", "time") and rec.omega is None:
-        rec.omega = estimate_omega(cols["t"], cols["displacement"] if kind == "link" else cols["force"])
-        rec.meta["omega_estimated"] = True
-        if rec.omega is None:
-            rec.meta["periodic"] = False
-    if rec.omega is not None and not rec.omega > 0:
-        raise _err(file, f"omega must be > 0 rad/s, got {_plainf(rec.omega)}")
-    if kind == "time" and rec.omega is not None:
-        span_s, period = float(cols["t"][-1] - cols["t"][0]), 2 * math.pi / rec.omega
-        if span_s < period:
-            raise _err(file, f"the record spans {span_s:.4g} s, less than one period of w = {rec.omega:.4g} rad/s "
-                             f"({period:.4g} s): the harmonic analysis of a system time record needs whole periods "
-                             "(at least 2)")
-    if kind == "link" and rec.amplitude is None:
-        d = cols["displacement"]
-        rec.amplitude = 0.5 * float(np.percentile(d, 99.5) - np.percentile(d, 0.5))
-    return rec
-
-
-def estimate_omega(t, d) -> float | None:
-    """Dominant angular frequency [rad/s] > 0 of a sampled signal, or None when it is not periodic
-    (see :func:`harmonic.estimate_omega`)."""
-    from .harmonic import estimate_omega as _est
-
-    return _est(t, d)
 
 
 def _line(node, key):
@@ -452,15 +210,3 @@ def normalise_nominal(nom: dict, level: str, file) -> dict:
             msg = str(e).replace(f" (from {file})", "")
             raise _err(file, f"nominal model: {part}: {msg}", line=_line(nom, part)) from None
     return {"base": _plain_data(nom["base"]), "tmd": _plain_data(nom["tmd"])}
-
-
-def write_record(file: Path, columns: dict, header_comment: str | None = None, fmt="%.9g"):
-    """Write a record as CSV (the format read_record accepts)."""
-    names = list(columns)
-    data = np.column_stack([np.asarray(columns[c], dtype=float) for c in names])
-    with open(file, "w") as f:
-        if header_comment:
-            for line in header_comment.splitlines():
-                f.write(f"# {line}\n")
-        f.write(",".join(names) + "\n")
-        np.savetxt(f, data, delimiter=",", fmt=fmt)

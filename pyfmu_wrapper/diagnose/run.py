@@ -205,7 +205,7 @@ def _append_reduction(res, out: Path | None):
 def run_diagnosis(dataset, out=None, model: str | None = None, log=None) -> dict:
     """Diagnose a dataset folder; write report.md, diagnosis.json and PNGs to ``out`` if given
     (``out`` is written as given: the CLI passes a fresh folder, see :class:`ResultFolder`)."""
-    from .data import _stderr
+    from .records import _stderr
 
     ds = load_dataset(dataset, _load_model(model), log=log or _stderr, model_source=model)
     red = _reduced(ds)

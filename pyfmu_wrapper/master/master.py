@@ -68,7 +68,8 @@ from fmpy import extract, read_model_description
 from . import cloop, stepcontrol
 from .extrapolation import History
 from .graph import ConnectionGraph, build_graph
-from .instance import Instance, MasterError, open_instance
+from .instance import Instance, MasterError
+from .instance3 import open_instance
 from .loop import CouplingSolver
 from .schemes import SCHEMES, Stepper
 from .stepcontrol import ErrorEstimate, Result

@@ -44,6 +44,7 @@ import types
 import numpy as np
 
 from .._jit import njit
+from .hermite import _hermite_absmax, _hermite_state  # noqa: F401 (globals of the template)
 
 # RODAS4 coefficients (Hairer & Wanner 1996), lower-triangular A and C stored as full matrices.
 _GAMMA = 0.25
@@ -125,57 +126,6 @@ def _lu_solve(a, piv, b):
         for j in range(i + 1, n):
             s -= a[i, j] * b[j]
         b[i] = s / a[i, i]
-
-
-@njit(cache=True)
-def _hermite_absmax(x0, v0, x1, v1, h):
-    """max |p(s)| over s in [0, h] of the cubic Hermite p with p(0)=x0, p'(0)=v0, p(h)=x1, p'(h)=v1."""
-    m = max(abs(x0), abs(x1))
-    # p(theta) = h00 x0 + h10 h v0 + h01 x1 + h11 h v1; derivative in theta is quadratic.
-    a0, b0, a1, b1 = x0, h * v0, x1, h * v1
-    # p(th) = c0 + c1 th + c2 th^2 + c3 th^3
-    c0 = a0
-    c1 = b0
-    c2 = -3.0 * a0 - 2.0 * b0 + 3.0 * a1 - b1
-    c3 = 2.0 * a0 + b0 - 2.0 * a1 + b1
-    qa, qb, qc = 3.0 * c3, 2.0 * c2, c1
-    if qa == 0.0:
-        if qb != 0.0:
-            th = -qc / qb
-            if 0.0 < th < 1.0:
-                m = max(m, abs(c0 + th * (c1 + th * (c2 + th * c3))))
-        return m
-    disc = qb * qb - 4.0 * qa * qc
-    if disc < 0.0:
-        return m
-    sq = math.sqrt(disc)
-    for th in ((-qb + sq) / (2.0 * qa), (-qb - sq) / (2.0 * qa)):
-        if 0.0 < th < 1.0:
-            m = max(m, abs(c0 + th * (c1 + th * (c2 + th * c3))))
-    return m
-
-
-@njit(cache=True)
-def hermite_absmax_series(x, v, h):
-    """max |p| over all intervals of the cubic Hermite interpolant of samples x, v = dx/dt at
-    spacing h (the one Hermite maximum of both engines: the monolithic solver applies
-    :func:`_hermite_absmax` step by step, the co-simulation to its communication points)."""
-    m = 0.0
-    for i in range(x.shape[0] - 1):
-        m = max(m, _hermite_absmax(x[i], v[i], x[i + 1], v[i + 1], h))
-    if x.shape[0] == 1:
-        m = abs(x[0])
-    return m
-
-
-@njit(cache=True)
-def _hermite_state(z0, f0, z1, f1, h, theta, out):
-    h00 = (1.0 + 2.0 * theta) * (1.0 - theta) ** 2
-    h10 = theta * (1.0 - theta) ** 2
-    h01 = theta * theta * (3.0 - 2.0 * theta)
-    h11 = theta * theta * (theta - 1.0)
-    for i in range(z0.shape[0]):
-        out[i] = h00 * z0[i] + h10 * h * f0[i] + h01 * z1[i] + h11 * h * f1[i]
 
 
 def _integrate_template(z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, samples, friction_band, stats,

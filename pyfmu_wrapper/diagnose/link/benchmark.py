@@ -33,7 +33,7 @@ import yaml
 
 from ...physics.kernels import chain_force
 from ...physics.params import N_PARAMS, P_ci, P_eps, P_ki
-from ..data import write_record
+from ..records import write_record
 from .models import friction_vec
 
 NOMINAL = dict(stiffness=4.0e3, damping=40.0, friction_force=0.0, friction_slope=1.0e6, inertance=1.0)

@@ -21,7 +21,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..data import write_record
+from ..records import write_record
 
 IN, KIP = 0.0254, 4448.2216
 SAMPLES_PER_CYCLE = 256

@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from ..data import write_record
+from ..records import write_record
 
 RANGES = {
     "friction": (1.5, 20.0),

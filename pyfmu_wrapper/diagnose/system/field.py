@@ -27,7 +27,7 @@ import numpy as np
 import yaml
 from scipy import signal
 
-from ..data import write_record
+from ..records import write_record
 
 DENSE_HZ = 20000.0
 PREROLL_PERIODS = 2
