@@ -30,7 +30,6 @@ docs/cosimulation.md).
 from __future__ import annotations
 
 import argparse
-import ctypes
 import json
 import math
 import os
@@ -119,15 +118,6 @@ def run_this(label, cfg, h, periods):
         m.close()
 
 
-def _ecospy():
-    tbb = Path(sys.prefix) / "lib" / "libtbb.so.12"  # the tbb wheel; ecospy's binary needs it
-    if tbb.is_file():
-        ctypes.CDLL(str(tbb), mode=ctypes.RTLD_GLOBAL)
-    import ecospy
-
-    return ecospy
-
-
 def _fmu_copies(tmp):
     from pyfmu_wrapper.fmi.build import ensure_fmus
 
@@ -136,23 +126,13 @@ def _fmu_copies(tmp):
 
 
 def run_ecos(cfg, h, periods, fmus):
-    from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters
+    from pyfmu_wrapper.cosim.ecos import ecos_simulation
 
-    ecospy = _ecospy()
     base, tmd, w, z0 = _setup(cfg)
     T = 2 * math.pi / w
     W = _window(tmd)
-    ss = ecospy.EcosSimulationStructure()
-    ss.add_model("base", str(fmus["BaseOscillator"]))
-    ss.add_model("tmd", str(fmus["TMDInerter"]))
-    for c in CONNECTIONS:
-        src, dst = (s.strip().replace(".", "::") for s in c.split("->"))
-        ss.make_real_connection(src, dst)
-    ss.add_parameter_set("p", {k.replace(".", "::"): (v if isinstance(v, int) else float(v))
-                               for k, v in fmu_parameters(base, tmd, w, z0).items()})
-    sim = ecospy.EcosSimulation(structure=ss, step_size=h)
+    sim = ecos_simulation(fmus, base, tmd, w, z0, h)
     try:
-        sim.init(parameter_set="p")
         t1 = (periods - W) * T
         t0 = time.perf_counter()
         sim.step_until(t1)

@@ -12,28 +12,17 @@ master, with interpolated inputs and the loop solved, is within 2e-5 at 1 ms.)
 """
 from __future__ import annotations
 
-import ctypes
 import math
 import shutil
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
 from _fmu_support import built_fmus
 
-from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters
+from pyfmu_wrapper.cosim.ecos import ecos_simulation
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
 from pyfmu_wrapper.solvers import monolithic as mono
-
-
-def _ecospy():
-    tbb = Path(sys.prefix) / "lib" / "libtbb.so.12"  # the tbb wheel (test extra); ecospy's binary needs it
-    if tbb.is_file():
-        ctypes.CDLL(str(tbb), mode=ctypes.RTLD_GLOBAL)
-    import ecospy
-
-    return ecospy
 
 
 @pytest.fixture(scope="module")
@@ -44,20 +33,10 @@ def copies(tmp_path_factory):
 
 def ecos_amplitude(fmus, omega, h, periods=25, window=3):
     """max |x| over the last `window` periods of an Ecos run from the monolithic linear start state."""
-    ecospy = _ecospy()
     base, tmd = BaseParams(), TMDParams(damping=10.0)
     z0 = mono.initial_guess(base, tmd, omega)
-    ss = ecospy.EcosSimulationStructure()
-    ss.add_model("base", str(fmus["BaseOscillator"]))
-    ss.add_model("tmd", str(fmus["TMDInerter"]))
-    for c in CONNECTIONS:
-        src, dst = (s.strip().replace(".", "::") for s in c.split("->"))
-        ss.make_real_connection(src, dst)
-    ss.add_parameter_set("case1", {k.replace(".", "::"): (v if isinstance(v, int) else float(v))
-                                   for k, v in fmu_parameters(base, tmd, omega, z0).items()})
-    sim = ecospy.EcosSimulation(structure=ss, step_size=h)
+    sim = ecos_simulation(fmus, base, tmd, omega, z0, h)
     try:
-        sim.init(parameter_set="case1")
         T = 2 * math.pi / omega
         sim.step_until((periods - window) * T)
         xs = []
