@@ -27,6 +27,7 @@ Masters:
 Results: benchmarks/results/accuracy_table.json and a markdown table on stdout (copied into
 docs/cosimulation.md).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -76,8 +77,9 @@ def _hermite_max(x, v, t):
     dt = np.diff(t)
     if np.allclose(dt, dt[0], rtol=1e-6, atol=0):
         return float(hermite_absmax_series(x, v, float(dt[0])))
-    return max(float(hermite_absmax_series(x[i:i + 2].copy(), v[i:i + 2].copy(), float(dt[i])))
-               for i in range(len(dt)))
+    return max(
+        float(hermite_absmax_series(x[i : i + 2].copy(), v[i : i + 2].copy(), float(dt[i]))) for i in range(len(dt))
+    )
 
 
 def _setup(cfg):
@@ -167,16 +169,19 @@ def run_libcosim(cfg, h, periods, fmus, ecco=False):
         ex = CosimExecution.from_algorithm(alg)
     else:
         ex = CosimExecution.from_step_size(int(round(h * 1e9)))  # nanoseconds
-    idx = {"base": ex.add_local_slave(CosimLocalSlave(str(fmus["BaseOscillator"]), "base")),
-           "tmd": ex.add_local_slave(CosimLocalSlave(str(fmus["TMDInerter"]), "tmd"))}
+    idx = {
+        "base": ex.add_local_slave(CosimLocalSlave(str(fmus["BaseOscillator"]), "base")),
+        "tmd": ex.add_local_slave(CosimLocalSlave(str(fmus["TMDInerter"]), "tmd")),
+    }
     vr = {(inst, v.name.decode()): int(v.reference) for inst, i in idx.items() for v in ex.slave_variables(i)}
     for c in CONNECTIONS:
         (si, sv), (di, dv) = (s.strip().split(".", 1) for s in c.split("->"))
         if ex.connect_real_variables(idx[si], vr[(si, sv)], idx[di], vr[(di, dv)]) < 0:
             raise RuntimeError(f"libcosim refused the connection {c}")
     if ecco:  # power bond: base (out: velocity, in: force) with tmd (out: force, in: velocity)
-        alg.add_power_bond(idx["base"], vr[("base", "xd")], vr[("base", "f_link")],
-                           idx["tmd"], vr[("tmd", "force")], vr[("tmd", "xd")])
+        alg.add_power_bond(
+            idx["base"], vr[("base", "xd")], vr[("base", "f_link")], idx["tmd"], vr[("tmd", "force")], vr[("tmd", "xd")]
+        )
     for key, val in fmu_parameters(base, tmd, w, z0).items():
         inst, var = key.split(".", 1)
         if isinstance(val, (bool, int)):
@@ -220,8 +225,22 @@ def run_omsimulator(cfg, h, periods):
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "oms.json"
         t0 = time.perf_counter()
-        r = subprocess.run([sys.executable, str(HERE / "omsimulator_fmu.py"), "--omega", str(w), "--step", str(h),
-                            "--periods", str(periods), "--out", str(out)], capture_output=True, text=True)
+        r = subprocess.run(
+            [
+                sys.executable,
+                str(HERE / "omsimulator_fmu.py"),
+                "--omega",
+                str(w),
+                "--step",
+                str(h),
+                "--periods",
+                str(periods),
+                "--out",
+                str(out),
+            ],
+            capture_output=True,
+            text=True,
+        )
         wall = time.perf_counter() - t0
         if r.returncode != 0:
             raise RuntimeError(r.stderr[-500:])
@@ -237,8 +256,12 @@ def reference(cfg):
     return float(mono.steady_state(base, tmd, w).amplitude)
 
 
-MASTERS = list(THIS) + ["Ecos (fixed step, ZOH)", "libcosim fixed step (ZOH)", "libcosim ECCO (adaptive, h/10..h)",
-                        "OMSimulator oms-ma"]
+MASTERS = list(THIS) + [
+    "Ecos (fixed step, ZOH)",
+    "libcosim fixed step (ZOH)",
+    "libcosim ECCO (adaptive, h/10..h)",
+    "OMSimulator oms-ma",
+]
 
 
 def run_one(master, cfg, h, periods, fmus):
@@ -259,8 +282,9 @@ def markdown(res, steps) -> str:
         ref = res["reference"][cfg]
         lines.append(f"\n**{cfg}** (monolithic amplitude {ref:.6g} m)\n")
         head = " | ".join(f"h = {h:g} s" for h in steps)
-        lines.append(f"| master | {head} | observed order | wall time / simulated s (h = {steps[0]:g}, "
-                     f"{steps[-1]:g}) |")
+        lines.append(
+            f"| master | {head} | observed order | wall time / simulated s (h = {steps[0]:g}, {steps[-1]:g}) |"
+        )
         lines.append("|---" * (len(steps) + 3) + "|")
         for master in MASTERS:
             rows = [res["runs"].get(f"{master}|{cfg}|{h!r}") for h in steps]
@@ -296,11 +320,20 @@ def main(argv=None):
     args = p.parse_args(argv)
     masters = [m for m in MASTERS if not args.only or any(s.strip() and s.strip() in m for s in args.only.split(","))]
     cfgs = [c for c in CONFIGS if not args.configs or any(s.strip() in c for s in args.configs.split(","))]
-    res = dict(machine=dict(cpus=os.cpu_count(), python=sys.version.split()[0], platform=platform.platform(),
-                            load_average=list(os.getloadavg())),
-               versions={k: _version(k) for k in ("pyfmu-wrapper", "ecospy", "libcosimpy", "fmpy", "numpy")},
-               omsimulator=os.environ.get("OMSIMULATOR"), periods=args.periods, steps=args.steps,
-               reference={}, runs={})
+    res = dict(
+        machine=dict(
+            cpus=os.cpu_count(),
+            python=sys.version.split()[0],
+            platform=platform.platform(),
+            load_average=list(os.getloadavg()),
+        ),
+        versions={k: _version(k) for k in ("pyfmu-wrapper", "ecospy", "libcosimpy", "fmpy", "numpy")},
+        omsimulator=os.environ.get("OMSIMULATOR"),
+        periods=args.periods,
+        steps=args.steps,
+        reference={},
+        runs={},
+    )
     with tempfile.TemporaryDirectory() as tmp:
         fmus = _fmu_copies(tmp)
         for cfg in cfgs:

@@ -14,6 +14,7 @@ Records in one run (results/bench_cosim.json):
   the share spent inside each of them (the compiled loop's timers);
 * the ratio of the two ``run-scenario`` wall times (target: co-simulation <= 1.5 x monolithic).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -42,8 +43,9 @@ def bench_scenario(path: Path, engine: str, jobs: int) -> dict:
         ex = make_executor("local", jobs=jobs)
         t0 = time.perf_counter()
         try:
-            run_scenario(scn, Path(tmp) / "out", RunSettings(engine=engine, solver=scn.solver), executor=ex,
-                         checkpoint_dir=None)
+            run_scenario(
+                scn, Path(tmp) / "out", RunSettings(engine=engine, solver=scn.solver), executor=ex, checkpoint_dir=None
+            )
         finally:
             ex.close()
         wall = time.perf_counter() - t0
@@ -52,9 +54,18 @@ def bench_scenario(path: Path, engine: str, jobs: int) -> dict:
     for st in summary["studies"]:
         for c in st.get("curves", []):
             for d, v in c["directions"].items():
-                curves.append(dict(study=st["name"], curve=c["label"], direction=d, method=v["method"],
-                                   all_converged=v["all_converged"], periods_mean=v["periods_mean"],
-                                   peak_amplitude=v["peak_amplitude"], wall_time=v["wall_time"]))
+                curves.append(
+                    dict(
+                        study=st["name"],
+                        curve=c["label"],
+                        direction=d,
+                        method=v["method"],
+                        all_converged=v["all_converged"],
+                        periods_mean=v["periods_mean"],
+                        peak_amplitude=v["peak_amplitude"],
+                        wall_time=v["wall_time"],
+                    )
+                )
     return dict(scenario=str(path.relative_to(ROOT)), engine=engine, wall_time=wall, curves=curves)
 
 
@@ -68,12 +79,17 @@ def bench_friction(workers: int = 2) -> dict:
     for engine in ("cosim", "monolithic"):
         t0 = time.perf_counter()
         t = compute_sweep(base, tmd, omegas, RunSettings(engine=engine, workers=workers))
-        out[engine] = dict(wall_time=time.perf_counter() - t0, periods=int(t["periods"].sum()),
-                           all_converged=bool(t["converged"].all()), amplitude=t["amplitude"].tolist())
+        out[engine] = dict(
+            wall_time=time.perf_counter() - t0,
+            periods=int(t["periods"].sum()),
+            all_converged=bool(t["converged"].all()),
+            amplitude=t["amplitude"].tolist(),
+        )
     a, b = np.array(out["cosim"]["amplitude"]), np.array(out["monolithic"]["amplitude"])
     out["max_rel_difference"] = float(np.max(np.abs(a / b - 1)))
-    return dict(case="Case 1, ideal inerter, df = 45.78 N, 41 frequencies 15-25 rad/s, direction up",
-                workers=workers, **out)
+    return dict(
+        case="Case 1, ideal inerter, df = 45.78 N, 41 frequencies 15-25 rad/s, direction up", workers=workers, **out
+    )
 
 
 def _per_step(fn, steps: int, repeats: int = 5) -> float:
@@ -106,10 +122,13 @@ def bench_overhead(steps: int = 20000, keep: list | None = None) -> dict:
     res = {}
     h = 1e-3
     # two do-nothing FMUs, wired like base and TMD: a value link each way, or one value and one rate link
-    for label, conns in (("trivial_value_loop", ["a.y -> b.u", "b.y -> a.u"]),
-                         ("trivial_rate", ["a.y -> b.u", ("b.y", "a.u", "rate", 1.0)])):
-        m = Master({"a": paths["Trivial"], "b": paths["Trivial"]}, conns, {"a.gain": 0.5, "b.gain": 0.5},
-                   scheme="jacobi")
+    for label, conns in (
+        ("trivial_value_loop", ["a.y -> b.u", "b.y -> a.u"]),
+        ("trivial_rate", ["a.y -> b.u", ("b.y", "a.u", "rate", 1.0)]),
+    ):
+        m = Master(
+            {"a": paths["Trivial"], "b": paths["Trivial"]}, conns, {"a.gain": 0.5, "b.gain": 0.5}, scheme="jacobi"
+        )
         keep.append(m)
         m.initialize()
         m.advance(500, h)
@@ -125,8 +144,14 @@ def bench_overhead(steps: int = 20000, keep: list | None = None) -> dict:
         plain = _per_step(lambda n, loop=loop: loop.plain(n, h), steps)
         loop.timing = True
         timed = _per_step(lambda n, m=m: m.advance(n, h), steps)
-        res[label] = dict(python_us=py, compiled_us=comp, plain_c_us=plain, overhead_us=comp - plain,
-                          ratio_compiled_to_plain=comp / plain, compiled_with_timers_us=timed)
+        res[label] = dict(
+            python_us=py,
+            compiled_us=comp,
+            plain_c_us=plain,
+            overhead_us=comp - plain,
+            ratio_compiled_to_plain=comp / plain,
+            compiled_with_timers_us=timed,
+        )
     base = BaseParams()
     for coupling, tmd in (("impulse", TMDParams(damping=10.0)), ("force", TMDParams(damping=10.0))):
         m = make_master(base, tmd, "loop" if coupling == "force" else "jacobi", 2, coupling=coupling)
@@ -147,11 +172,14 @@ def bench_overhead(steps: int = 20000, keep: list | None = None) -> dict:
                 r[f"inside_{name}_us"] = (after["fmus"][name]["seconds"] - before["fmus"][name]["seconds"]) / n * 1e6
             r["master_us"] = (after["master_seconds"] - before["master_seconds"]) / n * 1e6
         res[f"real_{coupling}"] = r
-    return dict(us_per_step=res, note="trivial_*: two FMUs whose doStep does nothing; python_us: Master.step; "
-                                      "compiled_us: Master.advance (the compiled loop); plain_c_us: a plain C loop of "
-                                      "the same fmi2 calls over the same instances; overhead_us = compiled - plain "
-                                      "(target <= 3 us); real_*: whole step on the project FMUs with the time inside "
-                                      "each FMU's fmi2 calls and the master's own share (compiled loop timers)")
+    return dict(
+        us_per_step=res,
+        note="trivial_*: two FMUs whose doStep does nothing; python_us: Master.step; "
+        "compiled_us: Master.advance (the compiled loop); plain_c_us: a plain C loop of "
+        "the same fmi2 calls over the same instances; overhead_us = compiled - plain "
+        "(target <= 3 us); real_*: whole step on the project FMUs with the time inside "
+        "each FMU's fmi2 calls and the master's own share (compiled loop timers)",
+    )
 
 
 def main(argv=None):
@@ -160,14 +188,23 @@ def main(argv=None):
     p.add_argument("--jobs", type=int, default=0, help="processes of the local executor (0: all cores)")
     p.add_argument("--out", default=str(HERE / "results" / "bench_cosim.json"))
     args = p.parse_args(argv)
-    out = dict(machine=dict(cpus=os.cpu_count(), python=sys.version.split()[0], platform=platform.platform(),
-                            load_average=list(os.getloadavg())))
+    out = dict(
+        machine=dict(
+            cpus=os.cpu_count(),
+            python=sys.version.split()[0],
+            platform=platform.platform(),
+            load_average=list(os.getloadavg()),
+        )
+    )
     keep = []  # masters kept open to the end (see bench_overhead)
     out["overhead"] = bench_overhead(keep=keep)
     print(json.dumps(out["overhead"], indent=1), flush=True)
     out["friction"] = bench_friction()
-    print({k: v for k, v in out["friction"].items() if k not in ("cosim", "monolithic")},
-          {e: out["friction"][e]["wall_time"] for e in ("cosim", "monolithic")}, flush=True)
+    print(
+        {k: v for k, v in out["friction"].items() if k not in ("cosim", "monolithic")},
+        {e: out["friction"][e]["wall_time"] for e in ("cosim", "monolithic")},
+        flush=True,
+    )
     if not args.skip_scenario:
         out["full_case1"] = {}
         for engine in ("cosim", "monolithic"):

@@ -16,6 +16,7 @@
 
     python benchmarks/bench_diagnose.py --speed-only [--out DIR]
 """
+
 from __future__ import annotations
 
 import argparse
@@ -55,8 +56,12 @@ def speed_six_records(out: Path) -> dict:
     from pyfmu_wrapper.diagnose.system.bench import make_system_dataset
 
     rows = {}
-    for name, hidden, gain in (("clean", {}, 0.0), ("viscous", {"viscous": 6.0}, 0.0), ("cubic", {"cubic": 1e5}, 0.0),
-                               ("x_gain_oov", {}, 0.03)):
+    for name, hidden, gain in (
+        ("clean", {}, 0.0),
+        ("viscous", {"viscous": 6.0}, 0.0),
+        ("cubic", {"cubic": 1e5}, 0.0),
+        ("x_gain_oov", {}, 0.03),
+    ):
         d = out / "speed6" / name
         make_system_dataset(d, hidden, seed=61, case=1, n_records=6, frc=True)
         if gain:
@@ -72,9 +77,13 @@ def speed_six_records(out: Path) -> dict:
         res = run_diagnosis(d)
         dt = time.perf_counter() - t0
         b1 = sweep_baseline()
-        rows[name] = {"seconds": round(dt, 2), "over_sweep": round(dt / (0.5 * (b0 + b1)), 1),
-                      "load_average_1min": round(0.5 * (load0 + os.getloadavg()[0]), 2),
-                      "effects": res["verdict"]["effects"], "unexplained": res["verdict"].get("unexplained")}
+        rows[name] = {
+            "seconds": round(dt, 2),
+            "over_sweep": round(dt / (0.5 * (b0 + b1)), 1),
+            "load_average_1min": round(0.5 * (load0 + os.getloadavg()[0]), 2),
+            "effects": res["verdict"]["effects"],
+            "unexplained": res["verdict"].get("unexplained"),
+        }
         print(name, rows[name], flush=True)
     return rows
 
@@ -99,15 +108,23 @@ def main():
     make_system_benchmark(out / "system", n=a.n, seed=a.seed)
     t1 = time.perf_counter()
     base0 = sweep_baseline()
-    sc = score(out / "system", progress=lambda r: print(
-        f"{r['dataset']}: hidden {r['hidden'] or '-'} found {r['found'] or '-'} "
-        f"{'ok' if r['correct'] else 'WRONG'} ({r['seconds']:.1f} s)", flush=True))
+    sc = score(
+        out / "system",
+        progress=lambda r: print(
+            f"{r['dataset']}: hidden {r['hidden'] or '-'} found {r['found'] or '-'} "
+            f"{'ok' if r['correct'] else 'WRONG'} ({r['seconds']:.1f} s)",
+            flush=True,
+        ),
+    )
     base1 = sweep_baseline()
     secs = [r["seconds"] for r in sc["rows"]]
-    sc["summary"].update(generate_s=round(t1 - t0, 1), score_s=round(sum(secs), 1),
-                         baseline_sweep_s=round(0.5 * (base0 + base1), 3),
-                         diagnose_over_sweep_median=round(statistics.median(secs) / (0.5 * (base0 + base1)), 1),
-                         diagnose_over_sweep_max=round(max(secs) / (0.5 * (base0 + base1)), 1))
+    sc["summary"].update(
+        generate_s=round(t1 - t0, 1),
+        score_s=round(sum(secs), 1),
+        baseline_sweep_s=round(0.5 * (base0 + base1), 3),
+        diagnose_over_sweep_median=round(statistics.median(secs) / (0.5 * (base0 + base1)), 1),
+        diagnose_over_sweep_max=round(max(secs) / (0.5 * (base0 + base1)), 1),
+    )
     print(json.dumps(sc["summary"], indent=1))
     res["system"] = sc
     if not a.skip_link:
@@ -118,8 +135,12 @@ def main():
     t3 = time.perf_counter()
     brfd = run_diagnosis(ROOT / "data" / "brfd_link", out=out / "brfd_report")
     t4 = time.perf_counter()
-    res["brfd"] = {"verdict": brfd["attribution"]["verdict"], "params": brfd["attribution"]["params"],
-                   "held_out": brfd["held_out"], "seconds": round(t4 - t3, 1)}
+    res["brfd"] = {
+        "verdict": brfd["attribution"]["verdict"],
+        "params": brfd["attribution"]["params"],
+        "held_out": brfd["held_out"],
+        "seconds": round(t4 - t3, 1),
+    }
     print(json.dumps(res["brfd"], indent=1, default=str))
     (out / "bench_diagnose.json").write_text(json.dumps(res, indent=1, default=str))
 

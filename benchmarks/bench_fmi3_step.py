@@ -10,6 +10,7 @@ alternate within each round (the machine is shared: the ratio, measured side by 
 result; medians over the rounds). The checksum of the outputs must agree between the versions
 (the same core computes both). Results: benchmarks/results/bench_fmi3_step.json.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -54,10 +55,13 @@ def main(argv=None) -> int:
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
         host2, host3 = tmp / "fmu_host", tmp / "fmi3_bench"
-        subprocess.run(["gcc", "-O2", inc, str(REPO / "tests" / "c_host" / "fmu_host.c"), "-o", str(host2), "-ldl"],
-                       check=True)
-        subprocess.run(["gcc", "-O2", inc, str(REPO / "benchmarks" / "c_host" / "fmi3_bench.c"), "-o", str(host3),
-                        "-ldl"], check=True)
+        subprocess.run(
+            ["gcc", "-O2", inc, str(REPO / "tests" / "c_host" / "fmu_host.c"), "-o", str(host2), "-ldl"], check=True
+        )
+        subprocess.run(
+            ["gcc", "-O2", inc, str(REPO / "benchmarks" / "c_host" / "fmi3_bench.c"), "-o", str(host3), "-ldl"],
+            check=True,
+        )
         dirs = {}
         for v in (2, 3):
             for f in build_fmus(list(CASES), fmi_out_dir(tmp / "fmus", v), fmi_version=v):
@@ -72,18 +76,28 @@ def main(argv=None) -> int:
                 d2, d3 = dirs[(2, name)], dirs[(3, name)]
                 runs[2].append(_run([host2, "bench", args.steps, d2, _token(d2), u, y, *p]))
                 runs[3].append(_run([host3, args.steps, d3, _token(d3), u, y, *p]))
-            med = {v: {k: statistics.median(r[k] for r in runs[v]) for k in ("us_per_doStep", "us_per_set_doStep_get")}
-                   for v in (2, 3)}
+            med = {
+                v: {k: statistics.median(r[k] for r in runs[v]) for k in ("us_per_doStep", "us_per_set_doStep_get")}
+                for v in (2, 3)
+            }
             same = {r["check"] for r in runs[2]} == {r["check"] for r in runs[3]}
-            out[name] = {"fmi2": med[2], "fmi3": med[3], "ratio_doStep": med[3]["us_per_doStep"] / med[2]["us_per_doStep"],
-                         "ratio_set_doStep_get": med[3]["us_per_set_doStep_get"] / med[2]["us_per_set_doStep_get"],
-                         "same_outputs": same}
-    print(f"{'model':16s} {'FMI 2.0 us/doStep':>18s} {'FMI 3.0 us/doStep':>18s} {'ratio':>6s} "
-          f"{'set+step+get 2.0':>17s} {'3.0':>8s} {'ratio':>6s} same outputs")
+            out[name] = {
+                "fmi2": med[2],
+                "fmi3": med[3],
+                "ratio_doStep": med[3]["us_per_doStep"] / med[2]["us_per_doStep"],
+                "ratio_set_doStep_get": med[3]["us_per_set_doStep_get"] / med[2]["us_per_set_doStep_get"],
+                "same_outputs": same,
+            }
+    print(
+        f"{'model':16s} {'FMI 2.0 us/doStep':>18s} {'FMI 3.0 us/doStep':>18s} {'ratio':>6s} "
+        f"{'set+step+get 2.0':>17s} {'3.0':>8s} {'ratio':>6s} same outputs"
+    )
     for name, r in out.items():
-        print(f"{name:16s} {r['fmi2']['us_per_doStep']:18.3f} {r['fmi3']['us_per_doStep']:18.3f} {r['ratio_doStep']:6.2f} "
-              f"{r['fmi2']['us_per_set_doStep_get']:17.3f} {r['fmi3']['us_per_set_doStep_get']:8.3f} "
-              f"{r['ratio_set_doStep_get']:6.2f} {r['same_outputs']}")
+        print(
+            f"{name:16s} {r['fmi2']['us_per_doStep']:18.3f} {r['fmi3']['us_per_doStep']:18.3f} {r['ratio_doStep']:6.2f} "
+            f"{r['fmi2']['us_per_set_doStep_get']:17.3f} {r['fmi3']['us_per_set_doStep_get']:8.3f} "
+            f"{r['ratio_set_doStep_get']:6.2f} {r['same_outputs']}"
+        )
     res = REPO / "benchmarks" / "results"
     res.mkdir(exist_ok=True)
     (res / "bench_fmi3_step.json").write_text(json.dumps(out, indent=1))

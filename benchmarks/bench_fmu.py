@@ -14,6 +14,7 @@ binary does not link libpython, so its run needs LD_PRELOAD=<libpython> (ours ne
 The same loops are also timed inside this Python process through fmpy's FMU2Slave ("under
 fmpy"). Results are written to benchmarks/results/bench_fmu.json and printed.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -56,8 +57,13 @@ PYTHONFMU_SLAVE = textwrap.dedent('''
 
 
 def _bench(exe, d, g, u, y, steps, env, params=()):
-    r = subprocess.run([str(exe), "bench", str(steps), str(d), g, str(u), str(y), *params], capture_output=True,
-                       text=True, env=env, timeout=1800)
+    r = subprocess.run(
+        [str(exe), "bench", str(steps), str(d), g, str(u), str(y), *params],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=1800,
+    )
     if r.returncode != 0:
         return {"error": (r.stderr or r.stdout)[-2000:]}
     return {k: float(v) for k, v in (l.split() for l in r.stdout.splitlines()) if k.startswith("us_")}
@@ -72,8 +78,9 @@ def _bench_fmpy(fmu: Path, unzip: Path, u: int, y: int, steps: int, start: dict 
     from fmpy.fmi2 import FMU2Slave
 
     md = read_model_description(str(fmu))
-    s = FMU2Slave(guid=md.guid, unzipDirectory=str(unzip), modelIdentifier=md.coSimulation.modelIdentifier,
-                  instanceName="bench")
+    s = FMU2Slave(
+        guid=md.guid, unzipDirectory=str(unzip), modelIdentifier=md.coSimulation.modelIdentifier, instanceName="bench"
+    )
     s.instantiate()
     s.setupExperiment(startTime=0.0)
     s.enterInitializationMode()
@@ -103,6 +110,7 @@ def _bench_fmpy(fmu: Path, unzip: Path, u: int, y: int, steps: int, start: dict 
 
 def _pf_guid(d: Path) -> str:
     import re
+
     return re.search(r'guid="([^"]+)"', (d / "modelDescription.xml").read_text()).group(1)
 
 
@@ -139,6 +147,7 @@ def main(argv=None):
             import time
 
             from _fmu_support import run_fuzz  # noqa: E402
+
             t0 = time.perf_counter()
             fz = run_fuzz(tmp / "fuzz", args.fuzz, 160, seed=2026)
             fz.pop("stderr", None)
@@ -148,12 +157,17 @@ def main(argv=None):
                 raise ImportError("skipped (--no-pythonfmu)")
             script = tmp / "TrivialPF.py"
             script.write_text(PYTHONFMU_SLAVE)
-            subprocess.run([sys.executable, "-m", "pythonfmu", "build", "-f", str(script), "-d", str(tmp / "pf")],
-                           check=True, capture_output=True, text=True)
+            subprocess.run(
+                [sys.executable, "-m", "pythonfmu", "build", "-f", str(script), "-d", str(tmp / "pf")],
+                check=True,
+                capture_output=True,
+                text=True,
+            )
             pf = tmp / "pf" / "TrivialPF.fmu"
             dpf = extract(pf, tmp / "x")
             vrs = {}
             import fmpy
+
             for v in fmpy.read_model_description(str(pf)).modelVariables:
                 vrs[v.name] = v.valueReference
             penv = dict(env, LD_PRELOAD=str(libpython_path()))

@@ -9,6 +9,7 @@ checkpoint is read, but the finished rows are checkpointed where ``reproduce``
 looks for them, results/paper/.cache/<scenario>/<study>/, so the report reuses them); the map is written to benchmarks/results/bench_maps_<which>.csv and the timings
 to benchmarks/results/bench_maps.json (merged with earlier entries).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -25,8 +26,10 @@ from pyfmu_wrapper.scenario.runner import _Cache, map_response
 from pyfmu_wrapper.scenario.tasks import code_version
 
 ROOT = Path(__file__).resolve().parents[1]
-MAPS = {"fig4a": ("scenarios/paper/fig4_case1.yaml", "friction_map"),
-        "fig5a": ("scenarios/paper/fig5_case1.yaml", "play_map")}
+MAPS = {
+    "fig4a": ("scenarios/paper/fig4_case1.yaml", "friction_map"),
+    "fig5a": ("scenarios/paper/fig5_case1.yaml", "play_map"),
+}
 
 
 def bench(which: str, jobs: int, executor_name: str, scheduler=None) -> dict:
@@ -49,13 +52,26 @@ def bench(which: str, jobs: int, executor_name: str, scheduler=None) -> dict:
     out = ROOT / "benchmarks" / "results"
     out.mkdir(parents=True, exist_ok=True)
     t.to_csv(out / f"bench_maps_{which}.csv", index=False, float_format="%.8g")
-    return dict(scenario=path, study=study_name, values=len(study.values), omegas=len(study.omegas),
-                points=int(len(t)), executor=ex.describe(), jobs=jobs, wall_s=round(wall, 2),
-                cpu_s_in_solver=round(float(t["wall_time"].sum()), 1), ms_per_point=round(1e3 * wall / len(t), 2),
-                not_converged=int((~t["converged"].astype(bool)).sum()), periods_mean=float(t["periods"].mean()),
-                settings=settings.used(), cpu_count=os.cpu_count(), machine=platform.processor() or platform.machine(),
-                date=time.strftime("%Y-%m-%d %H:%M:%S"), created=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
-                code_version=code_version())
+    return dict(
+        scenario=path,
+        study=study_name,
+        values=len(study.values),
+        omegas=len(study.omegas),
+        points=int(len(t)),
+        executor=ex.describe(),
+        jobs=jobs,
+        wall_s=round(wall, 2),
+        cpu_s_in_solver=round(float(t["wall_time"].sum()), 1),
+        ms_per_point=round(1e3 * wall / len(t), 2),
+        not_converged=int((~t["converged"].astype(bool)).sum()),
+        periods_mean=float(t["periods"].mean()),
+        settings=settings.used(),
+        cpu_count=os.cpu_count(),
+        machine=platform.processor() or platform.machine(),
+        date=time.strftime("%Y-%m-%d %H:%M:%S"),
+        created=time.strftime("%Y-%m-%d %H:%M UTC", time.gmtime()),
+        code_version=code_version(),
+    )
 
 
 def main():

@@ -13,6 +13,7 @@ grids. Part B (df): nonlinear steady states (monolithic solver, stepped-sine swe
 candidates that matter, sweeping up and down; the FRCs computed for one objective are reused by
 the others (curve cache). --quick: part B sweeps up only, fewer candidates.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -59,10 +60,17 @@ LINEAR_CANDIDATES = {
     "mean |X|^2 14..26": ("mean_square", (14, 26), 2401),
     "mean |X|^2 10..30": ("mean_square", (10, 30), 4001),
     "H2: int |X|^2 dw, all w (exact)": ("h2", None, None),
-    "int |w X|^2 dw (velocity H2)": (Objective("h2v", "int |w X|^2", lambda w, a: _trapz((w * a) ** 2, w)), W_ALL, None),
-    "int |w^2 X|^2 dw (acceleration H2)": (Objective("h2a", "int |w^2 X|^2", lambda w, a: _trapz((w * w * a) ** 2, w)),
-                                           W_ALL, None),
-    "int |X|^3 dw 10..30 (L3 norm)": (Objective("l3", "int |X|^3", lambda w, a: _trapz(a ** 3, w)), (10, 30), 4001),
+    "int |w X|^2 dw (velocity H2)": (
+        Objective("h2v", "int |w X|^2", lambda w, a: _trapz((w * a) ** 2, w)),
+        W_ALL,
+        None,
+    ),
+    "int |w^2 X|^2 dw (acceleration H2)": (
+        Objective("h2a", "int |w^2 X|^2", lambda w, a: _trapz((w * w * a) ** 2, w)),
+        W_ALL,
+        None,
+    ),
+    "int |X|^3 dw 10..30 (L3 norm)": (Objective("l3", "int |X|^3", lambda w, a: _trapz(a**3, w)), (10, 30), 4001),
     "peak stroke |X-Y| 15..25": ("peak_relative", (15, 25), 2001),
 }
 
@@ -104,19 +112,35 @@ def part_b(quick: bool):
             for k in CASES:
                 cache = _caches.setdefault((direction, band, k), {})
                 pts = 101 if band == (15, 25) else 201
-                r = optimise(BASE, paper_case(k), "tmd.friction_force", obj,
-                             OptimiseConfig(band=band, points=pts, bounds=(0.0, 100.0), direction=direction),
-                             curve_cache=cache)
+                r = optimise(
+                    BASE,
+                    paper_case(k),
+                    "tmd.friction_force",
+                    obj,
+                    OptimiseConfig(band=band, points=pts, bounds=(0.0, 100.0), direction=direction),
+                    curve_cache=cache,
+                )
                 vals.append(r.value)
                 errs.append(100.0 * (r.value / PAPER_DF_OPT[k] - 1.0))
                 conv = conv and bool(r.evaluations["converged"].all())
                 if obj == "h2" and band == (15, 25):
-                    ev = Evaluator(BASE, paper_case(k), "tmd.friction_force", get_objective("h2"),
-                                   np.linspace(15, 25, 101), direction, use_exact=False, curves=cache)
+                    ev = Evaluator(
+                        BASE,
+                        paper_case(k),
+                        "tmd.friction_force",
+                        get_objective("h2"),
+                        np.linspace(15, 25, 101),
+                        direction,
+                        use_exact=False,
+                        curves=cache,
+                    )
                     flat[f"{direction} case {k}"] = ev(PAPER_DF_OPT[k]) / r.objective_value - 1.0
             label = f"{obj} {band[0]}..{band[1]}, sweep {direction}"
-            rows.append(dict(candidate=label, values=vals, errors_pct=errs, converged=conv,
-                             max_abs_error_pct=max(map(abs, errs))))
+            rows.append(
+                dict(
+                    candidate=label, values=vals, errors_pct=errs, converged=conv, max_abs_error_pct=max(map(abs, errs))
+                )
+            )
             print(f"  {label}: {', '.join(f'{v:.3f}' for v in vals)}  ({time.perf_counter() - t0:.0f} s)", flush=True)
     return rows, flat
 
@@ -132,15 +156,32 @@ def grid_study():
     rows = []
     for k, dfs in GRID_STUDY.items():
         for n in (51, 101, 201, 401):
-            ev = Evaluator(BASE, paper_case(k), "tmd.friction_force", get_objective("h2"), np.linspace(15, 25, n),
-                           "up", use_exact=False)
+            ev = Evaluator(
+                BASE,
+                paper_case(k),
+                "tmd.friction_force",
+                get_objective("h2"),
+                np.linspace(15, 25, n),
+                "up",
+                use_exact=False,
+            )
             J = np.array([ev(d) for d in dfs])
             i = int(np.argmin(J))
             near = dfs[J[i] * (1 + 5e-6) >= J]  # values within 5e-6 of the minimum: the flat bottom
-            rows.append(dict(case=k, points=n, argmin=float(dfs[i]), flat_lo=float(near.min()), flat_hi=float(near.max()),
-                             error_pct=100.0 * (dfs[i] / PAPER_DF_OPT[k] - 1.0)))
-            print(f"  Case {k}, {n} frequencies: argmin {dfs[i]:.3f} (flat within 5e-6: {near.min():.3f}..{near.max():.3f})",
-                  flush=True)
+            rows.append(
+                dict(
+                    case=k,
+                    points=n,
+                    argmin=float(dfs[i]),
+                    flat_lo=float(near.min()),
+                    flat_hi=float(near.max()),
+                    error_pct=100.0 * (dfs[i] / PAPER_DF_OPT[k] - 1.0),
+                )
+            )
+            print(
+                f"  Case {k}, {n} frequencies: argmin {dfs[i]:.3f} (flat within 5e-6: {near.min():.3f}..{near.max():.3f})",
+                flush=True,
+            )
     return rows
 
 
@@ -170,16 +211,28 @@ def main():
     tb = time.perf_counter() - t
     print()
     print(_table(b_rows, PAPER_DF_OPT))
-    print(f"\n({tb:.0f} s) h2 15..25 at the paper's df over its minimum, minus 1: "
-          + ", ".join(f"{k}: {v:.1e}" for k, v in b_flat.items()))
+    print(
+        f"\n({tb:.0f} s) h2 15..25 at the paper's df over its minimum, minus 1: "
+        + ", ".join(f"{k}: {v:.1e}" for k, v in b_flat.items())
+    )
     grid = []
     if args.grid_study:
         print("\n## df_opt: frequency-grid study (h2 15..25, sweep up, df step 0.05-0.2)\n", flush=True)
         grid = grid_study()
     os.makedirs(os.path.join(os.path.dirname(__file__), "results"), exist_ok=True)
     with open(os.path.join(os.path.dirname(__file__), "results", "bench_optimise.json"), "w") as fh:
-        json.dump(dict(c=a_rows, c_flatness=a_flat, df=b_rows, df_flatness=b_flat, df_grid_study=grid, seconds=dict(c=ta, df=tb)),
-                  fh, indent=2)
+        json.dump(
+            dict(
+                c=a_rows,
+                c_flatness=a_flat,
+                df=b_rows,
+                df_flatness=b_flat,
+                df_grid_study=grid,
+                seconds=dict(c=ta, df=tb),
+            ),
+            fh,
+            indent=2,
+        )
 
 
 if __name__ == "__main__":

@@ -14,6 +14,7 @@ The scipy baseline integrates period after period from the previous frequency's 
 solve_ivp(method="Radau") until the per-period maximum of |x| changes by less than 1e-5
 relative; it runs on a few points and is extrapolated to 101.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -88,24 +89,39 @@ def main():
     refb = ref.set_index("omega").amplitude.loc[pts].values
     err_b = float(np.max(np.abs(amps_b / refb - 1)))
     t_b101 = t_b / len(pts) * len(w)
-    out["friction_frc"] = dict(points=len(w), ours_s=t_ours, ours_max_rel_err=err, scipy_points=len(pts),
-                               scipy_s=t_b, scipy_extrapolated_101_s=t_b101, scipy_max_rel_err=err_b,
-                               speedup=t_b101 / t_ours, periods=int(res.periods.sum()), steps=int(res.steps.sum()))
+    out["friction_frc"] = dict(
+        points=len(w),
+        ours_s=t_ours,
+        ours_max_rel_err=err,
+        scipy_points=len(pts),
+        scipy_s=t_b,
+        scipy_extrapolated_101_s=t_b101,
+        scipy_max_rel_err=err_b,
+        speedup=t_b101 / t_ours,
+        periods=int(res.periods.sum()),
+        steps=int(res.steps.sum()),
+    )
     print(json.dumps(out["friction_frc"], indent=1))
 
     # --- 2. full model FRC ----------------------------------------------------------------
-    full = paper_case(1, damping=10.0, friction_force=10.0, inerter="play", play_gap=1e-4,
-                      mesh_stiffness=2e7, mesh_damping=0.01)
+    full = paper_case(
+        1, damping=10.0, friction_force=10.0, inerter="play", play_gap=1e-4, mesh_stiffness=2e7, mesh_damping=0.01
+    )
     st = SolverSettings(rtol=1e-7, atol_scale=1e-7)
     for workers in sorted({1, args.workers}):
         t0 = time.perf_counter()
         r = sweep(base, full, w, "up", st, workers=workers).table
         dt = time.perf_counter() - t0
-        out[f"full_frc_workers{workers}"] = dict(points=len(w), seconds=dt, periods=int(r.periods.sum()),
-                                                 steps=int(r.steps.sum()), rejected=int(r.rejected.sum()),
-                                                 converged=bool(r.converged.all()),
-                                                 peak=float(r.amplitude.max()),
-                                                 peak_omega=float(r.omega[r.amplitude.idxmax()]))
+        out[f"full_frc_workers{workers}"] = dict(
+            points=len(w),
+            seconds=dt,
+            periods=int(r.periods.sum()),
+            steps=int(r.steps.sum()),
+            rejected=int(r.rejected.sum()),
+            converged=bool(r.converged.all()),
+            peak=float(r.amplitude.max()),
+            peak_omega=float(r.omega[r.amplitude.idxmax()]),
+        )
         print(json.dumps(out[f"full_frc_workers{workers}"], indent=1))
     os.makedirs(os.path.join(os.path.dirname(__file__), "results"), exist_ok=True)
     with open(os.path.join(os.path.dirname(__file__), "results", "bench_solver.json"), "w") as fh:

@@ -13,6 +13,7 @@ issue 19), each with the tests meant to catch it.
 Exit status 0 when every mutation is caught. A snippet that no longer exists is reported as
 "stale" (update the table when the code moves).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -37,43 +38,90 @@ class Mutation:
 
 
 MUTATIONS = (
-    Mutation("rodas event retakes disabled", "pyfmu_wrapper/solvers/rodas.py",
-             "if theta < 0.9 and hs * theta > hmin * 100:", "if False and theta < 0.9 and hs * theta > hmin * 100:",
-             ("tests/test_steady_rules.py", "tests/test_integrator_edges.py")),
-    Mutation("play window off by one", "pyfmu_wrapper/solvers/steady.py",
-             "wins.append(max(self.period_max[-W:]))", "wins.append(max(self.period_max[-W + 1:]))",
-             ("tests/test_steady_rules.py", "tests/test_solver.py")),
-    Mutation("diagnose noise gate dropped", "pyfmu_wrapper/diagnose/gates.py",
-             "return (chi2 - dof) / math.sqrt(2.0 * max(dof, 1)) > z", "return True",
-             ("tests/test_diagnose_system.py",)),
-    Mutation("evidence threshold sign flipped", "pyfmu_wrapper/diagnose/gates.py",
-             "n_new_params * math.log(max(n, 2)) > threshold", "n_new_params * math.log(max(n, 2)) > -threshold",
-             ("tests/test_diagnose_system.py",)),
-    Mutation("diagnose share gate dropped (any effect named as the cause)", "pyfmu_wrapper/diagnose/gates.py",
-             "return gap_before > 0 and 1.0 - max(gap_after, 0.0) / gap_before >= share", "return True",
-             ("tests/test_diagnose_honest.py",)),
-    Mutation("diagnose remaining-gap check dropped", "pyfmu_wrapper/diagnose/gates.py",
-             "return noise_gate(chi2_after, dof, z) and gap_before > 0 and left > share * gap_before", "return False",
-             ("tests/test_diagnose_honest.py",)),
-    Mutation("diagnose share gate bypassed in the decision", "pyfmu_wrapper/diagnose/system/diagnosis.py",
-             "if self.chosen and not share_gate(g0, g1):", "if False:",
-             ("tests/test_diagnose_honest.py",)),
-    Mutation("diagnose remaining-gap check bypassed in the decision", "pyfmu_wrapper/diagnose/system/diagnosis.py",
-             "remaining_gate(self.dof + g1, self.dof, g0)", "False",
-             ("tests/test_diagnose_honest.py",)),
-    Mutation("solver settings removed from the checkpoint key", "pyfmu_wrapper/scenario/tasks.py",
-             "omegas=[float(w).hex() for w in np.asarray(self.omegas, float)], settings=s.used())",
-             "omegas=[float(w).hex() for w in np.asarray(self.omegas, float)])",
-             ("tests/test_scenarios.py",)),
-    Mutation("co-simulation Hermite maximum replaced by end points", "pyfmu_wrapper/cosim/steady.py",
-             "        return _hermite_absmax(self.x, self.v, self.h)", "        return float(np.max(np.abs(self.x)))",
-             ("tests/test_master.py",)),
-    Mutation("antiresonance verdict inverted", "pyfmu_wrapper/paper/claims/sect2_5.py",
-             'Check("max |w_min - 20|", dev, "<=", 1e-3, "rad/s")', 'Check("max |w_min - 20|", dev, ">", 1e-3, "rad/s")',
-             ("tests/test_reproduction.py",)),
-    Mutation("interface Jacobian ignored by the TMD kernel", "pyfmu_wrapper/physics/kernels.py",
-             "    if kappa == 0.0:\n        return xdd_in", "    if True:\n        return xdd_in",
-             ("tests/test_physics.py", "tests/test_cosim_agreement.py")),
+    Mutation(
+        "rodas event retakes disabled",
+        "pyfmu_wrapper/solvers/rodas.py",
+        "if theta < 0.9 and hs * theta > hmin * 100:",
+        "if False and theta < 0.9 and hs * theta > hmin * 100:",
+        ("tests/test_steady_rules.py", "tests/test_integrator_edges.py"),
+    ),
+    Mutation(
+        "play window off by one",
+        "pyfmu_wrapper/solvers/steady.py",
+        "wins.append(max(self.period_max[-W:]))",
+        "wins.append(max(self.period_max[-W + 1:]))",
+        ("tests/test_steady_rules.py", "tests/test_solver.py"),
+    ),
+    Mutation(
+        "diagnose noise gate dropped",
+        "pyfmu_wrapper/diagnose/gates.py",
+        "return (chi2 - dof) / math.sqrt(2.0 * max(dof, 1)) > z",
+        "return True",
+        ("tests/test_diagnose_system.py",),
+    ),
+    Mutation(
+        "evidence threshold sign flipped",
+        "pyfmu_wrapper/diagnose/gates.py",
+        "n_new_params * math.log(max(n, 2)) > threshold",
+        "n_new_params * math.log(max(n, 2)) > -threshold",
+        ("tests/test_diagnose_system.py",),
+    ),
+    Mutation(
+        "diagnose share gate dropped (any effect named as the cause)",
+        "pyfmu_wrapper/diagnose/gates.py",
+        "return gap_before > 0 and 1.0 - max(gap_after, 0.0) / gap_before >= share",
+        "return True",
+        ("tests/test_diagnose_honest.py",),
+    ),
+    Mutation(
+        "diagnose remaining-gap check dropped",
+        "pyfmu_wrapper/diagnose/gates.py",
+        "return noise_gate(chi2_after, dof, z) and gap_before > 0 and left > share * gap_before",
+        "return False",
+        ("tests/test_diagnose_honest.py",),
+    ),
+    Mutation(
+        "diagnose share gate bypassed in the decision",
+        "pyfmu_wrapper/diagnose/system/diagnosis.py",
+        "if self.chosen and not share_gate(g0, g1):",
+        "if False:",
+        ("tests/test_diagnose_honest.py",),
+    ),
+    Mutation(
+        "diagnose remaining-gap check bypassed in the decision",
+        "pyfmu_wrapper/diagnose/system/diagnosis.py",
+        "remaining_gate(self.dof + g1, self.dof, g0)",
+        "False",
+        ("tests/test_diagnose_honest.py",),
+    ),
+    Mutation(
+        "solver settings removed from the checkpoint key",
+        "pyfmu_wrapper/scenario/tasks.py",
+        "omegas=[float(w).hex() for w in np.asarray(self.omegas, float)], settings=s.used())",
+        "omegas=[float(w).hex() for w in np.asarray(self.omegas, float)])",
+        ("tests/test_scenarios.py",),
+    ),
+    Mutation(
+        "co-simulation Hermite maximum replaced by end points",
+        "pyfmu_wrapper/cosim/steady.py",
+        "        return _hermite_absmax(self.x, self.v, self.h)",
+        "        return float(np.max(np.abs(self.x)))",
+        ("tests/test_master.py",),
+    ),
+    Mutation(
+        "antiresonance verdict inverted",
+        "pyfmu_wrapper/paper/claims/sect2_5.py",
+        'Check("max |w_min - 20|", dev, "<=", 1e-3, "rad/s")',
+        'Check("max |w_min - 20|", dev, ">", 1e-3, "rad/s")',
+        ("tests/test_reproduction.py",),
+    ),
+    Mutation(
+        "interface Jacobian ignored by the TMD kernel",
+        "pyfmu_wrapper/physics/kernels.py",
+        "    if kappa == 0.0:\n        return xdd_in",
+        "    if True:\n        return xdd_in",
+        ("tests/test_physics.py", "tests/test_cosim_agreement.py"),
+    ),
 )
 
 

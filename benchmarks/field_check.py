@@ -17,6 +17,7 @@ displacement-sensor offset; severities drawn log-uniformly from barely visible t
 
 The truth of each dataset is in OUT/truth.json, outside the dataset folders.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -37,12 +38,25 @@ from pyfmu_wrapper.solvers.monolithic import simulate, steady_state
 
 EFFECTS = ("friction", "play", "damping", "mass_split", "cubic", "forcing", "offset")
 #: (low, high) severity of each effect's parameter (log-uniform in magnitude)
-RANGES = {"friction": (1.5, 30.0), "play": (2e-5, 6e-4), "damping": (2.0, 40.0), "mass_split": (0.3, 2.5),
-          "cubic": (5e4, 3e6), "forcing": (0.02, 0.2), "offset": (1e-4, 3e-3)}
+RANGES = {
+    "friction": (1.5, 30.0),
+    "play": (2e-5, 6e-4),
+    "damping": (2.0, 40.0),
+    "mass_split": (0.3, 2.5),
+    "cubic": (5e4, 3e6),
+    "forcing": (0.02, 0.2),
+    "offset": (1e-4, 3e-3),
+}
 #: words that name each effect in a verdict (any one suffices)
-KEYWORDS = {"friction": ("friction",), "play": ("play", "backlash", "gap"), "damping": ("viscous", "damping"),
-            "mass_split": ("mass", "inertance", "split"), "cubic": ("cubic",),
-            "forcing": ("forc", "gain", "amplitude"), "offset": ("offset", "bias")}
+KEYWORDS = {
+    "friction": ("friction",),
+    "play": ("play", "backlash", "gap"),
+    "damping": ("viscous", "damping"),
+    "mass_split": ("mass", "inertance", "split"),
+    "cubic": ("cubic",),
+    "forcing": ("forc", "gain", "amplitude"),
+    "offset": ("offset", "bias"),
+}
 
 
 def _truth_params(case: int, effects: dict):
@@ -130,14 +144,31 @@ def generate(out: Path, n: int, seed: int):
         true_base = replace(base, force_amplitude=200.0 * F_scale)
         xm = np.array([steady_state(true_base, tmd, float(w)).amplitude for w in ws]) + abs(offset)
         xm = xm * (1 + rng.normal(0.0, 0.005, xm.size))
-        np.savetxt(d / "frc.csv", np.column_stack([ws, np.full(ws.size, 200.0), xm]), delimiter=",",
-                   header="omega,force_amplitude,x_max", comments="", fmt="%.10g")
+        np.savetxt(
+            d / "frc.csv",
+            np.column_stack([ws, np.full(ws.size, 200.0), xm]),
+            delimiter=",",
+            header="omega,force_amplitude,x_max",
+            comments="",
+            fmt="%.10g",
+        )
         records.append({"file": "frc.csv"})
-        nominal = {"base": {"mass": 100.0, "stiffness": 4.0e4, "damping": 100.0, "force_amplitude": 200.0},
-                   "tmd": {"mass": 9.0 if case == 1 else 5.0, "stiffness": 4000.0, "damping": 15.0,
-                           "inertance": 1.0 if case == 1 else 5.0, "inerter": "ideal"}}
-        (d / "dataset.yaml").write_text(yaml.safe_dump({"level": "system", "description": f"field check {name}",
-                                                         "nominal": nominal, "records": records}, sort_keys=False))
+        nominal = {
+            "base": {"mass": 100.0, "stiffness": 4.0e4, "damping": 100.0, "force_amplitude": 200.0},
+            "tmd": {
+                "mass": 9.0 if case == 1 else 5.0,
+                "stiffness": 4000.0,
+                "damping": 15.0,
+                "inertance": 1.0 if case == 1 else 5.0,
+                "inerter": "ideal",
+            },
+        }
+        (d / "dataset.yaml").write_text(
+            yaml.safe_dump(
+                {"level": "system", "description": f"field check {name}", "nominal": nominal, "records": records},
+                sort_keys=False,
+            )
+        )
         truth[name] = {"case": case, "effects": effects}
         print(f"{name}: case {case} {effects} ({time.time() - t0:.1f} s)", flush=True)
     (out / "truth.json").write_text(json.dumps(truth, indent=1))
@@ -183,8 +214,10 @@ def score(out: Path):
     ok1 = sum(1 for _, t, g in singles if g is not None and set(t["effects"]) <= g and len(g) <= 1)
     fp = sum(1 for _, t, g in clean if g)
     both = sum(1 for _, t, g in pairs if g is not None and set(t["effects"]) <= g)
-    print(f"singles right {ok1}/{len(singles)}; clean with a false effect {fp}/{len(clean)}; "
-          f"pairs with both named {both}/{len(pairs)}")
+    print(
+        f"singles right {ok1}/{len(singles)}; clean with a false effect {fp}/{len(clean)}; "
+        f"pairs with both named {both}/{len(pairs)}"
+    )
     for n, t, g in rows:
         print(f"  {n}: truth {sorted(t['effects'])} -> {sorted(g) if g is not None else 'NO RESULT'}")
 
@@ -196,7 +229,9 @@ def main(argv=None):
     ap.add_argument("-n", type=int, default=24)
     ap.add_argument("--seed", type=int, default=7)
     a = ap.parse_args(argv)
-    {"generate": lambda: generate(a.out, a.n, a.seed), "run": lambda: run(a.out), "score": lambda: score(a.out)}[a.cmd]()
+    {"generate": lambda: generate(a.out, a.n, a.seed), "run": lambda: run(a.out), "score": lambda: score(a.out)}[
+        a.cmd
+    ]()
 
 
 if __name__ == "__main__":

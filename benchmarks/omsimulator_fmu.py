@@ -22,6 +22,7 @@ co-simulation settles to its own steady state within 1e-5 after ~50 periods at 1
 it is still 0.1 % away) with the monolithic solver. It also runs each FMU alone
 (``OMSimulator X.fmu``). Results: benchmarks/results/omsimulator_fmu.json.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -47,9 +48,15 @@ def _run(cmd, cwd, timeout):
     lines = (r.stdout + r.stderr).splitlines()
     errors = [ln for ln in lines if ln.lstrip().lower().startswith("error")]
     warnings = [ln for ln in lines if ln.lstrip().lower().startswith("warning")]
-    return {"command": [str(c) for c in cmd], "returncode": r.returncode, "errors": len(errors),
-            "warnings": len(warnings), "first_errors": errors[:5], "first_warnings": warnings[:5],
-            "wall_time_s": round(wall, 2)}
+    return {
+        "command": [str(c) for c in cmd],
+        "returncode": r.returncode,
+        "errors": len(errors),
+        "warnings": len(warnings),
+        "first_errors": errors[:5],
+        "first_warnings": warnings[:5],
+        "wall_time_s": round(wall, 2),
+    }
 
 
 def main(argv=None) -> int:
@@ -62,8 +69,10 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     exe = os.environ.get("OMSIMULATOR") or shutil.which("OMSimulator")
     if not exe or not os.access(exe, os.X_OK):
-        print("OMSimulator not found: set OMSIMULATOR to an OMSimulator executable built from "
-              "https://github.com/OpenModelica/OMSimulator. Nothing was run.")
+        print(
+            "OMSimulator not found: set OMSIMULATOR to an OMSimulator executable built from "
+            "https://github.com/OpenModelica/OMSimulator. Nothing was run."
+        )
         return 2
 
     from pyfmu_wrapper.cosim.system import export_tmd_system
@@ -93,8 +102,15 @@ def main(argv=None) -> int:
                 if col:
                     amp = max(abs(float(row[col])) for row in rows if float(row["time"]) >= stop - 3 * T)
             ref = mono.steady_state(base, tmd, w).amplitude
-            results["runs"].append({"omega": w, **run, "amplitude": amp, "monolithic": ref,
-                                    "relative_difference": None if amp is None else amp / ref - 1})
+            results["runs"].append(
+                {
+                    "omega": w,
+                    **run,
+                    "amplitude": amp,
+                    "monolithic": ref,
+                    "relative_difference": None if amp is None else amp / ref - 1,
+                }
+            )
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
     out.write_text(json.dumps(results, indent=2))

@@ -9,6 +9,7 @@ directory), where ``<hash>`` is :func:`pyfmu_wrapper.codeversion.compiled_hash`:
 file of the compiled layer moves every function to a fresh directory, so nothing stale can load.
 Functions of other packages keep numba's own locators.
 """
+
 from __future__ import annotations
 
 import os
@@ -70,7 +71,7 @@ class _HashedCacheLocator(_caching._SourceFileBackedLocatorMixin, _caching._Cach
             # FMUs of one build share the imported package, whose first folder a host may have deleted
             if PACKAGE_DIR.name not in path.parts[:-1]:
                 return None
-            root = Path(*path.parts[:path.parts.index(PACKAGE_DIR.name) + 1])
+            root = Path(*path.parts[: path.parts.index(PACKAGE_DIR.name) + 1])
         else:
             # the package root: the closest ancestor holding codeversion.py
             root = path.resolve().parent
@@ -86,8 +87,14 @@ class _HashedCacheLocator(_caching._SourceFileBackedLocatorMixin, _caching._Cach
         except OSError:
             if _BUNDLE is not None:
                 return None  # numba's own locators
-            user = os.path.join(os.path.expanduser("~"), ".cache", "pyfmu_wrapper", "numba",
-                                self._stamp[:16], self.get_suitable_cache_subpath(py_file))
+            user = os.path.join(
+                os.path.expanduser("~"),
+                ".cache",
+                "pyfmu_wrapper",
+                "numba",
+                self._stamp[:16],
+                self.get_suitable_cache_subpath(py_file),
+            )
             self._cache_path = user
             try:
                 self.ensure_cache_path()

@@ -11,6 +11,7 @@
 Both are computed from the files on disk next to this module (so a copy of the package bundled
 into an FMU has its own version) and cached for the life of the process.
 """
+
 from __future__ import annotations
 
 import ast
@@ -23,8 +24,11 @@ PACKAGE = PACKAGE_DIR.name
 
 
 def _sources(root: Path) -> dict[str, bytes]:
-    return {p.relative_to(root).as_posix(): p.read_bytes() for p in sorted(root.rglob("*.py"))
-            if "__pycache__" not in p.parts}
+    return {
+        p.relative_to(root).as_posix(): p.read_bytes()
+        for p in sorted(root.rglob("*.py"))
+        if "__pycache__" not in p.parts
+    }
 
 
 def _digest(files: dict[str, bytes]) -> str:

@@ -1,4 +1,5 @@
 """Shared helpers of the FMU tests: built FMUs, extraction, exact reference solutions."""
+
 from __future__ import annotations
 
 import math
@@ -35,8 +36,12 @@ def guid(fmu_dir: Path) -> str:
 
 def compile_c_host(out: Path) -> Path:
     exe = out / "fmu_host"
-    subprocess.run(["gcc", "-O2", "-Wall", f"-I{fmi_headers_dir()}", str(C_HOST_SOURCE), "-o", str(exe), "-ldl"],
-                   check=True, capture_output=True, text=True)
+    subprocess.run(
+        ["gcc", "-O2", "-Wall", f"-I{fmi_headers_dir()}", str(C_HOST_SOURCE), "-o", str(exe), "-ldl"],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     return exe
 
 
@@ -55,8 +60,11 @@ def damped_forced_response(t, M, K, C, F, w, x0, xd0):
     c2 = (xd0 - B * w + a * c1) / wd
     e = np.exp(-a * t)
     x = A * np.cos(w * t) + B * np.sin(w * t) + e * (c1 * np.cos(wd * t) + c2 * np.sin(wd * t))
-    xd = (-A * w * np.sin(w * t) + B * w * np.cos(w * t)
-          + e * (-a * (c1 * np.cos(wd * t) + c2 * np.sin(wd * t)) + wd * (-c1 * np.sin(wd * t) + c2 * np.cos(wd * t))))
+    xd = (
+        -A * w * np.sin(w * t)
+        + B * w * np.cos(w * t)
+        + e * (-a * (c1 * np.cos(wd * t) + c2 * np.sin(wd * t)) + wd * (-c1 * np.sin(wd * t) + c2 * np.cos(wd * t)))
+    )
     return x, xd
 
 
@@ -65,8 +73,12 @@ FUZZ_SOURCE = Path(__file__).parent / "c_host" / "fmu_fuzz.c"
 
 def compile_fuzz(out: Path) -> Path:
     exe = out / "fmu_fuzz"
-    subprocess.run(["gcc", "-O2", "-Wall", f"-I{fmi_headers_dir()}", str(FUZZ_SOURCE), "-o", str(exe), "-ldl", "-lm"],
-                   check=True, capture_output=True, text=True)
+    subprocess.run(
+        ["gcc", "-O2", "-Wall", f"-I{fmi_headers_dir()}", str(FUZZ_SOURCE), "-o", str(exe), "-ldl", "-lm"],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     return exe
 
 
@@ -78,8 +90,13 @@ def run_fuzz(root: Path, sequences: int, calls: int, seed: int = 1, timeout: flo
     dirs = [extract(fmus[n], root) for n in ("BaseOscillator", "TMDInerter")]
     exe = compile_fuzz(root)
     env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "LD_PRELOAD", "VIRTUAL_ENV"))}
-    r = subprocess.run([str(exe), str(seed), str(sequences), str(calls), str(dirs[0]), guid(dirs[0]), str(dirs[1]),
-                        guid(dirs[1])], capture_output=True, text=True, env=env, timeout=timeout)
+    r = subprocess.run(
+        [str(exe), str(seed), str(sequences), str(calls), str(dirs[0]), guid(dirs[0]), str(dirs[1]), guid(dirs[1])],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=timeout,
+    )
     if r.returncode != 0:
         raise RuntimeError(f"fuzz harness failed ({r.returncode}): {r.stderr[-3000:]}")
     out = {k: int(v) for k, v in (line.split() for line in r.stdout.splitlines() if line.strip())}

@@ -18,6 +18,7 @@ reports; printed as "key value" lines like tests/c_host/fmu_fuzz.c:
     roundtrips / roundtrip_bad, serial_roundtrips / serial_bad: FMU state restored then re-stepped
                   gives the same outputs to the last bit
 """
+
 from __future__ import annotations
 
 import ctypes as C
@@ -41,8 +42,14 @@ def _variables(d: str) -> dict:
     root = ET.parse(os.path.join(d, "modelDescription.xml")).getroot()
     out = {}
     for v in root.find("ModelVariables"):
-        out[v.get("name")] = dict(type=v.tag, vr=int(v.get("valueReference")), causality=v.get("causality"),
-                                  variability=v.get("variability"), min=v.get("min"), max=v.get("max"))
+        out[v.get("name")] = dict(
+            type=v.tag,
+            vr=int(v.get("valueReference")),
+            causality=v.get("causality"),
+            variability=v.get("variability"),
+            min=v.get("min"),
+            max=v.get("max"),
+        )
     return out
 
 
@@ -56,8 +63,20 @@ class Fmu:
         self._log = LOG(self._on_log)
         L = self.lib
         L.fmi3InstantiateCoSimulation.restype = C.c_void_p
-        L.fmi3InstantiateCoSimulation.argtypes = [C.c_char_p, C.c_char_p, C.c_char_p, C.c_bool, C.c_bool, C.c_bool,
-                                                  C.c_bool, U32P, C.c_size_t, C.c_void_p, LOG, C.c_void_p]
+        L.fmi3InstantiateCoSimulation.argtypes = [
+            C.c_char_p,
+            C.c_char_p,
+            C.c_char_p,
+            C.c_bool,
+            C.c_bool,
+            C.c_bool,
+            C.c_bool,
+            U32P,
+            C.c_size_t,
+            C.c_void_p,
+            LOG,
+            C.c_void_p,
+        ]
 
     def _on_log(self, env, status, cat, msg):
         self.logged += 1
@@ -70,8 +89,9 @@ class Fmu:
 
     def instantiate(self, name=b"fuzz"):
         res = (os.path.join(self.d, "resources") + "/").encode()
-        return self.lib.fmi3InstantiateCoSimulation(name, self.token.encode(), res, False, False, False, False,
-                                                    None, 0, None, self._log, None)
+        return self.lib.fmi3InstantiateCoSimulation(
+            name, self.token.encode(), res, False, False, False, False, None, 0, None, self._log, None
+        )
 
 
 def arr(kind, vals):
@@ -79,8 +99,17 @@ def arr(kind, vals):
 
 
 def run_sequence(fmus: list[Fmu], rng: random.Random, calls: int) -> dict:
-    cnt = dict(calls=0, invalid=0, invalid_ok=0, unlogged=0, nonfinite_ok=0, roundtrips=0, roundtrip_bad=0,
-               serial_roundtrips=0, serial_bad=0)
+    cnt = dict(
+        calls=0,
+        invalid=0,
+        invalid_ok=0,
+        unlogged=0,
+        nonfinite_ok=0,
+        roundtrips=0,
+        roundtrip_bad=0,
+        serial_roundtrips=0,
+        serial_bad=0,
+    )
     fmu = rng.choice(fmus)
     inst = fmu.instantiate()
     if not inst:
@@ -126,7 +155,8 @@ def run_sequence(fmus: list[Fmu], rng: random.Random, calls: int) -> dict:
             start = rng.choice([float("nan"), float("inf")]) if bad and rng.random() < 0.5 else 0.0
             tol = rng.choice([-1.0, 0.0, float("nan"), 2.0]) if bad else 1e-8
             s = fmu.f("fmi3EnterInitializationMode", C.c_bool, C.c_double, C.c_double, C.c_bool, C.c_double)(
-                inst, True, tol, start, False, 0.0)
+                inst, True, tol, start, False, 0.0
+            )
             if st != "inst" or bad:
                 expect_refused(s, before)
             elif s == OK:
@@ -143,10 +173,15 @@ def run_sequence(fmus: list[Fmu], rng: random.Random, calls: int) -> dict:
             if v["type"] != "Float64":
                 continue
             s = set64(inst, arr(C.c_uint32, [v["vr"]]), 1, arr(C.c_double, [val]), 1)
-            must = (st not in ("inst", "init", "step") or not math.isfinite(val) or v["vr"] == tvr
-                    or v["causality"] == "output" or (v["causality"] == "parameter" and v["variability"] == "fixed"
-                                                      and st == "step")
-                    or (v["min"] is not None and val < float(v["min"])) or (v["max"] is not None and val > float(v["max"])))
+            must = (
+                st not in ("inst", "init", "step")
+                or not math.isfinite(val)
+                or v["vr"] == tvr
+                or v["causality"] == "output"
+                or (v["causality"] == "parameter" and v["variability"] == "fixed" and st == "step")
+                or (v["min"] is not None and val < float(v["min"]))
+                or (v["max"] is not None and val > float(v["max"]))
+            )
             if must:
                 expect_refused(s, before)
         elif op == 3:  # set with nValues != nValueReferences
@@ -167,8 +202,9 @@ def run_sequence(fmus: list[Fmu], rng: random.Random, calls: int) -> dict:
             if r < 0.7:
                 tt, h = t, rng.choice([1e-3, 5e-4, 2e-3])
             else:
-                tt, h = rng.choice([(t, 0.0), (t, -1e-3), (t, float("nan")), (t, 1e9), (t + 0.5, 1e-3),
-                                    (float("inf"), 1e-3)])
+                tt, h = rng.choice(
+                    [(t, 0.0), (t, -1e-3), (t, float("nan")), (t, 1e9), (t + 0.5, 1e-3), (float("inf"), 1e-3)]
+                )
             s = do_step(tt, h)
             valid = st == "step" and r < 0.7
             if not valid:
@@ -181,14 +217,23 @@ def run_sequence(fmus: list[Fmu], rng: random.Random, calls: int) -> dict:
             else:
                 st = "error"
         elif op == 8:  # functions this FMU never accepts
-            name = rng.choice(["fmi3EnterEventMode", "fmi3EnterStepMode", "fmi3EnterConfigurationMode",
-                               "fmi3ExitConfigurationMode", "fmi3EvaluateDiscreteStates", "fmi3EnterContinuousTimeMode"])
+            name = rng.choice(
+                [
+                    "fmi3EnterEventMode",
+                    "fmi3EnterStepMode",
+                    "fmi3EnterConfigurationMode",
+                    "fmi3ExitConfigurationMode",
+                    "fmi3EvaluateDiscreteStates",
+                    "fmi3EnterContinuousTimeMode",
+                ]
+            )
             expect_refused(fmu.f(name)(inst), before)
         elif op == 9:  # types the FMU does not have
             name = rng.choice(["fmi3GetFloat32", "fmi3GetInt8", "fmi3GetUInt64", "fmi3GetInt16"])
             buf = (C.c_double * 2)()
-            s = fmu.f(name, U32P, C.c_size_t, C.c_void_p, C.c_size_t)(inst, arr(C.c_uint32, [rng.choice(all_vr)]),
-                                                                        1, C.cast(buf, C.c_void_p), 1)
+            s = fmu.f(name, U32P, C.c_size_t, C.c_void_p, C.c_size_t)(
+                inst, arr(C.c_uint32, [rng.choice(all_vr)]), 1, C.cast(buf, C.c_void_p), 1
+            )
             expect_refused(s, before)
         elif op == 10:  # FMU state round trip
             if st != "step":
@@ -230,7 +275,8 @@ def run_sequence(fmus: list[Fmu], rng: random.Random, calls: int) -> dict:
                 buf[i] ^= 0xFF
             out = C.c_void_p()
             s = fmu.f("fmi3DeserializeFMUState", C.c_void_p, C.c_size_t, C.POINTER(C.c_void_p))(
-                inst, buf, size.value if not corrupt or rng.random() < 0.5 else size.value - 1, C.byref(out))
+                inst, buf, size.value if not corrupt or rng.random() < 0.5 else size.value - 1, C.byref(out)
+            )
             if s == OK and not corrupt:  # the copy and the original give the same two steps
                 runs = []
                 for state in (out.value, sp):
@@ -263,9 +309,9 @@ def run_sequence(fmus: list[Fmu], rng: random.Random, calls: int) -> dict:
             if not outputs:
                 continue
             sens = (C.c_double * 1)()
-            s = fmu.f("fmi3GetDirectionalDerivative", U32P, C.c_size_t, U32P, C.c_size_t, DBLP, C.c_size_t, DBLP,
-                      C.c_size_t)(inst, arr(C.c_uint32, [outputs[0]]), 1, arr(C.c_uint32, [tvr]), 1,
-                                  arr(C.c_double, [1.0]), 1, sens, 1)
+            s = fmu.f(
+                "fmi3GetDirectionalDerivative", U32P, C.c_size_t, U32P, C.c_size_t, DBLP, C.c_size_t, DBLP, C.c_size_t
+            )(inst, arr(C.c_uint32, [outputs[0]]), 1, arr(C.c_uint32, [tvr]), 1, arr(C.c_double, [1.0]), 1, sens, 1)
             expect_refused(s, before)
     for sp, _ in states:
         fmu.f("fmi3FreeFMUState", C.POINTER(C.c_void_p))(inst, C.byref(sp))

@@ -5,6 +5,7 @@ The rules are parsed from the table of docs/architecture.md (one source of truth
 this test checks the new one). The scan is static (ast), so an import that only runs in a rare branch is
 checked as well as one at the top of a file.
 """
+
 from __future__ import annotations
 
 import ast
@@ -30,6 +31,7 @@ KNOWN_VIOLATIONS: list[tuple[str, str]] = []
 
 
 # --- the import graph ----------------------------------------------------------------------------------
+
 
 def _modules() -> dict[str, Path]:
     """Dotted module name relative to the package ('' is the package itself) -> file."""
@@ -65,7 +67,7 @@ def import_graph() -> dict[str, set[str]]:
             targets: list[str] = []
             if isinstance(node, ast.Import):
                 targets = [a.name for a in node.names if a.name == PACKAGE or a.name.startswith(PACKAGE + ".")]
-                targets = [t[len(PACKAGE) + 1:] for t in targets]
+                targets = [t[len(PACKAGE) + 1 :] for t in targets]
             elif isinstance(node, ast.ImportFrom):
                 if node.level:
                     base = mod.split(".") if mod else []
@@ -74,7 +76,7 @@ def import_graph() -> dict[str, set[str]]:
                     base = base[: len(base) - (node.level - 1)] if node.level > 1 else base
                     stem = ".".join(base + ([node.module] if node.module else []))
                 elif node.module and (node.module == PACKAGE or node.module.startswith(PACKAGE + ".")):
-                    stem = node.module[len(PACKAGE) + 1:]
+                    stem = node.module[len(PACKAGE) + 1 :]
                 else:
                     continue
                 for alias in node.names:  # "from . import plots" names a module
@@ -155,7 +157,9 @@ def doc_rules() -> tuple[dict[str, set[str]], set[str]]:
         part = _NAME.fullmatch(cells[0])
         assert part, f"docs/architecture.md: first cell {cells[0]!r} must be one backticked name"
         allowed = set(_NAME.findall(cells[2]))
-        assert allowed or cells[2] == "nothing", f"docs/architecture.md: row {part.group(1)}: 'may import' is {cells[2]!r}"
+        assert allowed or cells[2] == "nothing", (
+            f"docs/architecture.md: row {part.group(1)}: 'may import' is {cells[2]!r}"
+        )
         assert part.group(1) not in rules, f"docs/architecture.md: two rows for {part.group(1)}"
         rules[part.group(1)] = allowed
         if "every part may import it" in cells[1]:
@@ -192,6 +196,7 @@ def _may_import(src: str, dst: str, rules: dict, shared: set) -> bool:
 
 
 # --- tests --------------------------------------------------------------------------------------------
+
 
 def test_the_scan_sees_function_local_and_relative_imports():
     """The scanner itself, against imports known to exist in the package: a relative import, a relative
@@ -233,22 +238,27 @@ def test_imports_follow_the_rules_of_the_architecture_map():
     for src in sorted(graph):
         for dst in sorted(graph[src]):
             if not _may_import(src, dst, rules, shared) and (src, dst) not in KNOWN_VIOLATIONS:
-                bad.append(f"{src} imports {dst} ({_part_of(src, rules)} may import: "
-                           f"{', '.join(sorted(rules[_part_of(src, rules)])) or 'nothing'})")
+                bad.append(
+                    f"{src} imports {dst} ({_part_of(src, rules)} may import: "
+                    f"{', '.join(sorted(rules[_part_of(src, rules)])) or 'nothing'})"
+                )
     assert not bad, "imports against docs/architecture.md:\n  " + "\n  ".join(bad)
     stale = [v for v in KNOWN_VIOLATIONS if v[1] not in graph.get(v[0], set())]
     assert not stale, f"KNOWN_VIOLATIONS lists imports that no longer exist: remove {stale}"
 
 
-@pytest.mark.parametrize("src, dst, ok", [
-    ("physics.kernels", "_jit", True),
-    ("physics.kernels", "solvers.rodas", False),   # physics imports nothing of the project
-    ("solvers.rodas", "physics.kernels", False),   # the integrator knows no model
-    ("solvers.monolithic", "physics.models", True),
-    ("master.master", "cosim.system", False),       # the master imports nothing of the application
-    ("scenario.loader", "cli.errors", True),        # the shared bad-input policy
-    ("cosim.steady", "scenario.engines", False),    # no arrow runs back up
-])
+@pytest.mark.parametrize(
+    "src, dst, ok",
+    [
+        ("physics.kernels", "_jit", True),
+        ("physics.kernels", "solvers.rodas", False),  # physics imports nothing of the project
+        ("solvers.rodas", "physics.kernels", False),  # the integrator knows no model
+        ("solvers.monolithic", "physics.models", True),
+        ("master.master", "cosim.system", False),  # the master imports nothing of the application
+        ("scenario.loader", "cli.errors", True),  # the shared bad-input policy
+        ("cosim.steady", "scenario.engines", False),  # no arrow runs back up
+    ],
+)
 def test_the_rules_bite(src, dst, ok):
     """The rule check on planted edges: what the map forbids is refused, what it allows passes."""
     rules, shared = doc_rules()
@@ -258,6 +268,9 @@ def test_the_rules_bite(src, dst, ok):
 def test_layer_rules_stated_in_words():
     """The map states the key rules in words as well as in the table."""
     text = DOC.read_text(encoding="utf-8")
-    for phrase in ("physics imports nothing of the project", "the integrator\nknows no model",
-                   "the master imports nothing of the application"):
+    for phrase in (
+        "physics imports nothing of the project",
+        "the integrator\nknows no model",
+        "the master imports nothing of the application",
+    ):
         assert phrase.replace("\n", " ") in text.replace("\n", " "), phrase

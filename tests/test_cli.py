@@ -1,5 +1,6 @@
 """run-scenario: results folder contents against exact values and the paper's Fig. 2; failures leave
 nothing that looks complete; bad input exits 2."""
+
 from __future__ import annotations
 
 import json
@@ -76,16 +77,19 @@ def test_outputs_exist(linear_run):
 def test_csv_matches_exact_amplitude(linear_run):
     t = pd.read_csv(linear_run / "frc.csv")
     base = BaseParams()
-    for label, tmd in (("Iratio = 0", TMDParams(mass=10, inertance=0, inerter="none")),
-                       ("Iratio = 1", TMDParams(mass=0, inertance=10))):
+    for label, tmd in (
+        ("Iratio = 0", TMDParams(mass=10, inertance=0, inerter="none")),
+        ("Iratio = 1", TMDParams(mass=0, inertance=10)),
+    ):
         c = t[t["curve"] == label]
         assert len(c) == 101 and c["converged"].all() and set(c["method"]) == {"exact"}
         np.testing.assert_allclose(c["amplitude"], exact_amplitude(base, tmd, c["omega"].to_numpy()), rtol=1e-8)
     m = pd.read_csv(linear_run / "map.csv")
     assert sorted(m["value"].unique()) == pytest.approx([0.0, 0.3, 0.6, 0.9])
     row = m[np.isclose(m["value"], 0.3)]
-    np.testing.assert_allclose(row["amplitude"], exact_amplitude(base, TMDParams(mass=7, inertance=3),
-                                                                 row["omega"].to_numpy()), rtol=1e-8)
+    np.testing.assert_allclose(
+        row["amplitude"], exact_amplitude(base, TMDParams(mass=7, inertance=3), row["omega"].to_numpy()), rtol=1e-8
+    )
 
 
 def test_summary_peaks_match_paper_fig2(linear_run):
@@ -119,8 +123,10 @@ def test_nonlinear_and_simulated_linear_curves(tmp_path):
     text = LINEAR.replace("count: 101}", "count: 5}").split("  - kind: map")[0]
     text = text.replace("schema_version: 1", "schema_version: 2")
     text = text.replace("studies:", "sweep: {direction: both}\nsolver: {linear: simulate}\nstudies:")
-    text = text.replace('- {label: "Iratio = 1", tmd: {inertance_ratio: 1.0}}',
-                        '- {label: "df = 10", tmd: {case: 1, friction_force: 10.0}}')
+    text = text.replace(
+        '- {label: "Iratio = 1", tmd: {inertance_ratio: 1.0}}',
+        '- {label: "df = 10", tmd: {case: 1, friction_force: 10.0}}',
+    )
     out = tmp_path / "out"
     assert main([str(write(tmp_path, text)), "--out", str(out), "--quiet", "--engine", "monolithic"]) == 0
     t = pd.read_csv(out / "frc.csv")
@@ -230,8 +236,18 @@ def test_progress_lines_and_closing_lines_when_not_on_a_terminal(tmp_path):
     The play model at its antiresonance (20 rad/s) rattles: an irregular point (paper Sect. 6)."""
     p = write(tmp_path, PLAY)
     out = tmp_path / "out"
-    cmd = [sys.executable, "-m", "pyfmu_wrapper.cli.run_scenario", str(p), "--out", str(out), "--executor",
-           "sequential", "--progress-every", "0.5"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "pyfmu_wrapper.cli.run_scenario",
+        str(p),
+        "--out",
+        str(out),
+        "--executor",
+        "sequential",
+        "--progress-every",
+        "0.5",
+    ]
     root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env = dict(os.environ, PYTHONPATH=os.pathsep.join(filter(None, [root, os.environ.get("PYTHONPATH")])))
     r = subprocess.run(cmd, capture_output=True, text=True, timeout=600, env=env)
@@ -239,8 +255,15 @@ def test_progress_lines_and_closing_lines_when_not_on_a_terminal(tmp_path):
     assert "\r" not in r.stderr and "it/s" not in r.stderr  # no tqdm bar in a log
     import re
 
-    prog = [re.match(r"run-scenario: irr: (\d+)/(\d+) points \((\d+) %\), (.+) elapsed, (about (.+) left|"
-                     r"estimating the time left)$", ln) for ln in r.stderr.splitlines() if "points (" in ln]
+    prog = [
+        re.match(
+            r"run-scenario: irr: (\d+)/(\d+) points \((\d+) %\), (.+) elapsed, (about (.+) left|"
+            r"estimating the time left)$",
+            ln,
+        )
+        for ln in r.stderr.splitlines()
+        if "points (" in ln
+    ]
     assert len(prog) >= 2 and all(prog)
     done = [int(m.group(1)) for m in prog]
     assert done == sorted(done) and done[-1] == 2 and {int(m.group(2)) for m in prog} == {2}
@@ -283,18 +306,27 @@ def test_progress_eta_is_the_speed_of_the_points_computed(monkeypatch):
 def test_one_parallelism_switch_recorded_as_used(tmp_path, capsys):
     """--workers N is the number of processes the sweeps use, and summary.json says how many did;
     the numbers do not depend on it (each sweep is one strict continuation in one process)."""
-    text = LINEAR.replace("count: 101}", "count: 4}").split("  - kind: map")[0].replace("schema_version: 1",
-                                                                                      "schema_version: 2")
-    text = text.replace('- {label: "Iratio = 0", tmd: {inertance_ratio: 0.0}}',
-                        '- {label: "df = 10", tmd: {case: 1, friction_force: 10.0}}')
-    text = text.replace('- {label: "Iratio = 1", tmd: {inertance_ratio: 1.0}}',
-                        '- {label: "df = 20", tmd: {case: 1, friction_force: 20.0}}')
+    text = (
+        LINEAR.replace("count: 101}", "count: 4}")
+        .split("  - kind: map")[0]
+        .replace("schema_version: 1", "schema_version: 2")
+    )
+    text = text.replace(
+        '- {label: "Iratio = 0", tmd: {inertance_ratio: 0.0}}',
+        '- {label: "df = 10", tmd: {case: 1, friction_force: 10.0}}',
+    )
+    text = text.replace(
+        '- {label: "Iratio = 1", tmd: {inertance_ratio: 1.0}}',
+        '- {label: "df = 20", tmd: {case: 1, friction_force: 20.0}}',
+    )
     p = write(tmp_path, text)
     runs = {}
     for n in (1, 2):
         out = tmp_path / f"w{n}"
-        assert main([str(p), "--out", str(out), "--quiet", "--engine", "monolithic", "--workers", str(n),
-                     "--no-resume"]) == 0
+        assert (
+            main([str(p), "--out", str(out), "--quiet", "--engine", "monolithic", "--workers", str(n), "--no-resume"])
+            == 0
+        )
         s = json.loads((out / "summary.json").read_text())
         assert s["workers"] == n and s["executor"]["processes_used"] == n
         assert s["executor"]["processes_requested"] == n
@@ -305,8 +337,11 @@ def test_one_parallelism_switch_recorded_as_used(tmp_path, capsys):
     assert "--jobs is deprecated" in capsys.readouterr().err
     assert json.loads((tmp_path / "j" / "summary.json").read_text())["workers"] == 1
     # a number that would not be used is refused, not recorded
-    for opt, msg in ((["--executor", "sequential", "--workers", "2"], "--workers 2 would not be used"),
-                     (["--jobs", "2", "--workers", "3"], "disagree"), (["--workers", "-1"], "--workers must be >= 0")):
+    for opt, msg in (
+        (["--executor", "sequential", "--workers", "2"], "--workers 2 would not be used"),
+        (["--jobs", "2", "--workers", "3"], "disagree"),
+        (["--workers", "-1"], "--workers must be >= 0"),
+    ):
         assert main([str(p), "--out", str(tmp_path / "bad"), "--quiet"] + opt) == 2
         assert msg in capsys.readouterr().err
     assert not (tmp_path / "bad").exists()
@@ -352,9 +387,22 @@ def test_frc_plot_every_curve_visible_units_and_notes_outside(both):
     rows = []
     for k, lb in enumerate(labels):
         amp = exact_amplitude(BaseParams(), T(damping=10.0 if k != 1 else 10.0), w)  # curves 1 and 2 identical
-        rows.append(pd.DataFrame(dict(curve=lb, direction="up", omega=w, amplitude=amp, converged=True,
-                                      irregular=w == 20.0, change=0.1, reference=amp if both else np.nan,
-                                      difference=0.0 if both else np.nan, reference_irregular=0.0)))
+        rows.append(
+            pd.DataFrame(
+                dict(
+                    curve=lb,
+                    direction="up",
+                    omega=w,
+                    amplitude=amp,
+                    converged=True,
+                    irregular=w == 20.0,
+                    change=0.1,
+                    reference=amp if both else np.nan,
+                    difference=0.0 if both else np.nan,
+                    reference_irregular=0.0,
+                )
+            )
+        )
     fig = plots.frc_plot(FRCData(study, pd.concat(rows, ignore_index=True), {}))
     ax = fig.axes[0]
     curves = [ln for ln in ax.get_lines() if ln.get_label() in labels]
@@ -381,21 +429,25 @@ def test_phase_portrait_tick_labels_do_not_overlap():
     from pyfmu_wrapper.scenario.runner import PhaseData
     from pyfmu_wrapper.scenario.schema import Curve, PhasePortraitStudy
 
-    study = PhasePortraitStudy("phase", "Case 1", (21.0, 19.0), (Curve("eps = 0", TMDParams()),
-                                                                 Curve("eps = 1e-3", TMDParams())))
+    study = PhasePortraitStudy(
+        "phase", "Case 1", (21.0, 19.0), (Curve("eps = 0", TMDParams()), Curve("eps = 1e-3", TMDParams()))
+    )
     data = PhaseData(study)
     t = np.linspace(0.0, 2 * np.pi / 20.0, 400)
     for w in study.omegas:
         for c in study.curves:
             x = 6.5e-3 * np.cos(w * t)
-            data.series[(w, c.label)] = TimeSeries(t, np.column_stack([x, -w * 6.5e-3 * np.sin(w * t)] + [x * 0] * 4),
-                                                   "m", True, 1, 0.0, 6.5e-3)
+            data.series[(w, c.label)] = TimeSeries(
+                t, np.column_stack([x, -w * 6.5e-3 * np.sin(w * t)] + [x * 0] * 4), "m", True, 1, 0.0, 6.5e-3
+            )
     fig = plots.phase_portrait_plot(data)
     fig.canvas.draw()
     renderer = fig.canvas.get_renderer()
     for ax in fig.axes:
         for axis in (ax.xaxis, ax.yaxis):
-            boxes = [lb.get_window_extent(renderer) for lb in axis.get_ticklabels() if lb.get_visible() and lb.get_text()]
+            boxes = [
+                lb.get_window_extent(renderer) for lb in axis.get_ticklabels() if lb.get_visible() and lb.get_text()
+            ]
             assert len(boxes) >= 3
             for a, b in zip(boxes, boxes[1:]):
                 assert not a.overlaps(b), [lb.get_text() for lb in axis.get_ticklabels()]

@@ -8,6 +8,7 @@ the package to a temporary folder, run compiled code that calls a kernel of anot
 fresh interpreter, edit the kernel, and run again: the new result appears with no manual step,
 and an unchanged package loads from the cache.
 """
+
 from __future__ import annotations
 
 import os
@@ -33,7 +34,7 @@ def probe(t, p):
     return excitation(t, p)
 '''
 
-RUN = r'''
+RUN = r"""
 import numpy as np
 import pyfmu_wrapper
 from pyfmu_wrapper.physics._probe import probe
@@ -41,7 +42,7 @@ from pyfmu_wrapper.physics.params import BaseParams, TMDParams, pack
 assert pyfmu_wrapper.__file__.startswith({root!r}), pyfmu_wrapper.__file__
 v = probe(0.0, pack(BaseParams(), TMDParams(), 20.0))
 print(repr(float(v)), probe.stats.cache_hits.get(probe.signatures[0], 0) if probe.signatures else 0)
-'''
+"""
 
 
 def _copy(tmp_path: Path) -> Path:
@@ -55,8 +56,9 @@ def _run(root: Path, extra: str = "") -> tuple[float, int]:
     env = dict(os.environ, PYTHONPATH=str(root.parent), NUMBA_CACHE_DIR="")
     env.pop("NUMBA_CACHE_DIR")
     code = RUN.format(root=str(root)) + extra
-    out = subprocess.run([sys.executable, "-c", code], cwd=root.parent, env=env, capture_output=True, text=True,
-                         timeout=300)
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=root.parent, env=env, capture_output=True, text=True, timeout=300
+    )
     assert out.returncode == 0, out.stderr[-3000:]
     value, hits = out.stdout.split()[-2:]
     return float(value), int(hits)
@@ -80,8 +82,15 @@ def test_editing_a_kernel_in_another_file_recompiles_its_callers(tmp_path):
 
 def test_compiled_layer_covers_every_numba_module_and_its_imports():
     files = codeversion.compiled_files()
-    for rel in ("physics/kernels.py", "physics/jacobians.py", "physics/models.py", "physics/params.py",
-                "physics/registry.py", "solvers/rodas.py", "_jit.py"):
+    for rel in (
+        "physics/kernels.py",
+        "physics/jacobians.py",
+        "physics/models.py",
+        "physics/params.py",
+        "physics/registry.py",
+        "solvers/rodas.py",
+        "_jit.py",
+    ):
         assert rel in files, rel
     # every module that compiles imports njit from the package (never numba's directly), and is in the layer
     for path in PKG.rglob("*.py"):

@@ -19,6 +19,7 @@ that without it the full model of Case 2 is off by more than 0.5 % (the cause: d
 
 Run the slow one with ``nice python -m pytest tests/test_cosim_agreement.py -m slow``.
 """
+
 from __future__ import annotations
 
 import json
@@ -87,22 +88,34 @@ def test_cosim_within_half_percent_of_monolithic_41_points(name):
     data = json.loads(path.read_text()) if path.exists() else {}
     ok = _passes(mono, co, rel)
     worst = int(np.argmax(np.where(ok, 0.0, np.abs(rel)))) if not ok.all() else int(np.argmax(np.abs(rel)))
-    data[name] = dict(max_abs_rel=float(np.max(np.abs(rel))), at_omega=float(OMEGAS[int(np.argmax(np.abs(rel)))]),
-                      above_tol=int(np.sum(np.abs(rel) > TOL)), failing=int(np.sum(~ok)),
-                      irregular_mono=[float(w) for w in OMEGAS[mono["irregular"].astype(bool).to_numpy()]],
-                      mono_not_converged=int((~mono["converged"].astype(bool)).sum()),
-                      cosim_not_converged=int((~co["converged"].astype(bool)).sum()),
-                      rel=[float(r) for r in rel], pid=os.getpid(),
-                      amplitude=dict(mono=mono["amplitude"].tolist(), cosim=co["amplitude"].tolist()),
-                      scatter=dict(mono=mono["change"].tolist(), cosim=co["change"].tolist()),
-                      irregular_cosim=[float(w) for w in OMEGAS[co["irregular"].astype(bool).to_numpy()]])
+    data[name] = dict(
+        max_abs_rel=float(np.max(np.abs(rel))),
+        at_omega=float(OMEGAS[int(np.argmax(np.abs(rel)))]),
+        above_tol=int(np.sum(np.abs(rel) > TOL)),
+        failing=int(np.sum(~ok)),
+        irregular_mono=[float(w) for w in OMEGAS[mono["irregular"].astype(bool).to_numpy()]],
+        mono_not_converged=int((~mono["converged"].astype(bool)).sum()),
+        cosim_not_converged=int((~co["converged"].astype(bool)).sum()),
+        rel=[float(r) for r in rel],
+        pid=os.getpid(),
+        amplitude=dict(mono=mono["amplitude"].tolist(), cosim=co["amplitude"].tolist()),
+        scatter=dict(mono=mono["change"].tolist(), cosim=co["change"].tolist()),
+        irregular_cosim=[float(w) for w in OMEGAS[co["irregular"].astype(bool).to_numpy()]],
+    )
     path.write_text(json.dumps(data, indent=1))
     assert ok.all(), f"{name}: {rel[worst]:.3e} at {OMEGAS[worst]} rad/s ({int(np.sum(~ok))} points fail)"
 
 
 @pytest.mark.timeout(600)
-@pytest.mark.parametrize("name,omegas", [("viscous_case2", [17.0, 22.0]), ("friction_case3", [18.0, 21.0]),
-                                         ("full_case2", [24.0, 25.0]), ("play_case1", [19.5])])
+@pytest.mark.parametrize(
+    "name,omegas",
+    [
+        ("viscous_case2", [17.0, 22.0]),
+        ("friction_case3", [18.0, 21.0]),
+        ("full_case2", [24.0, 25.0]),
+        ("play_case1", [19.5]),
+    ],
+)
 def test_cosim_agrees_on_a_few_points(name, omegas):
     """A few points within 0.5 % (their 41-point sweeps: docs/cosimulation.md). The full model of
     Case 2 at 24/25 rad/s and play Case 1 at 19.5 rad/s were 0.8-1.5 % off before the interface

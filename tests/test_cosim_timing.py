@@ -1,5 +1,6 @@
 """summary.json's timing split of the co-simulation engine: the seconds inside each FMU, in the
 compiled stepping loop, in Python steps and in the steady-state logic add up to the points' wall time."""
+
 from __future__ import annotations
 
 import json

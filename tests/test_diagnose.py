@@ -1,4 +1,5 @@
 """diagnose: attribution on synthetic data with withheld effects, the benchmark, and the BRFD data."""
+
 from __future__ import annotations
 
 import json
@@ -13,11 +14,14 @@ from pyfmu_wrapper.diagnose.run import run_diagnosis
 ROOT = Path(__file__).resolve().parents[1]
 
 
-@pytest.mark.parametrize("effect,value,key,tol", [
-    ("play", 1e-3, "play.play_gap", 0.05),
-    ("friction", 6.0, "friction.friction_force", 0.05),
-    ("cubic", 2e5, "cubic.cubic_stiffness", 0.15),
-])
+@pytest.mark.parametrize(
+    "effect,value,key,tol",
+    [
+        ("play", 1e-3, "play.play_gap", 0.05),
+        ("friction", 6.0, "friction.friction_force", 0.05),
+        ("cubic", 2e5, "cubic.cubic_stiffness", 0.15),
+    ],
+)
 def test_link_hidden_effect_ranks_first(tmp_path, effect, value, key, tol):
     make_dataset(tmp_path, {effect: value}, seed=11)
     res = run_diagnosis(tmp_path)
@@ -82,8 +86,10 @@ def test_frc_viscous(tmp_path):
     w = np.linspace(15, 25, 31)
     x = exact_amplitude(BaseParams(), paper_case(1, damping=55.0), w) + np.random.default_rng(0).normal(0, 2e-5, w.size)
     (tmp_path / "frc.csv").write_text("omega,force_amplitude,x_max\n" + "\n".join(f"{a},200,{b}" for a, b in zip(w, x)))
-    nom = {"base": {"mass": 100.0, "stiffness": 4e4, "damping": 100.0, "force_amplitude": 200.0},
-           "tmd": {"mass": 9.0, "stiffness": 4e3, "damping": 40.0, "inertance": 1.0, "inerter": "ideal"}}
+    nom = {
+        "base": {"mass": 100.0, "stiffness": 4e4, "damping": 100.0, "force_amplitude": 200.0},
+        "tmd": {"mass": 9.0, "stiffness": 4e3, "damping": 40.0, "inertance": 1.0, "inerter": "ideal"},
+    }
     (tmp_path / "dataset.yaml").write_text(yaml.safe_dump({"level": "system", "nominal": nom, "records": ["frc.csv"]}))
     res = run_diagnosis(tmp_path, out=tmp_path / "out")
     assert res["attribution"]["effects"] == ["viscous"]

@@ -5,6 +5,7 @@ The rig is simulated independently of the diagnosis: the project's solver gives 
 a dense grid (8192 Hz), the analog anti-alias filter is run on it in the time domain
 (``scipy.signal.lsim`` of the analog Butterworth), a delay is a shifted cosine, and the result is
 sampled at 256 Hz with white ADC noise -- the diagnosis only divides harmonics by G(i h w)."""
+
 from __future__ import annotations
 
 import math
@@ -24,12 +25,24 @@ from pyfmu_wrapper.diagnose.run import run_diagnosis
 FS = 256.0
 DENSE = 32  # dense samples per ADC sample
 BUTTER = {"type": "butterworth", "order": 4, "cutoff_hz": 0.4 * FS}  # 102.4 Hz, the issue's case
-NOMINAL = {"base": {"mass": 100.0, "stiffness": 4.0e4, "damping": 100.0, "force_amplitude": 200.0},
-           "tmd": {"mass": 9.0, "stiffness": 4.0e3, "damping": 15.0, "inertance": 1.0, "inerter": "ideal"}}
+NOMINAL = {
+    "base": {"mass": 100.0, "stiffness": 4.0e4, "damping": 100.0, "force_amplitude": 200.0},
+    "tmd": {"mass": 9.0, "stiffness": 4.0e3, "damping": 15.0, "inertance": 1.0, "inerter": "ideal"},
+}
 
 
-def _rig_record(w, F, tmd_kw, rng, filt=None, filtered=("xdd", "ydd"), force_delay=0.0, n_periods=10,
-                noise=0.01, channels=("force", "x", "y", "xdd", "ydd")):
+def _rig_record(
+    w,
+    F,
+    tmd_kw,
+    rng,
+    filt=None,
+    filtered=("xdd", "ydd"),
+    force_delay=0.0,
+    n_periods=10,
+    noise=0.01,
+    channels=("force", "x", "y", "xdd", "ydd"),
+):
     """One steady-state record as the rig gives it: dense solver output, analog filter, ADC sampling."""
     from pyfmu_wrapper.physics.kernels import rhs
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams, pack
@@ -141,7 +154,9 @@ def test_rig_samples_time_domain_matches_the_frequency_response():
     ts = t[::4]
     g = ch["xdd"].response(w)
     late = ts > 0.3
-    assert np.max(np.abs(out["xdd"] - np.abs(g) * np.cos(w * ts + np.angle(g)))[late]) < 5e-4  # interpolation ~ (w dt)^2 / 8
+    assert (
+        np.max(np.abs(out["xdd"] - np.abs(g) * np.cos(w * ts + np.angle(g)))[late]) < 5e-4
+    )  # interpolation ~ (w dt)^2 / 8
     assert np.max(np.abs(out["force"] - np.sin(w * (ts - 1e-3)))[late]) < 5e-4
     assert np.array_equal(out["x"], np.cos(w * ts))
 
@@ -151,28 +166,38 @@ def _write_small(tmp_path, acquisition, fs=256.0):
     t = np.arange(0, 3.0, 1 / fs)
     cols = {"t": t, "force": 100 * np.cos(20 * t), "xdd": -np.cos(20 * t), "ydd": -2 * np.cos(20 * t)}
     write_record(tmp_path / "r.csv", cols)
-    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump(
-        {"level": "system", "nominal": NOMINAL, "records": [{"file": "r.csv", "omega": 20.0}],
-         "acquisition": acquisition}))
+    (tmp_path / "dataset.yaml").write_text(
+        yaml.safe_dump(
+            {
+                "level": "system",
+                "nominal": NOMINAL,
+                "records": [{"file": "r.csv", "omega": 20.0}],
+                "acquisition": acquisition,
+            }
+        )
+    )
     return tmp_path
 
 
-@pytest.mark.parametrize("block, key", [
-    ({"zdd": {"delay_s": 0.0}}, "zdd"),
-    ({"xdd": {"filter": BUTTER, "gain": 1.0}}, "gain"),
-    ({"xdd": {"filter": {**BUTTER, "poles": 3}}}, "poles"),
-    ({"xdd": {"filter": {**BUTTER, "order": 0}}}, "acquisition.xdd.filter.order"),
-    ({"xdd": {"filter": {**BUTTER, "order": 2.5}}}, "acquisition.xdd.filter.order"),
-    ({"xdd": {"filter": {**BUTTER, "cutoff_hz": 0.0}}}, "acquisition.xdd.filter.cutoff_hz"),
-    ({"xdd": {"filter": {**BUTTER, "cutoff_hz": -5}}}, "acquisition.xdd.filter.cutoff_hz"),
-    ({"xdd": {"filter": {**BUTTER, "cutoff_hz": 200.0}}}, "acquisition.xdd.filter.cutoff_hz"),  # > fs/2 = 128 Hz
-    ({"all": {"filter": {**BUTTER, "cutoff_hz": 129.0}}}, "acquisition.all.filter.cutoff_hz"),
-    ({"xdd": {"filter": {**BUTTER, "type": "chebyshev"}}}, "acquisition.xdd.filter.type"),
-    ({"xdd": {"filter": {"type": "bessel", "order": 2}}}, "acquisition.xdd.filter.cutoff_hz"),
-    ({"force": {"delay_s": -1e-3}}, "acquisition.force.delay_s"),
-    ({"force": {"delay_s": "soon"}}, "acquisition.force.delay_s"),
-    ({"force": 3}, "acquisition.force"),
-])
+@pytest.mark.parametrize(
+    "block, key",
+    [
+        ({"zdd": {"delay_s": 0.0}}, "zdd"),
+        ({"xdd": {"filter": BUTTER, "gain": 1.0}}, "gain"),
+        ({"xdd": {"filter": {**BUTTER, "poles": 3}}}, "poles"),
+        ({"xdd": {"filter": {**BUTTER, "order": 0}}}, "acquisition.xdd.filter.order"),
+        ({"xdd": {"filter": {**BUTTER, "order": 2.5}}}, "acquisition.xdd.filter.order"),
+        ({"xdd": {"filter": {**BUTTER, "cutoff_hz": 0.0}}}, "acquisition.xdd.filter.cutoff_hz"),
+        ({"xdd": {"filter": {**BUTTER, "cutoff_hz": -5}}}, "acquisition.xdd.filter.cutoff_hz"),
+        ({"xdd": {"filter": {**BUTTER, "cutoff_hz": 200.0}}}, "acquisition.xdd.filter.cutoff_hz"),  # > fs/2 = 128 Hz
+        ({"all": {"filter": {**BUTTER, "cutoff_hz": 129.0}}}, "acquisition.all.filter.cutoff_hz"),
+        ({"xdd": {"filter": {**BUTTER, "type": "chebyshev"}}}, "acquisition.xdd.filter.type"),
+        ({"xdd": {"filter": {"type": "bessel", "order": 2}}}, "acquisition.xdd.filter.cutoff_hz"),
+        ({"force": {"delay_s": -1e-3}}, "acquisition.force.delay_s"),
+        ({"force": {"delay_s": "soon"}}, "acquisition.force.delay_s"),
+        ({"force": 3}, "acquisition.force"),
+    ],
+)
 def test_bad_acquisition_block_names_file_and_key(tmp_path, block, key, capsys):
     ds = _write_small(tmp_path, block)
     with pytest.raises(DataError) as e:
@@ -186,8 +211,9 @@ def test_bad_acquisition_block_names_file_and_key(tmp_path, block, key, capsys):
 
 
 def test_acquisition_block_parsed_all_and_override(tmp_path):
-    ds = load_dataset(_write_small(tmp_path, {"all": {"filter": BUTTER},
-                                               "force": {"delay_s": 5e-4}, "x": {"filter": "none"}}))
+    ds = load_dataset(
+        _write_small(tmp_path, {"all": {"filter": BUTTER}, "force": {"delay_s": 5e-4}, "x": {"filter": "none"}})
+    )
     a = ds.acquisition
     assert set(a) == {"force", "y", "xdd", "ydd"}  # x exempted by filter: none
     assert a["force"].type == "butterworth" and a["force"].delay_s == 5e-4  # merged key by key
@@ -195,8 +221,16 @@ def test_acquisition_block_parsed_all_and_override(tmp_path):
 
 
 def test_acquisition_on_link_level_is_an_error(tmp_path):
-    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump({"level": "link", "nominal": {"stiffness": 1.0},
-                                                           "records": ["a.csv"], "acquisition": {"force": {"delay_s": 0}}}))
+    (tmp_path / "dataset.yaml").write_text(
+        yaml.safe_dump(
+            {
+                "level": "link",
+                "nominal": {"stiffness": 1.0},
+                "records": ["a.csv"],
+                "acquisition": {"force": {"delay_s": 0}},
+            }
+        )
+    )
     t = np.linspace(0, 1, 50)
     write_record(tmp_path / "a.csv", {"t": t, "displacement": np.sin(6 * t), "force": np.sin(6 * t)})
     with pytest.raises(DataError, match="dataset.yaml.*acquisition"):
@@ -206,9 +240,18 @@ def test_acquisition_on_link_level_is_an_error(tmp_path):
 def test_frc_amplitudes_divided_by_the_gain_at_the_fundamental(tmp_path):
     w = np.array([100.0, 400.0, 600.0])
     write_record(tmp_path / "frc.csv", {"omega": w, "force_amplitude": np.full(3, 200.0), "x_max": np.full(3, 0.01)})
-    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump({
-        "level": "system", "nominal": NOMINAL, "records": ["frc.csv"],
-        "acquisition": {"x": {"filter": {"type": "butterworth", "order": 2, "cutoff_hz": 100.0}, "delay_s": 1e-3}}}))
+    (tmp_path / "dataset.yaml").write_text(
+        yaml.safe_dump(
+            {
+                "level": "system",
+                "nominal": NOMINAL,
+                "records": ["frc.csv"],
+                "acquisition": {
+                    "x": {"filter": {"type": "butterworth", "order": 2, "cutoff_hz": 100.0}, "delay_s": 1e-3}
+                },
+            }
+        )
+    )
     r = load_dataset(tmp_path).records[0]
     f = w / (2 * math.pi)
     assert np.allclose(r["x_max"], 0.01 * np.sqrt(1 + (f / 100.0) ** 4), rtol=1e-12)  # 1 / |H|, delay: none
@@ -220,9 +263,13 @@ def test_acceleration_only_record_accepted_and_missing_motion_named(tmp_path):
     t = np.arange(0, 3.0, 1e-3)
     write_record(tmp_path / "a.csv", {"t": t, "force": np.cos(20 * t), "xdd": np.cos(20 * t), "ydd": np.cos(20 * t)})
     write_record(tmp_path / "b.csv", {"t": t, "force": np.cos(20 * t), "x": np.cos(20 * t), "ydd": np.cos(20 * t)})
-    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump({"level": "system", "nominal": NOMINAL, "records": ["a.csv"]}))
+    (tmp_path / "dataset.yaml").write_text(
+        yaml.safe_dump({"level": "system", "nominal": NOMINAL, "records": ["a.csv"]})
+    )
     assert load_dataset(tmp_path).records[0].kind == "time"
-    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump({"level": "system", "nominal": NOMINAL, "records": ["b.csv"]}))
+    (tmp_path / "dataset.yaml").write_text(
+        yaml.safe_dump({"level": "system", "nominal": NOMINAL, "records": ["b.csv"]})
+    )
     with pytest.raises(DataError) as e:
         load_dataset(tmp_path)
     msg = str(e.value)
@@ -239,8 +286,10 @@ DECLARED = {"xdd": {"filter": BUTTER}, "ydd": {"filter": BUTTER}, "force": {"del
 def filtered_clean(tmp_path_factory):
     root = tmp_path_factory.mktemp("acq")
     kw = dict(filt=BUTTER, force_delay=5e-4)
-    return (_dataset(root / "declared", CLEAN, 5, acquisition=DECLARED, **kw),
-            _dataset(root / "undeclared", CLEAN, 5, **kw))
+    return (
+        _dataset(root / "declared", CLEAN, 5, acquisition=DECLARED, **kw),
+        _dataset(root / "undeclared", CLEAN, 5, **kw),
+    )
 
 
 def test_clean_dataset_with_declared_filters_has_no_effect(filtered_clean):
@@ -260,8 +309,15 @@ def test_clean_dataset_with_declared_filters_has_no_effect(filtered_clean):
 def test_acceleration_only_viscous_named_offset_unobservable(tmp_path, accel_only):
     """Extra viscous damping of 10 N s/m, accelerometers through the declared anti-alias filter at
     256 Hz; all records (or two of four) without displacement channels."""
-    ds = _dataset(tmp_path / "d", {**CLEAN, "damping": 25.0}, 11, acquisition=DECLARED, accel_only=accel_only,
-                  filt=BUTTER, force_delay=5e-4)
+    ds = _dataset(
+        tmp_path / "d",
+        {**CLEAN, "damping": 25.0},
+        11,
+        acquisition=DECLARED,
+        accel_only=accel_only,
+        filt=BUTTER,
+        force_delay=5e-4,
+    )
     res = run_diagnosis(ds, out=tmp_path / "out")
     v = res["verdict"]
     assert v["effects"] == ["viscous"]

@@ -1,5 +1,6 @@
 """The field-like system benchmark (make-benchmark's system suite) against independent checks, and
 score's classification of out-of-vocabulary results."""
+
 from __future__ import annotations
 
 import math
@@ -24,8 +25,12 @@ def linear_response(nom, omega, F):
     M, K, C = b["mass"], b["stiffness"], b["damping"]
     m, k, c, I = t["mass"], t["stiffness"], t["damping"], t["inertance"]
     w = omega
-    A = np.array([[K + k - w * w * (M + I) + 1j * w * (C + c), -k + w * w * I - 1j * w * c],
-                  [-k + w * w * I - 1j * w * c, k - w * w * (m + I) + 1j * w * c]])
+    A = np.array(
+        [
+            [K + k - w * w * (M + I) + 1j * w * (C + c), -k + w * w * I - 1j * w * c],
+            [-k + w * w * I - 1j * w * c, k - w * w * (m + I) + 1j * w * c],
+        ]
+    )
     X, Y = np.linalg.solve(A, [F, 0.0])
     return X, Y
 
@@ -38,13 +43,38 @@ def phasor(t, s, w):
     return coef[0] + 1j * coef[1], sd
 
 
-def spec(case=2, c=15.0, fs=1000.0, f_hz=3.1, F=180.0, periods=9.37, phase=2.1, acq=None, hidden=None,
-         accel_only=False, noise=0.01):
+def spec(
+    case=2,
+    c=15.0,
+    fs=1000.0,
+    f_hz=3.1,
+    F=180.0,
+    periods=9.37,
+    phase=2.1,
+    acq=None,
+    hidden=None,
+    accel_only=False,
+    noise=0.01,
+):
     nom = nominal(case, c)
-    rec = {"frequency_hz": f_hz, "omega": 2 * math.pi * f_hz, "force": F, "periods": periods, "phase": phase,
-           "noise": {ch: noise for ch in ("force", "x", "y", "xdd", "ydd")}}
-    return {"case": case, "nominal": nom, "fs": fs, "accel_only": accel_only, "acquisition": acq,
-            "records": [rec], "frc": [], "truth": true_parts(nom, hidden or {}, {})}
+    rec = {
+        "frequency_hz": f_hz,
+        "omega": 2 * math.pi * f_hz,
+        "force": F,
+        "periods": periods,
+        "phase": phase,
+        "noise": {ch: noise for ch in ("force", "x", "y", "xdd", "ydd")},
+    }
+    return {
+        "case": case,
+        "nominal": nom,
+        "fs": fs,
+        "accel_only": accel_only,
+        "acquisition": acq,
+        "records": [rec],
+        "frc": [],
+        "truth": true_parts(nom, hidden or {}, {}),
+    }
 
 
 def read(folder):
@@ -85,8 +115,11 @@ def test_declared_filter_gives_H_at_the_forcing_frequency(tmp_path, typ, order, 
     w = r["omega"]
     t = df["t"].to_numpy()
     wc = 2 * math.pi * filt["cutoff_hz"]  # the analog prototype, in transfer-function form
-    b, a = (signal.butter(order, wc, analog=True) if typ == "butterworth"
-            else signal.bessel(order, wc, analog=True, norm="mag"))
+    b, a = (
+        signal.butter(order, wc, analog=True)
+        if typ == "butterworth"
+        else signal.bessel(order, wc, analog=True, norm="mag")
+    )
     H = signal.freqs(b, a, [w])[1][0]
     X, _ = linear_response(sp["nominal"], w, r["force"])
     rot = np.exp(1j * r["phase"])
@@ -94,7 +127,7 @@ def test_declared_filter_gives_H_at_the_forcing_frequency(tmp_path, typ, order, 
     resid = df["xdd"].to_numpy() - np.real(S * np.exp(1j * w * t))
     resid -= resid.mean()
     # the filter starts on the steady state: no transient at the record's start
-    assert np.sqrt(np.mean(resid[:10] ** 2)) < 3 * np.sqrt(np.mean(resid ** 2))
+    assert np.sqrt(np.mean(resid[:10] ** 2)) < 3 * np.sqrt(np.mean(resid**2))
     ratio = S / (-w * w * X * rot)
     assert abs(abs(ratio) - abs(H)) < 5 * sd / abs(w * w * X) + 1e-6
     assert abs(np.angle(ratio) - np.angle(H)) < 5 * sd / abs(w * w * X) + 1e-6
@@ -143,8 +176,15 @@ def test_oov_integrator_follows_the_project_integrator_from_a_transient_start():
     from scipy.integrate import solve_ivp
 
     mine = solve_ivp(mod.rhs(w), (0.0, tau[-1]), z0, method="DOP853", rtol=1e-11, atol=1e-13, t_eval=tau).y
-    _, zp = simulate(BaseParams(**{**nom["base"], "force_amplitude": F}), TMDParams(**nom["tmd"]), w, float(tau[-1]),
-                     z0=np.r_[z0, 0.0, 0.0], sample_times=tau, rtol=1e-11)
+    _, zp = simulate(
+        BaseParams(**{**nom["base"], "force_amplitude": F}),
+        TMDParams(**nom["tmd"]),
+        w,
+        float(tau[-1]),
+        z0=np.r_[z0, 0.0, 0.0],
+        sample_times=tau,
+        rtol=1e-11,
+    )
     for i in range(4):
         assert np.max(np.abs(mine[i] - zp[:, i])) < 1e-6 * np.max(np.abs(zp[:, i])), i
 
@@ -161,8 +201,7 @@ def test_oov_integrator_energy_balance_on_the_orbit(kw):
     d, zs = mod.dense(w, tau)
     v = d["xd"] - d["yd"]
     p_in = F * np.cos(w * tau) * d["xd"]
-    p_out = (mod.C * d["xd"] ** 2 + mod.c * v ** 2 + mod.c2 * np.abs(v) ** 3
-             + mod.mu * np.tanh(d["xd"] / 1e-3) * d["xd"])
+    p_out = mod.C * d["xd"] ** 2 + mod.c * v**2 + mod.c2 * np.abs(v) ** 3 + mod.mu * np.tanh(d["xd"] / 1e-3) * d["xd"]
     W_in, W_out = np.trapezoid(p_in, tau), np.trapezoid(p_out, tau)
     assert abs(W_in - W_out) < 1e-4 * W_in
     assert np.max(np.abs(mod.period_map(zs, w) - zs) / mod._scale(w)) < 1e-8  # periodic
@@ -178,8 +217,10 @@ def test_score_classifies_oov_results():
         return {"verdict": v}
 
     row = sysscore.score_row
-    assert row(m, res(["viscous"], True, "a structural gap remains that none of the candidates explains"))[
-        "oov_outcome"] == "honest"
+    assert (
+        row(m, res(["viscous"], True, "a structural gap remains that none of the candidates explains"))["oov_outcome"]
+        == "honest"
+    )
     assert row(m, res([], True, "unexplained"))["oov_outcome"] == "honest"
     assert row(m, res(["viscous"], False))["oov_outcome"] == "confidently_wrong"
     assert row(m, res(["viscous"]))["oov_outcome"] == "confidently_wrong"  # a missing key is false
@@ -192,11 +233,15 @@ def test_score_classifies_oov_results():
     assert r["text_flag_disagree"] and r["oov_outcome"] == "missed"
     # in-vocabulary rows: parameter error only for named hidden effects
     s = {"dataset": "s", "class": "single", "hidden": ["base_mass"], "truth": {"base_mass.delta_mass": 4.0}}
-    r = row(s, {"verdict": {"effects": ["base_mass"], "text": "t",
-                            "parameters": {"base_mass.delta_mass": {"value": 4.2}}}})
+    r = row(
+        s, {"verdict": {"effects": ["base_mass"], "text": "t", "parameters": {"base_mass.delta_mass": {"value": 4.2}}}}
+    )
     assert r["correct"] and abs(r["param_rel_error"]["base_mass.delta_mass"] - 0.05) < 1e-12
-    rows = [dict(r, seconds=1.0), dict(row(m, res(["viscous"], False)), seconds=1.0),
-            dict(row(m, res([], True)), seconds=1.0)]
+    rows = [
+        dict(r, seconds=1.0),
+        dict(row(m, res(["viscous"], False)), seconds=1.0),
+        dict(row(m, res([], True)), seconds=1.0),
+    ]
     summ = sysscore.summarise(rows)
     assert summ["singles_top1"] == 1.0 and summ["oov_honest_or_right"] == 0.5
     assert summ["oov_confidently_wrong"] == 0.5 and summ["unexplained_on_invocab_or_clean"] == 0.0
@@ -239,23 +284,47 @@ def test_make_benchmark_refuses_to_overwrite_foreign_files(tmp_path, capsys):
     assert not (tmp_path / "b").exists()
 
 
-
 def test_score_system_on_given_results(tmp_path):
     import json
 
-    man = {"suite": "system", "visible_chi2": 100.0, "datasets": [
-        {"dataset": "a", "class": "clean", "hidden": [], "truth": {}},
-        {"dataset": "b", "class": "pair", "hidden": ["viscous", "base_mass"],
-         "truth": {"viscous.delta_damping": 5.0, "base_mass.delta_mass": -4.0}},
-        {"dataset": "c", "class": "oov", "hidden": ["quadratic_damping"], "truth": {},
-         "visibility": {"chi2": 1e5, "visible": True}}]}
+    man = {
+        "suite": "system",
+        "visible_chi2": 100.0,
+        "datasets": [
+            {"dataset": "a", "class": "clean", "hidden": [], "truth": {}},
+            {
+                "dataset": "b",
+                "class": "pair",
+                "hidden": ["viscous", "base_mass"],
+                "truth": {"viscous.delta_damping": 5.0, "base_mass.delta_mass": -4.0},
+            },
+            {
+                "dataset": "c",
+                "class": "oov",
+                "hidden": ["quadratic_damping"],
+                "truth": {},
+                "visibility": {"chi2": 1e5, "visible": True},
+            },
+        ],
+    }
     (tmp_path / "manifest.json").write_text(json.dumps(man))
-    res = {"a": {"verdict": {"effects": [], "text": "No structural effect"}},
-           "b": {"verdict": {"effects": ["base_mass", "viscous"], "text": "t",
-                             "parameters": {"viscous.delta_damping": {"value": 5.5},
-                                            "base_mass.delta_mass": {"value": -4.0}}}},
-           "c": {"verdict": {"effects": ["viscous"], "unexplained": True, "text": "a structural gap remains "
-                             "that none of the candidates explains; hint: viscous"}}}
+    res = {
+        "a": {"verdict": {"effects": [], "text": "No structural effect"}},
+        "b": {
+            "verdict": {
+                "effects": ["base_mass", "viscous"],
+                "text": "t",
+                "parameters": {"viscous.delta_damping": {"value": 5.5}, "base_mass.delta_mass": {"value": -4.0}},
+            }
+        },
+        "c": {
+            "verdict": {
+                "effects": ["viscous"],
+                "unexplained": True,
+                "text": "a structural gap remains that none of the candidates explains; hint: viscous",
+            }
+        },
+    }
     out = sysscore.score_system(tmp_path, results=res)
     s = out["summary"]
     assert s["clean_false_positive_rate"] == 0.0 and s["pairs_both_named"] == 1.0

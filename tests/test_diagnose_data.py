@@ -1,4 +1,5 @@
 """diagnose: bad data gets a clear error naming the file, row and column."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -13,8 +14,9 @@ NOM = {"stiffness": 4000.0, "damping": 40.0, "inertance": 1.0}
 
 def _write(tmp_path, csv_text, name="r1.csv", nominal=NOM, level="link"):
     (tmp_path / name).write_text(csv_text)
-    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump({"level": level, "nominal": nominal,
-                                                           "records": [{"file": name, "omega": 20.0}]}))
+    (tmp_path / "dataset.yaml").write_text(
+        yaml.safe_dump({"level": level, "nominal": nominal, "records": [{"file": name, "omega": 20.0}]})
+    )
     return tmp_path
 
 
@@ -54,7 +56,9 @@ def test_time_not_increasing_names_row(tmp_path):
 
 
 def test_missing_file_and_missing_yaml(tmp_path):
-    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump({"level": "link", "nominal": NOM, "records": ["nothere.csv"]}))
+    (tmp_path / "dataset.yaml").write_text(
+        yaml.safe_dump({"level": "link", "nominal": NOM, "records": ["nothere.csv"]})
+    )
     with pytest.raises(DataError, match=r"nothere\.csv: file not found"):
         load_dataset(tmp_path)
     with pytest.raises(DataError, match=r"dataset\.yaml: file not found"):
@@ -62,14 +66,25 @@ def test_missing_file_and_missing_yaml(tmp_path):
 
 
 def test_frc_bad_direction_and_system_nominal(tmp_path):
-    _write(tmp_path, "omega,force_amplitude,x_max,direction\n15,200,0.01,up\n16,200,0.01,sideways\n17,200,0.01,up\n",
-           name="frc.csv", level="system",
-           nominal={"base": {"mass": 100.0, "stiffness": 4e4, "damping": 100.0, "force_amplitude": 200.0},
-                    "tmd": {"mass": 9.0, "stiffness": 4e3, "inertance": 1.0}})
+    _write(
+        tmp_path,
+        "omega,force_amplitude,x_max,direction\n15,200,0.01,up\n16,200,0.01,sideways\n17,200,0.01,up\n",
+        name="frc.csv",
+        level="system",
+        nominal={
+            "base": {"mass": 100.0, "stiffness": 4e4, "damping": 100.0, "force_amplitude": 200.0},
+            "tmd": {"mass": 9.0, "stiffness": 4e3, "inertance": 1.0},
+        },
+    )
     with pytest.raises(DataError, match=r"frc\.csv, row 2, column 'direction'"):
         load_dataset(tmp_path)
-    _write(tmp_path, "omega,force_amplitude,x_max\n15,200,0.01\n16,200,0.01\n17,200,0.01\n", name="frc.csv",
-           level="system", nominal={"base": {"mass": -1.0}, "tmd": {}})
+    _write(
+        tmp_path,
+        "omega,force_amplitude,x_max\n15,200,0.01\n16,200,0.01\n17,200,0.01\n",
+        name="frc.csv",
+        level="system",
+        nominal={"base": {"mass": -1.0}, "tmd": {}},
+    )
     with pytest.raises(DataError, match=r"dataset\.yaml:\d+: nominal model: base: mass \(M\) must be > 0"):
         load_dataset(tmp_path)
 
@@ -95,8 +110,9 @@ def test_all_train_roles_is_a_data_error_exit_2(tmp_path, capsys):
         d = 0.01 * np.sin(w * t)
         write_record(tmp_path / f"r{k}.csv", {"t": t, "displacement": d, "force": 4e3 * d})
         recs.append({"file": f"r{k}.csv", "omega": w, "role": "train"})
-    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump({"level": "link", "nominal": {"stiffness": 4e3},
-                                                           "records": recs}))
+    (tmp_path / "dataset.yaml").write_text(
+        yaml.safe_dump({"level": "link", "nominal": {"stiffness": 4e3}, "records": recs})
+    )
     assert main_diagnose([str(tmp_path), "--out", str(tmp_path / "out")]) == 2
     assert "role 'train'" in capsys.readouterr().err
 
@@ -128,13 +144,15 @@ def test_brfd_names_any_tension_and_header(tmp_path):
 
 # --- issue 17: long records, unknown keys, output folders ------------------------------------------
 
+
 def _long_link(tmp_path, n, seed=2):
     rng = np.random.default_rng(seed)
     t = np.arange(n) * 1e-3
     d = 0.01 * np.sin(20 * t)
     F = 4000 * d + rng.normal(0, 0.5, n)
-    (tmp_path / "dataset.yaml").write_text(yaml.safe_dump({"level": "link", "nominal": NOM,
-                                                           "records": [{"file": "long.csv", "omega": 20.0}]}))
+    (tmp_path / "dataset.yaml").write_text(
+        yaml.safe_dump({"level": "link", "nominal": NOM, "records": [{"file": "long.csv", "omega": 20.0}]})
+    )
     return t, d, F
 
 
@@ -157,16 +175,28 @@ def test_long_record_is_block_averaged_in_chunks(tmp_path, monkeypatch):
     np.testing.assert_array_equal(rec["t"], t[:m].reshape(-1, q).mean(axis=1))
     np.testing.assert_allclose(rec["force"], F[:m].reshape(-1, q).mean(axis=1), rtol=0, atol=1e-12)
     np.testing.assert_allclose(rec["displacement"], d[:m].reshape(-1, q).mean(axis=1), rtol=0, atol=1e-15)
-    assert rec.meta["reduced"] == {"rows": 4321, "block": q, "samples": m // q, "dropped_rows": 4321 - m,
-                                   "method": f"boxcar average of {q} consecutive samples, one sample kept per block"}
+    assert rec.meta["reduced"] == {
+        "rows": 4321,
+        "block": q,
+        "samples": m // q,
+        "dropped_rows": 4321 - m,
+        "method": f"boxcar average of {q} consecutive samples, one sample kept per block",
+    }
     assert any("averaging every 5 consecutive samples" in s for s in said)
     assert any("the last 1 rows" in s for s in said)
 
 
-@pytest.mark.parametrize("row,line,match", [
-    (2345, "2.344,nan,1", r"long\.csv, row 2345, column 'displacement': value nan"),
-    (1401, "1.3985,0.001,1", r"long\.csv, row 1401, column 't': time must be strictly increasing: t = 1\.3985 after 1\.399"),
-])
+@pytest.mark.parametrize(
+    "row,line,match",
+    [
+        (2345, "2.344,nan,1", r"long\.csv, row 2345, column 'displacement': value nan"),
+        (
+            1401,
+            "1.3985,0.001,1",
+            r"long\.csv, row 1401, column 't': time must be strictly increasing: t = 1\.3985 after 1\.399",
+        ),
+    ],
+)
 def test_long_record_errors_name_the_global_row(tmp_path, monkeypatch, row, line, match):
     """Errors in a later chunk name the row of the file (1-based data row), also across a chunk boundary
     (row 1401 is the first row of the third chunk of 700)."""
@@ -239,9 +269,12 @@ def test_flagged_records_are_printed(tmp_path, capsys, monkeypatch):
     """Records the analysis leaves out (or partly out) appear in the printed verdict, not only in the report."""
     from pyfmu_wrapper.cli import diagnose as cli
 
-    res = {"verdict": {"text": "No structural effect."}, "held_out": {},
-           "time_records": {"flagged": [{"record": "a.csv", "reason": "no 'y' column"}]},
-           "flagged_records": [{"record": "b.csv", "reason": "no 'ydd' column"}]}
+    res = {
+        "verdict": {"text": "No structural effect."},
+        "held_out": {},
+        "time_records": {"flagged": [{"record": "a.csv", "reason": "no 'y' column"}]},
+        "flagged_records": [{"record": "b.csv", "reason": "no 'ydd' column"}],
+    }
     monkeypatch.setattr(cli, "run_diagnosis", lambda *a, **k: res)
     (tmp_path / "ds").mkdir()
     assert cli.main_diagnose([str(tmp_path / "ds"), "--out", str(tmp_path / "o")]) == 0
@@ -286,8 +319,13 @@ def test_make_benchmark_prints_no_hidden_labels(tmp_path, capsys, monkeypatch):
         for i in range(n):
             (out / f"sys{i:03d}").mkdir()
             (out / f"sys{i:03d}" / "dataset.yaml").write_text("level: system\n")
-            row = {"dataset": f"sys{i:03d}", "case": 2, "hidden": ["friction"], "severity": {"friction": 7.25},
-                   "truth": {"friction.friction_force": 7.25}}
+            row = {
+                "dataset": f"sys{i:03d}",
+                "case": 2,
+                "hidden": ["friction"],
+                "severity": {"friction": 7.25},
+                "truth": {"friction.friction_force": 7.25},
+            }
             man.append(row)
             progress(row)
         (out / "manifest.json").write_text(json.dumps({"datasets": man}))

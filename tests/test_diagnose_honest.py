@@ -6,6 +6,7 @@ Datasets are simulated with the project's solver (``sysbench``) or, for the out-
 quadratic damping law, with the benchmark's own integrator (``sysbench_oov``, not the kernels).
 A nominal-parameter truth is made by stating a nominal that differs from the simulated system:
 true = stated nominal + delta, so the expected delta is known exactly."""
+
 from __future__ import annotations
 
 import math
@@ -43,8 +44,9 @@ def _x_gain(folder, g):
         df.to_csv(f, index=False, float_format="%.9g")
 
 
-def _low_force_time_records_frc_at_200N(folder, hidden, seed, forces=(3.0, 4.0, 3.0, 4.0),
-                                        omegas=(16.0, 18.5, 21.5, 24.0)):
+def _low_force_time_records_frc_at_200N(
+    folder, hidden, seed, forces=(3.0, 4.0, 3.0, 4.0), omegas=(16.0, 18.5, 21.5, 24.0)
+):
     """Time records at a force so small that a cubic spring term is invisible in them; an FRC at
     200 N where it is not: the effect shows only in the FRC."""
     from pyfmu_wrapper.physics.params import BaseParams
@@ -65,8 +67,12 @@ def _low_force_time_records_frc_at_200N(folder, hidden, seed, forces=(3.0, 4.0, 
         write_record(folder / name, cols, fmt="%.9g")
         recs.append({"file": name, "omega": w, "force_amplitude": F})
     base = BaseParams(**{**nom["base"], "force_amplitude": 200.0})
-    xm = np.array([steady_state(base, tmd, float(w), settings=SolverSettings(max_periods_window=80)).amplitude
-                   for w in FRC_OMEGAS])
+    xm = np.array(
+        [
+            steady_state(base, tmd, float(w), settings=SolverSettings(max_periods_window=80)).amplitude
+            for w in FRC_OMEGAS
+        ]
+    )
     xm = xm * (1 + rng.normal(0.0, 0.005, xm.size))
     write_record(folder / "frc.csv", {"omega": FRC_OMEGAS, "force_amplitude": np.full(xm.size, 200.0), "x_max": xm})
     recs.append({"file": "frc.csv"})
@@ -90,13 +96,27 @@ def test_remaining_gate_on_numbers():
 
 
 def test_significance_gate_on_numbers():
-    assert gates.significance_gate({"tmd_stiffness.delta_stiffness": -0.5}, {"tmd_stiffness.delta_stiffness": 0.56},
-                                    "tmd_stiffness") is False
-    assert gates.significance_gate({"tmd_stiffness.delta_stiffness": -5.0}, {"tmd_stiffness.delta_stiffness": 0.56},
-                                   "tmd_stiffness") is True
+    assert (
+        gates.significance_gate(
+            {"tmd_stiffness.delta_stiffness": -0.5}, {"tmd_stiffness.delta_stiffness": 0.56}, "tmd_stiffness"
+        )
+        is False
+    )
+    assert (
+        gates.significance_gate(
+            {"tmd_stiffness.delta_stiffness": -5.0}, {"tmd_stiffness.delta_stiffness": 0.56}, "tmd_stiffness"
+        )
+        is True
+    )
     # two parameters: one away from zero is enough
-    assert gates.significance_gate({"sensor_offset.x_offset": 1e-3, "sensor_offset.y_offset": 1e-6},
-                                   {"sensor_offset.x_offset": 1e-5, "sensor_offset.y_offset": 1e-5}, "sensor_offset") is True
+    assert (
+        gates.significance_gate(
+            {"sensor_offset.x_offset": 1e-3, "sensor_offset.y_offset": 1e-6},
+            {"sensor_offset.x_offset": 1e-5, "sensor_offset.y_offset": 1e-5},
+            "sensor_offset",
+        )
+        is True
+    )
 
 
 def test_plausibility_bounds_of_nominal_parameters():
@@ -104,14 +124,22 @@ def test_plausibility_bounds_of_nominal_parameters():
 
     tmd, base = paper_case(1, damping=15.0), BaseParams()
     motion = {"x": 0.03, "y": 0.1, "d": 0.08}
-    ok = {"base_mass.delta_mass": 0.1 * base.mass, "base_stiffness.delta_stiffness": -0.2 * base.stiffness,
-          "tmd_stiffness.delta_stiffness": 0.25 * tmd.stiffness, "base_damping.delta_damping": 0.5 * base.damping}
+    ok = {
+        "base_mass.delta_mass": 0.1 * base.mass,
+        "base_stiffness.delta_stiffness": -0.2 * base.stiffness,
+        "tmd_stiffness.delta_stiffness": 0.25 * tmd.stiffness,
+        "base_damping.delta_damping": 0.5 * base.damping,
+    }
     assert gates.plausibility(ok, {}, tmd, motion, base) == []
     assert "M off by" in gates.plausibility({"base_mass.delta_mass": 0.4 * base.mass}, {}, tmd, motion, base)[0]
-    assert "k off by" in gates.plausibility({"tmd_stiffness.delta_stiffness": -0.35 * tmd.stiffness}, {}, tmd,
-                                            motion, base)[0]
-    assert "negative base damping" in gates.plausibility({"base_damping.delta_damping": -2 * base.damping}, {}, tmd,
-                                                         motion, base)[0]
+    assert (
+        "k off by"
+        in gates.plausibility({"tmd_stiffness.delta_stiffness": -0.35 * tmd.stiffness}, {}, tmd, motion, base)[0]
+    )
+    assert (
+        "negative base damping"
+        in gates.plausibility({"base_damping.delta_damping": -2 * base.damping}, {}, tmd, motion, base)[0]
+    )
 
 
 # --- datasets -----------------------------------------------------------------------------------------
@@ -128,8 +156,10 @@ def root(tmp_path_factory):
     return tmp_path_factory.mktemp("honest")
 
 
-@pytest.mark.parametrize("name", [pytest.param(n, marks=pytest.mark.slow) if n in ("base_stiffness", "base_damping")
-                                  else n for n in NOMINAL_CASES])
+@pytest.mark.parametrize(
+    "name",
+    [pytest.param(n, marks=pytest.mark.slow) if n in ("base_stiffness", "base_damping") else n for n in NOMINAL_CASES],
+)
 def test_nominal_parameter_off_named_with_its_delta(root, name):
     group, key, factor, effect, pkey = NOMINAL_CASES[name]
     d = root / name

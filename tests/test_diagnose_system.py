@@ -1,6 +1,7 @@
 """diagnose on system-level measurements as a rig gives them (x, y, xdd, ydd, force; no velocity;
 per-channel noise): one dataset per hidden effect, a clean one and a pair, simulated with the
 project's solver; each decision gate on its own."""
+
 from __future__ import annotations
 
 import math
@@ -99,12 +100,18 @@ def test_plausibility_gate():
     assert ok == []
     assert "I < 0" in sysdiag.plausibility({"mass_split.delta_inertance": -9.0}, {}, tmd, motion)[0]
     assert "m < 0" in sysdiag.plausibility({"mass_split.delta_inertance": 9.5}, {}, tmd, motion)[0]
-    assert "damping" in sysdiag.plausibility({"viscous.delta_damping": -20.0}, {"viscous.delta_damping": 1.0}, tmd, motion)[0]
+    assert (
+        "damping"
+        in sysdiag.plausibility({"viscous.delta_damping": -20.0}, {"viscous.delta_damping": 1.0}, tmd, motion)[0]
+    )
     # within its uncertainty a slightly negative total is not rejected
     assert sysdiag.plausibility({"viscous.delta_damping": -15.5}, {"viscous.delta_damping": 1.0}, tmd, motion) == []
     assert "larger than" in sysdiag.plausibility({"play.play_gap": 0.1}, {}, tmd, motion)[0]
     assert "larger than" in sysdiag.plausibility({"sensor_offset.x_offset": 0.05}, {}, tmd, motion)[0]
-    assert "friction" in sysdiag.plausibility({"friction.friction_force": -5.0}, {"friction.friction_force": 0.1}, tmd, motion)[0]
+    assert (
+        "friction"
+        in sysdiag.plausibility({"friction.friction_force": -5.0}, {"friction.friction_force": 0.1}, tmd, motion)[0]
+    )
 
 
 # --- derivatives and noise from the Fourier series -------------------------------------------------
@@ -115,21 +122,21 @@ def test_fourier_velocity_and_noise_per_channel():
     x = 0.02 * np.cos(w * t + 0.3) + 0.002 * np.cos(3 * w * t)
     xd = -0.02 * w * np.sin(w * t + 0.3) - 0.006 * w * np.sin(3 * w * t)
     xdd = -0.02 * w * w * np.cos(w * t + 0.3) - 0.018 * w * w * np.cos(3 * w * t)
-    sx, sa = 0.02 * 0.0141, 0.01 * np.sqrt(np.mean(xdd ** 2))
+    sx, sa = 0.02 * 0.0141, 0.01 * np.sqrt(np.mean(xdd**2))
     s = fit_series(t, {"x": x + rng.normal(0, sx, t.size), "xdd": xdd + rng.normal(0, sa, t.size)}, w)
     assert abs(s.noise["x"] / sx - 1) < 0.05 and abs(s.noise["xdd"] / sa - 1) < 0.05
     X, vX = fuse(s, "x", "xdd", 5)
     v = np.real(np.exp(1j * np.outer(w * t, np.arange(6))) @ (1j * np.arange(6) * w * X))
-    err = np.sqrt(np.mean((v - xd) ** 2)) / np.sqrt(np.mean(xd ** 2))
+    err = np.sqrt(np.mean((v - xd) ** 2)) / np.sqrt(np.mean(xd**2))
     assert err < 0.005  # np.gradient of the noisy x gives ~30 % here
-    assert np.sqrt(np.mean((np.gradient(x + rng.normal(0, sx, t.size), t) - xd) ** 2)) / np.sqrt(np.mean(xd ** 2)) > 0.1
+    assert np.sqrt(np.mean((np.gradient(x + rng.normal(0, sx, t.size), t) - xd) ** 2)) / np.sqrt(np.mean(xd**2)) > 0.1
 
 
 def test_estimate_omega_positive_or_none():
     t = np.arange(0, 20, 1e-3)
     assert abs(estimate_omega(t, np.cos(18.7 * t + 1)) / 18.7 - 1) < 1e-3
     rng = np.random.default_rng(1)
-    quake = np.cumsum(rng.normal(size=t.size)) * np.exp(-((t - 5) / 3) ** 2)
+    quake = np.cumsum(rng.normal(size=t.size)) * np.exp(-(((t - 5) / 3) ** 2))
     w = estimate_omega(t, quake)
     assert w is None or w > 0
     assert estimate_omega(t, np.zeros_like(t)) is None
@@ -148,11 +155,20 @@ def test_non_periodic_record_flagged_rest_still_runs(data, tmp_path):
     shutil.copytree(data["viscous"], d)
     rng = np.random.default_rng(5)
     t = np.arange(0, 6.0, 1e-3)
-    env = np.exp(-((t - 2.0) / 1.0) ** 2)
+    env = np.exp(-(((t - 2.0) / 1.0) ** 2))
     f = 300 * env * np.convolve(rng.normal(size=t.size), np.ones(40) / 40, "same")
     x = np.cumsum(np.cumsum(f)) * 1e-9
-    write_record(d / "quake.csv", {"t": t, "force": f, "x": x, "y": 2 * x, "xdd": np.gradient(np.gradient(x, t), t),
-                                   "ydd": np.gradient(np.gradient(2 * x, t), t)})
+    write_record(
+        d / "quake.csv",
+        {
+            "t": t,
+            "force": f,
+            "x": x,
+            "y": 2 * x,
+            "xdd": np.gradient(np.gradient(x, t), t),
+            "ydd": np.gradient(np.gradient(2 * x, t), t),
+        },
+    )
     meta = yaml.safe_load((d / "dataset.yaml").read_text())
     meta["records"].append({"file": "quake.csv"})
     (d / "dataset.yaml").write_text(yaml.safe_dump(meta))

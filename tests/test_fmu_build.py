@@ -1,4 +1,5 @@
 """Building: generated XML agrees with the variable table; ensure_fmus rebuilds only stale FMUs."""
+
 from __future__ import annotations
 
 import zipfile
@@ -21,8 +22,13 @@ def test_ensure_fmus_builds_missing_and_stale_only(tmp_path, monkeypatch):
     with zipfile.ZipFile(paths["TMDInerter"]) as z:
         names = set(z.namelist())
         cfg = z.read("resources/pyfmu.cfg").decode()
-    assert {"modelDescription.xml", "binaries/linux64/TMDInerter.so", "resources/pyfmu.cfg",
-            "resources/variables.tsv", "resources/model.py"} <= names
+    assert {
+        "modelDescription.xml",
+        "binaries/linux64/TMDInerter.so",
+        "resources/pyfmu.cfg",
+        "resources/variables.tsv",
+        "resources/model.py",
+    } <= names
     assert "python=" in cfg and "bundle_hash=" in cfg and "path=" not in cfg and "libpython=" not in cfg
 
 
@@ -42,6 +48,7 @@ def test_xml_matches_variable_table(tmp_path):
 
 # ---- bad input: a clear message, exit status 2, no traceback, nothing deleted or written --------
 
+
 def _user_files(root):
     return {p: p.read_bytes() for p in sorted(root.rglob("*")) if p.is_file()}
 
@@ -50,8 +57,13 @@ def _build_cli(*args, cwd):
     import subprocess
     import sys
 
-    return subprocess.run([sys.executable, "-m", "pyfmu_wrapper.cli.build_fmus", *args], capture_output=True, text=True,
-                          cwd=cwd, timeout=600)
+    return subprocess.run(
+        [sys.executable, "-m", "pyfmu_wrapper.cli.build_fmus", *args],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        timeout=600,
+    )
 
 
 def test_build_fmus_bad_input_is_refused_with_exit_2_and_nothing_lost(tmp_path):

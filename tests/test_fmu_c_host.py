@@ -1,4 +1,5 @@
 """Both FMUs in a pure C host (no Python in the host, RTLD_LOCAL, only -ldl): same numbers as fmpy."""
+
 from __future__ import annotations
 
 import os
@@ -37,19 +38,29 @@ def spec_args(d, name, start, outputs):
 def test_c_host_runs_both_fmus_like_fmpy(host):
     exe, dirs, fmus, env = host
     outs_b, outs_t = ["x", "xd", "xdd", "f_exc"], ["force", "y", "yd", "inerter_force"]
-    cmd = [str(exe), "run", "0.5", "0.001",
-           *spec_args(dirs["BaseOscillator"], "base", BASE, outs_b), "--",
-           *spec_args(dirs["TMDInerter"], "tmdA", TMD_A, outs_t), "--",
-           *spec_args(dirs["TMDInerter"], "tmdB", TMD_B, outs_t)]
+    cmd = [
+        str(exe),
+        "run",
+        "0.5",
+        "0.001",
+        *spec_args(dirs["BaseOscillator"], "base", BASE, outs_b),
+        "--",
+        *spec_args(dirs["TMDInerter"], "tmdA", TMD_A, outs_t),
+        "--",
+        *spec_args(dirs["TMDInerter"], "tmdB", TMD_B, outs_t),
+    ]
     r = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=120)
     assert r.returncode == 0, r.stderr
     c = np.loadtxt(r.stdout.splitlines())
-    ref_b = fmpy.simulate_fmu(str(fmus["BaseOscillator"]), stop_time=0.5, output_interval=1e-3,
-                              start_values=BASE, output=outs_b)
-    ref_a = fmpy.simulate_fmu(str(fmus["TMDInerter"]), stop_time=0.5, output_interval=1e-3,
-                              start_values=TMD_A, output=outs_t)
-    ref_bb = fmpy.simulate_fmu(str(fmus["TMDInerter"]), stop_time=0.5, output_interval=1e-3,
-                               start_values=TMD_B, output=outs_t)
+    ref_b = fmpy.simulate_fmu(
+        str(fmus["BaseOscillator"]), stop_time=0.5, output_interval=1e-3, start_values=BASE, output=outs_b
+    )
+    ref_a = fmpy.simulate_fmu(
+        str(fmus["TMDInerter"]), stop_time=0.5, output_interval=1e-3, start_values=TMD_A, output=outs_t
+    )
+    ref_bb = fmpy.simulate_fmu(
+        str(fmus["TMDInerter"]), stop_time=0.5, output_interval=1e-3, start_values=TMD_B, output=outs_t
+    )
     assert c.shape == (len(ref_b), 13)
     np.testing.assert_allclose(c[:, 0], ref_b["time"], rtol=0, atol=1e-12)
     for k, o in enumerate(outs_b):
@@ -73,8 +84,7 @@ def test_c_host_error_handling_and_survival(host):
 def test_c_host_load_unload_100_times(host):
     exe, dirs, _, env = host
     d = dirs["TMDInerter"]
-    r = subprocess.run([str(exe), "loop", "100", str(d), guid(d)], capture_output=True, text=True, env=env,
-                       timeout=120)
+    r = subprocess.run([str(exe), "loop", "100", str(d), guid(d)], capture_output=True, text=True, env=env, timeout=120)
     assert r.returncode == 0, r.stderr
     vals = dict(l.split() for l in r.stdout.splitlines())
     growth_kb = int(vals["rss_after_100_kb"]) - int(vals["rss_after_5_kb"])

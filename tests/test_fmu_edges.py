@@ -3,6 +3,7 @@
 Every refused call must return fmi2Error (3) *and* log a message naming the function; every
 accepted call must give the right numbers (held against exact solutions where it integrates).
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -39,8 +40,12 @@ class Logged:
         self.callbacks.logger = self._cb_logger
         self.callbacks.allocateMemory = fmpy.fmi2.fmi2CallbackAllocateMemoryTYPE(fmpy.calloc)
         self.callbacks.freeMemory = fmpy.fmi2.fmi2CallbackFreeMemoryTYPE(fmpy.free)
-        self.s = FMU2Slave(guid=self.md.guid, unzipDirectory=str(d),
-                           modelIdentifier=self.md.coSimulation.modelIdentifier, instanceName=name)
+        self.s = FMU2Slave(
+            guid=self.md.guid,
+            unzipDirectory=str(d),
+            modelIdentifier=self.md.coSimulation.modelIdentifier,
+            instanceName=name,
+        )
         self.s.instantiate(callbacks=self.callbacks)
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
         if init:
@@ -257,12 +262,13 @@ def test_directional_derivative_with_respect_to_non_inputs_is_zero(fmus, tmp_pat
         touts = [tmd.vr[n] for n in ("force", "y", "yd", "inerter_force")]
         assert tmd.s.getDirectionalDerivative(touts, [9], [1.0]) == [0.0] * 4
         # inputs still give the feed-through: d xdd / d f_link = -1/M, d force / d xdd = m I / (m + I)
-        assert base.s.getDirectionalDerivative([base.vr["xdd"]], [base.vr["f_link"], 0], [1.0, 1.0]) == \
-            pytest.approx([-1.0 / 100.0], rel=1e-12)
-        assert tmd.s.getDirectionalDerivative([tmd.vr["force"]], [tmd.vr["xdd"], 9], [1.0, 1.0]) == \
-            pytest.approx([9.0 / 10.0], rel=1e-12)
-        assert base.refused("fmi2GetDirectionalDerivative", _vrs(outs[0]), 1, _vrs(12345), 1, _reals(1.0),
-                            _reals(0.0))
+        assert base.s.getDirectionalDerivative([base.vr["xdd"]], [base.vr["f_link"], 0], [1.0, 1.0]) == pytest.approx(
+            [-1.0 / 100.0], rel=1e-12
+        )
+        assert tmd.s.getDirectionalDerivative([tmd.vr["force"]], [tmd.vr["xdd"], 9], [1.0, 1.0]) == pytest.approx(
+            [9.0 / 10.0], rel=1e-12
+        )
+        assert base.refused("fmi2GetDirectionalDerivative", _vrs(outs[0]), 1, _vrs(12345), 1, _reals(1.0), _reals(0.0))
     finally:
         base.close()
         tmd.close()

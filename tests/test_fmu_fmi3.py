@@ -2,6 +2,7 @@
 valid in fmpy, equal to them bit for bit (one core, two API layers), exact where a solution is
 known, refusing what FMI 3.0 says they must refuse, and run by the master to the FMI 2.0 numbers.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -40,8 +41,9 @@ def open3(fmu, tmp_path, name="inst", start=None, init=True):
     md = fmpy.read_model_description(str(fmu))
     d = tmp_path / f"{name}_{fmu.stem}"
     fmpy.extract(str(fmu), str(d))
-    s = FMU3Slave(guid=md.guid, unzipDirectory=str(d), modelIdentifier=md.coSimulation.modelIdentifier,
-                  instanceName=name)
+    s = FMU3Slave(
+        guid=md.guid, unzipDirectory=str(d), modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name
+    )
     s.instantiate()
     vr = {v.name: v.valueReference for v in md.modelVariables}
     if init:
@@ -76,8 +78,14 @@ def test_same_declaration_as_fmi2(fmus2, fmus3):
         assert set(v3) - set(v2) == {"time"} | {f"der({u.name})" for u in inputs} | {f"der({u.name},2)" for u in inputs}
         for n, a in v2.items():
             b = v3[n]
-            assert (a.valueReference, a.causality, a.variability, a.unit, a.min, a.max) == \
-                   (b.valueReference, b.causality, b.variability, b.unit, b.min, b.max), n
+            assert (a.valueReference, a.causality, a.variability, a.unit, a.min, a.max) == (
+                b.valueReference,
+                b.causality,
+                b.variability,
+                b.unit,
+                b.min,
+                b.max,
+            ), n
             assert (a.start is None) == (b.start is None) and (a.start is None or float(a.start) == float(b.start))
         assert v3["time"].valueReference == time_vr(spec) and v3["time"].causality == "independent"
         for u in inputs:
@@ -93,8 +101,12 @@ def test_binaries_export_their_own_api_only(fmus2, fmus3, tmp_path):
             so = [n for n in z.namelist() if n.startswith("binaries/") and n.endswith(".so")]
             assert so == [("binaries/linux64/" if version == 2 else "binaries/x86_64-linux/") + "TMDInerter.so"]
             z.extract(so[0], tmp_path / str(version))
-        out = subprocess.run(["nm", "-D", "--defined-only", str(tmp_path / str(version) / so[0])],
-                             capture_output=True, text=True, check=True).stdout
+        out = subprocess.run(
+            ["nm", "-D", "--defined-only", str(tmp_path / str(version) / so[0])],
+            capture_output=True,
+            text=True,
+            check=True,
+        ).stdout
         syms = {line.split()[-1] for line in out.splitlines() if line.strip()}
         assert syms and all(s.startswith(prefix) for s in syms), sorted(s for s in syms if not s.startswith(prefix))
     # every function of the FMI 3.0 headers is there
@@ -107,10 +119,12 @@ def test_binaries_export_their_own_api_only(fmus2, fmus3, tmp_path):
 
 def test_base_fmi3_matches_exact_forced_response_and_fmi2(fmus2, fmus3):
     p = dict(M=100.0, K=4.0e4, C=100.0, F=200.0, w=15.0, x0=0.01, xd0=-0.05)
-    r3 = fmpy.simulate_fmu(str(fmus3["BaseOscillator"]), stop_time=1.0, output_interval=1e-3, start_values=p,
-                           output=["x", "xd"])
-    r2 = fmpy.simulate_fmu(str(fmus2["BaseOscillator"]), stop_time=1.0, output_interval=1e-3, start_values=p,
-                           output=["x", "xd"])
+    r3 = fmpy.simulate_fmu(
+        str(fmus3["BaseOscillator"]), stop_time=1.0, output_interval=1e-3, start_values=p, output=["x", "xd"]
+    )
+    r2 = fmpy.simulate_fmu(
+        str(fmus2["BaseOscillator"]), stop_time=1.0, output_interval=1e-3, start_values=p, output=["x", "xd"]
+    )
     x, xd = damped_forced_response(r3["time"], **p)
     assert np.max(np.abs(r3["x"] - x)) < 1e-9
     assert np.array_equal(r3["x"], r2["x"]) and np.array_equal(r3["xd"], r2["xd"])
@@ -118,9 +132,16 @@ def test_base_fmi3_matches_exact_forced_response_and_fmi2(fmus2, fmus3):
 
 def test_tmd_fmi3_equals_fmi2_bit_for_bit_with_play(fmus2, fmus3):
     p = dict(m=9.0, I=1.0, k=4.0e3, c=10.0, y0=0.01, inerter=2, eps=1e-4, ki=2e7, x=0.002)
-    r = {v: fmpy.simulate_fmu(str(f["TMDInerter"]), stop_time=0.5, output_interval=1e-3, start_values=p,
-                              output=["y", "yd", "force", "contact"])
-         for v, f in ((2, fmus2), (3, fmus3))}
+    r = {
+        v: fmpy.simulate_fmu(
+            str(f["TMDInerter"]),
+            stop_time=0.5,
+            output_interval=1e-3,
+            start_values=p,
+            output=["y", "yd", "force", "contact"],
+        )
+        for v, f in ((2, fmus2), (3, fmus3))
+    }
     for k in ("y", "yd", "force", "contact"):
         assert np.array_equal(r[2][k], r[3][k]), k
     assert np.any(r[3]["contact"] != 0)  # the gear chain did touch
@@ -153,7 +174,9 @@ def test_directional_derivative_fmi3(fmus3, tmp_path):
     try:
         s.setFloat64([vr["x"], vr["xd"], vr["xdd"]], [0.001, 0.02, -0.3])
         # force = m/(m+I) (k (x-y) + c (xd-yd) + I xdd): exact partial derivatives
-        assert s.getDirectionalDerivative([vr["force"]], [vr["xdd"]], [1.0])[0] == pytest.approx(m * I / (m + I), rel=1e-14)
+        assert s.getDirectionalDerivative([vr["force"]], [vr["xdd"]], [1.0])[0] == pytest.approx(
+            m * I / (m + I), rel=1e-14
+        )
         both = s.getDirectionalDerivative([vr["force"], vr["y"]], [vr["x"], vr["xdd"]], [2.0, 1.0])
         assert both[0] == pytest.approx(2 * m * k / (m + I) + m * I / (m + I), rel=1e-14)
         assert both[1] == 0.0
@@ -205,18 +228,40 @@ def test_invalid_fmi3_calls_are_refused_and_logged(fmus3, tmp_path):
     s.instantiate(logMessage=lambda env, status, cat, msg: logged.append((status, msg.decode())))
     vr = {v.name: v.valueReference for v in md.modelVariables}
     u32 = ctypes.c_uint32
-    do_step = raw(s, "fmi3DoStep", ctypes.c_int, ctypes.c_double, ctypes.c_double, ctypes.c_bool,
-                  *[ctypes.POINTER(ctypes.c_bool)] * 3, ctypes.POINTER(ctypes.c_double))
+    do_step = raw(
+        s,
+        "fmi3DoStep",
+        ctypes.c_int,
+        ctypes.c_double,
+        ctypes.c_double,
+        ctypes.c_bool,
+        *[ctypes.POINTER(ctypes.c_bool)] * 3,
+        ctypes.POINTER(ctypes.c_double),
+    )
     flags = [ctypes.c_bool() for _ in range(3)]
     last = ctypes.c_double()
 
     def step(t, h):
         return do_step(t, h, False, *[ctypes.byref(f) for f in flags], ctypes.byref(last))
 
-    set64 = raw(s, "fmi3SetFloat64", ctypes.c_int, ctypes.POINTER(u32), ctypes.c_size_t,
-                ctypes.POINTER(ctypes.c_double), ctypes.c_size_t)
-    get32 = raw(s, "fmi3GetFloat32", ctypes.c_int, ctypes.POINTER(u32), ctypes.c_size_t,
-                ctypes.POINTER(ctypes.c_float), ctypes.c_size_t)
+    set64 = raw(
+        s,
+        "fmi3SetFloat64",
+        ctypes.c_int,
+        ctypes.POINTER(u32),
+        ctypes.c_size_t,
+        ctypes.POINTER(ctypes.c_double),
+        ctypes.c_size_t,
+    )
+    get32 = raw(
+        s,
+        "fmi3GetFloat32",
+        ctypes.c_int,
+        ctypes.POINTER(u32),
+        ctypes.c_size_t,
+        ctypes.POINTER(ctypes.c_float),
+        ctypes.c_size_t,
+    )
     one = (u32 * 1)(vr["x"])
     val = (ctypes.c_double * 2)(1.0, 2.0)
 
@@ -249,8 +294,9 @@ def test_invalid_fmi3_calls_are_refused_and_logged(fmus3, tmp_path):
         s.freeInstance()
 
 
-@pytest.mark.parametrize("tmd_kw", [dict(damping=10.0), dict(inerter="play", play_gap=1e-4, mesh_stiffness=2e7)],
-                         ids=["ideal-c10", "play"])
+@pytest.mark.parametrize(
+    "tmd_kw", [dict(damping=10.0), dict(inerter="play", play_gap=1e-4, mesh_stiffness=2e7)], ids=["ideal-c10", "play"]
+)
 def test_cosimulation_through_fmi3_equals_fmi2_bit_for_bit(tmd_kw, monkeypatch):
     """run-scenario's co-simulation engine on the FMI 3.0 FMUs gives the FMI 2.0 numbers to the last bit
     (Case 1; the impulse coupling with its input derivatives and interface Jacobian), in the compiled
@@ -311,8 +357,21 @@ def test_run_scenario_cosim_fmi3_equals_fmi2(tmp_path):
     rows = {}
     for v in (2, 3):
         (tmp_path / f"s{v}.yaml").write_text(SCENARIO3.format(v=v))
-        assert main([str(tmp_path / f"s{v}.yaml"), "--engine", "cosim", "--out", str(tmp_path / f"o{v}"),
-                     "--no-resume", "--workers", "1"]) == 0
+        assert (
+            main(
+                [
+                    str(tmp_path / f"s{v}.yaml"),
+                    "--engine",
+                    "cosim",
+                    "--out",
+                    str(tmp_path / f"o{v}"),
+                    "--no-resume",
+                    "--workers",
+                    "1",
+                ]
+            )
+            == 0
+        )
         with open(tmp_path / f"o{v}" / "frc.csv") as f:
             rows[v] = [{k: x for k, x in r.items() if "time" not in k} for r in csv.DictReader(f)]
     assert rows[2] == rows[3] and len(rows[3]) == 2

@@ -1,4 +1,5 @@
 """The FMUs in fmpy: validation, exact solutions, directional derivatives, input derivatives."""
+
 from __future__ import annotations
 
 import fmpy
@@ -18,8 +19,9 @@ def open_slave(fmu, tmp_path, name="inst", start=None):
     md = fmpy.read_model_description(str(fmu))
     d = tmp_path / f"{name}_{fmu.stem}"
     fmpy.extract(str(fmu), str(d))
-    s = FMU2Slave(guid=md.guid, unzipDirectory=str(d), modelIdentifier=md.coSimulation.modelIdentifier,
-                  instanceName=name)
+    s = FMU2Slave(
+        guid=md.guid, unzipDirectory=str(d), modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name
+    )
     s.instantiate()
     s.setupExperiment(startTime=0.0)
     vr = {v.name: v.valueReference for v in md.modelVariables}
@@ -52,8 +54,13 @@ def test_model_structure_declares_feedthrough(fmus):
 
 def test_base_alone_matches_exact_forced_response(fmus):
     par = dict(M=100.0, K=4.0e4, C=100.0, F=200.0, w=15.0, x0=0.01, xd0=-0.05)
-    r = fmpy.simulate_fmu(str(fmus["BaseOscillator"]), stop_time=2.0, output_interval=2e-3,
-                          start_values=par, output=["x", "xd", "xdd", "f_exc"])
+    r = fmpy.simulate_fmu(
+        str(fmus["BaseOscillator"]),
+        stop_time=2.0,
+        output_interval=2e-3,
+        start_values=par,
+        output=["x", "xd", "xdd", "f_exc"],
+    )
     x, xd = damped_forced_response(r["time"], **par)
     scale = np.max(np.abs(x))
     assert np.max(np.abs(r["x"] - x)) < 1e-7 * scale
@@ -68,8 +75,13 @@ def test_base_alone_matches_exact_forced_response(fmus):
 def test_tmd_alone_free_decay_matches_exact(fmus, inerter, I):
     m, k, c, y0 = 9.0, 4.0e3, 10.0, 0.01
     par = dict(m=m, k=k, c=c, I=I, inerter=inerter, y0=y0)
-    r = fmpy.simulate_fmu(str(fmus["TMDInerter"]), stop_time=1.0, output_interval=1e-3, start_values=par,
-                          output=["y", "yd", "force", "inerter_force"])
+    r = fmpy.simulate_fmu(
+        str(fmus["TMDInerter"]),
+        stop_time=1.0,
+        output_interval=1e-3,
+        start_values=par,
+        output=["y", "yd", "force", "inerter_force"],
+    )
     # base at rest: (m + I) ydd + c yd + k y = 0
     y, yd = damped_forced_response(r["time"], m + I, k, c, 0.0, 1.0, y0, 0.0)
     assert np.max(np.abs(r["y"] - y)) < 1e-8 * y0
@@ -84,6 +96,7 @@ def test_directional_derivative_of_force(fmus, tmp_path):
     s, vr = open_slave(fmus["TMDInerter"], tmp_path, start=dict(m=m, I=I, k=k, c=c, y0=0.003))
     try:
         s.setReal([vr["x"], vr["xd"], vr["xdd"]], [0.001, 0.02, -0.3])
+
         def dd(known):
             return s.getDirectionalDerivative([vr["force"]], [vr[known]], [1.0])[0]
 
@@ -125,6 +138,7 @@ def test_nonphysical_parameter_is_an_error_with_traceback(fmus, tmp_path):
         fmi2CallbackLoggerTYPE,
         free,
     )
+
     messages = []
     cb = fmi2CallbackFunctions()
     cb.logger = fmi2CallbackLoggerTYPE(lambda env, name, status, cat, msg: messages.append((status, msg.decode())))

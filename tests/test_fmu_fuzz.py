@@ -7,6 +7,7 @@ logged, finite outputs whenever fmi2OK, restored states bit-identical.
 The default run keeps 40 sequences; the slow test runs 2,000 (numbers in benchmarks/README_fmu.md).
 The FMI 3.0 variants: tests/fmi3_fuzz.py (12 sequences by default, 1,000 in the slow test).
 """
+
 from __future__ import annotations
 
 import pytest
@@ -49,8 +50,12 @@ def run_fuzz3(root, sequences: int, calls: int, seed: int) -> dict:
     for n in ("BaseOscillator", "TMDInerter"):
         d = extract(fmus[n], Path(root))
         args += [str(d), guid(d)]
-    r = subprocess.run([sys.executable, str(Path(__file__).parent / "fmi3_fuzz.py"), str(seed), str(sequences),
-                        str(calls), *args], capture_output=True, text=True, timeout=7200)
+    r = subprocess.run(
+        [sys.executable, str(Path(__file__).parent / "fmi3_fuzz.py"), str(seed), str(sequences), str(calls), *args],
+        capture_output=True,
+        text=True,
+        timeout=7200,
+    )
     assert r.returncode == 0, r.stderr[-3000:]
     out = {k: int(v) for k, v in (line.split() for line in r.stdout.splitlines() if line.strip())}
     out["stderr"] = r.stderr  # type: ignore[assignment]

@@ -5,6 +5,7 @@
 * An ordinary step does not enter the Python slave at all; a long step (> 1 s) and a step with
   debug_raise set do.
 """
+
 from __future__ import annotations
 
 import os
@@ -39,9 +40,15 @@ def test_native_and_python_paths_bit_identical(tmp_path, tmd, ints):
     fmus = built_fmus()
     dirs = {n: extract(p, tmp_path) for n, p in fmus.items()}
     exe = compile_c_host(tmp_path)
-    cmd = [str(exe), "run", "0.3", "0.001",
-           *_args(dirs["BaseOscillator"], "base", BASE, ["x", "xd", "xdd", "f_exc"]), "--",
-           *_args(dirs["TMDInerter"], "tmd", tmd, ["force", "y", "yd", "inerter_force"], ints)]
+    cmd = [
+        str(exe),
+        "run",
+        "0.3",
+        "0.001",
+        *_args(dirs["BaseOscillator"], "base", BASE, ["x", "xd", "xdd", "f_exc"]),
+        "--",
+        *_args(dirs["TMDInerter"], "tmd", tmd, ["force", "y", "yd", "inerter_force"], ints),
+    ]
     env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "VIRTUAL_ENV", "PYFMU_NATIVE"))}
     runs = {}
     for native in ("1", "0"):
@@ -57,8 +64,9 @@ def _slave(fmu, tmp_path, name, start):
     md = fmpy.read_model_description(str(fmu))
     d = tmp_path / name
     fmpy.extract(str(fmu), str(d))
-    s = FMU2Slave(guid=md.guid, unzipDirectory=str(d), modelIdentifier=md.coSimulation.modelIdentifier,
-                  instanceName=name)
+    s = FMU2Slave(
+        guid=md.guid, unzipDirectory=str(d), modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name
+    )
     s.instantiate()
     s.setupExperiment(startTime=0.0)
     s.enterInitializationMode()
@@ -116,8 +124,12 @@ def test_gear_chain_rate_gets_atol_times_the_mesh_frequency():
         (kn.SYS_TMD, ideal): [a, a, a, a],
         (kn.SYS_BASE, ideal): [a, a],
         # a soft mesh (below 1 rad/s) never makes dd's tolerance tighter than d's
-        (kn.SYS_TMD, TMDParams(mass=9.0, stiffness=4.0e3, inertance=4.0, mesh_stiffness=1.0, inerter="play")):
-            [a, a, a, a],
+        (kn.SYS_TMD, TMDParams(mass=9.0, stiffness=4.0e3, inertance=4.0, mesh_stiffness=1.0, inerter="play")): [
+            a,
+            a,
+            a,
+            a,
+        ],
     }
     for (system, t), want in expected.items():
         atol = np.zeros(len(want))

@@ -3,6 +3,7 @@ environment with only numpy, numba and fmpy (not this project), with the build c
 reach (cwd elsewhere, no PYTHONPATH), in a Python host and in a pure C host; and when no Python
 fits, instantiation fails with a message naming what was tried and what to install.
 """
+
 from __future__ import annotations
 
 import json
@@ -24,8 +25,11 @@ TMD = dict(m=9.0, I=1.0, k=4.0e3, c=10.0, y0=0.01)
 
 def clean_env(**extra) -> dict:
     """The environment without anything pointing at this checkout or its venv."""
-    env = {k: v for k, v in os.environ.items()
-           if not k.startswith(("PYTHON", "VIRTUAL_ENV", "LD_PRELOAD", "PYFMU_")) and k != "PATH"}
+    env = {
+        k: v
+        for k, v in os.environ.items()
+        if not k.startswith(("PYTHON", "VIRTUAL_ENV", "LD_PRELOAD", "PYFMU_")) and k != "PATH"
+    }
     env["PATH"] = "/usr/bin:/bin"
     env.update(extra)
     return env
@@ -33,11 +37,16 @@ def clean_env(**extra) -> dict:
 
 def make_venv(venv: Path, cwd: Path) -> Path:
     """A virtual environment with only numpy, numba and fmpy (and their dependencies)."""
-    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, capture_output=True, cwd=cwd,
-                   env=clean_env())
+    subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True, capture_output=True, cwd=cwd, env=clean_env())
     py = venv / "bin" / "python"
-    r = subprocess.run([str(py), "-m", "pip", "install", "-q", "numpy", "numba", "fmpy"], capture_output=True,
-                       text=True, cwd=cwd, env=clean_env(), timeout=1800)
+    r = subprocess.run(
+        [str(py), "-m", "pip", "install", "-q", "numpy", "numba", "fmpy"],
+        capture_output=True,
+        text=True,
+        cwd=cwd,
+        env=clean_env(),
+        timeout=1800,
+    )
     assert r.returncode == 0, r.stderr[-3000:]
     return py
 
@@ -47,8 +56,13 @@ def cached_venv(cwd: Path) -> Path:
     minute or more on a busy machine: the slow test below makes a brand-new one every time)."""
     root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "pyfmu-tests" / "portable-venv"
     py = root / "bin" / "python"
-    ok = py.is_file() and subprocess.run([str(py), "-c", "import numpy, numba, fmpy"], capture_output=True,
-                                         env=clean_env(), cwd=cwd).returncode == 0
+    ok = (
+        py.is_file()
+        and subprocess.run(
+            [str(py), "-c", "import numpy, numba, fmpy"], capture_output=True, env=clean_env(), cwd=cwd
+        ).returncode
+        == 0
+    )
     if not ok:
         shutil.rmtree(root, ignore_errors=True)  # missing or broken (an interrupted build): make it anew
         root.parent.mkdir(parents=True, exist_ok=True)
@@ -65,7 +79,7 @@ def fresh(tmp_path_factory):
     return root, fmus, py.parent.parent, py
 
 
-SCRIPT = textwrap.dedent('''
+SCRIPT = textwrap.dedent("""
     import json, sys
     import fmpy
     try:
@@ -81,7 +95,7 @@ SCRIPT = textwrap.dedent('''
     files = sorted({m.__file__ for n, m in sys.modules.items() if n.startswith("_pyfmu_") and m.__file__})
     print(json.dumps({"t": list(b["time"]), "x": list(b["x"]), "xd": list(b["xd"]), "y": list(t["y"]),
                       "files": files, "numpy": __import__("numpy").__version__, "exe": sys.executable}))
-''')
+""")
 
 
 def test_runs_in_numpy_numba_fmpy_venv_from_a_copy(fresh):
@@ -99,9 +113,22 @@ def _check_run(root, fmus, venv, py):
     work = root / "elsewhere"
     work.mkdir(exist_ok=True)
     (work / "run.py").write_text(SCRIPT)
-    r = subprocess.run([str(py), "run.py", str(fmus["BaseOscillator"]), str(fmus["TMDInerter"]), str(REPO),
-                        json.dumps(BASE), json.dumps(TMD)], capture_output=True, text=True, cwd=work,
-                       env=clean_env(), timeout=900)
+    r = subprocess.run(
+        [
+            str(py),
+            "run.py",
+            str(fmus["BaseOscillator"]),
+            str(fmus["TMDInerter"]),
+            str(REPO),
+            json.dumps(BASE),
+            json.dumps(TMD),
+        ],
+        capture_output=True,
+        text=True,
+        cwd=work,
+        env=clean_env(),
+        timeout=900,
+    )
     assert r.returncode == 0, r.stderr[-4000:]
     out = json.loads(r.stdout.strip().splitlines()[-1])
     assert out["exe"].startswith(str(venv))
@@ -111,8 +138,7 @@ def _check_run(root, fmus, venv, py):
     # and computes the right numbers: exact forced response, exact free decay
     x, xd = damped_forced_response(np.array(out["t"]), **BASE)
     assert np.max(np.abs(np.array(out["x"]) - x)) < 1e-7 * 0.01
-    y, _ = damped_forced_response(np.array(out["t"]), TMD["m"] + TMD["I"], TMD["k"], TMD["c"], 0.0, 1.0,
-                                  TMD["y0"], 0.0)
+    y, _ = damped_forced_response(np.array(out["t"]), TMD["m"] + TMD["I"], TMD["k"], TMD["c"], 0.0, 1.0, TMD["y0"], 0.0)
     assert np.max(np.abs(np.array(out["y"]) - y)) < 1e-8 * TMD["y0"]
 
 
@@ -142,8 +168,13 @@ def test_no_fitting_python_is_a_clear_error(fresh, tmp_path):
     root, fmus, venv, _ = fresh
     d = extract(fmus["BaseOscillator"], tmp_path / "c_bad")
     cfg = d / "resources" / "pyfmu.cfg"
-    cfg.write_text("\n".join("python=/nonexistent/bin/python3" if line.startswith("python=") else line
-                             for line in cfg.read_text().splitlines()) + "\n")
+    cfg.write_text(
+        "\n".join(
+            "python=/nonexistent/bin/python3" if line.startswith("python=") else line
+            for line in cfg.read_text().splitlines()
+        )
+        + "\n"
+    )
     bare = tmp_path / "bare"
     subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(bare)], check=True, env=clean_env())
     exe = compile_c_host(tmp_path)
@@ -160,8 +191,13 @@ def test_no_fitting_python_is_a_clear_error(fresh, tmp_path):
 def _other_python() -> str | None:
     for cand in ["python3.12", "python3.13", *sorted(Path("/root/.pyenv/versions").glob("3.1[23]*/bin/python3"))]:
         p = shutil.which(str(cand)) if isinstance(cand, str) else str(cand)
-        if p and subprocess.run([p, "-c", "import sys; assert sys.version_info[:2] != (3, 11)"],
-                                capture_output=True).returncode == 0:
+        if (
+            p
+            and subprocess.run(
+                [p, "-c", "import sys; assert sys.version_info[:2] != (3, 11)"], capture_output=True
+            ).returncode
+            == 0
+        ):
             return p
     return None
 
@@ -174,7 +210,7 @@ def test_python_host_of_another_version_gets_a_clear_error(fresh, tmp_path):
         pytest.skip("no Python other than 3.11 on this machine")
     root, fmus, _, _ = fresh
     d = extract(fmus["BaseOscillator"], tmp_path / "other")
-    script = textwrap.dedent(f'''
+    script = textwrap.dedent(f"""
         import ctypes, sys
         lib = ctypes.CDLL({str(d / "binaries" / "linux64" / "BaseOscillator.so")!r})
         msgs = []
@@ -190,9 +226,10 @@ def test_python_host_of_another_version_gets_a_clear_error(fresh, tmp_path):
         print("NULL" if c is None else "INSTANCE")
         print("\\n".join(msgs))
         print("numba_loaded", "numba" in sys.modules)
-    ''')
-    r = subprocess.run([other, "-c", script], capture_output=True, text=True, env=clean_env(), cwd=tmp_path,
-                       timeout=300)
+    """)
+    r = subprocess.run(
+        [other, "-c", script], capture_output=True, text=True, env=clean_env(), cwd=tmp_path, timeout=300
+    )
     assert r.returncode == 0, r.stderr[-3000:]
     assert r.stdout.startswith("NULL"), r.stdout
     assert "cannot run its model" in r.stdout and other.split("/")[-1][:6] in r.stdout

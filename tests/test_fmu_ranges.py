@@ -13,6 +13,7 @@
   instance;
 * the FMU carries its documentation (``documentation/index.html``) and its messages point there.
 """
+
 from __future__ import annotations
 
 import os
@@ -53,7 +54,9 @@ class Logged:
     def __init__(self, fmu, tmp_path, name, folder=None):
         self.messages = []
         cb = fmi2CallbackFunctions()
-        cb.logger = fmi2CallbackLoggerTYPE(lambda env, n, status, cat, msg: self.messages.append((status, msg.decode())))
+        cb.logger = fmi2CallbackLoggerTYPE(
+            lambda env, n, status, cat, msg: self.messages.append((status, msg.decode()))
+        )
         cb.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
         cb.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
         self._cb = cb
@@ -61,8 +64,12 @@ class Logged:
         d = tmp_path / (folder or name)  # one folder: one copy of the binary (one table of states)
         if not d.is_dir():
             fmpy.extract(str(fmu), str(d))
-        self.s = FMU2Slave(guid=self.md.guid, unzipDirectory=str(d), modelIdentifier=self.md.coSimulation.modelIdentifier,
-                           instanceName=name)
+        self.s = FMU2Slave(
+            guid=self.md.guid,
+            unzipDirectory=str(d),
+            modelIdentifier=self.md.coSimulation.modelIdentifier,
+            instanceName=name,
+        )
         self.s.instantiate(callbacks=cb)
         self.vr = {v.name: v.valueReference for v in self.md.modelVariables}
 
@@ -78,6 +85,7 @@ class Logged:
 
 
 # ---- ranges declared ------------------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("name", ["BaseOscillator", "TMDInerter"])
 def test_declared_ranges_are_the_registry_bounds_and_validate_cleanly(fmus, name):
@@ -150,8 +158,14 @@ def test_values_at_the_edges_of_their_ranges_are_accepted(fmus, tmp_path):
     try:
         f.s.setupExperiment(startTime=0.0)
         f.s.enterInitializationMode()
-        for var, v in (("atol", 5e-324), ("rtol", 1.0), ("eps", 0.0), ("base_compliance", 0.0), ("rtol", 1e-8),
-                       ("atol", 1e-10)):
+        for var, v in (
+            ("atol", 5e-324),
+            ("rtol", 1.0),
+            ("eps", 0.0),
+            ("base_compliance", 0.0),
+            ("rtol", 1e-8),
+            ("atol", 1e-10),
+        ):
             f.s.setReal([f.vr[var]], [v])
             assert f.s.getReal([f.vr[var]])[0] == v
         for v, inertance in ((0, 0.0), (2, 1.0), (1, 1.0)):  # no inerter: I = 0 (else configure refuses it)
@@ -177,6 +191,7 @@ def test_setup_experiment_tolerance_outside_the_range_of_rtol_is_refused(fmus, t
 
 
 # ---- a failure in the compiled step is never fmi2OK ------------------------------------------------
+
 
 def _serialized_with(f, var, value):
     """The instance's state, serialized, with one Real value replaced (what a crafted or corrupt
@@ -263,6 +278,7 @@ def test_retaken_step_after_a_compiled_failure_restarts_from_the_step_start(fmus
 
 # ---- FMU states belong to their instance and die with it ------------------------------------------
 
+
 def test_states_of_a_freed_instance_are_refused_and_states_belong_to_their_instance(fmus, tmp_path):
     a = Logged(fmus["TMDInerter"], tmp_path, "a", folder="one")
     b = Logged(fmus["TMDInerter"], tmp_path, "b", folder="one")
@@ -280,8 +296,7 @@ def test_states_of_a_freed_instance_are_refused_and_states_belong_to_their_insta
         orphan = a.s.getFMUstate()  # never freed by the host
         a.s.freeInstance()
         a = None
-        for op in (lambda: b.s.setFMUstate(orphan), lambda: b.s.setFMUstate(sa),
-                   lambda: b.s.serializeFMUstate(orphan)):
+        for op in (lambda: b.s.setFMUstate(orphan), lambda: b.s.setFMUstate(sa), lambda: b.s.serializeFMUstate(orphan)):
             with pytest.raises(FMICallException):
                 op()
         assert "freed with its instance by fmi2FreeInstance" in b.text()
@@ -291,7 +306,7 @@ def test_states_of_a_freed_instance_are_refused_and_states_belong_to_their_insta
         b.s.freeInstance()
 
 
-MEMORY_SCRIPT = textwrap.dedent('''
+MEMORY_SCRIPT = textwrap.dedent("""
     import sys, tempfile, fmpy
     from fmpy.fmi2 import FMU2Slave
     fmu, n, cycles = sys.argv[1], int(sys.argv[2]), int(sys.argv[3])
@@ -310,14 +325,18 @@ MEMORY_SCRIPT = textwrap.dedent('''
         s.terminate()
         s.freeInstance()
         print(int(open("/proc/self/statm").read().split()[1]) * page)
-''')
+""")
 
 
 def test_free_instance_frees_the_states_left_alive(fmus):
     """6 cycles of instantiate, 5,000 states never freed, free: resident memory flat after the
     first cycles (each state holds ~3 KB: +15 MiB per cycle when they were left behind)."""
-    r = subprocess.run([sys.executable, "-c", MEMORY_SCRIPT, str(fmus["TMDInerter"]), "5000", "6"],
-                       capture_output=True, text=True, timeout=600)
+    r = subprocess.run(
+        [sys.executable, "-c", MEMORY_SCRIPT, str(fmus["TMDInerter"]), "5000", "6"],
+        capture_output=True,
+        text=True,
+        timeout=600,
+    )
     assert r.returncode == 0, r.stderr[-3000:]
     rss = [int(x) for x in r.stdout.split()]
     growth = (rss[-1] - rss[1]) / 2**20
@@ -325,6 +344,7 @@ def test_free_instance_frees_the_states_left_alive(fmus):
 
 
 # ---- the FMU's own documentation ------------------------------------------------------------------
+
 
 @pytest.mark.parametrize("name", ["BaseOscillator", "TMDInerter"])
 def test_documentation_in_the_archive_lists_every_variable_and_range(fmus, name):
@@ -334,4 +354,4 @@ def test_documentation_in_the_archive_lists_every_variable_and_range(fmus, name)
         assert f"<td>{v.name}</td><td>{v.vr}</td>" in html
         if v.causality == "parameter":
             assert f"<td>{v.range_text().replace('>', '&gt;').replace('<', '&lt;')}</td>" in html
-    assert 'python -m pip install &quot;numpy&gt;=1.26&quot; &quot;numba&gt;=0.59&quot;' in html
+    assert "python -m pip install &quot;numpy&gt;=1.26&quot; &quot;numba&gt;=0.59&quot;" in html

@@ -9,6 +9,7 @@ inside the extracted FMU, none from the build interpreter, its venv or the check
 BaseOscillator alone against the exact forced response of the damped oscillator; the coupled pair
 against the monolithic steady state (Case 1), converging at first order in the step.
 """
+
 from __future__ import annotations
 
 import math
@@ -66,8 +67,12 @@ def standalone(tmp_path_factory):
         dirs[p.stem] = d
     shutil.rmtree(build, ignore_errors=True)  # two ~98 MB zips, no longer needed
     exe = root / "fmu_pair"
-    subprocess.run(["gcc", "-O2", "-Wall", f"-I{fmi_headers_dir()}", str(PAIR_SOURCE), "-o", str(exe), "-ldl"],
-                   check=True, capture_output=True, text=True)
+    subprocess.run(
+        ["gcc", "-O2", "-Wall", f"-I{fmi_headers_dir()}", str(PAIR_SOURCE), "-o", str(exe), "-ldl"],
+        check=True,
+        capture_output=True,
+        text=True,
+    )
     home = root / "home"
     home.mkdir()
     yield root, dirs, exe, home
@@ -83,9 +88,22 @@ def _vrs(d: Path) -> dict:
 def _run(standalone, stop, h, args, **env):
     root, dirs, exe, home = standalone
     b, t = dirs["BaseOscillator"], dirs["TMDInerter"]
-    cmd = ["env", "-i", "PATH=/usr/bin:/bin", f"HOME={home}", "FMU_HOST_VERBOSE=1",
-           *[f"{k}={v}" for k, v in env.items()],
-           str(exe), repr(stop), repr(h), str(b), guid(b), str(t), guid(t), *args]
+    cmd = [
+        "env",
+        "-i",
+        "PATH=/usr/bin:/bin",
+        f"HOME={home}",
+        "FMU_HOST_VERBOSE=1",
+        *[f"{k}={v}" for k, v in env.items()],
+        str(exe),
+        repr(stop),
+        repr(h),
+        str(b),
+        guid(b),
+        str(t),
+        guid(t),
+        *args,
+    ]
     r = subprocess.run(cmd, capture_output=True, text=True, cwd=root, timeout=900)
     assert r.returncode == 0, r.stderr[-4000:]
     rows = np.array([[float(v) for v in line.split()[1:]] for line in r.stdout.splitlines() if line.startswith("row ")])
@@ -105,8 +123,11 @@ def test_base_alone_exact_with_no_python_reachable(standalone):
     assert np.max(np.abs(rows[:, 1] - x)) < 1e-7 * 0.01
     # libpython, numpy's and llvmlite's shared objects all came from the extracted FMU
     libpy = [m for m in maps if "/libpython3" in m]
-    assert libpy and all(m.startswith(str(dirs["BaseOscillator"]) + "/resources/python/lib/") or
-                         m.startswith(str(dirs["TMDInerter"]) + "/resources/python/lib/") for m in libpy), libpy
+    assert libpy and all(
+        m.startswith(str(dirs["BaseOscillator"]) + "/resources/python/lib/")
+        or m.startswith(str(dirs["TMDInerter"]) + "/resources/python/lib/")
+        for m in libpy
+    ), libpy
     for part in ("_multiarray_umath", "libllvmlite.so"):
         hits = [m for m in maps if part in m]
         assert hits and all(m.startswith(str(root)) for m in hits), (part, hits)
@@ -134,8 +155,9 @@ def test_bundled_runtime_ignores_pythonhome_and_pythonpath(standalone):
     root, dirs, *_ = standalone
     vb = _vrs(dirs["BaseOscillator"])
     args = [f"r1:{vb[k][0]}={v!r}" for k, v in BASE.items()] + [f"o1:{vb['x'][0]}"]
-    rows, maps, log, _ = _run(standalone, 0.05, 1e-3, args, PYTHONHOME="/nonexistent",
-                           PYTHONPATH=sysconfig.get_paths()["purelib"])
+    rows, maps, log, _ = _run(
+        standalone, 0.05, 1e-3, args, PYTHONHOME="/nonexistent", PYTHONPATH=sysconfig.get_paths()["purelib"]
+    )
     x, _ = damped_forced_response(rows[:, 0], **BASE)
     assert np.max(np.abs(rows[:, 1] - x)) < 1e-7 * 0.01
     assert not [m for m in maps if m.startswith((sys.base_prefix, sys.prefix, str(REPO_ROOT)))]
@@ -195,6 +217,7 @@ def test_pair_against_monolithic_first_order(standalone, omega):
     assert e4 <= 0.002, (a4, ref)
     assert 5 <= e3 / e4 <= 20, (e3, e4)
 
+
 def test_missing_bundled_runtime_is_named_in_the_error(tmp_path):
     """An FMU whose pyfmu.cfg names a bundled runtime that is not there (and no other Python):
     fmi2Instantiate fails, no crash, and the message lists the runtime in its place of the order."""
@@ -202,19 +225,43 @@ def test_missing_bundled_runtime_is_named_in_the_error(tmp_path):
 
     d = extract(built_fmus()["BaseOscillator"], tmp_path / "fmu")
     cfg = d / "resources" / "pyfmu.cfg"
-    lines = [("python=/nonexistent/bin/python3" if line.startswith("python=") else line)
-             for line in cfg.read_text().splitlines()]
-    cfg.write_text("\n".join(lines + ["runtime=python", "runtime_libpython=python/lib/libpython3.11.so",
-                                      "runtime_version=3.11.7"]) + "\n")
+    lines = [
+        ("python=/nonexistent/bin/python3" if line.startswith("python=") else line)
+        for line in cfg.read_text().splitlines()
+    ]
+    cfg.write_text(
+        "\n".join(lines + ["runtime=python", "runtime_libpython=python/lib/libpython3.11.so", "runtime_version=3.11.7"])
+        + "\n"
+    )
     exe = compile_c_host(tmp_path)
     home = tmp_path / "home"
     home.mkdir()
-    r = subprocess.run(["env", "-i", "PATH=/usr/bin:/bin", f"HOME={home}", "FMU_HOST_VERBOSE=1", str(exe), "run",
-                        "0.01", "0.001", str(d), guid(d), "base"], capture_output=True, text=True, cwd=tmp_path,
-                       timeout=120)
+    r = subprocess.run(
+        [
+            "env",
+            "-i",
+            "PATH=/usr/bin:/bin",
+            f"HOME={home}",
+            "FMU_HOST_VERBOSE=1",
+            str(exe),
+            "run",
+            "0.01",
+            "0.001",
+            str(d),
+            guid(d),
+            "base",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=tmp_path,
+        timeout=120,
+    )
     assert r.returncode == 3, r.stderr[-3000:]  # instantiate returned NULL
     msg = r.stderr
-    order = ["PYFMU_PYTHON: not set", "the FMU's bundled runtime = python: no file "
-             f"{d}/resources/python/lib/libpython3.11.so", "the build's interpreter = /nonexistent/bin/python3"]
+    order = [
+        "PYFMU_PYTHON: not set",
+        f"the FMU's bundled runtime = python: no file {d}/resources/python/lib/libpython3.11.so",
+        "the build's interpreter = /nonexistent/bin/python3",
+    ]
     pos = [msg.find(o) for o in order]
     assert all(p >= 0 for p in pos) and pos == sorted(pos), msg[-3000:]

@@ -1,4 +1,5 @@
 """FMU state save/restore/serialise (bit-identical re-steps) and several instances in one process."""
+
 from __future__ import annotations
 
 import fmpy
@@ -19,8 +20,9 @@ def slave(fmu, tmp_path, name, start):
     md = fmpy.read_model_description(str(fmu))
     d = tmp_path / name
     fmpy.extract(str(fmu), str(d))
-    s = FMU2Slave(guid=md.guid, unzipDirectory=str(d), modelIdentifier=md.coSimulation.modelIdentifier,
-                  instanceName=name)
+    s = FMU2Slave(
+        guid=md.guid, unzipDirectory=str(d), modelIdentifier=md.coSimulation.modelIdentifier, instanceName=name
+    )
     s.instantiate()
     s.setupExperiment(startTime=0.0)
     s.enterInitializationMode()

@@ -13,6 +13,7 @@ process to print its full result and exit with status 0 (never killed by a signa
   (as multi-threaded masters do) left alive at exit;
 * Ecos (pip ecospy), 30 runs, 2 in parallel (slow).
 """
+
 from __future__ import annotations
 
 import os
@@ -33,6 +34,7 @@ TMD = dict(m=9.0, k=4.0e3, c=10.0, I=1.0)
 
 def _repeat(cmds, parallel=2, timeout=600):
     """Run the commands, `parallel` at a time; [(returncode, stdout, stderr)]."""
+
     def one(cmd):
         args, env = cmd
         r = subprocess.run(args, capture_output=True, text=True, timeout=timeout, env=env)
@@ -51,11 +53,22 @@ def _c_host_args(dirs, stop=0.2, h=1e-3):
     def spec(d, name, start, outputs):
         md = fmpy.read_model_description(str(d))
         vr = {v.name: v.valueReference for v in md.modelVariables}
-        return [str(d), guid(d), name, *[f"r:{vr[k]}={v!r}" for k, v in start.items()],
-                *[f"o:{vr[o]}" for o in outputs]]
+        return [
+            str(d),
+            guid(d),
+            name,
+            *[f"r:{vr[k]}={v!r}" for k, v in start.items()],
+            *[f"o:{vr[o]}" for o in outputs],
+        ]
 
-    return ["run", str(stop), str(h), *spec(dirs["BaseOscillator"], "base", BASE, ["x"]), "--",
-            *spec(dirs["TMDInerter"], "tmd", TMD, ["force"])]
+    return [
+        "run",
+        str(stop),
+        str(h),
+        *spec(dirs["BaseOscillator"], "base", BASE, ["x"]),
+        "--",
+        *spec(dirs["TMDInerter"], "tmd", TMD, ["force"]),
+    ]
 
 
 def c_host_teardown(tmp_path, runs):
@@ -70,7 +83,7 @@ def c_host_teardown(tmp_path, runs):
         assert len(out.splitlines()) == 201, env["FMU_HOST_EXIT"]  # every row printed
 
 
-FMPY_SCRIPT = textwrap.dedent('''
+FMPY_SCRIPT = textwrap.dedent("""
     import sys, threading
     import fmpy
     from fmpy.fmi2 import FMU2Slave
@@ -112,15 +125,18 @@ FMPY_SCRIPT = textwrap.dedent('''
                 if mode == "freelib":
                     s.freeLibrary()  # dlclose the binary
     print("rows", len(out), "last", repr(out[-1]), flush=True)
-''').format(base=BASE, tmd=TMD)
+""").format(base=BASE, tmd=TMD)
 
 
 def fmpy_teardown(tmp_path, runs):
     fmus = built_fmus()
     dirs = {n: extract(fmus[n], tmp_path) for n in ("BaseOscillator", "TMDInerter")}
     modes = ("free", "nofree", "freelib", "thread-nofree")
-    cmds = [([sys.executable, "-c", FMPY_SCRIPT, str(dirs["BaseOscillator"]), str(dirs["TMDInerter"]), m],
-             _clean_env()) for m in modes for _ in range(runs)]
+    cmds = [
+        ([sys.executable, "-c", FMPY_SCRIPT, str(dirs["BaseOscillator"]), str(dirs["TMDInerter"]), m], _clean_env())
+        for m in modes
+        for _ in range(runs)
+    ]
     lasts = set()
     for (rc, out, err), (args, _) in zip(_repeat(cmds), cmds):
         assert rc == 0, (args[-1], rc, err[-3000:])
@@ -143,7 +159,7 @@ def test_c_host_and_fmpy_exit_repeated(tmp_path):
     fmpy_teardown(tmp_path / "py", runs=10)
 
 
-ECOS_SCRIPT = textwrap.dedent('''
+ECOS_SCRIPT = textwrap.dedent("""
     import math, sys
     sys.path.insert(0, {tests!r})
     from test_fmu_ecos import _ecospy
@@ -175,7 +191,7 @@ ECOS_SCRIPT = textwrap.dedent('''
         sim.terminate()
         sim.free()
     # "nofree": the simulation is destroyed by its __del__ while the interpreter shuts down
-''')
+""")
 
 
 @pytest.mark.slow
@@ -190,8 +206,20 @@ def test_ecos_exit_30_runs_two_in_parallel(tmp_path):
     fmus = built_fmus()
     copies = {n: shutil.copy(fmus[n], tmp_path / fmus[n].name) for n in ("BaseOscillator", "TMDInerter")}
     script = ECOS_SCRIPT.format(tests=str(Path(__file__).parent))
-    cmds = [([sys.executable, "-c", script, str(copies["BaseOscillator"]), str(copies["TMDInerter"]),
-              "free" if k % 2 else "nofree"], _clean_env()) for k in range(30)]
+    cmds = [
+        (
+            [
+                sys.executable,
+                "-c",
+                script,
+                str(copies["BaseOscillator"]),
+                str(copies["TMDInerter"]),
+                "free" if k % 2 else "nofree",
+            ],
+            _clean_env(),
+        )
+        for k in range(30)
+    ]
     results = _repeat(cmds, parallel=2, timeout=900)
     bad = [(args[-1], rc, err[-1500:]) for (rc, _, err), (args, _) in zip(results, cmds) if rc != 0]
     assert not bad, f"{len(bad)} of 30 Ecos runs failed: {bad[:3]}"

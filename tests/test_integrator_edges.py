@@ -7,6 +7,7 @@ rests on its contact, d + eps = -1.4e-20 (below the float resolution of d ~ 1e-4
 size it had reached there (2.5e-11 s), each step crossed the surface, was retaken to land on it,
 landed on the same side, and the next step did it again: ~1e-9 s of progress per 10,000 steps.
 """
+
 from __future__ import annotations
 
 import math
@@ -29,8 +30,16 @@ T = 2.0 * math.pi / OMEGA
 TMD3 = paper_case(3, damping=5.0, friction_force=5.0, inerter="play", play_gap=1e-4)
 #: the state where the stall began (printed by an instrumented run of the former code)
 T_GRAZE = 0.006670307692610001
-Z_GRAZE = np.array([0.012649324581685674, -0.0010192285832326259, 0.012649325046447692, -0.0010178161357253979,
-                    -0.00010000000000000002, 5.204494799144315e-10])
+Z_GRAZE = np.array(
+    [
+        0.012649324581685674,
+        -0.0010192285832326259,
+        0.012649325046447692,
+        -0.0010178161357253979,
+        -0.00010000000000000002,
+        5.204494799144315e-10,
+    ]
+)
 #: the monolithic solver's absolute tolerances at this point (solvers.monolithic._atol)
 ATOL = np.array([5e-09, 1e-07, 5e-09, 1e-07, 5e-09, 7.453559924999298e-06])
 BAND = 1.0 / TMD3.friction_slope
@@ -41,8 +50,22 @@ def _period(z0, h0=2.5e-11, max_steps=20000, surface_tol=None):
     z = np.array(z0, dtype=float)
     p = pack(BASE, TMD3, OMEGA)
     stats = np.zeros(4, dtype=np.int64)
-    args = (z, T_GRAZE, T_GRAZE + T, p, np.zeros(1), 1e-8, ATOL, h0, T / 20, np.zeros(0),
-            np.zeros((0, 6)), BAND, stats, max_steps)
+    args = (
+        z,
+        T_GRAZE,
+        T_GRAZE + T,
+        p,
+        np.zeros(1),
+        1e-8,
+        ATOL,
+        h0,
+        T / 20,
+        np.zeros(0),
+        np.zeros((0, 6)),
+        BAND,
+        stats,
+        max_steps,
+    )
     if surface_tol is not None:
         args = args + (surface_tol,)
     h, xmax, status, t = integrate(*args)
@@ -104,7 +127,7 @@ def test_stuck_pair_closed_form_monolithic():
     every stuck steady state, whatever the offset of the TMD spring."""
     tmd = paper_case(1, damping=0.0, friction_force=45.78)
     w = 25.0
-    exact = BASE.force_amplitude / abs(BASE.stiffness - (BASE.mass + tmd.mass) * w ** 2 + 1j * BASE.damping * w)
+    exact = BASE.force_amplitude / abs(BASE.stiffness - (BASE.mass + tmd.mass) * w**2 + 1j * BASE.damping * w)
     assert exact == pytest.approx(7.0832e-3, abs=1e-7)
     for shooting in (True, False):
         ss = steady_state(BASE, tmd, w, settings=SolverSettings(shooting=shooting))
@@ -121,7 +144,7 @@ def test_stuck_pair_closed_form_cosimulation():
 
     tmd = paper_case(1, damping=0.0, friction_force=45.78)
     w = 25.0
-    exact = BASE.force_amplitude / abs(BASE.stiffness - (BASE.mass + tmd.mass) * w ** 2 + 1j * BASE.damping * w)
+    exact = BASE.force_amplitude / abs(BASE.stiffness - (BASE.mass + tmd.mass) * w**2 + 1j * BASE.damping * w)
     m = make_master(BASE, tmd, coupling="impulse")
     try:
         ss = cs.steady_state(m, BASE, tmd, w, None, cs.CosimSettings())
@@ -145,9 +168,12 @@ def test_fmu_do_step_failure_names_time_state_and_mode():
         p = cs.fmu_parameters(BASE, tmd, 20.0, initial_guess(BASE, tmd, 20.0), fmu_rtol=1e-30)
         p["tmd.atol"] = 1e-300
         m.initialize(0.0, p)
-        with pytest.raises(MasterError, match=r"tmd: fmi2DoStep failed .*FmuStepError: doStep from t = 0 s: "
-                                              r"integrator stopped at t = .* s: the step size fell below .*"
-                                              r"state y = .*, yd = .*, d = .*, dd = .*; mode: "):
+        with pytest.raises(
+            MasterError,
+            match=r"tmd: fmi2DoStep failed .*FmuStepError: doStep from t = 0 s: "
+            r"integrator stopped at t = .* s: the step size fell below .*"
+            r"state y = .*, yd = .*, d = .*, dd = .*; mode: ",
+        ):
             m.step(1e-3)
     finally:
         m.close()

@@ -8,6 +8,7 @@ co-simulated and compared with :mod:`pyfmu_wrapper.solvers.monolithic`:
 * order: the time-series error when the communication step is halved shrinks at the scheme's
   documented order (observed order asserted).
 """
+
 from __future__ import annotations
 
 import math
@@ -32,8 +33,13 @@ CONFIGS = {
     "full": TMDParams(inerter="play", play_gap=1e-4, damping=10.0, friction_force=10.0),
 }
 #: FRC frequencies per configuration (rad/s): cheap, off and near the resonances
-FRC_OMEGAS = {"viscous": [16.0, 19.0, 21.5], "ideal_inerter": [17.0, 20.0, 23.0], "dry_friction": [17.0, 20.0, 23.0],
-              "play": [16.0, 17.0], "full": [17.0, 19.0]}
+FRC_OMEGAS = {
+    "viscous": [16.0, 19.0, 21.5],
+    "ideal_inerter": [17.0, 20.0, 23.0],
+    "dry_friction": [17.0, 20.0, 23.0],
+    "play": [16.0, 17.0],
+    "full": [17.0, 19.0],
+}
 
 
 @pytest.fixture(scope="module")
@@ -62,6 +68,7 @@ def masters(fmus):
 
 # --- graph -------------------------------------------------------------------------------------
 
+
 def test_graph_finds_the_inerter_loop(fmus):
     from fmpy import read_model_description
 
@@ -86,8 +93,9 @@ def test_master_is_generic(fmus):
     """Any FMUs and connection list: two base oscillators pushing on each other through a link
     force taken from the other's acceleration (an algebraic loop the master must solve)."""
     conns = ["a.xdd -> b.f_link", "b.xdd -> a.f_link"]
-    with Master({"a": fmus["base"], "b": fmus["base"]}, conns, {"a.F": 200.0, "b.F": 0.0, "a.w": 20.0},
-                scheme="loop") as m:
+    with Master(
+        {"a": fmus["base"], "b": fmus["base"]}, conns, {"a.F": 200.0, "b.F": 0.0, "a.w": 20.0}, scheme="loop"
+    ) as m:
         assert len(m.graph.loops) == 1
         m.initialize()
         m.run(0.05, step=1e-3)
@@ -116,23 +124,30 @@ def test_master_knows_fmi_and_coupling_only():
         for node in ast.walk(ast.parse(f.read_text(), str(f))):
             if isinstance(node, ast.ImportFrom):
                 mod = node.module or ""
-                outside = node.level > 1 or (node.level == 0 and mod.startswith("pyfmu_wrapper")
-                                             and not mod.startswith("pyfmu_wrapper.master"))
+                outside = node.level > 1 or (
+                    node.level == 0 and mod.startswith("pyfmu_wrapper") and not mod.startswith("pyfmu_wrapper.master")
+                )
                 if outside:
                     bad.append(f"{f.name}:{node.lineno}: from {'.' * node.level}{mod} import ...")
             elif isinstance(node, ast.Import):
-                bad += [f"{f.name}:{node.lineno}: import {a.name}" for a in node.names
-                        if a.name.startswith("pyfmu_wrapper") and not a.name.startswith("pyfmu_wrapper.master")]
+                bad += [
+                    f"{f.name}:{node.lineno}: import {a.name}"
+                    for a in node.names
+                    if a.name.startswith("pyfmu_wrapper") and not a.name.startswith("pyfmu_wrapper.master")
+                ]
             elif isinstance(node, ast.Attribute) and node.attr == "_functions":
                 bad.append(f"{f.name}:{node.lineno}: fmpy private ._functions")
     assert not bad, bad
-    code = ("import sys, pyfmu_wrapper.master; print(sorted(m for m in sys.modules if m.startswith('pyfmu_wrapper.')"
-            " and not m.startswith('pyfmu_wrapper.master')))")
+    code = (
+        "import sys, pyfmu_wrapper.master; print(sorted(m for m in sys.modules if m.startswith('pyfmu_wrapper.')"
+        " and not m.startswith('pyfmu_wrapper.master')))"
+    )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
     assert out.strip() == "[]", out
 
 
 # --- against the monolithic solver ----------------------------------------------------------------
+
 
 def _series_error(master, tmd, omega, n, periods=2):
     """max |x_cosim - x_mono| / max |x_mono| over `periods` periods from the linear guess, n steps per period."""
@@ -219,6 +234,7 @@ def test_adaptive_step_meets_the_tolerance(masters):
 
 # --- SSP -------------------------------------------------------------------------------------------
 
+
 def test_ssp_export_runs_in_fmpy(tmp_path):
     from fmpy.ssp.simulation import simulate_ssp
     from fmpy.ssp.ssd import read_ssd
@@ -252,16 +268,20 @@ def test_ssp_carries_omsimulator_master_annotation_only_when_a_step_is_given(tmp
     from pyfmu_wrapper.cosim.system import export_tmd_system
 
     tmd, w = CONFIGS["ideal_inerter"], 18.0
-    ns = {"ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
-          "oms": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"}
+    ns = {
+        "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
+        "oms": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd",
+    }
     with_step = export_tmd_system(tmp_path / "a.ssp", BASE, tmd, w, stop_time=1.0, step_size=2.5e-4)
     root = ET.fromstring(zipfile.ZipFile(with_step).read("SystemStructure.ssd"))
-    master = root.findall("ssd:System/ssd:Annotations/*/oms:Annotations/oms:SimulationInformation/"
-                          "oms:FixedStepMaster", ns)
+    master = root.findall(
+        "ssd:System/ssd:Annotations/*/oms:Annotations/oms:SimulationInformation/oms:FixedStepMaster", ns
+    )
     assert len(master) == 1
     assert master[0].get("description") == "oms-ma" and float(master[0].get("stepSize")) == 2.5e-4
-    assert len(root.findall("ssd:DefaultExperiment/ssd:Annotations/*/oms:Annotations/oms:SimulationInformation",
-                            ns)) == 1
+    assert (
+        len(root.findall("ssd:DefaultExperiment/ssd:Annotations/*/oms:Annotations/oms:SimulationInformation", ns)) == 1
+    )
     plain = export_tmd_system(tmp_path / "b.ssp", BASE, tmd, w, stop_time=1.0)
     assert b"org.openmodelica" not in zipfile.ZipFile(plain).read("SystemStructure.ssd")
     for bad in (0.0, -1e-3, float("inf"), float("nan")):

@@ -1,4 +1,5 @@
 """run-scenario with the co-simulation engine (the default) and with --engine both."""
+
 from __future__ import annotations
 
 import json
@@ -47,8 +48,9 @@ def test_default_engine_is_cosim(tmp_path):
 
 def test_engine_both_writes_the_difference(tmp_path):
     out = tmp_path / "out"
-    assert main([str(_write(tmp_path)), "--out", str(out), "--quiet", "--engine", "both",
-                 "--executor", "sequential"]) == 0
+    assert (
+        main([str(_write(tmp_path)), "--out", str(out), "--quiet", "--engine", "both", "--executor", "sequential"]) == 0
+    )
     t = pd.read_csv(out / "frc.csv")
     assert np.isfinite(t["reference"]).all()
     np.testing.assert_allclose(t["difference"], t["amplitude"] / t["reference"] - 1, atol=1e-8)  # csv: 10 digits
@@ -65,8 +67,9 @@ def test_engine_both_has_no_relative_difference_to_a_zero_reference(tmp_path):
     """The undamped ideal inerter's antiresonance (20 rad/s): the exact amplitude is zero to
     rounding (~1e-16 m), so the relative difference is NaN in the CSV and null in the summary,
     not ~1e10; the other point keeps its difference."""
-    scn = SCN.replace("damping: 10.0}", "damping: 0.0}").replace("{start: 17.0, stop: 23.0, count: 3}",
-                                                               "{start: 19.5, stop: 20.0, count: 2}")
+    scn = SCN.replace("damping: 10.0}", "damping: 0.0}").replace(
+        "{start: 17.0, stop: 23.0, count: 3}", "{start: 19.5, stop: 20.0, count: 2}"
+    )
     scn = scn.replace('      - {label: "df = 10", tmd: {damping: 0.0, friction_force: 10.0}}\n', "")
     p = tmp_path / "scn.yaml"
     p.write_text(scn)

@@ -6,6 +6,7 @@ bit, on every scheme they share: Jacobi (orders 0-2, value connections), Gauss-S
 two-phase stepping of rate connections (the impulse coupling, with the interface Jacobian and the
 exact first moment). An FMU error stops the loop with the FMU's own message, as on the Python path.
 """
+
 from __future__ import annotations
 
 import math
@@ -45,17 +46,28 @@ def _run_both(make, init, t_end, h):
     return out
 
 
-@pytest.mark.parametrize("coupling,scheme,order,tmd", [
-    ("impulse", "jacobi", 2, TMD), ("impulse", "jacobi", 1, TMD), ("impulse", "jacobi", 0, TMD),
-    ("impulse", "jacobi", 2, PLAY),
-    ("force", "jacobi", 2, TMD), ("force", "jacobi", 0, TMD), ("force", "gauss-seidel", 2, TMD),
-    ("force", "gauss-seidel", 1, TMD)])
+@pytest.mark.parametrize(
+    "coupling,scheme,order,tmd",
+    [
+        ("impulse", "jacobi", 2, TMD),
+        ("impulse", "jacobi", 1, TMD),
+        ("impulse", "jacobi", 0, TMD),
+        ("impulse", "jacobi", 2, PLAY),
+        ("force", "jacobi", 2, TMD),
+        ("force", "jacobi", 0, TMD),
+        ("force", "gauss-seidel", 2, TMD),
+        ("force", "gauss-seidel", 1, TMD),
+    ],
+)
 def test_compiled_loop_is_bit_identical_to_the_python_path(fmus, coupling, scheme, order, tmd):
     w = 18.0
     T = 2 * math.pi / w
     (t_py, y_py, tim_py), (t_c, y_c, tim_c) = _run_both(
         lambda: make_master(BASE, tmd, scheme, order, fmus=fmus, coupling=coupling),
-        lambda m: m.initialize(0.0, fmu_parameters(BASE, tmd, w, initial_guess(BASE, tmd, w))), 3 * T, T / 96)
+        lambda m: m.initialize(0.0, fmu_parameters(BASE, tmd, w, initial_guess(BASE, tmd, w))),
+        3 * T,
+        T / 96,
+    )
     assert t_py.shape == (3 * 96 + 1,)
     assert np.array_equal(t_py, t_c)
     assert np.array_equal(y_py, y_c), np.max(np.abs(y_py - y_c))
@@ -110,8 +122,11 @@ def test_compiled_loop_stops_with_the_fmus_own_message():
             p = fmu_parameters(BASE, tmd, 20.0, initial_guess(BASE, tmd, 20.0), fmu_rtol=1e-30)
             p["tmd.atol"] = 1e-300
             m.initialize(0.0, p)
-            with pytest.raises(MasterError, match=r"tmd: fmi2DoStep failed at t = 0 s, h = 0.001 s \(status \d\): .*"
-                                                  r"FmuStepError: doStep from t = 0 s: integrator stopped"):
+            with pytest.raises(
+                MasterError,
+                match=r"tmd: fmi2DoStep failed at t = 0 s, h = 0.001 s \(status \d\): .*"
+                r"FmuStepError: doStep from t = 0 s: integrator stopped",
+            ):
                 m.run(0.01, step=1e-3)
             assert m.t == 0.0 and m.steps == 0
         finally:
@@ -140,8 +155,13 @@ def test_plain_c_loop_baseline_runs_the_same_calls():
     """The benchmark's baseline (a plain C loop of fmi2SetReal / fmi2DoStep / fmi2GetReal over the
     same instances) advances the FMUs: a Trivial FMU's output follows its input."""
     p = ensure_fmus(names=("Trivial",))
-    with Master({"a": p["Trivial"], "b": p["Trivial"]}, ["a.y -> b.u", "b.y -> a.u"],
-                {"a.gain": 0.5, "b.gain": 0.5}, scheme="jacobi", order=0) as m:
+    with Master(
+        {"a": p["Trivial"], "b": p["Trivial"]},
+        ["a.y -> b.u", "b.y -> a.u"],
+        {"a.gain": 0.5, "b.gain": 0.5},
+        scheme="jacobi",
+        order=0,
+    ) as m:
         m.initialize()
         m.advance(10, 1e-3)
         loop = m._compiled_loop()

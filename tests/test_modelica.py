@@ -23,6 +23,7 @@ Bounds, with the values measured with rumoca 0.10.2 (docs/modelica.md):
   (measured <= 2.4e-3, the 1 kg TMD of Case 3 rattles most) and the peak |x| within 1e-3
   (measured <= 2e-4).
 """
+
 from __future__ import annotations
 
 import functools
@@ -99,6 +100,7 @@ def _case_result(name: str):
 
 # --- generation and parameters -----------------------------------------------------------------
 
+
 def test_generated_files_are_current():
     """The committed Defaults.mo and Cases.mo are exactly what pyfmu_wrapper.generate.modelica writes."""
     assert gen.stale_files() == [], "run `python -m pyfmu_wrapper.generate.modelica`"
@@ -149,6 +151,7 @@ def test_paper_values_of_the_studies():
 
 # --- time series against the Python solver -----------------------------------------------------
 
+
 def test_base_oscillator_closed_form(session):
     """BaseOscillator alone (flange free) against the exact forced response from rest."""
     model = load(session, "Systems.BaseOscillator")
@@ -163,8 +166,9 @@ def test_base_oscillator_closed_form(session):
     c2 = (sig * c1 + w * X.imag) / wd
     e = np.exp(-sig * t)
     x = (X * np.exp(1j * w * t)).real + e * (c1 * np.cos(wd * t) + c2 * np.sin(wd * t))
-    xd = (1j * w * X * np.exp(1j * w * t)).real + e * ((-sig * c1 + wd * c2) * np.cos(wd * t)
-                                                       + (-sig * c2 - wd * c1) * np.sin(wd * t))
+    xd = (1j * w * X * np.exp(1j * w * t)).real + e * (
+        (-sig * c1 + wd * c2) * np.cos(wd * t) + (-sig * c2 - wd * c1) * np.sin(wd * t)
+    )
     err = rel_err(np.column_stack([r["mass.s"], r["mass.v"]]), np.column_stack([x, xd]))
     assert np.all(err <= 1e-6), err
 

@@ -2,6 +2,7 @@
 bundled loader (pyfmu_wrapper/fmi/fmu_loader.py): compiled once, then loaded from the cache by a
 fresh process from another extraction folder; keyed by the bundle (a modified bundle is refused,
 never run with another bundle's cache)."""
+
 from __future__ import annotations
 
 import os
@@ -25,8 +26,9 @@ def _run(fmu, cache, cwd, debug=False):
     env["PYFMU_CACHE_DIR"] = str(cache)
     if debug:
         env["NUMBA_DEBUG_CACHE"] = "1"
-    return subprocess.run([sys.executable, "-c", RUN, str(fmu)], capture_output=True, text=True, cwd=cwd, env=env,
-                          timeout=900)
+    return subprocess.run(
+        [sys.executable, "-c", RUN, str(fmu)], capture_output=True, text=True, cwd=cwd, env=env, timeout=900
+    )
 
 
 def test_fmu_compiles_once_then_loads_from_its_bundle_cache(tmp_path):

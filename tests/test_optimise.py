@@ -4,6 +4,7 @@ Fast checks use the exact linear response; one dry-friction Case (Case 3) runs t
 solver in the default run; the other two are marked slow (the full six-value check with the table
 of candidates is benchmarks/bench_optimise.py).
 """
+
 from __future__ import annotations
 
 import json
@@ -36,6 +37,7 @@ def rel(a, b):
 
 # --- building blocks ----------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("case", [1, 2, 3])
 def test_linear_response_matches_exact_response(case):
     tmd = paper_case(case, damping=20.0)
@@ -50,8 +52,9 @@ def test_linear_response_matches_exact_response(case):
 def test_h2_closed_form_equals_the_integral(case, c):
     tmd = paper_case(case, damping=c)
     # quadrature on a grid fine enough for the sharp peaks of c = 0; the tails are O(w^-4)
-    w = np.concatenate([np.linspace(1e-4, 10, 20001)[:-1], np.linspace(10, 30, 400001)[:-1],
-                        np.geomspace(30, 1e5, 200001)])
+    w = np.concatenate(
+        [np.linspace(1e-4, 10, 20001)[:-1], np.linspace(10, 30, 400001)[:-1], np.geomspace(30, 1e5, 200001)]
+    )
     X, _ = linear_response(BASE, tmd, w)
     J = np.trapezoid(np.abs(X) ** 2, w)
     assert rel(h2_exact(BASE, tmd), J) < 1e-4
@@ -81,13 +84,15 @@ def test_registry_and_parameter_names():
     with pytest.raises(OptimisationError):
         optimise(BASE, paper_case(1), "damping", "h2", OptimiseConfig(bounds=(-5.0, 10.0)))  # non-physical bound
     with pytest.raises(OptimisationError):  # the stroke objective needs the exact (linear) response
-        optimise(BASE, paper_case(3), "friction_force", "peak_relative",
-                 OptimiseConfig(bounds=(1.0, 2.0), scan=3, points=3))
+        optimise(
+            BASE, paper_case(3), "friction_force", "peak_relative", OptimiseConfig(bounds=(1.0, 2.0), scan=3, points=3)
+        )
     with pytest.raises(OptimisationError):  # the settings travel in one config object
         optimise(BASE, paper_case(1), "damping", "h2", dict(bounds=(0.0, 10.0)))
 
 
 # --- the paper's c_opt (exact linear response) -------------------------------------------------
+
 
 @pytest.mark.parametrize("case", [1, 2, 3])
 def test_h2_objective_reproduces_paper_c_opt(case):
@@ -101,8 +106,9 @@ def test_h2_objective_reproduces_paper_c_opt(case):
 
 def test_h2_over_a_wide_band_gives_the_same_c_opt():
     for case in (1, 2, 3):
-        r = optimise(BASE, paper_case(case), "tmd.damping", "mean_square",
-                     OptimiseConfig(band=(10.0, 30.0), points=801))
+        r = optimise(
+            BASE, paper_case(case), "tmd.damping", "mean_square", OptimiseConfig(band=(10.0, 30.0), points=801)
+        )
         assert rel(r.value, PAPER_C_OPT[case]) < 0.02, r.summary()
 
 
@@ -118,16 +124,24 @@ def test_custom_objective_and_curve_cache():
     cache = {}
     r1 = optimise(BASE, paper_case(2), "damping", obj, OptimiseConfig(band=(15.0, 25.0), points=201), curve_cache=cache)
     n = len(cache)
-    r2 = optimise(BASE, paper_case(2), "damping", "mean", OptimiseConfig(band=(15.0, 25.0), points=201), curve_cache=cache)
+    r2 = optimise(
+        BASE, paper_case(2), "damping", "mean", OptimiseConfig(band=(15.0, 25.0), points=201), curve_cache=cache
+    )
     assert abs(r1.value - r2.value) < 1e-3  # same optimum (mean = l1 / width)
     assert n > 0 and len(cache) >= n
 
 
 # --- the paper's df_opt (nonlinear solver) ------------------------------------------------------
 
+
 def test_h2_objective_reproduces_paper_df_opt_case3():
-    r = optimise(BASE, paper_case(3), "tmd.friction_force", "h2",
-                 OptimiseConfig(band=(15.0, 25.0), points=101, bounds=(0.0, 40.0)))
+    r = optimise(
+        BASE,
+        paper_case(3),
+        "tmd.friction_force",
+        "h2",
+        OptimiseConfig(band=(15.0, 25.0), points=101, bounds=(0.0, 40.0)),
+    )
     assert r.band == (15.0, 25.0)
     assert bool(r.evaluations["converged"].all())
     assert rel(r.value, PAPER_DF_OPT[3]) < 0.02, r.summary()
@@ -146,6 +160,7 @@ def test_h2_objective_reproduces_paper_df_opt_cases_1_2(case):
 
 
 # --- command line -------------------------------------------------------------------------------
+
 
 def test_cli_case(capsys):
     assert main(["--case", "1", "--parameter", "damping", "--quiet", "--json", "-"]) == 0
@@ -181,7 +196,28 @@ def test_cli_set_and_list(capsys):
     assert main(["--list-objectives"]) == 0
     assert "h2" in capsys.readouterr().out
     # with a little friction the problem is nonlinear: optimise c on a small grid (fast)
-    assert main(["--case", "3", "--parameter", "damping", "--set", "tmd.friction_force=2", "--bounds", "0", "20",
-                 "--points", "21", "--scan", "5", "--xtol", "0.5", "--quiet"]) == 0
+    assert (
+        main(
+            [
+                "--case",
+                "3",
+                "--parameter",
+                "damping",
+                "--set",
+                "tmd.friction_force=2",
+                "--bounds",
+                "0",
+                "20",
+                "--points",
+                "21",
+                "--scan",
+                "5",
+                "--xtol",
+                "0.5",
+                "--quiet",
+            ]
+        )
+        == 0
+    )
     out = capsys.readouterr().out
     assert "over 15..25 rad/s" in out

@@ -1,4 +1,5 @@
 """Physics layer: parameters, kernels, exact frequency response against closed forms and the paper."""
+
 import math
 
 import numpy as np
@@ -28,8 +29,8 @@ def closed_form_x(omega, M=100.0, Kb=4e4, C=100.0, F=200.0, m=9.0, k=4e3, c=0.0,
     """
     w = np.asarray(omega, dtype=float)
     z = k + 1j * w * c + link
-    a11 = -w**2 * M + 1j * w * C + Kb + z
-    a22 = -w**2 * m + z
+    a11 = -(w**2) * M + 1j * w * C + Kb + z
+    a22 = -(w**2) * m + z
     return F * a22 / (a11 * a22 - z * z)
 
 
@@ -39,7 +40,7 @@ def test_exact_frf_ideal_inerter_matches_closed_form(case, c):
     tmd = paper_case(case, damping=c)
     w = np.linspace(15, 25, 41)
     I = tmd.inertance
-    ref = np.abs(closed_form_x(w, m=tmd.mass, c=c, link=-w**2 * I))
+    ref = np.abs(closed_form_x(w, m=tmd.mass, c=c, link=-(w**2) * I))
     np.testing.assert_allclose(exact_amplitude(BASE, tmd, w), ref, rtol=1e-10, atol=1e-15)
 
 
@@ -47,7 +48,7 @@ def test_exact_frf_series_inerter_spring_matches_closed_form():
     ki, ci = 2e5, 3.0  # soft mesh so the series compliance matters
     tmd = paper_case(2, damping=10.0, inerter="play", mesh_stiffness=ki, mesh_damping=ci, play_gap=0.0)
     w = np.linspace(15, 25, 41)
-    zi = -w**2 * tmd.inertance
+    zi = -(w**2) * tmd.inertance
     zs = ki + 1j * w * ci
     link = 1.0 / (1.0 / zi + 1.0 / zs)
     ref = np.abs(closed_form_x(w, m=tmd.mass, c=10.0, link=link))
@@ -60,8 +61,9 @@ def test_series_with_stiff_mesh_tends_to_ideal_inerter(case):
     ideal = exact_amplitude(BASE, paper_case(case, damping=10.0), w)
     errs = []
     for ki in (2e9, 2e11):
-        ser = exact_amplitude(BASE, paper_case(case, damping=10.0, inerter="play", mesh_stiffness=ki,
-                                               mesh_damping=0.0, play_gap=0.0), w)
+        ser = exact_amplitude(
+            BASE, paper_case(case, damping=10.0, inerter="play", mesh_stiffness=ki, mesh_damping=0.0, play_gap=0.0), w
+        )
         errs.append(np.max(np.abs(ser / ideal - 1)))
     # the series compliance error falls as 1/ki: 100x stiffer -> 100x closer
     assert errs[1] < 1e-6
@@ -99,13 +101,16 @@ def test_fig2_iratio_one_single_peak():
     # F / (C w_n) = 200 / (100 * 20) = 0.1 m
     assert a[i] == pytest.approx(0.1, rel=1e-3)
     # single peak: monotonic on either side
-    assert np.all(np.diff(a[:i]) > 0) and np.all(np.diff(a[i + 1:]) < 0)
+    assert np.all(np.diff(a[:i]) > 0) and np.all(np.diff(a[i + 1 :]) < 0)
 
 
 def test_jacobian_complex_step_matches_finite_differences():
     z = np.array([0.01, 0.1, 0.02, -0.05, 2e-4, 0.3])
-    for tmd in (paper_case(1, damping=10, friction_force=10), paper_case(3, damping=10, friction_force=10,
-                inerter="play", play_gap=1e-4), TMDParams(mass=10, inertance=0, inerter="none", friction_force=5)):
+    for tmd in (
+        paper_case(1, damping=10, friction_force=10),
+        paper_case(3, damping=10, friction_force=10, inerter="play", play_gap=1e-4),
+        TMDParams(mass=10, inertance=0, inerter="none", friction_force=5),
+    ):
         p = pack(BASE, tmd, 19.0)
         J = np.zeros((6, 6))
         Jac.jacobian(0.1, z, p, J)
@@ -143,16 +148,19 @@ def test_chain_force_contact_modes():
     assert [K.contact_state(d, p) for d in (2e-4, 0.0, -2e-4)] == [1, 0, -1]
 
 
-@pytest.mark.parametrize("kwargs, field", [
-    (dict(mass=-1.0), "mass"),
-    (dict(inertance=float("nan")), "inertance"),
-    (dict(play_gap=-1e-4, inerter="play"), "play_gap"),
-    (dict(mass=0.0, inertance=0.0, inerter="none"), "mass"),
-    (dict(inerter="gearbox"), "inerter"),
-    (dict(inertance=2.0, inerter="none"), "inertance"),
-    (dict(friction_slope=0.0), "friction_slope"),
-    (dict(damping="ten"), "damping"),
-])
+@pytest.mark.parametrize(
+    "kwargs, field",
+    [
+        (dict(mass=-1.0), "mass"),
+        (dict(inertance=float("nan")), "inertance"),
+        (dict(play_gap=-1e-4, inerter="play"), "play_gap"),
+        (dict(mass=0.0, inertance=0.0, inerter="none"), "mass"),
+        (dict(inerter="gearbox"), "inerter"),
+        (dict(inertance=2.0, inerter="none"), "inertance"),
+        (dict(friction_slope=0.0), "friction_slope"),
+        (dict(damping="ten"), "damping"),
+    ],
+)
 def test_bad_tmd_parameters_are_refused_by_name(kwargs, field):
     with pytest.raises(ParameterError, match=field):
         TMDParams(**kwargs, source="case.yaml:3 tmd")
@@ -168,13 +176,16 @@ def test_exact_response_refuses_nonlinear_configuration():
         exact_response(BASE, paper_case(1, friction_force=1.0), [20.0])
 
 
-@pytest.mark.parametrize("tmd", [
-    paper_case(1, damping=10, friction_force=10),
-    paper_case(3, damping=10, friction_force=10, inerter="play", play_gap=1e-4),
-    paper_case(2, inerter="play", play_gap=0.0),
-    TMDParams(mass=10, inertance=0, inerter="none", friction_force=5),
-    paper_case(2, damping=10, friction_force=10, inerter="play", play_gap=1e-4, cubic_stiffness=-2e5),
-])
+@pytest.mark.parametrize(
+    "tmd",
+    [
+        paper_case(1, damping=10, friction_force=10),
+        paper_case(3, damping=10, friction_force=10, inerter="play", play_gap=1e-4),
+        paper_case(2, inerter="play", play_gap=0.0),
+        TMDParams(mass=10, inertance=0, inerter="none", friction_force=5),
+        paper_case(2, damping=10, friction_force=10, inerter="play", play_gap=1e-4, cubic_stiffness=-2e5),
+    ],
+)
 @pytest.mark.parametrize("d", [2e-4, -3e-4, 0.0])
 def test_mounted_tmd_with_base_compliance_is_the_coupled_system(tmd, d):
     """The interface Jacobian (kappa = 1/M, xdd input = the base's acceleration without the link
@@ -194,8 +205,9 @@ def test_mounted_tmd_with_base_compliance_is_the_coupled_system(tmd, d):
         np.testing.assert_allclose(out, full[2:], rtol=1e-13, atol=1e-13 * np.abs(full).max())
         force, chain, _ = K.tmd_outputs(z[2:], z[0], z[1], xdd, kappa, p)
         # the force on the base closes the base's equation: M xdd = fext - C xd - K x - force
-        assert force == pytest.approx(fext - BASE.damping * z[1] - BASE.stiffness * z[0] - BASE.mass * full[1],
-                                      rel=1e-12, abs=1e-12 * abs(fext))
+        assert force == pytest.approx(
+            fext - BASE.damping * z[1] - BASE.stiffness * z[0] - BASE.mass * full[1], rel=1e-12, abs=1e-12 * abs(fext)
+        )
 
 
 @pytest.mark.parametrize("tmd", JACOBIAN_CASES)

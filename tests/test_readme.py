@@ -1,4 +1,5 @@
 """The README's two commands, and .ci/run running exactly the README's test command (plus the linters)."""
+
 import re
 from pathlib import Path
 
@@ -14,11 +15,11 @@ def test_readme_has_exactly_two_commands():
     assert len(blocks) == 2
     assert all(len(b.splitlines()) == 1 for b in blocks)
     assert "run-scenario scenarios/full_case1.yaml" in blocks[0]
-    assert '.[test]' in blocks[1] and "pytest" in blocks[1]
+    assert ".[test]" in blocks[1] and "pytest" in blocks[1]
 
 
 # the steps .ci/run may add to the README's test command: the linters configured in pyproject.toml
-LINTER_STEPS = ("ruff check .", "mypy")
+LINTER_STEPS = ("ruff check .", "ruff format --check .", "mypy")
 
 
 def _steps(command):

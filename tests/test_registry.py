@@ -12,6 +12,7 @@ k3 checks, each against something independent:
   dE/dt along the flow equals input minus dissipated power;
 * the hardening shift of the upper resonance peak against a one-harmonic balance estimate.
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -36,6 +37,7 @@ BASE = BaseParams()
 
 # --- derived artefacts ------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("cls, sub", [(BaseParams, "base"), (TMDParams, "tmd")])
 def test_parameter_classes_follow_the_registry(cls, sub):
     names = [f.name for f in dataclasses.fields(cls) if f.name != "source"]
@@ -53,8 +55,9 @@ def test_the_field_types_declared_for_the_type_checker_follow_the_registry(mixin
         assert declared[p.name] == ("InerterModel" if p.kind == "enum" else "float"), p.name
 
 
-@pytest.mark.parametrize("par", [p for p in registry.PARAMETERS if p.field and p.kind == "real"],
-                         ids=lambda p: f"{p.subsystem}.{p.name}")
+@pytest.mark.parametrize(
+    "par", [p for p in registry.PARAMETERS if p.field and p.kind == "real"], ids=lambda p: f"{p.subsystem}.{p.name}"
+)
 def test_every_bound_of_the_registry_is_enforced(par):
     cls = BaseParams if par.subsystem == "base" else TMDParams
     kw = {"inerter": "play", "play_gap": 1e-4} if par.subsystem == "tmd" else {}
@@ -72,13 +75,19 @@ def test_packed_indices_are_the_registry_order():
     assert p.shape == (registry.N_PARAMS,)
     for i, par in enumerate(registry.PARAMETERS):
         owner = BASE if par.subsystem == "base" else tmd
-        want = 19.5 if par.name == "omega" else float(int(getattr(owner, par.name)) if par.kind == "enum"
-                                                      else getattr(owner, par.name))
+        want = (
+            19.5
+            if par.name == "omega"
+            else float(int(getattr(owner, par.name)) if par.kind == "enum" else getattr(owner, par.name))
+        )
         assert p[i] == want, par.name
         assert registry.PACK_INDEX[f"{par.subsystem}.{par.name}"] == i
-    assert (P.P_k3, P.P_k, P.P_MODEL, P.P_W) == (registry.PACK_INDEX["tmd.cubic_stiffness"],
-                                                 registry.PACK_INDEX["tmd.stiffness"],
-                                                 registry.PACK_INDEX["tmd.inerter"], registry.PACK_INDEX["base.omega"])
+    assert (P.P_k3, P.P_k, P.P_MODEL, P.P_W) == (
+        registry.PACK_INDEX["tmd.cubic_stiffness"],
+        registry.PACK_INDEX["tmd.stiffness"],
+        registry.PACK_INDEX["tmd.inerter"],
+        registry.PACK_INDEX["base.omega"],
+    )
 
 
 @pytest.mark.parametrize("spec, sub", [(BASE_OSCILLATOR, "base"), (TMD_INERTER, "tmd")])
@@ -112,10 +121,16 @@ def test_map_parameters_and_docs_are_derived():
 
 #: rhs and Jacobian sums of the code before the registry (commit 85cdaf1), at the state below
 GOLDEN = {
-    "friction": (["-0.13", "-2.2437805736755987", "0.21", "-3.9643761849564654", "0.05", "0.0"],
-                 "-434.1655104063429", "1227.063441036134"),
-    "full_play": (["-0.13", "-8.226579617562786", "0.21", "112.52010374482211", "0.05", "-240.7467833623848"],
-                  "-4400799.002199999", "12404173.40624626"),
+    "friction": (
+        ["-0.13", "-2.2437805736755987", "0.21", "-3.9643761849564654", "0.05", "0.0"],
+        "-434.1655104063429",
+        "1227.063441036134",
+    ),
+    "full_play": (
+        ["-0.13", "-8.226579617562786", "0.21", "112.52010374482211", "0.05", "-240.7467833623848"],
+        "-4400799.002199999",
+        "12404173.40624626",
+    ),
 }
 GOLDEN_TMD = {
     "friction": paper_case(1, damping=10.0, friction_force=10.0),
@@ -138,14 +153,15 @@ def test_zero_cubic_term_reproduces_the_previous_kernels_bit_for_bit(name):
 
 # --- k3 in the physics ------------------------------------------------------------------------
 
+
 @pytest.mark.parametrize("k3", [4e6, -3e5])
 def test_cubic_spring_force_and_energy_balance(k3):
     """Spring force k u + k3 u^3; dE/dt along the flow = input - dissipated (energy kernel has k3 u^4/4)."""
     tmd = paper_case(1, damping=10.0, cubic_stiffness=k3)
     p = pack(BASE, tmd, 19.0)
     u = 0.013
-    assert K.spring_force(u, p) == pytest.approx(4e3 * u + k3 * u ** 3, rel=1e-15)
-    assert Jac.spring_stiffness(u, p) == pytest.approx(4e3 + 3 * k3 * u ** 2, rel=1e-15)
+    assert K.spring_force(u, p) == pytest.approx(4e3 * u + k3 * u**3, rel=1e-15)
+    assert Jac.spring_stiffness(u, p) == pytest.approx(4e3 + 3 * k3 * u**2, rel=1e-15)
     z = np.array([0.011, -0.13, -0.017, 0.21, 0.0, 0.0])
     f = np.zeros(6)
     K.rhs(0.3, z, p, f)
@@ -192,10 +208,18 @@ def test_hardening_shift_of_the_upper_peak_matches_harmonic_balance():
     peaks = {}
     for k3 in (0.0, 2e5):
         tmd = paper_case(1, damping=56.38, cubic_stiffness=k3)
-        sim = minimize_scalar(lambda w, tmd=tmd: -steady_state(BASE, tmd, w).amplitude, bounds=(21.0, 25.0),
-                              method="bounded", options=dict(xatol=1e-4))
-        hb = minimize_scalar(lambda w, tmd=tmd: -_harmonic_balance_amplitude(w, tmd), bounds=(21.0, 25.0),
-                             method="bounded", options=dict(xatol=1e-4))
+        sim = minimize_scalar(
+            lambda w, tmd=tmd: -steady_state(BASE, tmd, w).amplitude,
+            bounds=(21.0, 25.0),
+            method="bounded",
+            options=dict(xatol=1e-4),
+        )
+        hb = minimize_scalar(
+            lambda w, tmd=tmd: -_harmonic_balance_amplitude(w, tmd),
+            bounds=(21.0, 25.0),
+            method="bounded",
+            options=dict(xatol=1e-4),
+        )
         peaks[k3] = (sim.x, -sim.fun, hb.x, -hb.fun)
     shift = peaks[2e5][0] - peaks[0.0][0]
     assert shift > 0.5  # hardening

@@ -1,6 +1,7 @@
 """The reproduction report and the map executors: the report command on a quick configuration, the
 local and Dask executors against a sequential run, resuming an interrupted map, the best-fit
 simplified model."""
+
 from __future__ import annotations
 
 import json
@@ -74,8 +75,10 @@ def test_local_executor_same_map(tiny, sequential_map):
 def test_dask_local_cluster_same_map(tiny, sequential_map):
     distributed = pytest.importorskip("distributed")
     scn, study, settings = tiny
-    with distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cl, \
-            distributed.Client(cl) as client:
+    with (
+        distributed.LocalCluster(n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None) as cl,
+        distributed.Client(cl) as client,
+    ):
         ex = make_executor("dask", scheduler=client)
         data = map_response(scn, study, settings, cache=_Cache(ex))
         ex.close()
@@ -88,8 +91,20 @@ def test_cli_dask_executor(tiny, tmp_path, sequential_map):
     p = tmp_path / "tiny.yaml"
     p.write_text(TINY)
     with distributed.LocalCluster(n_workers=1, threads_per_worker=2, processes=True, dashboard_address=None) as cl:
-        rc = run_main([str(p), "--out", str(tmp_path / "out"), "--executor", "dask", "--scheduler", cl.scheduler_address,
-                       "--engine", "monolithic", "--quiet"])
+        rc = run_main(
+            [
+                str(p),
+                "--out",
+                str(tmp_path / "out"),
+                "--executor",
+                "dask",
+                "--scheduler",
+                cl.scheduler_address,
+                "--engine",
+                "monolithic",
+                "--quiet",
+            ]
+        )
     assert rc == 0
     s = json.loads((tmp_path / "out" / "summary.json").read_text())
     assert s["executor"]["name"] == "dask" and s["executor"]["tasks"]["fmap"]["computed"] == 3
@@ -153,9 +168,15 @@ def test_cli_resume(tmp_path):
     files[1].unlink()  # as if the run had been killed before this task finished
     assert run_main([str(p), "--out", str(out), "--engine", "monolithic", "--quiet"]) == 0
     s = json.loads((out / "summary.json").read_text())
-    assert s["executor"]["tasks"]["fmap"] == dict(cached=2, computed=1, wall_time=s["executor"]["tasks"]["fmap"]["wall_time"])
-    assert run_main([str(p), "--out", str(out), "--quiet", "--no-resume", "--executor", "sequential",
-                     "--engine", "monolithic"]) == 0
+    assert s["executor"]["tasks"]["fmap"] == dict(
+        cached=2, computed=1, wall_time=s["executor"]["tasks"]["fmap"]["wall_time"]
+    )
+    assert (
+        run_main(
+            [str(p), "--out", str(out), "--quiet", "--no-resume", "--executor", "sequential", "--engine", "monolithic"]
+        )
+        == 0
+    )
     s = json.loads((out / "summary.json").read_text())
     assert s["executor"]["tasks"]["fmap"]["computed"] == 3
 
@@ -206,9 +227,20 @@ def test_report_quick(tmp_path):
 
     assert f"code version `{code_version()}`" in md
     assert "| # | section | claim | paper | project (computed) | check: value vs threshold | verdict | note |" in md
-    for claim in ("Antiresonance", "Optimised c", "Optimised df", "sticks", "macroscopic influence of play",
-                  "100 x the gap", "Simplified model", "classical TMD without an inerter", "differs strongly",
-                  "widens the range", "more suddenly", "only for relatively small c and df"):
+    for claim in (
+        "Antiresonance",
+        "Optimised c",
+        "Optimised df",
+        "sticks",
+        "macroscopic influence of play",
+        "100 x the gap",
+        "Simplified model",
+        "classical TMD without an inerter",
+        "differs strongly",
+        "widens the range",
+        "more suddenly",
+        "only for relatively small c and df",
+    ):
         assert claim in md, claim
     rows = [l for l in md.splitlines() if l.startswith("| ") and l.split("|")[1].strip().isdigit()]
     assert len(rows) >= 25
@@ -221,8 +253,12 @@ def test_report_quick(tmp_path):
         expect = "agrees" if all(passed) else ("disagrees" if not any(passed) else "partly")
         assert c["verdict"] == expect, c["claim"]
         for k in c["checks"]:
-            ops = {"<=": k["value"] <= k["threshold"], "<": k["value"] < k["threshold"],
-                   ">=": k["value"] >= k["threshold"], ">": k["value"] > k["threshold"]}
+            ops = {
+                "<=": k["value"] <= k["threshold"],
+                "<": k["value"] < k["threshold"],
+                ">=": k["value"] >= k["threshold"],
+                ">": k["value"] > k["threshold"],
+            }
             assert k["passed"] == ops[k["op"]], (c["claim"], k)
     by = {c["claim"]: c for c in doc["claims"]}
     anti = next(c for n, c in by.items() if n.startswith("Antiresonance"))
@@ -240,6 +276,7 @@ def test_report_quick(tmp_path):
 
 
 # --- computed verdicts ---------------------------------------------------------------------------
+
 
 def test_check_and_claim_verdicts():
     from pyfmu_wrapper.paper.claims import Check, Claim

@@ -7,6 +7,7 @@ start; checkpoints live in <out>.checkpoints/, one per output folder, never in a
 <parent>/.cache/. Every refusal happens before anything is computed (run_studies is replaced by a
 function that fails the test if called).
 """
+
 from __future__ import annotations
 
 import json
@@ -70,6 +71,7 @@ def _snapshot(folder: Path) -> dict:
 @pytest.fixture
 def no_computing(monkeypatch):
     """Fail if anything is computed: the refusals must come first."""
+
     def fail(*a, **k):
         raise AssertionError("run_studies was called: the output folder was not checked before computing")
 
@@ -165,9 +167,18 @@ def test_stale_partial_folder_is_cleaned_or_reported(tmp_path, capsys):
     ours = tmp_path / ".out.partial-123-abcd"
     ours.mkdir()
     (ours / "frc.csv").write_text("half written\n")
-    (ours / ".run-scenario.json").write_text(json.dumps(dict(
-        tool="run-scenario", kind="partial", out=str(out), pid=_dead_pid(), host=os.uname().nodename,
-        started="2026-01-01T00:00:00+00:00")))
+    (ours / ".run-scenario.json").write_text(
+        json.dumps(
+            dict(
+                tool="run-scenario",
+                kind="partial",
+                out=str(out),
+                pid=_dead_pid(),
+                host=os.uname().nodename,
+                started="2026-01-01T00:00:00+00:00",
+            )
+        )
+    )
     unproven = tmp_path / ".out.partial-x7y8z9"  # the old naming, no marker: not provably ours
     unproven.mkdir()
     (unproven / "data.csv").write_text("1\n")
@@ -184,9 +195,18 @@ def test_live_partial_folder_of_another_run_is_refused(tmp_path, capsys, no_comp
     other.mkdir()
     sleeper = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
     try:
-        (other / ".run-scenario.json").write_text(json.dumps(dict(
-            tool="run-scenario", kind="partial", out=str(out), pid=sleeper.pid, host=os.uname().nodename,
-            started="now")))
+        (other / ".run-scenario.json").write_text(
+            json.dumps(
+                dict(
+                    tool="run-scenario",
+                    kind="partial",
+                    out=str(out),
+                    pid=sleeper.pid,
+                    host=os.uname().nodename,
+                    started="now",
+                )
+            )
+        )
         assert main([str(scn), "--out", str(out)] + MONO) == 2
         assert "another run-scenario" in capsys.readouterr().err and other.is_dir()
     finally:
@@ -197,12 +217,31 @@ def test_live_partial_folder_of_another_run_is_refused(tmp_path, capsys, no_comp
 def test_checkpoints_live_beside_their_own_output_folder(tmp_path, capsys):
     """<out>.checkpoints/<study>/ with a marker; two outputs in one parent never share checkpoints;
     nothing goes to <parent>/.cache/; a foreign folder of that name is refused."""
-    scn = _scn(tmp_path, LINEAR.replace('      - {label: "c = 10"}',
-                                        '      - {label: "df = 10", tmd: {damping: 0.0, friction_force: 10.0}}'))
+    scn = _scn(
+        tmp_path,
+        LINEAR.replace(
+            '      - {label: "c = 10"}', '      - {label: "df = 10", tmd: {damping: 0.0, friction_force: 10.0}}'
+        ),
+    )
     for name in ("a", "b"):
         out = tmp_path / name
-        assert main([str(scn), "--out", str(out), "--quiet", "--engine", "monolithic", "--executor", "sequential",
-                     "--cache", str(output.default_checkpoint_dir(out))]) == 0
+        assert (
+            main(
+                [
+                    str(scn),
+                    "--out",
+                    str(out),
+                    "--quiet",
+                    "--engine",
+                    "monolithic",
+                    "--executor",
+                    "sequential",
+                    "--cache",
+                    str(output.default_checkpoint_dir(out)),
+                ]
+            )
+            == 0
+        )
         ck = tmp_path / f"{name}.checkpoints"
         assert len(list((ck / "frc").glob("*.csv"))) == 1
         m = json.loads((ck / ".run-scenario.json").read_text())
@@ -223,6 +262,7 @@ def test_checkpoints_live_beside_their_own_output_folder(tmp_path, capsys):
 
 
 # --- signals ---------------------------------------------------------------------------------------
+
 
 def _children(pid: int) -> set[int]:
     out = set()

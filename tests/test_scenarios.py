@@ -1,5 +1,6 @@
 """Scenario files: every committed file loads; every kind of bad file is refused with a message that
 names the file, the line, the key path and the value."""
+
 from __future__ import annotations
 
 import textwrap
@@ -57,6 +58,7 @@ def error_for(tmp_path, text) -> ScenarioError:
 
 
 # --- committed files -----------------------------------------------------------------------------
+
 
 def test_every_paper_study_has_a_file():
     names = {p.stem for p in SCENARIOS}
@@ -143,11 +145,14 @@ def test_good_small_scenario(tmp_path):
 
 
 def test_yaml12_floats_are_numbers(tmp_path):
-    scn = load_scenario(write(tmp_path, GOOD.replace("damping: 0.0\nfreq", "damping: 0.0\n  mesh_stiffness: 3e7\nfreq")))
+    scn = load_scenario(
+        write(tmp_path, GOOD.replace("damping: 0.0\nfreq", "damping: 0.0\n  mesh_stiffness: 3e7\nfreq"))
+    )
     assert scn.tmd.mesh_stiffness == 3e7
 
 
 # --- bad files -----------------------------------------------------------------------------------
+
 
 def test_unknown_key(tmp_path):
     e = error_for(tmp_path, GOOD.replace("  damping: 0.0\nfreq", "  dampnig: 0.0\nfreq"))
@@ -188,8 +193,12 @@ def test_negative_tmd_friction(tmp_path):
 
 
 def test_bad_map_value_names_its_index(tmp_path):
-    e = error_for(tmp_path, GOOD.replace("values: [0.0, 10.0, 20.0, 30.0]", "values:\n      - 0.0\n      - 10.0\n"
-                                                                           "      - 20.0\n      - -5.0"))
+    e = error_for(
+        tmp_path,
+        GOOD.replace(
+            "values: [0.0, 10.0, 20.0, 30.0]", "values:\n      - 0.0\n      - 10.0\n      - 20.0\n      - -5.0"
+        ),
+    )
     assert "studies[1].values[3]" in str(e) and "-5" in str(e) and ":27:" in str(e)
     assert e.path == "studies[1].values[3]" and e.value == -5.0
 
@@ -249,11 +258,15 @@ def test_empty_and_non_mapping(tmp_path):
 
 # --- settings blocks: one meaning per key --------------------------------------------------------
 
+
 def test_settings_blocks_per_engine(tmp_path):
-    text = GOOD.replace("sweep:\n  direction: up\n", "sweep: {direction: both, continuation: false}\n"
-                        "solver: {rtol: 1.0e-7, window: 4, linear: simulate}\n"
-                        "cosim: {accuracy: 1.0e-4, coupling: force, window: 7, shooting: false, "
-                        "interface_jacobian: false}\n")
+    text = GOOD.replace(
+        "sweep:\n  direction: up\n",
+        "sweep: {direction: both, continuation: false}\n"
+        "solver: {rtol: 1.0e-7, window: 4, linear: simulate}\n"
+        "cosim: {accuracy: 1.0e-4, coupling: force, window: 7, shooting: false, "
+        "interface_jacobian: false}\n",
+    )
     scn = load_scenario(write(tmp_path, text))
     assert (scn.sweep.direction, scn.sweep.continuation) == ("both", False)
     assert scn.solver.settings().rtol == 1e-7 and scn.solver.settings().window == 4 and scn.solver.linear == "simulate"
@@ -264,19 +277,22 @@ def test_settings_blocks_per_engine(tmp_path):
     assert cs.tol_window == CosimSettings().tol_window  # not taken from solver:
 
 
-@pytest.mark.parametrize("block,key,value,hint", [
-    ("solver", "direction", "up", "sweep.direction"),
-    ("solver", "continuation", "false", "sweep.continuation"),
-    ("solver", "accuracy", "1.0e-4", "cosim.accuracy"),
-    ("solver", "coupling", "force", "cosim.coupling"),
-    ("cosim", "rtol", "1.0e-6", "solver.rtol"),
-    ("cosim", "atol_scale", "1.0e-6", "solver.atol_scale"),
-    ("cosim", "linear", "exact", "solver.linear"),
-    ("cosim", "direction", "up", "sweep.direction"),
-    ("sweep", "rtol", "1.0e-6", "solver.rtol"),
-    ("sweep", "accuracy", "1.0e-3", "cosim.accuracy"),
-    ("cosim", "bogus", "1", "unknown key"),
-])
+@pytest.mark.parametrize(
+    "block,key,value,hint",
+    [
+        ("solver", "direction", "up", "sweep.direction"),
+        ("solver", "continuation", "false", "sweep.continuation"),
+        ("solver", "accuracy", "1.0e-4", "cosim.accuracy"),
+        ("solver", "coupling", "force", "cosim.coupling"),
+        ("cosim", "rtol", "1.0e-6", "solver.rtol"),
+        ("cosim", "atol_scale", "1.0e-6", "solver.atol_scale"),
+        ("cosim", "linear", "exact", "solver.linear"),
+        ("cosim", "direction", "up", "sweep.direction"),
+        ("sweep", "rtol", "1.0e-6", "solver.rtol"),
+        ("sweep", "accuracy", "1.0e-3", "cosim.accuracy"),
+        ("cosim", "bogus", "1", "unknown key"),
+    ],
+)
 def test_inapplicable_settings_are_refused(tmp_path, block, key, value, hint):
     text = GOOD.replace("sweep:\n  direction: up\n", f"{block}:\n  {key}: {value}\n")
     e = error_for(tmp_path, text)
@@ -309,8 +325,9 @@ def test_settings_used_by_each_engine(tmp_path):
     """summary.json records the settings the engine used: its blocks only, fully resolved."""
     from pyfmu_wrapper.scenario.engines import RunSettings
 
-    text = GOOD.replace("sweep:\n  direction: up\n", "sweep: {direction: down}\nsolver: {rtol: 1.0e-7}\n"
-                        "cosim: {accuracy: 1.0e-4}\n")
+    text = GOOD.replace(
+        "sweep:\n  direction: up\n", "sweep: {direction: down}\nsolver: {rtol: 1.0e-7}\ncosim: {accuracy: 1.0e-4}\n"
+    )
     scn = load_scenario(write(tmp_path, text))
     mono = RunSettings.for_scenario(scn, engine="monolithic").used()
     co = RunSettings.for_scenario(scn, engine="cosim").used()
@@ -335,14 +352,16 @@ from pyfmu_wrapper.scenario.tasks import Checkpoint, SweepTask  # noqa: E402
 
 BASE = BaseParams(mass=100.0, stiffness=4.0e4, damping=100.0, force_amplitude=200.0)
 
+
 def _fake_table(task):
     import pandas as pd
 
     from pyfmu_wrapper.scenario.engines import SWEEP_COLUMNS
 
     n = task.units()
-    return pd.DataFrame({c: (["x"] * n if c in ("engine", "method", "direction") else np.arange(n, dtype=float))
-                         for c in SWEEP_COLUMNS}).astype(dict(periods=int, steps=int, rejected=int, converged=bool))
+    return pd.DataFrame(
+        {c: (["x"] * n if c in ("engine", "method", "direction") else np.arange(n, dtype=float)) for c in SWEEP_COLUMNS}
+    ).astype(dict(periods=int, steps=int, rejected=int, converged=bool))
 
 
 def test_checkpoint_key_follows_every_setting(tmp_path):

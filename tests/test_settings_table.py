@@ -4,6 +4,7 @@ The engines' settings classes take their defaults and ranges from it, the scenar
 exactly what the classes refuse (one rule, not the two that disagreed on steps_per_period and tol),
 and the table in docs/scenarios.md is generated from it (``python -m pyfmu_wrapper.generate.docs --check``).
 """
+
 from __future__ import annotations
 
 from dataclasses import fields
@@ -29,6 +30,7 @@ studies:
 
 def _cosim_settings():
     from pyfmu_wrapper.cosim.steady import CosimSettings
+
     return CosimSettings
 
 
@@ -55,10 +57,24 @@ def test_the_table_choices_are_the_codes_choices():
 
 
 # values out of each rule (and the boundary values inside it)
-OUT = [("tol", 0.6), ("tol", -1e-9), ("tol_window", 0.51), ("min_periods", 0), ("window", 0),
-       ("steps_per_period", 4), ("steps_per_period", 100_001), ("accuracy", 0.0), ("accuracy", 0.7),
-       ("fmu_rtol", 0.2), ("order", 3), ("coupling", "spring"), ("interface_jacobian", 1), ("rtol", 0.0),
-       ("rtol", 0.5), ("atol_scale", 0.0)]
+OUT = [
+    ("tol", 0.6),
+    ("tol", -1e-9),
+    ("tol_window", 0.51),
+    ("min_periods", 0),
+    ("window", 0),
+    ("steps_per_period", 4),
+    ("steps_per_period", 100_001),
+    ("accuracy", 0.0),
+    ("accuracy", 0.7),
+    ("fmu_rtol", 0.2),
+    ("order", 3),
+    ("coupling", "spring"),
+    ("interface_jacobian", 1),
+    ("rtol", 0.0),
+    ("rtol", 0.5),
+    ("atol_scale", 0.0),
+]
 IN = [("tol", 0.5), ("tol_window", 0.0), ("steps_per_period", 8), ("accuracy", 0.5), ("rtol", 0.1), ("order", 0)]
 
 

@@ -1,4 +1,5 @@
 """Monolithic solver: time domain against exact solutions, limits, energy balance, independent integrator."""
+
 import math
 
 import numpy as np
@@ -19,8 +20,9 @@ LINEAR = {
     "ideal_case1_c10": paper_case(1, damping=10.0),
     "ideal_case3_c0": paper_case(3, damping=0.0),
     "no_inerter_c56": TMDParams(mass=10.0, inertance=0.0, inerter="none", damping=56.38),
-    "series_spring_case2": paper_case(2, damping=10.0, inerter="play", mesh_stiffness=2e5, mesh_damping=3.0,
-                                      play_gap=0.0),
+    "series_spring_case2": paper_case(
+        2, damping=10.0, inerter="play", mesh_stiffness=2e5, mesh_damping=3.0, play_gap=0.0
+    ),
 }
 
 
@@ -90,8 +92,9 @@ def test_friction_periodic_orbit_against_scipy_radau(df, omega):
     tmd = paper_case(1, friction_force=df)
     ss = steady_state(BASE, tmd, omega, settings=SolverSettings(rtol=1e-9, atol_scale=1e-9, tol=1e-8))
     T = 2 * math.pi / omega
-    sol = solve_ivp(_python_rhs(BASE, tmd, omega), (0, T), ss.state[:4], method="Radau", rtol=1e-10,
-                    atol=1e-12, dense_output=True)
+    sol = solve_ivp(
+        _python_rhs(BASE, tmd, omega), (0, T), ss.state[:4], method="Radau", rtol=1e-10, atol=1e-12, dense_output=True
+    )
     scale = np.max(np.abs(ss.state[:4]))
     assert np.max(np.abs(sol.y[:, -1] - ss.state[:4])) <= 1e-5 * scale
     tt = np.linspace(0, T, 20001)
@@ -158,8 +161,12 @@ def test_play_windowed_steady_state_matches_a_long_run():
     st = SolverSettings(rtol=1e-7, atol_scale=1e-7)
     ss = steady_state(BASE, tmd, 17.0, settings=st)
     assert ss.converged
-    long = steady_state(BASE, tmd, 17.0, settings=SolverSettings(rtol=1e-7, atol_scale=1e-7, tol_window=0.0,
-                                                                 min_periods=300, max_periods_window=300))
+    long = steady_state(
+        BASE,
+        tmd,
+        17.0,
+        settings=SolverSettings(rtol=1e-7, atol_scale=1e-7, tol_window=0.0, min_periods=300, max_periods_window=300),
+    )
     assert long.periods == 300
     windows = long.period_max.reshape(-1, 20).max(axis=1)[2:]
     assert abs(ss.amplitude - np.median(windows)) <= 2e-4 * ss.amplitude

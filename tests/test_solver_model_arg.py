@@ -7,6 +7,7 @@
   on the switching function's zeros at the exact times and reports the exact maximum: a new model
   needs no edit of the solver.
 """
+
 from __future__ import annotations
 
 import ast
@@ -105,8 +106,9 @@ def _integrate(t1, sample_times, rtol=1e-10):
     samples = np.zeros((sample_times.size, 2))
     stats = np.zeros(4, dtype=np.int64)
     p = np.array([W])
-    h, xmax, status, t = integrate(z, 0.0, t1, p, np.zeros(1), rtol, np.full(2, 1e-12), 0.0, 0.2, sample_times,
-                                   samples, 0.0, stats)
+    h, xmax, status, t = integrate(
+        z, 0.0, t1, p, np.zeros(1), rtol, np.full(2, 1e-12), 0.0, 0.2, sample_times, samples, 0.0, stats
+    )
     return z, xmax, status, t, samples, stats
 
 

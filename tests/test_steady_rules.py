@@ -9,6 +9,7 @@
   retakes steps onto the contact surfaces (event count > 0), and with that it agrees with a run at
   a 100x tighter tolerance.
 """
+
 from __future__ import annotations
 
 import math
@@ -43,9 +44,21 @@ def test_window_scatter_flags_an_irregular_response():
     assert amplitude == 1.10 and change == pytest.approx((1.10 - 1.00) / 1.10)
 
 
-@pytest.mark.parametrize("name,bad", [("tol", -1e-6), ("tol_window", float("nan")), ("amp_atol", -1.0), ("window", 0),
-                                      ("min_periods", 0), ("max_periods", 2), ("scatter_tol", -5e-3),
-                                      ("play_start", "middle"), ("shooting", "yes"), ("max_newton", 0)])
+@pytest.mark.parametrize(
+    "name,bad",
+    [
+        ("tol", -1e-6),
+        ("tol_window", float("nan")),
+        ("amp_atol", -1.0),
+        ("window", 0),
+        ("min_periods", 0),
+        ("max_periods", 2),
+        ("scatter_tol", -5e-3),
+        ("play_start", "middle"),
+        ("shooting", "yes"),
+        ("max_newton", 0),
+    ],
+)
 def test_steady_settings_are_one_definition_for_both_engines(name, bad):
     """Both engines' settings are the shared SteadySettings (same fields, one validation): a value
     out of range is refused by both, naming the field (max_periods 2 < min_periods 3)."""
@@ -75,8 +88,21 @@ def test_integrator_lands_on_gear_contacts():
     for rtol in (1e-8, 1e-10):
         z = z0.copy()
         stats = np.zeros(4, dtype=np.int64)
-        res = rodas.make_integrator(COUPLED)(z, 0.0, T, p, np.zeros(1), rtol, rtol * 1e-2 * scale, T / 200,
-                                             T / 20, np.zeros(0), np.zeros((0, 6)), 1.0 / tmd.friction_slope, stats)
+        res = rodas.make_integrator(COUPLED)(
+            z,
+            0.0,
+            T,
+            p,
+            np.zeros(1),
+            rtol,
+            rtol * 1e-2 * scale,
+            T / 200,
+            T / 20,
+            np.zeros(0),
+            np.zeros((0, 6)),
+            1.0 / tmd.friction_slope,
+            stats,
+        )
         assert res[2] == rodas.OK
         runs[rtol] = (z, stats.copy())
     z_lo, st = runs[1e-8]

@@ -2,6 +2,7 @@
 
 The console entry point; the building is :mod:`pyfmu_wrapper.fmi.build`.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -27,12 +28,18 @@ def main(argv=None) -> int:
     ap.add_argument("names", nargs="*", default=list(PROJECT_FMUS), help=f"FMUs to build, of {sorted(SPECS)}")
     ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory (default fmu/build)")
     ap.add_argument("--force", action="store_true", help="rebuild even when up to date")
-    ap.add_argument("--standalone", action="store_true",
-                    help="also bundle a relocatable Python runtime with numpy, numba and llvmlite, so the FMU runs "
-                         "where no Python is installed (always rebuilt; default --out fmu/build/standalone)")
-    ap.add_argument("--fmi-version", default="2", choices=["2", "3", "2,3", "both"],
-                    help="FMI version of the FMUs: 2 (default, into --out), 3 (FMI 3.0 co-simulation, into "
-                         "<out>/fmi3/), or both")
+    ap.add_argument(
+        "--standalone",
+        action="store_true",
+        help="also bundle a relocatable Python runtime with numpy, numba and llvmlite, so the FMU runs "
+        "where no Python is installed (always rebuilt; default --out fmu/build/standalone)",
+    )
+    ap.add_argument(
+        "--fmi-version",
+        default="2",
+        choices=["2", "3", "2,3", "both"],
+        help="FMI version of the FMUs: 2 (default, into --out), 3 (FMI 3.0 co-simulation, into <out>/fmi3/), or both",
+    )
     args = ap.parse_args(argv)
     versions = [2, 3] if args.fmi_version in ("2,3", "both") else [int(args.fmi_version)]
     unknown = [n for n in args.names if n not in SPECS]
@@ -59,7 +66,6 @@ def main(argv=None) -> int:
     for p in paths:
         print(p)
     return 0
-
 
 
 if __name__ == "__main__":

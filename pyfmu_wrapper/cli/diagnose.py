@@ -4,6 +4,7 @@ Bad input (data, model file, command line, output folder) is one line on stderr 
 row/line and key, exit status 2 (:mod:`pyfmu_wrapper.cli.errors`). The diagnosis and the output
 folders are :mod:`pyfmu_wrapper.diagnose.run`.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -25,12 +26,19 @@ from .errors import InputError, cli_main
 
 @cli_main("diagnose")
 def main_diagnose(argv=None):
-    ap = argparse.ArgumentParser(prog="diagnose", description="Localise, attribute and quantify the gap "
-                                 "between a nominal model and measurements (see docs/diagnose.md).")
+    ap = argparse.ArgumentParser(
+        prog="diagnose",
+        description="Localise, attribute and quantify the gap "
+        "between a nominal model and measurements (see docs/diagnose.md).",
+    )
     ap.add_argument("dataset", help="folder with dataset.yaml and CSV records")
     ap.add_argument("--model", help="YAML with the nominal model (overrides the dataset's 'nominal')")
-    ap.add_argument("--out", required=True, help="output folder (report.md, diagnosis.json, PNGs): new, empty, or "
-                    "a previous diagnose result (replaced as a whole)")
+    ap.add_argument(
+        "--out",
+        required=True,
+        help="output folder (report.md, diagnosis.json, PNGs): new, empty, or "
+        "a previous diagnose result (replaced as a whole)",
+    )
     a = ap.parse_args(argv)
     out = check_out_folder(a.out, "diagnose", DIAGNOSE_MARKER)
     with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
@@ -48,8 +56,10 @@ def main_diagnose(argv=None):
     h = res.get("held_out")
     if h and "nrmse_before" in h:
         gc = h["gap_closed"]
-        print(f"held-out NRMSE {h['nrmse_before']:.4f} -> {h['nrmse_after']:.4f}"
-              + ("" if gc is None else f", gap closed {100 * gc:.1f} %"))
+        print(
+            f"held-out NRMSE {h['nrmse_before']:.4f} -> {h['nrmse_after']:.4f}"
+            + ("" if gc is None else f", gap closed {100 * gc:.1f} %")
+        )
     print(f"report: {out / 'report.md'}")
     return 0
 
@@ -58,12 +68,19 @@ def main_diagnose(argv=None):
 def main_make_benchmark(argv=None):
     from ..diagnose.link.benchmark import make_benchmark
 
-    ap = argparse.ArgumentParser(prog="make-benchmark", description="Generate withheld-effect datasets "
-                                 "(labels in OUT/manifest.json, never read by diagnose and never printed).")
+    ap = argparse.ArgumentParser(
+        prog="make-benchmark",
+        description="Generate withheld-effect datasets "
+        "(labels in OUT/manifest.json, never read by diagnose and never printed).",
+    )
     ap.add_argument("--out", required=True, help="output folder: new, empty, or a previous make-benchmark result")
-    ap.add_argument("--suite", choices=["system", "link"], default="system",
-                    help="system: the coupled base + TMD simulated and measured as a rig does (default); "
-                         "link: one TMD link on a displacement-controlled rig")
+    ap.add_argument(
+        "--suite",
+        choices=["system", "link"],
+        default="system",
+        help="system: the coupled base + TMD simulated and measured as a rig does (default); "
+        "link: one TMD link on a displacement-controlled rig",
+    )
     ap.add_argument("-n", type=int, default=None, help="number of datasets (default: system 52, link 40)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--clean-fraction", type=float, default=0.25)
@@ -85,13 +102,27 @@ def main_make_benchmark(argv=None):
             from ..diagnose.system.suite import make_system_benchmark
 
             # progress without the labels: a blind benchmark does not print what it hides
-            man = make_system_benchmark(tmp, n=a.n, seed=a.seed, progress=lambda r: print(
-                f"{r['dataset']}: written" + (f" ({r['seconds']:.1f} s)" if "seconds" in r else ""), flush=True))
+            man = make_system_benchmark(
+                tmp,
+                n=a.n,
+                seed=a.seed,
+                progress=lambda r: print(
+                    f"{r['dataset']}: written" + (f" ({r['seconds']:.1f} s)" if "seconds" in r else ""), flush=True
+                ),
+            )
         else:
-            man = make_benchmark(tmp, n=40 if a.n is None else a.n, seed=a.seed, clean_fraction=a.clean_fraction,
-                                 pair_fraction=a.pair_fraction, noise=a.noise)
-    print(f"wrote {len(man)} {'system' if a.suite == 'system' else 'link'}-level datasets and manifest.json "
-          f"(the hidden labels) to {out}")
+            man = make_benchmark(
+                tmp,
+                n=40 if a.n is None else a.n,
+                seed=a.seed,
+                clean_fraction=a.clean_fraction,
+                pair_fraction=a.pair_fraction,
+                noise=a.noise,
+            )
+    print(
+        f"wrote {len(man)} {'system' if a.suite == 'system' else 'link'}-level datasets and manifest.json "
+        f"(the hidden labels) to {out}"
+    )
     return 0
 
 
@@ -115,13 +146,20 @@ def main_score(argv=None):
             except (ValueError, OSError):
                 ours = False
             if not ours:
-                raise InputError(f"--out {o}: the file exists and is not a previous score result: choose a new name "
-                                 "(score never overwrites files it did not write)")
-    res = score(Path(a.benchmark), progress=lambda r: print(
-        f"{r['dataset']}: hidden {r['hidden'] or '-'} found {r['found'] or '-'} {'ok' if r['correct'] else 'WRONG'}"))
+                raise InputError(
+                    f"--out {o}: the file exists and is not a previous score result: choose a new name "
+                    "(score never overwrites files it did not write)"
+                )
+    res = score(
+        Path(a.benchmark),
+        progress=lambda r: print(
+            f"{r['dataset']}: hidden {r['hidden'] or '-'} found {r['found'] or '-'} {'ok' if r['correct'] else 'WRONG'}"
+        ),
+    )
     print(json.dumps(res["summary"], indent=1))
     if res.get("suite") == "system":  # the system suite's table (OOV classes, unexplained), docs/diagnose.md
         from ..diagnose.system.score import table
+
         print(table(res["summary"]))
     if a.out:
         tmp = Path(a.out).with_name(f".{Path(a.out).name}.partial-{os.getpid()}")

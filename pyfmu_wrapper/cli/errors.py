@@ -12,6 +12,7 @@ numpy scalars, :func:`plain_text` cleans a message that already holds such a rep
 
 Set ``PYFMU_TRACEBACK=1`` to see the traceback of an input error too (debugging).
 """
+
 from __future__ import annotations
 
 import codecs
@@ -72,8 +73,10 @@ def message(exc: BaseException) -> str:
         if getattr(exc, "filename2", None):
             text += f" ({exc.filename2})"
     elif isinstance(exc, UnicodeDecodeError):
-        text = (f"input is not UTF-8 text: bytes {exc.object[exc.start:exc.end].hex(' ')} at byte offset "
-                f"{exc.start} ({exc.reason})")
+        text = (
+            f"input is not UTF-8 text: bytes {exc.object[exc.start : exc.end].hex(' ')} at byte offset "
+            f"{exc.start} ({exc.reason})"
+        )
     else:
         text = str(exc) or type(exc).__name__
     return " ".join(plain_text(text).split())
@@ -111,8 +114,10 @@ def cli_main(prog: str):
 
 # --- bytes that are not UTF-8 ------------------------------------------------------------------
 
-def bad_bytes_message(name, data: bytes, exc: UnicodeDecodeError, offset0: int = 0, line0: int = 1,
-                      line_start0: int = 0) -> str:
+
+def bad_bytes_message(
+    name, data: bytes, exc: UnicodeDecodeError, offset0: int = 0, line0: int = 1, line_start0: int = 0
+) -> str:
     """``name: line L, column C (byte offset O): bytes ff fe are not UTF-8 text`` for a decode error
     in ``data`` (a block of the file starting at byte offset0, on line line0 whose first byte is at
     line_start0)."""
@@ -120,8 +125,10 @@ def bad_bytes_message(name, data: bytes, exc: UnicodeDecodeError, offset0: int =
     nl = data.rfind(b"\n", 0, off)
     line = line0 + data.count(b"\n", 0, off)
     col = off - nl if nl >= 0 else offset0 + off - line_start0 + 1
-    return (f"{name}: line {line}, column {col} (byte offset {offset0 + off}): bytes "
-            f"{data[exc.start:exc.end].hex(' ')} are not UTF-8 text ({exc.reason}); save the file as UTF-8")
+    return (
+        f"{name}: line {line}, column {col} (byte offset {offset0 + off}): bytes "
+        f"{data[exc.start : exc.end].hex(' ')} are not UTF-8 text ({exc.reason}); save the file as UTF-8"
+    )
 
 
 def decode_utf8(data: bytes, name, error=InputError) -> str:
@@ -162,6 +169,8 @@ def scan_utf8_lines(path, error=InputError, block: int = 1 << 24) -> int:
     try:
         dec.decode(b"", final=True)
     except UnicodeDecodeError:
-        raise error(f"{os.fspath(path)}: the file ends inside a multi-byte character (byte offset {offset}): "
-                    "not UTF-8 text; save the file as UTF-8") from None
+        raise error(
+            f"{os.fspath(path)}: the file ends inside a multi-byte character (byte offset {offset}): "
+            "not UTF-8 text; save the file as UTF-8"
+        ) from None
     return lines + (1 if last not in (b"", b"\n") else 0)

@@ -13,6 +13,7 @@ Examples::
 
 Exit codes: 0 success; 1 the optimisation failed; 2 bad input.
 """
+
 from __future__ import annotations
 
 import argparse
@@ -27,28 +28,67 @@ from .errors import cli_main, plain_text
 
 
 def _parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="optimise", description=__doc__.splitlines()[0].strip("`"),
-                                epilog="objectives: " + "; ".join(f"{o.name}: {o.summary}" for o in OBJECTIVES.values()))
+    p = argparse.ArgumentParser(
+        prog="optimise",
+        description=__doc__.splitlines()[0].strip("`"),
+        epilog="objectives: " + "; ".join(f"{o.name}: {o.summary}" for o in OBJECTIVES.values()),
+    )
     p.add_argument("scenario", nargs="?", help="scenario YAML file (see docs/scenarios.md)")
     p.add_argument("--case", type=int, choices=(1, 2, 3), help="the paper's Case instead of a scenario file")
-    p.add_argument("--parameter", "-p", required=False,
-                   help="parameter to optimise: tmd.damping, tmd.friction_force, ... (bare name: the TMD's)")
-    p.add_argument("--objective", "-o", default="h2", choices=sorted(OBJECTIVES),
-                   help="objective to minimise (default h2, the one that reproduces the paper's values)")
-    p.add_argument("--band", nargs=2, type=float, metavar=("LO", "HI"), default=None,
-                   help="frequency band [rad/s] (default: the scenario's frequencies, or 15 25 with --case)")
-    p.add_argument("--points", type=int, default=None,
-                   help="frequencies in the band (default 2001 linear, 101 nonlinear)")
-    p.add_argument("--bounds", nargs=2, type=float, metavar=("LO", "HI"), default=None,
-                   help="search interval of the parameter (default 0 100 for damping and friction_force)")
-    p.add_argument("--direction", choices=("up", "down", "both"), default=None,
-                   help="sweep direction for nonlinear configurations (default: the scenario's, or up)")
+    p.add_argument(
+        "--parameter",
+        "-p",
+        required=False,
+        help="parameter to optimise: tmd.damping, tmd.friction_force, ... (bare name: the TMD's)",
+    )
+    p.add_argument(
+        "--objective",
+        "-o",
+        default="h2",
+        choices=sorted(OBJECTIVES),
+        help="objective to minimise (default h2, the one that reproduces the paper's values)",
+    )
+    p.add_argument(
+        "--band",
+        nargs=2,
+        type=float,
+        metavar=("LO", "HI"),
+        default=None,
+        help="frequency band [rad/s] (default: the scenario's frequencies, or 15 25 with --case)",
+    )
+    p.add_argument(
+        "--points", type=int, default=None, help="frequencies in the band (default 2001 linear, 101 nonlinear)"
+    )
+    p.add_argument(
+        "--bounds",
+        nargs=2,
+        type=float,
+        metavar=("LO", "HI"),
+        default=None,
+        help="search interval of the parameter (default 0 100 for damping and friction_force)",
+    )
+    p.add_argument(
+        "--direction",
+        choices=("up", "down", "both"),
+        default=None,
+        help="sweep direction for nonlinear configurations (default: the scenario's, or up)",
+    )
     p.add_argument("--scan", type=int, default=None, help="points of the coarse scan before refinement")
     p.add_argument("--xtol", type=float, default=None, help="absolute tolerance on the parameter")
-    p.add_argument("--set", action="append", default=[], metavar="NAME=VALUE",
-                   help="set a parameter before optimising, e.g. --set tmd.damping=10 (repeatable)")
-    p.add_argument("--json", dest="json_out", default=None, metavar="FILE",
-                   help="also write the result and all evaluations as JSON ('-' for stdout)")
+    p.add_argument(
+        "--set",
+        action="append",
+        default=[],
+        metavar="NAME=VALUE",
+        help="set a parameter before optimising, e.g. --set tmd.damping=10 (repeatable)",
+    )
+    p.add_argument(
+        "--json",
+        dest="json_out",
+        default=None,
+        metavar="FILE",
+        help="also write the result and all evaluations as JSON ('-' for stdout)",
+    )
     p.add_argument("--list-objectives", action="store_true", help="list the objectives and exit")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--traceback", action="store_true", help="print the full traceback on failure")
@@ -76,8 +116,10 @@ def _check_json_target(path) -> str | None:
                 return None
         except (OSError, ValueError):
             pass
-        return (f"--json {path}: the file exists and is not a previous optimise result: choose a new name "
-                "(optimise never overwrites files it did not write)")
+        return (
+            f"--json {path}: the file exists and is not a previous optimise result: choose a new name "
+            "(optimise never overwrites files it did not write)"
+        )
     return None
 
 
@@ -140,8 +182,15 @@ def main(argv=None) -> int:
             print(f"  {args.parameter} = {v:<12.6g} {args.objective} = {J:.8g}", file=sys.stderr, flush=True)
 
     try:
-        cfg = OptimiseConfig(band=tuple(args.band or (15.0, 25.0)), bounds=args.bounds, points=args.points,
-                             direction=direction, scan=args.scan, xtol=args.xtol, **kw)
+        cfg = OptimiseConfig(
+            band=tuple(args.band or (15.0, 25.0)),
+            bounds=args.bounds,
+            points=args.points,
+            direction=direction,
+            scan=args.scan,
+            xtol=args.xtol,
+            **kw,
+        )
         res = optimise(base, tmd, args.parameter, args.objective, cfg, progress=progress)
     except (OptimisationError, ParameterError) as exc:
         return _fail(str(exc))
@@ -157,11 +206,19 @@ def main(argv=None) -> int:
     if not res.evaluations["converged"].all():
         print("optimise: warning: some steady states did not converge (see --json)", file=sys.stderr)
     if args.json_out:
-        doc = dict(source=args.scenario or f"case {args.case}", parameter=res.parameter, objective=res.objective,
-                   value=res.value, objective_value=res.objective_value, bounds=list(res.bounds),
-                   band=None if res.band is None else list(res.band), direction=direction,
-                   at_bound=res.at_bound, wall_time=res.wall_time,
-                   evaluations=res.evaluations.to_dict(orient="records"))
+        doc = dict(
+            source=args.scenario or f"case {args.case}",
+            parameter=res.parameter,
+            objective=res.objective,
+            value=res.value,
+            objective_value=res.objective_value,
+            bounds=list(res.bounds),
+            band=None if res.band is None else list(res.band),
+            direction=direction,
+            at_bound=res.at_bound,
+            wall_time=res.wall_time,
+            evaluations=res.evaluations.to_dict(orient="records"),
+        )
         text = json.dumps(doc, indent=2)
         if args.json_out == "-":
             print(text)

@@ -16,6 +16,7 @@ the code version and every setting, so rows computed by older code are never reu
 the named scenarios to a medium grid. Quick or coarse grids are stated in the report. Exit status 1
 when a claim could not be computed because its computation failed (the row says why).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -37,8 +38,12 @@ def main(argv=None) -> int:
     ap = argparse.ArgumentParser(prog="reproduce", description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="docs", help="folder of reproduction.md (figures in <out>/figures/)")
     ap.add_argument("--results", default=None, help="results folder (default results/paper, or results/paper-quick)")
-    ap.add_argument("--engine", default=DEFAULT_ENGINE, choices=sorted(ENGINES),
-                    help=f"engine of every scenario (default {DEFAULT_ENGINE}); stated in the report")
+    ap.add_argument(
+        "--engine",
+        default=DEFAULT_ENGINE,
+        choices=sorted(ENGINES),
+        help=f"engine of every scenario (default {DEFAULT_ENGINE}); stated in the report",
+    )
     ap.add_argument("--quick", action="store_true", help="small grids everywhere (tests, smoke runs)")
     ap.add_argument("--coarse", nargs="*", default=[], help="scenario names to run on a medium grid")
     ap.add_argument("--only", nargs="*", default=None, help="run only these scenario names")
@@ -62,8 +67,9 @@ def main(argv=None) -> int:
         raise InputError("--executor dask needs --scheduler ADDRESS")
     for opt, p in (("--out", out), ("--results", results)):
         if p.exists() and not p.is_dir():
-            raise InputError(f"{opt} {p}: is a file, not a folder; reproduce writes a folder there and never "
-                             "overwrites a file")
+            raise InputError(
+                f"{opt} {p}: is a file, not a folder; reproduce writes a folder there and never overwrites a file"
+            )
     names = a.only if a.only else NAMES
     level_of = lambda n: "quick" if a.quick else ("coarse" if n in a.coarse else None)  # noqa: E731
     ex = make_executor(a.executor, jobs=a.jobs, scheduler=a.scheduler)
@@ -83,8 +89,9 @@ def main(argv=None) -> int:
     figs = draw_figures(runs, figdir, dpi=a.dpi)
     cmd = "reproduce " + " ".join(argv if argv is not None else sys.argv[1:])
     missing = [n for n in NAMES if n not in runs]
-    path = write_report(runs, rows, figs, out, figdir, results, a.quick, a.engine, cmd.strip(), missing,
-                        time.perf_counter() - t0)
+    path = write_report(
+        runs, rows, figs, out, figdir, results, a.quick, a.engine, cmd.strip(), missing, time.perf_counter() - t0
+    )
     errors = [r for r in rows if r.status == "error"]
     print(f"reproduce: wrote {path} ({len(rows)} claims, {len(figs)} figures) in {time.perf_counter() - t0:.0f} s")
     for r in errors:

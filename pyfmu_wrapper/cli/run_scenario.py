@@ -5,6 +5,7 @@ Exit codes: 0 success; 1 the run failed (nothing is left in the output folder); 
 folder of files it did not write, the current folder or one of its parents); 128 + signal number
 when interrupted (130 SIGINT, 143 SIGTERM, 129 SIGHUP: workers ended, partial folder removed).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -26,36 +27,70 @@ from .errors import cli_main
 def _parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="run-scenario", description=__doc__.splitlines()[0])
     p.add_argument("path", help="scenario YAML file (see docs/scenarios.md)")
-    p.add_argument("--out", default=None,
-                   help="output folder (default: results/<scenario name>/); a new or empty folder or an earlier "
-                        "result of run-scenario, which is replaced in one step when the run is complete")
-    p.add_argument("--engine", default=DEFAULT_ENGINE, choices=sorted(ENGINES),
-                   help=f"computation engine (default: {DEFAULT_ENGINE}): cosim = co-simulation of the FMUs, "
-                        "monolithic = single-system solver, both = co-simulation with its difference to the "
-                        "monolithic solver in the summary and the plots")
-    p.add_argument("--accuracy", type=float, default=None,
-                   help="co-simulation: relative amplitude accuracy asked for; sets the communication step "
-                        "(default 1e-3: 96 steps per forcing period; docs/cosimulation.md)")
-    p.add_argument("--coupling", default=None, choices=["impulse", "force"],
-                   help="co-simulation coupling: impulse (default; momentum exchange, no algebraic loop) or force "
-                        "(tmd.force -> base.f_link, the inerter's algebraic loop solved by Newton every step)")
-    p.add_argument("--workers", type=int, default=None, metavar="N",
-                   help="processes that compute sweeps in parallel, one FRC curve or map row each (default 0: "
-                        "all cores); the only parallelism switch. Every sweep is a strict continuation in one "
-                        "process, so the numbers do not depend on N. With --executor sequential: 1 only")
+    p.add_argument(
+        "--out",
+        default=None,
+        help="output folder (default: results/<scenario name>/); a new or empty folder or an earlier "
+        "result of run-scenario, which is replaced in one step when the run is complete",
+    )
+    p.add_argument(
+        "--engine",
+        default=DEFAULT_ENGINE,
+        choices=sorted(ENGINES),
+        help=f"computation engine (default: {DEFAULT_ENGINE}): cosim = co-simulation of the FMUs, "
+        "monolithic = single-system solver, both = co-simulation with its difference to the "
+        "monolithic solver in the summary and the plots",
+    )
+    p.add_argument(
+        "--accuracy",
+        type=float,
+        default=None,
+        help="co-simulation: relative amplitude accuracy asked for; sets the communication step "
+        "(default 1e-3: 96 steps per forcing period; docs/cosimulation.md)",
+    )
+    p.add_argument(
+        "--coupling",
+        default=None,
+        choices=["impulse", "force"],
+        help="co-simulation coupling: impulse (default; momentum exchange, no algebraic loop) or force "
+        "(tmd.force -> base.f_link, the inerter's algebraic loop solved by Newton every step)",
+    )
+    p.add_argument(
+        "--workers",
+        type=int,
+        default=None,
+        metavar="N",
+        help="processes that compute sweeps in parallel, one FRC curve or map row each (default 0: "
+        "all cores); the only parallelism switch. Every sweep is a strict continuation in one "
+        "process, so the numbers do not depend on N. With --executor sequential: 1 only",
+    )
     p.add_argument("--jobs", type=int, default=None, metavar="N", help="deprecated alias of --workers")
-    p.add_argument("--executor", default="local", choices=list(EXECUTORS),
-                   help="where sweeps (map rows, FRC curves) run: local process pool of --workers processes "
-                        "(default), a dask cluster (--scheduler; its workers decide), or sequential in this process")
+    p.add_argument(
+        "--executor",
+        default="local",
+        choices=list(EXECUTORS),
+        help="where sweeps (map rows, FRC curves) run: local process pool of --workers processes "
+        "(default), a dask cluster (--scheduler; its workers decide), or sequential in this process",
+    )
     p.add_argument("--scheduler", default=None, help="dask scheduler address, e.g. tcp://host:8786 (--executor dask)")
-    p.add_argument("--no-resume", dest="resume", action="store_false",
-                   help="recompute every sweep instead of reusing the checkpoints of an earlier (killed) run")
-    p.add_argument("--cache", default=None,
-                   help="checkpoint folder (default: <out>.checkpoints/ beside the output folder)")
+    p.add_argument(
+        "--no-resume",
+        dest="resume",
+        action="store_false",
+        help="recompute every sweep instead of reusing the checkpoints of an earlier (killed) run",
+    )
+    p.add_argument(
+        "--cache", default=None, help="checkpoint folder (default: <out>.checkpoints/ beside the output folder)"
+    )
     p.add_argument("--quiet", action="store_true", help="no progress report (the closing lines are still printed)")
-    p.add_argument("--progress-every", type=float, default=5.0, metavar="SECONDS",
-                   help="when stderr is not a terminal (a log, a pipe): one progress line every SECONDS "
-                        "(default 5); on a terminal the line is redrawn every second")
+    p.add_argument(
+        "--progress-every",
+        type=float,
+        default=5.0,
+        metavar="SECONDS",
+        help="when stderr is not a terminal (a log, a pipe): one progress line every SECONDS "
+        "(default 5); on a terminal the line is redrawn every second",
+    )
     p.add_argument("--traceback", action="store_true", help="print the full traceback on failure")
     return p
 
@@ -81,8 +116,16 @@ class Progress:
     nothing has moved).
     """
 
-    def __init__(self, total: float, name: str, stream=None, tty: bool | None = None, interval: float = 5.0,
-                 enabled: bool = True, instant: float = 0.0):
+    def __init__(
+        self,
+        total: float,
+        name: str,
+        stream=None,
+        tty: bool | None = None,
+        interval: float = 5.0,
+        enabled: bool = True,
+        instant: float = 0.0,
+    ):
         self.total, self.name = float(total), name
         self.instant = float(instant)  #: points known to cost nothing (closed form, repeated sweeps)
         self.stream = stream if stream is not None else sys.stderr
@@ -134,8 +177,10 @@ class Progress:
         pct = 100.0 * done / self.total if self.total else 100.0
         eta = self.eta()
         left = "estimating the time left" if eta is None else f"about {_fmt_time(eta)} left"
-        return (f"run-scenario: {self.name}: {done:.0f}/{self.total:.0f} points ({pct:.0f} %), "
-                f"{_fmt_time(time.monotonic() - self.t0)} elapsed, {left}")
+        return (
+            f"run-scenario: {self.name}: {done:.0f}/{self.total:.0f} points ({pct:.0f} %), "
+            f"{_fmt_time(time.monotonic() - self.t0)} elapsed, {left}"
+        )
 
     def _emit(self, final=False) -> None:
         text = self.line()
@@ -209,8 +254,11 @@ def _workers(args) -> tuple[int | None, str | None]:
     if n is not None and n < 0:
         return None, f"{opt} must be >= 0 (0: all cores), got {n}"
     if args.executor == "sequential" and n not in (None, 1):
-        return None, f"--executor sequential computes in this process only; {opt} {n} would not be used (drop it, " \
-                     "or use --executor local)"
+        return (
+            None,
+            f"--executor sequential computes in this process only; {opt} {n} would not be used (drop it, "
+            "or use --executor local)",
+        )
     if args.executor == "dask" and n is not None:
         return None, f"with --executor dask the cluster's workers compute; {opt} {n} would not be used (drop it)"
     return (0 if n is None else n), None
@@ -232,8 +280,10 @@ def main(argv=None) -> int:
         from dataclasses import replace
 
         if args.engine == "monolithic":
-            return _err("--accuracy and --coupling are co-simulation settings; the monolithic engine "
-                        "does not use them (use --engine cosim or both)")
+            return _err(
+                "--accuracy and --coupling are co-simulation settings; the monolithic engine "
+                "does not use them (use --engine cosim or both)"
+            )
         if args.accuracy is not None and not (0 < args.accuracy < 1):
             return _err(f"--accuracy must be in (0, 1), got {args.accuracy}")
         cosim = scn.cosim.settings()  # the scenario's cosim block, then the command line over it
@@ -259,17 +309,32 @@ def main(argv=None) -> int:
     datas: list = []
     old_handlers = _install_signals()
     try:
-        with Progress(work_units(scn, settings), scn.name, interval=args.progress_every, enabled=not args.quiet,
-                      instant=instant_units(scn, settings)) as bar:
-            folder = run_scenario(scn, out, settings, progress=bar, executor=executor, checkpoint_dir=cache,
-                                  resume=args.resume, collect=datas)
+        with Progress(
+            work_units(scn, settings),
+            scn.name,
+            interval=args.progress_every,
+            enabled=not args.quiet,
+            instant=instant_units(scn, settings),
+        ) as bar:
+            folder = run_scenario(
+                scn,
+                out,
+                settings,
+                progress=bar,
+                executor=executor,
+                checkpoint_dir=cache,
+                resume=args.resume,
+                collect=datas,
+            )
     except KeyboardInterrupt as exc:
         executor.abort()
         signum = getattr(exc, "signum", signal.SIGINT)
         name = signal.Signals(signum).name
-        print(f"\nrun-scenario: interrupted ({name}); workers ended, no results written to {out} (finished sweeps "
-              f"are kept in {cache}: run the same command again to resume); exit status {128 + signum}",
-              file=sys.stderr)
+        print(
+            f"\nrun-scenario: interrupted ({name}); workers ended, no results written to {out} (finished sweeps "
+            f"are kept in {cache}: run the same command again to resume); exit status {128 + signum}",
+            file=sys.stderr,
+        )
         return 128 + signum
     except OutputError as exc:  # the folder changed under us since the check
         executor.abort()
@@ -278,8 +343,11 @@ def main(argv=None) -> int:
         executor.abort()
         if args.traceback:
             traceback.print_exc()
-        print(f"run-scenario: error: running {args.path} failed: {type(exc).__name__}: {exc}\n"
-              f"run-scenario: no results were written to {out}", file=sys.stderr)
+        print(
+            f"run-scenario: error: running {args.path} failed: {type(exc).__name__}: {exc}\n"
+            f"run-scenario: no results were written to {out}",
+            file=sys.stderr,
+        )
         return 1
     finally:
         for sig, h in old_handlers.items():

@@ -1,6 +1,7 @@
 """The base + TMD pair in another vendor's master, Ecos (pip ``ecospy``, a C++ co-simulation engine
 with a fixed-step, zero-order-hold force coupling): one set-up for the tests
 (tests/test_fmu_ecos.py) and the accuracy table (benchmarks/accuracy_table.py)."""
+
 from __future__ import annotations
 
 import ctypes
@@ -33,8 +34,13 @@ def ecos_simulation(fmus: dict, base: BaseParams, tmd: TMDParams, omega: float, 
     for c in CONNECTIONS:
         src, dst = (s.strip().replace(".", "::") for s in c.split("->"))
         ss.make_real_connection(src, dst)
-    ss.add_parameter_set("p", {k.replace(".", "::"): (v if isinstance(v, int) else float(v))
-                               for k, v in fmu_parameters(base, tmd, omega, z0).items()})
+    ss.add_parameter_set(
+        "p",
+        {
+            k.replace(".", "::"): (v if isinstance(v, int) else float(v))
+            for k, v in fmu_parameters(base, tmd, omega, z0).items()
+        },
+    )
     sim = ecospy.EcosSimulation(structure=ss, step_size=h)
     try:
         sim.init(parameter_set="p")

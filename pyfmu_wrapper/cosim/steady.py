@@ -14,6 +14,7 @@ final state (x, xd, y, yd read from the FMU outputs; d, dd of the play chain fro
 :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`) or, for the first one, from
 :func:`initial_guess`.
 """
+
 from __future__ import annotations
 
 import math
@@ -85,8 +86,14 @@ class CosimSettings(SteadySettings):
 #: error model: relative FRC error ~ C (2 pi / N)^q with N steps per period, (C, q) per coupling and
 #: extrapolation order, fitted to the largest error against the monolithic solver over the
 #: configuration types (docs/cosimulation.md), C rounded up by a safety factor of about 3
-_ERR_MODEL = {("impulse", 2): (3.0, 3), ("impulse", 1): (10.0, 2), ("impulse", 0): (10.0, 1),
-              ("force", 2): (20.0, 3), ("force", 1): (20.0, 2), ("force", 0): (10.0, 1)}
+_ERR_MODEL = {
+    ("impulse", 2): (3.0, 3),
+    ("impulse", 1): (10.0, 2),
+    ("impulse", 0): (10.0, 1),
+    ("force", 2): (20.0, 3),
+    ("force", 1): (20.0, 2),
+    ("force", 0): (10.0, 1),
+}
 #: with a gear gap (play) the error is set by the rattling chain (contact times are sensitive to
 #: any perturbation), not by a smooth discretisation: fitted to the largest error over the 41-point
 #: sweeps of the six play and full-model configurations of the paper (regular points), impulse
@@ -146,8 +153,9 @@ class _Periods:
 def _state_of(master: Master, z_guess: np.ndarray) -> np.ndarray:
     s = master.signals
     y = master.y
-    return np.array([y[s.index("base.x")], y[s.index("base.xd")], y[s.index("tmd.y")], y[s.index("tmd.yd")],
-                     z_guess[4], z_guess[5]])
+    return np.array(
+        [y[s.index("base.x")], y[s.index("base.xd")], y[s.index("tmd.y")], y[s.index("tmd.yd")], z_guess[4], z_guess[5]]
+    )
 
 
 def _can_shoot(tmd: TMDParams) -> bool:
@@ -166,16 +174,20 @@ def _shoot(master: Master, base, tmd, omega, z0, settings: CosimSettings, run: _
     the sweep (``hint['A']``) or from finite differences. Returns the ShootingResult or None."""
     z = np.array(z0[:4], dtype=float)
     tail = np.asarray(z0[4:6], dtype=float)
-    amp = max(math.hypot(z[0], z[1] / omega), math.hypot(z[2], z[3] / omega),
-              1e-6 * abs(base.force_amplitude) / base.stiffness)
+    amp = max(
+        math.hypot(z[0], z[1] / omega),
+        math.hypot(z[2], z[3] / omega),
+        1e-6 * abs(base.force_amplitude) / base.stiffness,
+    )
 
     def period_map(zz):
         _start(master, base, tmd, omega, np.concatenate([zz, tail]), settings)
         a = run.period()
         return _state_of(master, np.zeros(6))[:4], a
 
-    res = shoot(period_map, z, np.array([amp, amp * omega, amp, amp * omega]), settings.tol,
-                settings.max_newton, hint.get("A"))
+    res = shoot(
+        period_map, z, np.array([amp, amp * omega, amp, amp * omega]), settings.tol, settings.max_newton, hint.get("A")
+    )
     if res is None:
         hint.pop("A", None)
     else:
@@ -183,8 +195,15 @@ def _shoot(master: Master, base, tmd, omega, z0, settings: CosimSettings, run: _
     return res
 
 
-def steady_state(master: Master, base: BaseParams, tmd: TMDParams, omega: float, z0=None,
-                 settings: CosimSettings = CosimSettings(), hint: dict | None = None) -> CosimSteadyState:
+def steady_state(
+    master: Master,
+    base: BaseParams,
+    tmd: TMDParams,
+    omega: float,
+    z0=None,
+    settings: CosimSettings = CosimSettings(),
+    hint: dict | None = None,
+) -> CosimSteadyState:
     """Co-simulated steady state at omega [rad/s] (definition in the module doc).
 
     Window 1 without play: Newton shooting on the co-simulated period map (``settings.shooting``,
@@ -198,8 +217,9 @@ def steady_state(master: Master, base: BaseParams, tmd: TMDParams, omega: float,
     if W > 1 and settings.play_start == "companion":
         # the play model starts from the orbit of its smooth companion (ideal inerter), as in the
         # monolithic solver: the windows then settle in about two (see companion_start)
-        z = companion_start(base, tmd, omega, SolverSettings(rtol=1e-8, atol_scale=1e-8),
-                            hint.setdefault("monolithic", {}))
+        z = companion_start(
+            base, tmd, omega, SolverSettings(rtol=1e-8, atol_scale=1e-8), hint.setdefault("monolithic", {})
+        )
     else:
         guess = initial_guess(base, tmd, omega)
         z = guess if z0 is None else np.array(z0, dtype=float)
@@ -212,10 +232,17 @@ def steady_state(master: Master, base: BaseParams, tmd: TMDParams, omega: float,
     if W == 1 and settings.shooting and _can_shoot(tmd):
         res = _shoot(master, base, tmd, omega, z, settings, run, hint)
         if res is not None:  # the master stands at the end of the period from res.z
-            return CosimSteadyState(omega=float(omega), amplitude=res.amplitude, state=_state_of(master, z),
-                                    periods=res.periods, converged=True, change=res.change,
-                                    steps=res.periods * n, wall_time=time.perf_counter() - t_start,
-                                    period_max=np.array([res.amplitude]))
+            return CosimSteadyState(
+                omega=float(omega),
+                amplitude=res.amplitude,
+                state=_state_of(master, z),
+                periods=res.periods,
+                converged=True,
+                change=res.change,
+                steps=res.periods * n,
+                wall_time=time.perf_counter() - t_start,
+                period_max=np.array([res.amplitude]),
+            )
         steps = 0
     _start(master, base, tmd, omega, z, settings)
     crit = WindowCriterion.from_settings(settings, W, base, omega)
@@ -229,10 +256,18 @@ def steady_state(master: Master, base: BaseParams, tmd: TMDParams, omega: float,
         if crit.add(run.period(), (master.y[ix], master.y[iv])):
             break
     amplitude, converged, change = crit.result()
-    return CosimSteadyState(omega=float(omega), amplitude=amplitude, state=_state_of(master, z),
-                            periods=k, converged=converged, change=change, steps=steps + k * n,
-                            wall_time=time.perf_counter() - t_start, period_max=np.array(crit.period_max),
-                            irregular=crit.irregular)
+    return CosimSteadyState(
+        omega=float(omega),
+        amplitude=amplitude,
+        state=_state_of(master, z),
+        periods=k,
+        converged=converged,
+        change=change,
+        steps=steps + k * n,
+        wall_time=time.perf_counter() - t_start,
+        period_max=np.array(crit.period_max),
+        irregular=crit.irregular,
+    )
 
 
 def _time_split(before: dict, after: dict) -> dict:
@@ -241,8 +276,10 @@ def _time_split(before: dict, after: dict) -> dict:
     loop's own work (``master_loop_time``) and the steps taken on the Python path
     (``python_step_time``); the rest of ``wall_time`` is the steady-state logic (shooting,
     windows, re-initialisations)."""
-    out = {f"fmu_time_{k}": v["seconds"] - before["fmus"].get(k, {"seconds": 0.0})["seconds"]
-           for k, v in after["fmus"].items()}
+    out = {
+        f"fmu_time_{k}": v["seconds"] - before["fmus"].get(k, {"seconds": 0.0})["seconds"]
+        for k, v in after["fmus"].items()
+    }
     out["master_loop_time"] = after["master_seconds"] - before["master_seconds"]
     out["python_step_time"] = after["python_seconds"] - before["python_seconds"]
     return out
@@ -257,8 +294,15 @@ def continuation_start(base: BaseParams, tmd: TMDParams, z_prev, w_prev: float, 
 
 
 def _sweep_piece(base, tmd, seq, direction, settings, z0, queue=None):
-    master = make_master(base, tmd, settings.scheme, settings.order, coupling=settings.coupling,
-                         interface_jacobian=settings.interface_jacobian, fmi_version=settings.fmi_version)
+    master = make_master(
+        base,
+        tmd,
+        settings.scheme,
+        settings.order,
+        coupling=settings.coupling,
+        interface_jacobian=settings.interface_jacobian,
+        fmi_version=settings.fmi_version,
+    )
     rows = []
     z = None if z0 is None else np.asarray(z0, dtype=float)
     hint: dict = {}
@@ -271,10 +315,21 @@ def _sweep_piece(base, tmd, seq, direction, settings, z0, queue=None):
             before = master.timing()
             ss = steady_state(master, base, tmd, float(w), start, settings, hint)
             z, w_prev = ss.state, float(w)
-            rows.append(dict(direction=direction, omega=float(w), amplitude=ss.amplitude, periods=ss.periods,
-                             converged=ss.converged, irregular=ss.irregular, change=ss.change, steps=ss.steps,
-                             rejected=0,
-                             wall_time=ss.wall_time, **_time_split(before, master.timing())))
+            rows.append(
+                dict(
+                    direction=direction,
+                    omega=float(w),
+                    amplitude=ss.amplitude,
+                    periods=ss.periods,
+                    converged=ss.converged,
+                    irregular=ss.irregular,
+                    change=ss.change,
+                    steps=ss.steps,
+                    rejected=0,
+                    wall_time=ss.wall_time,
+                    **_time_split(before, master.timing()),
+                )
+            )
             if queue is not None:
                 queue.put(1)
     finally:
@@ -282,8 +337,16 @@ def _sweep_piece(base, tmd, seq, direction, settings, z0, queue=None):
     return rows, z
 
 
-def sweep(base: BaseParams, tmd: TMDParams, omegas, direction: str = "up", settings: CosimSettings = CosimSettings(),
-          progress=None, z0=None, workers: int = 1) -> pd.DataFrame:
+def sweep(
+    base: BaseParams,
+    tmd: TMDParams,
+    omegas,
+    direction: str = "up",
+    settings: CosimSettings = CosimSettings(),
+    progress=None,
+    z0=None,
+    workers: int = 1,
+) -> pd.DataFrame:
     """Co-simulated steady-state amplitudes over omegas (sorted), up, down or both.
 
     workers > 1 splits each direction into that many contiguous pieces, one process each (the
@@ -294,19 +357,34 @@ def sweep(base: BaseParams, tmd: TMDParams, omegas, direction: str = "up", setti
     return pd.DataFrame(rows)
 
 
-def periodic_time_series(base: BaseParams, tmd: TMDParams, omega: float, n_periods: int = 1,
-                         samples_per_period: int | None = None, settings: CosimSettings = CosimSettings(),
-                         master: Master | None = None):
+def periodic_time_series(
+    base: BaseParams,
+    tmd: TMDParams,
+    omega: float,
+    n_periods: int = 1,
+    samples_per_period: int | None = None,
+    settings: CosimSettings = CosimSettings(),
+    master: Master | None = None,
+):
     """Steady state, then n_periods more recorded at the communication points.
 
     Returns (t, states[:, 6] = x, xd, y, yd, d, dd (d, dd: nan, not outputs of the FMUs), steady state).
     ``samples_per_period`` overrides the communication steps per period (the record is at the
     communication points)."""
     own = master is None
-    m = master if master is not None else make_master(base, tmd, settings.scheme, settings.order,
-                                                      coupling=settings.coupling,
-                                                      interface_jacobian=settings.interface_jacobian,
-                                                      fmi_version=settings.fmi_version)
+    m = (
+        master
+        if master is not None
+        else make_master(
+            base,
+            tmd,
+            settings.scheme,
+            settings.order,
+            coupling=settings.coupling,
+            interface_jacobian=settings.interface_jacobian,
+            fmi_version=settings.fmi_version,
+        )
+    )
     try:
         if samples_per_period is not None:
             settings = replace(settings, steps_per_period=int(samples_per_period))

@@ -12,6 +12,7 @@ FMU parameters (through the parameter registry), :func:`make_master` builds the 
 :class:`~pyfmu_wrapper.master.master.Master` for the pair and :func:`export_tmd_system` writes
 the pair as an SSP file (:func:`pyfmu_wrapper.master.ssp.export_ssp`).
 """
+
 from __future__ import annotations
 
 from pathlib import Path
@@ -39,12 +40,20 @@ def fmu_parameters(base: BaseParams, tmd: TMDParams, omega: float, z0, fmu_rtol:
     """The FMU parameter values ("instance.variable" -> value) of a configuration and start state."""
     z = np.asarray(z0, dtype=float)
     out = registry.fmu_start_values(base, tmd, omega)
-    out.update({
-        "base.x0": z[0], "base.xd0": z[1], "base.rtol": fmu_rtol,
-        "base.atol": max(1e-8 * abs(base.force_amplitude) / base.stiffness, ATOL_FLOOR),
-        "tmd.y0": z[2], "tmd.yd0": z[3], "tmd.d0": z[4], "tmd.dd0": z[5], "tmd.rtol": fmu_rtol,
-        "tmd.atol": _tmd_atol(base, tmd),
-    })
+    out.update(
+        {
+            "base.x0": z[0],
+            "base.xd0": z[1],
+            "base.rtol": fmu_rtol,
+            "base.atol": max(1e-8 * abs(base.force_amplitude) / base.stiffness, ATOL_FLOOR),
+            "tmd.y0": z[2],
+            "tmd.yd0": z[3],
+            "tmd.d0": z[4],
+            "tmd.dd0": z[5],
+            "tmd.rtol": fmu_rtol,
+            "tmd.atol": _tmd_atol(base, tmd),
+        }
+    )
     return out
 
 
@@ -73,13 +82,24 @@ def impulse_connections(tmd: TMDParams, interface_jacobian: bool = True) -> list
     base's then jumpy end-of-step acceleration (docs/cosimulation.md, "interface Jacobian")."""
     if not interface_jacobian:
         return [*CONNECTIONS[:3], Connection("tmd.yd", "base.f_link", "rate", float(tmd.mass), "tmd.force")]
-    return [CONNECTIONS[0], CONNECTIONS[1], "base.xdd_free -> tmd.xdd",
-            Connection("tmd.yd", "base.f_link", "rate", float(tmd.mass), "tmd.force", integral_src="tmd.y")]
+    return [
+        CONNECTIONS[0],
+        CONNECTIONS[1],
+        "base.xdd_free -> tmd.xdd",
+        Connection("tmd.yd", "base.f_link", "rate", float(tmd.mass), "tmd.force", integral_src="tmd.y"),
+    ]
 
 
-def make_master(base: BaseParams | None = None, tmd: TMDParams | None = None, scheme: str = "loop",
-                order: int = 2, fmus: dict | None = None, coupling: str = "force",
-                interface_jacobian: bool = True, fmi_version: int = 2) -> Master:
+def make_master(
+    base: BaseParams | None = None,
+    tmd: TMDParams | None = None,
+    scheme: str = "loop",
+    order: int = 2,
+    fmus: dict | None = None,
+    coupling: str = "force",
+    interface_jacobian: bool = True,
+    fmi_version: int = 2,
+) -> Master:
     """A master for the base + TMD pair (the FMUs are built if missing or stale).
 
     coupling: "force" (tmd.force -> base.f_link, the algebraic loop of the ideal inerter) or
@@ -92,13 +112,20 @@ def make_master(base: BaseParams | None = None, tmd: TMDParams | None = None, sc
         fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
     if coupling == "impulse":
         pars = {"tmd.base_compliance": 1.0 / (base or BaseParams()).mass} if interface_jacobian else {}
-        return Master(fmus, impulse_connections(tmd or TMDParams(), interface_jacobian), pars, scheme="jacobi",
-                      order=order, record=RECORD)
+        return Master(
+            fmus,
+            impulse_connections(tmd or TMDParams(), interface_jacobian),
+            pars,
+            scheme="jacobi",
+            order=order,
+            record=RECORD,
+        )
     return Master(fmus, CONNECTIONS, {}, scheme=scheme, order=order, record=RECORD)
 
 
-def export_tmd_system(path, base, tmd, omega: float, z0=None, stop_time: float | None = None,
-                      step_size: float | None = None) -> Path:
+def export_tmd_system(
+    path, base, tmd, omega: float, z0=None, stop_time: float | None = None, step_size: float | None = None
+) -> Path:
     """SSP of the base + TMD pair of this project at excitation omega [rad/s] (start state z0,
     default the linear steady state of :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`;
     step_size: OMSimulator's master step, see :func:`pyfmu_wrapper.master.ssp.ssd_xml`)."""
@@ -107,5 +134,12 @@ def export_tmd_system(path, base, tmd, omega: float, z0=None, stop_time: float |
     paths = ensure_fmus()
     fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
     z = initial_guess(base, tmd, omega) if z0 is None else z0
-    return export_ssp(path, fmus, CONNECTIONS, fmu_parameters(base, tmd, omega, z), name="BaseTMD",
-                      stop_time=stop_time, step_size=step_size)
+    return export_ssp(
+        path,
+        fmus,
+        CONNECTIONS,
+        fmu_parameters(base, tmd, omega, z),
+        name="BaseTMD",
+        stop_time=stop_time,
+        step_size=step_size,
+    )

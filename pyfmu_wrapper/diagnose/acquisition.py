@@ -36,6 +36,7 @@ and the displacement DC (a static preload, the static deflection). The diagnosis
 rows of such records from the equation error and evaluates nonlinear link forces about the nominal
 static equilibrium (no relative offset between base and TMD).
 """
+
 from __future__ import annotations
 
 import math
@@ -150,8 +151,12 @@ def _parse_filter(f, file, key):
     if typ not in FILTER_TYPES:
         raise _err(file, f"{key}.type must be one of {list(FILTER_TYPES)}, got {f['type']!r}")
     order = f["order"]
-    if isinstance(order, bool) or not isinstance(order, (int, float)) or order != int(order) \
-            or not 1 <= int(order) <= MAX_ORDER:
+    if (
+        isinstance(order, bool)
+        or not isinstance(order, (int, float))
+        or order != int(order)
+        or not 1 <= int(order) <= MAX_ORDER
+    ):
         raise _err(file, f"{key}.order must be an integer from 1 to {MAX_ORDER}, got {order!r}")
     fc = _finite(f["cutoff_hz"], file, f"{key}.cutoff_hz")
     if not fc > 0:
@@ -165,8 +170,11 @@ def parse_acquisition(block, file, level: str = "system") -> dict:
     if block is None:
         return {}
     if level != "system":
-        raise _err(file, "'acquisition' is for system-level datasets (channels force, x, y, xdd, ydd); "
-                         f"this dataset has level {level!r}")
+        raise _err(
+            file,
+            "'acquisition' is for system-level datasets (channels force, x, y, xdd, ydd); "
+            f"this dataset has level {level!r}",
+        )
     if not isinstance(block, dict):
         raise _err(file, f"'acquisition' must be a mapping of channel -> {{filter, delay_s}}, got {block!r}")
     unknown = sorted(set(map(str, block)) - set(CHANNELS) - {"all"})
@@ -198,8 +206,14 @@ def parse_acquisition(block, file, level: str = "system") -> dict:
             continue
         f = p.get("filter", {"type": None})
         src = ch if "filter" in parsed.get(ch, {}) else "all"
-        c = Chain(ch, f["type"], f.get("order", 0), f.get("cutoff_hz", 0.0), p.get("delay_s", 0.0),
-                  f"acquisition.{src}.filter")
+        c = Chain(
+            ch,
+            f["type"],
+            f.get("order", 0),
+            f.get("cutoff_hz", 0.0),
+            p.get("delay_s", 0.0),
+            f"acquisition.{src}.filter",
+        )
         if c.type is not None or c.delay_s:
             out[ch] = c
     return out
@@ -217,8 +231,11 @@ def check_records(chains: dict, records, file):
             t = r.columns["t"]
             fs = (t.size - 1) / (t[-1] - t[0])
             if c.cutoff_hz > 0.5 * fs * (1 + 1e-9):
-                raise _err(file, f"{c.filter_key}.cutoff_hz = {c.cutoff_hz:g} Hz is above the Nyquist frequency fs/2 = {0.5 * fs:g} Hz "
-                                 f"of record {r.name} (an anti-alias cut-off lies below fs/2)")
+                raise _err(
+                    file,
+                    f"{c.filter_key}.cutoff_hz = {c.cutoff_hz:g} Hz is above the Nyquist frequency fs/2 = {0.5 * fs:g} Hz "
+                    f"of record {r.name} (an anti-alias cut-off lies below fs/2)",
+                )
 
 
 def correct_series(s, chains: dict):

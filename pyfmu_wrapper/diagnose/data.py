@@ -12,6 +12,7 @@ Record kinds (told apart by their columns):
 Every problem is raised as :class:`DataError` naming the file, and where it applies the row
 (1-based data row, not counting the header or '#' comment lines) and the column.
 """
+
 from __future__ import annotations
 
 import math
@@ -41,8 +42,17 @@ class Dataset:
 #: refused with this list (a typo such as ``rol: test`` must not be ignored silently).
 ALLOWED_KEYS = {
     "dataset": ("level", "description", "nominal", "records", "x_max_noise", "acquisition"),
-    "record": ("file", "kind", "omega", "frequency_hz", "force_amplitude", "amplitude", "role", "source_file",
-               "description"),
+    "record": (
+        "file",
+        "kind",
+        "omega",
+        "frequency_hz",
+        "force_amplitude",
+        "amplitude",
+        "role",
+        "source_file",
+        "description",
+    ),
 }
 
 
@@ -61,8 +71,12 @@ def _number(v, file, key, line=None, minimum=None, strict=False, unit=""):
     if not math.isfinite(x):
         raise _err(file, f"'{key}' must be finite, got {v!r}", line=line)
     if minimum is not None and (x <= minimum if strict else x < minimum):
-        raise _err(file, f"'{key}' must be {'>' if strict else '>='} {minimum:g}{' ' + unit if unit else ''} "
-                         f"(a physical value), got {v!r}", line=line)
+        raise _err(
+            file,
+            f"'{key}' must be {'>' if strict else '>='} {minimum:g}{' ' + unit if unit else ''} "
+            f"(a physical value), got {v!r}",
+            line=line,
+        )
     return x
 
 
@@ -70,8 +84,11 @@ def _unknown_keys(node, allowed, file, where):
     unknown = [k for k in node if k not in allowed]
     if unknown:
         k = unknown[0]
-        raise _err(file, f"{where}: unknown key(s) {[str(u) for u in unknown]}; allowed keys: {list(allowed)}",
-                   line=_line(node, k))
+        raise _err(
+            file,
+            f"{where}: unknown key(s) {[str(u) for u in unknown]}; allowed keys: {list(allowed)}",
+            line=_line(node, k),
+        )
 
 
 def _plain_data(x):
@@ -99,8 +116,9 @@ def load_dataset(path, model_override: dict | None = None, log=_stderr, model_so
         raw = load_marked(text, name=str(yml))
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None) or getattr(e, "context_mark", None)
-        raise _err(yml, f"invalid YAML: {' '.join(str(e).split())}",
-                   line=None if mark is None else mark.line + 1) from None
+        raise _err(
+            yml, f"invalid YAML: {' '.join(str(e).split())}", line=None if mark is None else mark.line + 1
+        ) from None
     raw = {} if raw is None else raw
     if not isinstance(raw, dict):
         raise _err(yml, "must be a mapping with keys level, nominal, records")
@@ -109,8 +127,7 @@ def load_dataset(path, model_override: dict | None = None, log=_stderr, model_so
     if level not in ("link", "system"):
         raise _err(yml, f"'level' must be 'link' or 'system', got {level!r}", line=_line(raw, "level"))
     if "x_max_noise" in raw:
-        raw["x_max_noise"] = _number(raw["x_max_noise"], yml, "x_max_noise", _line(raw, "x_max_noise"), 0.0,
-                                     unit="m")
+        raw["x_max_noise"] = _number(raw["x_max_noise"], yml, "x_max_noise", _line(raw, "x_max_noise"), 0.0, unit="m")
     nominal = model_override if model_override is not None else raw.get("nominal")
     if not isinstance(nominal, dict):
         raise _err(yml, "'nominal' (the model parameters) is missing or not a mapping", line=_line(raw, "nominal"))
@@ -127,31 +144,59 @@ def load_dataset(path, model_override: dict | None = None, log=_stderr, model_so
             raise _err(yml, f"records[{i}] needs a 'file' key (a CSV file name)", line=ln)
         _unknown_keys(entry, ALLOWED_KEYS["record"], yml, f"records[{i}] ({entry.get('file')})")
         if not isinstance(entry["file"], str) or not entry["file"].strip():
-            raise _err(yml, f"records[{i}].file must be a file name, got {entry['file']!r}", line=_line(entry, "file") or ln)
+            raise _err(
+                yml, f"records[{i}].file must be a file name, got {entry['file']!r}", line=_line(entry, "file") or ln
+            )
         for key in ("omega", "force_amplitude", "amplitude", "frequency_hz"):
             if key in entry:
-                entry[key] = _number(entry[key], yml, f"records[{i}].{key}", _line(entry, key) or ln, 0.0, strict=True,
-                                 unit={"omega": "rad/s", "frequency_hz": "Hz"}.get(key, ""))
+                entry[key] = _number(
+                    entry[key],
+                    yml,
+                    f"records[{i}].{key}",
+                    _line(entry, key) or ln,
+                    0.0,
+                    strict=True,
+                    unit={"omega": "rad/s", "frequency_hz": "Hz"}.get(key, ""),
+                )
         if entry.get("role") not in (None, "train", "test"):
-            raise _err(yml, f"records[{i}].role must be 'train' or 'test', got {entry['role']!r}", line=_line(entry, "role") or ln)
+            raise _err(
+                yml,
+                f"records[{i}].role must be 'train' or 'test', got {entry['role']!r}",
+                line=_line(entry, "role") or ln,
+            )
         if entry.get("kind") not in (None, *REQUIRED):
-            raise _err(yml, f"records[{i}].kind must be one of {list(REQUIRED)}, got {entry['kind']!r}",
-                       line=_line(entry, "kind") or ln)
+            raise _err(
+                yml,
+                f"records[{i}].kind must be one of {list(REQUIRED)}, got {entry['kind']!r}",
+                line=_line(entry, "kind") or ln,
+            )
         records.append(read_record(path / entry["file"], level, _plain_data(entry), log=log))
     roles = [r.role for r in records if r.kind != "frc"]
     if any(roles) and "test" not in roles:
-        raise _err(yml, "every record has role 'train': mark at least one record 'role: test' (held out), or give "
-                        "no roles (records are then held out automatically)", line=_line(raw, "records"))
+        raise _err(
+            yml,
+            "every record has role 'train': mark at least one record 'role: test' (held out), or give "
+            "no roles (records are then held out automatically)",
+            line=_line(raw, "records"),
+        )
     if roles and all(r == "test" for r in roles):
-        raise _err(yml, "every record has role 'test': at least one record must be for training",
-                   line=_line(raw, "records"))
+        raise _err(
+            yml, "every record has role 'test': at least one record must be for training", line=_line(raw, "records")
+        )
     from .acquisition import check_records, correct_frc, parse_acquisition
 
     acq = parse_acquisition(raw.get("acquisition"), yml, level)
     check_records(acq, records, yml)
     correct_frc(records, acq)
-    return Dataset(path=path, level=level, nominal=nominal, records=records,
-                   description=str(raw.get("description", "")), raw=_plain_data(raw), acquisition=acq)
+    return Dataset(
+        path=path,
+        level=level,
+        nominal=nominal,
+        records=records,
+        description=str(raw.get("description", "")),
+        raw=_plain_data(raw),
+        acquisition=acq,
+    )
 
 
 def normalise_nominal(nom: dict, level: str, file) -> dict:
@@ -167,34 +212,56 @@ def normalise_nominal(nom: dict, level: str, file) -> dict:
     if level == "link":
         if "link" in nom and set(nom) - {"link", "base", "tmd"}:
             extra = sorted(map(str, set(nom) - {"link", "base", "tmd"}))
-            raise _err(file, f"nominal: unknown key(s) {extra} beside 'link'; allowed keys: ['link'] (or the link "
-                             f"parameters {list(LINK_NOMINAL)} directly)", line=_line(nom, extra[0]))
+            raise _err(
+                file,
+                f"nominal: unknown key(s) {extra} beside 'link'; allowed keys: ['link'] (or the link "
+                f"parameters {list(LINK_NOMINAL)} directly)",
+                line=_line(nom, extra[0]),
+            )
         src = nom.get("link", nom)
         if "tmd" in nom and "link" not in nom:  # a scenario: its TMD link is the device
             try:
                 t = TMDParams(**nom["tmd"], source=str(file))
             except (ParameterError, TypeError) as e:
                 raise _err(file, f"nominal model: {e}", line=_line(nom, "tmd")) from None
-            src = {"stiffness": t.stiffness, "damping": t.damping, "friction_force": t.friction_force,
-                   "friction_slope": t.friction_slope, "inertance": t.inertance}
+            src = {
+                "stiffness": t.stiffness,
+                "damping": t.damping,
+                "friction_force": t.friction_force,
+                "friction_slope": t.friction_slope,
+                "inertance": t.inertance,
+            }
         if not isinstance(src, dict):
             raise _err(file, "nominal.link must be a mapping of the link parameters", line=_line(nom, "link"))
         unknown = set(src) - set(LINK_NOMINAL)
         if unknown:
-            raise _err(file, f"unknown nominal link parameter(s) {sorted(map(str, unknown))}; known: {list(LINK_NOMINAL)}",
-                       line=ln(src, sorted(map(str, unknown))[0]))
+            raise _err(
+                file,
+                f"unknown nominal link parameter(s) {sorted(map(str, unknown))}; known: {list(LINK_NOMINAL)}",
+                line=ln(src, sorted(map(str, unknown))[0]),
+            )
         out = {}
         for k in LINK_NOMINAL:
             par = registry.get("tmd", k)
-            out[k] = _number(src.get(k, 1e3 if k == "friction_slope" else 0.0), file, f"nominal.{k}", ln(src, k),
-                             par.minimum, par.strict, par.unit)
+            out[k] = _number(
+                src.get(k, 1e3 if k == "friction_slope" else 0.0),
+                file,
+                f"nominal.{k}",
+                ln(src, k),
+                par.minimum,
+                par.strict,
+                par.unit,
+            )
         return out
     extra = [k for k in nom if k not in ("base", "tmd")]
     if "base" not in nom or "tmd" not in nom:
         raise _err(file, "a system-level nominal model needs 'base' and 'tmd' mappings", line=_line(nom, "base"))
     if extra:
-        raise _err(file, f"nominal: unknown key(s) {[str(k) for k in extra]}; allowed keys: ['base', 'tmd']",
-                   line=_line(nom, extra[0]))
+        raise _err(
+            file,
+            f"nominal: unknown key(s) {[str(k) for k in extra]}; allowed keys: ['base', 'tmd']",
+            line=_line(nom, extra[0]),
+        )
     for part, cls in (("base", BaseParams), ("tmd", TMDParams)):
         node = nom[part]
         if not isinstance(node, dict):
@@ -202,8 +269,11 @@ def normalise_nominal(nom: dict, level: str, file) -> dict:
         allowed = [f for f in field_names(cls) if f != "source"]
         bad = [k for k in node if k not in allowed]
         if bad:
-            raise _err(file, f"nominal.{part}: unknown key(s) {[str(k) for k in bad]}; allowed keys: {allowed}",
-                       line=ln(node, bad[0]))
+            raise _err(
+                file,
+                f"nominal.{part}: unknown key(s) {[str(k) for k in bad]}; allowed keys: {allowed}",
+                line=ln(node, bad[0]),
+            )
         try:
             cls(**node, source=str(file))
         except (ParameterError, TypeError) as e:

@@ -1,4 +1,5 @@
 """The error of bad measured data, shared by the data reader and the acquisition corrections."""
+
 from __future__ import annotations
 
 

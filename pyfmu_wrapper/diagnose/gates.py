@@ -27,6 +27,7 @@ leaves after its nearest candidates (a quadratic damping law: its 3rd harmonic a
 dependence; an x-sensor gain: the link term of the base and TMD equations), and the z-score keeps a
 tiny gap of a barely visible effect from being called unexplained.
 """
+
 from __future__ import annotations
 
 import math
@@ -40,8 +41,11 @@ RELEVANCE = 1e-3  #: a second effect must change the link force by more than thi
 MIN_SHARE = 0.5  #: the named effects must close at least this share of the held-out gap
 Z_REMAIN = 5.0  #: z-score above which the gap left after the named effects is structural ...
 REMAIN_SHARE = 0.05  #: ... when it is also more than this share of the held-out gap
-BOUNDS = {"base_mass.delta_mass": 0.3, "base_stiffness.delta_stiffness": 0.3,
-          "tmd_stiffness.delta_stiffness": 0.3}  #: |delta| / nominal at most
+BOUNDS = {
+    "base_mass.delta_mass": 0.3,
+    "base_stiffness.delta_stiffness": 0.3,
+    "tmd_stiffness.delta_stiffness": 0.3,
+}  #: |delta| / nominal at most
 BASE_DAMPING_MAX = 2.0  #: the base damping may be at most (1 + this) x nominal
 
 
@@ -94,21 +98,29 @@ def significance_gate(params: dict, std: dict, effect: str, z=None):
     fit on all the evidence (a second effect whose parameter is zero within its uncertainty only
     reshuffles the held-out folds; it is not named)."""
     z = Z_SIGNIF if z is None else z
-    vals = [(v, std.get(k, 0.0)) for k, v in params.items()
-            if k.startswith(effect + ".") and not k.endswith(("friction_slope", "delta_inertance_eff"))]
+    vals = [
+        (v, std.get(k, 0.0))
+        for k, v in params.items()
+        if k.startswith(effect + ".") and not k.endswith(("friction_slope", "delta_inertance_eff"))
+    ]
     return any(not (np.isfinite(s) and s > 0) or abs(v) > z * s for v, s in vals)
 
 
 def plausibility(params: dict, std: dict, tmd, motion: dict, base=None) -> list:
     """Reasons why a fitted parameter set is unphysical (empty list: plausible)."""
     out = []
+
     def g(k):
         return params.get(k)
+
     def s(k):
         return 2.0 * std.get(k, 0.0) if np.isfinite(std.get(k, 0.0)) else 0.0
+
     if g("friction.friction_force") is not None and g("friction.friction_force") < -s("friction.friction_force"):
         out.append(f"negative friction force df = {g('friction.friction_force'):.3g} N")
-    if g("viscous.delta_damping") is not None and tmd.damping + g("viscous.delta_damping") < -s("viscous.delta_damping"):
+    if g("viscous.delta_damping") is not None and tmd.damping + g("viscous.delta_damping") < -s(
+        "viscous.delta_damping"
+    ):
         out.append(f"negative total damping c = {tmd.damping + g('viscous.delta_damping'):.3g} N s/m")
     dI = g("mass_split.delta_inertance")
     if dI is not None:
@@ -135,21 +147,27 @@ def plausibility(params: dict, std: dict, tmd, motion: dict, base=None) -> list:
     if dIe is not None and tmd.inertance + dIe < -s("play.delta_inertance_eff"):
         out.append(f"effective inertance < 0 ({tmd.inertance + dIe:.3g} kg)")
     # the nominal's own parameters: a few per cent off is plausible, tens of per cent is another model
-    nominal = {"base_mass.delta_mass": (base.mass if base else None, "M", "kg"),
-               "base_stiffness.delta_stiffness": (base.stiffness if base else None, "K", "N/m"),
-               "tmd_stiffness.delta_stiffness": (tmd.stiffness, "k", "N/m")}
+    nominal = {
+        "base_mass.delta_mass": (base.mass if base else None, "M", "kg"),
+        "base_stiffness.delta_stiffness": (base.stiffness if base else None, "K", "N/m"),
+        "tmd_stiffness.delta_stiffness": (tmd.stiffness, "k", "N/m"),
+    }
     for k, (v0, sym, unit) in nominal.items():
         d = g(k)
         if d is None or v0 is None:
             continue
         if abs(d) - s(k) > BOUNDS[k] * abs(v0):
-            out.append(f"{sym} off by {100 * d / v0:+.3g} % (d{sym} = {d:.4g} {unit}): beyond the "
-                       f"+-{100 * BOUNDS[k]:.0f} % a nominal parameter is plausibly off")
+            out.append(
+                f"{sym} off by {100 * d / v0:+.3g} % (d{sym} = {d:.4g} {unit}): beyond the "
+                f"+-{100 * BOUNDS[k]:.0f} % a nominal parameter is plausibly off"
+            )
     dC = g("base_damping.delta_damping")
     if dC is not None and base is not None:
         if base.damping + dC < -s("base_damping.delta_damping"):
             out.append(f"negative base damping C = {base.damping + dC:.3g} N s/m")
         elif dC - s("base_damping.delta_damping") > BASE_DAMPING_MAX * base.damping:
-            out.append(f"base damping C = {base.damping + dC:.3g} N s/m more than {1 + BASE_DAMPING_MAX:.0f} x "
-                       f"the nominal {base.damping:.3g} N s/m")
+            out.append(
+                f"base damping C = {base.damping + dC:.3g} N s/m more than {1 + BASE_DAMPING_MAX:.0f} x "
+                f"the nominal {base.damping:.3g} N s/m"
+            )
     return out

@@ -12,6 +12,7 @@ A record is **periodic** when the harmonic series explains at least ``PERIODIC_R
 variance of its force and displacement channels; non-periodic records (earthquakes, transients)
 are flagged and never get harmonic panels.
 """
+
 from __future__ import annotations
 
 import math
@@ -42,12 +43,12 @@ def estimate_omega(t, s) -> float | None:
     k = int(np.argmax(spec[1:]) + 1)
     if k < 2:
         return None
-    share = spec[max(k - 2, 1):k + 3].sum() / spec[1:].sum()
+    share = spec[max(k - 2, 1) : k + 3].sum() / spec[1:].sum()
     if share < 0.25:
         return None
     off = 0.0
     if k < len(spec) - 1:
-        a, b, c = np.sqrt(spec[k - 1:k + 2])
+        a, b, c = np.sqrt(spec[k - 1 : k + 2])
         den = a - 2 * b + c
         off = float(np.clip(0.5 * (a - c) / den, -0.5, 0.5)) if den != 0 else 0.0
     w0 = 2 * math.pi * (k + off) / (n * dt)
@@ -140,8 +141,18 @@ def fit_series(t, channels: dict, omega: float, H: int | None = None) -> Series:
     C = Ginv @ (B.T @ Y)
     E = Y - B @ C
     dof = max(n - B.shape[1], 1)
-    out = Series(omega=omega, H=Hf, coef={}, var={}, noise={}, noise_robust={}, r2={}, n=n,
-                 span=(sl.start or 0, sl.stop), periodic=nper >= 2)
+    out = Series(
+        omega=omega,
+        H=Hf,
+        coef={},
+        var={},
+        noise={},
+        noise_robust={},
+        r2={},
+        n=n,
+        span=(sl.start or 0, sl.stop),
+        periodic=nper >= 2,
+    )
     for j, c in enumerate(names):
         s2 = float(E[:, j] @ E[:, j]) / dof
         cc = np.empty(Hf + 1, complex)
@@ -171,16 +182,16 @@ def fuse(s: Series, pos: str, acc: str | None, H: int):
         w2 = (h[1:] * s.omega) ** 2
         X = np.zeros(H + 1, complex)
         vx = np.zeros(H + 1)
-        X[1:] = -s.coef[acc][1:H + 1] / w2
-        vx[1:] = s.var[acc][1:H + 1] / w2 ** 2
+        X[1:] = -s.coef[acc][1 : H + 1] / w2
+        vx[1:] = s.var[acc][1 : H + 1] / w2**2
         return X, vx
-    X = s.coef[pos][:H + 1].copy()
-    vx = s.var[pos][:H + 1].copy()
+    X = s.coef[pos][: H + 1].copy()
+    vx = s.var[pos][: H + 1].copy()
     if acc is None or acc not in s.coef:
         return X, vx
     w2 = (h[1:] * s.omega) ** 2
-    Xa = -s.coef[acc][1:H + 1] / w2
-    va = s.var[acc][1:H + 1] / w2 ** 2
+    Xa = -s.coef[acc][1 : H + 1] / w2
+    va = s.var[acc][1 : H + 1] / w2**2
     wx, wa = 1.0 / np.maximum(vx[1:], 1e-300), 1.0 / np.maximum(va, 1e-300)
     X[1:] = (wx * X[1:] + wa * Xa) / (wx + wa)
     vx[1:] = 1.0 / (wx + wa)

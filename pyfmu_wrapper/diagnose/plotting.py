@@ -1,5 +1,6 @@
 """The plots of the diagnosis: the one module of ``diagnose/`` that imports matplotlib (the compute
 modules return data; the reports call these)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -9,6 +10,7 @@ from .link.localise import by_phase, by_record, by_state, harmonics
 
 def plot_where(ld, r0, r1, path, title=""):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -20,7 +22,9 @@ def plot_where(ld, r0, r1, path, title=""):
     if r1 is not None:
         ax[0, 0].scatter(om, [x["nrmse"] for x in by_record(ld, r1)], c=amp, cmap="viridis", marker="x")
     fig.colorbar(sc, ax=ax[0, 0], label="amplitude")
-    ax[0, 0].set(xlabel="drive frequency w [rad/s]", ylabel="NRMSE of force", title="gap per record (o nominal, x fitted)")
+    ax[0, 0].set(
+        xlabel="drive frequency w [rad/s]", ylabel="NRMSE of force", title="gap per record (o nominal, x fitted)"
+    )
     h0 = harmonics(ld, r0)
     ax[0, 1].bar(np.arange(h0.size) - 0.2, h0, 0.4, label="nominal")
     if r1 is not None:
@@ -33,15 +37,19 @@ def plot_where(ld, r0, r1, path, title=""):
     if r1 is not None:
         ax[1, 0].plot(np.degrees(c), by_phase(ld, r1)[1], "s-", label="rms fitted")
     ax[1, 0].axhline(ld.noise, color="k", lw=0.8, label="noise floor")
-    ax[1, 0].set(xlabel="phase in cycle [deg] (0 = max displacement / force peak)", ylabel="residual [N]",
-                 title="gap by time within the cycle")
+    ax[1, 0].set(
+        xlabel="phase in cycle [deg] (0 = max displacement / force peak)",
+        ylabel="residual [N]",
+        title="gap by time within the cycle",
+    )
     ax[1, 0].legend(fontsize=8)
     de, ve, S = by_state(ld, r0)
     lim = np.nanmax(np.abs(S)) if np.isfinite(S).any() else 1.0
     im = ax[1, 1].pcolormesh(de, ve, S.T, cmap="RdBu_r", vmin=-lim, vmax=lim)
     fig.colorbar(im, ax=ax[1, 1], label="mean residual force [N]")
-    ax[1, 1].set(xlabel="relative displacement [m]", ylabel="relative velocity [m/s]",
-                 title="residual force surface (nominal)")
+    ax[1, 1].set(
+        xlabel="relative displacement [m]", ylabel="relative velocity [m/s]", title="residual force surface (nominal)"
+    )
     fig.suptitle(title)
     fig.tight_layout()
     fig.savefig(path, dpi=90)
@@ -50,6 +58,7 @@ def plot_where(ld, r0, r1, path, title=""):
 
 def plot_loops(ld, pred_nom, pred_fit, test, path, max_records=4):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -70,6 +79,7 @@ def plot_loops(ld, pred_nom, pred_fit, test, path, max_records=4):
 
 def plot_candidates(ranking, path):
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -86,6 +96,7 @@ def plot_candidates(ranking, path):
 def plot_system_harmonics(sd, path):
     """Whitened residual per harmonic and record, nominal and fitted (periodic records only)."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
@@ -94,7 +105,9 @@ def plot_system_harmonics(sd, path):
         H = v.X.size - 1
         r = v.r
         o = 2 if v.dc else 0  # acceleration-only records have no h = 0 rows
-        mag = np.concatenate([[abs(r[0]) + abs(r[1])] if v.dc else [np.nan], np.hypot(r[o:o + 2 * H], r[o + 2 * H:])[0::2]])
+        mag = np.concatenate(
+            [[abs(r[0]) + abs(r[1])] if v.dc else [np.nan], np.hypot(r[o : o + 2 * H], r[o + 2 * H :])[0::2]]
+        )
         ax.semilogy(np.arange(mag.size), np.maximum(mag, 1e-3), "o-", ms=3, label=f"{v.name}")
     ax.axhline(1.0, color="k", lw=0.8, label="noise (1 std)")
     ax.set(xlabel="harmonic k of w", ylabel="whitened residual |A_k| (nominal)", title="gap per harmonic (noise units)")
@@ -107,6 +120,7 @@ def plot_system_harmonics(sd, path):
 def plot_frc(self, path):
     """The FRC diagnosis (:class:`~.frc.FRCDiagnosis`): measured and fitted curves, residual by frequency."""
     import matplotlib
+
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 

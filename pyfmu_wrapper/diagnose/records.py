@@ -10,6 +10,7 @@ Record kinds (told apart by their columns):
   ``xdd, ydd`` (or both; optional ``xd, yd``): base plus TMD under the harmonic force ``force``.
 * ``frc``    -- system level stepped sine: ``omega, force_amplitude, x_max`` (optional ``direction``).
 """
+
 from __future__ import annotations
 
 import math
@@ -99,8 +100,12 @@ def _columns(df, file, kind, row0=0, t_prev=None):
             vals = df[c].astype(str).str.strip().str.lower().to_numpy()
             bad = np.nonzero(~np.isin(vals, ["up", "down"]))[0]
             if bad.size:
-                raise _err(file, f"direction must be 'up' or 'down', got {df[c].iloc[bad[0]]!r}",
-                           row=row0 + int(bad[0]) + 1, column=c)
+                raise _err(
+                    file,
+                    f"direction must be 'up' or 'down', got {df[c].iloc[bad[0]]!r}",
+                    row=row0 + int(bad[0]) + 1,
+                    column=c,
+                )
             cols[c] = vals
             continue
         num = pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float)
@@ -108,17 +113,25 @@ def _columns(df, file, kind, row0=0, t_prev=None):
         if bad.size:
             raw = df[c].iloc[bad[0]]
             raw = raw.item() if hasattr(raw, "item") else raw
-            raise _err(file, f"value {raw!r} is not a finite number ({bad.size} bad value(s) in this column"
-                             + (")" if row0 == 0 and t_prev is None else " in this block of rows)"),
-                       row=row0 + int(bad[0]) + 1, column=c)
+            raise _err(
+                file,
+                f"value {raw!r} is not a finite number ({bad.size} bad value(s) in this column"
+                + (")" if row0 == 0 and t_prev is None else " in this block of rows)"),
+                row=row0 + int(bad[0]) + 1,
+                column=c,
+            )
         cols[c] = num
     if "t" in cols:
         t = cols["t"] if t_prev is None else np.concatenate([[t_prev], cols["t"]])
         bad = np.nonzero(np.diff(t) <= 0)[0]
         if bad.size:
             i = int(bad[0])
-            raise _err(file, f"time must be strictly increasing: t = {_plainf(t[i + 1])} after {_plainf(t[i])}",
-                       row=row0 + i + (2 if t_prev is None else 1), column="t")
+            raise _err(
+                file,
+                f"time must be strictly increasing: t = {_plainf(t[i + 1])} after {_plainf(t[i])}",
+                row=row0 + i + (2 if t_prev is None else 1),
+                column="t",
+            )
     if kind == "frc":
         bad = np.nonzero(cols["omega"] <= 0)[0]
         if bad.size:
@@ -135,15 +148,23 @@ def _check_header(df, file, level, entry):
         raise _err(file, f"a link-level dataset needs columns {REQUIRED['link']}, got {list(df.columns)}")
     missing = [c for c in REQUIRED[kind] if c not in df.columns]
     if missing:
-        raise _err(file, f"missing column(s) {missing} for a {kind} record (needs {REQUIRED[kind]}, "
-                         f"optional {OPTIONAL[kind]}); found {list(df.columns)}", column=missing[0])
+        raise _err(
+            file,
+            f"missing column(s) {missing} for a {kind} record (needs {REQUIRED[kind]}, "
+            f"optional {OPTIONAL[kind]}); found {list(df.columns)}",
+            column=missing[0],
+        )
     if kind == "time":  # displacements or accelerations of both bodies (acceleration-only records)
         opts = [[c for c in pair if c not in df.columns] for pair in (("x", "y"), ("xdd", "ydd"))]
         if all(opts):
             miss = min(opts, key=len)
-            raise _err(file, f"missing column(s) {miss} for a time record (needs {REQUIRED[kind]} and the "
-                             f"displacements ['x', 'y'] or the accelerations ['xdd', 'ydd'], or both); "
-                             f"found {list(df.columns)}", column=miss[0])
+            raise _err(
+                file,
+                f"missing column(s) {miss} for a time record (needs {REQUIRED[kind]} and the "
+                f"displacements ['x', 'y'] or the accelerations ['xdd', 'ydd'], or both); "
+                f"found {list(df.columns)}",
+                column=miss[0],
+            )
     return kind
 
 
@@ -166,8 +187,10 @@ def _read_long(file, level, entry, n_rows, log):
 
     q = max(1, math.ceil(n_rows / MAX_SAMPLES))
     chunk = q * max(1, CHUNK_ROWS // q)
-    log(f"{file.name}: {n_rows:,} lines after the header, more than {MAX_SAMPLES:,}: reading {chunk:,} rows at a time and averaging "
-        f"every {q} consecutive samples (boxcar anti-alias filter) -> about {n_rows // q:,} samples")
+    log(
+        f"{file.name}: {n_rows:,} lines after the header, more than {MAX_SAMPLES:,}: reading {chunk:,} rows at a time and averaging "
+        f"every {q} consecutive samples (boxcar anti-alias filter) -> about {n_rows // q:,} samples"
+    )
     parts, lo, hi = {}, {}, {}
     kind, t_prev, row0, dropped = None, None, 0, 0
     t0 = last = _time.monotonic()
@@ -177,8 +200,11 @@ def _read_long(file, level, entry, n_rows, log):
             if kind is None:
                 kind = _check_header(df, file, level, entry)
                 if kind == "frc":
-                    raise _err(file, f"an FRC record (one line per frequency) with {n_rows:,} rows: at most "
-                                     f"{MAX_SAMPLES:,} are read")
+                    raise _err(
+                        file,
+                        f"an FRC record (one line per frequency) with {n_rows:,} rows: at most "
+                        f"{MAX_SAMPLES:,} are read",
+                    )
             else:
                 df.columns = [str(c).strip() for c in df.columns]
             cols = _columns(df, file, kind, row0, t_prev)
@@ -194,8 +220,10 @@ def _read_long(file, level, entry, n_rows, log):
             row0 += len(df)
             if _time.monotonic() - last >= 2.0:
                 last = _time.monotonic()
-                log(f"{file.name}: read {row0:,} of about {n_rows:,} rows ({100 * row0 / n_rows:.0f} %, "
-                    f"{last - t0:.0f} s)")
+                log(
+                    f"{file.name}: read {row0:,} of about {n_rows:,} rows ({100 * row0 / n_rows:.0f} %, "
+                    f"{last - t0:.0f} s)"
+                )
     except DataError:
         raise
     except Exception as e:  # pandas parser errors in a later block
@@ -203,10 +231,17 @@ def _read_long(file, level, entry, n_rows, log):
     if kind is None:
         raise _err(file, "has no data rows")
     cols = {c: np.concatenate(v) for c, v in parts.items()}
-    info = {"rows": row0, "block": q, "samples": int(len(cols["t"])), "dropped_rows": dropped,
-            "method": f"boxcar average of {q} consecutive samples, one sample kept per block"}
-    log(f"{file.name}: {row0:,} rows read in {_time.monotonic() - t0:.0f} s -> {info['samples']:,} samples "
-        f"(averages of {q})" + (f"; the last {dropped} rows (less than one block) are not used" if dropped else ""))
+    info = {
+        "rows": row0,
+        "block": q,
+        "samples": int(len(cols["t"])),
+        "dropped_rows": dropped,
+        "method": f"boxcar average of {q} consecutive samples, one sample kept per block",
+    }
+    log(
+        f"{file.name}: {row0:,} rows read in {_time.monotonic() - t0:.0f} s -> {info['samples']:,} samples "
+        f"(averages of {q})" + (f"; the last {dropped} rows (less than one block) are not used" if dropped else "")
+    )
     return kind, cols, (lo, hi), info
 
 
@@ -226,23 +261,35 @@ def read_record(file: Path, level: str, entry: dict | None = None, log=_stderr) 
         if len(df) < 3:
             raise _err(file, f"needs at least 3 data rows, has {len(df)}")
         cols = _columns(df, file, kind)
-        span = ({c: float(np.min(v)) for c, v in cols.items() if c != "direction"},
-                {c: float(np.max(v)) for c, v in cols.items() if c != "direction"})
+        span = (
+            {c: float(np.min(v)) for c, v in cols.items() if c != "direction"},
+            {c: float(np.max(v)) for c, v in cols.items() if c != "direction"},
+        )
     else:
         kind, cols, span, reduced = _read_long(file, level, entry, n_rows, log)
         if len(cols["t"]) < 3:
             raise _err(file, f"needs at least 3 data rows, has {len(cols['t'])}")
     for c in LIVE_CHANNELS.get(kind, ()):
         if c in cols and span[0][c] == span[1][c]:
-            raise _err(file, f"the channel is constant (every value = {span[0][c]:g}): a dead channel (sensor not "
-                             "connected or not recorded?); the diagnosis needs it measured", column=c)
+            raise _err(
+                file,
+                f"the channel is constant (every value = {span[0][c]:g}): a dead channel (sensor not "
+                "connected or not recorded?); the diagnosis needs it measured",
+                column=c,
+            )
     omega = entry.get("omega")
     if omega is None and entry.get("frequency_hz") is not None:
         omega = 2 * math.pi * float(entry["frequency_hz"])
     amp = entry.get("force_amplitude", entry.get("amplitude"))
-    rec = Record(name=file.name, kind=kind, columns=cols, omega=None if omega is None else float(omega),
-                 amplitude=None if amp is None else float(amp), role=entry.get("role"),
-                 meta={k: v for k, v in entry.items() if k not in ("file",)})
+    rec = Record(
+        name=file.name,
+        kind=kind,
+        columns=cols,
+        omega=None if omega is None else float(omega),
+        amplitude=None if amp is None else float(amp),
+        role=entry.get("role"),
+        meta={k: v for k, v in entry.items() if k not in ("file",)},
+    )
     if reduced is not None:
         rec.meta["reduced"] = reduced
     if kind in ("link", "time") and rec.omega is None:
@@ -255,9 +302,12 @@ def read_record(file: Path, level: str, entry: dict | None = None, log=_stderr) 
     if kind == "time" and rec.omega is not None:
         span_s, period = float(cols["t"][-1] - cols["t"][0]), 2 * math.pi / rec.omega
         if span_s < period:
-            raise _err(file, f"the record spans {span_s:.4g} s, less than one period of w = {rec.omega:.4g} rad/s "
-                             f"({period:.4g} s): the harmonic analysis of a system time record needs whole periods "
-                             "(at least 2)")
+            raise _err(
+                file,
+                f"the record spans {span_s:.4g} s, less than one period of w = {rec.omega:.4g} rad/s "
+                f"({period:.4g} s): the harmonic analysis of a system time record needs whole periods "
+                "(at least 2)",
+            )
     if kind == "link" and rec.amplitude is None:
         d = cols["displacement"]
         rec.amplitude = 0.5 * float(np.percentile(d, 99.5) - np.percentile(d, 0.5))

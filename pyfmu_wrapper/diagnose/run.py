@@ -6,6 +6,7 @@ Output folders: a new or empty folder, or a previous result of the same tool (ma
 file); the result is written to a hidden sibling folder first and swapped in, so a failed run
 leaves the old result, and nothing the tool did not write is ever deleted or overwritten.
 """
+
 from __future__ import annotations
 
 import json
@@ -21,8 +22,10 @@ from .data import DataError, load_dataset
 DIAGNOSE_MARKER = ".pyfmu-diagnose"  #: marks a folder written by diagnose
 BENCHMARK_MARKER = ".pyfmu-benchmark"  #: marks a folder written by make-benchmark
 #: files of a result written before the markers existed (recognised as a previous result)
-_LEGACY = {DIAGNOSE_MARKER: ("diagnosis.json", {"report.md", "diagnosis.json"}, (".png",)),
-           BENCHMARK_MARKER: ("manifest.json", {"manifest.json", "score.json"}, ())}
+_LEGACY = {
+    DIAGNOSE_MARKER: ("diagnosis.json", {"report.md", "diagnosis.json"}, (".png",)),
+    BENCHMARK_MARKER: ("manifest.json", {"manifest.json", "score.json"}, ()),
+}
 
 
 def _load_model(spec: str | None):
@@ -34,14 +37,16 @@ def _load_model(spec: str | None):
 
     p = Path(spec)
     if not p.is_file():
-        raise DataError(f"{spec}: model file not found (a YAML with 'nominal:' or 'base:'/'tmd:' keys, "
-                        "or link parameters)")
+        raise DataError(
+            f"{spec}: model file not found (a YAML with 'nominal:' or 'base:'/'tmd:' keys, or link parameters)"
+        )
     try:
         raw = load_marked(read_utf8(p, error=DataError), name=spec) or {}
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None)
-        raise DataError(f"{spec}{'' if mark is None else f':{mark.line + 1}'}: invalid YAML: "
-                        f"{' '.join(str(e).split())}") from None
+        raise DataError(
+            f"{spec}{'' if mark is None else f':{mark.line + 1}'}: invalid YAML: {' '.join(str(e).split())}"
+        ) from None
     if isinstance(raw, dict) and "schema_version" in raw:  # a project scenario file
         from ..physics.params import as_dict
         from ..scenario.loader import ScenarioError, load_scenario
@@ -95,18 +100,24 @@ def check_out_folder(out, tool: str, marker: str) -> Path:
     out = Path(out)
     if out.exists() or out.is_symlink():
         if not out.is_dir():
-            raise InputError(f"--out {out}: is a file, not a folder; {tool} writes a folder and never overwrites "
-                             "a file: choose a new folder name")
+            raise InputError(
+                f"--out {out}: is a file, not a folder; {tool} writes a folder and never overwrites "
+                "a file: choose a new folder name"
+            )
         if any(out.iterdir()):
             bad = _foreign(out, marker)
             if bad is None:
-                raise InputError(f"--out {out}: the folder is not empty and is not a previous {tool} result (no "
-                                 f"{marker} marker): choose a new or empty folder; {tool} never deletes or "
-                                 "overwrites files it did not write")
+                raise InputError(
+                    f"--out {out}: the folder is not empty and is not a previous {tool} result (no "
+                    f"{marker} marker): choose a new or empty folder; {tool} never deletes or "
+                    "overwrites files it did not write"
+                )
             if bad:
-                raise InputError(f"--out {out}: a previous {tool} result, but it also holds files {tool} did not "
-                                 f"write ({', '.join(bad[:3])}{', ...' if len(bad) > 3 else ''}): move them or "
-                                 "choose another folder; the result is replaced as a whole")
+                raise InputError(
+                    f"--out {out}: a previous {tool} result, but it also holds files {tool} did not "
+                    f"write ({', '.join(bad[:3])}{', ...' if len(bad) > 3 else ''}): move them or "
+                    "choose another folder; the result is replaced as a whole"
+                )
     elif not out.parent.is_dir() and out.parent != Path(""):
         out.parent.mkdir(parents=True, exist_ok=True)
     return out
@@ -168,14 +179,24 @@ class ResultFolder:
             shutil.rmtree(self.tmp, ignore_errors=True)
             return False
         files = sorted(_files(self.tmp))
-        (self.tmp / self.marker).write_text(json.dumps({
-            "note": "written by pyfmu_wrapper; replaced as a whole when the tool runs again with the same --out, "
-                    "refused if other files are added", "files": files}, indent=0) + "\n")
+        (self.tmp / self.marker).write_text(
+            json.dumps(
+                {
+                    "note": "written by pyfmu_wrapper; replaced as a whole when the tool runs again with the same --out, "
+                    "refused if other files are added",
+                    "files": files,
+                },
+                indent=0,
+            )
+            + "\n"
+        )
         old = None
         if self.out.exists():  # checked before computing: a previous result or an empty folder
             if not (not any(self.out.iterdir()) or _is_result(self.out, self.marker)):
-                raise InputError(f"--out {self.out}: files appeared in the folder during the run; nothing there "
-                                 f"was touched and the result was left in {self.tmp}")
+                raise InputError(
+                    f"--out {self.out}: files appeared in the folder during the run; nothing there "
+                    f"was touched and the result was left in {self.tmp}"
+                )
             old = self.parent / f".{self.out.name}.old-{os.getpid()}"
             os.replace(self.out, old)
         os.replace(self.tmp, self.out)
@@ -194,10 +215,12 @@ def _append_reduction(res, out: Path | None):
     if not red or out is None or not (out / "report.md").is_file():
         return
     L = ["", "## Long records reduced", ""]
-    L += [f"- {r['record']}: {r['rows']:,} rows -> {r['samples']:,} samples ({r['method']}: an anti-alias "
-          f"low-pass before keeping every {r['block']}th sample)"
-          + (f"; the last {r['dropped_rows']} rows (less than one block) not used" if r["dropped_rows"] else "")
-          for r in red]
+    L += [
+        f"- {r['record']}: {r['rows']:,} rows -> {r['samples']:,} samples ({r['method']}: an anti-alias "
+        f"low-pass before keeping every {r['block']}th sample)"
+        + (f"; the last {r['dropped_rows']} rows (less than one block) not used" if r["dropped_rows"] else "")
+        for r in red
+    ]
     with open(out / "report.md", "a", encoding="utf-8") as fh:
         fh.write("\n".join(L) + "\n")
 
@@ -232,6 +255,7 @@ def _run(ds, out, red) -> dict:
     frc = None
     if any(r.kind == "frc" for r in ds.records):
         from .system.frc import diagnose_frc
+
         frc = diagnose_frc(ds)
     if frc is not None and not any(r.kind != "frc" for r in ds.records):  # FRC records only
         res = finish(frc.result())
@@ -252,9 +276,12 @@ def _run(ds, out, red) -> dict:
                 frc.write(out, res)
             return res
         if not sd.views:
-            raise DataError(f"{ds.path}: no periodic system time record to diagnose ("
-                            + "; ".join(f"{n}: {w}" for n, w in sd.flagged) + ")"
-                            + (" -- give FRC records alone for an FRC-only diagnosis" if frc is None else ""))
+            raise DataError(
+                f"{ds.path}: no periodic system time record to diagnose ("
+                + "; ".join(f"{n}: {w}" for n, w in sd.flagged)
+                + ")"
+                + (" -- give FRC records alone for an FRC-only diagnosis" if frc is None else "")
+            )
         sd.run()
         res = finish(build_system_result(ds, sd, frc))
         if out is not None:
@@ -280,11 +307,20 @@ def _flagged(ds, res) -> list:
         if r.kind == "time":
             miss = [c for c in ("xdd", "ydd") if not r.has(c)]
             if miss:
-                out.append({"record": r.name, "reason": f"no {' or '.join(repr(c) for c in miss)} column: the play "
-                            "(rattle) statistic cannot use this record"})
+                out.append(
+                    {
+                        "record": r.name,
+                        "reason": f"no {' or '.join(repr(c) for c in miss)} column: the play "
+                        "(rattle) statistic cannot use this record",
+                    }
+                )
         if r.kind in ("link", "time") and r.meta.get("periodic") is False:
-            out.append({"record": r.name, "reason": "not periodic (no dominant frequency found): no harmonic "
-                        "analysis of this record"})
+            out.append(
+                {
+                    "record": r.name,
+                    "reason": "not periodic (no dominant frequency found): no harmonic analysis of this record",
+                }
+            )
     return out
 
 
@@ -301,11 +337,18 @@ def flagged_lines(res: dict) -> list:
 def frc_verdict(res: dict) -> dict:
     """The top-level ``verdict`` of an FRC-only diagnosis."""
     a = res["attribution"]
-    return {"structural": a["structural"], "effects": a["effects"], "text": a["verdict"],
-            "unexplained": a.get("unexplained", False), "unexplained_share": a.get("unexplained_share"),
-            "parameters": {k: {"value": v, "std": a["std"].get(k)} for k, v in a["params"].items()},
-            "held_out": {"gap_closed": res["held_out"]["gap_closed"]}, "sources": {"frc_records": res["records"]},
-            "disagreements": [], "rejected": []}
+    return {
+        "structural": a["structural"],
+        "effects": a["effects"],
+        "text": a["verdict"],
+        "unexplained": a.get("unexplained", False),
+        "unexplained_share": a.get("unexplained_share"),
+        "parameters": {k: {"value": v, "std": a["std"].get(k)} for k, v in a["params"].items()},
+        "held_out": {"gap_closed": res["held_out"]["gap_closed"]},
+        "sources": {"frc_records": res["records"]},
+        "disagreements": [],
+        "rejected": [],
+    }
 
 
 def load_manifest(bench: Path) -> list:

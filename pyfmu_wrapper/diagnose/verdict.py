@@ -6,6 +6,7 @@ frequency; per equation (base or TMD: the whitened residual mapped back to (A_h,
 by its own noise std); and the frequency band of the FRC points whose residual exceeds 3 noise std.
 Shares are of the positive excess (chi-square minus its dof), so noise alone gives shares of about 0.
 """
+
 from __future__ import annotations
 
 import math
@@ -36,7 +37,7 @@ def localise(sd) -> dict:
         Z = np.zeros((H + 1, 2), complex)
         k0 = 2 if v.dc else 0  # an acceleration-only record has no h = 0 rows (SystemModel.whiten)
         Z[0] = r[:k0] if k0 else 0.0
-        Z[1:] = (r[k0:k0 + 2 * H] + 1j * r[k0 + 2 * H:]).reshape(H, 2)
+        Z[1:] = (r[k0 : k0 + 2 * H] + 1j * r[k0 + 2 * H :]).reshape(H, 2)
         for h in range(0 if v.dc else 1, H + 1):
             nc = 2 if h == 0 else 4
             harm[h] = harm.get(h, 0.0) + float(np.sum(np.abs(Z[h]) ** 2)) - nc
@@ -45,11 +46,20 @@ def localise(sd) -> dict:
             S = L @ L.conj().T
             for k, name in ((0, "base"), (1, "tmd")):
                 eq[name] += float(abs(AB[k]) ** 2 / max(S[k, k].real, 1e-300)) - nc / 2
-    out: dict[str, Any] = {"time_records_share": None, "frc_share": None, "equation": _share(eq),
-           "records": sorted(({"record": k, "omega": sd.views[[w.name for w in sd.views].index(k)].omega, "share": s}
-                              for k, s in _share(rec).items()), key=lambda d: -d["share"]),
-           "harmonics": {str(h): s for h, s in sorted(_share(harm).items()) if s >= 0.01},
-           "frc_band": None}
+    out: dict[str, Any] = {
+        "time_records_share": None,
+        "frc_share": None,
+        "equation": _share(eq),
+        "records": sorted(
+            (
+                {"record": k, "omega": sd.views[[w.name for w in sd.views].index(k)].omega, "share": s}
+                for k, s in _share(rec).items()
+            ),
+            key=lambda d: -d["share"],
+        ),
+        "harmonics": {str(h): s for h, s in sorted(_share(harm).items()) if s >= 0.01},
+        "frc_band": None,
+    }
     g_t = sum(max(x, 0.0) for x in rec.values())
     g_f = 0.0
     fr = sd.frc
@@ -64,9 +74,13 @@ def localise(sd) -> dict:
             g_f = max(float(z @ z) - z.size, 0.0)
             hot = np.abs(z) > Z_POINT
             if hot.any():
-                out["frc_band"] = {"omega_min": float(fr.w[hot].min()), "omega_max": float(fr.w[hot].max()),
-                                   "points": int(hot.sum()), "max_residual_noise_units": float(np.abs(z).max()),
-                                   "max_relative_residual": float(np.max(np.abs((fr.x - pred) / fr.x)[hot]))}
+                out["frc_band"] = {
+                    "omega_min": float(fr.w[hot].min()),
+                    "omega_max": float(fr.w[hot].max()),
+                    "points": int(hot.sum()),
+                    "max_residual_noise_units": float(np.abs(z).max()),
+                    "max_relative_residual": float(np.max(np.abs((fr.x - pred) / fr.x)[hot])),
+                }
     if g_t + g_f > 0:
         out["time_records_share"], out["frc_share"] = g_t / (g_t + g_f), (g_f / (g_t + g_f) if fr is not None else None)
     out["text"] = _where_text(out)
@@ -82,23 +96,32 @@ def _where_text(loc) -> str:
         parts.append(f"the {'base' if e == 'base' else 'TMD'} equation ({100 * eqs[e]:.0f} %)")
         top = [r for r in loc["records"] if r["share"] >= 0.15][:3]
         if top:
-            parts.append("records " + ", ".join(f"{r['record']} (w = {r['omega']:.4g} rad/s, {100 * r['share']:.0f} %)"
-                                                for r in top))
+            parts.append(
+                "records "
+                + ", ".join(f"{r['record']} (w = {r['omega']:.4g} rad/s, {100 * r['share']:.0f} %)" for r in top)
+            )
         hs = sorted(loc["harmonics"].items(), key=lambda kv: -kv[1])[:3]
         if hs:
             parts.append("harmonics " + ", ".join(f"{h} ({100 * s:.0f} %)" for h, s in hs))
     b = loc["frc_band"]
     if b is not None and (loc["frc_share"] or 0) > 0.05:
-        parts.append(f"the FRC between {b['omega_min']:.4g} and {b['omega_max']:.4g} rad/s "
-                     f"(up to {100 * b['max_relative_residual']:.2g} % of x_max, {100 * loc['frc_share']:.0f} % of the gap)")
+        parts.append(
+            f"the FRC between {b['omega_min']:.4g} and {b['omega_max']:.4g} rad/s "
+            f"(up to {100 * b['max_relative_residual']:.2g} % of x_max, {100 * loc['frc_share']:.0f} % of the gap)"
+        )
     return "; ".join(parts) if parts else "no one place (spread over records, harmonics and equations)"
 
 
 def _param_text(sd, e, p, s, units):
-    return ", ".join(f"{k.split('.', 1)[1]} = {v:.4g} +- {s.get(k, float('nan')):.2g} {units.get(k.split('.', 1)[1], '')}"
-                     for k, v in p.items() if k.startswith(e + ".") and not k.endswith("friction_slope")
-                     and not k.endswith("delta_inertance_eff") and not k.endswith("signature_scale")
-                     and not (k.endswith("y_offset") and abs(v) < 2 * s.get(k, 0)))
+    return ", ".join(
+        f"{k.split('.', 1)[1]} = {v:.4g} +- {s.get(k, float('nan')):.2g} {units.get(k.split('.', 1)[1], '')}"
+        for k, v in p.items()
+        if k.startswith(e + ".")
+        and not k.endswith("friction_slope")
+        and not k.endswith("delta_inertance_eff")
+        and not k.endswith("signature_scale")
+        and not (k.endswith("y_offset") and abs(v) < 2 * s.get(k, 0))
+    )
 
 
 def verdict_text(sd, labels, units) -> str:
@@ -109,20 +132,29 @@ def verdict_text(sd, labels, units) -> str:
     hint = ""
     if sd.hint is not None:
         eff, sh = sd.hint
-        hint = (" The closest candidate, " + " + ".join(labels.get(e, e) for e in eff)
-                + (f" (closes {100 * max(sh, 0):.0f} %)" if sh is not None and math.isfinite(sh) else "")
-                + ", is a hint, not a cause.")
+        hint = (
+            " The closest candidate, "
+            + " + ".join(labels.get(e, e) for e in eff)
+            + (f" (closes {100 * max(sh, 0):.0f} %)" if sh is not None and math.isfinite(sh) else "")
+            + ", is a hint, not a cause."
+        )
     if not sd.chosen:
         if not sd.noise_ok:
-            return (f"No structural effect: the held-out gap is within the measured noise "
-                    f"(chi2 {sd.chi0:.0f} for {sd.dof} dof).")
-        return ("A structural gap remains that none of the candidates explains; it lives in "
-                f"{loc['text']}.{hint}")
+            return (
+                f"No structural effect: the held-out gap is within the measured noise "
+                f"(chi2 {sd.chi0:.0f} for {sd.dof} dof)."
+            )
+        return f"A structural gap remains that none of the candidates explains; it lives in {loc['text']}.{hint}"
     parts = [f"{labels[e]} ({_param_text(sd, e, p, s, units)})" for e in sd.chosen]
     gc = sd.held_out()["gap_closed"]
-    txt = ("Gap attributed to " + " + ".join(parts)
-           + (f"; closes {100 * gc:.0f} % of the held-out gap." if gc is not None else "."))
+    txt = (
+        "Gap attributed to "
+        + " + ".join(parts)
+        + (f"; closes {100 * gc:.0f} % of the held-out gap." if gc is not None else ".")
+    )
     if sd.unexplained:
-        txt += (f" A structural gap remains that these effects do not explain ({100 * sd.unexplained_share:.0f} % "
-                f"of the held-out gap); it lives in {loc['text']}.")
+        txt += (
+            f" A structural gap remains that these effects do not explain ({100 * sd.unexplained_share:.0f} % "
+            f"of the held-out gap); it lives in {loc['text']}."
+        )
     return txt

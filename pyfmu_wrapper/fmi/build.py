@@ -31,6 +31,7 @@ carries ``resources/python/``: the build interpreter's runtime and the installed
 llvmlite, collected by :mod:`.standalone`, so it runs on a Linux x86-64 machine with no Python at
 all.
 """
+
 from __future__ import annotations
 
 import ast
@@ -65,6 +66,8 @@ def fmi_out_dir(out_dir: str | os.PathLike, fmi_version: int) -> Path:
     if fmi_version not in FMI_VERSIONS:
         raise ValueError(f"FMI version {fmi_version!r}: this builder writes {FMI_VERSIONS}")
     return Path(out_dir) if fmi_version == 2 else Path(out_dir) / "fmi3"
+
+
 #: What the bundled model code needs in the interpreter that runs it (mirrors pyproject.toml).
 REQUIRES = ("numpy>=1.26", "numba>=0.59")
 MIN_PYTHON = "3.11"
@@ -88,9 +91,11 @@ def check_output(out_dir: Path, names) -> None:
     for n in names:
         target = out_dir / f"{SPECS[n].model_identifier}.fmu"
         if target.is_dir() or (target.exists() and fmu_source_hash(target) is None):
-            raise OutputError(f"{target} exists and was not written by build-fmus (it is not an FMU with a "
-                              "resources/pyfmu.cfg of this tool); it is left as it is: move it away or choose "
-                              "another --out. Nothing was written")
+            raise OutputError(
+                f"{target} exists and was not written by build-fmus (it is not an FMU with a "
+                "resources/pyfmu.cfg of this tool); it is left as it is: move it away or choose "
+                "another --out. Nothing was written"
+            )
     try:
         out_dir.mkdir(parents=True, exist_ok=True)
         fd, probe = tempfile.mkstemp(prefix=".build-fmus-probe-", dir=out_dir)
@@ -112,19 +117,22 @@ def _relative_imports(rel: str, source: bytes) -> set[str]:
 
     def files(target: list[str]) -> list[str]:
         path = "/".join(target)
-        return [c for c in ((f"{path}.py" if path else None), (f"{path}/__init__.py" if path else "__init__.py"))
-                if c and (PACKAGE_DIR / c).is_file()]
+        return [
+            c
+            for c in ((f"{path}.py" if path else None), (f"{path}/__init__.py" if path else "__init__.py"))
+            if c and (PACKAGE_DIR / c).is_file()
+        ]
 
     for node in ast.walk(ast.parse(source)):
         mods: list[list[str]] = []
         if isinstance(node, ast.ImportFrom):
             if node.level:
-                base = pkg[:len(pkg) - (node.level - 1)] if node.level > 1 else list(pkg)
+                base = pkg[: len(pkg) - (node.level - 1)] if node.level > 1 else list(pkg)
             elif node.module and node.module.split(".")[0] == PACKAGE_DIR.name:
                 base = []
             else:
                 continue
-            mod = (node.module.split(".") if node.module else [])
+            mod = node.module.split(".") if node.module else []
             if not node.level:
                 mod = mod[1:]
             mods.append(base + mod)
@@ -191,7 +199,13 @@ def source_hash() -> str:
         h.update(f.name.encode())
         h.update(f.read_bytes())
     h.update(bundle_hash().encode())
-    for writer in ("build.py", "contract.py", "model_description.py", "model_description3.py", "documentation.py"):  # what writes the archive
+    for writer in (
+        "build.py",
+        "contract.py",
+        "model_description.py",
+        "model_description3.py",
+        "documentation.py",
+    ):  # what writes the archive
         h.update((PACKAGE_DIR / "fmi" / writer).read_bytes())
     h.update(build_python().encode())
     h.update(sys.version.encode())
@@ -210,12 +224,31 @@ def compile_stub(out_so: Path, cc: str | None = None, extra_flags: tuple = (), f
     version_script = gen / f"fmi{fmi_version}.map"
     version_script.write_text(f"{{ global: fmi{fmi_version}*; local: *; }};\n")
     (gen / "pyfmu_contract.h").write_text(c_header())  # the doStep contract, from fmi/contract.py
-    cmd = [cc, "-shared", "-fPIC", "-O2", "-std=gnu11", "-Wall", "-Wextra", "-Wno-unused-parameter",
-           "-Wno-format-truncation", "-fvisibility=hidden", f"-I{gen}", f"-I{fmi_headers_dir()}", *extra_flags,
-           *[str(f) for f in stub_sources() if f.suffix == ".c"], "-o", str(out_so),
-           # keep libdl NEEDED: on glibc < 2.34 the pre-2.34 dl* symbols the stub binds to live there
-           "-Wl,--no-as-needed", "-l:libdl.so.2", "-Wl,--as-needed", "-lpthread", "-lm",
-           f"-Wl,--version-script={version_script}"]
+    cmd = [
+        cc,
+        "-shared",
+        "-fPIC",
+        "-O2",
+        "-std=gnu11",
+        "-Wall",
+        "-Wextra",
+        "-Wno-unused-parameter",
+        "-Wno-format-truncation",
+        "-fvisibility=hidden",
+        f"-I{gen}",
+        f"-I{fmi_headers_dir()}",
+        *extra_flags,
+        *[str(f) for f in stub_sources() if f.suffix == ".c"],
+        "-o",
+        str(out_so),
+        # keep libdl NEEDED: on glibc < 2.34 the pre-2.34 dl* symbols the stub binds to live there
+        "-Wl,--no-as-needed",
+        "-l:libdl.so.2",
+        "-Wl,--as-needed",
+        "-lpthread",
+        "-lm",
+        f"-Wl,--version-script={version_script}",
+    ]
     try:
         r = subprocess.run(cmd, capture_output=True, text=True)
     finally:
@@ -225,11 +258,19 @@ def compile_stub(out_so: Path, cc: str | None = None, extra_flags: tuple = (), f
 
 
 def _config(spec: FmuSpec, guid: str, shash: str, bhash: str, runtime: dict | None = None) -> str:
-    lines = [f"guid={guid}", f"model_identifier={spec.model_identifier}", "model=model.py",
-             f"python={build_python()}", f"python_version={sys.version.split()[0]}", f"min_python={MIN_PYTHON}",
-             f"requires={' '.join(REQUIRES)}",
-             f"built_with=numpy=={version_of('numpy')} numba=={version_of('numba')}",
-             f"bundle={bundle_package(bhash)}", f"bundle_hash={bhash}", f"source_hash={shash}"]
+    lines = [
+        f"guid={guid}",
+        f"model_identifier={spec.model_identifier}",
+        "model=model.py",
+        f"python={build_python()}",
+        f"python_version={sys.version.split()[0]}",
+        f"min_python={MIN_PYTHON}",
+        f"requires={' '.join(REQUIRES)}",
+        f"built_with=numpy=={version_of('numpy')} numba=={version_of('numba')}",
+        f"bundle={bundle_package(bhash)}",
+        f"bundle_hash={bhash}",
+        f"source_hash={shash}",
+    ]
     lines += [f"{k}={v}" for k, v in (runtime or {}).items()]
     return "\n".join(lines) + "\n"
 
@@ -256,8 +297,14 @@ def _model_py(spec: FmuSpec, package: str, bhash: str, files: list[str]) -> str:
     return MODEL_PY.format(model=spec.model_name, package=package, bhash=bhash, files=files, slave=f"{rel}:{cls}")
 
 
-def build_fmu(name: str, out_dir: str | os.PathLike = DEFAULT_OUT, stub_so: Path | None = None,
-              standalone: bool = False, runtime: list | None = None, fmi_version: int = 2) -> Path:
+def build_fmu(
+    name: str,
+    out_dir: str | os.PathLike = DEFAULT_OUT,
+    stub_so: Path | None = None,
+    standalone: bool = False,
+    runtime: list | None = None,
+    fmi_version: int = 2,
+) -> Path:
     """Build one FMU (name: a key of :data:`~.variables.SPECS`); return the path of the .fmu.
 
     standalone: also bundle the Python runtime and numpy/numba/llvmlite (``resources/python/``);
@@ -316,8 +363,9 @@ def _write_archive(part, spec, guid, shash, bhash, rt_cfg, so, package, files, r
             z.write(src, f"resources/{arc}")
 
 
-def build_fmus(names=PROJECT_FMUS, out_dir: str | os.PathLike = DEFAULT_OUT, standalone: bool = False,
-               fmi_version: int = 2) -> list[Path]:
+def build_fmus(
+    names=PROJECT_FMUS, out_dir: str | os.PathLike = DEFAULT_OUT, standalone: bool = False, fmi_version: int = 2
+) -> list[Path]:
     """Build several FMUs (the stub is compiled once, a standalone runtime collected once) of one
     FMI version into ``out_dir``."""
     check_output(Path(out_dir), names)  # all refused before any is written
@@ -330,8 +378,10 @@ def build_fmus(names=PROJECT_FMUS, out_dir: str | os.PathLike = DEFAULT_OUT, sta
 
             runtime, flags = runtime_files(Path(tmp) / "pyc"), stub_flags()
         compile_stub(so, extra_flags=flags, fmi_version=fmi_version)
-        return [build_fmu(n, out_dir, stub_so=so, standalone=standalone, runtime=runtime, fmi_version=fmi_version)
-                for n in names]
+        return [
+            build_fmu(n, out_dir, stub_so=so, standalone=standalone, runtime=runtime, fmi_version=fmi_version)
+            for n in names
+        ]
 
 
 def fmu_source_hash(fmu: Path) -> str | None:

@@ -1,5 +1,6 @@
 """What both FMU builders share (:mod:`.build` and :mod:`.standalone`): the build error and the
 installed versions of the packages an FMU records."""
+
 from __future__ import annotations
 
 

@@ -5,6 +5,7 @@ FMU (:mod:`.variables`), so it can never disagree with ``modelDescription.xml``.
 The stub's messages point here ("documentation/index.html in the FMU"): it is the one document
 that travels with the FMU (``docs/fmus.md`` of this project does not).
 """
+
 from __future__ import annotations
 
 from html import escape
@@ -24,17 +25,34 @@ def _start(v: Variable) -> str:
 
 def _declared(v: Variable) -> str:
     lo, hi = declared_range(v)
-    return " ".join(x for x in (f"min = {lo!r}" if lo is not None else "", f"max = {hi!r}" if hi is not None else "") if x)
+    return " ".join(
+        x for x in (f"min = {lo!r}" if lo is not None else "", f"max = {hi!r}" if hi is not None else "") if x
+    )
 
 
 def documentation_html(spec: FmuSpec, guid: str, requires, min_python: str) -> str:
     """The complete ``documentation/index.html`` of one FMU."""
     rows = []
     for v in spec.variables:
-        rows.append("<tr>" + "".join(f"<td>{escape(str(x))}</td>" for x in (
-            v.name, v.vr, v.type, v.causality, v.variability, v.unit or "", _start(v),
-            v.range_text() if v.causality == "parameter" or v.min is not None or v.max is not None else "",
-            _declared(v), v.description)) + "</tr>")
+        rows.append(
+            "<tr>"
+            + "".join(
+                f"<td>{escape(str(x))}</td>"
+                for x in (
+                    v.name,
+                    v.vr,
+                    v.type,
+                    v.causality,
+                    v.variability,
+                    v.unit or "",
+                    _start(v),
+                    v.range_text() if v.causality == "parameter" or v.min is not None or v.max is not None else "",
+                    _declared(v),
+                    v.description,
+                )
+            )
+            + "</tr>"
+        )
     inputs = ", ".join(v.name for v in spec.of("input")) or "none"
     outputs = ", ".join(v.name for v in spec.of("output")) or "none"
     req = " ".join(requires)

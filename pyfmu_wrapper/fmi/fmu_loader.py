@@ -15,6 +15,7 @@ the package is imported, so it uses the standard library only. The FMU's binary 
 * Several FMUs of one build share the imported package; the folder a host deleted is dropped
   from the package's search path (:meth:`Bundle.share_package`).
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -27,8 +28,10 @@ import sys
 def cache_root() -> str | None:
     """Where the FMUs' numba caches go ($PYFMU_CACHE_DIR, else $XDG_CACHE_HOME/pyfmu-fmus, else
     ~/.cache/pyfmu-fmus)."""
-    for d in (os.environ.get("PYFMU_CACHE_DIR"),
-              os.path.join(os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "pyfmu-fmus")):
+    for d in (
+        os.environ.get("PYFMU_CACHE_DIR"),
+        os.path.join(os.environ.get("XDG_CACHE_HOME") or os.path.expanduser("~/.cache"), "pyfmu-fmus"),
+    ):
         if d:
             return d
     return None
@@ -54,8 +57,10 @@ class Bundle:
     def check(self) -> None:
         found = files_hash(self.folder, self.files)
         if found != self.bundle_hash:
-            raise RuntimeError(f"the model code in {self.folder} was modified after the build "
-                               f"(SHA-256 {found}, recorded {self.bundle_hash}); rebuild the FMU")
+            raise RuntimeError(
+                f"the model code in {self.folder} was modified after the build "
+                f"(SHA-256 {found}, recorded {self.bundle_hash}); rebuild the FMU"
+            )
 
     def share_package(self) -> None:
         """The package is imported already, by another FMU of this build, whose folder the host may
@@ -63,9 +68,12 @@ class Bundle:
         this FMU's copy (checked) first on the search path of the package and of each of its
         subpackages, and drop folders that are gone: a submodule no FMU imported yet is then found
         in a folder that exists, whichever FMU of the build was loaded, freed or deleted first."""
-        pkgs = [(n, m) for n, m in list(sys.modules.items())
-                if (n == self.package or n.startswith(self.package + "."))
-                and isinstance(getattr(m, "__path__", None), list)]
+        pkgs = [
+            (n, m)
+            for n, m in list(sys.modules.items())
+            if (n == self.package or n.startswith(self.package + "."))
+            and isinstance(getattr(m, "__path__", None), list)
+        ]
         if all(os.path.join(self.folder, *n.split(".")[1:]) in m.__path__ for n, m in pkgs):
             return
         self.check()
@@ -79,8 +87,9 @@ class Bundle:
             self.share_package()
             return
         self.check()
-        spec = importlib.util.spec_from_file_location(self.package, os.path.join(self.folder, "__init__.py"),
-                                                      submodule_search_locations=[self.folder])
+        spec = importlib.util.spec_from_file_location(
+            self.package, os.path.join(self.folder, "__init__.py"), submodule_search_locations=[self.folder]
+        )
         if spec is None or spec.loader is None:
             raise ImportError(f"cannot import the bundled package {self.folder}")
         mod = importlib.util.module_from_spec(spec)

@@ -3,6 +3,7 @@
 (``y, yd, d, dd``), as the Python slaves and the native step use them. Compiling only these two
 keeps the FMU's first-load compile time small (the coupled system's integrator is not needed here).
 """
+
 from __future__ import annotations
 
 from ..physics import models

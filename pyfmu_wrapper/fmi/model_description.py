@@ -2,6 +2,7 @@
 
 Both are produced from one :class:`~.variables.FmuSpec`; nothing is written by hand.
 """
+
 from __future__ import annotations
 
 import hashlib
@@ -42,8 +43,10 @@ def _fmt(v) -> str:
 
 
 def _variable_xml(v: Variable) -> str:
-    attrs = f'name={quoteattr(v.name)} valueReference="{v.vr}" description={quoteattr(v.description)} ' \
-            f'causality="{v.causality}" variability="{v.variability}"'
+    attrs = (
+        f'name={quoteattr(v.name)} valueReference="{v.vr}" description={quoteattr(v.description)} '
+        f'causality="{v.causality}" variability="{v.variability}"'
+    )
     if v.initial is not None and v.causality != "input":
         attrs += f' initial="{v.initial}"'
     inner = ""
@@ -57,7 +60,7 @@ def _variable_xml(v: Variable) -> str:
         inner += f' min="{_fmt(lo)}"'
     if hi is not None:
         inner += f' max="{_fmt(hi)}"'
-    return f'    <ScalarVariable {attrs}>\n      <{v.type}{inner}/>\n    </ScalarVariable>'
+    return f"    <ScalarVariable {attrs}>\n      <{v.type}{inner}/>\n    </ScalarVariable>"
 
 
 def declared_range(v: Variable):
@@ -99,15 +102,20 @@ def model_description_xml(spec: FmuSpec, guid: str, generation_tool: str = "pyfm
         exps = " ".join(f'{k}="{e}"' for k, e in UNITS[u].items())
         units.append(f'    <Unit name="{u}">\n      <BaseUnit {exps}/>\n    </Unit>')
     outputs = spec.of("output")
-    init_unknowns = [v for v in spec.variables
-                     if (v.causality == "output" and v.initial in (None, "approx", "calculated"))
-                     or v.causality == "calculatedParameter"]
-    cs = (f'  <CoSimulation modelIdentifier="{spec.model_identifier}" canHandleVariableCommunicationStepSize="true" '
-          f'canInterpolateInputs="{str(spec.can_interpolate_inputs).lower()}" '
-          f'maxOutputDerivativeOrder="{spec.max_output_derivative_order}" '
-          f'canGetAndSetFMUstate="true" canSerializeFMUstate="true" '
-          f'providesDirectionalDerivative="{str(spec.provides_directional_derivative).lower()}" '
-          f'canNotUseMemoryManagementFunctions="true"/>')
+    init_unknowns = [
+        v
+        for v in spec.variables
+        if (v.causality == "output" and v.initial in (None, "approx", "calculated"))
+        or v.causality == "calculatedParameter"
+    ]
+    cs = (
+        f'  <CoSimulation modelIdentifier="{spec.model_identifier}" canHandleVariableCommunicationStepSize="true" '
+        f'canInterpolateInputs="{str(spec.can_interpolate_inputs).lower()}" '
+        f'maxOutputDerivativeOrder="{spec.max_output_derivative_order}" '
+        f'canGetAndSetFMUstate="true" canSerializeFMUstate="true" '
+        f'providesDirectionalDerivative="{str(spec.provides_directional_derivative).lower()}" '
+        f'canNotUseMemoryManagementFunctions="true"/>'
+    )
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<fmiModelDescription fmiVersion="2.0" modelName="{spec.model_name}" guid="{guid}" '
@@ -146,9 +154,13 @@ def variable_table_tsv(spec: FmuSpec) -> str:
     """The table the C stub reads, one variable per line: vr, type code, causality, variability,
     name, minimum, maximum (``-inf`` / ``inf``: none; exact bounds, not the declared ones) and 1 if
     the minimum is exclusive, else 0."""
+
     def bound(x, default):
         return default if x is None else repr(float(x))
 
-    rows = [f"{v.vr}\t{TYPE_CODE[v.type]}\t{v.causality}\t{v.variability}\t{v.name}\t{bound(v.min, '-inf')}\t"
-            f"{bound(v.max, 'inf')}\t{int(v.min_exclusive)}" for v in spec.variables]
+    rows = [
+        f"{v.vr}\t{TYPE_CODE[v.type]}\t{v.causality}\t{v.variability}\t{v.name}\t{bound(v.min, '-inf')}\t"
+        f"{bound(v.max, 'inf')}\t{int(v.min_exclusive)}"
+        for v in spec.variables
+    ]
     return "\n".join(rows) + "\n"

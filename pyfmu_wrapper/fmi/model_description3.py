@@ -15,6 +15,7 @@ What FMI 3.0 declares differently, and the rule this writer shares with the stub
   FMI 2.0's input derivatives); setting the input itself leaves them as they are.
 * ``<ModelStructure>`` refers to value references (FMI 2.0: indices).
 """
+
 from __future__ import annotations
 
 from xml.sax.saxutils import quoteattr
@@ -66,10 +67,18 @@ def input_derivatives(spec: FmuSpec) -> list[tuple[Variable, int, str | None]]:
             for k in INPUT_DERIVATIVE_ORDERS:
                 name = f"der({u.name})" if k == 1 else f"der({u.name},{k})"
                 what = "first" if k == 1 else "second"
-                v = Variable(name, derivative_vr(spec, u.vr, k), REAL, "input", "continuous",
-                             f"{what} time derivative of the input {u.name} at the start of the step: the FMU "
-                             f"integrates with the input's Taylor polynomial over the step (FMI 2.0: "
-                             f"fmi2SetRealInputDerivatives order {k}); applies to the next doStep only (reset to 0 after it)", None, 0.0)
+                v = Variable(
+                    name,
+                    derivative_vr(spec, u.vr, k),
+                    REAL,
+                    "input",
+                    "continuous",
+                    f"{what} time derivative of the input {u.name} at the start of the step: the FMU "
+                    f"integrates with the input's Taylor polynomial over the step (FMI 2.0: "
+                    f"fmi2SetRealInputDerivatives order {k}); applies to the next doStep only (reset to 0 after it)",
+                    None,
+                    0.0,
+                )
                 out.append((v, k, _derived_unit(u.unit, k)))
     return out
 
@@ -88,8 +97,10 @@ def _units_used(spec: FmuSpec) -> dict[str, dict[str, int]]:
 
 def _variable3(v: Variable, unit: str | None = None) -> str:
     t = TYPE3[v.type]
-    attrs = (f'name={quoteattr(v.name)} valueReference="{v.vr}" description={quoteattr(v.description)} '
-             f'causality="{v.causality}" variability="{v.variability}"')
+    attrs = (
+        f'name={quoteattr(v.name)} valueReference="{v.vr}" description={quoteattr(v.description)} '
+        f'causality="{v.causality}" variability="{v.variability}"'
+    )
     if v.initial is not None and v.causality != "input":
         attrs += f' initial="{v.initial}"'
     unit = unit if unit is not None else v.unit
@@ -118,12 +129,17 @@ def _unknown3(spec: FmuSpec, tag: str, v: Variable, deps, kinds) -> str:
 def model_description3_xml(spec: FmuSpec, token: str, generation_tool: str = "pyfmu_wrapper") -> str:
     """The complete FMI 3.0 co-simulation modelDescription.xml of spec (instantiationToken = token,
     the FMI 2.0 variant's GUID: the same core, the same FMU states)."""
-    units = [f'    <Unit name="{u}">\n      <BaseUnit {" ".join(f"{k}={chr(34)}{e}{chr(34)}" for k, e in ex.items())}/>\n'
-             f"    </Unit>" for u, ex in _units_used(spec).items()]
-    cs = (f'  <CoSimulation modelIdentifier="{spec.model_identifier}" canHandleVariableCommunicationStepSize="true" '
-          f'canGetAndSetFMUState="true" canSerializeFMUState="true" '
-          f'providesDirectionalDerivatives="{str(spec.provides_directional_derivative).lower()}" '
-          f'hasEventMode="false" providesIntermediateUpdate="false" canReturnEarlyAfterIntermediateUpdate="false"/>')
+    units = [
+        f'    <Unit name="{u}">\n      <BaseUnit {" ".join(f"{k}={chr(34)}{e}{chr(34)}" for k, e in ex.items())}/>\n'
+        f"    </Unit>"
+        for u, ex in _units_used(spec).items()
+    ]
+    cs = (
+        f'  <CoSimulation modelIdentifier="{spec.model_identifier}" canHandleVariableCommunicationStepSize="true" '
+        f'canGetAndSetFMUState="true" canSerializeFMUState="true" '
+        f'providesDirectionalDerivatives="{str(spec.provides_directional_derivative).lower()}" '
+        f'hasEventMode="false" providesIntermediateUpdate="false" canReturnEarlyAfterIntermediateUpdate="false"/>'
+    )
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<fmiModelDescription fmiVersion="3.0" modelName="{spec.model_name}" instantiationToken="{token}" '
@@ -147,9 +163,12 @@ def model_description3_xml(spec: FmuSpec, token: str, generation_tool: str = "py
     lines.append("  <ModelStructure>")
     for v in spec.of("output"):
         lines.append(_unknown3(spec, "Output", v, v.depends_on, v.dependencies_kind))
-    init_unknowns = [v for v in spec.variables
-                     if (v.causality == "output" and v.initial in (None, "approx", "calculated"))
-                     or v.causality == "calculatedParameter"]
+    init_unknowns = [
+        v
+        for v in spec.variables
+        if (v.causality == "output" and v.initial in (None, "approx", "calculated"))
+        or v.causality == "calculatedParameter"
+    ]
     for v in sorted(init_unknowns, key=lambda v: v.vr):
         deps = None if v.initial_depends_on is None else sorted(v.initial_depends_on, key=spec.vr)
         lines.append(_unknown3(spec, "InitialUnknown", v, deps, None))

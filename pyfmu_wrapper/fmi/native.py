@@ -27,6 +27,7 @@ saved there before integrating; :meth:`~.slaves.Slave.native_restore`) and retak
 Python, which raises the same exception with its traceback: fmi2Error, with the message sent to
 the FMI logger. ``debug_raise`` = 2 raises inside the compiled step (a test of that path).
 """
+
 from __future__ import annotations
 
 import functools
@@ -42,10 +43,20 @@ from .contract import MAX_INTEGRATOR_STEPS, NATIVE_OK
 from .integrators import integrate_base, integrate_tmd
 from .variables import BASE_OSCILLATOR, TMD_INERTER
 
-SIGNATURE = types.int32(types.CPointer(types.float64), types.CPointer(types.int32), types.CPointer(types.float64),
-                        types.CPointer(types.float64), types.CPointer(types.float64), types.CPointer(types.int64),
-                        types.CPointer(types.float64), types.CPointer(types.float64), types.CPointer(types.float64),
-                        types.CPointer(types.float64), types.float64, types.float64)
+SIGNATURE = types.int32(
+    types.CPointer(types.float64),
+    types.CPointer(types.int32),
+    types.CPointer(types.float64),
+    types.CPointer(types.float64),
+    types.CPointer(types.float64),
+    types.CPointer(types.int64),
+    types.CPointer(types.float64),
+    types.CPointer(types.float64),
+    types.CPointer(types.float64),
+    types.CPointer(types.float64),
+    types.float64,
+    types.float64,
+)
 #: debug_raise value that makes the compiled step itself raise
 DEBUG_RAISE_NATIVE = 2
 
@@ -111,8 +122,9 @@ def base_step():
         fill_atol(SYS_BASE, reals[B_ATOL], p, atol)
         band = 1.0 / p[P_s] if p[P_s] > 0 else 1e-6
         z0, z1 = z[0], z[1]
-        hn, _, status, _ = integrate_base(z, t, t + h, p, u, reals[B_RTOL], atol, th[1], h,
-                                     np.zeros(0), np.zeros((0, 2)), band, stats, MAX_STEPS)
+        hn, _, status, _ = integrate_base(
+            z, t, t + h, p, u, reals[B_RTOL], atol, th[1], h, np.zeros(0), np.zeros((0, 2)), band, stats, MAX_STEPS
+        )
         if status != 0:  # back to the start of the step: the Python path retakes it and names the failure
             z[0], z[1] = z0, z1
             return 1
@@ -170,8 +182,9 @@ def tmd_step():
         fill_atol(SYS_TMD, reals[T_ATOL], p, atol)
         band = 1.0 / p[P_s] if p[P_s] > 0 else 1e-6
         z0, z1, z2, z3 = z[0], z[1], z[2], z[3]
-        hn, _, status, _ = integrate_tmd(z, t, t + h, p, u, reals[T_RTOL], atol, th[1], h,
-                                     np.zeros(0), np.zeros((0, 4)), band, stats, MAX_STEPS)
+        hn, _, status, _ = integrate_tmd(
+            z, t, t + h, p, u, reals[T_RTOL], atol, th[1], h, np.zeros(0), np.zeros((0, 4)), band, stats, MAX_STEPS
+        )
         if status != 0:  # back to the start of the step: the Python path retakes it and names the failure
             z[0], z[1], z[2], z[3] = z0, z1, z2, z3
             return 1

@@ -23,6 +23,7 @@ The physics is not restated here: parameters go through :func:`~pyfmu_wrapper.ph
 a step is one call of the subsystem's integrator (:mod:`.integrators`) on the subsystem kernels
 (``SYS_BASE``, ``SYS_TMD``), outputs come from the kernels.
 """
+
 from __future__ import annotations
 
 import functools
@@ -65,6 +66,7 @@ def _guarded(method):
         except Exception:  # noqa: BLE001 - every exception becomes fmi2Error with its traceback
             self.last_error = traceback.format_exc()
             return ERROR
+
     return wrapper
 
 
@@ -96,7 +98,9 @@ class Slave:
         self._u = np.zeros(1 + 3 * len(self._inputs))
         self._outputs = [v for v in self.spec.of("output")]
         self._debug_vr = next((v.vr for v in self.spec.variables if v.name == "debug_raise"), None)
-        self._real_params = {v.vr for v in self.spec.variables if v.causality == "parameter" and v.type not in (INTEGER, BOOLEAN)}
+        self._real_params = {
+            v.vr for v in self.spec.variables if v.causality == "parameter" and v.type not in (INTEGER, BOOLEAN)
+        }
         self._start_values()
 
     t = property(lambda self: float(self._th[0]), lambda self, v: self._th.__setitem__(0, v))
@@ -119,8 +123,8 @@ class Slave:
         """The compiled step raised (numba printed the exception and returned 0): put z and the
         counters back to where the step started, so the Python path retakes the same step."""
         b = self._native_backup
-        self.z[:] = b[:self.n_state]
-        self.stats[:] = b[self.n_state:].astype(np.int64)
+        self.z[:] = b[: self.n_state]
+        self.stats[:] = b[self.n_state :].astype(np.int64)
 
     def _native_step(self):
         return None
@@ -205,8 +209,10 @@ class Slave:
     def do_step(self, t, h, no_set_prior):
         # (t, h) were checked by the C stub, the one guard of the doStep contract (fmi/contract.py)
         if self._debug_vr is not None and self.i[self._debug_vr]:
-            raise InjectedError(f"debug_raise = {self.i[self._debug_vr]} is set: exception injected at t = {t:.16g}"
-                                + (" (in the compiled step, then again here)" if self.i[self._debug_vr] == 2 else ""))
+            raise InjectedError(
+                f"debug_raise = {self.i[self._debug_vr]} is set: exception injected at t = {t:.16g}"
+                + (" (in the compiled step, then again here)" if self.i[self._debug_vr] == 2 else "")
+            )
         u = self._taylor_inputs(t)
         self.advance(t, h, u)
         self.t = t + h
@@ -240,10 +246,10 @@ class Slave:
         if a.size != n:
             raise ValueError(f"FMU state has {a.size} values, expected {n}")
         self.t, self.h = float(a[0]), float(a[1])
-        self.p[:] = a[2:2 + self.p.size]
+        self.p[:] = a[2 : 2 + self.p.size]
         k = 2 + self.p.size
-        self.z[:] = a[k:k + self.n_state]
-        self.stats[:] = a[k + self.n_state:].astype(np.int64)
+        self.z[:] = a[k : k + self.n_state]
+        self.stats[:] = a[k + self.n_state :].astype(np.int64)
 
     @_guarded
     def directional_derivative(self, n_unknown, n_known, initializing=0):
@@ -258,8 +264,8 @@ class Slave:
         """
         s = self.scratch
         vu = s[:n_unknown].astype(np.int64)
-        vk = s[n_unknown:n_unknown + n_known].astype(np.int64)
-        seed = s[n_unknown + n_known:n_unknown + 2 * n_known]
+        vk = s[n_unknown : n_unknown + n_known].astype(np.int64)
+        seed = s[n_unknown + n_known : n_unknown + 2 * n_known]
         in_index = {int(vr): k for k, vr in enumerate(self._input_vr)}
         out_index = {v.vr: j for j, v in enumerate(self._outputs) if v.type not in (INTEGER, BOOLEAN)}
         direction = np.zeros(len(in_index))
@@ -276,7 +282,7 @@ class Slave:
             dy += np.array([np.imag(complex(v)) for v in y]) / _CSTEP
         for vr, dv in params.items():
             dy += dv * self._parameter_sensitivity(vr)
-        res = s[n_unknown + 2 * n_known:2 * n_unknown + 2 * n_known]
+        res = s[n_unknown + 2 * n_known : 2 * n_unknown + 2 * n_known]
         for j, vr in enumerate(vu):
             vr = int(vr)
             if vr in out_index:
@@ -307,8 +313,9 @@ class Slave:
         if r0 in rows and (r0 + d in rows or r0 - d in rows):
             v = r0 + d if r0 + d in rows else r0 - d
             return (rows[v] - rows[r0]) / (v - r0)
-        raise FmuStepError(f"directional derivative with respect to parameter {vr} is not available at {r0!r}: "
-                           + "; ".join(errors))
+        raise FmuStepError(
+            f"directional derivative with respect to parameter {vr} is not available at {r0!r}: " + "; ".join(errors)
+        )
 
     def _write_outputs(self, values):
         for v, val in zip(self._outputs, values, strict=True):
@@ -332,15 +339,32 @@ class Slave:
         hn = self.h
         for k in range(n):
             a, b = (t, t + h) if n == 1 else (t + h * k / n, (t + h if k == n - 1 else t + h * (k + 1) / n))
-            hn, _, status, tf = integrate(self.z, a, b, self.p, u, rtol, self._atol, hn,
-                                          h if n == 1 else b - a,
-                                          self._empty_t, self._empty_s, band, self.stats, MAX_INTEGRATOR_STEPS)
+            hn, _, status, tf = integrate(
+                self.z,
+                a,
+                b,
+                self.p,
+                u,
+                rtol,
+                self._atol,
+                hn,
+                h if n == 1 else b - a,
+                self._empty_t,
+                self._empty_s,
+                band,
+                self.stats,
+                MAX_INTEGRATOR_STEPS,
+            )
             if status != 0:
-                raise FmuStepError(f"doStep from t = {t:.16g} s: " + failure_message(
-                    status, model, tf, self.z, self.p, self._atol, band, MAX_INTEGRATOR_STEPS))
+                raise FmuStepError(
+                    f"doStep from t = {t:.16g} s: "
+                    + failure_message(status, model, tf, self.z, self.p, self._atol, band, MAX_INTEGRATOR_STEPS)
+                )
             if self.stats[STAT_STEPS] - start > MAX_INTEGRATOR_STEPS:
-                raise FmuStepError(f"doStep of {h:g} s from t = {t:.16g} needs more than {MAX_INTEGRATOR_STEPS} "
-                                   "integrator steps; use shorter communication steps")
+                raise FmuStepError(
+                    f"doStep of {h:g} s from t = {t:.16g} needs more than {MAX_INTEGRATOR_STEPS} "
+                    "integrator steps; use shorter communication steps"
+                )
         self.h = hn
 
 
@@ -384,8 +408,10 @@ class TMDInerterSlave(Slave):
         tmd = TMDParams(**self._registry_values("tmd"), source=f"FMU {self.instance_name}")
         kappa = self.val("base_compliance")
         if not (math.isfinite(kappa) and kappa >= 0.0):
-            raise ParameterError(f"FMU {self.instance_name}: base_compliance = {kappa!r} 1/kg: must be finite "
-                                 "and >= 0 (1/M of the body the TMD is mounted on, 0: off)")
+            raise ParameterError(
+                f"FMU {self.instance_name}: base_compliance = {kappa!r} 1/kg: must be finite "
+                "and >= 0 (1/M of the body the TMD is mounted on, 0: off)"
+            )
         self.p[:] = pack(BaseParams(), tmd, 0.0)
         self._u[kn.U_KAPPA] = kappa
         self.z[:] = (self.val("y0"), self.val("yd0"), self.val("d0"), self.val("dd0"))

@@ -16,6 +16,7 @@ Linux x86-64 machine with no Python at all:
 compiled with :func:`stub_flags`: against the build interpreter's headers, so that it starts this
 runtime isolated with the PyConfig API (``fmu/src/py_config.c``); see docs/fmus.md.
 """
+
 from __future__ import annotations
 
 import os
@@ -31,8 +32,19 @@ from .buildinfo import BuildError, version_of
 #: numpy and llvmlite; llvmlite's libllvmlite.so and numpy's numpy.libs are in their file lists).
 RUNTIME_PACKAGES = ("numpy", "numba", "llvmlite")
 #: Parts of the standard library a model never imports (tests, IDEs, GUI, installers, build files).
-STDLIB_EXCLUDE = {"test", "idlelib", "tkinter", "turtledemo", "ensurepip", "lib2to3", "site-packages",
-                  "__pycache__", "pydoc_data", "venv", "turtle.py"}
+STDLIB_EXCLUDE = {
+    "test",
+    "idlelib",
+    "tkinter",
+    "turtledemo",
+    "ensurepip",
+    "lib2to3",
+    "site-packages",
+    "__pycache__",
+    "pydoc_data",
+    "venv",
+    "turtle.py",
+}
 DYNLOAD_EXCLUDE = ("_test", "_tkinter", "xxlimited", "_ctypes_test", "_xxtestfuzz", "_xxsubinterpreters")
 RUNTIME_DIR = "python"
 
@@ -43,9 +55,12 @@ def _pyver() -> str:
 
 def runtime_config() -> dict:
     """What ``pyfmu.cfg`` records about the bundled runtime (paths relative to ``resources/``)."""
-    return {"runtime": RUNTIME_DIR, "runtime_libpython": f"{RUNTIME_DIR}/lib/lib{_pyver()}.so",
-            "runtime_version": sys.version.split()[0],
-            "runtime_packages": " ".join(f"{n}=={version_of(n)}" for n in RUNTIME_PACKAGES)}
+    return {
+        "runtime": RUNTIME_DIR,
+        "runtime_libpython": f"{RUNTIME_DIR}/lib/lib{_pyver()}.so",
+        "runtime_version": sys.version.split()[0],
+        "runtime_packages": " ".join(f"{n}=={version_of(n)}" for n in RUNTIME_PACKAGES),
+    }
 
 
 def _pyc(src: Path, arc: str, pyc_dir: Path, out: list) -> None:
@@ -60,8 +75,13 @@ def _pyc(src: Path, arc: str, pyc_dir: Path, out: list) -> None:
     pyc_arc = f"{d}/__pycache__/{name[:-3]}.{sys.implementation.cache_tag}.pyc"
     target = pyc_dir / pyc_arc
     try:
-        py_compile.compile(str(src), cfile=str(target), dfile=arc, doraise=True,
-                           invalidation_mode=py_compile.PycInvalidationMode.UNCHECKED_HASH)
+        py_compile.compile(
+            str(src),
+            cfile=str(target),
+            dfile=arc,
+            doraise=True,
+            invalidation_mode=py_compile.PycInvalidationMode.UNCHECKED_HASH,
+        )
     except (py_compile.PyCompileError, SyntaxError, ValueError):
         return  # files that are not valid Python 3 (templates): shipped as is, never imported
     out.append((target, pyc_arc))
@@ -92,8 +112,13 @@ def runtime_files(pyc_dir: Path) -> list[tuple[Path, str]]:
     out: list[tuple[Path, str]] = [(lib, f"{RUNTIME_DIR}/lib/lib{_pyver()}.so")]
     for root, dirs, names in os.walk(stdlib):
         rel = Path(root).relative_to(stdlib)
-        dirs[:] = sorted(d for d in dirs if not (d in STDLIB_EXCLUDE or d.startswith("config-")
-                                                 or (rel.parts and d in ("tests", "test", "idle_test"))))
+        dirs[:] = sorted(
+            d
+            for d in dirs
+            if not (
+                d in STDLIB_EXCLUDE or d.startswith("config-") or (rel.parts and d in ("tests", "test", "idle_test"))
+            )
+        )
         for n in sorted(names):
             if n in STDLIB_EXCLUDE or n.endswith((".pyc", ".exe", ".a")):
                 continue
@@ -132,6 +157,8 @@ def stub_flags() -> tuple[str, ...]:
     Python version, which is the build interpreter's)."""
     inc = Path(sysconfig.get_paths()["include"])
     if not (inc / "Python.h").is_file():
-        raise BuildError(f"Python.h of the build interpreter not found in {inc}: a standalone FMU's stub is compiled "
-                         f"against it (install the Python development headers)")
+        raise BuildError(
+            f"Python.h of the build interpreter not found in {inc}: a standalone FMU's stub is compiled "
+            f"against it (install the Python development headers)"
+        )
     return ("-DPYFMU_PYCONFIG", f"-I{inc}")

@@ -20,6 +20,7 @@ into ``modelDescription.xml`` (an exclusive minimum m as the next double above m
 inclusive) and into the stub's table, which refuses an out-of-range value in fmi2SetReal /
 fmi2SetInteger with a message naming the variable, the value and the range.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -124,8 +125,20 @@ class FmuSpec:
 
 
 def _par(name, vr, start, unit, description, type_=REAL, lo=None, hi=None, exclusive=False):
-    return Variable(name, vr, type_, "parameter", "fixed", description, unit, start, "exact",
-                    min=lo, max=hi, min_exclusive=exclusive)
+    return Variable(
+        name,
+        vr,
+        type_,
+        "parameter",
+        "fixed",
+        description,
+        unit,
+        start,
+        "exact",
+        min=lo,
+        max=hi,
+        min_exclusive=exclusive,
+    )
 
 
 def _registry_parameters(subsystem: str) -> tuple[Variable, ...]:
@@ -133,12 +146,32 @@ def _registry_parameters(subsystem: str) -> tuple[Variable, ...]:
     out = []
     for p in registry.of(subsystem):
         if p.kind == "enum":
-            out.append(_par(p.fmu_name, p.fmu_vr, int(p.default), None, p.description, INTEGER,
-                            None if p.minimum is None else int(p.minimum), None if p.maximum is None else int(p.maximum)))
+            out.append(
+                _par(
+                    p.fmu_name,
+                    p.fmu_vr,
+                    int(p.default),
+                    None,
+                    p.description,
+                    INTEGER,
+                    None if p.minimum is None else int(p.minimum),
+                    None if p.maximum is None else int(p.maximum),
+                )
+            )
         else:
             unit = None if p.unit == "1" else p.unit
-            out.append(_par(p.fmu_name, p.fmu_vr, float(p.default), unit, f"{p.symbol}: {p.description}",
-                            lo=p.minimum, hi=p.maximum, exclusive=p.strict and p.minimum is not None))
+            out.append(
+                _par(
+                    p.fmu_name,
+                    p.fmu_vr,
+                    float(p.default),
+                    unit,
+                    f"{p.symbol}: {p.description}",
+                    lo=p.minimum,
+                    hi=p.maximum,
+                    exclusive=p.strict and p.minimum is not None,
+                )
+            )
     return tuple(out)
 
 
@@ -148,13 +181,39 @@ _TMD_PARS = tuple(p.fmu_name for p in registry.of("tmd"))
 
 
 _INTEGRATOR = (
-    _par("rtol", 90, 1e-8, None, "relative tolerance of the RODAS4 integrator inside doStep (> 0, <= 1)",
-         lo=0.0, hi=1.0, exclusive=True),
-    _par("atol", 91, 1e-10, None, "absolute tolerance of the integrator (all states, SI units; the play "
-         "chain's rate dd: atol x sqrt(ki/I); > 0)", lo=0.0, exclusive=True),
-    Variable("debug_raise", 99, INTEGER, "parameter", "tunable",
-             "testing aid: 1 makes the next doStep raise a Python exception, 2 raise inside the compiled step "
-             "(both reported as fmi2Error)", None, 0, "exact", min=0, max=2),
+    _par(
+        "rtol",
+        90,
+        1e-8,
+        None,
+        "relative tolerance of the RODAS4 integrator inside doStep (> 0, <= 1)",
+        lo=0.0,
+        hi=1.0,
+        exclusive=True,
+    ),
+    _par(
+        "atol",
+        91,
+        1e-10,
+        None,
+        "absolute tolerance of the integrator (all states, SI units; the play chain's rate dd: atol x sqrt(ki/I); > 0)",
+        lo=0.0,
+        exclusive=True,
+    ),
+    Variable(
+        "debug_raise",
+        99,
+        INTEGER,
+        "parameter",
+        "tunable",
+        "testing aid: 1 makes the next doStep raise a Python exception, 2 raise inside the compiled step "
+        "(both reported as fmi2Error)",
+        None,
+        0,
+        "exact",
+        min=0,
+        max=2,
+    ),
 )
 
 BASE_OSCILLATOR = FmuSpec(
@@ -166,30 +225,82 @@ BASE_OSCILLATOR = FmuSpec(
         *_registry_parameters("base"),
         _par("x0", 5, 0.0, "m", "initial base displacement"),
         _par("xd0", 6, 0.0, "m/s", "initial base velocity"),
-        Variable("f_link", 10, REAL, "input", "continuous",
-                 "force of the TMD links on the base, positive when it pushes the base in -x "
-                 "(= TMDInerter.force)", "N", 0.0),
-        Variable("x", 20, REAL, "output", "continuous", "base displacement", "m", initial="calculated",
-                 initial_depends_on=("x0",)),
-        Variable("xd", 21, REAL, "output", "continuous", "base velocity", "m/s", initial="calculated",
-                 initial_depends_on=("xd0",)),
-        Variable("xdd", 22, REAL, "output", "continuous", "base acceleration", "m/s2", initial="calculated",
-                 depends_on=("f_link",), dependencies_kind=("fixed",),
-                 initial_depends_on=_BASE_PARS + ("x0", "xd0", "f_link")),
-        Variable("f_exc", 23, REAL, "output", "continuous", "excitation force F cos(w t)", "N",
-                 initial="calculated", initial_depends_on=("F", "w")),
-        Variable("xdd_free", 24, REAL, "output", "continuous",
-                 "base acceleration without the link force, (F cos(w t) - C xd - K x)/M: the input of a "
-                 "TMDInerter with base_compliance = 1/M", "m/s2", initial="calculated",
-                 initial_depends_on=_BASE_PARS + ("x0", "xd0")),
-    ) + _INTEGRATOR,
+        Variable(
+            "f_link",
+            10,
+            REAL,
+            "input",
+            "continuous",
+            "force of the TMD links on the base, positive when it pushes the base in -x (= TMDInerter.force)",
+            "N",
+            0.0,
+        ),
+        Variable(
+            "x",
+            20,
+            REAL,
+            "output",
+            "continuous",
+            "base displacement",
+            "m",
+            initial="calculated",
+            initial_depends_on=("x0",),
+        ),
+        Variable(
+            "xd",
+            21,
+            REAL,
+            "output",
+            "continuous",
+            "base velocity",
+            "m/s",
+            initial="calculated",
+            initial_depends_on=("xd0",),
+        ),
+        Variable(
+            "xdd",
+            22,
+            REAL,
+            "output",
+            "continuous",
+            "base acceleration",
+            "m/s2",
+            initial="calculated",
+            depends_on=("f_link",),
+            dependencies_kind=("fixed",),
+            initial_depends_on=_BASE_PARS + ("x0", "xd0", "f_link"),
+        ),
+        Variable(
+            "f_exc",
+            23,
+            REAL,
+            "output",
+            "continuous",
+            "excitation force F cos(w t)",
+            "N",
+            initial="calculated",
+            initial_depends_on=("F", "w"),
+        ),
+        Variable(
+            "xdd_free",
+            24,
+            REAL,
+            "output",
+            "continuous",
+            "base acceleration without the link force, (F cos(w t) - C xd - K x)/M: the input of a "
+            "TMDInerter with base_compliance = 1/M",
+            "m/s2",
+            initial="calculated",
+            initial_depends_on=_BASE_PARS + ("x0", "xd0"),
+        ),
+    )
+    + _INTEGRATOR,
 )
 
 TMD_INERTER = FmuSpec(
     model_name="TMDInerter",
     model_identifier="TMDInerter",
-    description="TMD with spring, damper, dry friction and an inerter (none/ideal/with play) "
-                "driven by the base motion",
+    description="TMD with spring, damper, dry friction and an inerter (none/ideal/with play) driven by the base motion",
     slave="pyfmu_wrapper.fmi.slaves:TMDInerterSlave",
     variables=(
         *_registry_parameters("tmd"),
@@ -197,31 +308,89 @@ TMD_INERTER = FmuSpec(
         _par("yd0", 12, 0.0, "m/s", "initial TMD velocity"),
         _par("d0", 13, 0.0, "m", "initial play-chain deflection d = r - y (play model)"),
         _par("dd0", 14, 0.0, "m/s", "initial play-chain deflection rate (play model)"),
-        _par("base_compliance", 15, 0.0, "1/kg",
-             "interface Jacobian -d xdd/d force = 1/M of the body the TMD is mounted on. 0 (default): "
-             "xdd is the base acceleration. > 0: xdd is the base acceleration without this TMD's force "
-             "(BaseOscillator.xdd_free) and the TMD adds the base's reaction -force/M within each step", lo=0.0),
+        _par(
+            "base_compliance",
+            15,
+            0.0,
+            "1/kg",
+            "interface Jacobian -d xdd/d force = 1/M of the body the TMD is mounted on. 0 (default): "
+            "xdd is the base acceleration. > 0: xdd is the base acceleration without this TMD's force "
+            "(BaseOscillator.xdd_free) and the TMD adds the base's reaction -force/M within each step",
+            lo=0.0,
+        ),
         Variable("x", 30, REAL, "input", "continuous", "base displacement", "m", 0.0),
         Variable("xd", 31, REAL, "input", "continuous", "base velocity", "m/s", 0.0),
-        Variable("xdd", 32, REAL, "input", "continuous",
-                 "base acceleration (without this TMD's force when base_compliance > 0)", "m/s2", 0.0),
-        Variable("force", 40, REAL, "output", "continuous",
-                 "force of the TMD links on the base, positive in -x on the base (+y on the TMD)", "N",
-                 initial="calculated", depends_on=("x", "xd", "xdd"),
-                 dependencies_kind=("fixed", "dependent", "fixed"),
-                 initial_depends_on=_TMD_PARS + ("y0", "yd0", "d0", "dd0", "base_compliance", "x", "xd", "xdd")),
-        Variable("y", 41, REAL, "output", "continuous", "TMD displacement", "m", initial="calculated",
-                 initial_depends_on=("y0",)),
-        Variable("yd", 42, REAL, "output", "continuous", "TMD velocity", "m/s", initial="calculated",
-                 initial_depends_on=("yd0",)),
-        Variable("inerter_force", 43, REAL, "output", "continuous",
-                 "force P carried by the inerter chain (diagnostic)", "N", initial="calculated",
-                 depends_on=("x", "xd", "xdd"), dependencies_kind=("fixed", "dependent", "fixed"),
-                 initial_depends_on=_TMD_PARS + ("y0", "yd0", "d0", "dd0", "base_compliance", "x", "xd", "xdd")),
-        Variable("contact", 44, INTEGER, "output", "discrete",
-                 "gear contact of the play chain: +1 compression, -1 extension, 0 free", None,
-                 initial="calculated", initial_depends_on=("eps", "inerter", "d0")),
-    ) + _INTEGRATOR,
+        Variable(
+            "xdd",
+            32,
+            REAL,
+            "input",
+            "continuous",
+            "base acceleration (without this TMD's force when base_compliance > 0)",
+            "m/s2",
+            0.0,
+        ),
+        Variable(
+            "force",
+            40,
+            REAL,
+            "output",
+            "continuous",
+            "force of the TMD links on the base, positive in -x on the base (+y on the TMD)",
+            "N",
+            initial="calculated",
+            depends_on=("x", "xd", "xdd"),
+            dependencies_kind=("fixed", "dependent", "fixed"),
+            initial_depends_on=_TMD_PARS + ("y0", "yd0", "d0", "dd0", "base_compliance", "x", "xd", "xdd"),
+        ),
+        Variable(
+            "y",
+            41,
+            REAL,
+            "output",
+            "continuous",
+            "TMD displacement",
+            "m",
+            initial="calculated",
+            initial_depends_on=("y0",),
+        ),
+        Variable(
+            "yd",
+            42,
+            REAL,
+            "output",
+            "continuous",
+            "TMD velocity",
+            "m/s",
+            initial="calculated",
+            initial_depends_on=("yd0",),
+        ),
+        Variable(
+            "inerter_force",
+            43,
+            REAL,
+            "output",
+            "continuous",
+            "force P carried by the inerter chain (diagnostic)",
+            "N",
+            initial="calculated",
+            depends_on=("x", "xd", "xdd"),
+            dependencies_kind=("fixed", "dependent", "fixed"),
+            initial_depends_on=_TMD_PARS + ("y0", "yd0", "d0", "dd0", "base_compliance", "x", "xd", "xdd"),
+        ),
+        Variable(
+            "contact",
+            44,
+            INTEGER,
+            "output",
+            "discrete",
+            "gear contact of the play chain: +1 compression, -1 extension, 0 free",
+            None,
+            initial="calculated",
+            initial_depends_on=("eps", "inerter", "d0"),
+        ),
+    )
+    + _INTEGRATOR,
 )
 
 # A do-nothing model used only to measure the per-call overhead of the stub (benchmarks).
@@ -233,8 +402,19 @@ TRIVIAL = FmuSpec(
     variables=(
         _par("gain", 0, 2.0, None, "gain"),
         Variable("u", 1, REAL, "input", "continuous", "input", None, 0.0),
-        Variable("y", 2, REAL, "output", "continuous", "gain * u", None, initial="calculated",
-                 depends_on=("u",), dependencies_kind=("fixed",), initial_depends_on=("gain", "u")),
+        Variable(
+            "y",
+            2,
+            REAL,
+            "output",
+            "continuous",
+            "gain * u",
+            None,
+            initial="calculated",
+            depends_on=("u",),
+            dependencies_kind=("fixed",),
+            initial_depends_on=("gain", "u"),
+        ),
     ),
     provides_directional_derivative=True,
 )

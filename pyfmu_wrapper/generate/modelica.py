@@ -13,6 +13,7 @@ parameter definitions: :class:`~pyfmu_wrapper.physics.params.BaseParams` and
 Run ``python -m pyfmu_wrapper.generate.modelica`` to rewrite the files, ``--check`` to fail when the
 committed files differ from the generated text (the test suite does the same check).
 """
+
 from __future__ import annotations
 
 import argparse
@@ -39,11 +40,17 @@ EXPERIMENT_TOLERANCE = 1e-8
 BASE_NAMES = {p.name: p.modelica_name for p in registry.fields("base") if p.modelica_name}
 TMD_NAMES = {p.name: p.modelica_name for p in registry.fields("tmd") if p.modelica_name}
 #: the coupled system class of each inerter model
-SYSTEM_CLASS = {InerterModel.NONE: "CoupledNoInerter", InerterModel.IDEAL: "CoupledIdealInerter",
-                InerterModel.PLAY: "CoupledPlayInerter"}
+SYSTEM_CLASS = {
+    InerterModel.NONE: "CoupledNoInerter",
+    InerterModel.IDEAL: "CoupledIdealInerter",
+    InerterModel.PLAY: "CoupledPlayInerter",
+}
 #: the TMD subsystem class of each inerter model
-TMD_CLASS = {InerterModel.NONE: "TMDNoInerter", InerterModel.IDEAL: "TMDIdealInerter",
-             InerterModel.PLAY: "TMDPlayInerter"}
+TMD_CLASS = {
+    InerterModel.NONE: "TMDNoInerter",
+    InerterModel.IDEAL: "TMDIdealInerter",
+    InerterModel.PLAY: "TMDPlayInerter",
+}
 
 
 def system_parameters(model: InerterModel) -> tuple[str, ...]:
@@ -91,29 +98,66 @@ def cases() -> list[CaseSpec]:
     """Every case of the paper, in the order they are written to ``Cases.mo``."""
     base = BaseParams()
     out = [
-        CaseSpec("IratioMap0", "Iratio map endpoint Iratio = 0: classical TMD, m = 10, no inerter",
-                 base, TMDParams(mass=10.0, inertance=0.0, inerter=InerterModel.NONE)),
-        CaseSpec("IratioMap1", "Iratio map endpoint Iratio = 1: massless TMD node, ideal inerter I = 10",
-                 base, TMDParams(mass=0.0, inertance=10.0, inerter=InerterModel.IDEAL)),
+        CaseSpec(
+            "IratioMap0",
+            "Iratio map endpoint Iratio = 0: classical TMD, m = 10, no inerter",
+            base,
+            TMDParams(mass=10.0, inertance=0.0, inerter=InerterModel.NONE),
+        ),
+        CaseSpec(
+            "IratioMap1",
+            "Iratio map endpoint Iratio = 1: massless TMD node, ideal inerter I = 10",
+            base,
+            TMDParams(mass=0.0, inertance=10.0, inerter=InerterModel.IDEAL),
+        ),
     ]
     for n in (1, 2, 3):
         out.append(CaseSpec(f"IdealCase{n}", f"Sect. 3, Case {n}: ideal inerter, no damping", base, paper_case(n)))
     for n in (1, 2, 3):
-        out.append(CaseSpec(f"ViscousCase{n}", f"Sect. 4, Case {n}: ideal inerter, optimised viscous damping c",
-                            base, paper_case(n, damping=C_OPT[n])))
+        out.append(
+            CaseSpec(
+                f"ViscousCase{n}",
+                f"Sect. 4, Case {n}: ideal inerter, optimised viscous damping c",
+                base,
+                paper_case(n, damping=C_OPT[n]),
+            )
+        )
     for n in (1, 2, 3):
-        out.append(CaseSpec(f"DryFrictionCase{n}", f"Sect. 5, Case {n}: ideal inerter, optimised dry friction df",
-                            base, paper_case(n, friction_force=DF_OPT[n])))
+        out.append(
+            CaseSpec(
+                f"DryFrictionCase{n}",
+                f"Sect. 5, Case {n}: ideal inerter, optimised dry friction df",
+                base,
+                paper_case(n, friction_force=DF_OPT[n]),
+            )
+        )
     for n in (1, 2, 3):
-        out.append(CaseSpec(f"PlayCase{n}", f"Sect. 6, Case {n}: inerter with play, standard gap eps",
-                            base, paper_case(n, inerter=InerterModel.PLAY, play_gap=STANDARD_GAP)))
+        out.append(
+            CaseSpec(
+                f"PlayCase{n}",
+                f"Sect. 6, Case {n}: inerter with play, standard gap eps",
+                base,
+                paper_case(n, inerter=InerterModel.PLAY, play_gap=STANDARD_GAP),
+            )
+        )
     for n in (1, 2, 3):
         c, df = FULL_C_DF[n]
-        out.append(CaseSpec(f"FullCase{n}", f"Sect. 7, Case {n}: full model (viscous damping, dry friction, play)",
-                            base, paper_case(n, damping=c, friction_force=df, inerter=InerterModel.PLAY,
-                                             play_gap=STANDARD_GAP)))
-    out.append(CaseSpec("CubicSpringCase1", "Not in the paper: Case 1, c = 10, hardening cubic TMD spring k3",
-                        base, paper_case(1, damping=10.0, cubic_stiffness=CUBIC_K3)))
+        out.append(
+            CaseSpec(
+                f"FullCase{n}",
+                f"Sect. 7, Case {n}: full model (viscous damping, dry friction, play)",
+                base,
+                paper_case(n, damping=c, friction_force=df, inerter=InerterModel.PLAY, play_gap=STANDARD_GAP),
+            )
+        )
+    out.append(
+        CaseSpec(
+            "CubicSpringCase1",
+            "Not in the paper: Case 1, c = 10, hardening cubic TMD spring k3",
+            base,
+            paper_case(1, damping=10.0, cubic_stiffness=CUBIC_K3),
+        )
+    )
     return out
 
 
@@ -125,19 +169,27 @@ def fmt(value: float) -> str:
     return s
 
 
-HEADER = ("  // Generated by pyfmu_wrapper.generate.modelica from pyfmu_wrapper/physics/params.py.\n"
-          "  // Do not edit: run `python -m pyfmu_wrapper.generate.modelica` instead.\n")
+HEADER = (
+    "  // Generated by pyfmu_wrapper.generate.modelica from pyfmu_wrapper/physics/params.py.\n"
+    "  // Do not edit: run `python -m pyfmu_wrapper.generate.modelica` instead.\n"
+)
 
 
 def defaults_text() -> str:
     """``Defaults.mo``: the registry defaults (the Python dataclass defaults)."""
-    lines = [f"within {PACKAGE};", 'package Defaults "Default parameter values (Python dataclass defaults)"',
-             HEADER.rstrip("\n"), f"  extends {PACKAGE}.Icons.Package;"]
+    lines = [
+        f"within {PACKAGE};",
+        'package Defaults "Default parameter values (Python dataclass defaults)"',
+        HEADER.rstrip("\n"),
+        f"  extends {PACKAGE}.Icons.Package;",
+    ]
     for p in registry.PARAMETERS:
         if not p.modelica_name:
             continue
         if p.name == "omega":
-            lines.append(f'  constant Real w = {fmt(DEFAULT_OMEGA)} "Excitation frequency [rad/s] (generate.modelica.DEFAULT_OMEGA)";')
+            lines.append(
+                f'  constant Real w = {fmt(DEFAULT_OMEGA)} "Excitation frequency [rad/s] (generate.modelica.DEFAULT_OMEGA)";'
+            )
             continue
         cls = "BaseParams" if p.subsystem == "base" else "TMDParams"
         lines.append(f'  constant Real {p.modelica_name} = {fmt(p.default)} "{cls}.{p.name}";')
@@ -166,8 +218,11 @@ def _param_lines(arg: str, indent: str) -> list[str]:
         else:
             m = int(_MODEL_OF[which])
             pars = [p for p in pars if m in p.models and p.models != registry.ALL_MODELS]
-    return [f"{indent}parameter {PACKAGE}.Units.{p.modelica_type} {p.modelica_name} = "
-            f'{PACKAGE}.Defaults.{p.modelica_name} "{p.symbol}: {p.description}";' for p in pars]
+    return [
+        f"{indent}parameter {PACKAGE}.Units.{p.modelica_type} {p.modelica_name} = "
+        f'{PACKAGE}.Defaults.{p.modelica_name} "{p.symbol}: {p.description}";'
+        for p in pars
+    ]
 
 
 def _instance_line(arg: str, indent: str) -> list[str]:
@@ -200,19 +255,23 @@ def systems_text(text: str) -> str:
 def case_text(spec: CaseSpec) -> str:
     params = spec.modelica_parameters()
     mods = ", ".join(f"{n} = {fmt(v)}" for n, v in params.items())
-    return (f'  model {spec.name} "{spec.description}"\n'
-            f"    extends {PACKAGE}.Systems.{spec.system}({mods}, w = {fmt(DEFAULT_OMEGA)});\n"
-            f"    annotation(experiment(StartTime = 0, StopTime = {fmt(EXPERIMENT_STOP_TIME)}, "
-            f"Tolerance = {fmt(EXPERIMENT_TOLERANCE)}));\n"
-            f"  end {spec.name};\n")
+    return (
+        f'  model {spec.name} "{spec.description}"\n'
+        f"    extends {PACKAGE}.Systems.{spec.system}({mods}, w = {fmt(DEFAULT_OMEGA)});\n"
+        f"    annotation(experiment(StartTime = 0, StopTime = {fmt(EXPERIMENT_STOP_TIME)}, "
+        f"Tolerance = {fmt(EXPERIMENT_TOLERANCE)}));\n"
+        f"  end {spec.name};\n"
+    )
 
 
 def cases_text() -> str:
     """``Cases.mo``: one model per case of the paper."""
     body = "\n".join(case_text(s) for s in cases())
-    return (f"within {PACKAGE};\n"
-            f'package Cases "One model per case of the paper (Brzeski & Perlikowski 2017)"\n'
-            f"{HEADER}  extends {PACKAGE}.Icons.Package;\n\n{body}end Cases;\n")
+    return (
+        f"within {PACKAGE};\n"
+        f'package Cases "One model per case of the paper (Brzeski & Perlikowski 2017)"\n'
+        f"{HEADER}  extends {PACKAGE}.Icons.Package;\n\n{body}end Cases;\n"
+    )
 
 
 def generated_files(directory: Path = PACKAGE_DIR) -> dict[str, str]:
@@ -255,8 +314,11 @@ def main(argv=None) -> int:
     if a.check:
         bad = stale_files(a.dir)
         if bad:
-            print(f"stale generated Modelica files in {a.dir}: {', '.join(bad)}; "
-                  "run `python -m pyfmu_wrapper.generate.modelica`", file=sys.stderr)
+            print(
+                f"stale generated Modelica files in {a.dir}: {', '.join(bad)}; "
+                "run `python -m pyfmu_wrapper.generate.modelica`",
+                file=sys.stderr,
+            )
             return 1
         return 0
     for p in write(a.dir):

@@ -3,6 +3,7 @@
 The base + TMD application (co-simulated steady state, sweeps, SSP export of the pair) is
 :mod:`pyfmu_wrapper.cosim`.
 """
+
 from .graph import Connection, ConnectionGraph, build_graph
 from .master import SCHEMES, Master, MasterError, Result
 

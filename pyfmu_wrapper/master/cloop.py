@@ -19,6 +19,7 @@ start-up iterations with rollback, adaptive steps.
 
 It also measures, per FMU, the time spent inside its fmi2 calls (``timing``).
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -41,30 +42,92 @@ _i64, _dbl, _vp = ctypes.c_int64, ctypes.c_double, ctypes.c_void_p
 
 
 class _Inst(ctypes.Structure):
-    _fields_ = [("comp", _vp), ("set_real", _vp), ("get_real", _vp), ("set_der", _vp), ("do_step", _vp),
-                ("n_in", _i64), ("n_out", _i64), ("in_vr", _vp), ("out_vr", _vp), ("der_vr", _vp),
-                ("der_order", _vp), ("in_val", _vp), ("out_val", _vp), ("der_val", _vp),
-                ("sig_in", _vp), ("sig_out", _vp), ("n_orders", _i64), ("rate_orders", _i64),
-                ("n_rate", _i64), ("any_int", _i64), ("phase", _i64),
-                ("rate_pos", _vp), ("rate_src", _vp), ("rate_int", _vp), ("rate_gain", _vp),
-                ("rate_prev", _vp), ("slope", _vp), ("rate_ready", _i64), ("time_in", _dbl), ("calls", _i64)]
+    _fields_ = [
+        ("comp", _vp),
+        ("set_real", _vp),
+        ("get_real", _vp),
+        ("set_der", _vp),
+        ("do_step", _vp),
+        ("n_in", _i64),
+        ("n_out", _i64),
+        ("in_vr", _vp),
+        ("out_vr", _vp),
+        ("der_vr", _vp),
+        ("der_order", _vp),
+        ("in_val", _vp),
+        ("out_val", _vp),
+        ("der_val", _vp),
+        ("sig_in", _vp),
+        ("sig_out", _vp),
+        ("n_orders", _i64),
+        ("rate_orders", _i64),
+        ("n_rate", _i64),
+        ("any_int", _i64),
+        ("phase", _i64),
+        ("rate_pos", _vp),
+        ("rate_src", _vp),
+        ("rate_int", _vp),
+        ("rate_gain", _vp),
+        ("rate_prev", _vp),
+        ("slope", _vp),
+        ("rate_ready", _i64),
+        ("time_in", _dbl),
+        ("calls", _i64),
+    ]
 
 
 class _Ctx(ctypes.Structure):
-    _fields_ = [("n_inst", _i64), ("nsig", _i64), ("scheme", _i64), ("order", _i64), ("timing", _i64),
-                ("gs_order", _vp), ("t", _dbl), ("h", _dbl), ("h_prev", _dbl), ("half_h", _dbl), ("hh2", _dbl),
-                ("h3", _dbl), ("y", _vp), ("y0", _vp), ("d1", _vp), ("d2", _vp), ("pred", _vp), ("ynew", _vp),
-                ("stepped", _vp), ("hist_y", _vp), ("hist_t", _vp), ("hist_n", _i64),
-                ("n_w", _i64), ("max_w", _i64), ("w_key", _vp), ("w_val", _vp),
-                ("steps", _i64), ("steps_done", _i64), ("need_k", _i64), ("need_x0", _dbl), ("need_x1", _dbl),
-                ("err_inst", _i64), ("err_func", _i64), ("err_status", _i64), ("loop_time", _dbl)]
+    _fields_ = [
+        ("n_inst", _i64),
+        ("nsig", _i64),
+        ("scheme", _i64),
+        ("order", _i64),
+        ("timing", _i64),
+        ("gs_order", _vp),
+        ("t", _dbl),
+        ("h", _dbl),
+        ("h_prev", _dbl),
+        ("half_h", _dbl),
+        ("hh2", _dbl),
+        ("h3", _dbl),
+        ("y", _vp),
+        ("y0", _vp),
+        ("d1", _vp),
+        ("d2", _vp),
+        ("pred", _vp),
+        ("ynew", _vp),
+        ("stepped", _vp),
+        ("hist_y", _vp),
+        ("hist_t", _vp),
+        ("hist_n", _i64),
+        ("n_w", _i64),
+        ("max_w", _i64),
+        ("w_key", _vp),
+        ("w_val", _vp),
+        ("steps", _i64),
+        ("steps_done", _i64),
+        ("need_k", _i64),
+        ("need_x0", _dbl),
+        ("need_x1", _dbl),
+        ("err_inst", _i64),
+        ("err_func", _i64),
+        ("err_status", _i64),
+        ("loop_time", _dbl),
+    ]
 
 
 class _Fmi3(ctypes.Structure):
     """cl_fmi3 of cloop.c: an FMI 3.0 instance behind the loop's fmi2 signatures."""
 
-    _fields_ = [("inst", _vp), ("set64", _vp), ("get64", _vp), ("step", _vp), ("n_der", _i64), ("der_vr", _vp),
-                ("zeros", _vp)]
+    _fields_ = [
+        ("inst", _vp),
+        ("set64", _vp),
+        ("get64", _vp),
+        ("step", _vp),
+        ("n_der", _i64),
+        ("der_vr", _vp),
+        ("zeros", _vp),
+    ]
 
 
 DONE, NEED_WEIGHTS, FMU_ERROR = 0, 1, 2
@@ -87,8 +150,10 @@ def library_path() -> Path:
         if (d / name).exists():
             return d / name
     if shutil.which(cc) is None:
-        raise MasterError(f"the compiled stepping loop needs a C compiler: {cc!r} not found (set $CC, or "
-                          "use Master(..., compiled=False))")
+        raise MasterError(
+            f"the compiled stepping loop needs a C compiler: {cc!r} not found (set $CC, or "
+            "use Master(..., compiled=False))"
+        )
     last = None
     for d in _cache_dirs():
         try:
@@ -166,14 +231,21 @@ class CompiledLoop:
                 s.set_der = ins.raw_address("fmi2SetRealInputDerivatives")
                 s.do_step = ins.raw_address("fmi2DoStep")
             s.n_in, s.n_out = ins.n_in, ins.n_out
-            arrays = dict(in_vr=ins.in_vr, out_vr=ins.out_vr, der_vr=ins.der_vr, der_order=ins.der_order,
-                          in_val=ins.in_val, out_val=ins.out_val, der_val=ins.der_val,
-                          sig_in=np.ascontiguousarray(ins.sig_in, np.int64),
-                          sig_out=np.ascontiguousarray(ins.sig_out, np.int64),
-                          rate_pos=np.ascontiguousarray(ins.rate_pos, np.int64),
-                          rate_src=np.ascontiguousarray(ins.rate_src, np.int64),
-                          rate_int=np.ascontiguousarray(ins.rate_int, np.int64),
-                          rate_gain=np.ascontiguousarray(ins.rate_gain, float))
+            arrays = dict(
+                in_vr=ins.in_vr,
+                out_vr=ins.out_vr,
+                der_vr=ins.der_vr,
+                der_order=ins.der_order,
+                in_val=ins.in_val,
+                out_val=ins.out_val,
+                der_val=ins.der_val,
+                sig_in=np.ascontiguousarray(ins.sig_in, np.int64),
+                sig_out=np.ascontiguousarray(ins.sig_out, np.int64),
+                rate_pos=np.ascontiguousarray(ins.rate_pos, np.int64),
+                rate_src=np.ascontiguousarray(ins.rate_src, np.int64),
+                rate_int=np.ascontiguousarray(ins.rate_int, np.int64),
+                rate_gain=np.ascontiguousarray(ins.rate_gain, float),
+            )
             rp = np.zeros(max(1, len(ins.rate_pos)))
             arrays.update(rate_prev=rp, slope=np.zeros(max(1, len(ins.rate_pos))))
             self.rate_prev.append(rp)
@@ -234,8 +306,8 @@ class CompiledLoop:
         e = self.ctx.n_w
         self.w_key[e] = (k, x0, x1)
         self.w_val[e] = 0.0
-        self.w_val[e, :len(w1)] = w1
-        self.w_val[e, 3:3 + len(w2)] = w2
+        self.w_val[e, : len(w1)] = w1
+        self.w_val[e, 3 : 3 + len(w2)] = w2
         self.ctx.n_w = e + 1
 
     def run(self, n: int, h: float, rec_t: np.ndarray | None = None, rec_y: np.ndarray | None = None) -> int:
@@ -251,13 +323,14 @@ class CompiledLoop:
             self.generation = m.history.generation
         scheme = scheme_of(m)
         if scheme is None:
-            raise MasterError("the compiled loop cannot take these steps (Newton on the coupling equations "
-                              "runs in Python)")
+            raise MasterError(
+                "the compiled loop cannot take these steps (Newton on the coupling equations runs in Python)"
+            )
         c.scheme = _SCHEME_CODE[scheme]
         c.order = st.order
         c.timing = int(self.timing)
         c.t, c.h, c.h_prev = m.t, h, st.h_prev
-        c.half_h, c.hh2, c.h3 = 0.5 * h, 0.5 * h * h, h ** 3
+        c.half_h, c.hh2, c.h3 = 0.5 * h, 0.5 * h * h, h**3
         c.hist_n = m.history.n
         c.steps = m.steps
         inst = st.inst_list
@@ -290,17 +363,19 @@ class CompiledLoop:
             m.steps = c.steps
             m.history.n = c.hist_n
             st.h_prev = c.h_prev
-            st.pred = self.work["pred"][:m.nsig].copy()
+            st.pred = self.work["pred"][: m.nsig].copy()
             for k, ins in enumerate(inst):
                 if len(ins.rate_pos):
-                    ins.rate_prev = self.rate_prev[k][:len(ins.rate_pos)].copy()
+                    ins.rate_prev = self.rate_prev[k][: len(ins.rate_pos)].copy()
                     ins.rate_ready = bool(self.insts[k].rate_ready)
         return done
 
     def fmu_times(self) -> dict:
         """Seconds inside each FMU's fmi2 calls and number of calls, since the loop was built."""
-        return {ins.name: dict(seconds=self.insts[k].time_in, calls=int(self.insts[k].calls))
-                for k, ins in enumerate(self.m.stepper.inst_list)}
+        return {
+            ins.name: dict(seconds=self.insts[k].time_in, calls=int(self.insts[k].calls))
+            for k, ins in enumerate(self.m.stepper.inst_list)
+        }
 
     @property
     def loop_seconds(self) -> float:

@@ -5,6 +5,7 @@ Every FMU gets its inputs at the communication point t_n as a Taylor polynomial 
 through the last ``order + 1`` communication points of the source output. :class:`History` keeps
 those points; :func:`lagrange_weights` gives the derivative weights of any set of points.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -77,7 +78,7 @@ class History:
             key = (k,)
         w = self._cache.get(key)
         if w is None:
-            w = lagrange_weights(ht[3 - k:] - t)
+            w = lagrange_weights(ht[3 - k :] - t)
             if len(self._cache) > 64:
                 self._cache.clear()
                 self.generation += 1

@@ -14,6 +14,7 @@ component at every communication point (or accept the error of ignoring it). Com
 not in a loop are ordered topologically (the condensation of the graph), which is the order a
 Gauss-Seidel master steps them in.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field

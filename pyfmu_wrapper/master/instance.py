@@ -17,6 +17,7 @@ no ``fmi3SetInputDerivatives``: an FMU that declares the input variables ``der(u
 ``der(u,2)`` for each continuous Float64 input ``u`` (as this project's FMI 3.0 FMUs do) gets the
 input derivatives through them; one that does not gets inputs held constant over the step.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -34,8 +35,7 @@ _INT = ctypes.POINTER(ctypes.c_int)
 _PROTOTYPES = {
     "fmi2SetReal": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, _UINT, ctypes.c_size_t, _DBL),
     "fmi2GetReal": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, _UINT, ctypes.c_size_t, _DBL),
-    "fmi2SetRealInputDerivatives": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, _UINT, ctypes.c_size_t, _INT,
-                                                    _DBL),
+    "fmi2SetRealInputDerivatives": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, _UINT, ctypes.c_size_t, _INT, _DBL),
     "fmi2DoStep": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int),
 }
 
@@ -101,8 +101,9 @@ class Instance:
         self.can_state = bool(cs.canGetAndSetFMUstate)
         self.can_dd = bool(cs.providesDirectionalDerivative)
         self.vars = {v.name: v for v in md.modelVariables}
-        self.slave = FMU2Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=cs.modelIdentifier,
-                               instanceName=name)
+        self.slave = FMU2Slave(
+            guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=cs.modelIdentifier, instanceName=name
+        )
         self.last_error = ""
         self.slave.instantiate(callbacks=self._callbacks())
         self._c = self.slave.component
@@ -175,8 +176,12 @@ class Instance:
     def raw_address(self, name: str) -> int:
         """Address of the raw fmi2 function ``name`` (0 if the FMU does not export it), for the
         compiled loop."""
-        f = {"fmi2SetReal": self._set_real, "fmi2GetReal": self._get_real,
-             "fmi2SetRealInputDerivatives": self._set_der, "fmi2DoStep": self._do_step}[name]
+        f = {
+            "fmi2SetReal": self._set_real,
+            "fmi2GetReal": self._get_real,
+            "fmi2SetRealInputDerivatives": self._set_der,
+            "fmi2DoStep": self._do_step,
+        }[name]
         return 0 if f is None else _address(f)
 
     def set_inputs(self):

@@ -2,6 +2,7 @@
 choke point: fmpy's :class:`fmpy.fmi3.FMU3Slave` and the raw ``fmi3SetFloat64`` /
 ``fmi3GetFloat64`` / ``fmi3DoStep``), and :func:`open_instance`, which opens an FMU of either version.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -16,8 +17,9 @@ _BOOLP = ctypes.POINTER(ctypes.c_bool)
 _PROTOTYPES3 = {
     "fmi3SetFloat64": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, _UINT, ctypes.c_size_t, _DBL, ctypes.c_size_t),
     "fmi3GetFloat64": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, _UINT, ctypes.c_size_t, _DBL, ctypes.c_size_t),
-    "fmi3DoStep": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_bool,
-                                   _BOOLP, _BOOLP, _BOOLP, _DBL),
+    "fmi3DoStep": ctypes.CFUNCTYPE(
+        ctypes.c_int, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_bool, _BOOLP, _BOOLP, _BOOLP, _DBL
+    ),
 }
 
 
@@ -57,11 +59,18 @@ class Instance3(Instance):
         self.can_state = bool(cs.canGetAndSetFMUstate)
         self.can_dd = _fmi3_provides_dd(unzipdir)
         # input derivatives: der(u), der(u,2) for every continuous Float64 input
-        ins = [v for v in md.modelVariables if v.causality == "input" and v.type == "Float64"
-               and v.variability == "continuous" and not v.name.startswith("der(")]
+        ins = [
+            v
+            for v in md.modelVariables
+            if v.causality == "input"
+            and v.type == "Float64"
+            and v.variability == "continuous"
+            and not v.name.startswith("der(")
+        ]
         self.can_interpolate = bool(ins) and all(derivative_name(v.name, k) in self.vars for v in ins for k in (1, 2))
-        self.slave = FMU3Slave(guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=cs.modelIdentifier,
-                               instanceName=name)
+        self.slave = FMU3Slave(
+            guid=md.guid, unzipDirectory=unzipdir, modelIdentifier=cs.modelIdentifier, instanceName=name
+        )
         self.last_error = ""
         self.slave.instantiate(logMessage=self._log3())
         self._c = self.slave.component
@@ -94,9 +103,12 @@ class Instance3(Instance):
         super().finalize_ports()
         ni = self.n_in
         #: the FMI 3.0 variable of each position of der_vr / der_order / der_val (empty: none)
-        self.der3_vr = np.array([self.vars[derivative_name(n, k)].valueReference
-                                 for k in (1, 2) for n in self.inputs] if self.can_interpolate else [],
-                                dtype=np.uint32)
+        self.der3_vr = np.array(
+            [self.vars[derivative_name(n, k)].valueReference for k in (1, 2) for n in self.inputs]
+            if self.can_interpolate
+            else [],
+            dtype=np.uint32,
+        )
         if self.can_interpolate:
             self.der_vr = self.der3_vr
         # an input set resets its derivatives (FMI 2.0's rule, which the Python path and the
@@ -113,12 +125,13 @@ class Instance3(Instance):
 
     def raw3_address(self, name: str) -> int:
         """Address of the raw fmi3 function ``name``, for the compiled loop's adapters."""
-        return _address({"fmi3SetFloat64": self._set_real, "fmi3GetFloat64": self._get_real,
-                         "fmi3DoStep": self._do_step}[name])
+        return _address(
+            {"fmi3SetFloat64": self._set_real, "fmi3GetFloat64": self._get_real, "fmi3DoStep": self._do_step}[name]
+        )
 
     def set_inputs(self):
         if self.n_in:
-            self.set_val[:self.n_in] = self.in_val
+            self.set_val[: self.n_in] = self.in_val
             if self._set_real(self._c, self.p_set_vr, self.n_set, self.p_set_val, self.n_set) > 1:
                 raise self.failure("fmi3SetFloat64")
 

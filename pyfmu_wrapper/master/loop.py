@@ -9,6 +9,7 @@ restricted to the declared dependencies. Newton's iteration u <- u + (I - dG/du)
 reuses the Jacobian while it contracts (chord Newton) and refreshes it after three iterations;
 for a linear feed-through (the ideal inerter) one correction is exact.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -24,8 +25,17 @@ class CouplingSolver:
     of every connection; tol: relative tolerance on |G(u) - u|; max_iter: Newton iterations
     before :class:`~.instance.MasterError`."""
 
-    def __init__(self, graph: ConnectionGraph, instances: dict[str, Instance], y: np.ndarray, conn_sig: np.ndarray,
-                 order_gs, has_loops: bool, tol: float = 1e-10, max_iter: int = 20):
+    def __init__(
+        self,
+        graph: ConnectionGraph,
+        instances: dict[str, Instance],
+        y: np.ndarray,
+        conn_sig: np.ndarray,
+        order_gs,
+        has_loops: bool,
+        tol: float = 1e-10,
+        max_iter: int = 20,
+    ):
         self.graph = graph
         self.instances = instances
         self.inst_list = list(instances.values())

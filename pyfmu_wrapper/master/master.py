@@ -53,6 +53,7 @@ Jacobian and Newton on u = G(u)), :mod:`.stepcontrol` (fixed / adaptive step, er
 rollback) and :mod:`.cloop` (the compiled stepping loop). It knows FMI and coupling only; the base + TMD application is
 :mod:`pyfmu_wrapper.cosim`.
 """
+
 from __future__ import annotations
 
 import os
@@ -100,9 +101,19 @@ class Master:
     recorded port), ``t`` the current time [s].
     """
 
-    def __init__(self, fmus: dict[str, str | Path], connections, parameters: dict | None = None,
-                 scheme: str = "loop", order: int = 2, record=(), loop_tol: float = 1e-10, max_loop_iter: int = 20,
-                 startup_iterations: int = 2, compiled: bool | None = None):
+    def __init__(
+        self,
+        fmus: dict[str, str | Path],
+        connections,
+        parameters: dict | None = None,
+        scheme: str = "loop",
+        order: int = 2,
+        record=(),
+        loop_tol: float = 1e-10,
+        max_loop_iter: int = 20,
+        startup_iterations: int = 2,
+        compiled: bool | None = None,
+    ):
         if scheme not in SCHEMES:
             raise ValueError(f"scheme must be one of {SCHEMES}, got {scheme!r}")
         order = _check_order(order)
@@ -122,10 +133,19 @@ class Master:
         self.nsig = self.wiring.nsig
         self.y = np.zeros(self.nsig)  # current source values (consistent at t after a loop solve)
         self.history = History(self.nsig)
-        self.loop = CouplingSolver(self.graph, self.instances, self.y, self.wiring.conn_sig, self.wiring.order_gs,
-                                   self.wiring.has_loops, loop_tol, max_loop_iter)
-        self.stepper = Stepper(self.instances, self.wiring, self.loop, self.y, self.history, scheme, order,
-                               startup_iterations)
+        self.loop = CouplingSolver(
+            self.graph,
+            self.instances,
+            self.y,
+            self.wiring.conn_sig,
+            self.wiring.order_gs,
+            self.wiring.has_loops,
+            loop_tol,
+            max_loop_iter,
+        )
+        self.stepper = Stepper(
+            self.instances, self.wiring, self.loop, self.y, self.history, scheme, order, startup_iterations
+        )
         self._error = ErrorEstimate()
         if compiled is None:  # $PYFMU_COMPILED_LOOP=0: every step on the Python reference path
             compiled = os.environ.get("PYFMU_COMPILED_LOOP", "1") != "0"
@@ -230,8 +250,7 @@ class Master:
         """Whether the next step is a start-up step iterated with rollback (Python only)."""
         st = self.stepper
         k = min(self.history.n, st.order + 1)
-        return (st.scheme != "gauss-seidel" and k <= st.order and st.startup_iterations > 0
-                and st.can_rollback)
+        return st.scheme != "gauss-seidel" and k <= st.order and st.startup_iterations > 0 and st.can_rollback
 
     def advance(self, n: int, h: float, rec_t: np.ndarray | None = None, rec_y: np.ndarray | None = None) -> None:
         """n communication steps of size h [s], the same as n calls of :meth:`step` (bit for bit),
@@ -272,8 +291,15 @@ class Master:
             raise MasterError("no step taken yet: there is no coupling error to estimate")
         return self._error(pred, self.y, rtol, atol)
 
-    def run(self, t_end: float, step: float | None = None, tol: float | None = None, atol: float = 1e-9,
-            h0: float | None = None, h_max: float | None = None) -> Result:
+    def run(
+        self,
+        t_end: float,
+        step: float | None = None,
+        tol: float | None = None,
+        atol: float = 1e-9,
+        h0: float | None = None,
+        h_max: float | None = None,
+    ) -> Result:
         """Step from the current time to t_end [s]; fixed ``step`` or adaptive with relative ``tol``
         (:mod:`.stepcontrol`).
 

@@ -16,6 +16,7 @@ communication points of the source output (:mod:`.extrapolation`).
 :class:`Stepper` also iterates the start-up steps (fewer known points than ``order + 1``) with
 FMU state rollback. See the module doc of :mod:`.master` for orders and use.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -34,8 +35,17 @@ class Stepper:
     y: the master's signal array (updated in place to the values at t + h); after a step
     ``pred`` holds the sources extrapolated to t + h (for the error estimate)."""
 
-    def __init__(self, instances: dict, wiring: Wiring, loop: CouplingSolver, y: np.ndarray, history: History,
-                 scheme: str, order: int, startup_iterations: int):
+    def __init__(
+        self,
+        instances: dict,
+        wiring: Wiring,
+        loop: CouplingSolver,
+        y: np.ndarray,
+        history: History,
+        scheme: str,
+        order: int,
+        startup_iterations: int,
+    ):
         self.instances = instances
         self.inst_list = list(instances.values())
         self.wiring = wiring
@@ -63,7 +73,7 @@ class Stepper:
         the full order, so a run restarted from a state (shooting) equals a continued one."""
         hist = self.history
         k = min(hist.n, self.order + 1)
-        hy = hist.y[3 - k:]
+        hy = hist.y[3 - k :]
         w1, w2 = hist.weights(k, t)
         d1 = combine(w1, hy)
         d2 = combine(w2, hy)
@@ -78,8 +88,8 @@ class Stepper:
                         ynew = self.y.copy()
                         set_states(self.inst_list, saved)
                         self.y[:] = y0
-                        s_pts = np.concatenate([hist.t[3 - k:] - t, [h]])[-(self.order + 1):]
-                        pts = np.vstack([hy, ynew[None, :]])[-(self.order + 1):]
+                        s_pts = np.concatenate([hist.t[3 - k :] - t, [h]])[-(self.order + 1) :]
+                        pts = np.vstack([hy, ynew[None, :]])[-(self.order + 1) :]
                         v1, v2 = lagrange_weights(s_pts)
                         d1, d2 = v1 @ pts, v2 @ pts
                     self.startup_probe = it < self.startup_iterations
@@ -126,8 +136,8 @@ class Stepper:
             if ins.n_in:
                 src = ins.sig_in
                 ins.in_val[:] = y0[src]
-                ins.der_val[:ins.n_in] = d1[src]
-                ins.der_val[ins.n_in:] = d2[src]
+                ins.der_val[: ins.n_in] = d1[src]
+                ins.der_val[ins.n_in :] = d2[src]
                 ins.set_inputs()
                 ins.set_derivatives(ins.n_orders)
             ins.do_step(t, h)
@@ -148,7 +158,7 @@ class Stepper:
                 i0 = mean[k] * h
                 i1 = ins.rate_gain[k] * (h * s1[k] - (y[ii] - y0[ii]))
                 slope = np.where(k, 0.0, (mean - ins.rate_prev) / (0.5 * (h + self.h_prev)))
-                slope[k] = 12.0 * (i1 - 0.5 * h * i0) / h ** 3
+                slope[k] = 12.0 * (i1 - 0.5 * h * i0) / h**3
             elif self.order >= 1 and ins.rate_ready:
                 slope = (mean - ins.rate_prev) / (0.5 * (h + self.h_prev))
             else:
@@ -176,8 +186,8 @@ class Stepper:
         stepped = np.zeros(len(y), dtype=bool)
         ynew = y.copy()
         kk = min(hist.n, self.order)  # old points used besides the new one
-        s_i = np.concatenate([hist.t[3 - kk:] - t, [h]]) if kk > 0 else np.array([h])
-        hy_old = hist.y[3 - kk:] if kk > 0 else hist.y[:0]
+        s_i = np.concatenate([hist.t[3 - kk :] - t, [h]]) if kk > 0 else np.array([h])
+        hy_old = hist.y[3 - kk :] if kk > 0 else hist.y[:0]
         v1, v2 = lagrange_weights(s_i) if len(s_i) > 1 else (np.zeros(1), np.zeros(1))
         for name in self.wiring.order_gs:
             ins = self.instances[name]
@@ -190,8 +200,8 @@ class Stepper:
                     e1 = np.where(new, combine(v1, pts), e1)
                     e2 = np.where(new, combine(v2, pts), e2)
                 ins.in_val[:] = y[src]
-                ins.der_val[:ins.n_in] = e1
-                ins.der_val[ins.n_in:] = e2
+                ins.der_val[: ins.n_in] = e1
+                ins.der_val[ins.n_in :] = e2
                 ins.set_inputs()
                 ins.set_derivatives(ins.n_orders)
             ins.do_step(t, h)

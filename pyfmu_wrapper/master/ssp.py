@@ -24,6 +24,7 @@ default result settings (``<name>_res.mat``, every step, buffer of 10), without 
 "wrong/deprecated content". Other tools ignore them (fmpy validates the file against the SSP 1.0
 schema with them, and so does OMSimulator).
 """
+
 from __future__ import annotations
 
 import zipfile
@@ -34,9 +35,11 @@ from fmpy import read_model_description
 
 from .graph import Connection, build_graph
 
-_NS = ('xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" '
-       'xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" '
-       'xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues"')
+_NS = (
+    'xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" '
+    'xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription" '
+    'xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues"'
+)
 
 _OMS_NS = 'xmlns:oms="https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd"'
 #: OMSimulator's default relative tolerance (its --tolerance), written into its annotation.
@@ -55,80 +58,101 @@ def _fmt(value, type_: str) -> str:
     return str(value)
 
 
-def ssd_xml(name: str, fmus: dict, connections, start_time: float = 0.0, stop_time: float | None = None,
-            step_size: float | None = None) -> str:
+def ssd_xml(
+    name: str,
+    fmus: dict,
+    connections,
+    start_time: float = 0.0,
+    stop_time: float | None = None,
+    step_size: float | None = None,
+) -> str:
     """The SystemStructure.ssd text (FMUs referenced as resources/<file name>); with ``step_size``
     [s], also OMSimulator's system annotation (its fixed-step master with that step)."""
     if step_size is not None and not (0.0 < float(step_size) < float("inf")):
         raise ValueError(f"step_size must be a positive finite number of seconds, got {step_size!r}")
     mds = {inst: read_model_description(str(p)) for inst, p in fmus.items()}
     graph = build_graph(mds, connections)  # validates the connection list
-    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
-             f'<ssd:SystemStructureDescription {_NS}{" " + _OMS_NS if step_size is not None else ""} '
-             f'version="1.0" name={quoteattr(name)}>',
-             f'  <ssd:System name={quoteattr(name)}>',
-             '    <ssd:Elements>']
+    lines = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        f"<ssd:SystemStructureDescription {_NS}{' ' + _OMS_NS if step_size is not None else ''} "
+        f'version="1.0" name={quoteattr(name)}>',
+        f"  <ssd:System name={quoteattr(name)}>",
+        "    <ssd:Elements>",
+    ]
     for inst, path in fmus.items():
         md = mds[inst]
-        lines.append(f'      <ssd:Component name={quoteattr(inst)} type="application/x-fmu-sharedlibrary" '
-                     f'source={quoteattr("resources/" + Path(path).name)}>')
-        lines.append('        <ssd:Connectors>')
+        lines.append(
+            f'      <ssd:Component name={quoteattr(inst)} type="application/x-fmu-sharedlibrary" '
+            f"source={quoteattr('resources/' + Path(path).name)}>"
+        )
+        lines.append("        <ssd:Connectors>")
         for v in md.modelVariables:
             if v.causality not in ("input", "output", "parameter"):
                 continue
             tag = _TYPE_TAG.get(v.type, "Real")
-            lines.append(f'          <ssd:Connector name={quoteattr(v.name)} kind="{v.causality}">'
-                         f'<ssc:{tag}/></ssd:Connector>')
-        lines.append('        </ssd:Connectors>')
-        lines.append('      </ssd:Component>')
-    lines.append('    </ssd:Elements>')
-    lines.append('    <ssd:Connections>')
+            lines.append(
+                f'          <ssd:Connector name={quoteattr(v.name)} kind="{v.causality}"><ssc:{tag}/></ssd:Connector>'
+            )
+        lines.append("        </ssd:Connectors>")
+        lines.append("      </ssd:Component>")
+    lines.append("    </ssd:Elements>")
+    lines.append("    <ssd:Connections>")
     for c in graph.connections:
-        lines.append(f'      <ssd:Connection startElement={quoteattr(c.src_instance)} '
-                     f'startConnector={quoteattr(c.src_variable)} endElement={quoteattr(c.dst_instance)} '
-                     f'endConnector={quoteattr(c.dst_variable)}/>')
-    lines.append('    </ssd:Connections>')
+        lines.append(
+            f"      <ssd:Connection startElement={quoteattr(c.src_instance)} "
+            f"startConnector={quoteattr(c.src_variable)} endElement={quoteattr(c.dst_instance)} "
+            f"endConnector={quoteattr(c.dst_variable)}/>"
+        )
+    lines.append("    </ssd:Connections>")
     if step_size is not None:  # last child of the system, as the schema orders it
-        lines += ['    <ssd:Annotations>',
-                  '      <ssc:Annotation type="org.openmodelica">',
-                  '        <oms:Annotations>',
-                  '          <oms:SimulationInformation>',
-                  f'            <oms:FixedStepMaster description="oms-ma" stepSize="{float(step_size)!r}" '
-                  f'relativeTolerance="{_OMS_TOLERANCE!r}"/>',
-                  '          </oms:SimulationInformation>',
-                  '        </oms:Annotations>',
-                  '      </ssc:Annotation>',
-                  '    </ssd:Annotations>']
-    lines.append('  </ssd:System>')
+        lines += [
+            "    <ssd:Annotations>",
+            '      <ssc:Annotation type="org.openmodelica">',
+            "        <oms:Annotations>",
+            "          <oms:SimulationInformation>",
+            f'            <oms:FixedStepMaster description="oms-ma" stepSize="{float(step_size)!r}" '
+            f'relativeTolerance="{_OMS_TOLERANCE!r}"/>',
+            "          </oms:SimulationInformation>",
+            "        </oms:Annotations>",
+            "      </ssc:Annotation>",
+            "    </ssd:Annotations>",
+        ]
+    lines.append("  </ssd:System>")
     stop = "" if stop_time is None else f' stopTime="{float(stop_time)!r}"'
     if step_size is None:
         lines.append(f'  <ssd:DefaultExperiment startTime="{float(start_time)!r}"{stop}/>')
     else:  # OMSimulator's result settings, its defaults (without them it warns of deprecated content)
-        lines += [f'  <ssd:DefaultExperiment startTime="{float(start_time)!r}"{stop}>',
-                  '    <ssd:Annotations>',
-                  '      <ssc:Annotation type="org.openmodelica">',
-                  '        <oms:Annotations>',
-                  f'          <oms:SimulationInformation resultFile={quoteattr(name + "_res.mat")} '
-                  'loggingInterval="0.0" bufferSize="10"/>',
-                  '        </oms:Annotations>',
-                  '      </ssc:Annotation>',
-                  '    </ssd:Annotations>',
-                  '  </ssd:DefaultExperiment>']
-    lines.append('</ssd:SystemStructureDescription>')
+        lines += [
+            f'  <ssd:DefaultExperiment startTime="{float(start_time)!r}"{stop}>',
+            "    <ssd:Annotations>",
+            '      <ssc:Annotation type="org.openmodelica">',
+            "        <oms:Annotations>",
+            f"          <oms:SimulationInformation resultFile={quoteattr(name + '_res.mat')} "
+            'loggingInterval="0.0" bufferSize="10"/>',
+            "        </oms:Annotations>",
+            "      </ssc:Annotation>",
+            "    </ssd:Annotations>",
+            "  </ssd:DefaultExperiment>",
+        ]
+    lines.append("</ssd:SystemStructureDescription>")
     # the parameters are bound at system level (inserted before Elements, as the schema orders them)
-    i = lines.index('    <ssd:Elements>')
-    lines[i:i] = ['    <ssd:ParameterBindings>',
-                  '      <ssd:ParameterBinding source="resources/parameters.ssv"/>',
-                  '    </ssd:ParameterBindings>']
+    i = lines.index("    <ssd:Elements>")
+    lines[i:i] = [
+        "    <ssd:ParameterBindings>",
+        '      <ssd:ParameterBinding source="resources/parameters.ssv"/>',
+        "    </ssd:ParameterBindings>",
+    ]
     return "\n".join(lines) + "\n"
 
 
 def ssv_xml(name: str, fmus: dict, parameters: dict) -> str:
     """The parameter set (``instance.variable`` names, typed as in the FMUs)."""
     mds = {inst: read_model_description(str(p)) for inst, p in fmus.items()}
-    lines = ['<?xml version="1.0" encoding="UTF-8"?>',
-             f'<ssv:ParameterSet {_NS} version="1.0" name={quoteattr(name)}>',
-             '  <ssv:Parameters>']
+    lines = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        f'<ssv:ParameterSet {_NS} version="1.0" name={quoteattr(name)}>',
+        "  <ssv:Parameters>",
+    ]
     for key, value in parameters.items():
         inst, var = key.split(".", 1)
         if inst not in mds:
@@ -137,15 +161,24 @@ def ssv_xml(name: str, fmus: dict, parameters: dict) -> str:
         if v is None:
             raise ValueError(f"parameter {key!r}: {inst} has no variable {var!r}")
         tag = _TYPE_TAG.get(v.type, "Real")
-        lines.append(f'    <ssv:Parameter name={quoteattr(key)}><ssv:{tag} value="{_fmt(value, v.type)}"/>'
-                     f'</ssv:Parameter>')
-    lines.append('  </ssv:Parameters>')
-    lines.append('</ssv:ParameterSet>')
+        lines.append(
+            f'    <ssv:Parameter name={quoteattr(key)}><ssv:{tag} value="{_fmt(value, v.type)}"/></ssv:Parameter>'
+        )
+    lines.append("  </ssv:Parameters>")
+    lines.append("</ssv:ParameterSet>")
     return "\n".join(lines) + "\n"
 
 
-def export_ssp(path, fmus: dict, connections, parameters: dict, name: str = "CoupledSystem",
-               start_time: float = 0.0, stop_time: float | None = None, step_size: float | None = None) -> Path:
+def export_ssp(
+    path,
+    fmus: dict,
+    connections,
+    parameters: dict,
+    name: str = "CoupledSystem",
+    start_time: float = 0.0,
+    stop_time: float | None = None,
+    step_size: float | None = None,
+) -> Path:
     """Write the SSP archive: the SSD, the FMUs and the parameter values. Returns the path.
     step_size: see :func:`ssd_xml` (needed by OMSimulator)."""
     path = Path(path)

@@ -8,6 +8,7 @@ rejected and redone from the saved FMU states (``fmi2GetFMUstate`` / ``fmi2SetFM
 :class:`Rollback`); the next step is h (1/err)^(1/(order+1)) times a safety factor of 0.9, within
 [0.2 h, 2 h]. The scale of a signal is ``atol + rtol * max|signal|`` seen so far.
 """
+
 from __future__ import annotations
 
 import time
@@ -73,8 +74,15 @@ class Rollback:
         free_states(self.m.stepper.inst_list, self.states)
 
 
-def run(master, t_end: float, step: float | None = None, tol: float | None = None, atol: float = 1e-9,
-        h0: float | None = None, h_max: float | None = None) -> Result:
+def run(
+    master,
+    t_end: float,
+    step: float | None = None,
+    tol: float | None = None,
+    atol: float = 1e-9,
+    h0: float | None = None,
+    h_max: float | None = None,
+) -> Result:
     """Step ``master`` from its current time to t_end [s]; fixed ``step`` or adaptive with relative
     ``tol`` and absolute ``atol`` (module doc). Returns the recorded communication points."""
     m = master
@@ -94,8 +102,9 @@ def run(master, t_end: float, step: float | None = None, tol: float | None = Non
         if m.scheme == "gauss-seidel" or m.wiring.rate:
             # with rate connections the destination's outputs jump at step-size changes (the
             # piecewise-linear mean reconstruction), which this estimate cannot tell from error
-            raise ValueError("the adaptive step is implemented for the jacobi and loop schemes with value "
-                             "connections only")
+            raise ValueError(
+                "the adaptive step is implemented for the jacobi and loop schemes with value connections only"
+            )
         if not m.stepper.can_rollback:
             raise MasterError("the adaptive step needs fmi2GetFMUstate/fmi2SetFMUstate in every FMU")
         h = h0 or (t_end - m.t) / 1000

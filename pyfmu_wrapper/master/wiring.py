@@ -6,6 +6,7 @@ ports. The master keeps their values in one array ``y``; each :class:`~.instance
 the indices of its outputs in ``y`` (``sig_out``), of the sources of its inputs (``sig_in``),
 the connection of each input (``conn_idx``) and, for rate connections, the ``rate_*`` fields.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass
@@ -63,8 +64,9 @@ def wire(instances: dict[str, Instance], graph: ConnectionGraph, record, scheme:
         src = {c.dst_variable: sig_index[c.src] for c in conns if c.dst_instance == ins.name}
         ins.sig_in = np.array([src[i] for i in ins.inputs], dtype=np.int64)
         ins.set_order(order)
-        ins.conn_idx = np.array([next(k for k, c in enumerate(conns) if c.dst == f"{ins.name}.{i}")
-                                 for i in ins.inputs], dtype=np.int64)
+        ins.conn_idx = np.array(
+            [next(k for k, c in enumerate(conns) if c.dst == f"{ins.name}.{i}") for i in ins.inputs], dtype=np.int64
+        )
         _wire_rate(ins, conns, sig_index)
     inst_list = list(instances.values())
     has_loops = bool(graph.loops)
@@ -76,11 +78,17 @@ def wire(instances: dict[str, Instance], graph: ConnectionGraph, record, scheme:
         if any(s in srcs2 for i in phase2 for s in i.sig_out):
             raise MasterError("an instance fed by a rate connection cannot be the source of one")
         if has_loops and scheme == "loop":
-            raise MasterError("algebraic loops and rate connections together are not supported "
-                              "by the 'loop' scheme")
-    return Wiring(signals=signals, index=sig_index,
-                  conn_sig=np.array([sig_index[c.src] for c in conns], dtype=np.int64),
-                  order_gs=graph.instance_order(), has_loops=has_loops, rate=rate, phase1=phase1, phase2=phase2)
+            raise MasterError("algebraic loops and rate connections together are not supported by the 'loop' scheme")
+    return Wiring(
+        signals=signals,
+        index=sig_index,
+        conn_sig=np.array([sig_index[c.src] for c in conns], dtype=np.int64),
+        order_gs=graph.instance_order(),
+        has_loops=has_loops,
+        rate=rate,
+        phase1=phase1,
+        phase2=phase2,
+    )
 
 
 def _wire_rate(ins: Instance, conns, sig_index: dict):
@@ -91,8 +99,9 @@ def _wire_rate(ins: Instance, conns, sig_index: dict):
     ins.rate_src = np.array([sig_index[c.src] for _, c in rate], dtype=np.int64)
     ins.rate_gain = np.array([c.gain for _, c in rate], dtype=float)
     ins.rate_init = [None if c.init_src is None else sig_index[c.init_src] for _, c in rate]
-    ins.rate_int = np.array([-1 if c.integral_src is None else sig_index[c.integral_src] for _, c in rate],
-                            dtype=np.int64)
+    ins.rate_int = np.array(
+        [-1 if c.integral_src is None else sig_index[c.integral_src] for _, c in rate], dtype=np.int64
+    )
     ins.rate_has_int = ins.rate_int >= 0
     reset_rate(ins)
 

@@ -4,6 +4,7 @@ Every function here computes data from the scenario results (or from the exact f
 or from new steady-state sweeps) and returns plain numbers; none of them judges. Failures raise.
 Units SI, frequencies in rad/s.
 """
+
 from __future__ import annotations
 
 from dataclasses import replace
@@ -29,6 +30,7 @@ def _trapz(y, x) -> float:
 
 
 # --- reading the results ---------------------------------------------------------------------------
+
 
 def curve(data, prefix: str):
     """(omegas, amplitudes) of the first curve of an FRC whose label starts with ``prefix`` (first direction)."""
@@ -62,13 +64,18 @@ def not_converged(*datas) -> int:
 
 # --- linear optimisation and minima --------------------------------------------------------------
 
+
 def exact_minimum(base: BaseParams, tmd: TMDParams, w_grid, a_grid) -> tuple[float, float]:
     """The minimum of the exact FRC near the grid minimum, located to 1e-9 rad/s: (omega, amplitude)."""
     w, a = np.asarray(w_grid, float), np.asarray(a_grid, float)
     k = int(np.argmin(a))
     lo, hi = w[max(k - 1, 0)], w[min(k + 1, len(w) - 1)]
-    r = minimize_scalar(lambda x: float(exact_amplitude(base, tmd, np.array([x]))[0]), bounds=(lo, hi),
-                        method="bounded", options=dict(xatol=1e-9))
+    r = minimize_scalar(
+        lambda x: float(exact_amplitude(base, tmd, np.array([x]))[0]),
+        bounds=(lo, hi),
+        method="bounded",
+        options=dict(xatol=1e-9),
+    )
     return (float(r.x), float(r.fun)) if r.fun <= a[k] else (float(w[k]), float(a[k]))
 
 
@@ -78,8 +85,9 @@ def minmax_opt(base, tmd, param: str, lo: float, hi: float, omegas) -> tuple[flo
     grid = np.linspace(lo, hi, 201)
     vals = [f(v) for v in grid]
     k = int(np.argmin(vals))
-    r = minimize_scalar(f, bounds=(grid[max(k - 1, 0)], grid[min(k + 1, 200)]), method="bounded",
-                        options=dict(xatol=1e-4))
+    r = minimize_scalar(
+        f, bounds=(grid[max(k - 1, 0)], grid[min(k + 1, 200)]), method="bounded", options=dict(xatol=1e-4)
+    )
     return float(r.x), float(r.fun)
 
 
@@ -108,7 +116,7 @@ def row_h2(data) -> float:
     J = np.array([float(np.sum(0.5 * (a[1:] ** 2 + a[:-1] ** 2) * np.diff(w))) for a in data.amplitude])
     k = int(np.argmin(J))
     if 0 < k < len(v) - 1:
-        x, y = v[k - 1:k + 2], J[k - 1:k + 2]
+        x, y = v[k - 1 : k + 2], J[k - 1 : k + 2]
         den = (x[0] - x[1]) * (x[0] - x[2]) * (x[1] - x[2])
         a = (x[2] * (y[1] - y[0]) + x[1] * (y[0] - y[2]) + x[0] * (y[2] - y[1])) / den
         b = (x[2] ** 2 * (y[0] - y[1]) + x[1] ** 2 * (y[2] - y[0]) + x[0] ** 2 * (y[1] - y[2])) / den
@@ -118,6 +126,7 @@ def row_h2(data) -> float:
 
 
 # --- Case 1 against the classical TMD; FRCs at the optimum ---------------------------------------
+
 
 def classical_difference(base: BaseParams, tmd: TMDParams, cs, omegas) -> float:
     """Largest relative difference of the FRC peak between ``tmd`` and the classical TMD of the same
@@ -138,6 +147,7 @@ def frc_pair_difference(w1, a1, w2, a2) -> float:
 
 
 # --- friction against viscous damping -------------------------------------------------------------
+
 
 def effective_width(w, a, level: float) -> float:
     """Total length [rad/s] of the frequencies where the amplitude is at most ``level`` (trapezoid on the grid)."""
@@ -175,11 +185,12 @@ def roughness(ts, n_periods: int) -> float:
     xd = ts.states[:, 1] - ts.states[:, 1].mean()
     X = np.abs(np.fft.rfft(xd))
     fund = X[n_periods]
-    rest = np.sqrt(max(float((X ** 2).sum() - fund ** 2), 0.0))
+    rest = np.sqrt(max(float((X**2).sum() - fund**2), 0.0))
     return float(rest / fund)
 
 
 # --- the simplified model ------------------------------------------------------------------------
+
 
 def viscous_errors(base: BaseParams, tmd: TMDParams, omegas, target, c: float) -> dict:
     """Errors of the simplified model (ideal inerter, viscous c only) against ``target`` amplitudes.
@@ -196,8 +207,9 @@ def viscous_errors(base: BaseParams, tmd: TMDParams, omegas, target, c: float) -
     return dict(c=float(c), area=area, max=float(d.max()), rel_area=area / ref, rel_max=float(d.max() / tgt.max()))
 
 
-def best_fit_viscous(base: BaseParams, tmd: TMDParams, omegas, target, metric: str = "area",
-                     bounds=(0.0, 100.0)) -> dict:
+def best_fit_viscous(
+    base: BaseParams, tmd: TMDParams, omegas, target, metric: str = "area", bounds=(0.0, 100.0)
+) -> dict:
     """The viscous c of the simplified model that best matches ``target`` (e.g. the full model's FRC).
 
     metric: 'area' (integral of |difference|, the paper's shaded area) or 'max'. A scan over
@@ -223,8 +235,11 @@ def simplified_fits(run, case: int) -> dict:
     w, full = curve(d6, "5:")
     tmd = curve_tmd(d6, "6:")
     base = run.scenario.base
-    return dict(paper=viscous_errors(base, tmd, w, full, PAPER_SIMPLIFIED[case]),
-                area=best_fit_viscous(base, tmd, w, full, "area"), max=best_fit_viscous(base, tmd, w, full, "max"))
+    return dict(
+        paper=viscous_errors(base, tmd, w, full, PAPER_SIMPLIFIED[case]),
+        area=best_fit_viscous(base, tmd, w, full, "area"),
+        max=best_fit_viscous(base, tmd, w, full, "max"),
+    )
 
 
 def simplified_error_by_size(base: BaseParams, tmd: TMDParams, omegas, settings, c: float, scales) -> list[dict]:
@@ -240,6 +255,14 @@ def simplified_error_by_size(base: BaseParams, tmd: TMDParams, omegas, settings,
         amp = t["amplitude"].to_numpy()
         rule = viscous_errors(base, tmd, omegas, amp, 1.5 * s * c)
         best = best_fit_viscous(base, tmd, omegas, amp, "max", bounds=(0.0, max(100.0, 4 * s * c)))
-        out.append(dict(scale=float(s), c=float(s * c), df=float(s * c), rule=rule, best=best,
-                        not_converged=int((~t["converged"].astype(bool)).sum())))
+        out.append(
+            dict(
+                scale=float(s),
+                c=float(s * c),
+                df=float(s * c),
+                rule=rule,
+                best=best,
+                not_converged=int((~t["converged"].astype(bool)).sum()),
+            )
+        )
     return out

@@ -3,6 +3,7 @@
 Each figure is assembled from the scenario runner's own study plots (:mod:`pyfmu_wrapper.scenario.plots`)
 recoloured as in the paper, plus the panels the paper adds (phase portraits, full vs simplified model).
 """
+
 from __future__ import annotations
 
 from dataclasses import replace
@@ -120,8 +121,14 @@ def draw_figures(runs: dict, figdir: Path, dpi: int = 80) -> dict:
                 tmd = next(cv.tmd for cv in d6.study.curves if cv.label.startswith("6:"))
                 cb = fits[c]["area"]["c"]
                 wd = np.linspace(w.min(), w.max(), 1001)
-                ax.plot(wd, exact_amplitude(runs[n].scenario.base, replace(tmd, damping=cb), wd), ":", color="purple",
-                        lw=1.2, label=f"best fit (area), c = {cb:.2f}")
+                ax.plot(
+                    wd,
+                    exact_amplitude(runs[n].scenario.base, replace(tmd, damping=cb), wd),
+                    ":",
+                    color="purple",
+                    lw=1.2,
+                    label=f"best fit (area), c = {cb:.2f}",
+                )
             ax.set_xlim(w.min(), w.max())
             ax.set_ylim(bottom=0)
             ax.set_xlabel(r"$\omega$ [rad/s]")

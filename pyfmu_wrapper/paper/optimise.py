@@ -36,6 +36,7 @@ stepped-sine sweeps of the monolithic solver (:func:`pyfmu_wrapper.solvers.sweep
 The optimiser scans the bounds on a coarse grid, then refines the best bracket with Brent's
 bounded method (:func:`scipy.optimize.minimize_scalar`).
 """
+
 from __future__ import annotations
 
 import math
@@ -68,6 +69,7 @@ class OptimisationError(ValueError):
 
 
 # --- frequency responses ------------------------------------------------------------------------
+
 
 def _active(tmd: TMDParams) -> list[int]:
     """States that carry dynamics: [x, xd, y, yd] (+ [d, dd] for the play chain)."""
@@ -105,10 +107,11 @@ def h2_exact(base: BaseParams, tmd: TMDParams) -> float:
     if not np.all(np.linalg.eigvals(A).real < 0.0):
         return math.inf
     P = solve_continuous_lyapunov(A, -np.outer(b, b))
-    return float(math.pi * base.force_amplitude ** 2 * P[0, 0])
+    return float(math.pi * base.force_amplitude**2 * P[0, 0])
 
 
 # --- objectives ---------------------------------------------------------------------------------
+
 
 def _trapz(y, w):
     return float(np.trapezoid(y, w)) if len(w) > 1 else float(y[0])
@@ -143,14 +146,30 @@ def register(obj: Objective) -> Objective:
 
 
 register(Objective("peak", "max over the band of the base amplitude (min-max)", lambda w, a: float(np.max(a))))
-register(Objective("mean", "mean base amplitude over the band (area under the FRC / width)",
-                   lambda w, a: _trapz(a, w) / _width(w)))
-register(Objective("mean_square", "mean squared base amplitude over the band",
-                   lambda w, a: _trapz(a * a, w) / _width(w)))
-register(Objective("h2", "int |X|^2 dw: exact over all frequencies when linear, over the band otherwise",
-                   lambda w, a: _trapz(a * a, w), exact=h2_exact))
-register(Objective("peak_relative", "max over the band of the TMD stroke |X - Y| (linear only)",
-                   lambda w, a: float(np.max(a)), relative=True))
+register(
+    Objective(
+        "mean", "mean base amplitude over the band (area under the FRC / width)", lambda w, a: _trapz(a, w) / _width(w)
+    )
+)
+register(
+    Objective("mean_square", "mean squared base amplitude over the band", lambda w, a: _trapz(a * a, w) / _width(w))
+)
+register(
+    Objective(
+        "h2",
+        "int |X|^2 dw: exact over all frequencies when linear, over the band otherwise",
+        lambda w, a: _trapz(a * a, w),
+        exact=h2_exact,
+    )
+)
+register(
+    Objective(
+        "peak_relative",
+        "max over the band of the TMD stroke |X - Y| (linear only)",
+        lambda w, a: float(np.max(a)),
+        relative=True,
+    )
+)
 
 
 def get_objective(name) -> Objective:
@@ -163,6 +182,7 @@ def get_objective(name) -> Objective:
 
 
 # --- parameters ---------------------------------------------------------------------------------
+
 
 def split_parameter(parameter: str) -> tuple[str, str]:
     """'tmd.damping' -> ('tmd', 'damping'); a bare TMD field name means the TMD."""
@@ -184,6 +204,7 @@ def with_parameter(base: BaseParams, tmd: TMDParams, parameter: str, value: floa
 
 
 # --- evaluation ---------------------------------------------------------------------------------
+
 
 @dataclass
 class Evaluator:
@@ -218,8 +239,10 @@ class Evaluator:
             X, R = linear_response(base, tmd, self.omegas)
             return np.abs(R if self.objective.relative else X), "exact", True
         if self.objective.relative:
-            raise OptimisationError(f"objective {self.objective.name!r} needs a linear configuration "
-                                    "(exact frequency response); this one is nonlinear")
+            raise OptimisationError(
+                f"objective {self.objective.name!r} needs a linear configuration "
+                "(exact frequency response); this one is nonlinear"
+            )
         from ..solvers.sweep import sweep
 
         tab = sweep(base, tmd, self.omegas, self.direction, self.settings, workers=self.workers).table
@@ -240,8 +263,9 @@ class Evaluator:
             amp, method, conv = self.curve(value)
             J = self.objective.reduce(np.sort(self.omegas), amp)
         self._cache[key] = J
-        self.rows.append(dict(value=float(value), objective=J, method=method, converged=conv,
-                              wall_time=time.perf_counter() - t0))
+        self.rows.append(
+            dict(value=float(value), objective=J, method=method, converged=conv, wall_time=time.perf_counter() - t0)
+        )
         return J
 
 
@@ -266,8 +290,10 @@ class OptimisationResult:
     def summary(self) -> str:
         band = "all frequencies (exact)" if self.band is None else f"{self.band[0]:g}..{self.band[1]:g} rad/s"
         flag = "  [at a bound: widen --bounds]" if self.at_bound else ""
-        return (f"{self.parameter} = {self.value:.6g}  ({self.objective} = {self.objective_value:.6g} over {band}; "
-                f"{self.n_evaluations} evaluations, {self.wall_time:.1f} s){flag}")
+        return (
+            f"{self.parameter} = {self.value:.6g}  ({self.objective} = {self.objective_value:.6g} over {band}; "
+            f"{self.n_evaluations} evaluations, {self.wall_time:.1f} s){flag}"
+        )
 
 
 def frequency_grid(band, points: int) -> np.ndarray:
@@ -307,8 +333,16 @@ class OptimiseConfig:
     workers: int = 1
 
 
-def optimise(base: BaseParams, tmd: TMDParams, parameter: str, objective="h2", config: OptimiseConfig | None = None,
-             *, progress=None, curve_cache: dict | None = None) -> OptimisationResult:
+def optimise(
+    base: BaseParams,
+    tmd: TMDParams,
+    parameter: str,
+    objective="h2",
+    config: OptimiseConfig | None = None,
+    *,
+    progress=None,
+    curve_cache: dict | None = None,
+) -> OptimisationResult:
     """Minimise ``objective`` over one parameter of the base or the TMD.
 
     parameter: 'tmd.damping', 'tmd.friction_force', ... (a bare name means the TMD);
@@ -331,8 +365,9 @@ def optimise(base: BaseParams, tmd: TMDParams, parameter: str, objective="h2", c
     parameter = f"{owner}.{name}"
     if bounds is None:
         if owner != "tmd" or name not in DEFAULT_BOUNDS:
-            raise OptimisationError(f"give bounds for {parameter} (defaults exist for "
-                                    f"{['tmd.' + k for k in DEFAULT_BOUNDS]})")
+            raise OptimisationError(
+                f"give bounds for {parameter} (defaults exist for {['tmd.' + k for k in DEFAULT_BOUNDS]})"
+            )
         bounds = DEFAULT_BOUNDS[name]
     lo, hi = float(bounds[0]), float(bounds[1])
     if not (math.isfinite(lo) and math.isfinite(hi) and lo < hi):
@@ -359,8 +394,19 @@ def optimise(base: BaseParams, tmd: TMDParams, parameter: str, objective="h2", c
         used_band = (float(omegas[0]), float(omegas[-1]))
     if obj.exact is not None and not nonlinear:
         used_band = None
-    ev = Evaluator(base, tmd, parameter, obj, omegas, direction, settings or FAST_SETTINGS, linear, workers,
-                   use_exact=not nonlinear, curves=curve_cache)
+    ev = Evaluator(
+        base,
+        tmd,
+        parameter,
+        obj,
+        omegas,
+        direction,
+        settings or FAST_SETTINGS,
+        linear,
+        workers,
+        use_exact=not nonlinear,
+        curves=curve_cache,
+    )
 
     def f(v):
         J = ev(v)
@@ -378,6 +424,14 @@ def optimise(base: BaseParams, tmd: TMDParams, parameter: str, objective="h2", c
     res = minimize_scalar(f, bounds=(a, b), method="bounded", options=dict(xatol=tol))
     best_v, best_J = (float(res.x), float(res.fun)) if res.fun <= vals[i] else (float(grid[i]), float(vals[i]))
     at_bound = best_v - lo <= 2 * tol or hi - best_v <= 2 * tol
-    return OptimisationResult(parameter=parameter, objective=obj.name, value=best_v, objective_value=best_J,
-                              bounds=(lo, hi), band=used_band, evaluations=pd.DataFrame(ev.rows),
-                              at_bound=bool(at_bound), wall_time=time.perf_counter() - t0)
+    return OptimisationResult(
+        parameter=parameter,
+        objective=obj.name,
+        value=best_v,
+        objective_value=best_J,
+        bounds=(lo, hi),
+        band=used_band,
+        evaluations=pd.DataFrame(ev.rows),
+        at_bound=bool(at_bound),
+        wall_time=time.perf_counter() - t0,
+    )

@@ -6,6 +6,7 @@ claims (:mod:`.claims`), draws the figures (:mod:`.figures`) and writes the repo
 Finished sweeps are checkpointed under ``<results>/.cache/``, keyed by the code version and every setting, so
 rows computed by older code are never reused.
 """
+
 from __future__ import annotations
 
 import json
@@ -28,6 +29,7 @@ NAMES = ["fig2_iratio"] + [f"fig{f}_case{c}" for f in (3, 4, 5, 6) for c in CASE
 DEFAULT_ENGINE = "monolithic"
 
 # --- scenarios -------------------------------------------------------------------------------------
+
 
 def _shrink(doc: dict, level: str, exact: bool) -> dict:
     """Smaller grids: 'quick' (tests) or 'coarse' (medium maps). Exact (linear) scenarios stay finer."""
@@ -62,6 +64,7 @@ def load_paper_scenario(name: str, level: str | None = None):
 
 # --- running ----------------------------------------------------------------------------------------
 
+
 @dataclass
 class Run:
     name: str
@@ -72,8 +75,7 @@ class Run:
     folder: Path
 
 
-def run_all(names, results: Path, level_of, executor, resume=True, progress=True,
-            engine: str = DEFAULT_ENGINE) -> dict:
+def run_all(names, results: Path, level_of, executor, resume=True, progress=True, engine: str = DEFAULT_ENGINE) -> dict:
     """Run the scenarios with ``engine`` (checkpointed under ``results/.cache``) and collect their data objects."""
     from tqdm import tqdm
 
@@ -84,10 +86,19 @@ def run_all(names, results: Path, level_of, executor, resume=True, progress=True
         settings = RunSettings.for_scenario(scn, engine=engine)
         collect: list = []
         out = results / name
-        with tqdm(total=work_units(scn, settings), desc=name, unit="pt", disable=not progress, file=sys.stderr,
-                  leave=False) as bar:
-            run_scenario(scn, out, settings, progress=bar.update, executor=executor,
-                         checkpoint_dir=results / ".cache" / name, resume=resume, collect=collect)
+        with tqdm(
+            total=work_units(scn, settings), desc=name, unit="pt", disable=not progress, file=sys.stderr, leave=False
+        ) as bar:
+            run_scenario(
+                scn,
+                out,
+                settings,
+                progress=bar.update,
+                executor=executor,
+                checkpoint_dir=results / ".cache" / name,
+                resume=resume,
+                collect=collect,
+            )
         summary = json.loads((out / "summary.json").read_text())
         runs[name] = Run(name, scn, level, {d.study.name: d for d in collect}, summary, out)
     return runs

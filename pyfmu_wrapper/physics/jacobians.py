@@ -14,6 +14,7 @@ Two kinds, both of the *same* right-hand sides:
   tests/test_registry.py) hold each one against the complex-step Jacobian to rounding, so an edit of an
   equation in :mod:`.kernels` that is not carried here fails them.
 """
+
 from __future__ import annotations
 
 import math

@@ -29,6 +29,7 @@ monolithic solver, the TMD subsystem) use hand-derived Jacobians, also in :mod:`
 second statement of the derivatives of these equations, held against the complex-step ones by the
 tests.
 """
+
 from __future__ import annotations
 
 import math
@@ -325,8 +326,13 @@ def energy(z, p):
     """
     x, xd, y, yd, d, dd = z[0], z[1], z[2], z[3], z[4], z[5]
     u = x - y
-    E = (0.5 * p[P_M] * xd * xd + 0.5 * p[P_m] * yd * yd + 0.5 * p[P_K] * x * x + 0.5 * p[P_k] * u * u
-         + 0.25 * p[P_k3] * u ** 4)
+    E = (
+        0.5 * p[P_M] * xd * xd
+        + 0.5 * p[P_m] * yd * yd
+        + 0.5 * p[P_K] * x * x
+        + 0.5 * p[P_k] * u * u
+        + 0.25 * p[P_k3] * u**4
+    )
     model = int(p[P_MODEL])
     if model == MODEL_IDEAL:
         E += 0.5 * p[P_I] * (xd - yd) ** 2

@@ -22,6 +22,7 @@ past the state's end: no tolerance).
 The three systems of this package: the coupled base + TMD (the monolithic solver) and the base and
 TMD subsystems of the two FMUs, driven by input polynomials u (see :mod:`.kernels`).
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -54,6 +55,7 @@ class OdeModel:
 
 # -- the contact mode shared by the three systems: g[1] = d - eps, g[2] = d + eps -----------------
 
+
 @njit(cache=True)
 def contact_mode_index(g):
     """0: engaged in extension (d < -eps), 1: free, 2: engaged in compression (d > eps)."""
@@ -81,6 +83,7 @@ def _describe(friction: bool, contact_index: int):
             else:
                 parts.append("gear free (|d| < eps)")
         return ", ".join(parts) if parts else "smooth"
+
     return describe
 
 
@@ -89,6 +92,7 @@ def _bind(describe, switching):
 
 
 # -- coupled base + TMD: z = [x, xd, y, yd, d, dd] ----------------------------------------------------
+
 
 @njit(cache=True)
 def coupled_rhs(t, z, p, u, out):
@@ -106,6 +110,7 @@ def coupled_switching(z, p, g):
 
 
 # -- base subsystem: z = [x, xd], input u = the link force polynomial --------------------------------
+
 
 @njit(cache=True)
 def base_rhs_u(t, z, p, u, out):
@@ -125,6 +130,7 @@ def base_switching(z, p, g):
 
 # -- TMD subsystem: z = [y, yd, d, dd], inputs u = base motion polynomials (+ kappa) ---------------
 
+
 @njit(cache=True)
 def tmd_rhs_u(t, z, p, u, out):
     system_rhs(SYS_TMD, t, z, p, u, out)
@@ -141,12 +147,42 @@ def tmd_switching(z, p, g):
     system_switching(SYS_TMD, z, p, g)
 
 
-COUPLED = OdeModel("coupled", coupled_rhs, coupled_jac, coupled_switching, contact_mode_index, 3, 3, (-1, 4, 4),
-                   ("x", "xd", "y", "yd", "d", "dd"), _bind(_describe(True, 4), coupled_switching))
-BASE = OdeModel("base", base_rhs_u, base_jac, base_switching, contact_mode_index, 3, 3, (-1, 2, 2),
-                ("x", "xd"), _bind(_describe(False, 2), base_switching))
-TMD = OdeModel("tmd", tmd_rhs_u, tmd_jac, tmd_switching, contact_mode_index, 3, 3, (-1, 2, 2),
-               ("y", "yd", "d", "dd"), _bind(_describe(False, 2), tmd_switching))
+COUPLED = OdeModel(
+    "coupled",
+    coupled_rhs,
+    coupled_jac,
+    coupled_switching,
+    contact_mode_index,
+    3,
+    3,
+    (-1, 4, 4),
+    ("x", "xd", "y", "yd", "d", "dd"),
+    _bind(_describe(True, 4), coupled_switching),
+)
+BASE = OdeModel(
+    "base",
+    base_rhs_u,
+    base_jac,
+    base_switching,
+    contact_mode_index,
+    3,
+    3,
+    (-1, 2, 2),
+    ("x", "xd"),
+    _bind(_describe(False, 2), base_switching),
+)
+TMD = OdeModel(
+    "tmd",
+    tmd_rhs_u,
+    tmd_jac,
+    tmd_switching,
+    contact_mode_index,
+    3,
+    3,
+    (-1, 2, 2),
+    ("y", "yd", "d", "dd"),
+    _bind(_describe(False, 2), tmd_switching),
+)
 
 #: the models by the kernels' system ids (for the FMU code that still passes ids)
 BY_SYSTEM_ID = {SYS_COUPLED: COUPLED, SYS_BASE: BASE, SYS_TMD: TMD}

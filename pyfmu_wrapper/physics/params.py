@@ -8,6 +8,7 @@ The paper's symbols (Brzeski & Perlikowski 2017, Table 1) are given beside each 
 numeric packing (:func:`pack`) is the single mapping between these objects and the compiled
 kernels of :mod:`pyfmu_wrapper.physics.kernels`.
 """
+
 from __future__ import annotations
 
 import math
@@ -100,7 +101,9 @@ class _TMDMixin:
         if model == InerterModel.NONE and self.inertance != 0.0:
             raise ParameterError(f"inertance must be 0 when inerter is 'none', got {self.inertance!r}{where}")
         if model != InerterModel.NONE and self.inertance <= 0.0:
-            raise ParameterError(f"inertance must be > 0 for inerter '{model.name.lower()}', got {self.inertance!r}{where}")
+            raise ParameterError(
+                f"inertance must be > 0 for inerter '{model.name.lower()}', got {self.inertance!r}{where}"
+            )
         if self.mass + self.inertance <= 0.0:
             raise ParameterError(f"mass + inertance (m + I) must be > 0, got {self.mass!r} + {self.inertance!r}{where}")
         if self.mass <= 0.0 and model != InerterModel.IDEAL:
@@ -121,8 +124,11 @@ class _TMDMixin:
     @property
     def is_linear(self) -> bool:
         """True when the coupled system is linear: no friction, no gap and no cubic spring term."""
-        return (self.friction_force == 0.0 and self.cubic_stiffness == 0.0
-                and (self.inerter != InerterModel.PLAY or self.play_gap == 0.0))
+        return (
+            self.friction_force == 0.0
+            and self.cubic_stiffness == 0.0
+            and (self.inerter != InerterModel.PLAY or self.play_gap == 0.0)
+        )
 
 
 def _validate_fields(obj, subsystem: str):
@@ -130,8 +136,9 @@ def _validate_fields(obj, subsystem: str):
     for par in registry.fields(subsystem):
         if par.kind != "real":
             continue
-        value = _check(f"{par.name} ({par.symbol})", getattr(obj, par.name), source=s,
-                       minimum=par.minimum, strict=par.strict)
+        value = _check(
+            f"{par.name} ({par.symbol})", getattr(obj, par.name), source=s, minimum=par.minimum, strict=par.strict
+        )
         object.__setattr__(obj, par.name, value)
 
 
@@ -148,8 +155,14 @@ def _make_class(name: str, subsystem: str, mixin: type, title: str) -> type:
         default = InerterModel(int(par.default)) if par.kind == "enum" else float(par.default)
         specs.append((par.name, InerterModel if par.kind == "enum" else float, field(default=default)))
     specs.append(("source", "str | None", field(default=None, compare=False, repr=False)))
-    cls = make_dataclass(name, specs, bases=(mixin,), frozen=True, kw_only=True,
-                         namespace={"__doc__": _class_doc(title, subsystem), "__module__": __name__})
+    cls = make_dataclass(
+        name,
+        specs,
+        bases=(mixin,),
+        frozen=True,
+        kw_only=True,
+        namespace={"__doc__": _class_doc(title, subsystem), "__module__": __name__},
+    )
     return cls
 
 
@@ -170,14 +183,19 @@ if TYPE_CHECKING:
 else:
     #: Base oscillator: M xdd + C xd + K x = F cos(omega t) - (force of the TMD links). The
     #: excitation frequency omega [rad/s] is passed to the solvers, not stored here.
-    BaseParams = _make_class("BaseParams", "base", _BaseMixin,
-                             "Base oscillator: M xdd + C xd + K x = F cos(w t) - (force of the TMD links).")
+    BaseParams = _make_class(
+        "BaseParams", "base", _BaseMixin, "Base oscillator: M xdd + C xd + K x = F cos(w t) - (force of the TMD links)."
+    )
     #: TMD mass m and its links to the base (paper Table 1). Link forces are counted positive when
     #: they push the base in -x and the TMD in +y:
     #: Fs = k (x - y) + k3 (x - y)^3 + c (xd - yd) + df (2/pi) atan(s (xd - yd)), and the inerter force P.
-    TMDParams = _make_class("TMDParams", "tmd", _TMDMixin,
-                            "TMD mass m and its links to the base (paper Table 1): spring k + k3 (x-y)^3, "
-                            "damper c, dry friction df, inerter I (none / ideal / with play ki, ci, eps).")
+    TMDParams = _make_class(
+        "TMDParams",
+        "tmd",
+        _TMDMixin,
+        "TMD mass m and its links to the base (paper Table 1): spring k + k3 (x-y)^3, "
+        "damper c, dry friction df, inerter I (none / ideal / with play ki, ci, eps).",
+    )
 
 
 def with_values(obj, source: str | None = None, **changes):
@@ -198,12 +216,27 @@ def as_dict(obj) -> dict:
 # --- numeric packing for the compiled kernels --------------------------------------------------
 # The indices come from the registry (its order is the packed order); kernels.py uses these names.
 _IX = registry.PACK_INDEX
-P_M, P_K, P_C, P_F, P_W = _IX["base.mass"], _IX["base.stiffness"], _IX["base.damping"], \
-    _IX["base.force_amplitude"], _IX["base.omega"]
-P_m, P_k, P_c, P_df, P_s = _IX["tmd.mass"], _IX["tmd.stiffness"], _IX["tmd.damping"], \
-    _IX["tmd.friction_force"], _IX["tmd.friction_slope"]
-P_I, P_ki, P_ci, P_eps, P_MODEL = _IX["tmd.inertance"], _IX["tmd.mesh_stiffness"], _IX["tmd.mesh_damping"], \
-    _IX["tmd.play_gap"], _IX["tmd.inerter"]
+P_M, P_K, P_C, P_F, P_W = (
+    _IX["base.mass"],
+    _IX["base.stiffness"],
+    _IX["base.damping"],
+    _IX["base.force_amplitude"],
+    _IX["base.omega"],
+)
+P_m, P_k, P_c, P_df, P_s = (
+    _IX["tmd.mass"],
+    _IX["tmd.stiffness"],
+    _IX["tmd.damping"],
+    _IX["tmd.friction_force"],
+    _IX["tmd.friction_slope"],
+)
+P_I, P_ki, P_ci, P_eps, P_MODEL = (
+    _IX["tmd.inertance"],
+    _IX["tmd.mesh_stiffness"],
+    _IX["tmd.mesh_damping"],
+    _IX["tmd.play_gap"],
+    _IX["tmd.inerter"],
+)
 P_k3 = _IX["tmd.cubic_stiffness"]
 N_PARAMS = registry.N_PARAMS
 

@@ -13,6 +13,7 @@ portraits). An engine is a pair of functions registered in :data:`ENGINES`:
   difference cosim / monolithic - 1 in ``difference``, with the monolithic point's own
   ``reference_irregular`` flag and window scatter ``reference_change`` (NaN for the single engines).
 """
+
 from __future__ import annotations
 
 import time
@@ -29,9 +30,28 @@ from ..solvers.sweep import sweep
 from .schema import SolverConfig, SweepConfig
 
 #: columns of every sweep table (one row per direction and omega)
-SWEEP_COLUMNS = ("engine", "method", "direction", "omega", "amplitude", "periods", "converged", "irregular",
-                 "change", "steps", "rejected", "wall_time", "reference", "difference", "reference_irregular",
-                 "reference_change", "fmu_time_base", "fmu_time_tmd", "master_loop_time", "python_step_time")
+SWEEP_COLUMNS = (
+    "engine",
+    "method",
+    "direction",
+    "omega",
+    "amplitude",
+    "periods",
+    "converged",
+    "irregular",
+    "change",
+    "steps",
+    "rejected",
+    "wall_time",
+    "reference",
+    "difference",
+    "reference_irregular",
+    "reference_change",
+    "fmu_time_base",
+    "fmu_time_tmd",
+    "master_loop_time",
+    "python_step_time",
+)
 #: co-simulation only (NaN for the monolithic engine): seconds inside each FMU's fmi2 calls of the
 #: compiled stepping loop, the loop's own work, and the steps taken on the Python path
 #: (``cosim.steady._time_split``); the rest of ``wall_time`` is the steady-state logic
@@ -134,17 +154,42 @@ def _exact_table(base, tmd, omegas, settings, progress, engine) -> pd.DataFrame:
     if progress is not None:  # closed form, instantaneous: not counted in the speed of an ETA
         getattr(progress, "skip", progress)(n * len(settings.directions()))
     omegas = np.asarray(omegas, float)
-    return _sweep_columns(pd.DataFrame(dict(engine=engine, method="exact", direction=direction, omega=omegas,
-                             amplitude=amp, periods=0, converged=True, irregular=False, change=0.0, steps=0, rejected=0,
-                             wall_time=dt, reference=np.nan, difference=np.nan, reference_irregular=np.nan,
-                             reference_change=np.nan)))
+    return _sweep_columns(
+        pd.DataFrame(
+            dict(
+                engine=engine,
+                method="exact",
+                direction=direction,
+                omega=omegas,
+                amplitude=amp,
+                periods=0,
+                converged=True,
+                irregular=False,
+                change=0.0,
+                steps=0,
+                rejected=0,
+                wall_time=dt,
+                reference=np.nan,
+                difference=np.nan,
+                reference_irregular=np.nan,
+                reference_change=np.nan,
+            )
+        )
+    )
 
 
 def _monolithic_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.DataFrame:
     if _mono_exact(tmd, settings):
         return _exact_table(base, tmd, omegas, settings, progress, "monolithic")
-    res = sweep(base, tmd, omegas, direction=settings.sweep.direction, settings=settings.solver.settings(),
-                progress=progress, workers=settings.workers)
+    res = sweep(
+        base,
+        tmd,
+        omegas,
+        direction=settings.sweep.direction,
+        settings=settings.solver.settings(),
+        progress=progress,
+        workers=settings.workers,
+    )
     table = res.table.copy()
     table.insert(0, "method", "steady_state")
     table.insert(0, "engine", "monolithic")
@@ -161,12 +206,26 @@ def _monolithic_time_series(base, tmd, omega, n_periods, samples_per_period, set
         t = np.arange(n_periods * samples_per_period) * (T / samples_per_period)
         Z = exact_response(base, tmd, [omega])[0]
         states = np.real(Z[None, :] * np.exp(1j * omega * t)[:, None])
-        return TimeSeries(t=t, states=states, method="exact", converged=True, periods=0, change=0.0,
-                          amplitude=float(abs(Z[0])))
-    t, states, ss = periodic_time_series(base, tmd, omega, n_periods=n_periods,
-                                         samples_per_period=samples_per_period, settings=settings.solver.settings())
-    return TimeSeries(t=t, states=states, method="steady_state", converged=bool(ss.converged), periods=int(ss.periods),
-                      change=float(ss.change), amplitude=float(ss.amplitude))
+        return TimeSeries(
+            t=t, states=states, method="exact", converged=True, periods=0, change=0.0, amplitude=float(abs(Z[0]))
+        )
+    t, states, ss = periodic_time_series(
+        base,
+        tmd,
+        omega,
+        n_periods=n_periods,
+        samples_per_period=samples_per_period,
+        settings=settings.solver.settings(),
+    )
+    return TimeSeries(
+        t=t,
+        states=states,
+        method="steady_state",
+        converged=bool(ss.converged),
+        periods=int(ss.periods),
+        change=float(ss.change),
+        amplitude=float(ss.amplitude),
+    )
 
 
 def _cosim_settings(settings: RunSettings):
@@ -180,8 +239,9 @@ def _cosim_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.
     from ..cosim.steady import sweep as cosim_sweep
 
     cs = _cosim_settings(settings)
-    table = cosim_sweep(base, tmd, omegas, direction=settings.sweep.direction, settings=cs, progress=progress,
-                        workers=settings.workers)
+    table = cosim_sweep(
+        base, tmd, omegas, direction=settings.sweep.direction, settings=cs, progress=progress, workers=settings.workers
+    )
     table.insert(0, "method", cs.method)
     table.insert(0, "engine", "cosim")
     table["reference"] = np.nan
@@ -208,8 +268,9 @@ def _both_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.D
         return [v[i] if i is not None else missing for i in rows]
 
     co["reference"] = pick("amplitude")
-    co["reference_irregular"] = [float(bool(x)) if not (isinstance(x, float) and np.isnan(x)) else np.nan
-                                 for x in pick("irregular")]
+    co["reference_irregular"] = [
+        float(bool(x)) if not (isinstance(x, float) and np.isnan(x)) else np.nan for x in pick("irregular")
+    ]
     co["reference_change"] = np.asarray(pick("change"), float)
     co["difference"] = co["amplitude"] / co["reference"] - 1.0
     # a reference that is zero to rounding (the undamped ideal inerter's antiresonance, ~1e-16 m
@@ -250,18 +311,32 @@ def _cosim_time_series(base, tmd, omega, n_periods, samples_per_period, settings
         tt = np.arange(n_periods * samples_per_period) * (T / samples_per_period)
         states = np.column_stack([np.interp(tt, t, states[:, j]) for j in range(states.shape[1])])
         t = tt
-    return TimeSeries(t=t, states=states, method=cs.method, converged=bool(ss.converged),
-                      periods=int(ss.periods), change=float(ss.change), amplitude=float(ss.amplitude))
+    return TimeSeries(
+        t=t,
+        states=states,
+        method=cs.method,
+        converged=bool(ss.converged),
+        periods=int(ss.periods),
+        change=float(ss.change),
+        amplitude=float(ss.amplitude),
+    )
 
 
 #: registered engines; the CLI offers exactly these names
 ENGINES: dict[str, Engine] = {
-    "cosim": Engine(_cosim_sweep, _cosim_time_series,
-                    "co-simulation of the BaseOscillator and TMDInerter FMUs (pyfmu_wrapper.cosim)"),
-    "monolithic": Engine(_monolithic_sweep, _monolithic_time_series,
-                         "exact frequency response (linear) / monolithic steady-state solver (nonlinear)"),
-    "both": Engine(_both_sweep, _cosim_time_series,
-                   "co-simulation held against the monolithic engine (difference per frequency)"),
+    "cosim": Engine(
+        _cosim_sweep,
+        _cosim_time_series,
+        "co-simulation of the BaseOscillator and TMDInerter FMUs (pyfmu_wrapper.cosim)",
+    ),
+    "monolithic": Engine(
+        _monolithic_sweep,
+        _monolithic_time_series,
+        "exact frequency response (linear) / monolithic steady-state solver (nonlinear)",
+    ),
+    "both": Engine(
+        _both_sweep, _cosim_time_series, "co-simulation held against the monolithic engine (difference per frequency)"
+    ),
 }
 
 
@@ -276,8 +351,9 @@ def _engine(name: str) -> Engine:
         raise EngineError(f"unknown engine {name!r}; available: {sorted(ENGINES)}") from None
 
 
-def compute_sweep(base: BaseParams, tmd: TMDParams, omegas, settings: RunSettings,
-                  progress: Callable[[int], object] | None = None) -> pd.DataFrame:
+def compute_sweep(
+    base: BaseParams, tmd: TMDParams, omegas, settings: RunSettings, progress: Callable[[int], object] | None = None
+) -> pd.DataFrame:
     """Base amplitude [m] at each omega [rad/s] by the engine named in ``settings``.
 
     Returns a table with :data:`SWEEP_COLUMNS`; ``progress(n)`` is called as points finish
@@ -286,8 +362,10 @@ def compute_sweep(base: BaseParams, tmd: TMDParams, omegas, settings: RunSetting
     return _engine(settings.engine).sweep(base, tmd, np.asarray(omegas, dtype=float), settings, progress)
 
 
-def compute_time_series(base: BaseParams, tmd: TMDParams, omega: float, n_periods: int, samples_per_period: int,
-                        settings: RunSettings) -> TimeSeries:
+def compute_time_series(
+    base: BaseParams, tmd: TMDParams, omega: float, n_periods: int, samples_per_period: int, settings: RunSettings
+) -> TimeSeries:
     """Steady-state time series over n_periods at omega [rad/s] by the engine named in ``settings``."""
-    return _engine(settings.engine).time_series(base, tmd, float(omega), int(n_periods), int(samples_per_period),
-                                                settings)
+    return _engine(settings.engine).time_series(
+        base, tmd, float(omega), int(n_periods), int(samples_per_period), settings
+    )

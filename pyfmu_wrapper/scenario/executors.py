@@ -23,6 +23,7 @@ objects (anything with ``submit_all(tasks)``) report whole tasks. Interrupts: :m
 ends the worker processes at once (the CLI calls it on SIGINT, SIGTERM and SIGHUP); on Linux the
 workers also die with their parent (``PR_SET_PDEATHSIG``), so a killed run leaves no orphan worker.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -42,6 +43,7 @@ EXECUTORS = ("local", "dask", "sequential")
 
 
 # --- executors -----------------------------------------------------------------------------------
+
 
 class SequentialExecutor:
     """Runs the tasks in this process, in order."""
@@ -117,8 +119,7 @@ class LocalExecutor:
             return
         if self._pool is None:
             self._queue = mp.get_context("fork").Queue() if "fork" in mp.get_all_start_methods() else mp.Queue()
-            self._pool = ProcessPoolExecutor(max_workers=self.jobs, initializer=_worker_init,
-                                             initargs=(self._queue,))
+            self._pool = ProcessPoolExecutor(max_workers=self.jobs, initializer=_worker_init, initargs=(self._queue,))
         self._batch += 1
         futs = {self._pool.submit(_run_task_reporting, (self._batch, i), t): i for i, t in enumerate(tasks)}
         started = len(getattr(self._pool, "_processes", None) or ()) or self.jobs
@@ -246,8 +247,13 @@ def make_executor(name: str = "local", jobs: int | None = 0, scheduler=None):
     raise ValueError(f"unknown executor {name!r}; available: {list(EXECUTORS)}")
 
 
-def run_tasks(tasks: list[SweepTask], executor=None, checkpoint: Checkpoint | None = None,
-              progress: Callable[[float], object] | None = None, stats: TaskStats | None = None) -> list[pd.DataFrame]:
+def run_tasks(
+    tasks: list[SweepTask],
+    executor=None,
+    checkpoint: Checkpoint | None = None,
+    progress: Callable[[float], object] | None = None,
+    stats: TaskStats | None = None,
+) -> list[pd.DataFrame]:
     """Results of ``tasks`` in order: read from ``checkpoint`` where finished, computed by ``executor``
     (None: sequentially here) otherwise; each computed result is checkpointed as soon as it arrives."""
     stats = stats if stats is not None else TaskStats()
@@ -273,8 +279,11 @@ def run_tasks(tasks: list[SweepTask], executor=None, checkpoint: Checkpoint | No
             progress(n)
 
     todo = [tasks[i] for i in missing]
-    results = (ex.submit_all(todo, points) if getattr(ex, "reports_points", False) and progress is not None
-               else ex.submit_all(todo))
+    results = (
+        ex.submit_all(todo, points)
+        if getattr(ex, "reports_points", False) and progress is not None
+        else ex.submit_all(todo)
+    )
     for j, table in results:
         i = missing[j]
         out[i] = table

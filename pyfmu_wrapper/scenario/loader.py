@@ -8,6 +8,7 @@ given ``source="file.yaml:LINE key.path"``. The located checks are :class:`~.rea
 blocks' merging :class:`~.tmdspec.TMDSpec`'s; this module reads the document: base, sweep, solver and
 co-simulation settings, studies.
 """
+
 from __future__ import annotations
 
 import os
@@ -46,6 +47,7 @@ _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 # --- the document ------------------------------------------------------------------------------
 
+
 def load_scenario(path) -> Scenario:
     """Read, validate and resolve a scenario file. Raises ScenarioError on any problem."""
     path = os.fspath(path)
@@ -60,8 +62,9 @@ def load_scenario(path) -> Scenario:
     except UnicodeDecodeError as exc:  # name the line and byte, not a traceback
         from ..cli.errors import bad_bytes_message
 
-        raise ScenarioError(bad_bytes_message(file, data, exc), file=file,
-                            line=data.count(b"\n", 0, exc.start) + 1) from None
+        raise ScenarioError(
+            bad_bytes_message(file, data, exc), file=file, line=data.count(b"\n", 0, exc.start) + 1
+        ) from None
     return parse_scenario(text, file)
 
 
@@ -74,23 +77,38 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
         line = mark.line + 1 if mark is not None else None
         where = f"{file}:{line}" if line else file
         msg = " ".join(str(exc).split())
-        raise ScenarioError(f"{where}: not valid YAML for a scenario (safe loader): {msg}", file=file,
-                            line=line) from None
+        raise ScenarioError(
+            f"{where}: not valid YAML for a scenario (safe loader): {msg}", file=file, line=line
+        ) from None
     if doc is None:
         rd.fail("", None, "the file is empty", show_value=False)
-    rd.mapping(doc, "", 1, required=("schema_version", "name", "base", "tmd", "frequencies", "studies"),
-               optional=("description", "sweep", "solver", "cosim"))
+    rd.mapping(
+        doc,
+        "",
+        1,
+        required=("schema_version", "name", "base", "tmd", "frequencies", "studies"),
+        optional=("description", "sweep", "solver", "cosim"),
+    )
     version = doc["schema_version"]
     if isinstance(version, bool) or version not in READ_VERSIONS:
-        rd.fail("schema_version", line_of(doc, "schema_version"), f"unsupported schema version; this "
-                f"program reads schema_version {SCHEMA_VERSION}", version)
+        rd.fail(
+            "schema_version",
+            line_of(doc, "schema_version"),
+            f"unsupported schema version; this program reads schema_version {SCHEMA_VERSION}",
+            version,
+        )
     if version != SCHEMA_VERSION:
         for key in ("solver", "sweep", "cosim"):  # schema 1 had one solver block read by both engines
             if key in doc:
-                rd.fail(key, line_of(doc, key), f"a schema_version {version} file cannot have a {key!r} block: in "
-                        f"schema 1 'solver:' meant different things to the two engines; write schema_version "
-                        f"{SCHEMA_VERSION} with 'sweep:' (direction, continuation), 'solver:' (monolithic engine) "
-                        "and 'cosim:' (co-simulation engine), see docs/scenarios.md", doc[key])
+                rd.fail(
+                    key,
+                    line_of(doc, key),
+                    f"a schema_version {version} file cannot have a {key!r} block: in "
+                    f"schema 1 'solver:' meant different things to the two engines; write schema_version "
+                    f"{SCHEMA_VERSION} with 'sweep:' (direction, continuation), 'solver:' (monolithic engine) "
+                    "and 'cosim:' (co-simulation engine), see docs/scenarios.md",
+                    doc[key],
+                )
     name = rd.string(doc, "name", "", pattern=_NAME_RE)
     description = rd.string(doc, "description", "", default="")
 
@@ -122,9 +140,20 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
             rd.fail(f"studies[{i}].name", line_of(st, "name"), "duplicate study name", s.name)
         names.add(s.name)
         studies.append(s)
-    return Scenario(path=file, name=name, description=description, schema_version=version, base=base, tmd=tmd,
-                    frequencies=omegas, solver=solver, studies=tuple(studies), sweep=sweep, cosim=cosim,
-                    raw=_plain(doc))
+    return Scenario(
+        path=file,
+        name=name,
+        description=description,
+        schema_version=version,
+        base=base,
+        tmd=tmd,
+        frequencies=omegas,
+        solver=solver,
+        studies=tuple(studies),
+        sweep=sweep,
+        cosim=cosim,
+        raw=_plain(doc),
+    )
 
 
 def _base_fails(b, key) -> bool:
@@ -140,18 +169,21 @@ _SWEEP_KEYS = ("direction", "continuation")
 _SOLVER_SETTINGS = tuple(s.name for s in _settings.SETTINGS if _settings.MONO in s.blocks)
 _SOLVER_KEYS = _SOLVER_SETTINGS + ("linear",)
 _TO_SWEEP = {k: f"shared by both engines: write it as sweep.{k}" for k in _SWEEP_KEYS}
-_TO_COSIM = {k: f"a co-simulation setting: write it under cosim: (cosim.{k})"
-             for k in COSIM_KEYS if k not in _SOLVER_KEYS}
-_TO_SOLVER = {k: f"a monolithic-engine setting: write it under solver: (solver.{k})"
-              for k in _SOLVER_KEYS if k not in COSIM_KEYS}
+_TO_COSIM = {
+    k: f"a co-simulation setting: write it under cosim: (cosim.{k})" for k in COSIM_KEYS if k not in _SOLVER_KEYS
+}
+_TO_SOLVER = {
+    k: f"a monolithic-engine setting: write it under solver: (solver.{k})" for k in _SOLVER_KEYS if k not in COSIM_KEYS
+}
 
 
 def _sweep(rd: Reader, node, line) -> SweepConfig:
-    rd.mapping(node, "sweep", line, optional=_SWEEP_KEYS,
-               hints={**_TO_COSIM, **_TO_SOLVER})
+    rd.mapping(node, "sweep", line, optional=_SWEEP_KEYS, hints={**_TO_COSIM, **_TO_SOLVER})
     d = SweepConfig()
-    return SweepConfig(direction=rd.string(node, "direction", "sweep", choices=DIRECTIONS, default=d.direction),
-                       continuation=rd.boolean(node, "continuation", "sweep", default=d.continuation))
+    return SweepConfig(
+        direction=rd.string(node, "direction", "sweep", choices=DIRECTIONS, default=d.direction),
+        continuation=rd.boolean(node, "continuation", "sweep", default=d.continuation),
+    )
 
 
 def _solver(rd: Reader, node, line) -> SolverConfig:
@@ -207,8 +239,12 @@ def _study(rd: Reader, node, path, line, top: TMDSpec, omegas):
     if not isinstance(node, dict):
         rd.fail(path, line, "must be a mapping (a study)", node)
     if "kind" not in node:
-        rd.fail(key_path(path, "kind"), line_of(node), f"missing required key (one of {list(STUDY_KINDS)})",
-                show_value=False)
+        rd.fail(
+            key_path(path, "kind"),
+            line_of(node),
+            f"missing required key (one of {list(STUDY_KINDS)})",
+            show_value=False,
+        )
     kind = rd.string(node, "kind", path, choices=STUDY_KINDS)
     req, opt = _KIND_KEYS[kind]
     rd.mapping(node, path, line, required=("kind", "name") + req, optional=_COMMON[2:] + opt)
@@ -216,7 +252,9 @@ def _study(rd: Reader, node, path, line, top: TMDSpec, omegas):
     title = rd.string(node, "title", path, default=name)
     spec = top.over(rd, node["tmd"], key_path(path, "tmd"), line_of(node, "tmd")) if "tmd" in node else top
     if "frequencies" in node:
-        omegas = rd.grid(node["frequencies"], key_path(path, "frequencies"), line_of(node, "frequencies"), positive=True)
+        omegas = rd.grid(
+            node["frequencies"], key_path(path, "frequencies"), line_of(node, "frequencies"), positive=True
+        )
     if kind == "frc":
         curves = _curves(rd, node["curves"], key_path(path, "curves"), line_of(node, "curves"), spec)
         return FRCStudy(name=name, title=title, omegas=omegas, curves=curves)
@@ -226,8 +264,9 @@ def _study(rd: Reader, node, path, line, top: TMDSpec, omegas):
         curves = _curves(rd, node["curves"], key_path(path, "curves"), line_of(node, "curves"), spec)
         n = rd.integer(node, "n_periods", path, minimum=1, maximum=1000, default=1)
         sp = rd.integer(node, "samples_per_period", path, minimum=8, maximum=100_000, default=400)
-        return PhasePortraitStudy(name=name, title=title, omegas=tuple(float(x) for x in w), curves=curves,
-                                  n_periods=n, samples_per_period=sp)
+        return PhasePortraitStudy(
+            name=name, title=title, omegas=tuple(float(x) for x in w), curves=curves, n_periods=n, samples_per_period=sp
+        )
     # map
     param = rd.string(node, "parameter", path, choices=MAP_PARAMETERS)
     vnode, vpath, vline = node["values"], key_path(path, "values"), line_of(node, "values")
@@ -262,7 +301,9 @@ def _curves(rd: Reader, node, path, line, spec: TMDSpec) -> tuple[Curve, ...]:
         labels.add(label)
         without = rd.boolean(c, "without_tmd", p)
         if without and "tmd" in c:
-            rd.fail(key_path(p, "tmd"), line_of(c, "tmd"), "a curve with without_tmd: true takes no tmd block", c["tmd"])
+            rd.fail(
+                key_path(p, "tmd"), line_of(c, "tmd"), "a curve with without_tmd: true takes no tmd block", c["tmd"]
+            )
         s = spec.over(rd, c["tmd"], key_path(p, "tmd"), line_of(c, "tmd")) if "tmd" in c else spec
         tmd = s.build(rd, p, ln)
         out.append(Curve(label=label, tmd=detached_tmd(tmd) if without else tmd, without_tmd=without))

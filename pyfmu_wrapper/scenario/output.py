@@ -26,6 +26,7 @@ Checkpoints (finished sweeps, for resuming a killed run) live in ``<out>.checkpo
 output folder (:func:`default_checkpoint_dir`), one per output folder, so two outputs never share
 them; it carries its own marker, and a folder of that name that is not ours is refused.
 """
+
 from __future__ import annotations
 
 import ctypes
@@ -155,17 +156,23 @@ def clean_stale_partials(out) -> list[str]:
         if m is not None and m.get("out") == str(out):
             same_host = m.get("host") == socket.gethostname()
             if same_host and m.get("pid") != os.getpid() and _pid_alive(m.get("pid")):
-                raise OutputError(f"{out}: another run-scenario (process {m.get('pid')}, started {m.get('started')}) "
-                                  f"is writing this output folder now (its partial folder: {p}); wait for it, stop it, "
-                                  "or choose another --out")
+                raise OutputError(
+                    f"{out}: another run-scenario (process {m.get('pid')}, started {m.get('started')}) "
+                    f"is writing this output folder now (its partial folder: {p}); wait for it, stop it, "
+                    "or choose another --out"
+                )
             if same_host:
                 shutil.rmtree(p, ignore_errors=True)
-                notes.append(f"removed {p}, the partial folder of an interrupted run-scenario "
-                             f"(process {m.get('pid')}, started {m.get('started')})")
+                notes.append(
+                    f"removed {p}, the partial folder of an interrupted run-scenario "
+                    f"(process {m.get('pid')}, started {m.get('started')})"
+                )
                 continue
-        notes.append(f"found {p}: it looks like the partial folder of an interrupted run, but it does not carry "
-                     f"run-scenario's marker for this output (or was written on another machine); left alone: "
-                     "delete it yourself if you do not need it")
+        notes.append(
+            f"found {p}: it looks like the partial folder of an interrupted run, but it does not carry "
+            f"run-scenario's marker for this output (or was written on another machine); left alone: "
+            "delete it yourself if you do not need it"
+        )
     return notes
 
 
@@ -184,32 +191,47 @@ def check_output_dir(out, scenario_path=None, checkpoint_dir=None) -> list[str]:
     for what, p in protected:
         for q in {_abs(p), Path(p).resolve()}:
             if out == q or out in q.parents or out.resolve() == q or out.resolve() in q.parents:
-                raise OutputError(f"--out {given}: refusing to replace {out}, which is or contains {what} ({q}); "
-                                  "give a new folder, e.g. --out results/NAME")
+                raise OutputError(
+                    f"--out {given}: refusing to replace {out}, which is or contains {what} ({q}); "
+                    "give a new folder, e.g. --out results/NAME"
+                )
     if out.is_symlink():
         raise OutputError(f"--out {given}: {out} is a symbolic link; give the folder itself")
     if out.exists() and not out.is_dir():
-        raise OutputError(f"--out {given}: {out} exists and is not a folder; refusing to replace it "
-                          "(choose another --out)")
+        raise OutputError(
+            f"--out {given}: {out} exists and is not a folder; refusing to replace it (choose another --out)"
+        )
     if out.is_dir():
         foreign = _foreign_entries(out)
         if foreign:
             shown = ", ".join(foreign[:8]) + (f", ... ({len(foreign)} entries)" if len(foreign) > 8 else "")
-            raise OutputError(f"--out {given}: {out} is a non-empty folder that is not a result of run-scenario "
-                              f"(it holds {shown}); refusing to replace it: nothing was written. Choose a new "
-                              "folder, or empty this one yourself")
+            raise OutputError(
+                f"--out {given}: {out} is a non-empty folder that is not a result of run-scenario "
+                f"(it holds {shown}); refusing to replace it: nothing was written. Choose a new "
+                "folder, or empty this one yourself"
+            )
     ck = _abs(checkpoint_dir) if checkpoint_dir is not None else None
     if ck is not None and ck == default_checkpoint_dir(out) and ck.exists():
         m = read_marker(ck)
         foreign_ck = not ck.is_dir() or ck.is_symlink() or m is None or m.get("kind") != "checkpoints"
         if foreign_ck and not (ck.is_dir() and not os.listdir(ck)):
-            raise OutputError(f"--out {given}: the checkpoint folder {ck} exists but was not written by "
-                              "run-scenario; refusing to write into it (move it, or choose another --out)")
+            raise OutputError(
+                f"--out {given}: the checkpoint folder {ck} exists but was not written by "
+                "run-scenario; refusing to write into it (move it, or choose another --out)"
+            )
     return clean_stale_partials(out)
 
 
-def run_scenario(scn: Scenario, out_dir, settings: RunSettings, progress=None, executor=None,
-                 checkpoint_dir=None, resume: bool = True, collect: list | None = None) -> Path:
+def run_scenario(
+    scn: Scenario,
+    out_dir,
+    settings: RunSettings,
+    progress=None,
+    executor=None,
+    checkpoint_dir=None,
+    resume: bool = True,
+    collect: list | None = None,
+) -> Path:
     """Compute every study of ``scn`` and write the results folder ``out_dir`` (replaced if it is an
     earlier result of run-scenario; any other non-empty folder or a file raises :class:`OutputError`
     before computing).
@@ -227,8 +249,15 @@ def run_scenario(scn: Scenario, out_dir, settings: RunSettings, progress=None, e
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-{os.getpid()}-", dir=out.parent))
     try:
         started = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
-        _write_marker(tmp, kind="partial", out=str(out), pid=os.getpid(), host=socket.gethostname(), started=started,
-                      scenario=scn.name)
+        _write_marker(
+            tmp,
+            kind="partial",
+            out=str(out),
+            pid=os.getpid(),
+            host=socket.gethostname(),
+            started=started,
+            scenario=scn.name,
+        )
         umask = os.umask(0)
         os.umask(umask)
         os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes it private; the results folder is an ordinary one
@@ -236,10 +265,23 @@ def run_scenario(scn: Scenario, out_dir, settings: RunSettings, progress=None, e
         stats: dict = {}
         ck_marker = None
         if checkpoint_dir is not None and _abs(checkpoint_dir) == default_checkpoint_dir(out):
-            ck_marker = dict(tool=TOOL, version=_version(), kind="checkpoints", out=str(out),
-                             note="finished sweeps of run-scenario, for resuming a killed run; safe to delete")
-        datas = run_studies(scn, settings, progress, executor=executor, checkpoint_dir=checkpoint_dir, stats=stats,
-                            resume=resume, checkpoint_marker=ck_marker)
+            ck_marker = dict(
+                tool=TOOL,
+                version=_version(),
+                kind="checkpoints",
+                out=str(out),
+                note="finished sweeps of run-scenario, for resuming a killed run; safe to delete",
+            )
+        datas = run_studies(
+            scn,
+            settings,
+            progress,
+            executor=executor,
+            checkpoint_dir=checkpoint_dir,
+            stats=stats,
+            resume=resume,
+            checkpoint_marker=ck_marker,
+        )
         compute_time = time.perf_counter() - t0
         if collect is not None:
             collect.extend(datas)
@@ -258,12 +300,22 @@ def run_scenario(scn: Scenario, out_dir, settings: RunSettings, progress=None, e
             processes_requested=getattr(executor, "jobs", 1) if executor is not None else 1,
             processes_used=used,
             checkpoint_dir=None if checkpoint_dir is None else str(checkpoint_dir),
-            tasks={k: dict(cached=v.cached, computed=v.computed, wall_time=v.wall_time) for k, v in stats.items()})
+            tasks={k: dict(cached=v.cached, computed=v.computed, wall_time=v.wall_time) for k, v in stats.items()},
+        )
         (tmp / "summary.json").write_text(json.dumps(_finite(summary), indent=2) + "\n", encoding="utf-8")
         files.append("summary.json")
-        _write_marker(tmp, kind="result", out=str(out), scenario=scn.name, scenario_file=str(scn.path),
-                      code_version=code_version(), created=summary["created"], files=sorted(files),
-                      pid=os.getpid(), host=socket.gethostname())
+        _write_marker(
+            tmp,
+            kind="result",
+            out=str(out),
+            scenario=scn.name,
+            scenario_file=str(scn.path),
+            code_version=code_version(),
+            created=summary["created"],
+            files=sorted(files),
+            pid=os.getpid(),
+            host=socket.gethostname(),
+        )
         _replace_dir(tmp, out)
     except BaseException:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -340,9 +392,14 @@ def cosim_time_split(datas) -> dict | None:
     s = {c: float(np.nansum(t[c].to_numpy(float))) for c in TIMING_COLUMNS}
     wall = float(np.nansum(t["wall_time"].to_numpy(float)))
     fmus = {"base": s["fmu_time_base"], "tmd": s["fmu_time_tmd"]}
-    return dict(points=int(len(t)), wall_time=wall, fmus=fmus, master_loop=s["master_loop_time"],
-                python_steps=s["python_step_time"],
-                steady_state_logic=wall - sum(fmus.values()) - s["master_loop_time"] - s["python_step_time"])
+    return dict(
+        points=int(len(t)),
+        wall_time=wall,
+        fmus=fmus,
+        master_loop=s["master_loop_time"],
+        python_steps=s["python_step_time"],
+        steady_state_logic=wall - sum(fmus.values()) - s["master_loop_time"] - s["python_step_time"],
+    )
 
 
 def make_summary(scn: Scenario, settings: RunSettings, datas, compute_time: float, total_time: float) -> dict:
@@ -351,16 +408,21 @@ def make_summary(scn: Scenario, settings: RunSettings, datas, compute_time: floa
     except metadata.PackageNotFoundError:  # pragma: no cover
         version = None
     return dict(
-        scenario=dict(name=scn.name, description=scn.description, file=str(scn.path),
-                      schema_version=scn.schema_version),
+        scenario=dict(
+            name=scn.name, description=scn.description, file=str(scn.path), schema_version=scn.schema_version
+        ),
         engine=settings.engine,
         workers=settings.workers,
         parameters=dict(base=as_dict(scn.base), tmd=as_dict(scn.tmd)),
         settings=settings.used(),
         not_used=[b for b in ("solver", "cosim") if b in scn.raw and b not in settings.used()],
         code_version=code_version(),
-        timings=dict(compute=compute_time, total=total_time, studies={d.study.name: d.wall_time for d in datas},
-                     cosim=cosim_time_split(datas)),
+        timings=dict(
+            compute=compute_time,
+            total=total_time,
+            studies={d.study.name: d.wall_time for d in datas},
+            cosim=cosim_time_split(datas),
+        ),
         studies=[study_summary(d) for d in datas],
         created=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         versions=dict(pyfmu_wrapper=version, numpy=np.__version__),

@@ -4,6 +4,7 @@ Each ``*_plot`` function takes a data object and returns a :class:`matplotlib.fi
 built without pyplot (Agg canvas), so it works headless and never touches global state.
 :func:`save_figure` writes a PNG.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -18,9 +19,17 @@ _STYLE = {"up": "-", "down": "--"}
 _LINESTYLES = ("-", "--", "-.", ":", (0, (5, 1, 1, 1, 1, 1)), (0, (1, 1)))
 _MARKERS = ("o", "s", "^", "v", "D", "P", "X", "<", ">")
 #: units of the TMD parameters that curve labels name (legend title)
-_UNITS = (("c", "damping", "N s/m"), ("df", "friction_force", "N"), ("eps", "play_gap", "m"),
-          ("k", "stiffness", "N/m"), ("m", "mass", "kg"), ("I", "inertance", "kg"), ("ki", "mesh_stiffness", "N/m"),
-          ("ci", "mesh_damping", "N s/m"), ("Iratio", "inertance_ratio", "-"))
+_UNITS = (
+    ("c", "damping", "N s/m"),
+    ("df", "friction_force", "N"),
+    ("eps", "play_gap", "m"),
+    ("k", "stiffness", "N/m"),
+    ("m", "mass", "kg"),
+    ("I", "inertance", "kg"),
+    ("ki", "mesh_stiffness", "N/m"),
+    ("ci", "mesh_damping", "N s/m"),
+    ("Iratio", "inertance_ratio", "-"),
+)
 NOTE_NOT_CONVERGED = "not converged"
 NOTE_IRREGULAR = "irregular (non-periodic): max over its windows"
 
@@ -51,9 +60,14 @@ def _curve_style(k: int, n_points: int, one_direction: bool) -> dict:
     """Line style, marker and width of curve k: each curve differs from the others in all three,
     the earlier ones wider (drawn underneath), so identical curves still show both."""
     every = max(1, n_points // 8)
-    return dict(ls=_LINESTYLES[k % len(_LINESTYLES)] if one_direction else None,
-                marker=_MARKERS[k % len(_MARKERS)], ms=4.5, markevery=(k % every, every) if every > 1 else None,
-                lw=max(1.0, 2.6 - 0.3 * k), zorder=2 + 0.01 * k)
+    return dict(
+        ls=_LINESTYLES[k % len(_LINESTYLES)] if one_direction else None,
+        marker=_MARKERS[k % len(_MARKERS)],
+        ms=4.5,
+        markevery=(k % every, every) if every > 1 else None,
+        lw=max(1.0, 2.6 - 0.3 * k),
+        zorder=2 + 0.01 * k,
+    )
 
 
 def frc_plot(data, ax=None) -> Figure:
@@ -86,31 +100,65 @@ def frc_plot(data, ax=None) -> Figure:
             kw = dict(color=line.get_color()) if line is not None else (dict(color=color) if color else {})
             lab = label if line is None else f"{label} ({d})"
             ls = style["ls"] if one_direction else _STYLE.get(d, "-")
-            (line,) = ax.plot(td["omega"], td["amplitude"], ls=ls, marker=style["marker"], ms=style["ms"],
-                              markevery=style["markevery"], mfc="white" if d == "down" else None, label=lab,
-                              lw=style["lw"], zorder=style["zorder"], **kw)
+            (line,) = ax.plot(
+                td["omega"],
+                td["amplitude"],
+                ls=ls,
+                marker=style["marker"],
+                ms=style["ms"],
+                markevery=style["markevery"],
+                mfc="white" if d == "down" else None,
+                label=lab,
+                lw=style["lw"],
+                zorder=style["zorder"],
+                **kw,
+            )
             if has_ref:
                 ax.plot(td["omega"], td["reference"], ":", color=line.get_color(), lw=0.8, alpha=0.8)
-            irr = (td["irregular"].fillna(False).astype(bool) if "irregular" in td
-                   else pd.Series(False, index=td.index))
+            irr = td["irregular"].fillna(False).astype(bool) if "irregular" in td else pd.Series(False, index=td.index)
             bad = td[~td["converged"].astype(bool) & ~irr]
             if len(bad):
                 any_bad = True
-                ax.plot(bad["omega"], bad["amplitude"], "x", color=line.get_color(), ms=7, mew=1.5, zorder=5,
-                        clip_on=False)
+                ax.plot(
+                    bad["omega"], bad["amplitude"], "x", color=line.get_color(), ms=7, mew=1.5, zorder=5, clip_on=False
+                )
             if irr.any():  # irregular (rattling, non-periodic): the maximum over its windows, marked
                 any_irr = True
-                ax.plot(td["omega"][irr], td["amplitude"][irr], "o", mfc="none", color=line.get_color(), ms=8,
-                        mew=1.3, zorder=5, clip_on=False)
+                ax.plot(
+                    td["omega"][irr],
+                    td["amplitude"][irr],
+                    "o",
+                    mfc="none",
+                    color=line.get_color(),
+                    ms=8,
+                    mew=1.3,
+                    zorder=5,
+                    clip_on=False,
+                )
             if dax is not None:
                 diff = 100.0 * td["difference"].to_numpy(float)
-                irr_both = irr.to_numpy() | (td["reference_irregular"].to_numpy(float) == 1.0
-                                             if "reference_irregular" in td else False)
-                dax.plot(td["omega"], np.where(irr_both, np.nan, diff), ls=ls, color=line.get_color(), lw=1.2,
-                         marker=".", ms=3)
+                irr_both = irr.to_numpy() | (
+                    td["reference_irregular"].to_numpy(float) == 1.0 if "reference_irregular" in td else False
+                )
+                dax.plot(
+                    td["omega"],
+                    np.where(irr_both, np.nan, diff),
+                    ls=ls,
+                    color=line.get_color(),
+                    lw=1.2,
+                    marker=".",
+                    ms=3,
+                )
                 if irr_both.any():  # clipped to the regular points' range below: drawn on its edge
-                    dax.plot(td["omega"][irr_both], diff[irr_both], "o", mfc="none", color=line.get_color(), ms=6,
-                             gid="irregular")
+                    dax.plot(
+                        td["omega"][irr_both],
+                        diff[irr_both],
+                        "o",
+                        mfc="none",
+                        color=line.get_color(),
+                        ms=6,
+                        gid="irregular",
+                    )
     ax.set_ylabel("max |x| [m]")
     if dax is not None:
         _difference_axes(dax, tab)
@@ -124,8 +172,10 @@ def frc_plot(data, ax=None) -> Figure:
     if has_ref:
         handles.append(Line2D([], [], ls=":", color="0.3"))
         labels.append("monolithic (thin dotted)")
-    notes = [(Line2D([], [], ls="none", marker="x", color="0.3", ms=7, mew=1.5), NOTE_NOT_CONVERGED, any_bad),
-             (Line2D([], [], ls="none", marker="o", mfc="none", color="0.3", ms=8), NOTE_IRREGULAR, any_irr)]
+    notes = [
+        (Line2D([], [], ls="none", marker="x", color="0.3", ms=7, mew=1.5), NOTE_NOT_CONVERGED, any_bad),
+        (Line2D([], [], ls="none", marker="o", mfc="none", color="0.3", ms=8), NOTE_IRREGULAR, any_irr),
+    ]
     for h, text, present in notes:
         if present or not embedded:
             handles.append(h)
@@ -133,8 +183,17 @@ def frc_plot(data, ax=None) -> Figure:
     if embedded:
         ax.legend(handles, labels, fontsize=6, title=_units_title(data.study), title_fontsize=6)
     else:
-        ax.legend(handles, labels, fontsize=8, title=_units_title(data.study), title_fontsize=8, loc="upper left",
-                  bbox_to_anchor=(1.01, 1.0), borderaxespad=0.0, frameon=False)
+        ax.legend(
+            handles,
+            labels,
+            fontsize=8,
+            title=_units_title(data.study),
+            title_fontsize=8,
+            loc="upper left",
+            bbox_to_anchor=(1.01, 1.0),
+            borderaxespad=0.0,
+            frameon=False,
+        )
     return fig
 
 
@@ -146,8 +205,9 @@ def _difference_axes(dax, tab) -> None:
     if "reference_irregular" in tab:
         irr = irr | (tab["reference_irregular"].to_numpy(float) == 1.0)
     reg = np.abs(d[~irr & np.isfinite(d)])
-    head = f"max |difference| over {reg.size} regular points = {100 * reg.max():.3g} %" if reg.size else \
-        "no regular point"
+    head = (
+        f"max |difference| over {reg.size} regular points = {100 * reg.max():.3g} %" if reg.size else "no regular point"
+    )
     if reg.size and irr.any():  # the scale of the regular points; an irregular point outside sits on the edge
         lim = max(1.3 * 100 * float(reg.max()), 0.05)
         dax.set_ylim(-lim, lim)
@@ -157,7 +217,7 @@ def _difference_axes(dax, tab) -> None:
                 ln.set_clip_on(False)
     if irr.any():
         parts = []
-        for (_, r) in tab[irr].iterrows():
+        for _, r in tab[irr].iterrows():
             sc = r.get("change", np.nan)
             parts.append(f"{r['omega']:g} rad/s: {100 * r['difference']:.3g} % (window scatter {100 * sc:.2g} %)")
         shown = "; ".join(parts[:3]) + (f"; +{len(parts) - 3} more" if len(parts) > 3 else "")
@@ -173,9 +233,16 @@ def _without(study, label) -> bool:
 
 
 _PARAM_LABELS = {
-    "damping": "c [N s/m]", "friction_force": "df [N]", "play_gap": r"$\varepsilon$ [m]",
-    "inertance_ratio": r"$I_{ratio}$ [-]", "inertance": "I [kg]", "mass": "m [kg]", "stiffness": "k [N/m]",
-    "friction_slope": "friction slope [s/m]", "mesh_stiffness": "ki [N/m]", "mesh_damping": "ci [N s/m]",
+    "damping": "c [N s/m]",
+    "friction_force": "df [N]",
+    "play_gap": r"$\varepsilon$ [m]",
+    "inertance_ratio": r"$I_{ratio}$ [-]",
+    "inertance": "I [kg]",
+    "mass": "m [kg]",
+    "stiffness": "k [N/m]",
+    "friction_slope": "friction slope [s/m]",
+    "mesh_stiffness": "ki [N/m]",
+    "mesh_damping": "ci [N s/m]",
 }
 
 
@@ -190,8 +257,13 @@ def map_plot(data, ax=None) -> Figure:
     if len(w) > 1 and len(v) > 1:
         mesh = ax.pcolormesh(w, v, data.amplitude, shading="nearest", cmap="viridis")
     else:
-        mesh = ax.imshow(data.amplitude, aspect="auto", origin="lower", cmap="viridis",
-                         extent=(w[0] - 0.5, w[-1] + 0.5, v[0] - 0.5, v[-1] + 0.5))
+        mesh = ax.imshow(
+            data.amplitude,
+            aspect="auto",
+            origin="lower",
+            cmap="viridis",
+            extent=(w[0] - 0.5, w[-1] + 0.5, v[0] - 0.5, v[-1] + 0.5),
+        )
     fig.colorbar(mesh, ax=ax, label="max |x| [m]")
     ax.set_xlabel(r"$\omega$ [rad/s]")
     ax.set_ylabel(_PARAM_LABELS.get(st.parameter, st.parameter))
@@ -208,8 +280,14 @@ def phase_portrait_plot(data) -> Figure:
             ts = data.series[(w, c.label)]
             # earlier curves wider underneath, the last one thin and solid on top (its rattle kinks visible)
             last = k == len(st.curves) - 1
-            ax.plot(ts.states[:, 0], ts.states[:, 1], ls="-" if last or k % 2 == 0 else "--",
-                    lw=max(0.8, 3.0 - 0.7 * k), label=c.label, zorder=2 + k)
+            ax.plot(
+                ts.states[:, 0],
+                ts.states[:, 1],
+                ls="-" if last or k % 2 == 0 else "--",
+                lw=max(0.8, 3.0 - 0.7 * k),
+                label=c.label,
+                zorder=2 + k,
+            )
         ax.set_xlabel("x [m]")
         ax.set_ylabel(r"$\dot x$ [m/s]")
         ax.set_title(rf"{st.title}: $\omega$ = {w:g} rad/s", fontsize=9)
@@ -218,8 +296,16 @@ def phase_portrait_plot(data) -> Figure:
         ax.ticklabel_format(axis="both", style="sci", scilimits=(-2, 3), useMathText=True)
         ax.grid(alpha=0.3)
     handles, labels = axes[0].get_legend_handles_labels()
-    fig.legend(handles, labels, fontsize=8, loc="outside lower center", ncols=min(len(labels), 4),
-               title=_units_title(st), title_fontsize=8, frameon=False)
+    fig.legend(
+        handles,
+        labels,
+        fontsize=8,
+        loc="outside lower center",
+        ncols=min(len(labels), 4),
+        title=_units_title(st),
+        title_fontsize=8,
+        frameon=False,
+    )
     return fig
 
 

@@ -1,6 +1,7 @@
 """Reading a scenario document with located errors: :class:`Reader` checks mappings, lists, numbers,
 strings and grids and raises :class:`~.schema.ScenarioError` naming the file, the line, the key path
 (``tmd.friction_force``, ``studies[2].values[3]``) and the offending value."""
+
 from __future__ import annotations
 
 import math
@@ -30,8 +31,9 @@ class Reader:
     def fail(self, path: str, line, reason: str, value=None, *, show_value=True):
         where = f"{self.file}:{line}" if line else self.file
         got = f" (got {value!r})" if show_value else ""
-        raise ScenarioError(f"{where}: {path or '<top level>'}: {reason}{got}",
-                            file=self.file, line=line, path=path, value=value)
+        raise ScenarioError(
+            f"{where}: {path or '<top level>'}: {reason}{got}", file=self.file, line=line, path=path, value=value
+        )
 
     def parameter_error(self, exc: ParameterError, path: str, line, value):
         """Re-raise a ParameterError built with ``source=self.source(path, line)`` as a ScenarioError."""
@@ -51,8 +53,11 @@ class Reader:
         for key in node:
             if key not in allowed:
                 hint = (hints or {}).get(key)
-                reason = (f"does not apply here: {hint}" if hint else
-                          f"unknown key {key!r}; allowed keys: {sorted(map(str, allowed))}")
+                reason = (
+                    f"does not apply here: {hint}"
+                    if hint
+                    else f"unknown key {key!r}; allowed keys: {sorted(map(str, allowed))}"
+                )
                 self.fail(key_path(path, key), line_of(node, key), reason, node[key])
         for key in required:
             if key not in node:
@@ -127,8 +132,10 @@ class Reader:
         minimum = 0.0 if positive else None
         if isinstance(node, list):
             self.sequence(node, path, line)
-            vals = [self.check_number(v, key_path(path, i), line_of(node, i), minimum=minimum, strict=positive)
-                    for i, v in enumerate(node)]
+            vals = [
+                self.check_number(v, key_path(path, i), line_of(node, i), minimum=minimum, strict=positive)
+                for i, v in enumerate(node)
+            ]
             return np.array(vals)
         self.mapping(node, path, line, required=("start", "stop", "count"))
         start = self.number(node, "start", path, minimum=minimum, strict=positive)

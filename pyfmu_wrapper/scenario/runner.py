@@ -5,6 +5,7 @@ Each study gives a data object: :class:`FRCData` (a long sweep table, one block 
 :class:`MapData` (amplitude[value, omega]) or :class:`PhaseData` (time series per omega and curve).
 Identical (parameters, frequencies) sweeps are computed once per run and shared between studies.
 """
+
 from __future__ import annotations
 
 import time
@@ -130,8 +131,11 @@ class _Cache:
         if todo:
             keys = list(todo)
             tasks = [SweepTask(base, k[0], omegas, settings) for k in keys]
-            ckpt = None if self.checkpoint_dir is None else Checkpoint(self.checkpoint_dir / study_name, self.resume,
-                                                                   marker=self.checkpoint_marker)
+            ckpt = (
+                None
+                if self.checkpoint_dir is None
+                else Checkpoint(self.checkpoint_dir / study_name, self.resume, marker=self.checkpoint_marker)
+            )
             stats = self.stats.setdefault(study_name, TaskStats())
             extra = [len(todo[k]) - 1 for k in keys]
             tables = run_tasks(tasks, self.executor, ckpt, progress, stats)
@@ -154,7 +158,9 @@ def frc_response(scn: Scenario, study: FRCStudy, settings: RunSettings, progress
         table = table.copy()
         table.insert(0, "curve", curve.label)
         parts.append(table)
-        refine = (lambda x, tmd=curve.tmd: exact_amplitude(scn.base, tmd, x)) if uses_exact(curve.tmd, settings) else None
+        refine = (
+            (lambda x, tmd=curve.tmd: exact_amplitude(scn.base, tmd, x)) if uses_exact(curve.tmd, settings) else None
+        )
         peaks[curve.label] = {}
         for d, td in table.groupby("direction", sort=False):
             peaks[curve.label][d] = dict(find_peaks(td["omega"], td["amplitude"], refine), **sweep_diagnostics(td))
@@ -181,16 +187,25 @@ def phase_portraits(scn: Scenario, study: PhasePortraitStudy, settings: RunSetti
     data = PhaseData(study)
     for w in study.omegas:
         for curve in study.curves:
-            data.series[(w, curve.label)] = compute_time_series(scn.base, curve.tmd, w, study.n_periods,
-                                                                study.samples_per_period, settings)
+            data.series[(w, curve.label)] = compute_time_series(
+                scn.base, curve.tmd, w, study.n_periods, study.samples_per_period, settings
+            )
             if progress is not None:
                 progress(1)
     data.wall_time = time.perf_counter() - t0
     return data
 
 
-def run_studies(scn: Scenario, settings: RunSettings, progress=None, executor=None, checkpoint_dir=None,
-                stats: dict | None = None, resume: bool = True, checkpoint_marker: dict | None = None) -> list:
+def run_studies(
+    scn: Scenario,
+    settings: RunSettings,
+    progress=None,
+    executor=None,
+    checkpoint_dir=None,
+    stats: dict | None = None,
+    resume: bool = True,
+    checkpoint_marker: dict | None = None,
+) -> list:
     """Compute every study of the scenario, in order.
 
     executor: where nonlinear sweeps run (see :mod:`.executors`; None: here, in order);

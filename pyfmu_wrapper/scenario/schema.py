@@ -3,6 +3,7 @@
 The loader (:mod:`.loader`) turns a YAML file into these objects; everything downstream (the
 runner, the plots) works with them only, never with raw YAML.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -73,19 +74,46 @@ class SolverConfig:
     linear: str = "exact"
 
     def settings(self) -> SolverSettings:
-        return SolverSettings(rtol=self.rtol, atol_scale=self.atol_scale, tol=self.tol, tol_window=self.tol_window,
-                              window=self.window,
-                              min_periods=self.min_periods, max_periods=self.max_periods)
+        return SolverSettings(
+            rtol=self.rtol,
+            atol_scale=self.atol_scale,
+            tol=self.tol,
+            tol_window=self.tol_window,
+            window=self.window,
+            min_periods=self.min_periods,
+            max_periods=self.max_periods,
+        )
 
     def as_dict(self) -> dict:
-        return dict(rtol=self.rtol, atol_scale=self.atol_scale, tol=self.tol, tol_window=self.tol_window,
-                    window=self.window, min_periods=self.min_periods, max_periods=self.max_periods,
-                    linear=self.linear)
+        return dict(
+            rtol=self.rtol,
+            atol_scale=self.atol_scale,
+            tol=self.tol,
+            tol_window=self.tol_window,
+            window=self.window,
+            min_periods=self.min_periods,
+            max_periods=self.max_periods,
+            linear=self.linear,
+        )
 
 
 #: keys of the ``cosim:`` block (fields of pyfmu_wrapper.cosim.steady.CosimSettings a scenario may set)
-COSIM_KEYS = ("accuracy", "steps_per_period", "coupling", "order", "scheme", "tol", "tol_window", "window",
-              "min_periods", "max_periods", "fmu_rtol", "shooting", "interface_jacobian", "fmi_version")
+COSIM_KEYS = (
+    "accuracy",
+    "steps_per_period",
+    "coupling",
+    "order",
+    "scheme",
+    "tol",
+    "tol_window",
+    "window",
+    "min_periods",
+    "max_periods",
+    "fmu_rtol",
+    "shooting",
+    "interface_jacobian",
+    "fmi_version",
+)
 
 
 @dataclass(frozen=True)

@@ -1,6 +1,7 @@
 """The words and numbers of a run about its studies: :func:`study_summary` (the ``summary.json`` entry of a
 study) and :func:`study_report` (the closing lines ``run-scenario`` prints: frequencies not converged or
 irregular, the co-simulation's difference from the monolithic engine)."""
+
 from __future__ import annotations
 
 import numpy as np
@@ -12,29 +13,53 @@ from .sweeptable import engine_differences, irregular_mask, sweep_diagnostics
 
 # --- summary -----------------------------------------------------------------------------------
 
+
 def study_summary(data) -> dict:
     st = data.study
     d = dict(kind=st.kind, name=st.name, title=st.title, wall_time=data.wall_time)
     if isinstance(data, FRCData):
         d["omegas"] = _grid(st.omegas)
-        d["curves"] = [dict(label=c.label, without_tmd=c.without_tmd, tmd=as_dict(c.tmd),
-                            inertance_ratio=c.tmd.inertance_ratio, directions=data.peaks[c.label])
-                       for c in st.curves]
+        d["curves"] = [
+            dict(
+                label=c.label,
+                without_tmd=c.without_tmd,
+                tmd=as_dict(c.tmd),
+                inertance_ratio=c.tmd.inertance_ratio,
+                directions=data.peaks[c.label],
+            )
+            for c in st.curves
+        ]
     elif isinstance(data, MapData):
-        d.update(parameter=st.parameter, values=_grid(st.values), omegas=_grid(st.omegas),
-                 amplitude_min=float(data.amplitude.min()), amplitude_max=float(data.amplitude.max()),
-                 **{k: v for k, v in sweep_diagnostics(data.table).items() if k != "method"},
-                 methods=sorted(set(data.table["method"])))
-        d["peak_per_value"] = [dict(value=float(v), peak_amplitude=float(row.max()),
-                                    peak_omega=float(st.omegas[int(np.argmax(row))]))
-                               for v, row in zip(st.values, data.amplitude)]
+        d.update(
+            parameter=st.parameter,
+            values=_grid(st.values),
+            omegas=_grid(st.omegas),
+            amplitude_min=float(data.amplitude.min()),
+            amplitude_max=float(data.amplitude.max()),
+            **{k: v for k, v in sweep_diagnostics(data.table).items() if k != "method"},
+            methods=sorted(set(data.table["method"])),
+        )
+        d["peak_per_value"] = [
+            dict(value=float(v), peak_amplitude=float(row.max()), peak_omega=float(st.omegas[int(np.argmax(row))]))
+            for v, row in zip(st.values, data.amplitude)
+        ]
     else:
         d.update(n_periods=st.n_periods, samples_per_period=st.samples_per_period, portraits=[])
         for (w, label), ts in data.series.items():
             x, xd = ts.states[:, 0], ts.states[:, 1]
-            d["portraits"].append(dict(omega=w, curve=label, method=ts.method, converged=ts.converged,
-                                       periods=ts.periods, change=ts.change, amplitude=ts.amplitude,
-                                       x_max=float(np.abs(x).max()), xd_max=float(np.abs(xd).max())))
+            d["portraits"].append(
+                dict(
+                    omega=w,
+                    curve=label,
+                    method=ts.method,
+                    converged=ts.converged,
+                    periods=ts.periods,
+                    change=ts.change,
+                    amplitude=ts.amplitude,
+                    x_max=float(np.abs(x).max()),
+                    xd_max=float(np.abs(xd).max()),
+                )
+            )
     return d
 
 
@@ -44,6 +69,7 @@ def _grid(a) -> dict:
 
 
 # --- closing report ------------------------------------------------------------------------------
+
 
 def _w(x) -> str:
     return f"{float(x):g}"
@@ -88,8 +114,11 @@ def study_report(data) -> list[str]:
     if isinstance(data, PhaseData):
         bad = [f"{_w(w)} rad/s ({label})" for (w, label), ts in data.series.items() if not ts.converged]
         n = len(data.series)
-        lines.append(f"{st.name}: all {n} phase portraits reached their steady state" if not bad else
-                     f"{st.name}: {len(bad)} of {n} phase portraits not converged: " + "; ".join(bad))
+        lines.append(
+            f"{st.name}: all {n} phase portraits reached their steady state"
+            if not bad
+            else f"{st.name}: {len(bad)} of {n} phase portraits not converged: " + "; ".join(bad)
+        )
         return lines
     t = data.table
     if isinstance(data, MapData):
@@ -102,8 +131,9 @@ def study_report(data) -> list[str]:
                 parts.append(f"not converged at ({st.parameter}, omega) = {_points(nc, with_value=True)}")
             if len(irr):
                 parts.append(f"irregular at ({st.parameter}, omega) = {_points(irr, with_value=True)}")
-            lines.append(f"{st.name}: {n_nc} of {len(t)} points not converged, {len(irr)} irregular: "
-                         + "; ".join(parts))
+            lines.append(
+                f"{st.name}: {n_nc} of {len(t)} points not converged, {len(irr)} irregular: " + "; ".join(parts)
+            )
         return lines
     parts, n_nc, n_irr = [], 0, 0
     for (label, d), td in t.groupby(["curve", "direction"], sort=False):
@@ -123,15 +153,19 @@ def study_report(data) -> list[str]:
     if "difference" in t and np.isfinite(t["difference"].to_numpy(float)).any():
         diff = engine_differences(t)
         where = "" if diff["omega_max_difference"] is None else f" (at {_w(diff['omega_max_difference'])} rad/s)"
-        line = (f"{st.name}: co-simulation against monolithic: max |difference| = {_pct(diff['max_abs_difference'])} "
-                f"over the {diff['regular_points']} regular points{where}")
+        line = (
+            f"{st.name}: co-simulation against monolithic: max |difference| = {_pct(diff['max_abs_difference'])} "
+            f"over the {diff['regular_points']} regular points{where}"
+        )
         if diff["irregular_points"]:
             irr_t = t[irregular_mask(t)]
             items = []
             for (_, r), ip in zip(irr_t.iterrows(), diff["irregular_points"]):
-                items.append(f'{_w(ip["omega"])} rad/s "{r["curve"]}" ({r["direction"]}): difference '
-                             f'{_pct(ip["difference"])}, window scatter {_pct(ip["scatter"])} co-simulation / '
-                             f'{_pct(ip["reference_scatter"])} monolithic')
+                items.append(
+                    f'{_w(ip["omega"])} rad/s "{r["curve"]}" ({r["direction"]}): difference '
+                    f"{_pct(ip['difference'])}, window scatter {_pct(ip['scatter'])} co-simulation / "
+                    f"{_pct(ip['reference_scatter'])} monolithic"
+                )
             line += "; irregular points (not in that maximum): " + "; ".join(items)
         lines.append(line)
     return lines

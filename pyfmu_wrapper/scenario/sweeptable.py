@@ -1,5 +1,6 @@
 """What a sweep table says: its peaks (:func:`find_peaks`), its steady-state diagnostics, its irregular
 points, and (engine 'both') the co-simulation's difference from the monolithic engine per frequency."""
+
 from __future__ import annotations
 
 from typing import Any
@@ -22,8 +23,12 @@ def find_peaks(omegas, amplitudes, refine=None) -> dict:
         if a[i] >= a[i - 1] and a[i] > a[i + 1]:
             wi, ai = w[i], a[i]
             if refine is not None:
-                r = minimize_scalar(lambda x: -float(refine(np.array([x]))[0]), bounds=(w[i - 1], w[i + 1]),
-                                    method="bounded", options=dict(xatol=1e-9))
+                r = minimize_scalar(
+                    lambda x: -float(refine(np.array([x]))[0]),
+                    bounds=(w[i - 1], w[i + 1]),
+                    method="bounded",
+                    options=dict(xatol=1e-9),
+                )
                 if -r.fun >= ai:
                     wi, ai = float(r.x), float(-r.fun)
             local.append(dict(omega=float(wi), amplitude=float(ai)))
@@ -36,12 +41,17 @@ def find_peaks(omegas, amplitudes, refine=None) -> dict:
 
 
 def sweep_diagnostics(t: pd.DataFrame) -> dict:
-    return dict(method=str(t["method"].iloc[0]), all_converged=bool(t["converged"].all()),
-                not_converged=int((~t["converged"].astype(bool)).sum()),
-                irregular=int(t["irregular"].fillna(False).astype(bool).sum()) if "irregular" in t else 0,
-                periods_min=int(t["periods"].min()), periods_max=int(t["periods"].max()),
-                periods_mean=float(t["periods"].mean()), max_change=float(t["change"].max()),
-                wall_time=float(t["wall_time"].sum()))
+    return dict(
+        method=str(t["method"].iloc[0]),
+        all_converged=bool(t["converged"].all()),
+        not_converged=int((~t["converged"].astype(bool)).sum()),
+        irregular=int(t["irregular"].fillna(False).astype(bool).sum()) if "irregular" in t else 0,
+        periods_min=int(t["periods"].min()),
+        periods_max=int(t["periods"].max()),
+        periods_mean=float(t["periods"].mean()),
+        max_change=float(t["change"].max()),
+        wall_time=float(t["wall_time"].sum()),
+    )
 
 
 def irregular_mask(t: pd.DataFrame) -> np.ndarray:
@@ -69,10 +79,23 @@ def engine_differences(t: pd.DataFrame) -> dict:
     else:
         out.update(max_abs_difference=None, omega_max_difference=None)
     ref_change = t["reference_change"].to_numpy(float) if "reference_change" in t else np.full(len(t), np.nan)
-    out["irregular_points"] = [dict(omega=float(w[i]), difference=float(d[i]) if np.isfinite(d[i]) else None,
-                                    scatter=float(t["change"].iloc[i]), reference_scatter=float(ref_change[i]))
-                               for i in np.flatnonzero(irr)]
-    out["difference"] = [dict(omega=float(wi), cosim=float(a), monolithic=float(r),
-                              difference=float(x) if np.isfinite(x) else None, irregular=bool(ir))
-                         for wi, a, r, x, ir in zip(w, t["amplitude"], t["reference"], d, irr)]
+    out["irregular_points"] = [
+        dict(
+            omega=float(w[i]),
+            difference=float(d[i]) if np.isfinite(d[i]) else None,
+            scatter=float(t["change"].iloc[i]),
+            reference_scatter=float(ref_change[i]),
+        )
+        for i in np.flatnonzero(irr)
+    ]
+    out["difference"] = [
+        dict(
+            omega=float(wi),
+            cosim=float(a),
+            monolithic=float(r),
+            difference=float(x) if np.isfinite(x) else None,
+            irregular=bool(ir),
+        )
+        for wi, a, r, x, ir in zip(w, t["amplitude"], t["reference"], d, irr)
+    ]
     return out

@@ -14,6 +14,7 @@ written by other code or other settings is never reused. ``run-scenario`` keeps 
 ``<out>.checkpoints/<study>/`` beside its output folder (:func:`.output.default_checkpoint_dir`);
 ``reproduce`` in ``<results>/.cache/<scenario>/<study>/``.
 """
+
 from __future__ import annotations
 
 import contextlib
@@ -58,8 +59,14 @@ class SweepTask:
         """Everything the result depends on: code version, parameters, frequencies, engine and the
         resolved settings of the engines that compute the rows (:meth:`RunSettings.used`)."""
         s = self.settings
-        payload = dict(format=CHECKPOINT_FORMAT, code=code_version(), base=as_dict(self.base), tmd=as_dict(self.tmd),
-                       omegas=[float(w).hex() for w in np.asarray(self.omegas, float)], settings=s.used())
+        payload = dict(
+            format=CHECKPOINT_FORMAT,
+            code=code_version(),
+            base=as_dict(self.base),
+            tmd=as_dict(self.tmd),
+            omegas=[float(w).hex() for w in np.asarray(self.omegas, float)],
+            settings=s.used(),
+        )
         if s.workers != 1 and s.sweep.continuation:  # split sweeps (sequential executor) differ slightly
             payload["workers"] = s.workers
         return payload
@@ -92,7 +99,7 @@ def run_task(task: SweepTask, keep_workers: bool = False, progress=None) -> pd.D
     omegas = np.sort(np.asarray(task.omegas, float))
     if settings.sweep.continuation or len(omegas) < 2:
         return compute_sweep(task.base, task.tmd, omegas, settings, progress)
-    parts = [compute_sweep(task.base, task.tmd, omegas[i:i + 1], settings, progress) for i in range(len(omegas))]
+    parts = [compute_sweep(task.base, task.tmd, omegas[i : i + 1], settings, progress) for i in range(len(omegas))]
     table = pd.concat(parts, ignore_index=True)
     order = {d: k for k, d in enumerate(settings.directions())}
     key = table["direction"].map(order).fillna(0) * 1e9 + np.where(table["direction"] == "down", -1, 1) * table["omega"]
@@ -101,8 +108,20 @@ def run_task(task: SweepTask, keep_workers: bool = False, progress=None) -> pd.D
 
 # --- checkpoints ---------------------------------------------------------------------------------
 
-_DTYPES = dict(engine=str, method=str, direction=str, omega=float, amplitude=float, periods=int,
-               converged=bool, irregular=bool, change=float, steps=int, rejected=int, wall_time=float)
+_DTYPES = dict(
+    engine=str,
+    method=str,
+    direction=str,
+    omega=float,
+    amplitude=float,
+    periods=int,
+    converged=bool,
+    irregular=bool,
+    change=float,
+    steps=int,
+    rejected=int,
+    wall_time=float,
+)
 
 
 class Checkpoint:
@@ -135,8 +154,9 @@ class Checkpoint:
     def save(self, task: SweepTask, table: pd.DataFrame) -> None:
         self.folder.mkdir(parents=True, exist_ok=True)
         if self.marker is not None and not (self.folder.parent / ".run-scenario.json").exists():
-            (self.folder.parent / ".run-scenario.json").write_text(json.dumps(self.marker, indent=2) + "\n",
-                                                                   encoding="utf-8")
+            (self.folder.parent / ".run-scenario.json").write_text(
+                json.dumps(self.marker, indent=2) + "\n", encoding="utf-8"
+            )
         fd, tmp = tempfile.mkstemp(prefix=".task-", suffix=".tmp", dir=self.folder)
         try:
             with os.fdopen(fd, "w", newline="") as f:

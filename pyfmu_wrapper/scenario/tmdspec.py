@@ -1,6 +1,7 @@
 """TMD blocks of a scenario: merged over their parent (scenario tmd <- study tmd <- curve tmd <- map
 value) and resolved into :class:`~pyfmu_wrapper.physics.params.TMDParams`, blaming the key (and line)
 that set a refused value."""
+
 from __future__ import annotations
 
 from typing import Any
@@ -91,5 +92,12 @@ def _blamed_key(message: str, origin: dict):
 
 def detached_tmd(tmd: TMDParams) -> TMDParams:
     """The TMD detached from the base (no links): the base responds alone."""
-    return TMDParams(mass=tmd.mass if tmd.mass > 0 else 1.0, stiffness=0.0, damping=0.0, friction_force=0.0,
-                     inertance=0.0, inerter="none", play_gap=0.0)
+    return TMDParams(
+        mass=tmd.mass if tmd.mass > 0 else 1.0,
+        stiffness=0.0,
+        damping=0.0,
+        friction_force=0.0,
+        inertance=0.0,
+        inerter="none",
+        play_gap=0.0,
+    )

@@ -5,6 +5,7 @@ Only :class:`yaml.SafeLoader` is used (no Python-object tags). Mappings are retu
 carry the 1-based line number of the node and of each key / item, so that validation errors can
 say where in the file a bad value is.
 """
+
 from __future__ import annotations
 
 import io
@@ -56,8 +57,9 @@ def _construct_mapping(loader: _MarkedSafeLoader, node: yaml.MappingNode) -> Mar
                 "while constructing a mapping", node.start_mark, "found an unhashable key", key_node.start_mark
             ) from None
         if key in out:
-            raise DuplicateKeyError("while constructing a mapping", node.start_mark,
-                                    f"found duplicate key {key!r}", key_node.start_mark)
+            raise DuplicateKeyError(
+                "while constructing a mapping", node.start_mark, f"found duplicate key {key!r}", key_node.start_mark
+            )
         out[key] = loader.construct_object(value_node, deep=True)
         out.key_lines[key] = value_node.start_mark.line + 1
     return out

@@ -12,6 +12,7 @@ smooth nonlinear configurations (the cubic spring term k3): A is the complex-ste
 kernels at z = 0 (exact to rounding), the small-amplitude limit of the nonlinear response.
 Friction and a gap have no linearisation about rest (a kink or a 1e6 slope) and are refused.
 """
+
 from __future__ import annotations
 
 import numpy as np
@@ -26,8 +27,10 @@ def linear_system(base: BaseParams, tmd: TMDParams, linearise: bool = False) -> 
     gap = tmd.play_gap if tmd.inerter == InerterModel.PLAY else 0.0
     if linearise:
         if tmd.friction_force != 0.0 or gap != 0.0:
-            raise ParameterError("a linearisation about rest needs a smooth configuration: "
-                                 f"friction_force = {tmd.friction_force} and play_gap = {gap} must be 0")
+            raise ParameterError(
+                "a linearisation about rest needs a smooth configuration: "
+                f"friction_force = {tmd.friction_force} and play_gap = {gap} must be 0"
+            )
         p = pack(base, tmd)
         A = np.empty((NSTATE, NSTATE))
         jacobian(0.0, np.zeros(NSTATE), p, A)  # the coupled system's, by the complex step
@@ -35,10 +38,12 @@ def linear_system(base: BaseParams, tmd: TMDParams, linearise: bool = False) -> 
         rhs_fext(np.zeros(NSTATE), 1.0, p, b)
         return A, b
     if not tmd.is_linear:
-        raise ParameterError("the exact frequency response needs a linear configuration: "
-                             f"friction_force = {tmd.friction_force}, play_gap = {gap} and "
-                             f"cubic_stiffness = {tmd.cubic_stiffness} must be 0 (linearise=True gives the "
-                             "small-amplitude limit of a smooth configuration)")
+        raise ParameterError(
+            "the exact frequency response needs a linear configuration: "
+            f"friction_force = {tmd.friction_force}, play_gap = {gap} and "
+            f"cubic_stiffness = {tmd.cubic_stiffness} must be 0 (linearise=True gives the "
+            "small-amplitude limit of a smooth configuration)"
+        )
     p = pack(base, tmd)
     A = np.empty((NSTATE, NSTATE))
     fp, fm = np.empty(NSTATE), np.empty(NSTATE)

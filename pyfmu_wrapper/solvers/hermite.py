@@ -2,6 +2,7 @@
 |x| over a step from the end values and slopes, and the dense state at a fraction of a step. Used
 by the integrator (:mod:`.rodas`: event and sample output) and by the co-simulation's steady state
 (the one Hermite maximum of both engines)."""
+
 from __future__ import annotations
 
 import math

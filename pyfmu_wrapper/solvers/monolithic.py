@@ -34,6 +34,7 @@ The reported amplitude is W of the last window. Each solve returns its diagnosti
 used, converged flag, last change, integrator steps). ``max_periods`` bounds the work; a point that
 does not settle is reported as not converged, never silently.
 """
+
 from __future__ import annotations
 
 import math
@@ -132,21 +133,36 @@ class _Runner:
     def period(self, z, t0, sample_times=None, samples=None):
         st = self.no_samples if sample_times is None else sample_times
         sa = self.no_out if samples is None else samples
-        h, xmax, status, t = integrate(z, t0, t0 + self.T, self.p, self.u, self.rtol, self.atol,
-                                       self.h, self.hmax, st, sa, self.band, self.stats, self.max_steps)
+        h, xmax, status, t = integrate(
+            z,
+            t0,
+            t0 + self.T,
+            self.p,
+            self.u,
+            self.rtol,
+            self.atol,
+            self.h,
+            self.hmax,
+            st,
+            sa,
+            self.band,
+            self.stats,
+            self.max_steps,
+        )
         if status != OK:
-            raise SolverError(f"omega = {2 * math.pi / self.T:.10g} rad/s, period from t0 = {t0:.6g} s: "
-                              + failure_message(status, COUPLED, t, z, self.p, self.atol, self.band,
-                                                self.max_steps))
+            raise SolverError(
+                f"omega = {2 * math.pi / self.T:.10g} rad/s, period from t0 = {t0:.6g} s: "
+                + failure_message(status, COUPLED, t, z, self.p, self.atol, self.band, self.max_steps)
+            )
         if not np.all(np.isfinite(z)):
-            raise SolverError(f"omega = {2 * math.pi / self.T:.10g} rad/s: non-finite state {z} after the "
-                              f"period from t0 = {t0:.6g} s")
+            raise SolverError(
+                f"omega = {2 * math.pi / self.T:.10g} rad/s: non-finite state {z} after the period from t0 = {t0:.6g} s"
+            )
         self.h = h
         return xmax
 
 
-def companion_start(base: BaseParams, tmd: TMDParams, omega: float, settings,
-                    hint: dict | None = None) -> np.ndarray:
+def companion_start(base: BaseParams, tmd: TMDParams, omega: float, settings, hint: dict | None = None) -> np.ndarray:
     """Start state for the play model: the periodic orbit of its smooth companion (the same
     links with an ideal inerter), with the gear chain at the contact the ideal inerter force
     asks for (d = sign(P) (eps + |P| / ki), dd = 0).
@@ -172,8 +188,14 @@ def companion_start(base: BaseParams, tmd: TMDParams, omega: float, settings,
     return z
 
 
-def steady_state(base: BaseParams, tmd: TMDParams, omega: float, z0=None,
-                 settings: SolverSettings = SolverSettings(), hint: dict | None = None) -> SteadyState:
+def steady_state(
+    base: BaseParams,
+    tmd: TMDParams,
+    omega: float,
+    z0=None,
+    settings: SolverSettings = SolverSettings(),
+    hint: dict | None = None,
+) -> SteadyState:
     """Integrate from z0 (default: :func:`initial_guess`) until the steady state (module doc).
 
     hint: a dict carried along a sweep (shooting keeps its Jacobian there for the next point).
@@ -197,18 +219,36 @@ def steady_state(base: BaseParams, tmd: TMDParams, omega: float, z0=None,
             if res is not None:
                 zs, amp, k, change = res
                 s = run.stats
-                return SteadyState(omega=omega, amplitude=amp, state=zs, periods=spent + k, converged=True,
-                                   change=change, steps=int(s[STAT_STEPS]), rejected=int(s[STAT_REJECTED]),
-                                   events=int(s[STAT_EVENTS]), period_max=np.array([amp]),
-                                   wall_time=time.perf_counter() - t_start)
+                return SteadyState(
+                    omega=omega,
+                    amplitude=amp,
+                    state=zs,
+                    periods=spent + k,
+                    converged=True,
+                    change=change,
+                    steps=int(s[STAT_STEPS]),
+                    rejected=int(s[STAT_REJECTED]),
+                    events=int(s[STAT_EVENTS]),
+                    period_max=np.array([amp]),
+                    wall_time=time.perf_counter() - t_start,
+                )
             spent += settings.max_newton * 5
             for _ in range(10):
                 run.period(z, 0.0)
             spent += 10
-        return SteadyState(omega=omega, amplitude=float("nan"), state=z, periods=spent, converged=False,
-                           change=float("inf"), steps=int(run.stats[STAT_STEPS]), rejected=int(run.stats[STAT_REJECTED]),
-                           events=int(run.stats[STAT_EVENTS]), period_max=np.zeros(0),
-                           wall_time=time.perf_counter() - t_start)
+        return SteadyState(
+            omega=omega,
+            amplitude=float("nan"),
+            state=z,
+            periods=spent,
+            converged=False,
+            change=float("inf"),
+            steps=int(run.stats[STAT_STEPS]),
+            rejected=int(run.stats[STAT_REJECTED]),
+            events=int(run.stats[STAT_EVENTS]),
+            period_max=np.zeros(0),
+            wall_time=time.perf_counter() - t_start,
+        )
     crit = WindowCriterion.from_settings(settings, W, base, omega)
     k = 0
     if W == 1:
@@ -221,11 +261,20 @@ def steady_state(base: BaseParams, tmd: TMDParams, omega: float, z0=None,
     amplitude, converged, change = crit.result()
     pmax = crit.period_max
     s = run.stats
-    return SteadyState(omega=omega, amplitude=amplitude, state=z, periods=k,
-                       converged=converged, change=change, steps=int(s[STAT_STEPS]),
-                       rejected=int(s[STAT_REJECTED]), events=int(s[STAT_EVENTS]),
-                       period_max=np.array(pmax), wall_time=time.perf_counter() - t_start,
-                       irregular=crit.irregular)
+    return SteadyState(
+        omega=omega,
+        amplitude=amplitude,
+        state=z,
+        periods=k,
+        converged=converged,
+        change=change,
+        steps=int(s[STAT_STEPS]),
+        rejected=int(s[STAT_REJECTED]),
+        events=int(s[STAT_EVENTS]),
+        period_max=np.array(pmax),
+        wall_time=time.perf_counter() - t_start,
+        irregular=crit.irregular,
+    )
 
 
 def _active_states(tmd: TMDParams) -> list[int]:
@@ -248,8 +297,14 @@ def _shoot(run: _Runner, tmd: TMDParams, z: np.ndarray, settings: SolverSettings
         last["z"] = zf
         return zf[act], amp
 
-    res = shoot(period_map, z[act], run.atol[act] / settings.atol_scale, settings.tol, settings.max_newton,
-                None if hint is None else hint.get("J"))
+    res = shoot(
+        period_map,
+        z[act],
+        run.atol[act] / settings.atol_scale,
+        settings.tol,
+        settings.max_newton,
+        None if hint is None else hint.get("J"),
+    )
     if res is None:
         return None
     if hint is not None:
@@ -257,9 +312,18 @@ def _shoot(run: _Runner, tmd: TMDParams, z: np.ndarray, settings: SolverSettings
     return last["z"], res.amplitude, res.periods, res.change  # the last map call was from res.z
 
 
-def simulate(base: BaseParams, tmd: TMDParams, omega: float, t_end: float, z0=None, n_samples: int = 1001,
-             sample_times=None, rtol: float = 1e-9, atol=None,
-             max_steps: int | None = None) -> tuple[np.ndarray, np.ndarray]:
+def simulate(
+    base: BaseParams,
+    tmd: TMDParams,
+    omega: float,
+    t_end: float,
+    z0=None,
+    n_samples: int = 1001,
+    sample_times=None,
+    rtol: float = 1e-9,
+    atol=None,
+    max_steps: int | None = None,
+) -> tuple[np.ndarray, np.ndarray]:
     """Transient simulation from z0 (default rest) over [0, t_end]; returns (t, states[len(t), 6]).
 
     max_steps caps the integrator steps (default: DEFAULT_MAX_STEPS per forcing period); a stalled
@@ -276,16 +340,36 @@ def simulate(base: BaseParams, tmd: TMDParams, omega: float, t_end: float, z0=No
     atol = np.asarray(atol, dtype=float)
     if max_steps is None:  # the per-period cap, for every period of the run
         max_steps = DEFAULT_MAX_STEPS * max(1, math.ceil(t_end / T))
-    _, _, status, tf = integrate(z, 0.0, float(t_end), p, np.zeros(1), rtol, atol,
-                                 T / 200, T / 20, t, out, 1.0 / tmd.friction_slope, stats, int(max_steps))
+    _, _, status, tf = integrate(
+        z,
+        0.0,
+        float(t_end),
+        p,
+        np.zeros(1),
+        rtol,
+        atol,
+        T / 200,
+        T / 20,
+        t,
+        out,
+        1.0 / tmd.friction_slope,
+        stats,
+        int(max_steps),
+    )
     if status != OK:
         raise SolverError(failure_message(status, COUPLED, tf, z, p, atol, 1.0 / tmd.friction_slope, max_steps))
     return t, out
 
 
-def periodic_time_series(base: BaseParams, tmd: TMDParams, omega: float, n_periods: int = 1,
-                         samples_per_period: int = 400, z0=None,
-                         settings: SolverSettings = SolverSettings()) -> tuple[np.ndarray, np.ndarray, SteadyState]:
+def periodic_time_series(
+    base: BaseParams,
+    tmd: TMDParams,
+    omega: float,
+    n_periods: int = 1,
+    samples_per_period: int = 400,
+    z0=None,
+    settings: SolverSettings = SolverSettings(),
+) -> tuple[np.ndarray, np.ndarray, SteadyState]:
     """Steady-state time series: settle at omega, then record n_periods (t from 0, states)."""
     ss = steady_state(base, tmd, omega, z0, settings)
     run = _Runner(base, tmd, omega, settings)

@@ -36,6 +36,7 @@ Dense output. Within a step, x(t) is the cubic Hermite interpolant of (x, xd) at
 (fourth-order accurate, and xd is part of the state, so it costs no extra evaluation); the
 maximum of |x| over each period is taken from it, not from samples.
 """
+
 from __future__ import annotations
 
 import math
@@ -52,14 +53,40 @@ _ALPHA = np.array([0.0, 0.386, 0.21, 0.63, 1.0, 1.0])
 _GAMMAI = np.array([0.25, -0.1043, 0.1035, -0.3620000000000023e-01, 0.0, 0.0])
 _A = np.zeros((6, 6))
 _C = np.zeros((6, 6))
-_a = [0.1544000000000000e01, 0.9466785280815826, 0.2557011698983284, 0.3314825187068521e01,
-      0.2896124015972201e01, 0.9986419139977817, 0.1221224509226641e01, 0.6019134481288629e01,
-      0.1253708332932087e02, -0.6878860361058950, 0.1221224509226641e01, 0.6019134481288629e01,
-      0.1253708332932087e02, -0.6878860361058950, 1.0]
-_c = [-0.5668800000000000e01, -0.2430093356833875e01, -0.2063599157091915, -0.1073529058151375,
-      -0.9594562251023355e01, -0.2047028614809616e02, 0.7496443313967647e01, -0.1024680431464352e02,
-      -0.3399990352819905e02, 0.1170890893206160e02, 0.8083246795921522e01, -0.7981132988064893e01,
-      -0.3152159432874371e02, 0.1631930543123136e02, -0.6058818238834054e01]
+_a = [
+    0.1544000000000000e01,
+    0.9466785280815826,
+    0.2557011698983284,
+    0.3314825187068521e01,
+    0.2896124015972201e01,
+    0.9986419139977817,
+    0.1221224509226641e01,
+    0.6019134481288629e01,
+    0.1253708332932087e02,
+    -0.6878860361058950,
+    0.1221224509226641e01,
+    0.6019134481288629e01,
+    0.1253708332932087e02,
+    -0.6878860361058950,
+    1.0,
+]
+_c = [
+    -0.5668800000000000e01,
+    -0.2430093356833875e01,
+    -0.2063599157091915,
+    -0.1073529058151375,
+    -0.9594562251023355e01,
+    -0.2047028614809616e02,
+    0.7496443313967647e01,
+    -0.1024680431464352e02,
+    -0.3399990352819905e02,
+    0.1170890893206160e02,
+    0.8083246795921522e01,
+    -0.7981132988064893e01,
+    -0.3152159432874371e02,
+    0.1631930543123136e02,
+    -0.6058818238834054e01,
+]
 _k = 0
 for _i in range(1, 6):
     for _j in range(_i):
@@ -128,8 +155,23 @@ def _lu_solve(a, piv, b):
         b[i] = s / a[i, i]
 
 
-def _integrate_template(z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, samples, friction_band, stats,
-                       max_steps=DEFAULT_MAX_STEPS, surface_tol=SURFACE_TOL):
+def _integrate_template(
+    z,
+    t0,
+    t1,
+    p,
+    u,
+    rtol,
+    atol,
+    h,
+    hmax,
+    sample_times,
+    samples,
+    friction_band,
+    stats,
+    max_steps=DEFAULT_MAX_STEPS,
+    surface_tol=SURFACE_TOL,
+):
     """Integrate the model from t0 to t1 in place on z; return (next step size, max |z[0]|, status, t).
 
     (The template of :func:`make_integrator`: the model's functions are the globals ``_model_*``
@@ -344,12 +386,20 @@ def make_integrator(model, cache: bool | None = None):
         return hit[1]
     tol_index = tuple(int(k) for k in model.switch_tolerance)
     if len(tol_index) != int(model.n_switches):
-        raise ValueError(f"make_integrator: model {name!r} has {model.n_switches} switching functions but "
-                         f"{len(tol_index)} entries in switch_tolerance")
+        raise ValueError(
+            f"make_integrator: model {name!r} has {model.n_switches} switching functions but "
+            f"{len(tol_index)} entries in switch_tolerance"
+        )
     g = dict(globals())
-    g.update(_model_rhs=model.rhs, _model_jacobian=model.jacobian, _model_switching=model.switching,
-             _model_mode=model.mode, _NSWITCH=int(model.n_switches), _NMODES=int(model.n_modes),
-             _SWITCH_TOL_INDEX=tol_index)
+    g.update(
+        _model_rhs=model.rhs,
+        _model_jacobian=model.jacobian,
+        _model_switching=model.switching,
+        _model_mode=model.mode,
+        _NSWITCH=int(model.n_switches),
+        _NMODES=int(model.n_modes),
+        _SWITCH_TOL_INDEX=tol_index,
+    )
     tpl = _integrate_template
     fn = types.FunctionType(tpl.__code__, g, f"integrate_{name}", tpl.__defaults__)
     fn.__qualname__ = f"integrate_{name}"
@@ -374,12 +424,13 @@ def contact_mode(model, z, p, atol, friction_band) -> str:
 def failure_message(status, model, t, z, p, atol, friction_band, max_steps=DEFAULT_MAX_STEPS) -> str:
     """A sentence naming why an integrator of :func:`make_integrator` stopped, at which time, in
     which state and mode."""
-    why = {STEP_UNDERFLOW: "the step size fell below the resolution of t (error test failed at the minimum step)",
-           STEP_CAP: f"the cap of {max_steps} steps per call was reached"}.get(int(status), f"status {status}")
+    why = {
+        STEP_UNDERFLOW: "the step size fell below the resolution of t (error test failed at the minimum step)",
+        STEP_CAP: f"the cap of {max_steps} steps per call was reached",
+    }.get(int(status), f"status {status}")
     names = tuple(model.state_names)
     if len(names) != len(z):
         names = tuple(f"z{i}" for i in range(len(z)))
     state = ", ".join(f"{k} = {float(v):.17g}" for k, v in zip(names, z))
     mode = contact_mode(model, z, p, atol, friction_band)
     return f"integrator stopped at t = {float(t):.12g} s: {why}; state {state}; mode: {mode}"
-

@@ -18,6 +18,7 @@ kept: tol and tol_window at most 0.5 (a relative tolerance above one half accept
 (the cubic Hermite maximum of |x| between communication points needs a few points per period, the
 settings class allowed 1); rtol and fmu_rtol at most 0.1; accuracy at most 0.5.
 """
+
 from __future__ import annotations
 
 import math
@@ -90,8 +91,11 @@ class Setting:
             if self.kind == "integer":
                 ok = isinstance(v, (int, np.integer)) and not isinstance(v, bool)
             else:
-                ok = (isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool)
-                      and math.isfinite(v))
+                ok = (
+                    isinstance(v, (int, float, np.integer, np.floating))
+                    and not isinstance(v, bool)
+                    and math.isfinite(v)
+                )
             if ok and self.minimum is not None:
                 ok = v > self.minimum if self.strict else v >= self.minimum
             if ok and self.maximum is not None:
@@ -105,60 +109,186 @@ def _s(name, kind, defaults, unit, meaning, **kw) -> Setting:
 
 SETTINGS: tuple[Setting, ...] = (
     # -- the steady-state definition, shared by both engines (solvers.steady) ------------------------
-    _s("tol", "number", {MONO: 1e-6, COSIM: 1e-6}, "1",
-       "steady-state tolerance of a periodic response (window 1): Newton correction or distance of the "
-       "state to the orbit, relative (0: never settled, the run lasts max_periods)", minimum=0.0, maximum=0.5),
-    _s("tol_window", "number", {MONO: 1e-4, COSIM: 1e-4}, "1",
-       "agreement of two window maxima (window > 1), relative (0: never settled, for fixed-length runs)",
-       minimum=0.0, maximum=0.5),
-    _s("amp_atol", "number", {MONO: None, COSIM: None}, "m",
-       "absolute amplitude tolerance kept for old settings (null: 0)", minimum=0.0, optional=True,
-       scenario=()),
-    _s("window", "integer", {MONO: None, COSIM: None}, "periods",
-       "periods per steady-state window (null: 20 with a gear gap, 1 otherwise)", minimum=1, optional=True),
+    _s(
+        "tol",
+        "number",
+        {MONO: 1e-6, COSIM: 1e-6},
+        "1",
+        "steady-state tolerance of a periodic response (window 1): Newton correction or distance of the "
+        "state to the orbit, relative (0: never settled, the run lasts max_periods)",
+        minimum=0.0,
+        maximum=0.5,
+    ),
+    _s(
+        "tol_window",
+        "number",
+        {MONO: 1e-4, COSIM: 1e-4},
+        "1",
+        "agreement of two window maxima (window > 1), relative (0: never settled, for fixed-length runs)",
+        minimum=0.0,
+        maximum=0.5,
+    ),
+    _s(
+        "amp_atol",
+        "number",
+        {MONO: None, COSIM: None},
+        "m",
+        "absolute amplitude tolerance kept for old settings (null: 0)",
+        minimum=0.0,
+        optional=True,
+        scenario=(),
+    ),
+    _s(
+        "window",
+        "integer",
+        {MONO: None, COSIM: None},
+        "periods",
+        "periods per steady-state window (null: 20 with a gear gap, 1 otherwise)",
+        minimum=1,
+        optional=True,
+    ),
     _s("min_periods", "integer", {MONO: 3, COSIM: 3}, "periods", "least periods per frequency", minimum=1),
-    _s("max_periods", "integer", {MONO: 3000, COSIM: 240}, "periods",
-       "most periods per frequency (at least min_periods)", minimum=1),
-    _s("scatter_tol", "number", {MONO: 5e-3, COSIM: 5e-3}, "1",
-       "largest scatter of the window maxima an irregular response may have and still count as converged",
-       minimum=0.0, scenario=()),
-    _s("play_start", "choice", {MONO: "companion", COSIM: "companion"}, "-",
-       "where a windowed solve starts: companion (the smooth companion's orbit, chain at its contact) or "
-       "previous (the previous frequency's state)", choices=("companion", "previous"), scenario=()),
-    _s("shooting", "boolean", {MONO: True, COSIM: True}, "-", "Newton shooting for window 1",
-       scenario=(COSIM,)),
-    _s("max_newton", "integer", {MONO: 8, COSIM: 12}, "iterations", "cap on the shooting iterations",
-       minimum=1, scenario=()),
+    _s(
+        "max_periods",
+        "integer",
+        {MONO: 3000, COSIM: 240},
+        "periods",
+        "most periods per frequency (at least min_periods)",
+        minimum=1,
+    ),
+    _s(
+        "scatter_tol",
+        "number",
+        {MONO: 5e-3, COSIM: 5e-3},
+        "1",
+        "largest scatter of the window maxima an irregular response may have and still count as converged",
+        minimum=0.0,
+        scenario=(),
+    ),
+    _s(
+        "play_start",
+        "choice",
+        {MONO: "companion", COSIM: "companion"},
+        "-",
+        "where a windowed solve starts: companion (the smooth companion's orbit, chain at its contact) or "
+        "previous (the previous frequency's state)",
+        choices=("companion", "previous"),
+        scenario=(),
+    ),
+    _s("shooting", "boolean", {MONO: True, COSIM: True}, "-", "Newton shooting for window 1", scenario=(COSIM,)),
+    _s(
+        "max_newton",
+        "integer",
+        {MONO: 8, COSIM: 12},
+        "iterations",
+        "cap on the shooting iterations",
+        minimum=1,
+        scenario=(),
+    ),
     # -- the monolithic engine (solvers.monolithic.SolverSettings) ----------------------------------
-    _s("rtol", "number", {MONO: 1e-8}, "1", "relative tolerance of the integrator", minimum=0.0, strict=True,
-       maximum=0.1),
-    _s("atol_scale", "number", {MONO: 1e-6}, "1",
-       "absolute tolerance as a fraction of the static deflection F/K (rates scaled by the natural frequency)",
-       minimum=0.0, strict=True),
-    _s("max_periods_window", "integer", {MONO: 600}, "periods", "most periods of a windowed steady state",
-       minimum=1, scenario=()),
-    _s("max_steps", "integer", {MONO: _MAX_STEPS}, "steps",
-       "cap on integrator steps per period (a stalled integration is an error naming time, state and mode)",
-       minimum=1, scenario=()),
+    _s(
+        "rtol",
+        "number",
+        {MONO: 1e-8},
+        "1",
+        "relative tolerance of the integrator",
+        minimum=0.0,
+        strict=True,
+        maximum=0.1,
+    ),
+    _s(
+        "atol_scale",
+        "number",
+        {MONO: 1e-6},
+        "1",
+        "absolute tolerance as a fraction of the static deflection F/K (rates scaled by the natural frequency)",
+        minimum=0.0,
+        strict=True,
+    ),
+    _s(
+        "max_periods_window",
+        "integer",
+        {MONO: 600},
+        "periods",
+        "most periods of a windowed steady state",
+        minimum=1,
+        scenario=(),
+    ),
+    _s(
+        "max_steps",
+        "integer",
+        {MONO: _MAX_STEPS},
+        "steps",
+        "cap on integrator steps per period (a stalled integration is an error naming time, state and mode)",
+        minimum=1,
+        scenario=(),
+    ),
     # -- the co-simulation engine (cosim.steady.CosimSettings) ----------------------------------------
-    _s("steps_per_period", "integer", {COSIM: None}, "steps",
-       "communication steps per forcing period (null: from accuracy)", minimum=8, maximum=100_000, optional=True),
-    _s("accuracy", "number", {COSIM: None}, "1",
-       "relative amplitude accuracy asked for (null: 1e-3, 2.5e-3 with a gear gap); sets steps_per_period",
-       minimum=0.0, strict=True, maximum=0.5, optional=True),
-    _s("coupling", "choice", {COSIM: "impulse"}, "-",
-       "impulse (momentum exchange, no algebraic loop) or force (the inerter's loop solved by Newton)",
-       choices=("impulse", "force")),
-    _s("scheme", "choice", {COSIM: "loop"}, "-", "force coupling: master algorithm",
-       choices=("loop", "jacobi", "gauss-seidel")),
+    _s(
+        "steps_per_period",
+        "integer",
+        {COSIM: None},
+        "steps",
+        "communication steps per forcing period (null: from accuracy)",
+        minimum=8,
+        maximum=100_000,
+        optional=True,
+    ),
+    _s(
+        "accuracy",
+        "number",
+        {COSIM: None},
+        "1",
+        "relative amplitude accuracy asked for (null: 1e-3, 2.5e-3 with a gear gap); sets steps_per_period",
+        minimum=0.0,
+        strict=True,
+        maximum=0.5,
+        optional=True,
+    ),
+    _s(
+        "coupling",
+        "choice",
+        {COSIM: "impulse"},
+        "-",
+        "impulse (momentum exchange, no algebraic loop) or force (the inerter's loop solved by Newton)",
+        choices=("impulse", "force"),
+    ),
+    _s(
+        "scheme",
+        "choice",
+        {COSIM: "loop"},
+        "-",
+        "force coupling: master algorithm",
+        choices=("loop", "jacobi", "gauss-seidel"),
+    ),
     _s("order", "integer", {COSIM: 2}, "-", "extrapolation order of the exchanged inputs", minimum=0, maximum=2),
-    _s("fmu_rtol", "number", {COSIM: 1e-8}, "1", "relative tolerance of the integrators inside the FMUs",
-       minimum=0.0, strict=True, maximum=0.1),
-    _s("interface_jacobian", "boolean", {COSIM: True}, "-",
-       "impulse coupling: hand the TMD the base's compliance 1/M (no delay of the base's reaction)"),
-    _s("fmi_version", "integer", {COSIM: 2}, "-",
-       "FMI version of the two FMUs the master runs (2: FMI 2.0, 3: FMI 3.0 built from the same declaration; "
-       "same numbers)", minimum=2, maximum=3),
+    _s(
+        "fmu_rtol",
+        "number",
+        {COSIM: 1e-8},
+        "1",
+        "relative tolerance of the integrators inside the FMUs",
+        minimum=0.0,
+        strict=True,
+        maximum=0.1,
+    ),
+    _s(
+        "interface_jacobian",
+        "boolean",
+        {COSIM: True},
+        "-",
+        "impulse coupling: hand the TMD the base's compliance 1/M (no delay of the base's reaction)",
+    ),
+    _s(
+        "fmi_version",
+        "integer",
+        {COSIM: 2},
+        "-",
+        "FMI version of the two FMUs the master runs (2: FMI 2.0, 3: FMI 3.0 built from the same declaration; "
+        "same numbers)",
+        minimum=2,
+        maximum=3,
+    ),
 )
 
 BY_NAME = {s.name: s for s in SETTINGS}
@@ -190,8 +320,7 @@ def _fmt(v) -> str:
 
 def docs_table() -> str:
     """The Markdown table of the settings (docs/scenarios.md, between the generated markers)."""
-    rows = ["| setting | block(s) | default (solver / cosim) | allowed | unit | meaning |",
-            "|---|---|---|---|---|---|"]
+    rows = ["| setting | block(s) | default (solver / cosim) | allowed | unit | meaning |", "|---|---|---|---|---|---|"]
     for s in SETTINGS:
         blocks = " and ".join({MONO: "solver", COSIM: "cosim"}[e] for e in s.blocks) or "(API only)"
         d = " / ".join(_fmt(s.defaults[e]) if e in s.defaults else "-" for e in BOTH)

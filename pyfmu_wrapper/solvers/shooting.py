@@ -10,6 +10,7 @@ Jacobian is computed when the iteration stops contracting.
 Converged when the last Newton correction is below ``tol`` and the residual below 10 ``tol``,
 both relative to max(|z_i|, scale_i) per state.
 """
+
 from __future__ import annotations
 
 from collections.abc import Callable
@@ -27,8 +28,14 @@ class ShootingResult(NamedTuple):
     jacobian: np.ndarray | None  #: the last Jacobian D - I (for the next frequency; None if never formed)
 
 
-def shoot(period_map: Callable[[np.ndarray], tuple[np.ndarray, float]], z0, scale, tol: float,
-          max_newton: int = 8, jacobian: np.ndarray | None = None) -> ShootingResult | None:
+def shoot(
+    period_map: Callable[[np.ndarray], tuple[np.ndarray, float]],
+    z0,
+    scale,
+    tol: float,
+    max_newton: int = 8,
+    jacobian: np.ndarray | None = None,
+) -> ShootingResult | None:
     """Newton shooting on ``period_map(z) -> (z(T), max |x| over the period)``; None when it does
     not converge (after ``3 max_newton`` iterations, or ``max_newton`` iterations with a fresh
     Jacobian still correcting by more than 1e3 ``tol``, or a singular / non-finite step).

@@ -7,6 +7,7 @@ lives there (the co-simulation imports it from the monolithic engine).
 * :func:`play_atol`: the absolute tolerance on the gear-chain deflection of the play model, used by
   the monolithic integrator and the TMD FMU alike.
 """
+
 from __future__ import annotations
 
 import numpy as np

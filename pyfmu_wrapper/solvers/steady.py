@@ -8,6 +8,7 @@ their own accuracy settings. :func:`default_window` and :class:`WindowCriterion`
 both engines apply to the per-period maxima of |x| (see the module doc of
 :mod:`pyfmu_wrapper.solvers.monolithic`).
 """
+
 from __future__ import annotations
 
 import math
@@ -121,8 +122,12 @@ class SteadySettings:
             why = setting.problem(getattr(self, name))
             if why is not None:
                 c.fail(name, why)
-            if name == "max_periods" and "min_periods" in names and _table.BY_NAME["min_periods"].problem(
-                    self.min_periods) is None and self.max_periods < self.min_periods:
+            if (
+                name == "max_periods"
+                and "min_periods" in names
+                and _table.BY_NAME["min_periods"].problem(self.min_periods) is None
+                and self.max_periods < self.min_periods
+            ):
                 c.fail("max_periods", f"must be >= min_periods = {self.min_periods}")
 
     def window_for(self, tmd: TMDParams) -> int:
@@ -157,8 +162,16 @@ class WindowCriterion:
       must settle relative to itself. ``amp_atol`` (default 0) is kept for old settings.
     """
 
-    def __init__(self, window: int, tol: float, amp_atol: float = 0.0, min_periods: int = 3,
-                 max_periods: int = 3000, scatter_tol: float = 5e-3, omega: float | None = None):
+    def __init__(
+        self,
+        window: int,
+        tol: float,
+        amp_atol: float = 0.0,
+        min_periods: int = 3,
+        max_periods: int = 3000,
+        scatter_tol: float = 5e-3,
+        omega: float | None = None,
+    ):
         self.W, self.tol, self.amp_atol = int(window), float(tol), float(amp_atol)
         self.min_periods, self.max_periods = int(min_periods), int(max_periods)
         self.scatter_tol, self.omega = float(scatter_tol), omega
@@ -175,8 +188,9 @@ class WindowCriterion:
         self.floor = 0.0
 
     @classmethod
-    def from_settings(cls, settings: SteadySettings, window: int, base: BaseParams,
-                      omega: float | None = None) -> WindowCriterion:
+    def from_settings(
+        cls, settings: SteadySettings, window: int, base: BaseParams, omega: float | None = None
+    ) -> WindowCriterion:
         """From an engine's settings (:class:`SteadySettings`; ``max_periods_window``, which only
         the monolithic engine has, bounds the windowed run when present)."""
         if window == 1:
@@ -193,8 +207,10 @@ class WindowCriterion:
         self.res.append(r)
         if len(self.res) < 3:
             return math.inf
-        ratios = [self.res[i] / self.res[i - 1] if self.res[i - 1] > 0 else 0.0
-                  for i in range(max(1, len(self.res) - 3), len(self.res))]
+        ratios = [
+            self.res[i] / self.res[i - 1] if self.res[i - 1] > 0 else 0.0
+            for i in range(max(1, len(self.res) - 3), len(self.res))
+        ]
         rho = min(max(ratios), 0.999)
         return r * rho / (1.0 - rho) if rho > 0 else r
 

@@ -13,6 +13,7 @@ guess instead of its neighbour. Where the response is multistable this can pick 
 at a piece boundary than a single sequential sweep would: use ``workers=1`` for strict
 stepped-sine semantics.
 """
+
 from __future__ import annotations
 
 import os
@@ -45,16 +46,35 @@ def _sweep_piece(base, tmd, seq, d, settings, z0, queue=None):
     for w in seq:
         ss = steady_state(base, tmd, float(w), None if companion else z, settings, hint)
         z = ss.state
-        rows.append(dict(direction=d, omega=float(w), amplitude=ss.amplitude, periods=ss.periods,
-                         converged=ss.converged, irregular=ss.irregular, change=ss.change, steps=ss.steps,
-                         rejected=ss.rejected, wall_time=ss.wall_time))
+        rows.append(
+            dict(
+                direction=d,
+                omega=float(w),
+                amplitude=ss.amplitude,
+                periods=ss.periods,
+                converged=ss.converged,
+                irregular=ss.irregular,
+                change=ss.change,
+                steps=ss.steps,
+                rejected=ss.rejected,
+                wall_time=ss.wall_time,
+            )
+        )
         if queue is not None:
             queue.put(1)
     return rows, z
 
 
-def sweep(base: BaseParams, tmd: TMDParams, omegas, direction: str = "up",
-          settings: SolverSettings | None = None, progress=None, z0=None, workers: int = 1) -> SweepResult:
+def sweep(
+    base: BaseParams,
+    tmd: TMDParams,
+    omegas,
+    direction: str = "up",
+    settings: SolverSettings | None = None,
+    progress=None,
+    z0=None,
+    workers: int = 1,
+) -> SweepResult:
     """Steady-state amplitude of the base at each omega [rad/s], sweeping up, down or both.
 
     settings: the solver settings (default ``SolverSettings()``).
@@ -80,7 +100,7 @@ def run_sweep_pieces(piece, base, tmd, omegas, direction, settings, progress=Non
         workers = os.cpu_count() or 1
     rows = []
     finals = {}
-    for d in (["up", "down"] if direction == "both" else [direction]):
+    for d in ["up", "down"] if direction == "both" else [direction]:
         seq = omegas if d == "up" else omegas[::-1]
         nw = max(1, min(int(workers), len(seq) // 2))
         if nw == 1:
@@ -93,8 +113,10 @@ def run_sweep_pieces(piece, base, tmd, omegas, direction, settings, progress=Non
         pieces = np.array_split(seq, nw)
         with mp.Manager() as mgr, ProcessPoolExecutor(max_workers=nw) as ex:
             q = mgr.Queue()
-            futs = [ex.submit(piece, base, tmd, part, d, settings, z0 if i == 0 else None, q)
-                    for i, part in enumerate(pieces)]
+            futs = [
+                ex.submit(piece, base, tmd, part, d, settings, z0 if i == 0 else None, q)
+                for i, part in enumerate(pieces)
+            ]
             done = 0
             while done < len(seq):
                 if all(f.done() for f in futs) and q.empty():

@@ -20,6 +20,7 @@ bias           displacement sensor offset b (the nominal sees d + b)        b = 
 
 The labels go to ``manifest.json`` beside the dataset folders; ``diagnose`` never reads it.
 """
+
 from __future__ import annotations
 
 import json
@@ -54,9 +55,15 @@ AMPS = (0.01, 0.02, 0.03)
 
 def _truth_param(effect, value):
     """(parameter key in the diagnosis, value) that the fit should recover."""
-    key = {"friction": "friction.friction_force", "play": "play.play_gap", "viscous": "viscous.delta_damping",
-           "mass_split": "mass_split.delta_inertance", "cubic": "cubic.cubic_stiffness",
-           "force_error": "force_error.force_gain_error", "bias": "bias.force_offset"}[effect]
+    key = {
+        "friction": "friction.friction_force",
+        "play": "play.play_gap",
+        "viscous": "viscous.delta_damping",
+        "mass_split": "mass_split.delta_inertance",
+        "cubic": "cubic.cubic_stiffness",
+        "force_error": "force_error.force_gain_error",
+        "bias": "bias.force_offset",
+    }[effect]
     if effect == "bias":
         value = NOMINAL["stiffness"] * value  # nominal sees d + b: force offset k b to be added
     return key, value
@@ -72,7 +79,7 @@ def link_force(d, v, a, hidden: dict):
         spring = np.array([chain_force(x, 0.0, p) for x in d])
     else:
         spring = k * d
-    F = spring + c * v + I * a + hidden.get("cubic", 0.0) * d ** 3
+    F = spring + c * v + I * a + hidden.get("cubic", 0.0) * d**3
     F = F + friction_vec(v, hidden.get("friction", 0.0), NOMINAL["friction_slope"])
     return F * (1.0 + hidden.get("force_error", 0.0))
 
@@ -93,13 +100,23 @@ def make_dataset(folder: Path, hidden: dict, seed: int, noise: float = NOISE, pe
             name = f"w{w:g}_A{1000 * A:g}mm.csv"
             write_record(folder / name, {"t": t, "displacement": dm, "velocity": v, "acceleration": a, "force": F})
             recs.append({"file": name, "omega": w})
-    meta = {"level": "link", "description": "withheld-effect benchmark dataset (link level, synthetic)",
-            "nominal": dict(NOMINAL), "records": recs}
+    meta = {
+        "level": "link",
+        "description": "withheld-effect benchmark dataset (link level, synthetic)",
+        "nominal": dict(NOMINAL),
+        "records": recs,
+    }
     (folder / "dataset.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))
 
 
-def make_benchmark(out: Path, n: int = 40, seed: int = 1, clean_fraction: float = 0.25, pair_fraction: float = 0.2,
-                   noise: float = NOISE):
+def make_benchmark(
+    out: Path,
+    n: int = 40,
+    seed: int = 1,
+    clean_fraction: float = 0.25,
+    pair_fraction: float = 0.2,
+    noise: float = NOISE,
+):
     """n link-level datasets (force noise std ``noise`` [N]): the link suite. The system suite is
     :func:`sysbench.make_system_benchmark`."""
     out = Path(out)
@@ -149,9 +166,15 @@ def score(bench: Path, results: dict | None = None, progress=None) -> dict:
         res = results[m["dataset"]] if results else run_diagnosis(bench / m["dataset"], out=None)
         got = res["attribution"]["effects"]
         hidden = m["hidden"]
-        row = {"dataset": m["dataset"], "hidden": hidden, "found": got,
-               "correct": sorted(got) == sorted(hidden), "top1_in_hidden": bool(got) and got[0] in hidden,
-               "both_named": len(hidden) == 2 and set(hidden) <= set(got), "seconds": time.perf_counter() - t0}
+        row = {
+            "dataset": m["dataset"],
+            "hidden": hidden,
+            "found": got,
+            "correct": sorted(got) == sorted(hidden),
+            "top1_in_hidden": bool(got) and got[0] in hidden,
+            "both_named": len(hidden) == 2 and set(hidden) <= set(got),
+            "seconds": time.perf_counter() - t0,
+        }
         errs = {}
         for k, v in m["truth"].items():
             est = res["attribution"]["params"].get(k)
@@ -170,7 +193,10 @@ def score(bench: Path, results: dict | None = None, progress=None) -> dict:
     perr = [e for r in rows for e in r.get("param_rel_error", {}).values()]
     closed = [r["gap_closed"] if r["gap_closed"] is not None else 0.0 for r in effect_rows]
     summary = {
-        "n_datasets": len(rows), "n_clean": len(clean), "n_single": len(single), "n_pair": len(pair),
+        "n_datasets": len(rows),
+        "n_clean": len(clean),
+        "n_single": len(single),
+        "n_pair": len(pair),
         "top1_accuracy": sum(r["correct"] for r in rows) / len(rows),
         "top1_accuracy_single": sum(r["correct"] for r in single) / max(len(single), 1),
         "pair_exact_accuracy": sum(r["correct"] for r in pair) / max(len(pair), 1),
@@ -193,7 +219,13 @@ def score(bench: Path, results: dict | None = None, progress=None) -> dict:
         d["correct"] += int(r["correct"])
         d["param_errors"] += list(r["param_rel_error"].values())
         d["gap_closed"].append(r["gap_closed"] if r["gap_closed"] is not None else 0.0)
-    summary["per_effect"] = {e: {"n": d["n"], "top1": d["correct"] / d["n"],
-                                 "param_error_median": statistics.median(d["param_errors"]) if d["param_errors"] else None,
-                                 "gap_closed_median": statistics.median(d["gap_closed"])} for e, d in sorted(per.items())}
+    summary["per_effect"] = {
+        e: {
+            "n": d["n"],
+            "top1": d["correct"] / d["n"],
+            "param_error_median": statistics.median(d["param_errors"]) if d["param_errors"] else None,
+            "gap_closed_median": statistics.median(d["gap_closed"]),
+        }
+        for e, d in sorted(per.items())
+    }
     return {"summary": summary, "rows": rows}

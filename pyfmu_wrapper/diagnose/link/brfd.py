@@ -11,6 +11,7 @@ keep every stride-th sample (about 256 samples per cycle). The force is the meas
 
     python -m pyfmu_wrapper.diagnose.link.brfd BRFD_DIR data/brfd_link --dataset '"Dataset 2" (April 2023)'
 """
+
 from __future__ import annotations
 
 import json
@@ -37,8 +38,11 @@ Device background: M. Stiles et al., NHERI REU 2019, doi:10.17603/DS2-PT11-YN09;
 L. Cao, S. Laflamme, D. Taylor, J. Ricles, Engineering Structures 113 (2016) 287-298."""
 
 
-NAME = re.compile(r"(?P<f>\d+(?:\.\d+)?)\s*Hz[_\s-]*(?P<tension>\d+(?:\.\d+)?)\s*lb\s*tension[_\s-]*"
-                  r"(?P<a>\d+(?:\.\d+)?)\s*(?:in)?\s*amplitude", re.IGNORECASE)
+NAME = re.compile(
+    r"(?P<f>\d+(?:\.\d+)?)\s*Hz[_\s-]*(?P<tension>\d+(?:\.\d+)?)\s*lb\s*tension[_\s-]*"
+    r"(?P<a>\d+(?:\.\d+)?)\s*(?:in)?\s*amplitude",
+    re.IGNORECASE,
+)
 
 
 def _parse(name):
@@ -81,8 +85,8 @@ def derive(src: Path, out: Path, test_amplitude_in=1.0, test_frequency_hz=2.0, t
         n_cyc = int(round(fs / fhz))
         # steady cycles: half-cycles whose peak |d| is within 3 % of the plateau (drop the ramps)
         hc = n_cyc // 2
-        peaks = np.array([np.abs(d[k * hc:(k + 1) * hc]).max() for k in range(len(t) // hc)])
-        steady = np.nonzero(peaks >= 0.97 * np.median(np.sort(peaks)[len(peaks) // 2:]))[0]
+        peaks = np.array([np.abs(d[k * hc : (k + 1) * hc]).max() for k in range(len(t) // hc)])
+        steady = np.nonzero(peaks >= 0.97 * np.median(np.sort(peaks)[len(peaks) // 2 :]))[0]
         i0 = int(steady[0]) * hc
         ncyc = min(N_CYCLES, (int(steady[-1]) + 1 - int(steady[0])) * hc // n_cyc)
         i1 = i0 + ncyc * n_cyc
@@ -105,21 +109,29 @@ def derive(src: Path, out: Path, test_amplitude_in=1.0, test_frequency_hz=2.0, t
             cols["velocity"] = np.interp(tt + shift, t[sl] - t[i0], v[sl])
         name = f"{fhz:g}Hz_{amp_in:g}in.csv"
         role = "test" if (amp_in == test_amplitude_in or fhz == test_frequency_hz) else "train"
-        write_record(out / name, cols, header_comment=f"BRFD {f.name}: SI units (s, m, m/s, N); CC BY-SA 4.0, see README.md")
-        recs.append({"file": name, "frequency_hz": fhz, "amplitude": amp_in * IN, "role": role,
-                     "source_file": f.name})
-    meta = {"level": "link",
-            "description": f"Banded rotary friction damper with backlash (BRFD), {tension_lb:g} lb band tension, "
-                           "sinusoidal displacement tests; link level (displacement across, force through). "
-                           "CC BY-SA 4.0, see README.md.",
-            "nominal": dict(NOMINAL), "records": recs}
-    (out / "dataset.yaml").write_text("# " + attribution.replace("\n", "\n# ") + "\n" + yaml.safe_dump(meta, sort_keys=False))
+        write_record(
+            out / name, cols, header_comment=f"BRFD {f.name}: SI units (s, m, m/s, N); CC BY-SA 4.0, see README.md"
+        )
+        recs.append({"file": name, "frequency_hz": fhz, "amplitude": amp_in * IN, "role": role, "source_file": f.name})
+    meta = {
+        "level": "link",
+        "description": f"Banded rotary friction damper with backlash (BRFD), {tension_lb:g} lb band tension, "
+        "sinusoidal displacement tests; link level (displacement across, force through). "
+        "CC BY-SA 4.0, see README.md.",
+        "nominal": dict(NOMINAL),
+        "records": recs,
+    }
+    (out / "dataset.yaml").write_text(
+        "# " + attribution.replace("\n", "\n# ") + "\n" + yaml.safe_dump(meta, sort_keys=False)
+    )
     shutil.copyfile(src / "LICENSE.txt", out / "LICENSE.txt")
-    (out / "README.md").write_text("# BRFD link-level dataset (derived)\n\n" + attribution + "\n\n"
-                                   "Nominal model in dataset.yaml: plain Coulomb friction, df = 11 kN "
-                                   "(regularised with friction_slope 1e3 s/m). Held-out records (role: test): "
-                                   "all 1 in amplitude tests and the 2 Hz test.\n\n"
-                                   "Regenerate: `python -m pyfmu_wrapper.diagnose.link.brfd BRFD_DIR data/brfd_link`, with BRFD_DIR a copy of the ARTS-Lab repository above\n")
+    (out / "README.md").write_text(
+        "# BRFD link-level dataset (derived)\n\n" + attribution + "\n\n"
+        "Nominal model in dataset.yaml: plain Coulomb friction, df = 11 kN "
+        "(regularised with friction_slope 1e3 s/m). Held-out records (role: test): "
+        "all 1 in amplitude tests and the 2 Hz test.\n\n"
+        "Regenerate: `python -m pyfmu_wrapper.diagnose.link.brfd BRFD_DIR data/brfd_link`, with BRFD_DIR a copy of the ARTS-Lab repository above\n"
+    )
     return recs
 
 
@@ -130,6 +142,6 @@ if __name__ == "__main__":
     ap.add_argument("src")
     ap.add_argument("out")
     ap.add_argument("--tension", type=float, help="band tension [lb] when the folder holds several")
-    ap.add_argument("--dataset", help='label written in the header, e.g. \'"Dataset 2" (April 2023)\'')
+    ap.add_argument("--dataset", help="label written in the header, e.g. '\"Dataset 2\" (April 2023)'")
     a = ap.parse_args()
     derive(Path(a.src), Path(a.out), tension_lb=a.tension, dataset=a.dataset)

@@ -10,6 +10,7 @@
 * Gap: NRMSE = rms(residual) / rms(force); gap closed = 1 - G_after / G_before with the excess
   mean square over noise G = max(ms - sigma_n^2, 0) (so a perfect model closes 100 %).
 """
+
 from __future__ import annotations
 
 import itertools
@@ -72,8 +73,10 @@ def split_masks(ld: LinkData):
         idx = np.arange(ld.F.size)
         return idx < k, idx >= k
     if not test_ids:
-        raise DataError("every record has role 'train': mark at least one record 'role: test' (held out), "
-                        "or give no roles (records are then held out automatically)")
+        raise DataError(
+            "every record has role 'train': mark at least one record 'role: test' (held out), "
+            "or give no roles (records are then held out automatically)"
+        )
     if not train_ids:
         raise DataError("every record has role 'test': at least one record must be for training")
     return ld.mask(train_ids), ld.mask(test_ids)
@@ -83,7 +86,7 @@ def _combined_basis(effects, ld, theta):
     offs, cols, k = [], [], 0
     removes_friction = False
     for e in effects:
-        th = theta[k:k + len(e.theta0)]
+        th = theta[k : k + len(e.theta0)]
         k += len(e.theta0)
         off, Phi = basis(e, ld, th)
         repl = e.name in ("friction", "compliant_friction") or (e.name == "play" and len(e.theta0) == 2)
@@ -96,7 +99,7 @@ def _combined_basis(effects, ld, theta):
 
 def _solve(y, off, Phi, m):
     A = Phi[m]
-    sc = np.sqrt((A ** 2).mean(axis=0))
+    sc = np.sqrt((A**2).mean(axis=0))
     sc[sc == 0] = 1.0
     beta = np.linalg.lstsq(A / sc, y[m] - off[m], rcond=None)[0] / sc
     r = y[m] - off[m] - A @ beta
@@ -125,8 +128,12 @@ def fit_effects(effects, ld: LinkData, train, test) -> Fit:
         theta = best[1]
         lo = np.array([min(g) - 0.5 for g in grids])
         hi = np.array([max(g) + 0.5 for g in grids])
-        res = minimize(lambda th: rss(np.clip(th, lo, hi)), theta, method="Nelder-Mead",
-                       options=dict(xatol=0.01, fatol=1e-9 * best[0], maxiter=60 * len(grids)))
+        res = minimize(
+            lambda th: rss(np.clip(th, lo, hi)),
+            theta,
+            method="Nelder-Mead",
+            options=dict(xatol=0.01, fatol=1e-9 * best[0], maxiter=60 * len(grids)),
+        )
         theta = np.clip(res.x, lo, hi) if res.fun < best[0] else theta
     off, Phi = _combined_basis(effects, ld, theta)
     beta, rss_tr = _solve(ld.F, off, Phi, train)
@@ -147,7 +154,7 @@ def fit_effects(effects, ld: LinkData, train, test) -> Fit:
     rho = _rho(r[train])
     s2 = rss_tr / max(n - p, 1) * (1 + rho) / (1 - rho)
     try:
-        js = np.sqrt((J ** 2).sum(axis=0))
+        js = np.sqrt((J**2).sum(axis=0))
         js[js == 0] = 1.0
         cov = s2 * np.linalg.pinv((J / js).T @ (J / js)) / np.outer(js, js)
         sd = np.sqrt(np.clip(np.diag(cov), 0, None))
@@ -156,16 +163,26 @@ def fit_effects(effects, ld: LinkData, train, test) -> Fit:
     kb, kt = 0, 0
     for e in effects:
         nb, nt = 1, len(e.theta0)  # every effect has one linear coefficient
-        b_e, t_e = beta[kb:kb + nb], theta[kt:kt + nt]
+        b_e, t_e = beta[kb : kb + nb], theta[kt : kt + nt]
         ps = report_params(e, ld, b_e, t_e)
-        sds = list(sd[kb:kb + nb]) + [sd[beta.size + kt + i] * math.log(10) * 10 ** t_e[i] for i in range(nt)]
+        sds = list(sd[kb : kb + nb]) + [sd[beta.size + kt + i] * math.log(10) * 10 ** t_e[i] for i in range(nt)]
         for (k, v), s in zip(ps.items(), _order_sd(e, sds, len(ps))):
             params[f"{e.name}.{k}"] = v
             std[f"{e.name}.{k}"] = float(s)
         kb += nb
         kt += nt
-    return Fit(effects=tuple(e.name for e in effects), labels=tuple(e.label for e in effects), params=params,
-               std=std, beta=beta, theta=theta, rss_train=rss_tr, rss_test=rss_te, n_params=p, pred=pred)
+    return Fit(
+        effects=tuple(e.name for e in effects),
+        labels=tuple(e.label for e in effects),
+        params=params,
+        std=std,
+        beta=beta,
+        theta=theta,
+        rss_train=rss_tr,
+        rss_test=rss_te,
+        n_params=p,
+        pred=pred,
+    )
 
 
 def _order_sd(e: Effect, sds, n):
@@ -178,8 +195,8 @@ def _order_sd(e: Effect, sds, n):
 
 
 def gap_closed(ms_before, ms_after, noise):
-    g0 = max(ms_before - noise ** 2, 0.0)
-    g1 = max(ms_after - noise ** 2, 0.0)
+    g0 = max(ms_before - noise**2, 0.0)
+    g1 = max(ms_after - noise**2, 0.0)
     return float("nan") if g0 <= 0 else 1.0 - g1 / g0
 
 
@@ -208,8 +225,11 @@ def diagnose_link(ld: LinkData, max_pairs_from: int = 7) -> Diagnosis:
     rss0 = float(r0[test] @ r0[test])
     f_rms = float(np.sqrt(np.mean(ld.F[test] ** 2)))
     if not f_rms > 0:
-        raise DataError("the measured force is zero in every held-out record (" + ", ".join(
-            sorted({ld.records[i].name for i in ld.rec[test]})) + "): a dead force channel, nothing to diagnose")
+        raise DataError(
+            "the measured force is zero in every held-out record ("
+            + ", ".join(sorted({ld.records[i].name for i in ld.rec[test]}))
+            + "): a dead force channel, nothing to diagnose"
+        )
     effects = effect_list(ld)
     fits = [fit_effects([e], ld, train, test) for e in effects]
     best = min(fits, key=lambda f: f.rss_test)
@@ -219,6 +239,7 @@ def diagnose_link(ld: LinkData, max_pairs_from: int = 7) -> Diagnosis:
         f.bic = n_eff * _log(f.rss_test / nt) + f.n_params * math.log(n_eff)
         f.closed = gap_closed(rss0 / nt, f.rss_test / nt, ld.noise)
         f.nrmse_test = math.sqrt(f.rss_test / nt) / f_rms if f_rms > 0 else float("nan")
+
     for f in fits:
         score(f)
     bic0 = n_eff * _log(rss0 / nt)
@@ -235,16 +256,36 @@ def diagnose_link(ld: LinkData, max_pairs_from: int = 7) -> Diagnosis:
             score(f)
         pairs.sort(key=lambda f: f.bic)
         ranking += pairs
-        if pairs and pairs[0].bic < chosen.bic - BIC_THRESHOLD and pairs[0].closed > chosen.closed + PAIR_SHARE * (1 - chosen.closed):
+        if (
+            pairs
+            and pairs[0].bic < chosen.bic - BIC_THRESHOLD
+            and pairs[0].closed > chosen.closed + PAIR_SHARE * (1 - chosen.closed)
+        ):
             chosen = pairs[0]
     ranking.sort(key=lambda f: f.bic)
     if chosen is None:
-        verdict = (f"No structural effect: the held-out gap (rms {math.sqrt(rss0 / nt):.4g} N) is within "
-                   f"{100 * EXCESS_THRESHOLD:.0f} % of the noise floor ({ld.noise:.4g} N) or no candidate beats it.")
+        verdict = (
+            f"No structural effect: the held-out gap (rms {math.sqrt(rss0 / nt):.4g} N) is within "
+            f"{100 * EXCESS_THRESHOLD:.0f} % of the noise floor ({ld.noise:.4g} N) or no candidate beats it."
+        )
     else:
-        verdict = f"Gap attributed to {' + '.join(chosen.labels)} (closes {100 * chosen.closed:.0f} % of the held-out gap)."
-    d = Diagnosis(nominal_rss_test=rss0, n_test=nt, n_eff=n_eff, noise=ld.noise, structural=structural,
-                  ranking=ranking, chosen=chosen, train=train, test=test, verdict=verdict, bic0=bic0, excess=excess)
+        verdict = (
+            f"Gap attributed to {' + '.join(chosen.labels)} (closes {100 * chosen.closed:.0f} % of the held-out gap)."
+        )
+    d = Diagnosis(
+        nominal_rss_test=rss0,
+        n_test=nt,
+        n_eff=n_eff,
+        noise=ld.noise,
+        structural=structural,
+        ranking=ranking,
+        chosen=chosen,
+        train=train,
+        test=test,
+        verdict=verdict,
+        bic0=bic0,
+        excess=excess,
+    )
     return d
 
 
@@ -257,12 +298,17 @@ def per_band(ld: LinkData, diag: Diagnosis, fit: Fit | None):
         ids = [i for i in test_recs if abs(oms[i] - w) < 1e-6]
         m = ld.mask(ids) & diag.test
         r0 = (ld.F - ld.F_nom)[m]
-        ms0 = float(np.mean(r0 ** 2))
+        ms0 = float(np.mean(r0**2))
         fr = float(np.sqrt(np.mean(ld.F[m] ** 2)))
-        row = {"omega": float(w), "records": [ld.records[i].name for i in ids],
-               "nrmse_before": math.sqrt(ms0) / fr if fr > 0 else float("nan")}
+        row = {
+            "omega": float(w),
+            "records": [ld.records[i].name for i in ids],
+            "nrmse_before": math.sqrt(ms0) / fr if fr > 0 else float("nan"),
+        }
         if fit is not None:
             ms1 = float(np.mean((ld.F - fit.pred)[m] ** 2))
-            row.update(nrmse_after=math.sqrt(ms1) / fr if fr > 0 else float("nan"), gap_closed=gap_closed(ms0, ms1, ld.noise))
+            row.update(
+                nrmse_after=math.sqrt(ms1) / fr if fr > 0 else float("nan"), gap_closed=gap_closed(ms0, ms1, ld.noise)
+            )
         rows.append(row)
     return rows

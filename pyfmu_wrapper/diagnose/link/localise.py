@@ -1,4 +1,5 @@
 """Where the model misses: by frequency band, harmonic, phase in the cycle and region of state."""
+
 from __future__ import annotations
 
 import math
@@ -13,9 +14,15 @@ def by_record(ld, r):
     for k, rec in enumerate(ld.records):
         m = ld.rec == k
         fr = float(np.sqrt(np.mean(ld.F[m] ** 2)))
-        rows.append({"record": rec.name, "omega": rec.omega, "amplitude": rec.amplitude,
-                     "rms": float(np.sqrt(np.mean(r[m] ** 2))),
-                     "nrmse": float(np.sqrt(np.mean(r[m] ** 2))) / fr if fr > 0 else float("nan")})
+        rows.append(
+            {
+                "record": rec.name,
+                "omega": rec.omega,
+                "amplitude": rec.amplitude,
+                "rms": float(np.sqrt(np.mean(r[m] ** 2))),
+                "nrmse": float(np.sqrt(np.mean(r[m] ** 2))) / fr if fr > 0 else float("nan"),
+            }
+        )
     return rows
 
 
@@ -58,7 +65,7 @@ def by_state(ld, r, nb=16):
 
 def state_summary(ld, r):
     """Share of the residual energy near velocity reversals and near the displacement extremes."""
-    e = r ** 2
+    e = r**2
     tot = float(e.sum()) or 1.0
     vn = np.zeros_like(ld.v)
     dn = np.zeros_like(ld.d)
@@ -68,9 +75,12 @@ def state_summary(ld, r):
         dn[m] = np.abs(ld.d[m]) / (np.abs(ld.d[m]).max() or 1.0)
     rev = vn < 0.3
     mid = dn < 0.3
-    return {"energy_share_low_speed": float(e[rev].sum() / tot), "sample_share_low_speed": float(rev.mean()),
-            "energy_share_near_zero_displacement": float(e[mid].sum() / tot),
-            "sample_share_near_zero_displacement": float(mid.mean())}
+    return {
+        "energy_share_low_speed": float(e[rev].sum() / tot),
+        "sample_share_low_speed": float(rev.mean()),
+        "energy_share_near_zero_displacement": float(e[mid].sum() / tot),
+        "sample_share_near_zero_displacement": float(mid.mean()),
+    }
 
 
 def describe(ld, r, harm, phase_rms):
@@ -81,20 +91,26 @@ def describe(ld, r, harm, phase_rms):
     if share[0] >= 0.5:
         out.append(f"the residual is mostly a constant offset ({100 * share[0]:.0f} % of its harmonic content)")
     elif odd + even < 0.25:
-        out.append(f"the residual is mostly at the drive frequency ({100 * share[1]:.0f} % of its harmonic content): "
-                   "a linear-looking mismatch (damping, stiffness/inertia or gain)")
+        out.append(
+            f"the residual is mostly at the drive frequency ({100 * share[1]:.0f} % of its harmonic content): "
+            "a linear-looking mismatch (damping, stiffness/inertia or gain)"
+        )
     else:
         kind = "odd (symmetric nonlinearity)" if odd >= even else "even (asymmetric nonlinearity)"
-        out.append(f"the residual has strong higher harmonics: {100 * odd:.0f} % odd, {100 * even:.0f} % even, "
-                   f"{100 * share[1]:.0f} % at the drive frequency -- mostly {kind}")
+        out.append(
+            f"the residual has strong higher harmonics: {100 * odd:.0f} % odd, {100 * even:.0f} % even, "
+            f"{100 * share[1]:.0f} % at the drive frequency -- mostly {kind}"
+        )
     if np.isfinite(phase_rms).any():
         c = np.degrees(np.linspace(0, 2 * np.pi, phase_rms.size + 1)[:-1] + np.pi / phase_rms.size)
         k = int(np.nanargmax(phase_rms))
         out.append(f"it is largest at {c[k]:.0f} deg of the cycle (0 = maximum displacement)")
     ss = state_summary(ld, r)
     if ss["energy_share_low_speed"] > 1.5 * ss["sample_share_low_speed"]:
-        out.append(f"{100 * ss['energy_share_low_speed']:.0f} % of the residual energy lies at low relative speed "
-                   f"(velocity reversals, {100 * ss['sample_share_low_speed']:.0f} % of the samples)")
+        out.append(
+            f"{100 * ss['energy_share_low_speed']:.0f} % of the residual energy lies at low relative speed "
+            f"(velocity reversals, {100 * ss['sample_share_low_speed']:.0f} % of the samples)"
+        )
     if ss["energy_share_near_zero_displacement"] > 1.5 * ss["sample_share_near_zero_displacement"]:
         out.append(f"{100 * ss['energy_share_near_zero_displacement']:.0f} % lies near zero displacement")
     return "; ".join(out) + "."

@@ -11,6 +11,7 @@ The nominal force law and every candidate use the physics kernels' force laws
 (:func:`friction_force`, :func:`chain_force`); a candidate is ``F = offset(theta) + Phi(theta) beta``:
 linear in beta, with at most two nonlinear parameters theta (fitted by variable projection).
 """
+
 from __future__ import annotations
 
 import math
@@ -109,8 +110,13 @@ def link_nominal(ds: Dataset) -> dict:
     from ...physics.params import TMDParams
 
     t = TMDParams(**ds.nominal["tmd"])  # the physics' own defaults for missing keys
-    return dict(stiffness=t.stiffness, damping=t.damping, friction_force=t.friction_force,
-                friction_slope=t.friction_slope, inertance=t.inertance)
+    return dict(
+        stiffness=t.stiffness,
+        damping=t.damping,
+        friction_force=t.friction_force,
+        friction_slope=t.friction_slope,
+        inertance=t.inertance,
+    )
 
 
 def nominal_force(nom, d, v, a):
@@ -122,7 +128,9 @@ def nominal_force(nom, d, v, a):
     p = np.zeros(N_PARAMS)
     p[P_k], p[P_c], p[P_df], p[P_s] = nom["stiffness"], nom["damping"], nom["friction_force"], nom["friction_slope"]
     z = np.zeros_like(d)
-    return link_force_grid(np.ascontiguousarray(d, float), np.ascontiguousarray(v, float), z, z, p) + nom["inertance"] * a
+    return (
+        link_force_grid(np.ascontiguousarray(d, float), np.ascontiguousarray(v, float), z, z, p) + nom["inertance"] * a
+    )
 
 
 SAVGOL_POINTS = 15  #: Savitzky-Golay window (samples, cubic) for non-periodic records
@@ -163,14 +171,19 @@ def build_link_data(ds: Dataset) -> LinkData:
         if rec.kind == "link":
             d = c["displacement"]
             v = c["velocity"] if rec.has("velocity") else _deriv(t, d, rec.omega)
-            a = c["acceleration"] if rec.has("acceleration") else (
-                _deriv(t, v, rec.omega) if rec.has("velocity") else _deriv(t, d, rec.omega, 2))
+            a = (
+                c["acceleration"]
+                if rec.has("acceleration")
+                else (_deriv(t, v, rec.omega) if rec.has("velocity") else _deriv(t, d, rec.omega, 2))
+            )
             F = c["force"]
             gain = None
         else:
             if not rec.has("y"):
-                raise DataError(f"{rec.name}: column 'y' is needed for the restoring-force diagnosis of a "
-                                "system time record (the TMD displacement); add it or give FRC records")
+                raise DataError(
+                    f"{rec.name}: column 'y' is needed for the restoring-force diagnosis of a "
+                    "system time record (the TMD displacement); add it or give FRC records"
+                )
             from ...physics.params import BaseParams
 
             bp = BaseParams(**ds.nominal["base"])
@@ -208,9 +221,24 @@ def build_link_data(ds: Dataset) -> LinkData:
     sizes = [len(p[0]) for p in parts]
     starts = np.concatenate([[0], np.cumsum(sizes)]).astype(np.int64)
     rid = np.repeat(np.arange(len(parts)), sizes)
-    return LinkData(d=cat[0], v=cat[1], a=cat[2], F=cat[3], gain_reg=cat[4], F_nom=cat[5], phase=cat[6], t=cat[7],
-                    rec=rid, starts=starts, n_pre=np.array([p[8] for p in parts], dtype=np.int64), records=recs,
-                    noise=float(np.median(noises)), noise_rec=np.array(noises), nominal=nom, level=ds.level)
+    return LinkData(
+        d=cat[0],
+        v=cat[1],
+        a=cat[2],
+        F=cat[3],
+        gain_reg=cat[4],
+        F_nom=cat[5],
+        phase=cat[6],
+        t=cat[7],
+        rec=rid,
+        starts=starts,
+        n_pre=np.array([p[8] for p in parts], dtype=np.int64),
+        records=recs,
+        noise=float(np.median(noises)),
+        noise_rec=np.array(noises),
+        nominal=nom,
+        level=ds.level,
+    )
 
 
 # --- candidates ----------------------------------------------------------------------------------
@@ -231,8 +259,12 @@ def effect_list(ld: LinkData) -> list:
     ld10, lv10 = math.log10(dmax), math.log10(vmax)
     eps_grid = tuple(ld10 + np.linspace(-2.3, -0.4, 9))
     effects = [
-        Effect("friction", "dry (Coulomb) friction", ("friction_force", "friction_slope"),
-               (tuple(-lv10 + np.linspace(0.5, 3.5, 7)),)),
+        Effect(
+            "friction",
+            "dry (Coulomb) friction",
+            ("friction_force", "friction_slope"),
+            (tuple(-lv10 + np.linspace(0.5, 3.5, 7)),),
+        ),
         Effect("play", "play (backlash) in the link", ("link_level", "play_gap"), (eps_grid,)),
         Effect("viscous", "extra viscous damping", ("delta_damping",)),
         Effect("mass_split", "inertance/mass mis-split (m + I fixed)", ("delta_inertance",)),
@@ -242,11 +274,22 @@ def effect_list(ld: LinkData) -> list:
     ]
     if ld.nominal["friction_force"] > 0 and ld.nominal["stiffness"] == 0:
         # play in front of a friction element: slider + contact spring + gap (two nonlinear params)
-        effects[1] = Effect("play", "play (backlash) in the link", ("friction_force", "play_gap", "elastic_deflection"),
-                            (eps_grid, tuple(ld10 + np.linspace(-3.0, -1.0, 5))))
+        effects[1] = Effect(
+            "play",
+            "play (backlash) in the link",
+            ("friction_force", "play_gap", "elastic_deflection"),
+            (eps_grid, tuple(ld10 + np.linspace(-3.0, -1.0, 5))),
+        )
         # the same without the gap: friction with pre-sliding (contact) compliance, the rival explanation
-        effects.insert(2, Effect("compliant_friction", "dry friction with contact compliance (no play)",
-                                 ("friction_force", "elastic_deflection"), (tuple(ld10 + np.linspace(-3.0, -0.5, 7)),)))
+        effects.insert(
+            2,
+            Effect(
+                "compliant_friction",
+                "dry friction with contact compliance (no play)",
+                ("friction_force", "elastic_deflection"),
+                (tuple(ld10 + np.linspace(-3.0, -0.5, 7)),),
+            ),
+        )
     return effects
 
 
@@ -272,7 +315,7 @@ def basis(effect: Effect, ld: LinkData, theta) -> tuple:
     if name == "mass_split":
         return z, ld.a[:, None]
     if name == "cubic":
-        return z, (ld.d ** 3)[:, None]
+        return z, (ld.d**3)[:, None]
     if name == "force_error":
         return z, ld.gain_reg[:, None]
     if name == "bias":

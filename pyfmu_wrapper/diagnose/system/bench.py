@@ -26,6 +26,7 @@ force_error     true force = (1 + a) x recorded force                  |a| 2-15 
 sensor_offset   x reads x + b (time records and x_max)                 |b| 3e-4-3e-3 m
 ==============  =====================================================  ============================
 """
+
 from __future__ import annotations
 
 import dataclasses
@@ -47,9 +48,15 @@ RANGES = {
     "sensor_offset": (3e-4, 3e-3),
 }
 SIGNED = {"mass_split", "force_error", "sensor_offset"}
-TRUTH_KEY = {"friction": "friction.friction_force", "play": "play.play_gap", "viscous": "viscous.delta_damping",
-             "mass_split": "mass_split.delta_inertance", "cubic": "cubic.cubic_stiffness",
-             "force_error": "force_error.force_gain_error", "sensor_offset": "sensor_offset.x_offset"}
+TRUTH_KEY = {
+    "friction": "friction.friction_force",
+    "play": "play.play_gap",
+    "viscous": "viscous.delta_damping",
+    "mass_split": "mass_split.delta_inertance",
+    "cubic": "cubic.cubic_stiffness",
+    "force_error": "force_error.force_gain_error",
+    "sensor_offset": "sensor_offset.x_offset",
+}
 FS = 1000.0
 N_PERIODS = 10
 FRC_OMEGAS = np.linspace(15.0, 25.0, 21)
@@ -59,6 +66,7 @@ FRC_NOISE = 0.005
 
 def has_cubic() -> bool:
     from ...physics.params import TMDParams
+
     return "cubic_stiffness" in {f.name for f in dataclasses.fields(TMDParams)}
 
 
@@ -69,9 +77,18 @@ def system_effects() -> list:
 def nominal(case: int, damping: float = 15.0) -> dict:
     """Paper Case 1, 2 or 3 (m, I) = (9, 1), (5, 5), (1, 9) kg with an ideal inerter and TMD damping c."""
     m, I = {1: (9.0, 1.0), 2: (5.0, 5.0), 3: (1.0, 9.0)}[case]
-    return {"base": {"mass": 100.0, "stiffness": 4.0e4, "damping": 100.0, "force_amplitude": 200.0},
-            "tmd": {"mass": m, "stiffness": 4.0e3, "damping": float(damping), "friction_force": 0.0,
-                    "friction_slope": 1.0e6, "inertance": I, "inerter": "ideal"}}
+    return {
+        "base": {"mass": 100.0, "stiffness": 4.0e4, "damping": 100.0, "force_amplitude": 200.0},
+        "tmd": {
+            "mass": m,
+            "stiffness": 4.0e3,
+            "damping": float(damping),
+            "friction_force": 0.0,
+            "friction_slope": 1.0e6,
+            "inertance": I,
+            "inerter": "ideal",
+        },
+    }
 
 
 def true_tmd(nom: dict, hidden: dict):
@@ -107,12 +124,14 @@ def steady_record(base, tmd, omega, n_periods=N_PERIODS, fs=FS, settle_periods=N
         z0, t0 = ss.state, 0.0
     else:  # the play model's companion orbit, then a fixed number of settling periods
         from ...solvers.monolithic import companion_start
+
         ss = None
         z0, t0 = companion_start(base, tmd, omega, SolverSettings()), settle_periods * T
     t = np.arange(0.0, n_periods * T, 1.0 / fs)
     atol = None
     if rtol > 1e-9:
         from ...solvers.monolithic import _atol
+
         atol = _atol(base, tmd, omega, SolverSettings())
     _, z = simulate(base, tmd, omega, t0 + n_periods * T, z0=z0, sample_times=t + t0, rtol=rtol, atol=atol)
     p = pack(base, tmd, omega)
@@ -124,8 +143,15 @@ def steady_record(base, tmd, omega, n_periods=N_PERIODS, fs=FS, settle_periods=N
     return t, z, acc, ss
 
 
-def make_system_dataset(folder: Path, hidden: dict, seed: int, case: int = 1, n_records: int = 4,
-                        frc: bool = True, n_periods: int = N_PERIODS):
+def make_system_dataset(
+    folder: Path,
+    hidden: dict,
+    seed: int,
+    case: int = 1,
+    n_records: int = 4,
+    frc: bool = True,
+    n_periods: int = N_PERIODS,
+):
     """Write one system-level dataset (time records + FRC) with the hidden effects ``hidden``."""
     from ...physics.params import BaseParams
 
@@ -142,8 +168,7 @@ def make_system_dataset(folder: Path, hidden: dict, seed: int, case: int = 1, n_
     for w, F in zip(omegas, forces):
         base = BaseParams(**{**nom["base"], "force_amplitude": F * (1 + alpha)})
         t, z, acc, _ = steady_record(base, tmd, float(w), n_periods)
-        cols = {"t": t, "force": F * np.cos(w * t), "x": z[:, 0] + b, "y": z[:, 2],
-                "xdd": acc[:, 0], "ydd": acc[:, 1]}
+        cols = {"t": t, "force": F * np.cos(w * t), "x": z[:, 0] + b, "y": z[:, 2], "xdd": acc[:, 0], "ydd": acc[:, 1]}
         for k in ("force", "x", "y", "xdd", "ydd"):
             rms = float(np.sqrt(np.mean((cols[k] - (b if k == "x" else 0.0)) ** 2)))
             cols[k] = cols[k] + rng.normal(0.0, rng.uniform(0.005, 0.02) * rms, t.size)
@@ -154,12 +179,24 @@ def make_system_dataset(folder: Path, hidden: dict, seed: int, case: int = 1, n_
         from ...solvers.monolithic import SolverSettings, steady_state
 
         base = BaseParams(**{**nom["base"], "force_amplitude": FRC_FORCE * (1 + alpha)})
-        xm = np.array([steady_state(base, tmd, float(w), settings=SolverSettings(max_periods_window=80)).amplitude
-                       for w in FRC_OMEGAS]) + b
+        xm = (
+            np.array(
+                [
+                    steady_state(base, tmd, float(w), settings=SolverSettings(max_periods_window=80)).amplitude
+                    for w in FRC_OMEGAS
+                ]
+            )
+            + b
+        )
         xm = xm * (1 + rng.normal(0.0, FRC_NOISE, xm.size))
-        write_record(folder / "frc.csv", {"omega": FRC_OMEGAS, "force_amplitude": np.full(xm.size, FRC_FORCE),
-                                          "x_max": xm})
+        write_record(
+            folder / "frc.csv", {"omega": FRC_OMEGAS, "force_amplitude": np.full(xm.size, FRC_FORCE), "x_max": xm}
+        )
         recs.append({"file": "frc.csv"})
-    meta = {"level": "system", "description": "withheld-effect benchmark dataset (system level, simulated rig)",
-            "nominal": nom, "records": recs}
+    meta = {
+        "level": "system",
+        "description": "withheld-effect benchmark dataset (system level, simulated rig)",
+        "nominal": nom,
+        "records": recs,
+    }
     (folder / "dataset.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))

@@ -17,6 +17,7 @@ Decision (the gates are in :mod:`gates`, each tested on its own):
 4. ``remaining_gate``: a gap left after the named effects (or with none named) that is still
    structural makes the verdict ``unexplained``, with where it lives (:mod:`verdict`).
 """
+
 from __future__ import annotations
 
 import math
@@ -50,27 +51,71 @@ from .playfit import PlayMixin
 
 MAX_EFFECTS = 2
 LABELS = {
-    "friction": "dry friction in the TMD link", "play": "play in the inerter gear",
-    "viscous": "extra viscous damping", "mass_split": "different split of m and I (m + I fixed)",
-    "cubic": "cubic term in the TMD spring", "force_error": "forcing-amplitude error",
+    "friction": "dry friction in the TMD link",
+    "play": "play in the inerter gear",
+    "viscous": "extra viscous damping",
+    "mass_split": "different split of m and I (m + I fixed)",
+    "cubic": "cubic term in the TMD spring",
+    "force_error": "forcing-amplitude error",
     "sensor_offset": "displacement-sensor offset",
-    "base_mass": "base mass M off the nominal", "base_stiffness": "base stiffness K off the nominal",
-    "base_damping": "base damping C off the nominal", "tmd_stiffness": "TMD spring stiffness k off the nominal",
+    "base_mass": "base mass M off the nominal",
+    "base_stiffness": "base stiffness K off the nominal",
+    "base_damping": "base damping C off the nominal",
+    "tmd_stiffness": "TMD spring stiffness k off the nominal",
 }
-UNITS = {"friction_force": "N", "friction_slope": "s/m", "play_gap": "m", "delta_inertance_eff": "kg", "signature_scale": "1",
-         "delta_damping": "N s/m", "delta_inertance": "kg", "cubic_stiffness": "N/m^3",
-         "force_gain_error": "1", "x_offset": "m", "y_offset": "m", "delta_mass": "kg", "delta_stiffness": "N/m"}
-FRC_PRIOR = ("viscous", "mass_split", "cubic", "force_error", "base_mass", "base_stiffness", "base_damping",
-             "tmd_stiffness")  #: effects whose FRC-alone fit is a prior for the time-record folds
-TMD_EFFECTS = ("viscous", "tmd_stiffness", "friction", "cubic", "mass_split", "base_damping", "base_mass",
-               "base_stiffness")  #: effects that change the rattle (play is refitted with them)
-EQ_EFFECTS = ("friction", "viscous", "mass_split", "cubic", "force_error", "sensor_offset",
-              "base_mass", "base_stiffness", "base_damping", "tmd_stiffness")
+UNITS = {
+    "friction_force": "N",
+    "friction_slope": "s/m",
+    "play_gap": "m",
+    "delta_inertance_eff": "kg",
+    "signature_scale": "1",
+    "delta_damping": "N s/m",
+    "delta_inertance": "kg",
+    "cubic_stiffness": "N/m^3",
+    "force_gain_error": "1",
+    "x_offset": "m",
+    "y_offset": "m",
+    "delta_mass": "kg",
+    "delta_stiffness": "N/m",
+}
+FRC_PRIOR = (
+    "viscous",
+    "mass_split",
+    "cubic",
+    "force_error",
+    "base_mass",
+    "base_stiffness",
+    "base_damping",
+    "tmd_stiffness",
+)  #: effects whose FRC-alone fit is a prior for the time-record folds
+TMD_EFFECTS = (
+    "viscous",
+    "tmd_stiffness",
+    "friction",
+    "cubic",
+    "mass_split",
+    "base_damping",
+    "base_mass",
+    "base_stiffness",
+)  #: effects that change the rattle (play is refitted with them)
+EQ_EFFECTS = (
+    "friction",
+    "viscous",
+    "mass_split",
+    "cubic",
+    "force_error",
+    "sensor_offset",
+    "base_mass",
+    "base_stiffness",
+    "base_damping",
+    "tmd_stiffness",
+)
 
 
 @dataclass
 class Cand:
     """An effect set with its time-record fit and its FRC chi-square."""
+
     effects: tuple
     fit: object
     chi_t: float  #: held-out chi-square of the time records
@@ -104,9 +149,11 @@ class SystemDiagnosis(PlayMixin):
         self.dof = self.dof_t + self.nf
         self.chi0 = self.chi0_t + self.chi0_f
         self.n = self.dof
-        self.motion = {"x": max(float(np.abs(w.grid["x"] - w.X[0].real).max()) for w in v),
-                       "y": max(float(np.abs(w.grid["y"] - w.Y[0].real).max()) for w in v),
-                       "d": max(float(np.abs(w.grid["x"] - w.grid["y"] - (w.X[0] - w.Y[0]).real).max()) for w in v)}
+        self.motion = {
+            "x": max(float(np.abs(w.grid["x"] - w.X[0].real).max()) for w in v),
+            "y": max(float(np.abs(w.grid["y"] - w.Y[0].real).max()) for w in v),
+            "d": max(float(np.abs(w.grid["x"] - w.grid["y"] - (w.X[0] - w.Y[0]).real).max()) for w in v),
+        }
         # play: the rattle gate, then the gap through the solver
         self.play = PlayFit(m.base, m.tmd, v)
         self.play_ok = False
@@ -157,16 +204,34 @@ class SystemDiagnosis(PlayMixin):
                     self.log.append(("rejected", c.effects, c.why))
                     continue
                 if chosen and not gates.significance_gate(c.params, c.std, e):
-                    self.log.append(("not added", c.effects, [f"{e}'s parameter is within {gates.Z_SIGNIF:.0f} std of 0"]))
+                    self.log.append(
+                        ("not added", c.effects, [f"{e}'s parameter is within {gates.Z_SIGNIF:.0f} std of 0"])
+                    )
                     continue
                 if chosen and not relevance_gate(*self._effect_rms(c.fit, e)):
                     er, lr = self._effect_rms(c.fit, e)
-                    self.log.append(("not added", c.effects, [f"{e} changes the link force by {100 * er / lr:.2g} % of "
-                                                              f"its rms (< {100 * gates.RELEVANCE:.2g} %)"]))
+                    self.log.append(
+                        (
+                            "not added",
+                            c.effects,
+                            [
+                                f"{e} changes the link force by {100 * er / lr:.2g} % of "
+                                f"its rms (< {100 * gates.RELEVANCE:.2g} %)"
+                            ],
+                        )
+                    )
                     continue
                 if chosen and not pair_gate(cur.chi - self.dof, c.chi - self.dof):
-                    self.log.append(("not added", c.effects, [f"{e} closes less than {100 * gates.PAIR_SHARE:.0f} % "
-                                                              "of the held-out excess left by " + ' + '.join(chosen)]))
+                    self.log.append(
+                        (
+                            "not added",
+                            c.effects,
+                            [
+                                f"{e} closes less than {100 * gates.PAIR_SHARE:.0f} % "
+                                "of the held-out excess left by " + " + ".join(chosen)
+                            ],
+                        )
+                    )
                     break
                 pick = (ev, e, c)
                 break
@@ -184,9 +249,16 @@ class SystemDiagnosis(PlayMixin):
         self.hint = None
         g0, g1 = self.gaps()
         if self.chosen and not share_gate(g0, g1):
-            self.log.append(("not named", tuple(self.chosen), [
-                f"{' + '.join(self.chosen)} closes {100 * (1 - g1 / g0) if g0 > 0 else 0:.0f} % of the held-out gap "
-                f"(< {100 * gates.MIN_SHARE:.0f} %): offered as a hint, not a cause"]))
+            self.log.append(
+                (
+                    "not named",
+                    tuple(self.chosen),
+                    [
+                        f"{' + '.join(self.chosen)} closes {100 * (1 - g1 / g0) if g0 > 0 else 0:.0f} % of the held-out gap "
+                        f"(< {100 * gates.MIN_SHARE:.0f} %): offered as a hint, not a cause"
+                    ],
+                )
+            )
             self.hint = (tuple(self.chosen), 1 - g1 / g0 if g0 > 0 else None)
             self.chosen, self.cur, self.final = [], start if not base else start, None
             if base:  # play passed its own rattle gate; it stays only if it alone meets the share
@@ -195,13 +267,16 @@ class SystemDiagnosis(PlayMixin):
                 if not share_gate(g0, g1):
                     self.chosen, self.final, self.cur = [], None, Cand((), None, self.chi0_t, self.chi0_f, {}, {})
         if self.hint is None and not self.chosen and self.noise_ok:
-            best = min((self._cand((e,)) for e in self.effects if not self._cand((e,)).why), key=lambda c: c.chi, default=None)
+            best = min(
+                (self._cand((e,)) for e in self.effects if not self._cand((e,)).why), key=lambda c: c.chi, default=None
+            )
             if best is not None:
                 self.hint = (best.effects, 1 - max(best.chi - self.dof, 0) / g0 if g0 > 0 else None)
         g0, g1 = self.gaps()
         self.unexplained = bool(self.noise_ok and (not self.chosen or remaining_gate(self.dof + g1, self.dof, g0)))
         self.unexplained_share = (max(g1, 0.0) / g0 if g0 > 0 else 0.0) if self.noise_ok else 0.0
         from ..verdict import localise
+
         self.localisation = localise(self)
         return self
 
@@ -250,18 +325,24 @@ class SystemDiagnosis(PlayMixin):
             e = effects[-1]
             key = f"{e}.{EFFECT_PARAMS[e][0]}"
             if not c.why and key in params and (chi_f is None or noise_gate(chi_f, self.nf)):
-                fixed = {k: v for k, v in params.items() if not (k.startswith(e + ".") and k != "friction.friction_slope")}
+                fixed = {
+                    k: v for k, v in params.items() if not (k.startswith(e + ".") and k != "friction.friction_slope")
+                }
                 try:
                     fe = fr.fit_effect(key, fixed, params[key], std.get(key), self.motion["d"])
                 except (SolverError, ValueError, FloatingPointError):
                     fe = None
                 st0 = std.get(key, math.inf)
-                if fe is not None and np.isfinite(st0) and abs(fe["value"] - params[key]) > 3 * math.hypot(st0, fe["std"]):
+                if (
+                    fe is not None
+                    and np.isfinite(st0)
+                    and abs(fe["value"] - params[key]) > 3 * math.hypot(st0, fe["std"])
+                ):
                     fe = None  # the FRC's value contradicts the time records': no FRC fit for this candidate
                 if fe is not None and (chi_f is None or fe["chi2_cv"] < chi_f):
                     st, sf = std.get(key, math.inf), fe["std"]
-                    wt = 1 / st ** 2 if np.isfinite(st) and st > 0 else 0.0
-                    wf = 1 / sf ** 2 if sf > 0 else 0.0
+                    wt = 1 / st**2 if np.isfinite(st) and st > 0 else 0.0
+                    wf = 1 / sf**2 if sf > 0 else 0.0
                     if wt + wf > 0:
                         params[key] = (wt * params[key] + wf * fe["value"]) / (wt + wf)
                         std[key] = 1 / math.sqrt(wt + wf)
@@ -287,13 +368,13 @@ class SystemDiagnosis(PlayMixin):
             if e == effect:
                 break
             k += len(EFFECT_PARAMS[e])
-        beta = f.beta[k:k + len(EFFECT_PARAMS[effect])]
+        beta = f.beta[k : k + len(EFFECT_PARAMS[effect])]
         num = den = 0.0
         for v in self.views:
             A = sum(b * col[0] for b, col in zip(beta, m.columns(effect, v, f.theta.get(effect, ()))))
             num += float(np.sum(np.abs(A[1:]) ** 2) / 2 + abs(A[0]) ** 2)
             hw = np.arange(v.X.size) * v.omega
-            L = (m.tmd.stiffness + 1j * m.tmd.damping * hw - m.tmd.inertance * hw ** 2) * (v.X - v.Y)
+            L = (m.tmd.stiffness + 1j * m.tmd.damping * hw - m.tmd.inertance * hw**2) * (v.X - v.Y)
             den += float(np.sum(np.abs(L[1:]) ** 2) / 2)
         return math.sqrt(num), math.sqrt(den)
 
@@ -365,18 +446,35 @@ class SystemDiagnosis(PlayMixin):
             c0 = float(self.views[i].r @ self.views[i].r)
             c1 = self.final.chi2_ho_rec[i] if self.final else c0
             n = self.views[i].r.size
-            per.append({"record": self.views[i].name, "omega": self.views[i].omega, "dof": n,
-                        "chi2_before": c0, "chi2_after": c1,
-                        "gap_closed": (1 - max(c1 - n, 0) / (c0 - n)) if c0 > n else None})
-        return {"chi2_before": self.chi0, "chi2_after": chi1, "dof": dof,
-                "time": {"chi2_before": self.chi0_t, "chi2_after": cur.chi_t if cur else self.chi0_t, "dof": self.dof_t},
-                "frc": ({"chi2_before": self.chi0_f, "chi2_after": cur.chi_f if cur else self.chi0_f, "dof": self.nf}
-                        if self.frc is not None else None),
-                "rattle_chi2_before": sp0, "rattle_chi2_after": sp1,
-                "excess_before": G0, "excess_after": G1,
-                "gap_closed": (1 - G1 / G0) if (self.chosen and G0 > 0) else None,
-                "rms_before_noise_units": math.sqrt(self.chi0 / dof), "rms_after_noise_units": math.sqrt(chi1 / dof),
-                "per_record": per}
+            per.append(
+                {
+                    "record": self.views[i].name,
+                    "omega": self.views[i].omega,
+                    "dof": n,
+                    "chi2_before": c0,
+                    "chi2_after": c1,
+                    "gap_closed": (1 - max(c1 - n, 0) / (c0 - n)) if c0 > n else None,
+                }
+            )
+        return {
+            "chi2_before": self.chi0,
+            "chi2_after": chi1,
+            "dof": dof,
+            "time": {"chi2_before": self.chi0_t, "chi2_after": cur.chi_t if cur else self.chi0_t, "dof": self.dof_t},
+            "frc": (
+                {"chi2_before": self.chi0_f, "chi2_after": cur.chi_f if cur else self.chi0_f, "dof": self.nf}
+                if self.frc is not None
+                else None
+            ),
+            "rattle_chi2_before": sp0,
+            "rattle_chi2_after": sp1,
+            "excess_before": G0,
+            "excess_after": G1,
+            "gap_closed": (1 - G1 / G0) if (self.chosen and G0 > 0) else None,
+            "rms_before_noise_units": math.sqrt(self.chi0 / dof),
+            "rms_after_noise_units": math.sqrt(chi1 / dof),
+            "per_record": per,
+        }
 
     def candidates(self):
         rows = []
@@ -385,15 +483,28 @@ class SystemDiagnosis(PlayMixin):
         for e, f in self.singles.items():
             c = self.cands.get(f.effects)
             chi = c.chi if c is not None else f.chi2_ho + (self.chi0_f if not base else self._cand(base).chi_f)
-            rows.append({"effects": list(f.effects), "params": c.params if c else f.params, "std": c.std if c else f.std,
-                         "chi2_held_out": chi, "chi2_held_out_time": f.chi2_ho,
-                         "evidence": chi_b - chi - len(EFFECT_PARAMS[e]) * math.log(self.n),
-                         "frc_evidence": self.frc_ev.get(f.effects), "frc_source": c.frc_source if c else "",
-                         "gap_closed": (1 - max(chi - self.dof, 0) / (self.chi0 - self.dof)) if self.chi0 > self.dof else None,
-                         "rejected": c.why if c else plausibility(f.params, f.std, self.model.tmd, self.motion, self.model.base)})
+            rows.append(
+                {
+                    "effects": list(f.effects),
+                    "params": c.params if c else f.params,
+                    "std": c.std if c else f.std,
+                    "chi2_held_out": chi,
+                    "chi2_held_out_time": f.chi2_ho,
+                    "evidence": chi_b - chi - len(EFFECT_PARAMS[e]) * math.log(self.n),
+                    "frc_evidence": self.frc_ev.get(f.effects),
+                    "frc_source": c.frc_source if c else "",
+                    "gap_closed": (1 - max(chi - self.dof, 0) / (self.chi0 - self.dof))
+                    if self.chi0 > self.dof
+                    else None,
+                    "rejected": c.why
+                    if c
+                    else plausibility(f.params, f.std, self.model.tmd, self.motion, self.model.base),
+                }
+            )
         rows.sort(key=lambda r: -r["evidence"])
         return rows
 
     def verdict_text(self):
         from ..verdict import verdict_text
+
         return verdict_text(self, LABELS, UNITS)

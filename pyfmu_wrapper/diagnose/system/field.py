@@ -18,6 +18,7 @@ The truth: exact linear frequency response (project ``exact_response``) when it 
 project's solver (``monolithic``) for friction, play and the cubic spring; the independent OOV
 integrator (:mod:`sysbench_oov`) for OOV dynamics.
 """
+
 from __future__ import annotations
 
 import math
@@ -32,7 +33,9 @@ from ..records import write_record
 DENSE_HZ = 20000.0
 PREROLL_PERIODS = 2
 CHANNELS = ("force", "x", "y", "xdd", "ydd")
-BESSEL_NORM = "mag"  #: a Bessel cutoff_hz is the -3 dB point (issue 19's acquisition key, as diagnose.acquisition reads it)
+BESSEL_NORM = (
+    "mag"  #: a Bessel cutoff_hz is the -3 dB point (issue 19's acquisition key, as diagnose.acquisition reads it)
+)
 PLAY_PERIODS = 40  #: play (rattling): settle at most 40 periods; x_max = max over the last 20-period window
 
 
@@ -88,8 +91,12 @@ def truth_dense(truth: dict, omega: float, F_rec: float, tau: np.ndarray) -> dic
         Z = exact_response(base, tmd, [omega])[0]
         e = np.exp(1j * omega * tau)
         X, Y = Z[0], Z[2]
-        return {"x": np.real(X * e), "y": np.real(Y * e), "xdd": np.real(-omega ** 2 * X * e),
-                "ydd": np.real(-omega ** 2 * Y * e)}
+        return {
+            "x": np.real(X * e),
+            "y": np.real(Y * e),
+            "xdd": np.real(-(omega**2) * X * e),
+            "ydd": np.real(-(omega**2) * Y * e),
+        }
     from ...physics.kernels import rhs
     from ...physics.params import pack
     from ...solvers.monolithic import SolverSettings, simulate, steady_state
@@ -154,7 +161,7 @@ def time_record(truth, nom, omega, F_rec, fs, n_periods, phi, acq, accel_only, r
         std = levels[ch] * float(np.std(s))
         sig[ch] = std
         if ch != "force":
-            chi2 += float(np.sum((s - ref[ch][idx]) ** 2)) / std ** 2
+            chi2 += float(np.sum((s - ref[ch][idx]) ** 2)) / std**2
         cols[ch] = s + rng.normal(0.0, std, n)
     order = ["t", "force", "xdd", "ydd"] if accel_only else ["t", "force", "x", "y", "xdd", "ydd"]
     return {c: cols[c] for c in order}, chi2, sig
@@ -188,8 +195,14 @@ def frc_amplitudes(truth: dict, omegas, F_rec) -> np.ndarray:
     rattle = has_gap(tmd)
     for w in omegas:  # a sweep: each point starts from the previous one's state (play: from the
         # continued companion orbit, which settles in about two windows)
-        ss = steady_state(base, tmd, float(w), z0=None if rattle else z,
-                          settings=SolverSettings(max_periods_window=PLAY_PERIODS), hint=hint if rattle else None)
+        ss = steady_state(
+            base,
+            tmd,
+            float(w),
+            z0=None if rattle else z,
+            settings=SolverSettings(max_periods_window=PLAY_PERIODS),
+            hint=hint if rattle else None,
+        )
         z = ss.state
         out.append(ss.amplitude)
     return np.array(out)
@@ -209,8 +222,7 @@ def frc_record(truth, nom, frc: dict, acq, rng):
     chi2 = float(np.sum(((xm - xn) / std) ** 2))
     fspec = channel_spec(acq, "force").get("filter")  # the amplitude the load cell reports
     hf = np.abs(filter_response(fspec, om)) if fspec else np.ones(om.size)
-    cols = {"omega": om, "force_amplitude": float(frc["force"]) * hf,
-            "x_max": xm + rng.normal(0.0, 1.0, om.size) * std}
+    cols = {"omega": om, "force_amplitude": float(frc["force"]) * hf, "x_max": xm + rng.normal(0.0, 1.0, om.size) * std}
     return cols, chi2
 
 
@@ -223,8 +235,19 @@ def write_dataset(folder: Path, spec: dict, rng) -> dict:
     recs: list = []
     chi2_t, chi2_f = 0.0, 0.0
     for r in spec["records"]:
-        cols, c2, _ = time_record(truth, nom, r["omega"], r["force"], spec["fs"], r["periods"], r["phase"], acq,
-                                  spec["accel_only"], rng, r["noise"])
+        cols, c2, _ = time_record(
+            truth,
+            nom,
+            r["omega"],
+            r["force"],
+            spec["fs"],
+            r["periods"],
+            r["phase"],
+            acq,
+            spec["accel_only"],
+            rng,
+            r["noise"],
+        )
         chi2_t += c2
         name = f"rec{len(recs) + 1}_{r['frequency_hz']:.2f}Hz_F{r['force']:g}N.csv"
         write_record(folder / name, cols, fmt="%.9g")
@@ -235,8 +258,12 @@ def write_dataset(folder: Path, spec: dict, rng) -> dict:
         name = f"frc{i + 1}_{f['direction']}_F{f['force']:g}N.csv"
         _write_frc(folder / name, cols["omega"], cols["force_amplitude"], cols["x_max"], f["direction"])
         recs.append({"file": name})
-    meta = {"level": "system", "description": "field-like benchmark dataset (system level, simulated rig)",
-            "nominal": nom, "records": recs}
+    meta = {
+        "level": "system",
+        "description": "field-like benchmark dataset (system level, simulated rig)",
+        "nominal": nom,
+        "records": recs,
+    }
     if acq:
         meta["acquisition"] = acq
     (folder / "dataset.yaml").write_text(yaml.safe_dump(meta, sort_keys=False))

@@ -17,6 +17,7 @@ With time records, :meth:`FRCDiagnosis.fit_effect` fits one effect's parameter o
 other effects fixed at their time-record values, and its held-out chi-square by 3 folds (every
 third frequency), so an effect visible only in the FRC can be named.
 """
+
 from __future__ import annotations
 
 import json
@@ -56,12 +57,14 @@ class FRCDiagnosis:
         self.noise_given = float(ds.raw.get("x_max_noise", 0.0) or 0.0)
         self.noise = self.noise_given or self._noise()
         self.pred0 = self.amplitude(self.base, self.tmd)
-        self.noise_rel = _d2_noise(self.x / self.pred0 - 1.0, self.w) \
-            or self.noise / max(float(np.abs(self.x).mean()), 1e-300)
+        self.noise_rel = _d2_noise(self.x / self.pred0 - 1.0, self.w) or self.noise / max(
+            float(np.abs(self.x).mean()), 1e-300
+        )
         #: relative noise of every point, estimated per FRC record (two sweeps may have other noise)
         self.noise_rel_pt = self._per_record(self.x / self.pred0 - 1.0, self.noise_rel)
         try:  # the TMD's relative stroke |x - y| the nominal predicts (sets the cubic's plausible range)
             from ...solvers.frequency_response import exact_response
+
             Z = exact_response(replace(self.base, force_amplitude=1.0), replace(self.tmd, friction_force=0.0), self.w)
             self.stroke = float(np.max(np.abs(Z[:, 0] - Z[:, 2]) * np.abs(self.F)))
         except Exception:  # noqa: BLE001 -- a nominal without a linear response (e.g. play): x_max instead
@@ -80,7 +83,9 @@ class FRCDiagnosis:
             for i in np.argsort(self.w, kind="stable"):
                 if only is not None and not only[i]:
                     continue
-                a[i] = steady_state(replace(base, force_amplitude=self.F[i] * gain), tmd, float(self.w[i]), hint=hint).amplitude
+                a[i] = steady_state(
+                    replace(base, force_amplitude=self.F[i] * gain), tmd, float(self.w[i]), hint=hint
+                ).amplitude
         return a + bias
 
     def predict(self, params: dict):
@@ -159,15 +164,17 @@ class FRCDiagnosis:
         b, t = self.base, self.tmd
         Fm = float(np.max(np.abs(self.F)))
         d = max(stroke, self.stroke, 1e-9)
-        return {"viscous.delta_damping": (-t.damping, max(10 * t.damping, 100.0)),
-                "mass_split.delta_inertance": (-t.inertance + 1e-6, t.mass - 1e-6),
-                "cubic.cubic_stiffness": (-t.stiffness / (3 * d * d), 3 * t.stiffness / (d * d)),
-                "force_error.force_gain_error": (-0.5, 0.5),
-                "friction.friction_force": (0.0, 0.5 * Fm),
-                "base_mass.delta_mass": (-0.3 * b.mass, 0.3 * b.mass),
-                "base_stiffness.delta_stiffness": (-0.3 * b.stiffness, 0.3 * b.stiffness),
-                "base_damping.delta_damping": (-b.damping, 2.0 * b.damping),
-                "tmd_stiffness.delta_stiffness": (-0.3 * t.stiffness, 0.3 * t.stiffness)}.get(key)
+        return {
+            "viscous.delta_damping": (-t.damping, max(10 * t.damping, 100.0)),
+            "mass_split.delta_inertance": (-t.inertance + 1e-6, t.mass - 1e-6),
+            "cubic.cubic_stiffness": (-t.stiffness / (3 * d * d), 3 * t.stiffness / (d * d)),
+            "force_error.force_gain_error": (-0.5, 0.5),
+            "friction.friction_force": (0.0, 0.5 * Fm),
+            "base_mass.delta_mass": (-0.3 * b.mass, 0.3 * b.mass),
+            "base_stiffness.delta_stiffness": (-0.3 * b.stiffness, 0.3 * b.stiffness),
+            "base_damping.delta_damping": (-b.damping, 2.0 * b.damping),
+            "tmd_stiffness.delta_stiffness": (-0.3 * t.stiffness, 0.3 * t.stiffness),
+        }.get(key)
 
     def fit_effect(self, key, fixed: dict, guess=None, std=None, stroke=0.0):
         """Fit parameter ``key`` on the FRC points with the parameters ``fixed`` (from the time
@@ -204,8 +211,12 @@ class FRCDiagnosis:
         vals = [obj(v) for v in grid]
         j = int(np.argmin(vals))
         a, c = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
-        res = minimize_scalar(obj, bounds=(a, c), method="bounded",
-                              options=dict(maxiter=10 if nonlinear else 30, xatol=1e-6 * max(abs(hi - lo), 1e-300)))
+        res = minimize_scalar(
+            obj,
+            bounds=(a, c),
+            method="bounded",
+            options=dict(maxiter=10 if nonlinear else 30, xatol=1e-6 * max(abs(hi - lo), 1e-300)),
+        )
         v0 = float(res.x) if res.fun <= vals[j] else float(grid[j])
         if obj(v0) >= 1e20:
             return None
@@ -261,20 +272,64 @@ class FRCDiagnosis:
     def _candidates(self):
         b, t = self.base, self.tmd
         I0 = t.inertance
-        yield "viscous", ["delta_damping"], [0.0], lambda p: self.amplitude(b, replace(t, damping=max(t.damping + p[0], 0.0)))
+        yield (
+            "viscous",
+            ["delta_damping"],
+            [0.0],
+            lambda p: self.amplitude(b, replace(t, damping=max(t.damping + p[0], 0.0))),
+        )
         if t.inerter.name != "NONE":
-            yield "mass_split", ["delta_inertance"], [0.0], lambda p: self.amplitude(
-                b, replace(t, inertance=min(max(I0 + p[0], 1e-6), t.inertia - 1e-6), mass=t.inertia - min(max(I0 + p[0], 1e-6), t.inertia - 1e-6)))
+            yield (
+                "mass_split",
+                ["delta_inertance"],
+                [0.0],
+                lambda p: self.amplitude(
+                    b,
+                    replace(
+                        t,
+                        inertance=min(max(I0 + p[0], 1e-6), t.inertia - 1e-6),
+                        mass=t.inertia - min(max(I0 + p[0], 1e-6), t.inertia - 1e-6),
+                    ),
+                ),
+            )
         yield "force_error", ["force_gain_error"], [0.0], lambda p: self.amplitude(b, t, gain=1.0 + p[0])
         yield "sensor_offset", ["x_offset"], [0.0], lambda p: self.amplitude(b, t, bias=p[0])
-        yield "friction", ["friction_force"], None, lambda p, only=None: self.amplitude(
-            b, replace(t, friction_force=max(p[0], 0.0)), only=only)
-        yield "cubic", ["cubic_stiffness"], self.bounds("cubic.cubic_stiffness", 0.0), \
-            lambda p, only=None: self.amplitude(b, replace(t, cubic_stiffness=p[0]), only=only)
-        yield "base_mass", ["delta_mass"], [0.0], lambda p: self.amplitude(replace(b, mass=max(b.mass + p[0], 1e-6 * b.mass)), t)
-        yield "base_stiffness", ["delta_stiffness"], [0.0], lambda p: self.amplitude(replace(b, stiffness=max(b.stiffness + p[0], 0.0)), t)
-        yield "base_damping", ["delta_damping"], [0.0], lambda p: self.amplitude(replace(b, damping=max(b.damping + p[0], 0.0)), t)
-        yield "tmd_stiffness", ["delta_stiffness"], [0.0], lambda p: self.amplitude(b, replace(t, stiffness=max(t.stiffness + p[0], 0.0)))
+        yield (
+            "friction",
+            ["friction_force"],
+            None,
+            lambda p, only=None: self.amplitude(b, replace(t, friction_force=max(p[0], 0.0)), only=only),
+        )
+        yield (
+            "cubic",
+            ["cubic_stiffness"],
+            self.bounds("cubic.cubic_stiffness", 0.0),
+            lambda p, only=None: self.amplitude(b, replace(t, cubic_stiffness=p[0]), only=only),
+        )
+        yield (
+            "base_mass",
+            ["delta_mass"],
+            [0.0],
+            lambda p: self.amplitude(replace(b, mass=max(b.mass + p[0], 1e-6 * b.mass)), t),
+        )
+        yield (
+            "base_stiffness",
+            ["delta_stiffness"],
+            [0.0],
+            lambda p: self.amplitude(replace(b, stiffness=max(b.stiffness + p[0], 0.0)), t),
+        )
+        yield (
+            "base_damping",
+            ["delta_damping"],
+            [0.0],
+            lambda p: self.amplitude(replace(b, damping=max(b.damping + p[0], 0.0)), t),
+        )
+        yield (
+            "tmd_stiffness",
+            ["delta_stiffness"],
+            [0.0],
+            lambda p: self.amplitude(b, replace(t, stiffness=max(t.stiffness + p[0], 0.0))),
+        )
 
     def run(self):
         """Fit each candidate on the training frequencies; everything in relative residuals
@@ -287,18 +342,24 @@ class FRCDiagnosis:
         self.fits = []
         for name, pnames, p0, model in self._candidates():
             if p0 is None or isinstance(p0, tuple):  # friction, cubic: bounded scalar search on the training points
+
                 def obj(v, model=model):
                     try:
                         return float(np.sum(((self.x - model([v], only=self.train)) / sc)[self.train] ** 2))
                     except (SolverError, ParameterError, ValueError, FloatingPointError):
                         return 1e20
+
                 lo, upper = p0 if isinstance(p0, tuple) else (0.0, 0.5 * float(np.max(np.abs(self.F))))
                 if isinstance(p0, tuple):  # decades: the best of a log grid, then Brent next to it
-                    grid = np.unique(np.concatenate([[0.0], -np.geomspace(1e-3 * -lo, -lo, 3), np.geomspace(1e-3 * upper, upper, 6)]))
+                    grid = np.unique(
+                        np.concatenate([[0.0], -np.geomspace(1e-3 * -lo, -lo, 3), np.geomspace(1e-3 * upper, upper, 6)])
+                    )
                     vals = [obj(v) for v in grid]
                     j = int(np.argmin(vals))
                     lo, upper = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
-                res = minimize_scalar(obj, bounds=(lo, upper), method="bounded", options=dict(maxiter=7, xatol=1e-3 * (upper - lo)))
+                res = minimize_scalar(
+                    obj, bounds=(lo, upper), method="bounded", options=dict(maxiter=7, xatol=1e-3 * (upper - lo))
+                )
                 p = np.array([res.x])
             else:
                 p = least_squares(lambda q, model=model: ((self.x - model(q)) / sc)[self.train], p0, diff_step=1e-4).x
@@ -316,8 +377,16 @@ class FRCDiagnosis:
             s2 = float(r[self.train] @ r[self.train]) / max(int(self.train.sum()) - 1, 1)
             sd = math.sqrt(s2 / max(float(J @ J), 1e-300))
             bic = nt * math.log(max(rss_te, 1e-300) / nt) + math.log(nt)
-            self.fits.append({"effects": [name], "params": {f"{name}.{pnames[0]}": float(p[0])},
-                              "std": {f"{name}.{pnames[0]}": sd}, "pred": pred, "rss_test": rss_te, "bic": bic})
+            self.fits.append(
+                {
+                    "effects": [name],
+                    "params": {f"{name}.{pnames[0]}": float(p[0])},
+                    "std": {f"{name}.{pnames[0]}": sd},
+                    "pred": pred,
+                    "rss_test": rss_te,
+                    "bic": bic,
+                }
+            )
         self.bic0 = nt * math.log(max(self.rss0, 1e-300) / nt)
         self.fits.sort(key=lambda f: f["bic"])
         best = self.fits[0]
@@ -329,9 +398,9 @@ class FRCDiagnosis:
         nr = max(self.noise_rel, 1e-300)
         excess = math.sqrt(self.rss0 / nt) / nr - 1.0
         self.structural = excess > EXCESS_THRESHOLD and best["bic"] < self.bic0 - BIC_THRESHOLD
-        g0 = max(self.rss0 / nt - nr ** 2, 0.0)
+        g0 = max(self.rss0 / nt - nr**2, 0.0)
         for f in self.fits:
-            g1 = max(f["rss_test"] / nt - nr ** 2, 0.0)
+            g1 = max(f["rss_test"] / nt - nr**2, 0.0)
             f["gap_closed"] = None if g0 <= 0 else 1.0 - g1 / g0
             f["delta_bic"] = f["bic"] - self.bic0
         self.chosen = best if self.structural else None
@@ -339,6 +408,7 @@ class FRCDiagnosis:
         # the honest part (gates.py): in noise units over every point, does the best candidate
         # explain at least MIN_SHARE of the gap, and is what it leaves still structural?
         from ..gates import noise_gate, remaining_gate, share_gate
+
         n = self.x.size
         c0, c1 = self.chi2(self.pred0), self.chi2(best["pred"])
         G0, G1 = max(c0 - n, 0.0), max(c1 - n, 0.0)
@@ -357,31 +427,56 @@ class FRCDiagnosis:
         xr = 1.0  # residuals are relative to x_max already
         c = self.chosen
         best = c or self.fits[0]
-        verdict = (f"FRC: gap attributed to {c['effects'][0]}" if c else
-                   "FRC: no structural effect (held-out gap at the noise floor or no candidate beats it)")
+        verdict = (
+            f"FRC: gap attributed to {c['effects'][0]}"
+            if c
+            else "FRC: no structural effect (held-out gap at the noise floor or no candidate beats it)"
+        )
         if getattr(self, "unexplained", False):
             h = self.hint["effects"][0] if getattr(self, "hint", None) else None
-            verdict = ((verdict + "; a structural gap remains that it does not explain") if c else
-                       "FRC: a structural gap remains that none of the candidates explains; it lives in the FRC"
-                       f" between {self.w.min():.4g} and {self.w.max():.4g} rad/s"
-                       + (f" (closest candidate, a hint not a cause: {h})" if h else ""))
+            verdict = (
+                (verdict + "; a structural gap remains that it does not explain")
+                if c
+                else "FRC: a structural gap remains that none of the candidates explains; it lives in the FRC"
+                f" between {self.w.min():.4g} and {self.w.max():.4g} rad/s"
+                + (f" (closest candidate, a hint not a cause: {h})" if h else "")
+            )
         return {
-            "records": self.names, "noise_floor": self.noise, "noise_relative": self.noise_rel,
+            "records": self.names,
+            "noise_floor": self.noise,
+            "noise_relative": self.noise_rel,
             "where": {"omega": self.w.tolist(), "residual": (self.x - self.pred0).tolist()},
             "candidates": [{k: v for k, v in f.items() if k != "pred"} for f in self.fits],
-            "attribution": {"structural": self.structural, "verdict": verdict, "effects": c["effects"] if c else [],
-                            "unexplained": bool(getattr(self, "unexplained", False)),
-                            "unexplained_share": getattr(self, "unexplained_share", None),
-                            "params": c["params"] if c else {}, "std": c["std"] if c else {}},
-            "held_out": {"nrmse_before": math.sqrt(self.rss0 / nt) / xr, "nrmse_after": math.sqrt(best["rss_test"] / nt) / xr,
-                         "gap_closed": best["gap_closed"] if c else None, "best_candidate": best["effects"][0]},
+            "attribution": {
+                "structural": self.structural,
+                "verdict": verdict,
+                "effects": c["effects"] if c else [],
+                "unexplained": bool(getattr(self, "unexplained", False)),
+                "unexplained_share": getattr(self, "unexplained_share", None),
+                "params": c["params"] if c else {},
+                "std": c["std"] if c else {},
+            },
+            "held_out": {
+                "nrmse_before": math.sqrt(self.rss0 / nt) / xr,
+                "nrmse_after": math.sqrt(best["rss_test"] / nt) / xr,
+                "gap_closed": best["gap_closed"] if c else None,
+                "best_candidate": best["effects"][0],
+            },
         }
 
     def markdown(self):
         res = self.result()
         h = res["held_out"]
-        L = ["## Stepped-sine FRC records", "", f"**{res['attribution']['verdict']}**", "", "![frc](frc.png)", "",
-             "| effect | held-out dBIC | gap closed | parameter (std) |", "|---|---|---|---|"]
+        L = [
+            "## Stepped-sine FRC records",
+            "",
+            f"**{res['attribution']['verdict']}**",
+            "",
+            "![frc](frc.png)",
+            "",
+            "| effect | held-out dBIC | gap closed | parameter (std) |",
+            "|---|---|---|---|",
+        ]
         for f in self.fits:
             k, v = next(iter(f["params"].items()))
             gc = "n/a" if f["gap_closed"] is None else f"{100 * f['gap_closed']:.0f} %"

@@ -20,6 +20,7 @@ nominal + delta): base mass ``(-(h w)^2 X, 0)``, base stiffness ``(X, 0)``, base
 evidence is leave-one-record-out (or the dataset's roles): the chi-square of each record with the
 parameters fitted on the others.
 """
+
 from __future__ import annotations
 
 from dataclasses import dataclass, field
@@ -67,7 +68,9 @@ class RecView:
     vF: np.ndarray
     grid: dict = field(default_factory=dict)  #: x, xd, xdd, y, yd, ydd on one period
     W: np.ndarray = field(default_factory=lambda: np.empty((0, 2, 2)))  #: whitening matrices per harmonic (H+1, 2, 2)
-    r: np.ndarray = field(default_factory=lambda: np.empty(0))  #: whitened nominal residual, real vector (set by SystemModel)
+    r: np.ndarray = field(
+        default_factory=lambda: np.empty(0)
+    )  #: whitened nominal residual, real vector (set by SystemModel)
     role: str | None = None
     dt: float = 1e-3  #: sampling interval [s]
     spike: dict = field(default_factory=dict)
@@ -110,20 +113,39 @@ def record_views(ds):
         correct_series(s, chains)
         mo = "x" if "x" in c else "xdd"
         if not s.periodic or min(s.r2["force"], s.r2[mo]) < PERIODIC_R2:
-            flagged.append((rec.name, f"not periodic at w = {rec.omega:.4g} rad/s (harmonic series explains "
-                                      f"{100 * min(s.r2['force'], s.r2[mo]):.0f} % of force/{mo}): no harmonic analysis"))
+            flagged.append(
+                (
+                    rec.name,
+                    f"not periodic at w = {rec.omega:.4g} rad/s (harmonic series explains "
+                    f"{100 * min(s.r2['force'], s.r2[mo]):.0f} % of force/{mo}): no harmonic analysis",
+                )
+            )
             continue
         H = min(H_EQ, s.H)
         X, vX = fuse(s, "x", "xdd" if "xdd" in c else None, H)
         Y, vY = fuse(s, "y", "ydd" if "ydd" in c else None, H)
-        F, vF = s.coef["force"][:H + 1], s.var["force"][:H + 1]
+        F, vF = s.coef["force"][: H + 1], s.var["force"][: H + 1]
         dc = "x" in c and "y" in c
         if not dc:  # nominal static equilibrium, no preload: the mean is not measured
             X[0] = Y[0] = F[0].real / BaseParams(**ds.nominal["base"]).stiffness
             vX[0] = vY[0] = 0.0
         amp = float(np.abs(F[1])) if rec.amplitude is None else rec.amplitude
-        v = RecView(rec.name, rec.omega, amp, s, X, vX, Y, vY, F, vF, role=rec.role,
-                    dt=float((c["t"][-1] - c["t"][0]) / (len(c["t"]) - 1)), dc=dc, acq=chains)
+        v = RecView(
+            rec.name,
+            rec.omega,
+            amp,
+            s,
+            X,
+            vX,
+            Y,
+            vY,
+            F,
+            vF,
+            role=rec.role,
+            dt=float((c["t"][-1] - c["t"][0]) / (len(c["t"]) - 1)),
+            dc=dc,
+            acq=chains,
+        )
         for nm, C in (("x", X), ("y", Y)):
             for k, suf in ((0, ""), (1, "d"), (2, "dd")):
                 v.grid[nm + suf] = grid_values(C, rec.omega, N_GRID, k)
@@ -132,8 +154,13 @@ def record_views(ds):
             dof = max(s.n - (2 * s.H + 1), 1)
             ms = float(e @ e) / dof
             sr = s.noise_robust["ydd"]
-            v.spike = {"ms": ms, "sigma": sr, "n": s.n, "ratio": ms / max(sr * sr, 1e-300),
-                       "excess": max(ms - sr * sr, 0.0)}
+            v.spike = {
+                "ms": ms,
+                "sigma": sr,
+                "n": s.n,
+                "ratio": ms / max(sr * sr, 1e-300),
+                "excess": max(ms - sr * sr, 0.0),
+            }
             if "xdd" in s.resid:
                 ex = s.resid["xdd"]
                 v.spike["xy_corr"] = float(np.corrcoef(ex, e)[0, 1]) if np.std(ex) > 0 and np.std(e) > 0 else 0.0
@@ -155,11 +182,11 @@ class SystemModel:
             H = v.X.size - 1
             hw = np.arange(H + 1) * v.omega
             A, B = self.residuals(v, v.X, v.Y, v.F, v.grid)
-            zl = t.stiffness + 1j * t.damping * hw - t.inertance * hw ** 2  # linear link: dL/dX = -dL/dY
-            zb = b.stiffness + 1j * b.damping * hw - b.mass * hw ** 2
+            zl = t.stiffness + 1j * t.damping * hw - t.inertance * hw**2  # linear link: dL/dX = -dL/dY
+            zb = b.stiffness + 1j * b.damping * hw - b.mass * hw**2
             J = np.zeros((H + 1, 2, 3), complex)
             J[:, 0, 0], J[:, 0, 1], J[:, 0, 2] = -zb - zl, zl, 1.0
-            J[:, 1, 0], J[:, 1, 1] = -zl, -t.mass * hw ** 2 + zl
+            J[:, 1, 0], J[:, 1, 1] = -zl, -t.mass * hw**2 + zl
             var = np.stack([v.vX, v.vY, v.vF], axis=1)
             S = np.einsum("hik,hk,hjk->hij", J, var, J.conj())
             W = np.empty_like(S)
@@ -175,12 +202,15 @@ class SystemModel:
         H = X.size - 1
         hw = np.arange(H + 1) * v.omega
         if grid is None:
-            grid = {nm + suf: grid_values(C, v.omega, N_GRID, k) for nm, C in (("x", X), ("y", Y))
-                    for k, suf in ((0, ""), (1, "d"), (2, "dd"))}
+            grid = {
+                nm + suf: grid_values(C, v.omega, N_GRID, k)
+                for nm, C in (("x", X), ("y", Y))
+                for k, suf in ((0, ""), (1, "d"), (2, "dd"))
+            }
         Fs = link_force_grid(grid["x"], grid["xd"], grid["y"], grid["yd"], self.p)
         L = grid_coef(Fs, H) + t.inertance * grid_coef(grid["xdd"] - grid["ydd"], H)
-        zb = b.stiffness + 1j * b.damping * hw - b.mass * hw ** 2
-        return F - zb * X - L, -t.mass * hw ** 2 * Y - L
+        zb = b.stiffness + 1j * b.damping * hw - b.mass * hw**2
+        return F - zb * X - L, -t.mass * hw**2 * Y - L
 
     def whiten(self, v, A, B):
         """Real vector of whitened residual components (h = 0: real parts only)."""
@@ -196,7 +226,7 @@ class SystemModel:
         hw = np.arange(H + 1) * v.omega
         D = v.X - v.Y
         Vr = 1j * hw * D
-        a = -(hw ** 2) * D
+        a = -(hw**2) * D
         z = np.zeros(H + 1, complex)
         if effect == "viscous":
             return [(Vr, Vr)]
@@ -209,7 +239,7 @@ class SystemModel:
             c3 = grid_coef(self.unit_link_force(v, P_k3), H)
             return [(c3, c3)]
         if effect == "mass_split":
-            return [(a, -(hw ** 2) * v.X)]
+            return [(a, -(hw**2) * v.X)]
         if effect == "force_error":
             return [(v.F, z)]
         if effect == "sensor_offset":
@@ -221,7 +251,7 @@ class SystemModel:
         # the nominal's own parameters: true = nominal + delta; the nominal's residual is the
         # force the delta adds (base equation: (dK + i h w dC - dM (h w)^2) X; link: dk (x - y))
         if effect == "base_mass":
-            return [(-(hw ** 2) * v.X, z)]
+            return [(-(hw**2) * v.X, z)]
         if effect == "base_stiffness":
             return [(v.X.copy(), z)]
         if effect == "base_damping":
@@ -263,17 +293,23 @@ class SystemModel:
 
 
 EFFECT_PARAMS = {
-    "friction": ("friction_force",), "play": ("delta_inertance_eff",), "viscous": ("delta_damping",),
-    "mass_split": ("delta_inertance",), "cubic": ("cubic_stiffness",), "force_error": ("force_gain_error",),
+    "friction": ("friction_force",),
+    "play": ("delta_inertance_eff",),
+    "viscous": ("delta_damping",),
+    "mass_split": ("delta_inertance",),
+    "cubic": ("cubic_stiffness",),
+    "force_error": ("force_gain_error",),
     "sensor_offset": ("x_offset", "y_offset"),
-    "base_mass": ("delta_mass",), "base_stiffness": ("delta_stiffness",), "base_damping": ("delta_damping",),
+    "base_mass": ("delta_mass",),
+    "base_stiffness": ("delta_stiffness",),
+    "base_damping": ("delta_damping",),
     "tmd_stiffness": ("delta_stiffness",),
 }
 SIGN = {"force_error": -1.0}  # beta = -alpha
 
 
 def _lstsq(Phi, y):
-    sc = np.sqrt((Phi ** 2).sum(axis=0))
+    sc = np.sqrt((Phi**2).sum(axis=0))
     sc[sc == 0] = 1.0
     A = Phi / sc
     beta, *_ = np.linalg.lstsq(A, y, rcond=None)
@@ -335,16 +371,26 @@ def fit_eq(model: SystemModel, effects, folds, theta=None, prior=None) -> EqFit:
             r = ys[i] - des[i][0] - des[i][1] @ beta
             chi_rec[i] += float(r @ r)
             res_rec[i] = r
-    Phi, y = _with_prior(np.vstack([des[i][1] for i in train_all]),
-                         np.concatenate([ys[i] - des[i][0] for i in train_all]), prior)
+    Phi, y = _with_prior(
+        np.vstack([des[i][1] for i in train_all]), np.concatenate([ys[i] - des[i][0] for i in train_all]), prior
+    )
     beta, cov = _lstsq(Phi, y)
     r = y - Phi @ beta
     chi_fit = float(r @ r)
     dof = max(y.size - beta.size, 1)
     cov = cov * max(1.0, chi_fit / dof)
     test_ids = sorted({i for _, te in folds for i in te})
-    f = EqFit(tuple(effects), theta, beta, cov, sum(chi_rec[i] for i in test_ids), chi_rec, chi_fit, beta.size,
-              resid_ho=res_rec)
+    f = EqFit(
+        tuple(effects),
+        theta,
+        beta,
+        cov,
+        sum(chi_rec[i] for i in test_ids),
+        chi_rec,
+        chi_fit,
+        beta.size,
+        resid_ho=res_rec,
+    )
     k = 0
     sd = np.sqrt(np.clip(np.diag(cov), 0, None))
     for e in effects:
@@ -366,14 +412,18 @@ def folds_for(views):
         te = [i for i, r in enumerate(roles) if r == "test"]
         tr = [i for i, r in enumerate(roles) if r != "test"]
         if not te:
-            raise DataError("every time record has role 'train': mark at least one record 'role: test' "
-                            "(or give no roles: each record is then held out in turn)")
+            raise DataError(
+                "every time record has role 'train': mark at least one record 'role: test' "
+                "(or give no roles: each record is then held out in turn)"
+            )
         if not tr:
             raise DataError("every time record has role 'test': at least one record must be for training")
         return [(tr, te)]
     if n < 2:
-        raise DataError("the system-level diagnosis needs at least two periodic time records "
-                        "(one is held out while the others are fitted)")
+        raise DataError(
+            "the system-level diagnosis needs at least two periodic time records "
+            "(one is held out while the others are fitted)"
+        )
     return [([j for j in range(n) if j != i], [i]) for i in range(n)]
 
 

@@ -24,6 +24,7 @@ three change the dynamics. The steady state is found by Newton shooting on the p
 (finite-difference monodromy, reused along a sweep), started from this module's own exact linear
 response.
 """
+
 from __future__ import annotations
 
 import math
@@ -46,8 +47,11 @@ class OOVModel:
         self.M, self.K, self.C = float(base["mass"]), float(base["stiffness"]), float(base["damping"])
         self.m, self.k, self.c = float(tmd["mass"]), float(tmd["stiffness"]), float(tmd["damping"])
         self.I = float(tmd.get("inertance", 0.0))
-        if tmd.get("inerter", "ideal") not in ("ideal", "none") or tmd.get("friction_force", 0.0) \
-                or tmd.get("cubic_stiffness", 0.0):
+        if (
+            tmd.get("inerter", "ideal") not in ("ideal", "none")
+            or tmd.get("friction_force", 0.0)
+            or tmd.get("cubic_stiffness", 0.0)
+        ):
             raise ValueError("OOVModel: the nominal must have an ideal inerter, no friction, no cubic term")
         self.F, self.c2, self.mu, self.K3 = float(F), float(c2), float(mu), float(K3)
         M1, m1, I = self.M + self.I, self.m + self.I, self.I
@@ -58,7 +62,7 @@ class OOVModel:
         """(xdd, ydd), vectorised over arrays."""
         v = xd - yd
         Fs = self.k * (x - y) + self.c * v + self.c2 * np.abs(v) * v
-        Fb = self.C * xd + self.K * x + self.K3 * x ** 3 + self.mu * np.tanh(xd / V0_BASE_FRICTION)
+        Fb = self.C * xd + self.K * x + self.K3 * x**3 + self.mu * np.tanh(xd / V0_BASE_FRICTION)
         r1 = self.F * np.cos(omega * t) - Fb - Fs
         r2 = Fs
         xdd = ((self.m + self.I) * r1 + self.I * r2) / self.det
@@ -69,6 +73,7 @@ class OOVModel:
         def f(t, z):
             xdd, ydd = self.accelerations(t, z[0], z[1], z[2], z[3], omega)
             return np.array([z[1], xdd, z[3], ydd])
+
         return f
 
     def linear_response(self, omega):
@@ -186,8 +191,16 @@ class OOVModel:
         if self.c2 == 0.0 and self.mu == 0.0 and self.K3 == 0.0:
             pass  # still integrated: the same path for every truth
         sc = self._scale(omega)
-        sol = solve_ivp(self.rhs(omega), (0.0, float(tau[-1])), zs, method="DOP853", rtol=RTOL,
-                        atol=1e-12 * sc, t_eval=tau, dense_output=False)
+        sol = solve_ivp(
+            self.rhs(omega),
+            (0.0, float(tau[-1])),
+            zs,
+            method="DOP853",
+            rtol=RTOL,
+            atol=1e-12 * sc,
+            t_eval=tau,
+            dense_output=False,
+        )
         if not sol.success:
             raise RuntimeError(f"OOV integrator failed at omega = {omega}: {sol.message}")
         x, xd, y, yd = sol.y
@@ -199,14 +212,21 @@ class OOVModel:
         zs = self.steady_state(omega, z0, hint)
         T = 2 * math.pi / omega
         tt = np.linspace(0.0, T, n, endpoint=False)
-        sol = solve_ivp(self.rhs(omega), (0.0, T), zs, method="DOP853", rtol=RTOL,
-                        atol=1e-12 * self._scale(omega), t_eval=tt)
+        sol = solve_ivp(
+            self.rhs(omega), (0.0, T), zs, method="DOP853", rtol=RTOL, atol=1e-12 * self._scale(omega), t_eval=tt
+        )
         return float(np.max(np.abs(sol.y[0]))), zs
 
 
 def oov_model(nom: dict, oov: dict, F: float) -> OOVModel:
-    return OOVModel(nom["base"], nom["tmd"], F, c2=oov.get("quadratic_damping", 0.0),
-                    mu=oov.get("base_friction", 0.0), K3=oov.get("base_hardening", 0.0))
+    return OOVModel(
+        nom["base"],
+        nom["tmd"],
+        F,
+        c2=oov.get("quadratic_damping", 0.0),
+        mu=oov.get("base_friction", 0.0),
+        K3=oov.get("base_hardening", 0.0),
+    )
 
 
 def has_dynamics(oov: dict) -> bool:

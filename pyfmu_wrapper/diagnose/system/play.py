@@ -18,6 +18,7 @@ geometric ladder of gaps; the gap is where the measured S of the training record
 simulated S(eps) curves (log-log interpolation). Held out: the S of each record predicted from the
 gap fitted on the others.
 """
+
 from __future__ import annotations
 
 import math
@@ -93,8 +94,7 @@ class PlayFit:
 
     def _best(self, ids):
         grid = np.exp(np.linspace(math.log(EPS_LADDER[0]), math.log(EPS_LADDER[-1]), 400))
-        cost = [sum((math.log(max(self.S[i], 1e-30)) - math.log(self._predict(i, g))) ** 2 for i in ids)
-                for g in grid]
+        cost = [sum((math.log(max(self.S[i], 1e-30)) - math.log(self._predict(i, g))) ** 2 for i in ids) for g in grid]
         return float(grid[int(np.argmin(cost))])
 
     def fit(self, train_ids, folds):
@@ -138,7 +138,9 @@ class PlayFit:
         for v in self.views:
             # a longer run than the record: the periodic part of a chaotic rattle scatters less
             nper = SIGNATURE_PERIODS * max(2, int(round(v.series.n * v.dt * v.omega / (2 * math.pi))))
-            _, s = simulated_stat(self.base, self.tmd, v.omega, v.amplitude, self.eps if eps is None else eps, v.dt, nper)
+            _, s = simulated_stat(
+                self.base, self.tmd, v.omega, v.amplitude, self.eps if eps is None else eps, v.dt, nper
+            )
             self.n_sim += 1
             H = v.X.size - 1
             X, _ = fuse(s, "x", None, H)

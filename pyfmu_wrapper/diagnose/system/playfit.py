@@ -1,5 +1,6 @@
 """Play in a system diagnosis: the gap refined on the periodic evidence and refitted next to a
 second effect (methods of :class:`sysdiag.SystemDiagnosis`, kept apart by job)."""
+
 from __future__ import annotations
 
 import math
@@ -18,9 +19,11 @@ class PlayMixin:
         nominal link; extra damping (or stiffness, friction, ...) changes the rattle, so the gap is
         fitted again on curves simulated with the second effect's fitted parameters."""
         t, b, p = self.model.tmd, self.model.base, c.params
-        bkw = {"base_damping": lambda: {"damping": max(b.damping + p["base_damping.delta_damping"], 0.0)},
-               "base_mass": lambda: {"mass": b.mass + p["base_mass.delta_mass"]},
-               "base_stiffness": lambda: {"stiffness": b.stiffness + p["base_stiffness.delta_stiffness"]}}
+        bkw = {
+            "base_damping": lambda: {"damping": max(b.damping + p["base_damping.delta_damping"], 0.0)},
+            "base_mass": lambda: {"mass": b.mass + p["base_mass.delta_mass"]},
+            "base_stiffness": lambda: {"stiffness": b.stiffness + p["base_stiffness.delta_stiffness"]},
+        }
         if c.effects[1] in bkw:
             try:
                 pf = PlayFit(replace(b, **bkw[c.effects[1]]()), t, self.views)
@@ -29,13 +32,19 @@ class PlayMixin:
                 self.log.append(("note", c.effects, [f"play not refitted with {c.effects[1]}: {err}"]))
                 return
             return self._take_play(c, pf)
-        kw = {"viscous": lambda: {"damping": max(t.damping + p["viscous.delta_damping"], 0.0)},
-              "tmd_stiffness": lambda: {"stiffness": t.stiffness + p["tmd_stiffness.delta_stiffness"]},
-              "friction": lambda: {"friction_force": max(p["friction.friction_force"], 0.0),
-                                   "friction_slope": p["friction.friction_slope"]},
-              "cubic": lambda: {"cubic_stiffness": p["cubic.cubic_stiffness"]},
-              "mass_split": lambda: {"inertance": t.inertance + p["mass_split.delta_inertance"],
-                                     "mass": t.mass - p["mass_split.delta_inertance"]}}[c.effects[1]]()
+        kw = {
+            "viscous": lambda: {"damping": max(t.damping + p["viscous.delta_damping"], 0.0)},
+            "tmd_stiffness": lambda: {"stiffness": t.stiffness + p["tmd_stiffness.delta_stiffness"]},
+            "friction": lambda: {
+                "friction_force": max(p["friction.friction_force"], 0.0),
+                "friction_slope": p["friction.friction_slope"],
+            },
+            "cubic": lambda: {"cubic_stiffness": p["cubic.cubic_stiffness"]},
+            "mass_split": lambda: {
+                "inertance": t.inertance + p["mass_split.delta_inertance"],
+                "mass": t.mass - p["mass_split.delta_inertance"],
+            },
+        }[c.effects[1]]()
         try:
             pf = PlayFit(self.model.base, replace(t, **kw), self.views)
             pf.fit(self.train_ids, self.folds)
@@ -45,8 +54,16 @@ class PlayMixin:
         self._take_play(c, pf)
 
     def _take_play(self, c, pf):
-        self.log.append(("note", c.effects, [f"play gap refitted on rattle curves simulated with {c.effects[1]}: "
-                                             f"{self.play.eps:.4g} -> {pf.eps:.4g} m"]))
+        self.log.append(
+            (
+                "note",
+                c.effects,
+                [
+                    f"play gap refitted on rattle curves simulated with {c.effects[1]}: "
+                    f"{self.play.eps:.4g} -> {pf.eps:.4g} m"
+                ],
+            )
+        )
         self.play.eps, self.play.std, self.play.ho = pf.eps, pf.std, pf.ho
         self.play.n_sim += pf.n_sim
         c.params["play.play_gap"], c.std["play.play_gap"] = pf.eps, pf.std

@@ -16,6 +16,7 @@ Out-of-vocabulary datasets are classified as
 * **missed**: a visible truth, no effect named, ``unexplained`` false ("no structural effect");
 * **error**: diagnose refused the data or failed.
 """
+
 from __future__ import annotations
 
 import json
@@ -24,12 +25,19 @@ import statistics
 import time
 from pathlib import Path
 
-TEXT_UNEXPLAINED = re.compile(r"unexplained|none of the candidates|not explained|remains unexplained|"
-                              r"structural gap remains", re.I)
+TEXT_UNEXPLAINED = re.compile(
+    r"unexplained|none of the candidates|not explained|remains unexplained|"
+    r"structural gap remains",
+    re.I,
+)
 TARGETS = {  # issue 19, "Must show"
-    "singles_top1": (">=", 0.95), "clean_false_positive_rate": ("<=", 0.10), "pairs_both_named": (">=", 0.80),
-    "oov_honest_or_right": (">=", 0.80), "oov_confidently_wrong": ("<=", 0.10),
-    "unexplained_on_invocab_or_clean": ("<=", 0.05), "param_rel_error_median": ("<=", 0.05),
+    "singles_top1": (">=", 0.95),
+    "clean_false_positive_rate": ("<=", 0.10),
+    "pairs_both_named": (">=", 0.80),
+    "oov_honest_or_right": (">=", 0.80),
+    "oov_confidently_wrong": ("<=", 0.10),
+    "unexplained_on_invocab_or_clean": ("<=", 0.05),
+    "param_rel_error_median": ("<=", 0.05),
 }
 
 
@@ -44,8 +52,13 @@ def verdict_of(res: dict) -> dict:
     for k, p in (a.get("params") or {}).items():
         params.setdefault(k, p)
     text = str(v.get("text", a.get("verdict", "")))
-    return {"effects": effects, "unexplained": bool(v.get("unexplained", False)), "text": text, "params": params,
-            "unexplained_share": v.get("unexplained_share")}
+    return {
+        "effects": effects,
+        "unexplained": bool(v.get("unexplained", False)),
+        "text": text,
+        "params": params,
+        "unexplained_share": v.get("unexplained_share"),
+    }
 
 
 def oov_outcome(unexplained: bool, effects: list, visible: bool, error: bool = False) -> str:
@@ -63,15 +76,26 @@ def score_row(m: dict, res: dict | None, error: str | None = None) -> dict:
     hidden = list(m["hidden"])
     row = {"dataset": m["dataset"], "class": cls, "hidden": hidden, "error": error}
     if res is None:
-        row.update(found=[], unexplained=False, text="", text_unexplained=False, correct=False, both_named=False,
-                   param_rel_error={})
+        row.update(
+            found=[],
+            unexplained=False,
+            text="",
+            text_unexplained=False,
+            correct=False,
+            both_named=False,
+            param_rel_error={},
+        )
     else:
         v = verdict_of(res)
-        row.update(found=v["effects"], unexplained=v["unexplained"], text=v["text"],
-                   text_unexplained=bool(TEXT_UNEXPLAINED.search(v["text"])),
-                   unexplained_share=v["unexplained_share"],
-                   correct=cls != "oov" and sorted(v["effects"]) == sorted(hidden),
-                   both_named=cls == "pair" and set(hidden) <= set(v["effects"]))
+        row.update(
+            found=v["effects"],
+            unexplained=v["unexplained"],
+            text=v["text"],
+            text_unexplained=bool(TEXT_UNEXPLAINED.search(v["text"])),
+            unexplained_share=v["unexplained_share"],
+            correct=cls != "oov" and sorted(v["effects"]) == sorted(hidden),
+            both_named=cls == "pair" and set(hidden) <= set(v["effects"]),
+        )
         errs = {}
         for k, t in m.get("truth", {}).items():
             est = v["params"].get(k)
@@ -97,7 +121,8 @@ def summarise(rows: list) -> dict:
     perr = [e for r in invocab for e in r["param_rel_error"].values()]
     oov = by["oov"]
     s = {
-        "n_datasets": len(rows), **{f"n_{c}": len(v) for c, v in by.items()},
+        "n_datasets": len(rows),
+        **{f"n_{c}": len(v) for c, v in by.items()},
         "singles_top1": _rate(by["single"], lambda r: r["correct"]),
         "clean_false_positive_rate": _rate(by["clean"], lambda r: bool(r["found"])),
         "pairs_both_named": _rate(by["pair"], lambda r: r["both_named"]),
@@ -124,10 +149,16 @@ def summarise(rows: list) -> dict:
             d["n_single"] += int(r["class"] == "single")
             d["single_top1"] += int(r["class"] == "single" and r["correct"])
             d["errors"] += [v for k, v in r["param_rel_error"].items() if k.split(".")[0] == e]
-    s["per_effect"] = {e: {"n": d["n"], "named": d["named"], "n_single": d["n_single"],
-                           "single_top1": d["single_top1"],
-                           "param_rel_error_median": statistics.median(d["errors"]) if d["errors"] else None}
-                       for e, d in sorted(per.items())}
+    s["per_effect"] = {
+        e: {
+            "n": d["n"],
+            "named": d["named"],
+            "n_single": d["n_single"],
+            "single_top1": d["single_top1"],
+            "param_rel_error_median": statistics.median(d["errors"]) if d["errors"] else None,
+        }
+        for e, d in sorted(per.items())
+    }
     po: dict[str, dict] = {}
     for r in oov:
         e = r["hidden"][0] if r["hidden"] else "?"
@@ -135,9 +166,14 @@ def summarise(rows: list) -> dict:
         d["n"] += 1
         d[r["oov_outcome"]] += 1
     s["per_oov_effect"] = dict(sorted(po.items()))
-    s["targets"] = {k: {"target": f"{op} {lim:g}", "value": s[k],
-                        "met": s[k] is not None and (s[k] >= lim if op == ">=" else s[k] <= lim)}
-                    for k, (op, lim) in TARGETS.items()}
+    s["targets"] = {
+        k: {
+            "target": f"{op} {lim:g}",
+            "value": s[k],
+            "met": s[k] is not None and (s[k] >= lim if op == ">=" else s[k] <= lim),
+        }
+        for k, (op, lim) in TARGETS.items()
+    }
     return s
 
 
@@ -182,14 +218,20 @@ def table(summary: dict) -> str:
     """The score as a Markdown table (the one in docs/diagnose.md)."""
     s = summary
     n = {c: s[f"n_{c}"] for c in ("clean", "single", "pair", "oov")}
-    lines = [f"{s['n_datasets']} datasets: {n['clean']} clean, {n['single']} singles, {n['pair']} pairs, "
-             f"{n['oov']} out of vocabulary ({s['oov_invisible']} of them invisible)", "",
-             "| measure | value | target | met |", "|---|---|---|---|"]
+    lines = [
+        f"{s['n_datasets']} datasets: {n['clean']} clean, {n['single']} singles, {n['pair']} pairs, "
+        f"{n['oov']} out of vocabulary ({s['oov_invisible']} of them invisible)",
+        "",
+        "| measure | value | target | met |",
+        "|---|---|---|---|",
+    ]
 
     def add(name, key, frac):
         t = s["targets"].get(key)
-        lines.append(f"| {name} | {frac} ({_pct(s[key])}) | {t['target'] if t else ''} | "
-                     f"{'yes' if t and t['met'] else ('no' if t else '')} |")
+        lines.append(
+            f"| {name} | {frac} ({_pct(s[key])}) | {t['target'] if t else ''} | "
+            f"{'yes' if t and t['met'] else ('no' if t else '')} |"
+        )
 
     def cnt(c, pred_rate):
         return f"{round((s[pred_rate] or 0) * n[c])}/{n[c]}"
@@ -201,26 +243,40 @@ def table(summary: dict) -> str:
     add("OOV: confidently wrong", "oov_confidently_wrong", cnt("oov", "oov_confidently_wrong"))
     ni = n["clean"] + n["single"] + n["pair"]
     u = s["unexplained_on_invocab_or_clean"]
-    add("unexplained raised on in-vocabulary or clean", "unexplained_on_invocab_or_clean",
-        f"{round((u or 0) * ni)}/{ni}")
+    add(
+        "unexplained raised on in-vocabulary or clean",
+        "unexplained_on_invocab_or_clean",
+        f"{round((u or 0) * ni)}/{ni}",
+    )
     pe = s["param_rel_error_median"]
-    lines.append(f"| median parameter error (named hidden effects) | {'-' if pe is None else f'{100 * pe:.2f} %'} | "
-                 f"<= 5 % | {'yes' if s['targets']['param_rel_error_median']['met'] else 'no'} |")
-    lines.append(f"| OOV honest / right / confidently wrong / missed / invisible | "
-                 f"{_pct(s['oov_honest'])} / {_pct(s['oov_right'])} / {_pct(s['oov_confidently_wrong'])} / "
-                 f"{_pct(s['oov_missed'])} / {s['oov_invisible']} | | |")
+    lines.append(
+        f"| median parameter error (named hidden effects) | {'-' if pe is None else f'{100 * pe:.2f} %'} | "
+        f"<= 5 % | {'yes' if s['targets']['param_rel_error_median']['met'] else 'no'} |"
+    )
+    lines.append(
+        f"| OOV honest / right / confidently wrong / missed / invisible | "
+        f"{_pct(s['oov_honest'])} / {_pct(s['oov_right'])} / {_pct(s['oov_confidently_wrong'])} / "
+        f"{_pct(s['oov_missed'])} / {s['oov_invisible']} | | |"
+    )
     lines.append(f"| verdict text and `unexplained` flag disagree | {s['text_flag_disagreements']} | | |")
     lines.append(f"| diagnose refused or failed | {s['errors']} | | |")
     lines += ["", "| effect | singles: top-1 | singles + pairs: named | param. error median |", "|---|---|---|---|"]
     for e, d in s["per_effect"].items():
         pe = d["param_rel_error_median"]
-        lines.append(f"| {e} | {d['single_top1']}/{d['n_single']} | {d['named']}/{d['n']} | "
-                     f"{'-' if pe is None else f'{100 * pe:.2f} %'} |")
-    lines += ["", "| OOV effect | datasets | honest | right | confidently wrong | missed | error |",
-              "|---|---|---|---|---|---|---|"]
+        lines.append(
+            f"| {e} | {d['single_top1']}/{d['n_single']} | {d['named']}/{d['n']} | "
+            f"{'-' if pe is None else f'{100 * pe:.2f} %'} |"
+        )
+    lines += [
+        "",
+        "| OOV effect | datasets | honest | right | confidently wrong | missed | error |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for e, d in s["per_oov_effect"].items():
-        lines.append(f"| {e} | {d['n']} | {d['honest']} | {d['right']} | {d['confidently_wrong']} | "
-                     f"{d['missed']} | {d['error']} |")
+        lines.append(
+            f"| {e} | {d['n']} | {d['honest']} | {d['right']} | {d['confidently_wrong']} | "
+            f"{d['missed']} | {d['error']} |"
+        )
     return "\n".join(lines)
 
 
@@ -234,16 +290,17 @@ def row_line(r: dict) -> str:
         st = "ok" if r["correct"] else "WRONG"
     un = " unexplained" if r["unexplained"] else ""
     err = f" ({r['error']})" if r["error"] else ""
-    return (f"{r['dataset']} [{r['class']}]: hidden {r['hidden'] or '-'} found {r['found'] or '-'}{un} {st}"
-            f"{err} ({r['seconds']:.1f} s)")
+    return (
+        f"{r['dataset']} [{r['class']}]: hidden {r['hidden'] or '-'} found {r['found'] or '-'}{un} {st}"
+        f"{err} ({r['seconds']:.1f} s)"
+    )
 
 
 def score_line(r: dict) -> str:
     """The progress line of ``score`` for a row of either suite."""
     if "class" in r:
         return row_line(r)
-    return (f"{r['dataset']}: hidden {r['hidden'] or '-'} found {r['found'] or '-'} "
-            f"{'ok' if r['correct'] else 'WRONG'}")
+    return f"{r['dataset']}: hidden {r['hidden'] or '-'} found {r['found'] or '-'} {'ok' if r['correct'] else 'WRONG'}"
 
 
 def score_summary(res: dict) -> str:

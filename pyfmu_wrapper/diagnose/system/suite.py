@@ -15,6 +15,7 @@ and out-of-vocabulary effects (:mod:`sysbench_oov`). Labels, severities, the dra
 the visibility of the truth (chi-square of the noise-free difference from the nominal, all records)
 go to ``manifest.json`` only.
 """
+
 from __future__ import annotations
 
 import json
@@ -28,13 +29,28 @@ from .bench import SIGNED as BASE_SIGNED
 from .bench import TRUTH_KEY as BASE_TRUTH_KEY
 from .bench import has_cubic, nominal, true_tmd_kwargs
 
-RANGES = dict(BASE_RANGES, base_mass=(2.0, 8.0), base_stiffness=(800.0, 3200.0), base_damping=(10.0, 50.0),
-              tmd_stiffness=(80.0, 320.0))
+RANGES = dict(
+    BASE_RANGES,
+    base_mass=(2.0, 8.0),
+    base_stiffness=(800.0, 3200.0),
+    base_damping=(10.0, 50.0),
+    tmd_stiffness=(80.0, 320.0),
+)
 SIGNED = set(BASE_SIGNED) | {"base_mass", "base_stiffness", "base_damping", "tmd_stiffness"}
-TRUTH_KEY = dict(BASE_TRUTH_KEY, base_mass="base_mass.delta_mass", base_stiffness="base_stiffness.delta_stiffness",
-                 base_damping="base_damping.delta_damping", tmd_stiffness="tmd_stiffness.delta_stiffness")
-OOV_RANGES = {"quadratic_damping": (1.0, 20.0), "base_friction": (1.0, 10.0), "base_hardening": (5e4, 5e5),
-              "x_gain": (0.03, 0.10), "accel_gain": (0.03, 0.10)}
+TRUTH_KEY = dict(
+    BASE_TRUTH_KEY,
+    base_mass="base_mass.delta_mass",
+    base_stiffness="base_stiffness.delta_stiffness",
+    base_damping="base_damping.delta_damping",
+    tmd_stiffness="tmd_stiffness.delta_stiffness",
+)
+OOV_RANGES = {
+    "quadratic_damping": (1.0, 20.0),
+    "base_friction": (1.0, 10.0),
+    "base_hardening": (5e4, 5e5),
+    "x_gain": (0.03, 0.10),
+    "accel_gain": (0.03, 0.10),
+}
 OOV_SIGNED = {"x_gain", "accel_gain"}
 FS_CHOICES = (256.0, 500.0, 512.0, 1000.0, 1024.0, 2000.0, 2048.0, 2500.0, 2560.0, 5000.0)
 VISIBLE_CHI2 = 100.0  #: a truth is "visible" when the noise-free difference has chi-square above this
@@ -58,8 +74,13 @@ def true_parts(nom: dict, hidden: dict, oov: dict) -> dict:
     base["damping"] += hidden.get("base_damping", 0.0)
     tk = true_tmd_kwargs(nom, hidden)
     tk["stiffness"] += hidden.get("tmd_stiffness", 0.0)
-    return {"base": base, "tmd": tk, "force_error": hidden.get("force_error", 0.0),
-            "sensor_offset": hidden.get("sensor_offset", 0.0), "oov": dict(oov)}
+    return {
+        "base": base,
+        "tmd": tk,
+        "force_error": hidden.get("force_error", 0.0),
+        "sensor_offset": hidden.get("sensor_offset", 0.0),
+        "oov": dict(oov),
+    }
 
 
 def draw_acquisition(rng, fs: float, accel_only: bool):
@@ -67,10 +88,16 @@ def draw_acquisition(rng, fs: float, accel_only: bool):
     acq: dict[str, dict] = {}
     if mode != "none":
         typ = str(rng.choice(["butterworth", "bessel"]))
-        filt = {"type": typ, "order": int(rng.integers(2, 9)),
-                "cutoff_hz": round(float(rng.uniform(0.25, 0.45)) * fs, 1)}
-        chans = ["xdd", "ydd"] if mode == "accel" else (["force", "xdd", "ydd"] if accel_only
-                                                          else ["force", "x", "y", "xdd", "ydd"])
+        filt = {
+            "type": typ,
+            "order": int(rng.integers(2, 9)),
+            "cutoff_hz": round(float(rng.uniform(0.25, 0.45)) * fs, 1),
+        }
+        chans = (
+            ["xdd", "ydd"]
+            if mode == "accel"
+            else (["force", "xdd", "ydd"] if accel_only else ["force", "x", "y", "xdd", "ydd"])
+        )
         for c in chans:
             acq[c] = {"filter": dict(filt)}
     if rng.uniform() < 0.25:  # a load-cell conditioner delay
@@ -91,25 +118,49 @@ def draw_dataset(rng, hidden: dict, oov: dict, accel_only: bool | None = None) -
         accel_only = rng.uniform() < 0.2 and "sensor_offset" not in hidden and "x_gain" not in oov
     fs = float(rng.choice(FS_CHOICES))
     n_rec = int(rng.integers(3, 7))
-    fhz = np.sort(rng.choice(np.arange(math.ceil(1500 / (2 * math.pi)), int(2500 / (2 * math.pi)) + 1),
-                             n_rec, replace=False)) / 100.0
+    fhz = (
+        np.sort(
+            rng.choice(np.arange(math.ceil(1500 / (2 * math.pi)), int(2500 / (2 * math.pi)) + 1), n_rec, replace=False)
+        )
+        / 100.0
+    )
     recs = []
     for f in fhz:
         periods = int(rng.integers(8, 16)) + float(rng.uniform(0.1, 0.9))
         noise = {"force": float(rng.uniform(0.003, 0.02))}
         noise.update({ch: float(rng.uniform(0.005, 0.03)) for ch in ("x", "y", "xdd", "ydd")})
-        recs.append({"frequency_hz": float(f), "omega": 2 * math.pi * float(f),
-                     "force": float(5 * round(rng.uniform(100, 300) / 5)), "periods": periods,
-                     "phase": float(rng.uniform(0, 2 * math.pi)), "noise": noise})
+        recs.append(
+            {
+                "frequency_hz": float(f),
+                "omega": 2 * math.pi * float(f),
+                "force": float(5 * round(rng.uniform(100, 300) / 5)),
+                "periods": periods,
+                "phase": float(rng.uniform(0, 2 * math.pi)),
+                "noise": noise,
+            }
+        )
     frcs = []
     for _ in range(int(rng.integers(1, 3))):
         d = str(rng.choice(["up", "down"]))
         om = np.arange(15.0, 25.001, 0.5)
-        frcs.append({"force": float(10 * round(rng.uniform(100, 250) / 10)), "direction": d,
-                     "omegas": (om if d == "up" else om[::-1]).tolist(), "noise": float(rng.uniform(0.003, 0.01))})
-    return {"case": case, "nominal": nom, "fs": fs, "accel_only": bool(accel_only),
-            "acquisition": draw_acquisition(rng, fs, accel_only), "records": recs, "frc": frcs,
-            "truth": true_parts(nom, hidden, oov)}
+        frcs.append(
+            {
+                "force": float(10 * round(rng.uniform(100, 250) / 10)),
+                "direction": d,
+                "omegas": (om if d == "up" else om[::-1]).tolist(),
+                "noise": float(rng.uniform(0.003, 0.01)),
+            }
+        )
+    return {
+        "case": case,
+        "nominal": nom,
+        "fs": fs,
+        "accel_only": bool(accel_only),
+        "acquisition": draw_acquisition(rng, fs, accel_only),
+        "records": recs,
+        "frc": frcs,
+        "truth": true_parts(nom, hidden, oov),
+    }
 
 
 def composition(n: int | None, n_clean=None, n_pair=None, n_oov=None):
@@ -136,8 +187,9 @@ def plan(rng, n=None, n_clean=None, n_pair=None, n_oov=None) -> list:
         items.append(("single", {e: draw_value(rng, RANGES[e], e in SIGNED)}, {}))
     for _ in range(npair):
         e1, e2 = (str(e) for e in rng.choice(eff, 2, replace=False))
-        items.append(("pair", {e: draw_value(rng, RANGES[e], e in SIGNED, rng.uniform(0.3, 1.0)) for e in (e1, e2)},
-                      {}))
+        items.append(
+            ("pair", {e: draw_value(rng, RANGES[e], e in SIGNED, rng.uniform(0.3, 1.0)) for e in (e1, e2)}, {})
+        )
     start = int(rng.integers(len(OOV_EFFECTS)))
     for j in range(no):
         e = OOV_EFFECTS[(start + j) % len(OOV_EFFECTS)]
@@ -161,13 +213,16 @@ def out_problem(out: Path) -> str | None:
     except (OSError, ValueError, AttributeError):
         ours = False
     if not ours:
-        return (f"{out}: folder is not empty and has no manifest.json of make-benchmark's system suite; "
-                "give a new or empty folder (nothing was written)")
+        return (
+            f"{out}: folder is not empty and has no manifest.json of make-benchmark's system suite; "
+            "give a new or empty folder (nothing was written)"
+        )
     return None
 
 
-def make_field_benchmark(out: Path, n: int | None = None, seed: int = 1, n_clean=None, n_pair=None, n_oov=None,
-                         progress=None) -> list:
+def make_field_benchmark(
+    out: Path, n: int | None = None, seed: int = 1, n_clean=None, n_pair=None, n_oov=None, progress=None
+) -> list:
     """Write the suite to ``out`` (one folder per dataset + manifest.json); ``progress(row)`` is
     called with the public part of each row (name, seconds) -- never the labels."""
     import time
@@ -188,26 +243,46 @@ def make_field_benchmark(out: Path, n: int | None = None, seed: int = 1, n_clean
         vis = write_dataset(out / name, spec, sub)
         vis["visible"] = bool(vis["chi2"] > VISIBLE_CHI2)
         oov_names = [k for k in oov if k != "accel_gain_channel"]
-        row = {"dataset": name, "class": cls, "case": spec["case"],
-               "nominal_damping": spec["nominal"]["tmd"]["damping"], "fs": spec["fs"],
-               "accel_only": spec["accel_only"], "acquisition": spec["acquisition"],
-               "n_records": len(spec["records"]),
-               "records": [{k: r[k] for k in ("frequency_hz", "force", "periods", "phase", "noise")}
-                           for r in spec["records"]],
-               "frc": [{"force": f["force"], "direction": f["direction"], "noise": f["noise"]} for f in spec["frc"]],
-               "hidden": sorted(hidden) + sorted(oov_names), "severity": {**hidden, **oov},
-               "truth": {TRUTH_KEY[e]: v for e, v in hidden.items()}, "oov": oov,
-               "visibility": vis, "seconds": round(time.perf_counter() - t0, 2)}
+        row = {
+            "dataset": name,
+            "class": cls,
+            "case": spec["case"],
+            "nominal_damping": spec["nominal"]["tmd"]["damping"],
+            "fs": spec["fs"],
+            "accel_only": spec["accel_only"],
+            "acquisition": spec["acquisition"],
+            "n_records": len(spec["records"]),
+            "records": [
+                {k: r[k] for k in ("frequency_hz", "force", "periods", "phase", "noise")} for r in spec["records"]
+            ],
+            "frc": [{"force": f["force"], "direction": f["direction"], "noise": f["noise"]} for f in spec["frc"]],
+            "hidden": sorted(hidden) + sorted(oov_names),
+            "severity": {**hidden, **oov},
+            "truth": {TRUTH_KEY[e]: v for e, v in hidden.items()},
+            "oov": oov,
+            "visibility": vis,
+            "seconds": round(time.perf_counter() - t0, 2),
+        }
         man.append(row)
         if progress:
             progress({"dataset": name, "seconds": row["seconds"]})
-    (out / "manifest.json").write_text(json.dumps({"suite": "system", "generator": "field", "seed": seed,
-                                                   "visible_chi2": VISIBLE_CHI2, "datasets": man}, indent=1))
+    (out / "manifest.json").write_text(
+        json.dumps(
+            {"suite": "system", "generator": "field", "seed": seed, "visible_chi2": VISIBLE_CHI2, "datasets": man},
+            indent=1,
+        )
+    )
     return man
 
 
-def make_system_benchmark(out: Path, n: int | None = None, seed: int = 1, n_clean: int | None = None,
-                          n_pair: int | None = None, n_oov: int | None = None, progress=None):
+def make_system_benchmark(
+    out: Path,
+    n: int | None = None,
+    seed: int = 1,
+    n_clean: int | None = None,
+    n_pair: int | None = None,
+    n_oov: int | None = None,
+    progress=None,
+):
     """The field-like system suite (:func:`make_field_benchmark`); labels in manifest.json only."""
-    return make_field_benchmark(out, n=n, seed=seed, n_clean=n_clean, n_pair=n_pair, n_oov=n_oov,
-                                progress=progress)
+    return make_field_benchmark(out, n=n, seed=seed, n_clean=n_clean, n_pair=n_pair, n_oov=n_oov, progress=progress)

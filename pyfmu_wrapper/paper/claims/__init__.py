@@ -7,6 +7,7 @@ scenario was not run is a flagged row ('not computed'); one whose computation fa
 row ('error') carrying the exception, and the report command exits non-zero. No verdict is written
 by hand. The table :data:`CLAIMS` (:mod:`.table`) lists the claims in report order with the scenarios they need.
 """
+
 from . import sect2_5, sect6_7  # noqa: F401 - the sections fill CLAIMS, in report order
 from .table import CLAIMS, Check, Claim, Context, Entry, claim, evaluate, fmt
 

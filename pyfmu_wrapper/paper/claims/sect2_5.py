@@ -1,5 +1,6 @@
 """The claims of Sections 2-5 of the paper (Figs. 2-4: inertance ratio, viscous damping, dry friction),
 in report order."""
+
 from __future__ import annotations
 
 import math
@@ -13,15 +14,25 @@ from .table import CASES, FIG3, FIG4, Check, _nc_note, claim, fmt
 
 # --- Sect. 2-3, Fig. 2 ------------------------------------------------------------------------------
 
-@claim("2 / Fig. 2b", "Base alone: natural frequency '20 Hz', peak amplitude within the 0-0.12 m axes, "
-       "read as rad/s", "20 'Hz', ~0.1 m", ["fig2_iratio"])
+
+@claim(
+    "2 / Fig. 2b",
+    "Base alone: natural frequency '20 Hz', peak amplitude within the 0-0.12 m axes, read as rad/s",
+    "20 'Hz', ~0.1 m",
+    ["fig2_iratio"],
+)
 def _base_alone(ctx):
     p0 = cd.peaks_of(ctx.data("fig2_iratio", "iratio_frc"), "no TMD")
     w, a = p0["peak_omega"], p0["peak_amplitude"]
-    return (f"peak {a:.4f} m at {w:.3f} rad/s",
-            (Check("|w_peak - 20|", abs(w - 20.0), "<=", 0.05, "rad/s"), Check("|A_peak - 0.1|", abs(a - 0.1), "<=", 0.005, "m")),
-            "The paper's 'Hz' are rad/s: F/(C w_n) = 0.1 m at w = 20 rad/s; at 20 Hz (125.7 rad/s) nothing in "
-            "Figs. 2-3 would match.")
+    return (
+        f"peak {a:.4f} m at {w:.3f} rad/s",
+        (
+            Check("|w_peak - 20|", abs(w - 20.0), "<=", 0.05, "rad/s"),
+            Check("|A_peak - 0.1|", abs(a - 0.1), "<=", 0.005, "m"),
+        ),
+        "The paper's 'Hz' are rad/s: F/(C w_n) = 0.1 m at w = 20 rad/s; at 20 Hz (125.7 rad/s) nothing in "
+        "Figs. 2-3 would match.",
+    )
 
 
 def _two_peaks(frc, ratios=(0.0, 0.1, 0.5, 0.9)):
@@ -34,41 +45,74 @@ def _two_peaks(frc, ratios=(0.0, 0.1, 0.5, 0.9)):
     return out
 
 
-@claim("3 / Fig. 2", "Two resonances, far apart for low Iratio; their distance shrinks as Iratio grows", "qualitative",
-       ["fig2_iratio"])
+@claim(
+    "3 / Fig. 2",
+    "Two resonances, far apart for low Iratio; their distance shrinks as Iratio grows",
+    "qualitative",
+    ["fig2_iratio"],
+)
 def _separation(ctx):
     pk = _two_peaks(ctx.data("fig2_iratio", "iratio_frc"))
     seps = [hi["omega"] - lo["omega"] for _, lo, hi in pk]
     text = "; ".join(f"Iratio {r:g}: {lo['omega']:.2f} / {hi['omega']:.2f} rad/s" for r, lo, hi in pk)
-    return (text + " (separations " + ", ".join(f"{s:.2f}" for s in seps) + " rad/s)",
-            (Check("largest change of the separation from one Iratio to the next", float(np.diff(seps).max()), "<", 0.0,
-                   "rad/s"),), "Iratio = 0, 0.1, 0.5, 0.9; exact curves, local maxima located to 1e-9 rad/s.")
+    return (
+        text + " (separations " + ", ".join(f"{s:.2f}" for s in seps) + " rad/s)",
+        (
+            Check(
+                "largest change of the separation from one Iratio to the next",
+                float(np.diff(seps).max()),
+                "<",
+                0.0,
+                "rad/s",
+            ),
+        ),
+        "Iratio = 0, 0.1, 0.5, 0.9; exact curves, local maxima located to 1e-9 rad/s.",
+    )
 
 
-@claim("3 / Fig. 2b", "For small Iratio the first peak is higher than the second; the difference decreases with Iratio",
-       "qualitative", ["fig2_iratio"])
+@claim(
+    "3 / Fig. 2b",
+    "For small Iratio the first peak is higher than the second; the difference decreases with Iratio",
+    "qualitative",
+    ["fig2_iratio"],
+)
 def _peak_ratio(ctx):
     pk = _two_peaks(ctx.data("fig2_iratio", "iratio_frc"))
     ratios = [lo["amplitude"] / hi["amplitude"] for _, lo, hi in pk]
-    return ("first/second peak height: " + ", ".join(f"{x:.3f}" for x in ratios) + " (Iratio 0, 0.1, 0.5, 0.9)",
-            (Check("first/second at Iratio = 0", ratios[0], ">", 1.0),
-             Check("largest change of the ratio from one Iratio to the next", float(np.diff(ratios).max()), "<", 0.0)), "")
+    return (
+        "first/second peak height: " + ", ".join(f"{x:.3f}" for x in ratios) + " (Iratio 0, 0.1, 0.5, 0.9)",
+        (
+            Check("first/second at Iratio = 0", ratios[0], ">", 1.0),
+            Check("largest change of the ratio from one Iratio to the next", float(np.diff(ratios).max()), "<", 0.0),
+        ),
+        "",
+    )
 
 
-@claim("3 / Fig. 2a", "For Iratio = 1 (m = 0) the peaks merge and the TMD has no influence", "merge at Iratio = 1",
-       ["fig2_iratio"])
+@claim(
+    "3 / Fig. 2a",
+    "For Iratio = 1 (m = 0) the peaks merge and the TMD has no influence",
+    "merge at Iratio = 1",
+    ["fig2_iratio"],
+)
 def _iratio_one(ctx):
     frc = ctx.data("fig2_iratio", "iratio_frc")
     _, a1 = cd.curve(frc, "Iratio = 1")
     _, ab = cd.curve(frc, "no TMD")
     d = float(np.abs(a1 - ab).max() / ab.max())
-    return (f"max |A(Iratio=1) - A(no TMD)| / max A(no TMD) = {fmt(d)}",
-            (Check("relative difference", d, "<=", 1e-9),),
-            "With m = 0 the TMD node is massless: the spring and the inerter only load each other.")
+    return (
+        f"max |A(Iratio=1) - A(no TMD)| / max A(no TMD) = {fmt(d)}",
+        (Check("relative difference", d, "<=", 1e-9),),
+        "With m = 0 the TMD node is massless: the spring and the inerter only load each other.",
+    )
 
 
-@claim("3 / Fig. 2b", "Antiresonance at the TMD's tuning frequency sqrt(k/(m+I)) = 20 rad/s for every Iratio < 1 (c = 0)",
-       "20 'Hz'", ["fig2_iratio"])
+@claim(
+    "3 / Fig. 2b",
+    "Antiresonance at the TMD's tuning frequency sqrt(k/(m+I)) = 20 rad/s for every Iratio < 1 (c = 0)",
+    "20 'Hz'",
+    ["fig2_iratio"],
+)
 def _antiresonance(ctx):
     frc = ctx.data("fig2_iratio", "iratio_frc")
     base = ctx.runs["fig2_iratio"].scenario.base
@@ -78,24 +122,33 @@ def _antiresonance(ctx):
         wm, am = cd.exact_minimum(base, cd.curve_tmd(frc, f"Iratio = {r:g}"), w, a)
         mins.append((r, wm, am))
     dev = max(abs(w - 20.0) for _, w, _ in mins)
-    return ("; ".join(f"Iratio {r:g}: min {a:.1e} m at {w:.6f} rad/s" for r, w, a in mins),
-            (Check("max |w_min - 20|", dev, "<=", 1e-3, "rad/s"),), "Minima of the exact response located to 1e-9 rad/s.")
+    return (
+        "; ".join(f"Iratio {r:g}: min {a:.1e} m at {w:.6f} rad/s" for r, w, a in mins),
+        (Check("max |w_min - 20|", dev, "<=", 1e-3, "rad/s"),),
+        "Minima of the exact response located to 1e-9 rad/s.",
+    )
 
 
 # --- Sect. 4, Fig. 3 --------------------------------------------------------------------------------
 
 
-
-@claim("4", "c = 10, 56.38, 90, 100 N s/m are 2.5, 14, 22.5, 25 % of critical damping of the TMD with Iratio = 0",
-       "2.5 / 14 / 22.5 / 25 %", ["fig3_case1"])
+@claim(
+    "4",
+    "c = 10, 56.38, 90, 100 N s/m are 2.5, 14, 22.5, 25 % of critical damping of the TMD with Iratio = 0",
+    "2.5 / 14 / 22.5 / 25 %",
+    ["fig3_case1"],
+)
 def _critical(ctx):
     tmd = ctx.data("fig3_case1", "damping_map").study.tmds[0]
     crit = 2.0 * math.sqrt(tmd.stiffness * (tmd.mass + tmd.inertance))
     paper = {10.0: 2.5, 56.38: 14.0, 90.0: 22.5, 100.0: 25.0}
     got = {c: 100.0 * c / crit for c in paper}
     dev = max(abs(got[c] - paper[c]) for c in paper)
-    return (" / ".join(f"{got[c]:.2f} %" for c in paper) + f" of 2 sqrt(k (m + I)) = {crit:g} N s/m",
-            (Check("max |share - paper|", dev, "<=", 0.1, "percentage points"),), "")
+    return (
+        " / ".join(f"{got[c]:.2f} %" for c in paper) + f" of 2 sqrt(k (m + I)) = {crit:g} N s/m",
+        (Check("max |share - paper|", dev, "<=", 0.1, "percentage points"),),
+        "",
+    )
 
 
 @claim("4 / Fig. 3", "Optimised c (Cases 1-3)", " / ".join(f"{PAPER_COPT[c]}" for c in CASES), FIG3)
@@ -108,42 +161,72 @@ def _copt(ctx):
         mm.append(cd.minmax_opt(r.scenario.base, tmd0, "damping", 0.0, 100.0, np.linspace(15, 25, 2001))[0])
     ctx.shared["copt_minmax"] = mm
     dev = max(abs(h - PAPER_COPT[c]) / PAPER_COPT[c] for h, c in zip(h2s, CASES))
-    return ("H2 optimum (min of int |X|^2 dw over all frequencies, pyfmu_wrapper.paper.optimise): "
-            + " / ".join(f"{h:.2f}" for h in h2s) + " N s/m; min-max of the peak over 15-25 rad/s: "
-            + " / ".join(f"{x:.2f}" for x in mm) + " N s/m",
-            (Check("max relative deviation of the H2 optimum", dev, "<=", 0.03),),
-            "The paper does not state its objective (ref. [34]); the H2 norm of the base displacement reproduces "
-            "its values, the min-max of the peak does not.")
+    return (
+        "H2 optimum (min of int |X|^2 dw over all frequencies, pyfmu_wrapper.paper.optimise): "
+        + " / ".join(f"{h:.2f}" for h in h2s)
+        + " N s/m; min-max of the peak over 15-25 rad/s: "
+        + " / ".join(f"{x:.2f}" for x in mm)
+        + " N s/m",
+        (Check("max relative deviation of the H2 optimum", dev, "<=", 0.03),),
+        "The paper does not state its objective (ref. [34]); the H2 norm of the base displacement reproduces "
+        "its values, the min-max of the peak does not.",
+    )
 
 
 @claim("4 / Fig. 3", "The optimum c decreases as Iratio grows", "56.38 > 31.73 > 6.45", FIG3)
 def _copt_order(ctx):
     mm = ctx.shared.get("copt_minmax")
     if mm is None:
-        mm = [cd.minmax_opt(ctx.runs[n].scenario.base, ctx.data(n, "damping_map").study.tmds[0], "damping", 0.0, 100.0,
-                            np.linspace(15, 25, 2001))[0] for n in FIG3]
-    return (" > ".join(f"{x:.2f}" for x in mm) + " N s/m (min-max optimum)",
-            (Check("largest step of c_opt from one Case to the next", float(np.diff(mm).max()), "<", 0.0, "N s/m"),), "")
+        mm = [
+            cd.minmax_opt(
+                ctx.runs[n].scenario.base,
+                ctx.data(n, "damping_map").study.tmds[0],
+                "damping",
+                0.0,
+                100.0,
+                np.linspace(15, 25, 2001),
+            )[0]
+            for n in FIG3
+        ]
+    return (
+        " > ".join(f"{x:.2f}" for x in mm) + " N s/m (min-max optimum)",
+        (Check("largest step of c_opt from one Case to the next", float(np.diff(mm).max()), "<", 0.0, "N s/m"),),
+        "",
+    )
 
 
 @claim("4 / Fig. 3", "The range of c with good damping narrows as Iratio grows", "qualitative", FIG3)
 def _c_width(ctx):
     widths = [cd.row_opt(ctx.data(n, "damping_map"))[2] for n in FIG3]
-    return ("width of the c range whose peak is within 10 % of the best (map): " + " / ".join(f"{w:.0f}" for w in widths)
-            + " N s/m", (Check("largest change of the width from one Case to the next", float(np.diff(widths).max()),
-                               "<", 0.0, "N s/m"),), "")
+    return (
+        "width of the c range whose peak is within 10 % of the best (map): "
+        + " / ".join(f"{w:.0f}" for w in widths)
+        + " N s/m",
+        (
+            Check(
+                "largest change of the width from one Case to the next", float(np.diff(widths).max()), "<", 0.0, "N s/m"
+            ),
+        ),
+        "",
+    )
 
 
 @claim("4", "Case 1 behaves like a classical TMD without an inerter", "similar (qualitative)", FIG3)
 def _classical(ctx):
     w = np.linspace(15.0, 25.0, 1001)
     cs = np.linspace(0.0, 100.0, 26)[1:]
-    d = {c: cd.classical_difference(ctx.runs[f"fig3_case{c}"].scenario.base,
-                                    ctx.data(f"fig3_case{c}", "damping_map").study.tmds[0], cs, w) for c in CASES}
-    return ("largest relative difference of the FRC peak against the classical TMD (m + I, no inerter) at the same c, "
-            "c = 4..100 N s/m: " + " / ".join(f"Case {c}: {d[c]:.1%}" for c in CASES),
-            (Check("Case 1", d[1], "<=", 0.10), Check("Case 1 / Case 3", d[1] / d[3], "<", 0.5)),
-            "Similar read as: peaks within 10 % of the classical TMD's at every c, and less than half Case 3's difference.")
+    d = {
+        c: cd.classical_difference(
+            ctx.runs[f"fig3_case{c}"].scenario.base, ctx.data(f"fig3_case{c}", "damping_map").study.tmds[0], cs, w
+        )
+        for c in CASES
+    }
+    return (
+        "largest relative difference of the FRC peak against the classical TMD (m + I, no inerter) at the same c, "
+        "c = 4..100 N s/m: " + " / ".join(f"Case {c}: {d[c]:.1%}" for c in CASES),
+        (Check("Case 1", d[1], "<=", 0.10), Check("Case 1 / Case 3", d[1] / d[3], "<", 0.5)),
+        "Similar read as: peaks within 10 % of the classical TMD's at every c, and less than half Case 3's difference.",
+    )
 
 
 @claim("4", "The FRC at the optimal c differs strongly between the Cases", "differs strongly", FIG3)
@@ -151,12 +234,16 @@ def _frc_opt_differ(ctx):
     curves = {c: cd.curve(ctx.data(f"fig3_case{c}", "damping_frc"), "c = " + f"{PAPER_COPT[c]:g}") for c in CASES}
     pairs = [(1, 2), (1, 3), (2, 3)]
     diffs = {p: cd.frc_pair_difference(*curves[p[0]], *curves[p[1]]) for p in pairs}
-    return ("max |A_i - A_j| / max A at the paper's c_opt: " + ", ".join(f"Cases {i}-{j}: {d:.1%}" for (i, j), d in diffs.items()),
-            (Check("smallest difference between two Cases", min(diffs.values()), ">=", 0.10),),
-            "'Strongly' read as at least 10 % of the peak for every pair of Cases.")
+    return (
+        "max |A_i - A_j| / max A at the paper's c_opt: "
+        + ", ".join(f"Cases {i}-{j}: {d:.1%}" for (i, j), d in diffs.items()),
+        (Check("smallest difference between two Cases", min(diffs.values()), ">=", 0.10),),
+        "'Strongly' read as at least 10 % of the peak for every pair of Cases.",
+    )
 
 
 # --- Sect. 5, Fig. 4 --------------------------------------------------------------------------------
+
 
 @claim("5 / Fig. 4", "Optimised df (Cases 1-3)", " / ".join(f"{PAPER_DFOPT[c]}" for c in CASES), FIG4)
 def _dfopt(ctx):
@@ -164,30 +251,52 @@ def _dfopt(ctx):
     if ctx.quick:
         best, how = rowh2, "H2 from the map rows (parabola through the grid minimum; --quick: optimiser skipped)"
     else:
-        best = [cd.h2_optimum(ctx.runs[n].scenario.base, replace(ctx.data(n, "friction_map").study.tmds[0], friction_force=0.0),
-                              "tmd.friction_force", ctx.runs[n].scenario.solver.settings()) for n in FIG4]
+        best = [
+            cd.h2_optimum(
+                ctx.runs[n].scenario.base,
+                replace(ctx.data(n, "friction_map").study.tmds[0], friction_force=0.0),
+                "tmd.friction_force",
+                ctx.runs[n].scenario.solver.settings(),
+            )
+            for n in FIG4
+        ]
         how = "H2 optimum over 15-25 rad/s (pyfmu_wrapper.paper.optimise, 101 frequencies)"
     ctx.shared["dfopt"] = best
     dev = max(abs(h - PAPER_DFOPT[c]) / PAPER_DFOPT[c] for h, c in zip(best, CASES))
     nc = sum(cd.not_converged(ctx.data(n, "friction_map")) for n in FIG4)
-    return (f"{how}: " + " / ".join(f"{h:.2f}" for h in best) + " N; from the map rows: "
-            + " / ".join(f"{h:.1f}" for h in rowh2) + " N" + _nc_note(nc),
-            (Check("max relative deviation", dev, "<=", 0.05),), "Objective of the paper not stated; H2 as for c.")
+    return (
+        f"{how}: "
+        + " / ".join(f"{h:.2f}" for h in best)
+        + " N; from the map rows: "
+        + " / ".join(f"{h:.1f}" for h in rowh2)
+        + " N"
+        + _nc_note(nc),
+        (Check("max relative deviation", dev, "<=", 0.05),),
+        "Objective of the paper not stated; H2 as for c.",
+    )
 
 
 @claim("5 / Fig. 4", "The optimum df is smaller the bigger the inertance", "45.78 > 37.65 > 15.44", FIG4)
 def _dfopt_order(ctx):
     best = ctx.shared.get("dfopt") or [cd.row_h2(ctx.data(n, "friction_map")) for n in FIG4]
-    return ("H2 optimum: " + " > ".join(f"{h:.1f}" for h in best) + " N",
-            (Check("largest step from one Case to the next", float(np.diff(best).max()), "<", 0.0, "N"),), "")
+    return (
+        "H2 optimum: " + " > ".join(f"{h:.1f}" for h in best) + " N",
+        (Check("largest step from one Case to the next", float(np.diff(best).max()), "<", 0.0, "N"),),
+        "",
+    )
 
 
 @claim("5 / Fig. 4", "The range of good df shrinks as Iratio grows", "qualitative", FIG4)
 def _df_width(ctx):
     widths = [cd.row_opt(ctx.data(n, "friction_map"))[2] for n in FIG4]
-    return ("width of the df range whose peak is within 10 % of the best: " + " / ".join(f"{w:.0f}" for w in widths) + " N",
-            (Check("Case 1 - Case 3", widths[0] - widths[2], ">", 0.0, "N"),
-             Check("largest increase from one Case to the next", float(np.diff(widths).max()), "<=", 0.0, "N")), "")
+    return (
+        "width of the df range whose peak is within 10 % of the best: " + " / ".join(f"{w:.0f}" for w in widths) + " N",
+        (
+            Check("Case 1 - Case 3", widths[0] - widths[2], ">", 0.0, "N"),
+            Check("largest increase from one Case to the next", float(np.diff(widths).max()), "<=", 0.0, "N"),
+        ),
+        "",
+    )
 
 
 @claim("5", "A properly chosen dry friction widens the range of effectiveness", "qualitative", FIG4)
@@ -203,9 +312,11 @@ def _df_widens(ctx):
         gains.append(ro - r0)
         steps.append(2.0 * float(np.diff(w0).max()))
         cells.append(f"Case {c}: {r0:.2f} -> {ro:.2f} rad/s")
-    return ("width of the band where max|x| <= half the base-alone peak, df = 0 -> df_opt: " + "; ".join(cells),
-            tuple(Check(f"Case {c}: widening", g, ">", s, "rad/s") for c, g, s in zip(CASES, gains, steps)),
-            "Widening counted when larger than two frequency steps of the grid.")
+    return (
+        "width of the band where max|x| <= half the base-alone peak, df = 0 -> df_opt: " + "; ".join(cells),
+        tuple(Check(f"Case {c}: widening", g, ">", s, "rad/s") for c, g, s in zip(CASES, gains, steps)),
+        "Widening counted when larger than two frequency steps of the grid.",
+    )
 
 
 @claim("5", "Dry friction changes the FRC more suddenly than viscous damping", "qualitative", FIG3 + FIG4)
@@ -219,9 +330,12 @@ def _sudden(ctx):
         sv = cd.map_suddenness(_on_omegas(vm, fm.study.omegas), vals)
         cells.append(f"Case {c}: friction {sf:.2f}, viscous {sv:.2f}")
         checks.append(Check(f"Case {c}: friction / viscous", sf / sv, ">", 1.0))
-    return ("largest change of max|x| between neighbouring parameter values, per range of the parameter (0-100), "
-            "relative to the map's maximum: " + "; ".join(cells), tuple(checks),
-            "Both maps on the friction map's parameter values and frequencies.")
+    return (
+        "largest change of max|x| between neighbouring parameter values, per range of the parameter (0-100), "
+        "relative to the map's maximum: " + "; ".join(cells),
+        tuple(checks),
+        "Both maps on the friction map's parameter values and frequencies.",
+    )
 
 
 def _on_omegas(mapdata, omegas):
@@ -231,8 +345,13 @@ def _on_omegas(mapdata, omegas):
     return replace(mapdata, amplitude=amp, study=replace(mapdata.study, omegas=np.asarray(omegas, float)))
 
 
-@claim("5 / Fig. 4", "For large df (90 N) no significant resonance peak; near resonance the amplitude falls "
-       "roughly linearly with w (Cases 1, 2)", "qualitative (Cases 1, 2)", FIG4[:2])
+@claim(
+    "5 / Fig. 4",
+    "For large df (90 N) no significant resonance peak; near resonance the amplitude falls "
+    "roughly linearly with w (Cases 1, 2)",
+    "qualitative (Cases 1, 2)",
+    FIG4[:2],
+)
 def _large_df(ctx):
     cells, checks = [], []
     for c in (1, 2):
@@ -242,13 +361,23 @@ def _large_df(ctx):
         res = a[sel] - np.polyval(p, w[sel])
         r2 = 1 - res.var() / a[sel].var()
         cells.append(f"Case {c}: slope 18-22 rad/s {p[0]:.4f} m/(rad/s), R^2 {r2:.2f}")
-        checks += [Check(f"Case {c}: slope", p[0], "<", 0.0, "m/(rad/s)"), Check(f"Case {c}: R^2 of the line", r2, ">=", 0.85)]
-    return ("; ".join(cells), tuple(checks),
-            "The text points to Fig. 3 (d, f) here; it means Fig. 4. 'Roughly linear' read as R^2 >= 0.85.")
+        checks += [
+            Check(f"Case {c}: slope", p[0], "<", 0.0, "m/(rad/s)"),
+            Check(f"Case {c}: R^2 of the line", r2, ">=", 0.85),
+        ]
+    return (
+        "; ".join(cells),
+        tuple(checks),
+        "The text points to Fig. 3 (d, f) here; it means Fig. 4. 'Roughly linear' read as R^2 >= 0.85.",
+    )
 
 
-@claim("5 (notes)", "The TMD sticks to the base for part of each cycle above df ~ 20-30 N (Case 1)",
-       "physics notes, not the paper", ["fig4_case1"])
+@claim(
+    "5 (notes)",
+    "The TMD sticks to the base for part of each cycle above df ~ 20-30 N (Case 1)",
+    "physics notes, not the paper",
+    ["fig4_case1"],
+)
 def _sticking(ctx):
     from ...scenario.engines import RunSettings
 
@@ -257,10 +386,17 @@ def _sticking(ctx):
     settings = RunSettings(solver=r.scenario.solver)
     dfs = [10.0, 20.0, 30.0, 40.0, 60.0, 90.0]
     wst = (15.0, 17.0, 19.0, 20.0, 21.0, 23.0, 25.0)
-    fr = {df: max(cd.stuck_fraction(r.scenario.base, replace(tmd, friction_force=df), w, settings) for w in wst)
-          for df in dfs}
+    fr = {
+        df: max(cd.stuck_fraction(r.scenario.base, replace(tmd, friction_force=df), w, settings) for w in wst)
+        for df in dfs
+    }
     first = next((df for df in dfs if fr[df] > 0.01), float("nan"))
-    return ("largest stuck fraction of the period (|xd - yd| < 1e-4 m/s) over w = 15..25 rad/s: "
-            + ", ".join(f"{df:g} N: {fr[df]:.0%}" for df in dfs),
-            (Check("first df with sticking", first, ">=", 15.0, "N"), Check("first df with sticking", first, "<=", 40.0, "N")),
-            "Monolithic time series (1 period, 2000 samples).")
+    return (
+        "largest stuck fraction of the period (|xd - yd| < 1e-4 m/s) over w = 15..25 rad/s: "
+        + ", ".join(f"{df:g} N: {fr[df]:.0%}" for df in dfs),
+        (
+            Check("first df with sticking", first, ">=", 15.0, "N"),
+            Check("first df with sticking", first, "<=", 40.0, "N"),
+        ),
+        "Monolithic time series (1 period, 2000 samples).",
+    )

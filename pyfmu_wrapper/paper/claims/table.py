@@ -2,6 +2,7 @@
 from its checks, what the claim functions read (:class:`Context`), the ordered table :data:`CLAIMS` filled
 by the :func:`claim` decorator in the section modules, and :func:`evaluate`.
 """
+
 from __future__ import annotations
 
 import math
@@ -74,10 +75,26 @@ class Claim:
         return "agrees" if n == len(self.checks) else ("disagrees" if n == 0 else "partly")
 
     def as_row(self) -> dict:
-        return dict(section=self.section, claim=self.claim, paper=self.paper, project=self.project,
-                    checks=[dict(quantity=c.quantity, value=float(c.value), op=c.op, threshold=float(c.threshold),
-                                 unit=c.unit, passed=c.passed) for c in self.checks],
-                    verdict=self.verdict, note=self.note, detail=self.detail)
+        return dict(
+            section=self.section,
+            claim=self.claim,
+            paper=self.paper,
+            project=self.project,
+            checks=[
+                dict(
+                    quantity=c.quantity,
+                    value=float(c.value),
+                    op=c.op,
+                    threshold=float(c.threshold),
+                    unit=c.unit,
+                    passed=c.passed,
+                )
+                for c in self.checks
+            ],
+            verdict=self.verdict,
+            note=self.note,
+            detail=self.detail,
+        )
 
 
 @dataclass
@@ -94,8 +111,9 @@ class Context:
     def fits(self) -> dict:
         """Simplified-model errors per Case of the Fig. 6 runs (computed once)."""
         if "fits" not in self.shared:
-            self.shared["fits"] = {c: cd.simplified_fits(self.runs[f"fig6_case{c}"], c) for c in CASES
-                                   if f"fig6_case{c}" in self.runs}
+            self.shared["fits"] = {
+                c: cd.simplified_fits(self.runs[f"fig6_case{c}"], c) for c in CASES if f"fig6_case{c}" in self.runs
+            }
         return self.shared["fits"]
 
 
@@ -115,6 +133,7 @@ def claim(section, text, paper, needs):
     def deco(fn):
         CLAIMS.append(Entry(section, text, paper, tuple(needs), fn))
         return fn
+
     return deco
 
 
@@ -127,6 +146,7 @@ def _not_run(ctx, prefix: str) -> str:
 def _nc_note(n: int) -> str:
     return f" [{n} steady states of the data not converged]" if n else ""
 
+
 FIG3 = [f"fig3_case{c}" for c in CASES]
 FIG4 = [f"fig4_case{c}" for c in CASES]
 FIG6 = [f"fig6_case{c}" for c in CASES]
@@ -134,6 +154,7 @@ FIG5 = [f"fig5_case{c}" for c in CASES]
 
 
 # --- the table --------------------------------------------------------------------------------------
+
 
 def evaluate(ctx: Context, only=None) -> list[Claim]:
     """Every claim of :data:`CLAIMS` in order (``only``: those whose text starts with one of these
@@ -144,15 +165,29 @@ def evaluate(ctx: Context, only=None) -> list[Claim]:
             continue
         missing = [n for n in e.needs if n not in ctx.runs]
         if missing:
-            rows.append(Claim(e.section, e.claim, e.paper, status="not computed",
-                              detail=f"scenarios not run: {', '.join(missing)}"))
+            rows.append(
+                Claim(
+                    e.section,
+                    e.claim,
+                    e.paper,
+                    status="not computed",
+                    detail=f"scenarios not run: {', '.join(missing)}",
+                )
+            )
             continue
         try:
             project, checks, note = e.compute(ctx)
             rows.append(Claim(e.section, e.claim, e.paper, project, tuple(checks), note))
             rows[-1].verdict  # noqa: B018 - a claim without checks is an error
         except Exception as exc:  # noqa: BLE001 - a flagged row, and a failing exit code
-            rows.append(Claim(e.section, e.claim, e.paper, status="error",
-                              detail=f"{type(exc).__name__}: {exc}",
-                              note=traceback.format_exc(limit=2).splitlines()[-1]))
+            rows.append(
+                Claim(
+                    e.section,
+                    e.claim,
+                    e.paper,
+                    status="error",
+                    detail=f"{type(exc).__name__}: {exc}",
+                    note=traceback.format_exc(limit=2).splitlines()[-1],
+                )
+            )
     return rows
