@@ -76,6 +76,7 @@ def test_fuzz_fmi3_small(tmp_path):
 
 
 @pytest.mark.slow
+@pytest.mark.timeout(3600)
 def test_fuzz_fmi3_1000_sequences(tmp_path):
     r = run_fuzz3(tmp_path, 1000, 160, seed=2027)
     print({k: v for k, v in r.items() if k != "stderr"})
