@@ -71,7 +71,7 @@ def _version(name):
 
 def _hermite_max(x, v, t):
     """max |p| of the cubic Hermite interpolant through (t, x, v) (any spacing)."""
-    from pyfmu_wrapper.solvers.rodas import hermite_absmax_series
+    from pyfmu_wrapper.solvers.hermite import hermite_absmax_series
 
     x, v, t = (np.asarray(a, float) for a in (x, v, t))
     dt = np.diff(t)

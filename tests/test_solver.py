@@ -213,7 +213,7 @@ def test_hermite_maximum_between_samples():
     """The one Hermite maximum of both engines: max |x| of A cos(w t + phi) from 49 samples of
     (x, xd) per period, with the peak between samples, equals A to 1e-6 (the samples alone miss
     it by ~1e-3: the end points are not the maximum)."""
-    from pyfmu_wrapper.solvers.rodas import hermite_absmax_series
+    from pyfmu_wrapper.solvers.hermite import hermite_absmax_series
 
     w, A = 20.0, 0.0123
     h = 2 * math.pi / w / 48
