@@ -167,11 +167,11 @@ class Instance:
     def failure(self, call: str, status: int = 3, t: float = 0.0, h: float = 0.0) -> MasterError:
         """The error of a failed lean call (status > fmi2Warning); a failed doStep says where and
         repeats the FMU's own last error message."""
-        if call != "fmi2DoStep":
+        if call != self.LEAN_CALLS[2]:  # not the doStep
             return MasterError(f"{self.name}: {call} failed")
         lines = self.last_error.strip().splitlines()
         said = f": {lines[-1]}" if lines else ""
-        return MasterError(f"{self.name}: fmi2DoStep failed at t = {t:.16g} s, h = {h:.6g} s (status {status}){said}")
+        return MasterError(f"{self.name}: {call} failed at t = {t:.16g} s, h = {h:.6g} s (status {status}){said}")
 
     def raw_address(self, name: str) -> int:
         """Address of the raw fmi2 function ``name`` (0 if the FMU does not export it), for the
@@ -243,8 +243,14 @@ class Instance:
         else:
             self.slave.setString([v.valueReference], [str(value)])
 
+    def _get_reals(self, vrs: list[int]) -> list[float]:
+        return self.slave.getReal(vrs)
+
+    def _set_reals(self, vrs: list[int], values: list[float]) -> None:
+        self.slave.setReal(vrs, values)
+
     def get_real(self, names) -> list[float]:
-        return self.slave.getReal([self.vars[n].valueReference for n in names])
+        return self._get_reals([self.vars[n].valueReference for n in names])
 
     def partial(self, output: str, input_: str) -> float:
         """d(output)/d(input) at the current point: the FMU's directional derivative, or a central
@@ -253,13 +259,13 @@ class Instance:
         vk = self.vars[input_].valueReference
         if self.can_dd:
             return self.slave.getDirectionalDerivative([vu], [vk], [1.0])[0]
-        u0 = self.slave.getReal([vk])[0]
+        u0 = self._get_reals([vk])[0]
         du = 1e-6 * max(1.0, abs(u0))
-        self.slave.setReal([vk], [u0 + du])
-        yp = self.slave.getReal([vu])[0]
-        self.slave.setReal([vk], [u0 - du])
-        ym = self.slave.getReal([vu])[0]
-        self.slave.setReal([vk], [u0])
+        self._set_reals([vk], [u0 + du])
+        yp = self._get_reals([vu])[0]
+        self._set_reals([vk], [u0 - du])
+        ym = self._get_reals([vu])[0]
+        self._set_reals([vk], [u0])
         return (yp - ym) / (2 * du)
 
     # --- life cycle -------------------------------------------------------------------------

@@ -151,13 +151,6 @@ class Instance3(Instance):
         if st > 1:
             raise self.failure("fmi3DoStep", st, t, h)
 
-    def failure(self, call: str, status: int = 3, t: float = 0.0, h: float = 0.0) -> MasterError:
-        if call != "fmi3DoStep":
-            return MasterError(f"{self.name}: {call} failed")
-        lines = self.last_error.strip().splitlines()
-        said = f": {lines[-1]}" if lines else ""
-        return MasterError(f"{self.name}: fmi3DoStep failed at t = {t:.16g} s, h = {h:.6g} s (status {status}){said}")
-
     def enter_initialization(self, tol: float | None, t0: float):
         self.slave.enterInitializationMode(tolerance=tol, startTime=t0)
 
@@ -184,22 +177,11 @@ class Instance3(Instance):
             setter = "setInt64" if v.type == "Enumeration" else f"set{v.type}"
             getattr(self.slave, setter)([v.valueReference], [int(value)])
 
-    def get_real(self, names) -> list[float]:
-        return self.slave.getFloat64([self.vars[n].valueReference for n in names])
+    def _get_reals(self, vrs: list[int]) -> list[float]:
+        return self.slave.getFloat64(vrs)
 
-    def partial(self, output: str, input_: str) -> float:
-        vu = self.vars[output].valueReference
-        vk = self.vars[input_].valueReference
-        if self.can_dd:
-            return self.slave.getDirectionalDerivative([vu], [vk], [1.0])[0]
-        u0 = self.slave.getFloat64([vk])[0]
-        du = 1e-6 * max(1.0, abs(u0))
-        self.slave.setFloat64([vk], [u0 + du])
-        yp = self.slave.getFloat64([vu])[0]
-        self.slave.setFloat64([vk], [u0 - du])
-        ym = self.slave.getFloat64([vu])[0]
-        self.slave.setFloat64([vk], [u0])
-        return (yp - ym) / (2 * du)
+    def _set_reals(self, vrs: list[int], values: list[float]) -> None:
+        self.slave.setFloat64(vrs, values)
 
 
 def _fmi3_provides_dd(unzipdir: str) -> bool:
