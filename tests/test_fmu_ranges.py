@@ -355,3 +355,64 @@ def test_documentation_in_the_archive_lists_every_variable_and_range(fmus, name)
         if v.causality == "parameter":
             assert f"<td>{v.range_text().replace('>', '&gt;').replace('<', '&lt;')}</td>" in html
     assert "python -m pip install &quot;numpy&gt;=1.26&quot; &quot;numba&gt;=0.59&quot;" in html
+
+
+def test_an_overflowed_output_is_an_error_never_ok(tmp_path):
+    """Each value within its range, together past the range of doubles (x0 = 1e306 m with K = 4e4 N/m:
+    K x0 = 4e310 N): the output is -inf, and the FMU refuses to return it (fmi2Error / fmi3Error
+    naming the variable) instead of answering OK (found by the FMI 3.0 fuzz: 2 of 160,000 calls)."""
+    import ctypes
+
+    import fmpy
+    from fmpy.fmi2 import FMU2Slave
+    from fmpy.fmi3 import FMU3Slave
+
+    from pyfmu_wrapper.fmi.build import ensure_fmus
+
+    for version in (2, 3):
+        fmu = ensure_fmus(names=("BaseOscillator",), fmi_version=version)["BaseOscillator"]
+        md = fmpy.read_model_description(str(fmu))
+        d = tmp_path / f"v{version}"
+        fmpy.extract(str(fmu), str(d))
+        vr = {v.name: v.valueReference for v in md.modelVariables}
+        log = []
+        if version == 2:
+            s = FMU2Slave(guid=md.guid, unzipDirectory=str(d), modelIdentifier="BaseOscillator", instanceName="o")
+            s.instantiate()
+            s.setupExperiment(startTime=0.0)
+            s.enterInitializationMode()
+            s.setReal([vr["x0"]], [1e306])
+            s.exitInitializationMode()
+            get = s.dll.fmi2GetReal
+            get.argtypes = [
+                ctypes.c_void_p,
+                ctypes.POINTER(ctypes.c_uint),
+                ctypes.c_size_t,
+                ctypes.POINTER(ctypes.c_double),
+            ]
+            args = ()
+        else:
+            s = FMU3Slave(guid=md.guid, unzipDirectory=str(d), modelIdentifier="BaseOscillator", instanceName="o")
+            s.instantiate(logMessage=lambda env, st, cat, msg, log=log: log.append(msg.decode()))
+            s.enterInitializationMode(startTime=0.0)
+            s.setFloat64([vr["x0"]], [1e306])
+            s.exitInitializationMode()
+            get = s.dll.fmi3GetFloat64
+            get.argtypes = [
+                ctypes.c_void_p,
+                ctypes.POINTER(ctypes.c_uint),
+                ctypes.c_size_t,
+                ctypes.POINTER(ctypes.c_double),
+                ctypes.c_size_t,
+            ]
+            args = (1,)
+        get.restype = ctypes.c_int
+        out = (ctypes.c_double * 1)(123.0)
+        assert get(s.component, (ctypes.c_uint * 1)(vr["xdd"]), 1, out, *args) == 3, version
+        assert out[0] == 123.0  # nothing returned
+        assert get(s.component, (ctypes.c_uint * 1)(vr["x"]), 1, out, *args) == 0  # x = 1e306 itself is finite
+        assert out[0] == 1e306
+        if version == 3:
+            assert any("xdd" in m and "overflowed" in m for m in log)
+        s.terminate()
+        s.freeInstance()

@@ -409,6 +409,20 @@ static int check_value(Comp *c, const char *f, fmi2ValueReference vr, double v, 
     return 1;
 }
 
+/* Never answer OK with a value that is not finite: a model driven past the range of doubles (huge
+ * parameters or inputs that are each within their declared range) overflows; that is an error naming
+ * the variable, not a number for the host to propagate. */
+static int all_finite(Comp *c, const char *f, const fmi2ValueReference vr[], size_t nvr) {
+    for (size_t i = 0; i < nvr; i++)
+        if (!isfinite(c->reals[vr[i]])) {
+            logmsg(c, fmi2Error, "logStatusError",
+                   "%s: %s (value reference %u) is %g: the model overflowed (parameters, start values or inputs "
+                   "too large for each other?); nothing returned", f, var_name(c, vr[i]), vr[i], c->reals[vr[i]]);
+            return 0;
+        }
+    return 1;
+}
+
 #define GETTER(NAME, CTYPE, TCODE, BUF, CONV)                                                    \
     fmi2Status NAME(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr, CTYPE value[]) { \
         Comp *c = (Comp *)comp;                                                                  \
@@ -420,6 +434,7 @@ static int check_value(Comp *c, const char *f, fmi2ValueReference vr, double v, 
             if (!check_vr(c, #NAME, vr[i], TCODE)) return fmi2Error;                             \
         fmi2Status s = refresh(c, #NAME);                                                        \
         if (s > fmi2Warning) return s;                                                           \
+        if (TCODE == 'R' && !all_finite(c, #NAME, vr, nvr)) return fmi2Error;                   \
         for (size_t i = 0; i < nvr; i++) value[i] = CONV(c->BUF[vr[i]]);                         \
         return s;                                                                                \
     }
