@@ -7,12 +7,15 @@ from __future__ import annotations
 import ctypes
 import sys
 from pathlib import Path
+from typing import Any
+
+from numpy.typing import ArrayLike
 
 from ..physics.params import BaseParams, TMDParams
 from .system import CONNECTIONS, fmu_parameters
 
 
-def load_ecospy():
+def load_ecospy() -> Any:
     """The ``ecospy`` module, with the ``tbb`` wheel's libtbb.so.12 (which its binary needs) loaded first."""
     tbb = Path(sys.prefix) / "lib" / "libtbb.so.12"
     if tbb.is_file():
@@ -22,7 +25,7 @@ def load_ecospy():
     return ecospy
 
 
-def ecos_simulation(fmus: dict, base: BaseParams, tmd: TMDParams, omega: float, z0, h: float):
+def ecos_simulation(fmus: dict, base: BaseParams, tmd: TMDParams, omega: float, z0: ArrayLike, h: float) -> Any:
     """An initialised Ecos simulation of the pair (``fmus``: "BaseOscillator", "TMDInerter" -> FMU
     path), wired as this project's force coupling (:data:`~.system.CONNECTIONS`), with the
     parameters and start state of :func:`~.system.fmu_parameters`, at the fixed step ``h`` [s].

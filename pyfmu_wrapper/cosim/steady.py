@@ -19,10 +19,13 @@ from __future__ import annotations
 
 import math
 import time
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike
 
 from ..master.master import Master
 from ..physics.params import BaseParams, InerterModel, TMDParams, has_gap
@@ -163,11 +166,22 @@ def _can_shoot(tmd: TMDParams) -> bool:
     return tmd.inerter != InerterModel.PLAY
 
 
-def _start(master: Master, base, tmd, omega, z, settings):
+def _start(
+    master: Master, base: BaseParams, tmd: TMDParams, omega: float, z: ArrayLike, settings: CosimSettings
+) -> None:
     master.initialize(0.0, fmu_parameters(base, tmd, omega, z, settings.fmu_rtol))
 
 
-def _shoot(master: Master, base, tmd, omega, z0, settings: CosimSettings, run: _Periods, hint: dict):
+def _shoot(
+    master: Master,
+    base: BaseParams,
+    tmd: TMDParams,
+    omega: float,
+    z0: np.ndarray,
+    settings: CosimSettings,
+    run: _Periods,
+    hint: dict,
+) -> Any:
     """Newton shooting (:func:`~pyfmu_wrapper.solvers.shooting.shoot`, the one shared with the
     monolithic solver) on the co-simulated period map z -> z(T) over z = (x, xd, y, yd); each
     evaluation re-initialises the FMUs from z. The Jacobian comes from the previous frequency of
@@ -180,7 +194,7 @@ def _shoot(master: Master, base, tmd, omega, z0, settings: CosimSettings, run: _
         1e-6 * abs(base.force_amplitude) / base.stiffness,
     )
 
-    def period_map(zz):
+    def period_map(zz: np.ndarray) -> tuple[np.ndarray, float]:
         _start(master, base, tmd, omega, np.concatenate([zz, tail]), settings)
         a = run.period()
         return _state_of(master, np.zeros(6))[:4], a
@@ -200,7 +214,7 @@ def steady_state(
     base: BaseParams,
     tmd: TMDParams,
     omega: float,
-    z0=None,
+    z0: ArrayLike | None = None,
     settings: CosimSettings = CosimSettings(),
     hint: dict | None = None,
 ) -> CosimSteadyState:
@@ -285,7 +299,7 @@ def _time_split(before: dict, after: dict) -> dict:
     return out
 
 
-def continuation_start(base: BaseParams, tmd: TMDParams, z_prev, w_prev: float, w: float) -> np.ndarray:
+def continuation_start(base: BaseParams, tmd: TMDParams, z_prev: ArrayLike, w_prev: float, w: float) -> np.ndarray:
     """Start state at w from the steady state z_prev found at w_prev: z_prev shifted by the change
     of the linear steady state (:func:`initial_guess`) between the two frequencies. Exact for a
     linear configuration; for a nonlinear one it keeps the branch (the nonlinear part of z_prev)
@@ -293,7 +307,15 @@ def continuation_start(base: BaseParams, tmd: TMDParams, z_prev, w_prev: float, 
     return np.asarray(z_prev, float) + initial_guess(base, tmd, w) - initial_guess(base, tmd, w_prev)
 
 
-def _sweep_piece(base, tmd, seq, direction, settings, z0, queue=None):
+def _sweep_piece(
+    base: BaseParams,
+    tmd: TMDParams,
+    seq: Sequence[float],
+    direction: str,
+    settings: CosimSettings,
+    z0: ArrayLike | None,
+    queue: Any = None,
+) -> Any:
     master = make_master(
         base,
         tmd,
@@ -340,11 +362,11 @@ def _sweep_piece(base, tmd, seq, direction, settings, z0, queue=None):
 def sweep(
     base: BaseParams,
     tmd: TMDParams,
-    omegas,
+    omegas: Sequence[float] | np.ndarray,
     direction: str = "up",
     settings: CosimSettings = CosimSettings(),
-    progress=None,
-    z0=None,
+    progress: Callable[..., Any] | None = None,
+    z0: ArrayLike | None = None,
     workers: int = 1,
 ) -> pd.DataFrame:
     """Co-simulated steady-state amplitudes over omegas (sorted), up, down or both.
@@ -365,7 +387,7 @@ def periodic_time_series(
     samples_per_period: int | None = None,
     settings: CosimSettings = CosimSettings(),
     master: Master | None = None,
-):
+) -> tuple[np.ndarray, np.ndarray, CosimSteadyState]:
     """Steady state, then n_periods more recorded at the communication points.
 
     Returns (t, states[:, 6] = x, xd, y, yd, d, dd (d, dd: nan, not outputs of the FMUs), steady state).

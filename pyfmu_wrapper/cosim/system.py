@@ -18,6 +18,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..master.graph import Connection
 from ..master.master import Master
@@ -36,7 +37,7 @@ ATOL_FLOOR = 1e-14
 COUPLINGS = ("impulse", "force")
 
 
-def fmu_parameters(base: BaseParams, tmd: TMDParams, omega: float, z0, fmu_rtol: float = 1e-8) -> dict:
+def fmu_parameters(base: BaseParams, tmd: TMDParams, omega: float, z0: ArrayLike, fmu_rtol: float = 1e-8) -> dict:
     """The FMU parameter values ("instance.variable" -> value) of a configuration and start state."""
     z = np.asarray(z0, dtype=float)
     out = registry.fmu_start_values(base, tmd, omega)
@@ -124,7 +125,13 @@ def make_master(
 
 
 def export_tmd_system(
-    path, base, tmd, omega: float, z0=None, stop_time: float | None = None, step_size: float | None = None
+    path: str | Path,
+    base: BaseParams,
+    tmd: TMDParams,
+    omega: float,
+    z0: ArrayLike | None = None,
+    stop_time: float | None = None,
+    step_size: float | None = None,
 ) -> Path:
     """SSP of the base + TMD pair of this project at excitation omega [rad/s] (start state z0,
     default the linear steady state of :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`;

@@ -85,7 +85,7 @@ def scenarios_text(current: str) -> str:
     return current[:i] + "\n" + docs_table() + "\n" + current[j:]
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true", help="only check that the files are up to date")
     a = ap.parse_args(argv)

@@ -303,7 +303,7 @@ def stale_files(directory: Path = PACKAGE_DIR) -> list[str]:
     return bad
 
 
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--dir", type=Path, default=PACKAGE_DIR, help="package directory (default: %(default)s)")
     ap.add_argument("--check", action="store_true", help="only check that the files are up to date")
