@@ -2,10 +2,11 @@
 
 The C stub calls it directly for an ordinary step (h <= :data:`~.contract.NATIVE_MAX_STEP`), so a step enters
 neither the interpreter nor the Python slave: it reads the inputs and their derivatives from the
-stub's value buffers, integrates the subsystem over [t, t + h] with the same compiled RODAS4
-integrator (:mod:`.integrators`, built by :func:`~pyfmu_wrapper.solvers.rodas.make_integrator`: the one the Python
-path calls, so the numbers are bit-identical), writes the outputs at t + h and clears the input
-derivatives. Python is entered only to instantiate, to set up, for long steps, and on errors.
+stub's value buffers, advances the subsystem over [t, t + h] with the same compiled step the Python
+path calls (:mod:`.integrators`: the TMD's RODAS4 integrator built by
+:func:`~pyfmu_wrapper.solvers.rodas.make_integrator`, the base's exact step), writes the outputs at t + h
+with the same compiled outputs function (:mod:`.outputs`), so the numbers are bit-identical, and clears
+the input derivatives. Python is entered only to instantiate, to set up, for long steps, and on errors.
 
 C signature (all pointers to the slave's own arrays, which keep their address for its life)::
 
@@ -23,7 +24,7 @@ An exception inside the compiled code (e.g. a ZeroDivisionError) cannot leave a 
 prints it to stderr and the function returns 0, the null value of its return type. That is why
 success is :data:`NATIVE_OK` and never 0: the stub reads 0 as "the compiled step raised", puts the
 state back from ``backup`` (z and the integrator counters as they were at the start of the step,
-saved there before integrating; :meth:`~.slaves.Slave.native_restore`) and retakes the step in
+saved there before integrating; :meth:`~.slave.Slave.native_restore`) and retakes the step in
 Python, which raises the same exception with its traceback: fmi2Error, with the message sent to
 the FMI logger. ``debug_raise`` = 2 raises inside the compiled step (a test of that path).
 """
@@ -31,16 +32,16 @@ the FMI logger. ``debug_raise`` = 2 raises inside the compiled step (a test of t
 from __future__ import annotations
 
 import functools
-import math
 
 import numpy as np
 from numba import carray, cfunc, types
 
 from .._jit import njit
 from ..physics import kernels as kn
-from ..physics.params import N_PARAMS, P_I, P_MODEL, P_ki, P_s
+from ..physics.params import N_PARAMS, P_s
 from .contract import MAX_INTEGRATOR_STEPS, NATIVE_OK
-from .integrators import integrate_base, integrate_tmd
+from .integrators import BASE_U_SIZE, advance_base, fill_atol, integrate_tmd
+from .outputs import BASE_OUT_INT, BASE_OUT_VR, TMD_OUT_INT, TMD_OUT_VR, base_outputs, tmd_outputs
 from .variables import BASE_OSCILLATOR, TMD_INERTER
 
 SIGNATURE = types.int32(
@@ -64,36 +65,29 @@ NP = N_PARAMS
 # value references (frozen into the compiled code)
 B_NVR = max(v.vr for v in BASE_OSCILLATOR.variables) + 1
 B_FLINK = BASE_OSCILLATOR.vr("f_link")
-B_X, B_XD, B_XDD, B_FEXC, B_XDDF = (BASE_OSCILLATOR.vr(n) for n in ("x", "xd", "xdd", "f_exc", "xdd_free"))
-B_RTOL, B_ATOL, B_DEBUG = (BASE_OSCILLATOR.vr(n) for n in ("rtol", "atol", "debug_raise"))
+B_DEBUG = BASE_OSCILLATOR.vr("debug_raise")
+B_NOUT, T_NOUT = BASE_OUT_VR.size, TMD_OUT_VR.size
 T_NVR = max(v.vr for v in TMD_INERTER.variables) + 1
 T_X, T_XD, T_XDD = (TMD_INERTER.vr(n) for n in ("x", "xd", "xdd"))
-T_FORCE, T_Y, T_YD, T_P, T_CONTACT = (TMD_INERTER.vr(n) for n in ("force", "y", "yd", "inerter_force", "contact"))
 T_RTOL, T_ATOL, T_DEBUG = (TMD_INERTER.vr(n) for n in ("rtol", "atol", "debug_raise"))
 SYS_BASE, SYS_TMD, U_KAPPA = kn.SYS_BASE, kn.SYS_TMD, kn.U_KAPPA
 MAX_STEPS = MAX_INTEGRATOR_STEPS
 
 
 @njit(cache=True)
-def fill_atol(system, a, p, atol):
-    """The integrator's absolute tolerance per state from the FMU parameter ``atol`` = a.
-
-    Every state gets a, except the gear chain's rate dd of the play model, which gets
-    a sqrt(ki/I) (at least a): the rate of a chain ringing at the mesh frequency sqrt(ki/I) is
-    sqrt(ki/I) times its deflection d, so this asks the same of dd as of d (the monolithic
-    solver's scaling, ``solvers.monolithic._atol``). Held to a alone, dd was resolved 4472 times
-    finer than d (Case 1) and the rattling chain cost the TMD FMU 2.7x the integrator steps per
-    period (docs/cosimulation.md, issue 20). Both step paths (native and Python) call this, so
-    they stay bit-identical; without the play model the tolerances are a, as before."""
-    for i in range(atol.shape[0]):
-        atol[i] = a
-    if system == SYS_TMD and int(p[P_MODEL]) == kn.MODEL_PLAY and p[P_ki] > 0.0 and p[P_I] > 0.0:
-        atol[3] = a * max(1.0, math.sqrt(p[P_ki] / p[P_I]))
+def write_outputs(out, vr, is_int, reals, ints):
+    """The outputs computed by :mod:`.outputs` into the stub's value buffers (Integer and Boolean
+    outputs into the int32 buffer)."""
+    for j in range(out.shape[0]):
+        if is_int[j]:
+            ints[vr[j]] = np.int32(out[j])
+        else:
+            reals[vr[j]] = out[j]
 
 
 @functools.cache
 def base_step():
-    """The BaseOscillator step (compiled on first use, cached on disk)."""
+    """The BaseOscillator step (compiled on first use, cached on disk): exact (:func:`.integrators.advance_base`)."""
 
     @cfunc(SIGNATURE, cache=True)
     def step(reals_p, ints_p, derivs_p, z_p, p_p, stats_p, th_p, u_p, atol_p, backup_p, t, h):
@@ -104,8 +98,7 @@ def base_step():
         p = carray(p_p, (NP,))
         stats = carray(stats_p, (4,))
         th = carray(th_p, (2,))
-        u = carray(u_p, (4,))
-        atol = carray(atol_p, (2,))
+        u = carray(u_p, (BASE_U_SIZE,))  # the input polynomial, then the exact step's cache
         backup = carray(backup_p, (2 + 4,))
         for i in range(2):
             backup[i] = z[i]
@@ -119,25 +112,14 @@ def base_step():
         u[1] = reals[B_FLINK]
         u[2] = derivs[2 * B_FLINK]
         u[3] = derivs[2 * B_FLINK + 1]
-        fill_atol(SYS_BASE, reals[B_ATOL], p, atol)
-        band = 1.0 / p[P_s] if p[P_s] > 0 else 1e-6
-        z0, z1 = z[0], z[1]
-        hn, _, status, _ = integrate_base(
-            z, t, t + h, p, u, reals[B_RTOL], atol, th[1], h, np.zeros(0), np.zeros((0, 2)), band, stats, MAX_STEPS
-        )
-        if status != 0:  # back to the start of the step: the Python path retakes it and names the failure
-            z[0], z[1] = z0, z1
+        if advance_base(z, t, h, p, u, stats) != 0:  # not finite: the Python path retakes it and says so
             return 1
-        th[1] = hn
+        th[1] = h
         t1 = t + h
         th[0] = t1
-        fexc = kn.excitation(t1, p)
-        f_link = kn.input_value(u, 0, t1)
-        reals[B_X] = z[0]
-        reals[B_XD] = z[1]
-        reals[B_XDD] = kn.base_acceleration(z[0], z[1], f_link, 0.0, fexc, p)
-        reals[B_FEXC] = fexc
-        reals[B_XDDF] = kn.base_acceleration(z[0], z[1], 0.0, 0.0, fexc, p)
+        out = np.empty(B_NOUT)
+        base_outputs(z, t1, kn.input_value(u, 0, t1), p, out)
+        write_outputs(out, BASE_OUT_VR, BASE_OUT_INT, reals, ints)
         derivs[2 * B_FLINK] = 0.0
         derivs[2 * B_FLINK + 1] = 0.0
         return NATIVE_OK
@@ -194,12 +176,9 @@ def tmd_step():
         x = kn.input_value(u, 0, t1)
         xd = kn.input_value(u, 1, t1)
         xdd = kn.input_value(u, 2, t1)
-        force, chain, contact = kn.tmd_outputs(z, x, xd, xdd, u[U_KAPPA], p)
-        reals[T_FORCE] = force
-        reals[T_Y] = z[0]
-        reals[T_YD] = z[1]
-        reals[T_P] = chain
-        ints[T_CONTACT] = np.int32(contact)
+        out = np.empty(T_NOUT)
+        tmd_outputs(z, x, xd, xdd, u[U_KAPPA], p, out)
+        write_outputs(out, TMD_OUT_VR, TMD_OUT_INT, reals, ints)
         for vr in (T_X, T_XD, T_XDD):
             derivs[2 * vr] = 0.0
             derivs[2 * vr + 1] = 0.0
