@@ -32,9 +32,11 @@ the FMI logger. ``debug_raise`` = 2 raises inside the compiled step (a test of t
 from __future__ import annotations
 
 import functools
+from typing import Any
 
 import numpy as np
 from numba import carray, cfunc, types
+from numpy.typing import NDArray
 
 from .._jit import njit
 from ..physics import kernels as kn
@@ -75,7 +77,13 @@ MAX_STEPS = MAX_INTEGRATOR_STEPS
 
 
 @njit(cache=True)
-def write_outputs(out, vr, is_int, reals, ints):
+def write_outputs(
+    out: NDArray[np.float64],
+    vr: NDArray[np.int64],
+    is_int: NDArray[np.bool_],
+    reals: NDArray[np.float64],
+    ints: NDArray[np.int32],
+) -> None:
     """The outputs computed by :mod:`.outputs` into the stub's value buffers (Integer and Boolean
     outputs into the int32 buffer)."""
     for j in range(out.shape[0]):
@@ -86,11 +94,24 @@ def write_outputs(out, vr, is_int, reals, ints):
 
 
 @functools.cache
-def base_step():
+def base_step() -> Any:
     """The BaseOscillator step (compiled on first use, cached on disk): exact (:func:`.integrators.advance_base`)."""
 
     @cfunc(SIGNATURE, cache=True)
-    def step(reals_p, ints_p, derivs_p, z_p, p_p, stats_p, th_p, u_p, atol_p, backup_p, t, h):
+    def step(  # the pointers' types: SIGNATURE
+        reals_p: Any,
+        ints_p: Any,
+        derivs_p: Any,
+        z_p: Any,
+        p_p: Any,
+        stats_p: Any,
+        th_p: Any,
+        u_p: Any,
+        atol_p: Any,
+        backup_p: Any,
+        t: float,
+        h: float,
+    ) -> int:
         reals = carray(reals_p, (B_NVR,))
         ints = carray(ints_p, (B_NVR,))
         derivs = carray(derivs_p, (2 * B_NVR,))
@@ -128,11 +149,24 @@ def base_step():
 
 
 @functools.cache
-def tmd_step():
+def tmd_step() -> Any:
     """The TMDInerter step (compiled on first use, cached on disk)."""
 
     @cfunc(SIGNATURE, cache=True)
-    def step(reals_p, ints_p, derivs_p, z_p, p_p, stats_p, th_p, u_p, atol_p, backup_p, t, h):
+    def step(  # the pointers' types: SIGNATURE
+        reals_p: Any,
+        ints_p: Any,
+        derivs_p: Any,
+        z_p: Any,
+        p_p: Any,
+        stats_p: Any,
+        th_p: Any,
+        u_p: Any,
+        atol_p: Any,
+        backup_p: Any,
+        t: float,
+        h: float,
+    ) -> int:
         reals = carray(reals_p, (T_NVR,))
         ints = carray(ints_p, (T_NVR,))
         derivs = carray(derivs_p, (2 * T_NVR,))

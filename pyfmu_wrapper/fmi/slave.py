@@ -27,8 +27,11 @@ from __future__ import annotations
 
 import functools
 import traceback
+from collections.abc import Callable, Sequence
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..physics import kernels as kn
 from ..physics import registry
@@ -43,6 +46,9 @@ _CSTEP = 1e-30
 #: 0 < h <= MAX_STEP, on the FMU's time within TIME_SLACK h) is checked by the C stub before Python
 #: is entered: fmi/contract.py.
 CHUNK = NATIVE_MAX_STEP
+FloatArray = NDArray[np.float64]
+#: what the stub hands over: its value buffers as writable memoryviews, a state as bytes
+Buffer = memoryview | bytes
 
 
 class FmuStepError(RuntimeError):
@@ -53,9 +59,9 @@ class InjectedError(RuntimeError):
     """Raised on purpose when the debug_raise parameter is set (tests of error reporting)."""
 
 
-def _guarded(method):
+def _guarded(method: Callable[..., int | None]) -> Callable[..., int]:
     @functools.wraps(method)
-    def wrapper(self, *args):
+    def wrapper(self: Slave, *args: Any) -> int:
         try:
             r = method(self, *args)
             return OK if r is None else r
@@ -72,7 +78,9 @@ class Slave:
     spec: FmuSpec  #: set by each FMU's subclass
     n_state = 0
 
-    def __init__(self, reals, ints, derivs, scratch, instance_name="", resources=""):
+    def __init__(
+        self, reals: Buffer, ints: Buffer, derivs: Buffer, scratch: Buffer, instance_name: str = "", resources: str = ""
+    ) -> None:
         self.r = np.frombuffer(reals, dtype=np.float64)
         self.i = np.frombuffer(ints, dtype=np.int32)
         self.du = np.frombuffer(derivs, dtype=np.float64).reshape(-1, 2)
@@ -102,7 +110,7 @@ class Slave:
     t = property(lambda self: float(self._th[0]), lambda self, v: self._th.__setitem__(0, v))
     h = property(lambda self: float(self._th[1]), lambda self, v: self._th.__setitem__(1, v))
 
-    def native(self):
+    def native(self) -> bytes:
         """Addresses for the stub's native step (:mod:`.native`): the C function and the arrays it
         updates in place, as 8 native-endian uint64; empty bytes when this slave has none."""
         step = self._native_step()
@@ -115,18 +123,18 @@ class Slave:
         return np.array([step.address] + [a.ctypes.data for a in arrays], dtype=np.uint64).tobytes()
 
     @_guarded
-    def native_restore(self):
+    def native_restore(self) -> None:
         """The compiled step raised (numba printed the exception and returned 0): put z and the
         counters back to where the step started, so the Python path retakes the same step."""
         b = self._native_backup
         self.z[:] = b[: self.n_state]
         self.stats[:] = b[self.n_state :].astype(np.int64)
 
-    def _native_step(self):
+    def _native_step(self) -> Any:
         return None
 
     # --- helpers --------------------------------------------------------------------------
-    def _start_values(self):
+    def _start_values(self) -> None:
         for v in self.spec.variables:
             if v.start is None:
                 continue
@@ -136,15 +144,15 @@ class Slave:
                 self.r[v.vr] = float(v.start)
         self.du[:] = 0.0
 
-    def _registry_values(self, subsystem):
+    def _registry_values(self, subsystem: str) -> dict[str, float]:
         """Field name -> value of the subsystem's registry parameters, read from the FMU buffers."""
         return {p.name: self.val(p.fmu_name) for p in registry.fields(subsystem)}
 
-    def val(self, name):
+    def val(self, name: str) -> float:
         v = self.spec.by_name(name)
         return int(self.i[v.vr]) if v.type in (INTEGER, BOOLEAN) else float(self.r[v.vr])
 
-    def _taylor_inputs(self, t):
+    def _taylor_inputs(self, t: float) -> FloatArray:
         """Input polynomials about t: u = [t, value, d/dt, d2/dt2, ...] (kernels' layout)."""
         u = self._u
         u[0] = t
@@ -154,29 +162,31 @@ class Slave:
             u[3 + 3 * k] = self.du[vr, 1]
         return u
 
-    def _inputs_at(self, t):
+    def _inputs_at(self, t: float) -> FloatArray:
         u = self._u
         return np.array([kn.input_value(u, k, t) for k in range(len(self._input_vr))])
 
-    def _current_inputs(self):
+    def _current_inputs(self) -> FloatArray:
         return np.array([self.r[vr] for vr in self._input_vr])
 
     # --- model hooks -----------------------------------------------------------------------
-    def configure(self):
+    def configure(self) -> None:
         """Read parameters from the buffers, validate and pack them, set the initial state."""
 
-    def outputs(self, inputs):
+    def outputs(self, inputs: NDArray[Any]) -> list[Any]:
         """Output values (in the order of spec.of('output')) for the current state and inputs.
 
         Must accept complex inputs (directional derivatives by complex step)."""
         raise NotImplementedError
 
-    def advance(self, t, h, u):
+    def advance(self, t: float, h: float, u: FloatArray) -> None:
         """Integrate the state over [t, t + h] with input polynomials u."""
 
     # --- stub entry points -----------------------------------------------------------------
     @_guarded
-    def setup_experiment(self, tolerance_defined, tolerance, t_start, stop_defined, t_stop):
+    def setup_experiment(
+        self, tolerance_defined: int, tolerance: float, t_start: float, stop_defined: int, t_stop: float
+    ) -> None:
         if not np.isfinite(t_start):
             raise FmuStepError(f"setupExperiment: startTime must be finite, got {t_start!r}")
         if tolerance_defined and not (np.isfinite(tolerance) and tolerance > 0):
@@ -186,23 +196,23 @@ class Slave:
             self.r[self.spec.vr("rtol")] = tolerance
 
     @_guarded
-    def enter_initialization(self):
+    def enter_initialization(self) -> None:
         pass
 
     @_guarded
-    def update_outputs(self, initializing):
+    def update_outputs(self, initializing: int) -> None:
         if initializing:
             self.configure()
         self._write_outputs(self.outputs(self._current_inputs()))
 
     @_guarded
-    def exit_initialization(self):
+    def exit_initialization(self) -> None:
         self.configure()
         self.h = 0.0
         self._write_outputs(self.outputs(self._current_inputs()))
 
     @_guarded
-    def do_step(self, t, h, no_set_prior):
+    def do_step(self, t: float, h: float, no_set_prior: int) -> None:
         # (t, h) were checked by the C stub, the one guard of the doStep contract (fmi/contract.py)
         if self._debug_vr is not None and self.i[self._debug_vr]:
             raise InjectedError(
@@ -216,7 +226,7 @@ class Slave:
         self.du[self._input_vr] = 0.0  # input derivatives are valid for one step only
 
     @_guarded
-    def reset(self):
+    def reset(self) -> None:
         self._start_values()
         self.t = 0.0
         self.h = 0.0
@@ -224,10 +234,10 @@ class Slave:
         self.stats[:] = 0
 
     @_guarded
-    def terminate(self):
+    def terminate(self) -> None:
         pass
 
-    def get_state(self):
+    def get_state(self) -> bytes | None:
         """Whole internal state as bytes (the stub saves its value buffers itself)."""
         try:
             return np.concatenate(([self.t, self.h], self.p, self.z, self.stats.astype(np.float64))).tobytes()
@@ -236,7 +246,7 @@ class Slave:
             return None
 
     @_guarded
-    def set_state(self, data):
+    def set_state(self, data: Buffer) -> None:
         a = np.frombuffer(data, dtype=np.float64)
         n = 2 + self.p.size + self.n_state + 4
         if a.size != n:
@@ -248,7 +258,7 @@ class Slave:
         self.stats[:] = a[k + self.n_state :].astype(np.int64)
 
     @_guarded
-    def directional_derivative(self, n_unknown, n_known, initializing=0):
+    def directional_derivative(self, n_unknown: int, n_known: int, initializing: int = 0) -> None:
         """Scratch layout: [vUnknown (nu), vKnown (nk), dvKnown (nk)] -> dvUnknown after them.
 
         Knowns may be any variable (FMI 2.0 allows masters to pass others than inputs; OMSimulator
@@ -265,7 +275,7 @@ class Slave:
         in_index = {int(vr): k for k, vr in enumerate(self._input_vr)}
         out_index = {v.vr: j for j, v in enumerate(self._outputs) if v.type not in (INTEGER, BOOLEAN)}
         direction = np.zeros(len(in_index))
-        params = {}
+        params: dict[int, float] = {}
         for vr, dv in zip(vk, seed):
             vr = int(vr)
             if vr in in_index:
@@ -286,7 +296,7 @@ class Slave:
             else:
                 res[j] = float(np.sum(seed[vk == vr]))
 
-    def _parameter_sensitivity(self, vr):
+    def _parameter_sensitivity(self, vr: int) -> FloatArray:
         """d outputs / d parameter vr in initialisation mode: a central difference through
         configure, one-sided at the edge of the parameter's domain (e.g. a play gap of 0)."""
         r0 = float(self.r[vr])
@@ -313,7 +323,7 @@ class Slave:
             f"directional derivative with respect to parameter {vr} is not available at {r0!r}: " + "; ".join(errors)
         )
 
-    def _write_outputs(self, values):
+    def _write_outputs(self, values: Sequence[Any]) -> None:
         for v, val in zip(self._outputs, values, strict=True):
             if v.type in (INTEGER, BOOLEAN):
                 self.i[v.vr] = int(np.real(val))

@@ -10,8 +10,10 @@ step (:mod:`.native`) calls, so both step paths are bit-identical.
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..physics import kernels as kn
 from ..physics import registry
@@ -20,7 +22,7 @@ from ..solvers.rodas import STAT_STEPS, failure_message
 from .contract import MAX_INTEGRATOR_STEPS
 from .integrators import BASE_U_SIZE, TMD_MODEL, advance_base, fill_atol, integrate_tmd
 from .outputs import base_outputs, tmd_outputs
-from .slave import CHUNK, FmuStepError, Slave, _guarded
+from .slave import CHUNK, FloatArray, FmuStepError, Slave, _guarded
 from .variables import BASE_OSCILLATOR, TMD_INERTER, TRIVIAL
 
 
@@ -30,21 +32,21 @@ class BaseOscillatorSlave(Slave):
     spec = BASE_OSCILLATOR
     n_state = 2
 
-    def __init__(self, *args, **kwargs):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self._u = np.zeros(BASE_U_SIZE)  # the input polynomial, then the exact step's cache (.integrators)
 
-    def configure(self):
+    def configure(self) -> None:
         base = BaseParams(**self._registry_values("base"), source=f"FMU {self.instance_name}")
         self.p[:] = pack(base, TMDParams(), self.val(registry.get("base", "omega").fmu_name))
         self.z[:] = (self.val("x0"), self.val("xd0"))
 
-    def outputs(self, inputs):
+    def outputs(self, inputs: NDArray[Any]) -> list[Any]:
         out = np.empty(len(self._outputs), dtype=np.result_type(inputs, np.float64))
         base_outputs(self.z, self.t, inputs[0], self.p, out)
         return list(out)
 
-    def advance(self, t, h, u):
+    def advance(self, t: float, h: float, u: FloatArray) -> None:
         """The exact step (.integrators.advance_base), as the native step takes it."""
         x0, xd0 = float(self.z[0]), float(self.z[1])
         if advance_base(self.z, t, h, self.p, u, self.stats) != 0:
@@ -53,7 +55,7 @@ class BaseOscillatorSlave(Slave):
                 f"(from x = {x0!r} m, xd = {xd0!r} m/s; f_link = {u[1]!r} N, d/dt {u[2]!r} N/s, d2/dt2 {u[3]!r} N/s2)"
             )
 
-    def _native_step(self):
+    def _native_step(self) -> Any:
         from .native import base_step
 
         return base_step()
@@ -65,11 +67,11 @@ class TMDInerterSlave(Slave):
     spec = TMD_INERTER
     n_state = 4
 
-    def __init__(self, *args, **kwargs):
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self._u = np.zeros(kn.U_KAPPA + 1)  # the input polynomials, then the mounting compliance
 
-    def configure(self):
+    def configure(self) -> None:
         tmd = TMDParams(**self._registry_values("tmd"), source=f"FMU {self.instance_name}")
         kappa = self.val("base_compliance")
         if not (math.isfinite(kappa) and kappa >= 0.0):
@@ -81,12 +83,12 @@ class TMDInerterSlave(Slave):
         self._u[kn.U_KAPPA] = kappa
         self.z[:] = (self.val("y0"), self.val("yd0"), self.val("d0"), self.val("dd0"))
 
-    def outputs(self, inputs):
+    def outputs(self, inputs: NDArray[Any]) -> list[Any]:
         out = np.empty(len(self._outputs), dtype=np.result_type(inputs, np.float64))
         tmd_outputs(self.z, inputs[0], inputs[1], inputs[2], self._u[kn.U_KAPPA], self.p, out)
         return list(out)
 
-    def advance(self, t, h, u):
+    def advance(self, t: float, h: float, u: FloatArray) -> None:
         """RODAS4 over [t, t + h] (long steps in pieces of CHUNK, within a budget of integrator steps)."""
         tol_vr = getattr(self, "_tol_vr", None)
         if tol_vr is None:  # value references of rtol/atol, resolved once
@@ -127,7 +129,7 @@ class TMDInerterSlave(Slave):
                 )
         self.h = hn
 
-    def _native_step(self):
+    def _native_step(self) -> Any:
         from .native import tmd_step
 
         return tmd_step()
@@ -139,10 +141,10 @@ class TrivialSlave(Slave):
     spec = TRIVIAL
     n_state = 0
 
-    def outputs(self, inputs):
+    def outputs(self, inputs: NDArray[Any]) -> list[Any]:
         return [self.r[0] * inputs[0]]
 
     @_guarded
-    def do_step(self, t, h, no_set_prior):
+    def do_step(self, t: float, h: float, no_set_prior: int) -> None:
         self.t = t + h
         self.r[2] = self.r[0] * self.r[1]
