@@ -13,7 +13,9 @@ Functions of other packages keep numba's own locators.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from numba import njit as _numba_njit
 from numba.core import caching as _caching
@@ -43,7 +45,7 @@ class _HashedCacheLocator(_caching._SourceFileBackedLocatorMixin, _caching._Cach
 
     _user_dir: str | None = None
 
-    def __init__(self, py_func, py_file, root):
+    def __init__(self, py_func: Callable[..., Any], py_file: str, root: str | Path) -> None:
         self._py_file = py_file
         self._lineno = py_func.__code__.co_firstlineno
         sub = os.path.dirname(os.path.relpath(py_file, root))
@@ -54,14 +56,14 @@ class _HashedCacheLocator(_caching._SourceFileBackedLocatorMixin, _caching._Cach
             self._stamp = compiled_hash(root)
             self._cache_path = os.path.join(root, sub, "__pycache__", f"numba-{self._stamp[:16]}")
 
-    def get_cache_path(self):
+    def get_cache_path(self) -> str:
         return self._cache_path
 
-    def get_source_stamp(self):
+    def get_source_stamp(self) -> str:
         return self._stamp
 
     @classmethod
-    def from_function(cls, py_func, py_file):
+    def from_function(cls, py_func: Callable[..., Any], py_file: str) -> _HashedCacheLocator | None:
         try:
             path = Path(os.path.abspath(py_file))
         except (OSError, TypeError):
@@ -109,6 +111,6 @@ if _HashedCacheLocator not in _IMPL._locator_classes:
     _IMPL._locator_classes.insert(0, _HashedCacheLocator)
 
 
-def njit(*args, **kwargs):
+def njit(*args: Any, **kwargs: Any) -> Any:
     """numba.njit, with this package's cache locator installed (see the module doc)."""
     return _numba_njit(*args, **kwargs)

@@ -28,6 +28,8 @@ from .kernels import (
     MODEL_PLAY,
     SYS_COUPLED,
     TWO_OVER_PI,
+    Num,
+    Vec,
     input_value,
     system_rhs,
     tmd_kappa,
@@ -38,13 +40,13 @@ _CSTEP = 1e-30  # complex-step size
 
 
 @njit(cache=True)
-def spring_stiffness(u, p):
+def spring_stiffness(u: Num, p: Vec) -> Num:
     """d/du of :func:`spring_force`: k + 3 k3 u^2 [N/m]."""
     return p[P_k] + 3.0 * p[P_k3] * (u * u)
 
 
 @njit(cache=True)
-def friction_slope_at(v, df, s):
+def friction_slope_at(v: Num, df: float, s: float) -> Num:
     """d/dv of :func:`friction_force`: df (2/pi) s / (1 + (s v)^2) [N s/m]."""
     if df == 0.0:
         return 0.0
@@ -53,7 +55,7 @@ def friction_slope_at(v, df, s):
 
 
 @njit(cache=True)
-def chain_force_gradient(d, dd, p):
+def chain_force_gradient(d: Num, dd: Num, p: Vec) -> tuple[Num, Num]:
     """(dP/dd, dP/ddd) of :func:`chain_force` (0 where the chain is free or clamped)."""
     ki, ci, eps = p[P_ki], p[P_ci], p[P_eps]
     if eps == 0.0:
@@ -70,7 +72,7 @@ def chain_force_gradient(d, dd, p):
 
 
 @njit(cache=True)
-def coupled_jacobian(t, z, p, J, ft):
+def coupled_jacobian(t: float, z: Vec, p: Vec, J: Vec, ft: Vec) -> None:
     """Analytic d(rhs)/dz and d(rhs)/dt of the coupled system (the hot path of the monolithic solver).
 
     Differentiates the same structure as :func:`rhs_fext` (f_link = f0 + a xdd, ydd = ydd0 + ya xdd,
@@ -122,7 +124,7 @@ def coupled_jacobian(t, z, p, J, ft):
 
 
 @njit(cache=True)
-def tmd_jacobian(t, z, p, u, J):
+def tmd_jacobian(t: float, z: Vec, p: Vec, u: Vec, J: Vec) -> None:
     """Analytic d(rhs)/dz of the TMD subsystem (SYS_TMD, z = [y, yd, d, dd]) driven by the inputs u;
     held against the complex-step Jacobian in the tests."""
     x = input_value(u, 0, t)
@@ -170,7 +172,7 @@ def tmd_jacobian(t, z, p, u, J):
 
 
 @njit(cache=True)
-def system_jacobian(system, t, z, p, u, J):
+def system_jacobian(system: int, t: float, z: Vec, p: Vec, u: Vec, J: Vec) -> None:
     """d(rhs)/dz by the complex-step derivative (exact to rounding, no hand-derived copy)."""
     n = z.shape[0]
     zc = np.empty(n, dtype=np.complex128)
@@ -179,7 +181,7 @@ def system_jacobian(system, t, z, p, u, J):
 
 
 @njit(cache=True)
-def system_jacobian_work(system, t, z, p, u, J, zc, oc):
+def system_jacobian_work(system: int, t: float, z: Vec, p: Vec, u: Vec, J: Vec, zc: Vec, oc: Vec) -> None:
     """:func:`system_jacobian` with caller-provided complex work arrays zc, oc (no allocation)."""
     n = z.shape[0]
     for j in range(n):
@@ -192,7 +194,7 @@ def system_jacobian_work(system, t, z, p, u, J, zc, oc):
 
 
 @njit(cache=True)
-def system_dfdt(system, t, z, p, u, out):
+def system_dfdt(system: int, t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
     """Partial derivative of the rhs with respect to t, by the complex step in t."""
     n = z.shape[0]
     zc = np.empty(n, dtype=np.complex128)
@@ -201,7 +203,7 @@ def system_dfdt(system, t, z, p, u, out):
 
 
 @njit(cache=True)
-def system_dfdt_work(system, t, z, p, u, out, zc, oc):
+def system_dfdt_work(system: int, t: float, z: Vec, p: Vec, u: Vec, out: Vec, zc: Vec, oc: Vec) -> None:
     """:func:`system_dfdt` with caller-provided complex work arrays."""
     n = z.shape[0]
     for i in range(n):
@@ -212,6 +214,6 @@ def system_dfdt_work(system, t, z, p, u, out, zc, oc):
 
 
 @njit(cache=True)
-def jacobian(t, z, p, J):
+def jacobian(t: float, z: Vec, p: Vec, J: Vec) -> None:
     """d(rhs)/dz of the coupled system."""
     system_jacobian(SYS_COUPLED, t, z, p, np.zeros(1), J)

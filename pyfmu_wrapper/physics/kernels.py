@@ -33,12 +33,19 @@ tests.
 from __future__ import annotations
 
 import math
+from typing import Any, cast
 
 from numba import types
 from numba.extending import overload
+from numpy.typing import NDArray
 
 from .._jit import njit
 from .params import P_C, P_F, P_I, P_K, P_M, P_MODEL, P_W, P_c, P_ci, P_df, P_eps, P_k, P_k3, P_ki, P_m, P_s
+
+#: a value of the equations: real, or complex in the complex-step derivatives
+Num = float | complex
+#: an array of the equations (state, parameters, inputs, outputs; float64, or complex128 for the complex step)
+Vec = NDArray[Any]
 
 MODEL_NONE, MODEL_IDEAL, MODEL_PLAY = 0, 1, 2
 NSTATE = 6
@@ -46,28 +53,28 @@ TWO_OVER_PI = 2.0 / math.pi
 
 
 @njit(cache=True, inline="always")
-def _re(v):
+def _re(v: Num) -> float:
     return v.real
 
 
-def _atan(v):  # real arctangent, or its complex-step extension, dispatched at compile time
-    return math.atan(v)
+def _atan(v: Num) -> Num:  # real arctangent, or its complex-step extension, dispatched at compile time
+    return math.atan(cast(float, v))  # the Python body runs for real v only; compiled code uses the overload
 
 
 @overload(_atan)
-def _atan_overload(v):
+def _atan_overload(v):  # type: ignore[no-untyped-def]  # numba compares this signature, annotations included, with the lambda's
     if isinstance(v, types.Complex):
         # complex-step use only (imaginary part ~1e-30): first order in Im is exact to rounding
         return lambda v: complex(math.atan(v.real), v.imag / (1.0 + v.real * v.real))
     return lambda v: math.atan(v)
 
 
-def _cos(v):  # real cosine, or its complex-step extension, dispatched at compile time
-    return math.cos(v)
+def _cos(v: Num) -> Num:  # real cosine, or its complex-step extension, dispatched at compile time
+    return math.cos(cast(float, v))  # the Python body runs for real v only; compiled code uses the overload
 
 
 @overload(_cos)
-def _cos_overload(v):
+def _cos_overload(v):  # type: ignore[no-untyped-def]  # numba compares this signature, annotations included, with the lambda's
     if isinstance(v, types.Complex):
         # complex-step use only (imaginary part ~1e-30): first order in Im is exact to rounding
         return lambda v: complex(math.cos(v.real), -v.imag * math.sin(v.real))
@@ -75,7 +82,7 @@ def _cos_overload(v):
 
 
 @njit(cache=True)
-def friction_force(v, df, s):
+def friction_force(v: Num, df: float, s: float) -> Num:
     """Regularised Coulomb friction df (2/pi) atan(s v) [N] at relative velocity v = xd - yd [m/s]."""
     if df == 0.0:
         return 0.0 * v
@@ -83,20 +90,20 @@ def friction_force(v, df, s):
 
 
 @njit(cache=True)
-def spring_force(u, p):
+def spring_force(u: Num, p: Vec) -> Num:
     """TMD spring k u + k3 u^3 [N] at relative displacement u = x - y [m] (k3 = 0 adds exactly 0)."""
     return p[P_k] * u + p[P_k3] * (u * u * u)
 
 
 @njit(cache=True)
-def static_link_force(x, xd, y, yd, p):
+def static_link_force(x: Num, xd: Num, y: Num, yd: Num, p: Vec) -> Num:
     """Fs = spring + viscous damper + dry friction [N], positive on the TMD in +y."""
     v = xd - yd
     return spring_force(x - y, p) + p[P_c] * v + friction_force(v, p[P_df], p[P_s])
 
 
 @njit(cache=True)
-def chain_force(d, dd, p):
+def chain_force(d: Num, dd: Num, p: Vec) -> Num:
     """Force P [N] carried by the inerter-with-play chain, for d = r - y and its rate dd.
 
     Engaged in compression (d > eps): P = max(0, ki (d - eps) + ci dd); in extension (d < -eps):
@@ -116,7 +123,7 @@ def chain_force(d, dd, p):
 
 
 @njit(cache=True)
-def tmd_link(x, xd, y, yd, d, dd, p):
+def tmd_link(x: Num, xd: Num, y: Num, yd: Num, d: Num, dd: Num, p: Vec) -> tuple[Num, Num, Num, Num, Num, Num, Num]:
     """TMD side as affine functions of the base acceleration xdd.
 
     Returns (f0, a, ydd0, ya, ddd0, da, P0) with f_link = f0 + a xdd (force of the links on the
@@ -144,19 +151,19 @@ def tmd_link(x, xd, y, yd, d, dd, p):
 
 
 @njit(cache=True)
-def base_acceleration(x, xd, f_link, a, fext, p):
+def base_acceleration(x: Num, xd: Num, f_link: Num, a: Num, fext: Num, p: Vec) -> Num:
     """Base: (M + a) xdd = fext - C xd - K x - f_link0, with the link's direct feed-through a."""
     return (fext - p[P_C] * xd - p[P_K] * x - f_link) / (p[P_M] + a)
 
 
 @njit(cache=True)
-def excitation(t, p):
+def excitation(t: Num, p: Vec) -> Num:
     """F cos(w t) [N], w in rad/s."""
     return p[P_F] * _cos(p[P_W] * t)
 
 
 @njit(cache=True)
-def rhs_fext(z, fext, p, out):
+def rhs_fext(z: Vec, fext: Num, p: Vec, out: Vec) -> None:
     """Time derivative of the coupled state for a given applied force fext [N]."""
     x, xd, y, yd, d, dd = z[0], z[1], z[2], z[3], z[4], z[5]
     f0, a, ydd0, ya, ddd0, da, _ = tmd_link(x, xd, y, yd, d, dd, p)
@@ -170,7 +177,7 @@ def rhs_fext(z, fext, p, out):
 
 
 @njit(cache=True)
-def rhs(t, z, p, out):
+def rhs(t: float, z: Vec, p: Vec, out: Vec) -> None:
     """dz/dt of the coupled system under F cos(w t)."""
     rhs_fext(z, excitation(t, p), p, out)
 
@@ -188,26 +195,26 @@ U_KAPPA = 10
 
 
 @njit(cache=True, inline="always")
-def input_value(u, k, t):
+def input_value(u: Vec, k: int, t: Num) -> Num:
     tau = t - u[0]
     return u[1 + 3 * k] + tau * (u[2 + 3 * k] + 0.5 * tau * u[3 + 3 * k])
 
 
 @njit(cache=True)
-def base_rhs(t, z, p, f_link, out):
+def base_rhs(t: float, z: Vec, p: Vec, f_link: Num, out: Vec) -> None:
     """Base alone: z = [x, xd]; f_link [N] is the force of the TMD links on the base (in -x)."""
     out[0] = z[1]
     out[1] = base_acceleration(z[0], z[1], f_link, 0.0, excitation(t, p), p)
 
 
 @njit(cache=True, inline="always")
-def tmd_kappa(u):
+def tmd_kappa(u: Vec) -> float:
     """The mounting compliance kappa carried in a TMD input vector u (0 when u has no slot)."""
     return u[U_KAPPA] if u.shape[0] > U_KAPPA else 0.0
 
 
 @njit(cache=True, inline="always")
-def mounted_acceleration(xdd_in, kappa, f0, a):
+def mounted_acceleration(xdd_in: Num, kappa: float, f0: Num, a: Num) -> Num:
     """Acceleration of the body the TMD is mounted on, seen by the TMD within a step.
 
     kappa = 0: the input itself. kappa = 1/M > 0 (interface Jacobian d xdd / d f_link = -1/M):
@@ -223,7 +230,7 @@ def mounted_acceleration(xdd_in, kappa, f0, a):
 
 
 @njit(cache=True)
-def tmd_rhs(z, x, xd, xdd, kappa, p, out):
+def tmd_rhs(z: Vec, x: Num, xd: Num, xdd: Num, kappa: float, p: Vec, out: Vec) -> None:
     """TMD subsystem alone: z = [y, yd, d, dd] driven by the base motion x, xd, xdd
     (xdd: the base's acceleration without the TMD's force when kappa > 0, see
     :func:`mounted_acceleration`)."""
@@ -236,7 +243,7 @@ def tmd_rhs(z, x, xd, xdd, kappa, p, out):
 
 
 @njit(cache=True)
-def tmd_outputs(z, x, xd, xdd, kappa, p):
+def tmd_outputs(z: Vec, x: Num, xd: Num, xdd: Num, kappa: float, p: Vec) -> tuple[Num, Num, int]:
     """(force on the base [N], inerter chain force [N], gear contact state) of the TMD subsystem
     (kappa, xdd: see :func:`tmd_rhs`)."""
     f0, a, ydd0, ya, ddd0, da, P0 = tmd_link(x, xd, z[0], z[1], z[2], z[3], p)
@@ -248,7 +255,7 @@ def tmd_outputs(z, x, xd, xdd, kappa, p):
 
 
 @njit(cache=True)
-def system_rhs(system, t, z, p, u, out):
+def system_rhs(system: int, t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
     """Right-hand side of the coupled system (u unused) or of one subsystem driven by inputs u."""
     if system == SYS_COUPLED:
         rhs_fext(z, excitation(t, p), p, out)
@@ -259,7 +266,7 @@ def system_rhs(system, t, z, p, u, out):
 
 
 @njit(cache=True)
-def inerter_force(z, xdd, p):
+def inerter_force(z: Vec, xdd: Num, p: Vec) -> Num:
     """The force P [N] carried by the inerter link (0 without inerter)."""
     f0, a, ydd0, ya, ddd0, da, P0 = tmd_link(z[0], z[1], z[2], z[3], z[4], z[5], p)
     model = int(p[P_MODEL])
@@ -269,7 +276,7 @@ def inerter_force(z, xdd, p):
 
 
 @njit(cache=True)
-def contact_state(d, p):
+def contact_state(d: Num, p: Vec) -> int:
     """Gear contact of the play chain: +1 engaged in compression, -1 in extension, 0 free."""
     if int(p[P_MODEL]) != MODEL_PLAY:
         return 0
@@ -282,7 +289,7 @@ def contact_state(d, p):
 
 
 @njit(cache=True)
-def system_switching(system, z, p, g):
+def system_switching(system: int, z: Vec, p: Vec, g: Vec) -> None:
     """Switching functions of a system in its own state layout (see switching_functions)."""
     if system == SYS_COUPLED:
         switching_functions(z, p, g)
@@ -301,7 +308,7 @@ def system_switching(system, z, p, g):
 
 
 @njit(cache=True)
-def switching_functions(z, p, g):
+def switching_functions(z: Vec, p: Vec, g: Vec) -> None:
     """Functions whose sign changes mark non-smooth points that steps should land on.
 
     g[0] = xd - yd (friction reversal, only with friction), g[1] = d - eps, g[2] = d + eps (gear
@@ -317,7 +324,7 @@ def switching_functions(z, p, g):
 
 
 @njit(cache=True)
-def energy(z, p):
+def energy(z: Vec, p: Vec) -> float:
     """Mechanical energy [J] stored in the coupled system (physics notes).
 
     E = M xd^2/2 + m yd^2/2 + K x^2/2 + k (x-y)^2/2 + k3 (x-y)^4/4 + I (xd - rd)^2/2
@@ -346,7 +353,7 @@ def energy(z, p):
 
 
 @njit(cache=True)
-def power_balance(t, z, p):
+def power_balance(t: float, z: Vec, p: Vec) -> tuple[float, float]:
     """(input power, dissipated power) [W] at state z: dE/dt = input - dissipated.
 
     Dissipation: C xd^2 + c v^2 + Ffric v + ci dd_rel^2 in the engaged chain (v = xd - yd).

@@ -30,10 +30,11 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from .._jit import njit
 from .jacobians import coupled_jacobian, system_dfdt_work, system_jacobian_work, tmd_jacobian
-from .kernels import SYS_BASE, SYS_COUPLED, SYS_TMD, system_rhs, system_switching
+from .kernels import SYS_BASE, SYS_COUPLED, SYS_TMD, Vec, system_rhs, system_switching
 
 
 @dataclass(frozen=True)
@@ -57,7 +58,7 @@ class OdeModel:
 
 
 @njit(cache=True)
-def contact_mode_index(g):
+def contact_mode_index(g: Vec) -> int:
     """0: engaged in extension (d < -eps), 1: free, 2: engaged in compression (d > eps)."""
     return (1 if g[1] > 0.0 else 0) - (1 if g[2] < 0.0 else 0) + 1
 
@@ -65,8 +66,8 @@ def contact_mode_index(g):
 _SURFACE_TOL = 1e-3  # the integrator's default surface_tol (solvers.rodas.SURFACE_TOL), for messages
 
 
-def _describe(friction: bool, contact_index: int):
-    def describe(z, p, atol, band, _switching=None) -> str:
+def _describe(friction: bool, contact_index: int) -> Callable[..., str]:
+    def describe(z: ArrayLike, p: Vec, atol: ArrayLike, band: float, _switching: Any = None) -> str:
         g = np.empty(3)
         _switching(np.asarray(z, dtype=float), p, g)
         parts = []
@@ -87,7 +88,7 @@ def _describe(friction: bool, contact_index: int):
     return describe
 
 
-def _bind(describe, switching):
+def _bind(describe: Callable[..., str], switching: Any) -> Callable[[ArrayLike, Vec, ArrayLike, float], str]:
     return lambda z, p, atol, band: describe(z, p, atol, band, _switching=switching)
 
 
@@ -95,17 +96,17 @@ def _bind(describe, switching):
 
 
 @njit(cache=True)
-def coupled_rhs(t, z, p, u, out):
+def coupled_rhs(t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
     system_rhs(SYS_COUPLED, t, z, p, u, out)
 
 
 @njit(cache=True)
-def coupled_jac(t, z, p, u, J, ft, zc, oc):
+def coupled_jac(t: float, z: Vec, p: Vec, u: Vec, J: Vec, ft: Vec, zc: Vec, oc: Vec) -> None:
     coupled_jacobian(t, z, p, J, ft)
 
 
 @njit(cache=True)
-def coupled_switching(z, p, g):
+def coupled_switching(z: Vec, p: Vec, g: Vec) -> None:
     system_switching(SYS_COUPLED, z, p, g)
 
 
@@ -113,18 +114,18 @@ def coupled_switching(z, p, g):
 
 
 @njit(cache=True)
-def base_rhs_u(t, z, p, u, out):
+def base_rhs_u(t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
     system_rhs(SYS_BASE, t, z, p, u, out)
 
 
 @njit(cache=True)
-def base_jac(t, z, p, u, J, ft, zc, oc):
+def base_jac(t: float, z: Vec, p: Vec, u: Vec, J: Vec, ft: Vec, zc: Vec, oc: Vec) -> None:
     system_jacobian_work(SYS_BASE, t, z, p, u, J, zc, oc)
     system_dfdt_work(SYS_BASE, t, z, p, u, ft, zc, oc)
 
 
 @njit(cache=True)
-def base_switching(z, p, g):
+def base_switching(z: Vec, p: Vec, g: Vec) -> None:
     system_switching(SYS_BASE, z, p, g)
 
 
@@ -132,18 +133,18 @@ def base_switching(z, p, g):
 
 
 @njit(cache=True)
-def tmd_rhs_u(t, z, p, u, out):
+def tmd_rhs_u(t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
     system_rhs(SYS_TMD, t, z, p, u, out)
 
 
 @njit(cache=True)
-def tmd_jac(t, z, p, u, J, ft, zc, oc):
+def tmd_jac(t: float, z: Vec, p: Vec, u: Vec, J: Vec, ft: Vec, zc: Vec, oc: Vec) -> None:
     tmd_jacobian(t, z, p, u, J)
     system_dfdt_work(SYS_TMD, t, z, p, u, ft, zc, oc)
 
 
 @njit(cache=True)
-def tmd_switching(z, p, g):
+def tmd_switching(z: Vec, p: Vec, g: Vec) -> None:
     system_switching(SYS_TMD, z, p, g)
 
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, field, fields, make_dataclass, replace
 from enum import IntEnum
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
 import numpy as np
 
@@ -35,7 +35,15 @@ class InerterModel(IntEnum):
     # kernels treat it through the same PLAY chain with a zero gap.
 
 
-def _check(name: str, value, *, source: str | None, minimum=None, strict=False, integer=False):
+def _check(
+    name: str,
+    value: Any,
+    *,
+    source: str | None,
+    minimum: float | None = None,
+    strict: bool = False,
+    integer: bool = False,
+) -> float:
     where = f" (from {source})" if source else ""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
         raise ParameterError(f"{name} must be a number, got {value!r}{where}")
@@ -61,7 +69,7 @@ class _BaseMixin:
     force_amplitude: float
     source: str | None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         _validate_fields(self, "base")
 
     @property
@@ -87,7 +95,7 @@ class _TMDMixin:
     cubic_stiffness: float
     source: str | None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         s = self.source
         where = f" (from {s})" if s else ""
         try:
@@ -131,7 +139,7 @@ class _TMDMixin:
         )
 
 
-def _validate_fields(obj, subsystem: str):
+def _validate_fields(obj: Any, subsystem: str) -> None:
     s = obj.source
     for par in registry.fields(subsystem):
         if par.kind != "real":
@@ -198,14 +206,17 @@ else:
     )
 
 
-def with_values(obj, source: str | None = None, **changes):
+_P = TypeVar("_P", "BaseParams", "TMDParams")
+
+
+def with_values(obj: _P, source: str | None = None, **changes: Any) -> _P:
     """A copy of a parameter object with some fields changed (and validated again)."""
     if source is not None:
         changes["source"] = source
     return replace(obj, **changes)
 
 
-def as_dict(obj) -> dict:
+def as_dict(obj: Any) -> dict[str, Any]:
     d = asdict(obj)
     d.pop("source", None)
     if "inerter" in d:
@@ -262,7 +273,7 @@ def has_gap(tmd: TMDParams) -> bool:
     return tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0
 
 
-def paper_case(case: int, **overrides) -> TMDParams:
+def paper_case(case: int, **overrides: Any) -> TMDParams:
     """TMD parameters of the paper's Case 1, 2 or 3 (ideal inerter, no damping unless overridden)."""
     if case not in CASES:
         raise ParameterError(f"case must be 1, 2 or 3, got {case!r}")
@@ -271,5 +282,5 @@ def paper_case(case: int, **overrides) -> TMDParams:
     return TMDParams(**kw)
 
 
-def field_names(cls) -> list[str]:
+def field_names(cls: Any) -> list[str]:
     return [f.name for f in fields(cls) if f.name != "source"]

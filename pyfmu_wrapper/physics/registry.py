@@ -21,6 +21,7 @@ The tests hold every derived artefact against this table. To add a parameter, se
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 #: inerter models (values of :class:`~pyfmu_wrapper.physics.params.InerterModel`)
 NONE, IDEAL, PLAY = 0, 1, 2
@@ -294,7 +295,7 @@ def fields(subsystem: str) -> tuple[Parameter, ...]:
     return tuple(p for p in of(subsystem) if p.field)
 
 
-def fmu_start_values(base, tmd, omega: float) -> dict[str, float | int]:
+def fmu_start_values(base: Any, tmd: Any, omega: float) -> dict[str, float | int]:
     """``"base.<fmu name>"`` / ``"tmd.<fmu name>"`` -> value, for every registry parameter."""
     out: dict[str, float | int] = {}
     for p in PARAMETERS:

@@ -16,6 +16,7 @@ Friction and a gap have no linearisation about rest (a kink or a 1e6 slope) and 
 from __future__ import annotations
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 from ..physics.jacobians import jacobian
 from ..physics.kernels import NSTATE, rhs_fext
@@ -58,7 +59,7 @@ def linear_system(base: BaseParams, tmd: TMDParams, linearise: bool = False) -> 
     return A, b
 
 
-def exact_response(base: BaseParams, tmd: TMDParams, omegas, linearise: bool = False) -> np.ndarray:
+def exact_response(base: BaseParams, tmd: TMDParams, omegas: ArrayLike, linearise: bool = False) -> np.ndarray:
     """Complex amplitudes Z[k, :] of the state [x, xd, y, yd, d, dd] at each omega [rad/s]."""
     A, b = linear_system(base, tmd, linearise)
     omegas = np.atleast_1d(np.asarray(omegas, dtype=float))
@@ -74,7 +75,7 @@ def exact_response(base: BaseParams, tmd: TMDParams, omegas, linearise: bool = F
     return out
 
 
-def exact_amplitude(base: BaseParams, tmd: TMDParams, omegas, linearise: bool = False) -> np.ndarray:
+def exact_amplitude(base: BaseParams, tmd: TMDParams, omegas: ArrayLike, linearise: bool = False) -> np.ndarray:
     """Steady-state amplitude of the base, |X| [m], at each omega [rad/s]."""
     return np.abs(exact_response(base, tmd, omegas, linearise)[:, 0])
 

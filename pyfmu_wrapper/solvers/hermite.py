@@ -7,11 +7,14 @@ from __future__ import annotations
 
 import math
 
+import numpy as np
+from numpy.typing import NDArray
+
 from .._jit import njit
 
 
 @njit(cache=True)
-def _hermite_absmax(x0, v0, x1, v1, h):
+def _hermite_absmax(x0: float, v0: float, x1: float, v1: float, h: float) -> float:
     """max |p(s)| over s in [0, h] of the cubic Hermite p with p(0)=x0, p'(0)=v0, p(h)=x1, p'(h)=v1."""
     m = max(abs(x0), abs(x1))
     # p(theta) = h00 x0 + h10 h v0 + h01 x1 + h11 h v1; derivative in theta is quadratic.
@@ -39,7 +42,7 @@ def _hermite_absmax(x0, v0, x1, v1, h):
 
 
 @njit(cache=True)
-def hermite_absmax_series(x, v, h):
+def hermite_absmax_series(x: NDArray[np.float64], v: NDArray[np.float64], h: float) -> float:
     """max |p| over all intervals of the cubic Hermite interpolant of samples x, v = dx/dt at
     spacing h (the one Hermite maximum of both engines: the monolithic solver applies
     :func:`_hermite_absmax` step by step, the co-simulation to its communication points)."""
@@ -52,7 +55,15 @@ def hermite_absmax_series(x, v, h):
 
 
 @njit(cache=True)
-def _hermite_state(z0, f0, z1, f1, h, theta, out):
+def _hermite_state(
+    z0: NDArray[np.float64],
+    f0: NDArray[np.float64],
+    z1: NDArray[np.float64],
+    f1: NDArray[np.float64],
+    h: float,
+    theta: float,
+    out: NDArray[np.float64],
+) -> None:
     h00 = (1.0 + 2.0 * theta) * (1.0 - theta) ** 2
     h10 = theta * (1.0 - theta) ** 2
     h01 = theta * theta * (3.0 - 2.0 * theta)

@@ -40,8 +40,10 @@ from __future__ import annotations
 import math
 import time
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import ArrayLike, NDArray
 
 from ..physics.kernels import NSTATE, inerter_force, rhs
 from ..physics.models import COUPLED
@@ -116,7 +118,7 @@ def _atol(base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettin
 class _Runner:
     """Holds the packed parameters and work arrays for repeated period integrations."""
 
-    def __init__(self, base, tmd, omega, settings):
+    def __init__(self, base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettings) -> None:
         self.p = pack(base, tmd, omega)
         self.T = 2.0 * math.pi / omega
         self.atol = _atol(base, tmd, omega, settings)
@@ -130,7 +132,13 @@ class _Runner:
         self.no_samples = np.zeros(0)
         self.no_out = np.zeros((0, NSTATE))
 
-    def period(self, z, t0, sample_times=None, samples=None):
+    def period(
+        self,
+        z: NDArray[np.float64],
+        t0: float,
+        sample_times: NDArray[np.float64] | None = None,
+        samples: NDArray[np.float64] | None = None,
+    ) -> float:
         st = self.no_samples if sample_times is None else sample_times
         sa = self.no_out if samples is None else samples
         h, xmax, status, t = integrate(
@@ -162,7 +170,9 @@ class _Runner:
         return xmax
 
 
-def companion_start(base: BaseParams, tmd: TMDParams, omega: float, settings, hint: dict | None = None) -> np.ndarray:
+def companion_start(
+    base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettings, hint: dict[str, Any] | None = None
+) -> np.ndarray:
     """Start state for the play model: the periodic orbit of its smooth companion (the same
     links with an ideal inerter), with the gear chain at the contact the ideal inerter force
     asks for (d = sign(P) (eps + |P| / ki), dd = 0).
@@ -192,9 +202,9 @@ def steady_state(
     base: BaseParams,
     tmd: TMDParams,
     omega: float,
-    z0=None,
+    z0: ArrayLike | None = None,
     settings: SolverSettings = SolverSettings(),
-    hint: dict | None = None,
+    hint: dict[str, Any] | None = None,
 ) -> SteadyState:
     """Integrate from z0 (default: :func:`initial_guess`) until the steady state (module doc).
 
@@ -281,7 +291,9 @@ def _active_states(tmd: TMDParams) -> list[int]:
     return list(range(6)) if tmd.inerter == InerterModel.PLAY else [0, 1, 2, 3]
 
 
-def _shoot(run: _Runner, tmd: TMDParams, z: np.ndarray, settings: SolverSettings, hint=None):
+def _shoot(
+    run: _Runner, tmd: TMDParams, z: np.ndarray, settings: SolverSettings, hint: dict[str, Any] | None = None
+) -> tuple[np.ndarray, float, int, float] | None:
     """Newton shooting (:func:`~pyfmu_wrapper.solvers.shooting.shoot`) on the period map of the
     active states; returns (state after the period, amplitude, periods, change) or None.
 
@@ -290,7 +302,7 @@ def _shoot(run: _Runner, tmd: TMDParams, z: np.ndarray, settings: SolverSettings
     act = _active_states(tmd)
     last = {}
 
-    def period_map(za):
+    def period_map(za: np.ndarray) -> tuple[np.ndarray, float]:
         zf = z.copy()
         zf[act] = za
         amp = run.period(zf, 0.0)
@@ -317,11 +329,11 @@ def simulate(
     tmd: TMDParams,
     omega: float,
     t_end: float,
-    z0=None,
+    z0: ArrayLike | None = None,
     n_samples: int = 1001,
-    sample_times=None,
+    sample_times: ArrayLike | None = None,
     rtol: float = 1e-9,
-    atol=None,
+    atol: float | ArrayLike | None = None,
     max_steps: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
     """Transient simulation from z0 (default rest) over [0, t_end]; returns (t, states[len(t), 6]).
@@ -367,7 +379,7 @@ def periodic_time_series(
     omega: float,
     n_periods: int = 1,
     samples_per_period: int = 400,
-    z0=None,
+    z0: ArrayLike | None = None,
     settings: SolverSettings = SolverSettings(),
 ) -> tuple[np.ndarray, np.ndarray, SteadyState]:
     """Steady-state time series: settle at omega, then record n_periods (t from 0, states)."""

@@ -41,11 +41,27 @@ from __future__ import annotations
 
 import math
 import types
+from collections.abc import Callable, Sequence
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .._jit import njit
 from .hermite import _hermite_absmax, _hermite_state  # noqa: F401 (globals of the template)
+
+FloatArray = NDArray[np.float64]
+FloatSeq = Sequence[float] | NDArray[np.float64]
+
+if TYPE_CHECKING:
+    # the template's model names, bound per model by make_integrator (never defined in this module)
+    _NSWITCH: int
+    _NMODES: int
+    _SWITCH_TOL_INDEX: tuple[int, ...]
+    _model_rhs: Callable[..., None]
+    _model_jacobian: Callable[..., None]
+    _model_switching: Callable[..., None]
+    _model_mode: Callable[..., int]
 
 # RODAS4 coefficients (Hairer & Wanner 1996), lower-triangular A and C stored as full matrices.
 _GAMMA = 0.25
@@ -108,7 +124,7 @@ SURFACE_TOL = 1e-3
 
 
 @njit(cache=True)
-def _lu(a, piv):
+def _lu(a: FloatArray, piv: NDArray[np.int64]) -> bool:
     n = a.shape[0]
     for k in range(n):
         imax = k
@@ -136,7 +152,7 @@ def _lu(a, piv):
 
 
 @njit(cache=True)
-def _lu_solve(a, piv, b):
+def _lu_solve(a: FloatArray, piv: NDArray[np.int64], b: FloatArray) -> None:
     n = a.shape[0]
     for k in range(n):
         if piv[k] != k:
@@ -156,22 +172,22 @@ def _lu_solve(a, piv, b):
 
 
 def _integrate_template(
-    z,
-    t0,
-    t1,
-    p,
-    u,
-    rtol,
-    atol,
-    h,
-    hmax,
-    sample_times,
-    samples,
-    friction_band,
-    stats,
-    max_steps=DEFAULT_MAX_STEPS,
-    surface_tol=SURFACE_TOL,
-):
+    z: FloatArray,
+    t0: float,
+    t1: float,
+    p: FloatArray,
+    u: FloatArray,
+    rtol: float,
+    atol: FloatArray,
+    h: float,
+    hmax: float,
+    sample_times: FloatArray,
+    samples: FloatArray,
+    friction_band: float,
+    stats: NDArray[np.int64],
+    max_steps: int = DEFAULT_MAX_STEPS,
+    surface_tol: float = SURFACE_TOL,
+) -> tuple[float, float, int, float]:
     """Integrate the model from t0 to t1 in place on z; return (next step size, max |z[0]|, status, t).
 
     (The template of :func:`make_integrator`: the model's functions are the globals ``_model_*``
@@ -357,7 +373,7 @@ def _integrate_template(
 _INTEGRATORS: dict = {}
 
 
-def make_integrator(model, cache: bool | None = None):
+def make_integrator(model: Any, cache: bool | None = None) -> Any:
     """The compiled integrator of ``model`` (built once per model name; on disk by numba's cache).
 
     model supplies ``name`` (a Python identifier), ``rhs``, ``jacobian``, ``switching``, ``mode``
@@ -414,14 +430,23 @@ def make_integrator(model, cache: bool | None = None):
     return compiled
 
 
-def contact_mode(model, z, p, atol, friction_band) -> str:
+def contact_mode(model: Any, z: FloatSeq, p: FloatArray, atol: FloatSeq, friction_band: float) -> str:
     """Name the mode of state z of ``model`` (its ``describe``): e.g. gear contact (engaged in
     compression / extension, free, or on a contact surface within the surface tolerance) and
     friction (stuck or sliding)."""
     return model.describe(z, p, atol, friction_band)
 
 
-def failure_message(status, model, t, z, p, atol, friction_band, max_steps=DEFAULT_MAX_STEPS) -> str:
+def failure_message(
+    status: int,
+    model: Any,
+    t: float,
+    z: FloatSeq,
+    p: FloatArray,
+    atol: FloatSeq,
+    friction_band: float,
+    max_steps: int = DEFAULT_MAX_STEPS,
+) -> str:
     """A sentence naming why an integrator of :func:`make_integrator` stopped, at which time, in
     which state and mode."""
     why = {

@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 
@@ -78,7 +79,7 @@ class Setting:
             r = what + (" " + " and ".join(parts) if parts else "")
         return r + (" (or null)" if self.optional else "")
 
-    def problem(self, v) -> str | None:
+    def problem(self, v: Any) -> str | None:
         """None if v is allowed, else the reason ("must be ...")."""
         if v is None and self.optional:
             return None
@@ -103,7 +104,7 @@ class Setting:
         return None if ok else "must be " + self.rule()
 
 
-def _s(name, kind, defaults, unit, meaning, **kw) -> Setting:
+def _s(name: str, kind: str, defaults: dict[str, Any], unit: str, meaning: str, **kw: Any) -> Setting:
     return Setting(name, kind, defaults, unit, meaning, **kw)
 
 
@@ -294,7 +295,7 @@ SETTINGS: tuple[Setting, ...] = (
 BY_NAME = {s.name: s for s in SETTINGS}
 
 
-def default(name: str, engine: str):
+def default(name: str, engine: str) -> Any:
     """The default of setting ``name`` in ``engine`` (the settings classes' field defaults)."""
     return BY_NAME[name].defaults[engine]
 
@@ -308,7 +309,7 @@ def shared() -> tuple[Setting, ...]:
     return tuple(s for s in SETTINGS if set(s.engines) == set(BOTH))
 
 
-def _fmt(v) -> str:
+def _fmt(v: Any) -> str:
     if v is None:
         return "null"
     if isinstance(v, bool):

@@ -17,6 +17,7 @@ from collections.abc import Callable
 from typing import NamedTuple
 
 import numpy as np
+from numpy.typing import ArrayLike
 
 
 class ShootingResult(NamedTuple):
@@ -30,8 +31,8 @@ class ShootingResult(NamedTuple):
 
 def shoot(
     period_map: Callable[[np.ndarray], tuple[np.ndarray, float]],
-    z0,
-    scale,
+    z0: ArrayLike,
+    scale: ArrayLike,
     tol: float,
     max_newton: int = 8,
     jacobian: np.ndarray | None = None,

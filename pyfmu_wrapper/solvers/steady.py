@@ -12,9 +12,12 @@ both engines apply to the per-period maxima of |x| (see the module doc of
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, fields
+from typing import Any, NoReturn
 
 import numpy as np
+from numpy.typing import NDArray
 
 from ..physics.params import BaseParams, TMDParams, has_gap
 from . import settings_table as _table
@@ -27,47 +30,47 @@ PLAY_STARTS = ("companion", "previous")
 class SettingsError(ValueError):
     """A settings value out of its range: ``field`` names it, ``value`` is the value, ``reason`` says why."""
 
-    def __init__(self, owner: str, field: str, value, reason: str):
+    def __init__(self, owner: str, field: str, value: Any, reason: str) -> None:
         super().__init__(f"{owner}.{field} = {value!r}: {reason}")
         self.owner, self.field, self.value, self.reason = owner, field, value, reason
 
 
-def _is_int(v) -> bool:
+def _is_int(v: Any) -> bool:
     return isinstance(v, (int, np.integer)) and not isinstance(v, bool)
 
 
-def _is_number(v) -> bool:
+def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float, np.integer, np.floating)) and not isinstance(v, bool) and math.isfinite(v)
 
 
 class Checks:
     """Range checks of one settings object; each failure raises :class:`SettingsError` naming the field."""
 
-    def __init__(self, obj):
+    def __init__(self, obj: Any) -> None:
         self.obj, self.owner = obj, type(obj).__name__
 
-    def fail(self, name: str, reason: str):
+    def fail(self, name: str, reason: str) -> NoReturn:
         raise SettingsError(self.owner, name, getattr(self.obj, name), reason)
 
-    def number(self, name: str, positive: bool = False, optional: bool = False):
+    def number(self, name: str, positive: bool = False, optional: bool = False) -> None:
         v = getattr(self.obj, name)
         if optional and v is None:
             return
         if not _is_number(v) or v < 0 or (positive and v == 0):
             self.fail(name, "must be a finite number " + ("> 0" if positive else ">= 0"))
 
-    def integer(self, name: str, minimum: int, optional: bool = False):
+    def integer(self, name: str, minimum: int, optional: bool = False) -> None:
         v = getattr(self.obj, name)
         if optional and v is None:
             return
         if not _is_int(v) or v < minimum:
             self.fail(name, f"must be an integer >= {minimum}")
 
-    def choice(self, name: str, choices):
+    def choice(self, name: str, choices: Iterable[Any]) -> None:
         if getattr(self.obj, name) not in choices:
             self.fail(name, f"must be one of {', '.join(map(str, choices))}")
 
-    def boolean(self, name: str):
+    def boolean(self, name: str) -> None:
         if not isinstance(getattr(self.obj, name), (bool, np.bool_)):
             self.fail(name, "must be true or false")
 
@@ -106,10 +109,10 @@ class SteadySettings:
     shooting: bool = _table.default("shooting", MONO)
     max_newton: int = _table.default("max_newton", MONO)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         self.validate()
 
-    def validate(self):
+    def validate(self) -> None:
         """Raise :class:`SettingsError` on the first value out of range: the rule of every field is
         its row of :data:`~pyfmu_wrapper.solvers.settings_table.SETTINGS` (subclasses included),
         plus max_periods >= min_periods."""
@@ -171,7 +174,7 @@ class WindowCriterion:
         max_periods: int = 3000,
         scatter_tol: float = 5e-3,
         omega: float | None = None,
-    ):
+    ) -> None:
         self.W, self.tol, self.amp_atol = int(window), float(tol), float(amp_atol)
         self.min_periods, self.max_periods = int(min_periods), int(max_periods)
         self.scatter_tol, self.omega = float(scatter_tol), omega
@@ -214,7 +217,7 @@ class WindowCriterion:
         rho = min(max(ratios), 0.999)
         return r * rho / (1.0 - rho) if rho > 0 else r
 
-    def add(self, a: float, state=None) -> bool:
+    def add(self, a: float, state: Sequence[float] | NDArray[np.float64] | None = None) -> bool:
         self.period_max.append(float(a))
         k = len(self.period_max)
         W = self.W

@@ -17,11 +17,14 @@ stepped-sine semantics.
 from __future__ import annotations
 
 import os
+from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
+from typing import Any, Protocol
 
 import numpy as np
 import pandas as pd
+from numpy.typing import ArrayLike, NDArray
 
 from ..physics.params import BaseParams, TMDParams
 from .monolithic import SolverSettings, steady_state
@@ -34,11 +37,25 @@ class SweepResult:
     steps, rejected, wall_time."""
 
     table: pd.DataFrame
-    final_states: dict
+    final_states: dict[str, Any]
 
 
-def _sweep_piece(base, tmd, seq, d, settings, z0, queue=None):
-    rows = []
+class ProgressQueue(Protocol):
+    """Where a sweep piece reports each finished frequency (a multiprocessing queue or a callback)."""
+
+    def put(self, n: int) -> None: ...
+
+
+def _sweep_piece(
+    base: BaseParams,
+    tmd: TMDParams,
+    seq: Sequence[float] | NDArray[np.float64],
+    d: str,
+    settings: SolverSettings,
+    z0: ArrayLike | None,
+    queue: ProgressQueue | None = None,
+) -> tuple[list[dict[str, Any]], NDArray[np.float64] | None]:
+    rows: list[dict[str, Any]] = []
     z = None if z0 is None else np.array(z0, dtype=float)
     hint: dict = {}
     # windowed (play) points start from their smooth companion's orbit, continued via hint
@@ -68,11 +85,11 @@ def _sweep_piece(base, tmd, seq, d, settings, z0, queue=None):
 def sweep(
     base: BaseParams,
     tmd: TMDParams,
-    omegas,
+    omegas: ArrayLike,
     direction: str = "up",
     settings: SolverSettings | None = None,
-    progress=None,
-    z0=None,
+    progress: Callable[[int], Any] | None = None,
+    z0: ArrayLike | None = None,
     workers: int = 1,
 ) -> SweepResult:
     """Steady-state amplitude of the base at each omega [rad/s], sweeping up, down or both.
@@ -86,7 +103,17 @@ def sweep(
     return SweepResult(pd.DataFrame(rows), finals)
 
 
-def run_sweep_pieces(piece, base, tmd, omegas, direction, settings, progress=None, z0=None, workers: int = 1):
+def run_sweep_pieces(
+    piece: Callable[..., tuple[list[dict[str, Any]], Any]],
+    base: BaseParams,
+    tmd: TMDParams,
+    omegas: ArrayLike,
+    direction: str,
+    settings: Any,
+    progress: Callable[[int], Any] | None = None,
+    z0: ArrayLike | None = None,
+    workers: int | None = 1,
+) -> tuple[list[dict[str, Any]], dict[str, Any]]:
     """Drive a continuation sweep, up, down or both, over ``workers`` processes (module doc).
 
     piece(base, tmd, seq, direction, settings, z0, queue) -> (rows, final_state) sweeps one
@@ -98,8 +125,8 @@ def run_sweep_pieces(piece, base, tmd, omegas, direction, settings, progress=Non
         raise ValueError(f"direction must be 'up', 'down' or 'both', got {direction!r}")
     if not workers:
         workers = os.cpu_count() or 1
-    rows = []
-    finals = {}
+    rows: list[dict[str, Any]] = []
+    finals: dict[str, Any] = {}
     for d in ["up", "down"] if direction == "both" else [direction]:
         seq = omegas if d == "up" else omegas[::-1]
         nw = max(1, min(int(workers), len(seq) // 2))
@@ -136,8 +163,8 @@ def run_sweep_pieces(piece, base, tmd, omegas, direction, settings, progress=Non
 
 
 class _CallbackQueue:
-    def __init__(self, cb):
+    def __init__(self, cb: Callable[[int], Any]) -> None:
         self.cb = cb
 
-    def put(self, n):
+    def put(self, n: int) -> None:
         self.cb(n)
