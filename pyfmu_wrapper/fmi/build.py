@@ -42,7 +42,9 @@ import subprocess
 import sys
 import tempfile
 import zipfile
+from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 from .buildinfo import BuildError, version_of
 from .contract import c_header
@@ -82,7 +84,7 @@ class OutputError(BuildError):
     name that this tool did not write): refused before anything is written."""
 
 
-def check_output(out_dir: Path, names) -> None:
+def check_output(out_dir: Path, names: Iterable[str]) -> None:
     """Refuse an output folder that is a file or cannot be written, and an existing target that
     is not an FMU built by this tool (a user's file is never overwritten); creates the folder."""
     out_dir = Path(out_dir)
@@ -348,7 +350,19 @@ def build_fmu(
     return target
 
 
-def _write_archive(part, spec, guid, shash, bhash, rt_cfg, so, package, files, runtime, fmi_version=2):
+def _write_archive(
+    part: Path,
+    spec: FmuSpec,
+    guid: str,
+    shash: str,
+    bhash: str,
+    rt_cfg: dict[str, Any] | None,
+    so: Path,
+    package: str,
+    files: list[str],
+    runtime: list[tuple[Path, str]] | None,
+    fmi_version: int = 2,
+) -> None:
     md = model_description_xml(spec, guid) if fmi_version == 2 else model_description3_xml(spec, guid)
     with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
         z.writestr("modelDescription.xml", md)
@@ -364,7 +378,10 @@ def _write_archive(part, spec, guid, shash, bhash, rt_cfg, so, package, files, r
 
 
 def build_fmus(
-    names=PROJECT_FMUS, out_dir: str | os.PathLike = DEFAULT_OUT, standalone: bool = False, fmi_version: int = 2
+    names: Iterable[str] = PROJECT_FMUS,
+    out_dir: str | os.PathLike[str] = DEFAULT_OUT,
+    standalone: bool = False,
+    fmi_version: int = 2,
 ) -> list[Path]:
     """Build several FMUs (the stub is compiled once, a standalone runtime collected once) of one
     FMI version into ``out_dir``."""
@@ -396,7 +413,9 @@ def fmu_source_hash(fmu: Path) -> str | None:
     return None
 
 
-def ensure_fmus(out_dir: str | os.PathLike = DEFAULT_OUT, names=PROJECT_FMUS, fmi_version: int = 2) -> dict[str, Path]:
+def ensure_fmus(
+    out_dir: str | os.PathLike[str] = DEFAULT_OUT, names: Iterable[str] = PROJECT_FMUS, fmi_version: int = 2
+) -> dict[str, Path]:
     """Paths of the FMUs, building those that are missing or stale (source hash); FMI 3.0 ones in
     ``out_dir/fmi3`` (:func:`fmi_out_dir`)."""
     out_dir = fmi_out_dir(out_dir, fmi_version)

@@ -8,13 +8,14 @@ that travels with the FMU (``docs/fmus.md`` of this project does not).
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from html import escape
 
 from .model_description import declared_range
 from .variables import FmuSpec, Variable
 
 
-def install_command(requires, python: str = "python") -> str:
+def install_command(requires: Iterable[str], python: str = "python") -> str:
     """The command that installs what the model needs, quoted for any POSIX shell."""
     return f"{python} -m pip install " + " ".join(f'"{r}"' for r in requires)
 
@@ -30,7 +31,7 @@ def _declared(v: Variable) -> str:
     )
 
 
-def documentation_html(spec: FmuSpec, guid: str, requires, min_python: str) -> str:
+def documentation_html(spec: FmuSpec, guid: str, requires: Iterable[str], min_python: str) -> str:
     """The complete ``documentation/index.html`` of one FMU."""
     rows = []
     for v in spec.variables:

@@ -23,6 +23,7 @@ import importlib
 import importlib.util
 import os
 import sys
+from typing import Any
 
 
 def cache_root() -> str | None:
@@ -105,7 +106,15 @@ class Bundle:
                 del sys.modules[name]
             raise
 
-    def create(self, reals, ints, derivs, scratch, instance_name, resources):
+    def create(
+        self,
+        reals: memoryview,
+        ints: memoryview,
+        derivs: memoryview,
+        scratch: memoryview,
+        instance_name: str,
+        resources: str,
+    ) -> Any:
         """The slave of this FMU (what the FMU's binary calls, through model.py's ``create``)."""
         self.import_package()
         module, _, cls = self.slave.partition(":")

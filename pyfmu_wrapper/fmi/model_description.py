@@ -9,6 +9,7 @@ import hashlib
 import math
 import sys
 import uuid
+from collections.abc import Sequence
 from xml.sax.saxutils import quoteattr
 
 from .variables import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
@@ -34,7 +35,7 @@ LOG_CATEGORIES = ("logStatusError", "logStatusWarning", "logAll")
 TYPE_CODE = {REAL: "R", INTEGER: "I", BOOLEAN: "B"}
 
 
-def _fmt(v) -> str:
+def _fmt(v: float | int | bool | str) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, int):
@@ -63,7 +64,7 @@ def _variable_xml(v: Variable) -> str:
     return f"    <ScalarVariable {attrs}>\n      <{v.type}{inner}/>\n    </ScalarVariable>"
 
 
-def declared_range(v: Variable):
+def declared_range(v: Variable) -> tuple[float | int | None, float | int | None]:
     """(min, max) as declared in modelDescription.xml: FMI's min is inclusive, so an exclusive
     minimum m is declared as the next value above m (the next double, 2.2250738585072014e-308 for
     m = 0; m + 1 for an Integer); the stub refuses m itself."""
@@ -79,7 +80,7 @@ def declared_range(v: Variable):
     return lo, hi
 
 
-def _unknown(spec: FmuSpec, v: Variable, deps, kinds) -> str:
+def _unknown(spec: FmuSpec, v: Variable, deps: Sequence[str] | None, kinds: Sequence[str] | None) -> str:
     s = f'      <Unknown index="{spec.index(v.name)}"'
     if deps is not None:
         s += f' dependencies="{" ".join(str(spec.index(d)) for d in deps)}"'
@@ -155,7 +156,7 @@ def variable_table_tsv(spec: FmuSpec) -> str:
     name, minimum, maximum (``-inf`` / ``inf``: none; exact bounds, not the declared ones) and 1 if
     the minimum is exclusive, else 0."""
 
-    def bound(x, default):
+    def bound(x: float | None, default: str) -> str:
         return default if x is None else repr(float(x))
 
     rows = [

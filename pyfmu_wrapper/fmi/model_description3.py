@@ -18,6 +18,7 @@ What FMI 3.0 declares differently, and the rule this writer shares with the stub
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from xml.sax.saxutils import quoteattr
 
 from .model_description import LOG_CATEGORIES, UNITS, _fmt, declared_range
@@ -117,7 +118,7 @@ def _variable3(v: Variable, unit: str | None = None) -> str:
     return f"    <{t} {attrs}/>"
 
 
-def _unknown3(spec: FmuSpec, tag: str, v: Variable, deps, kinds) -> str:
+def _unknown3(spec: FmuSpec, tag: str, v: Variable, deps: Sequence[str] | None, kinds: Sequence[str] | None) -> str:
     s = f'    <{tag} valueReference="{v.vr}"'
     if deps is not None:
         s += f' dependencies="{" ".join(str(spec.vr(d)) for d in deps)}"'

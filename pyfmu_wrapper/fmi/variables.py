@@ -24,6 +24,7 @@ fmi2SetInteger with a message naming the variable, the value and the range.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import Any
 
 from ..physics import registry
 
@@ -50,7 +51,7 @@ class Variable:
     max: float | None = None
     min_exclusive: bool = False
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.type not in (REAL, INTEGER, BOOLEAN):
             raise ValueError(f"{self.name}: unsupported type {self.type!r}")
         if self.causality in ("parameter", "input") and self.start is None:
@@ -64,7 +65,7 @@ class Variable:
         if self.start is not None and not self.in_range(self.start):
             raise ValueError(f"{self.name}: start value {self.start!r} is outside its range {self.range_text()}")
 
-    def in_range(self, value) -> bool:
+    def in_range(self, value: float | int | bool) -> bool:
         """Whether value lies within min/max (what the stub accepts)."""
         if self.min is not None and (value <= self.min if self.min_exclusive else value < self.min):
             return False
@@ -93,9 +94,9 @@ class FmuSpec:
     max_output_derivative_order: int = 0
     provides_directional_derivative: bool = True
     default_step: float = 1e-3
-    extra: dict = field(default_factory=dict)
+    extra: dict[str, Any] = field(default_factory=dict)
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         names = [v.name for v in self.variables]
         if len(set(names)) != len(names):
             raise ValueError(f"{self.model_name}: duplicate variable names")
@@ -124,7 +125,17 @@ class FmuSpec:
         return [v.name for v in self.variables].index(name) + 1
 
 
-def _par(name, vr, start, unit, description, type_=REAL, lo=None, hi=None, exclusive=False):
+def _par(
+    name: str,
+    vr: int,
+    start: float | int,
+    unit: str | None,
+    description: str,
+    type_: str = REAL,
+    lo: float | None = None,
+    hi: float | None = None,
+    exclusive: bool = False,
+) -> Variable:
     return Variable(
         name,
         vr,
