@@ -23,7 +23,7 @@ from .errors import cli_main
 
 
 @cli_main("build-fmus")
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="build-fmus", description=(BUILD_DOC or "").split("\n\n")[0])
     ap.add_argument("names", nargs="*", default=list(PROJECT_FMUS), help=f"FMUs to build, of {sorted(SPECS)}")
     ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory (default fmu/build)")

@@ -25,7 +25,7 @@ from .errors import InputError, cli_main
 
 
 @cli_main("diagnose")
-def main_diagnose(argv=None):
+def main_diagnose(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(
         prog="diagnose",
         description="Localise, attribute and quantify the gap "
@@ -65,7 +65,7 @@ def main_diagnose(argv=None):
 
 
 @cli_main("make-benchmark")
-def main_make_benchmark(argv=None):
+def main_make_benchmark(argv: list[str] | None = None) -> int:
     from ..diagnose.link.benchmark import make_benchmark
 
     ap = argparse.ArgumentParser(
@@ -127,7 +127,7 @@ def main_make_benchmark(argv=None):
 
 
 @cli_main("score")
-def main_score(argv=None):
+def main_score(argv: list[str] | None = None) -> int:
     from ..diagnose.link.benchmark import score
 
     ap = argparse.ArgumentParser(prog="score", description="Run diagnose on a benchmark and score it.")

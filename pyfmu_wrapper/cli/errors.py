@@ -20,6 +20,8 @@ import functools
 import os
 import re
 import sys
+from collections.abc import Callable
+from typing import Any
 
 #: (module, class name) of the typed input errors; looked up in sys.modules, so that wrapping a
 #: ``main`` imports nothing heavy (an error class whose module was never imported cannot be raised)
@@ -58,7 +60,7 @@ def plain_text(text: str) -> str:
     return _NP_REPR.sub(r"\1", text)
 
 
-def plain(x):
+def plain(x: Any) -> Any:
     """A number as a person writes it: numpy scalars as Python numbers (repr ``nan``, ``0.5``)."""
     item = getattr(x, "item", None)
     if item is not None and getattr(x, "shape", None) == ():
@@ -91,12 +93,12 @@ def report(prog: str, exc: BaseException) -> int:
     return 2
 
 
-def cli_main(prog: str):
+def cli_main(prog: str) -> Callable[[Callable[..., int]], Callable[..., int]]:
     """Decorator for a console script's ``main(argv=None) -> int`` (see the module doc)."""
 
-    def wrap(main):
+    def wrap(main: Callable[..., int]) -> Callable[..., int]:
         @functools.wraps(main)
-        def run(*args, **kwargs):
+        def run(*args: Any, **kwargs: Any) -> int:
             try:
                 return main(*args, **kwargs)
             except KeyboardInterrupt:
@@ -116,7 +118,7 @@ def cli_main(prog: str):
 
 
 def bad_bytes_message(
-    name, data: bytes, exc: UnicodeDecodeError, offset0: int = 0, line0: int = 1, line_start0: int = 0
+    name: str, data: bytes, exc: UnicodeDecodeError, offset0: int = 0, line0: int = 1, line_start0: int = 0
 ) -> str:
     """``name: line L, column C (byte offset O): bytes ff fe are not UTF-8 text`` for a decode error
     in ``data`` (a block of the file starting at byte offset0, on line line0 whose first byte is at
@@ -131,7 +133,7 @@ def bad_bytes_message(
     )
 
 
-def decode_utf8(data: bytes, name, error=InputError) -> str:
+def decode_utf8(data: bytes, name: str, error: type[Exception] = InputError) -> str:
     """Decode UTF-8 (a BOM is dropped); bad bytes raise ``error`` naming the file, line and offset."""
     try:
         return data.decode("utf-8-sig")
@@ -139,14 +141,14 @@ def decode_utf8(data: bytes, name, error=InputError) -> str:
         raise error(bad_bytes_message(name, data, exc)) from None
 
 
-def read_utf8(path, error=InputError) -> str:
+def read_utf8(path: str | os.PathLike[str], error: type[Exception] = InputError) -> str:
     """The text of a file; bad bytes raise ``error`` naming file, line, column and byte offset."""
     with open(path, "rb") as fh:
         data = fh.read()
     return decode_utf8(data, os.fspath(path), error)
 
 
-def scan_utf8_lines(path, error=InputError, block: int = 1 << 24) -> int:
+def scan_utf8_lines(path: str | os.PathLike[str], error: type[Exception] = InputError, block: int = 1 << 24) -> int:
     """Stream a (large) text file once: check it is UTF-8 and count its lines, in bounded memory."""
     dec = codecs.getincrementaldecoder("utf-8")()
     lines, offset, line_start, last = 0, 0, 0, b""

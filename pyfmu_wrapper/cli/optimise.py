@@ -100,7 +100,7 @@ def _fail(msg: str) -> int:
     return 2
 
 
-def _check_json_target(path) -> str | None:
+def _check_json_target(path: str | None) -> str | None:
     """Why --json PATH must not be written (None: a new file or a previous optimise result)."""
     import os
 
@@ -124,7 +124,7 @@ def _check_json_target(path) -> str | None:
 
 
 @cli_main("optimise")
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)  # exits 2 on bad options
     if args.list_objectives:
         for o in OBJECTIVES.values():
@@ -177,7 +177,7 @@ def main(argv=None) -> int:
     except (OptimisationError, ParameterError, ValueError) as exc:
         return _fail(str(exc))
 
-    def progress(v, J):
+    def progress(v: float, J: float) -> None:
         if not args.quiet:
             print(f"  {args.parameter} = {v:<12.6g} {args.objective} = {J:.8g}", file=sys.stderr, flush=True)
 

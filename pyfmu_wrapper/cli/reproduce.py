@@ -34,7 +34,7 @@ from .errors import InputError, cli_main
 
 
 @cli_main("reproduce")
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="reproduce", description=__doc__.splitlines()[0])
     ap.add_argument("--out", default="docs", help="folder of reproduction.md (figures in <out>/figures/)")
     ap.add_argument("--results", default=None, help="results folder (default results/paper, or results/paper-quick)")

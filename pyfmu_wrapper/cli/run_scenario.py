@@ -14,6 +14,8 @@ import sys
 import threading
 import time
 import traceback
+from types import FrameType
+from typing import Literal, NoReturn, TextIO
 
 from ..scenario import ScenarioError, load_scenario
 from ..scenario.engines import DEFAULT_ENGINE, ENGINES, RunSettings
@@ -120,12 +122,12 @@ class Progress:
         self,
         total: float,
         name: str,
-        stream=None,
+        stream: TextIO | None = None,
         tty: bool | None = None,
         interval: float = 5.0,
         enabled: bool = True,
         instant: float = 0.0,
-    ):
+    ) -> None:
         self.total, self.name = float(total), name
         self.instant = float(instant)  #: points known to cost nothing (closed form, repeated sweeps)
         self.stream = stream if stream is not None else sys.stderr
@@ -137,23 +139,23 @@ class Progress:
         self._lock = threading.Lock()
         self._stop = threading.Event()
         self._last = (0.0, -1.0)  # (time, done) of the last line written
-        self._thread = None
+        self._thread: threading.Thread | None = None
 
-    def __enter__(self):
+    def __enter__(self) -> Progress:
         if self.enabled:
             self._thread = threading.Thread(target=self._loop, name="run-scenario-progress", daemon=True)
             self._thread.start()
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> Literal[False]:
         self.close(final=exc[0] is None)
         return False
 
-    def __call__(self, n=1):
+    def __call__(self, n: float = 1) -> None:
         with self._lock:
             self.done += n
 
-    def skip(self, n=1):
+    def skip(self, n: float = 1) -> None:
         with self._lock:
             self.done += n
             self.skipped += n
@@ -182,7 +184,7 @@ class Progress:
             f"{_fmt_time(time.monotonic() - self.t0)} elapsed, {left}"
         )
 
-    def _emit(self, final=False) -> None:
+    def _emit(self, final: bool = False) -> None:
         text = self.line()
         if self.tty:
             self.stream.write("\r" + text.ljust(110) + ("\n" if final else ""))
@@ -199,7 +201,7 @@ class Progress:
             if since >= self.interval and (moved or self.tty or since >= 6 * self.interval):
                 self._emit()
 
-    def close(self, final=True) -> None:
+    def close(self, final: bool = True) -> None:
         self._stop.set()
         if self._thread is not None:
             self._thread.join()
@@ -219,7 +221,7 @@ class Interrupted(KeyboardInterrupt):
         self.signum = signum
 
 
-def _raise_interrupt(signum, frame):
+def _raise_interrupt(signum: int, frame: FrameType | None) -> NoReturn:
     for name in ("SIGTERM", "SIGHUP"):  # one clean stop: a second signal does not break the cleanup
         if getattr(signal, name, None) is not None:
             signal.signal(getattr(signal, name), signal.SIG_IGN)
@@ -243,7 +245,7 @@ def _err(msg: str) -> int:
     return 2
 
 
-def _workers(args) -> tuple[int | None, str | None]:
+def _workers(args: argparse.Namespace) -> tuple[int | None, str | None]:
     """The one parallelism switch (--workers, --jobs its deprecated alias): (value, error)."""
     if args.jobs is not None:
         print("run-scenario: note: --jobs is deprecated; use --workers (the same number of processes)", file=sys.stderr)
@@ -265,7 +267,7 @@ def _workers(args) -> tuple[int | None, str | None]:
 
 
 @cli_main("run-scenario")
-def main(argv=None) -> int:
+def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)  # exits 2 on bad options
     try:
         scn = load_scenario(args.path)
