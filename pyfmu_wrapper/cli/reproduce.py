@@ -23,6 +23,7 @@ import argparse
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 from ..paper.claims import Context, evaluate
 from ..paper.figures import draw_figures
@@ -75,7 +76,9 @@ def main(argv: list[str] | None = None) -> int:
     ex = make_executor(a.executor, jobs=a.jobs, scheduler=a.scheduler)
     t0 = time.perf_counter()
     try:
-        runs = run_all(names, results, level_of, ex, resume=a.resume, progress=not a.quiet, engine=a.engine)
+        runs: dict[str, Any] = run_all(  # the runs, and the simplified-model fits under '_fits'
+            names, results, level_of, ex, resume=a.resume, progress=not a.quiet, engine=a.engine
+        )
     finally:
         ex.close()
     ctx = Context(runs, quick=a.quick)

@@ -7,13 +7,17 @@ Units SI, frequencies in rad/s.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 from scipy.optimize import minimize_scalar
 
 from ..physics.params import BaseParams, InerterModel, TMDParams
-from ..scenario.engines import compute_sweep, compute_time_series
+from ..scenario.engines import RunSettings, TimeSeries, compute_sweep, compute_time_series
+from ..scenario.runner import FRCData, MapData
 from ..solvers.frequency_response import exact_amplitude
 
 PAPER_COPT = {1: 56.38, 2: 31.73, 3: 6.45}
@@ -22,8 +26,11 @@ PAPER_SIMPLIFIED = {1: 15.0, 2: 15.0, 3: 7.5}  # Sect. 7: "+50 %" (Case 2: the t
 FULL_C = {1: 10.0, 2: 10.0, 3: 5.0}  # c and df of the full model of Sect. 7 (Case 3 halves them)
 BAND = (15.0, 25.0)
 
+#: frequencies, amplitudes, parameter values: a sequence or a float array
+Floats = Sequence[float] | NDArray[np.float64]
 
-def _trapz(y, x) -> float:
+
+def _trapz(y: Floats, x: Floats) -> float:
     if hasattr(np, "trapezoid"):  # numpy >= 2
         return float(np.trapezoid(y, x))
     return float(np.trapz(y, x))  # type: ignore[attr-defined]  # numpy < 2 (removed in numpy 2.4)
@@ -32,7 +39,7 @@ def _trapz(y, x) -> float:
 # --- reading the results ---------------------------------------------------------------------------
 
 
-def curve(data, prefix: str):
+def curve(data: FRCData, prefix: str) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """(omegas, amplitudes) of the first curve of an FRC whose label starts with ``prefix`` (first direction)."""
     t = data.table[data.table["curve"].str.startswith(prefix)]
     if t.empty:
@@ -42,16 +49,16 @@ def curve(data, prefix: str):
     return t["omega"].to_numpy(), t["amplitude"].to_numpy()
 
 
-def curve_tmd(data, prefix: str) -> TMDParams:
+def curve_tmd(data: FRCData, prefix: str) -> TMDParams:
     return next(cv.tmd for cv in data.study.curves if cv.label.startswith(prefix))
 
 
-def peaks_of(data, prefix: str) -> dict:
+def peaks_of(data: FRCData, prefix: str) -> dict[str, Any]:
     label = next(c.label for c in data.study.curves if c.label.startswith(prefix))
     return next(iter(data.peaks[label].values()))
 
 
-def not_converged(*datas) -> int:
+def not_converged(*datas: Any) -> int:
     """Steady states that did not converge in these study results (tables and time series)."""
     n = 0
     for d in datas:
@@ -65,7 +72,7 @@ def not_converged(*datas) -> int:
 # --- linear optimisation and minima --------------------------------------------------------------
 
 
-def exact_minimum(base: BaseParams, tmd: TMDParams, w_grid, a_grid) -> tuple[float, float]:
+def exact_minimum(base: BaseParams, tmd: TMDParams, w_grid: Floats, a_grid: Floats) -> tuple[float, float]:
     """The minimum of the exact FRC near the grid minimum, located to 1e-9 rad/s: (omega, amplitude)."""
     w, a = np.asarray(w_grid, float), np.asarray(a_grid, float)
     k = int(np.argmin(a))
@@ -79,7 +86,9 @@ def exact_minimum(base: BaseParams, tmd: TMDParams, w_grid, a_grid) -> tuple[flo
     return (float(r.x), float(r.fun)) if r.fun <= a[k] else (float(w[k]), float(a[k]))
 
 
-def minmax_opt(base, tmd, param: str, lo: float, hi: float, omegas) -> tuple[float, float]:
+def minmax_opt(
+    base: BaseParams, tmd: TMDParams, param: str, lo: float, hi: float, omegas: Floats
+) -> tuple[float, float]:
     """The value of ``param`` (exact, linear) minimising the peak amplitude over ``omegas``: (value, peak)."""
     f = lambda v: float(exact_amplitude(base, replace(tmd, **{param: float(v)}), omegas).max())  # noqa: E731
     grid = np.linspace(lo, hi, 201)
@@ -91,7 +100,7 @@ def minmax_opt(base, tmd, param: str, lo: float, hi: float, omegas) -> tuple[flo
     return float(r.x), float(r.fun)
 
 
-def h2_optimum(base, tmd, parameter: str, nonlinear_settings=None) -> float:
+def h2_optimum(base: BaseParams, tmd: TMDParams, parameter: str, nonlinear_settings: Any = None) -> float:
     """The H2 optimum (min of int |X|^2 dw) from the project's optimiser; raises when it fails."""
     from .optimise import OptimiseConfig, optimise
 
@@ -99,7 +108,7 @@ def h2_optimum(base, tmd, parameter: str, nonlinear_settings=None) -> float:
     return float(optimise(base, tmd, parameter, "h2", config=cfg).value)
 
 
-def row_opt(data) -> tuple[float, float, float]:
+def row_opt(data: MapData) -> tuple[float, float, float]:
     """From a map: the value with the smallest peak amplitude, that peak, and the width of the range
     of values whose peak is within 10 % of it."""
     peak = data.amplitude.max(axis=1)
@@ -109,7 +118,7 @@ def row_opt(data) -> tuple[float, float, float]:
     return float(v[k]), float(peak[k]), float(good.max() - good.min()) if len(good) else 0.0
 
 
-def row_h2(data) -> float:
+def row_h2(data: MapData) -> float:
     """From a map: the value minimising J = int A^2 dw over the band (grid argmin, parabolic refinement)."""
     w = np.asarray(data.study.omegas, float)
     v = np.asarray(data.study.values, float)
@@ -128,7 +137,7 @@ def row_h2(data) -> float:
 # --- Case 1 against the classical TMD; FRCs at the optimum ---------------------------------------
 
 
-def classical_difference(base: BaseParams, tmd: TMDParams, cs, omegas) -> float:
+def classical_difference(base: BaseParams, tmd: TMDParams, cs: Iterable[float], omegas: Floats) -> float:
     """Largest relative difference of the FRC peak between ``tmd`` and the classical TMD of the same
     total inertia without an inerter (m + I, I = 0), at the same c, over the damping values ``cs``."""
     classical = replace(tmd, mass=tmd.mass + tmd.inertance, inertance=0.0, inerter=InerterModel.NONE)
@@ -140,7 +149,9 @@ def classical_difference(base: BaseParams, tmd: TMDParams, cs, omegas) -> float:
     return float(worst)
 
 
-def frc_pair_difference(w1, a1, w2, a2) -> float:
+def frc_pair_difference(
+    w1: NDArray[np.float64], a1: NDArray[np.float64], w2: NDArray[np.float64], a2: NDArray[np.float64]
+) -> float:
     """max |A1 - A2| / max(max A1, max A2) on the first curve's frequencies (the second interpolated)."""
     a2i = np.interp(w1, w2, a2)
     return float(np.abs(a1 - a2i).max() / max(a1.max(), a2i.max()))
@@ -149,14 +160,14 @@ def frc_pair_difference(w1, a1, w2, a2) -> float:
 # --- friction against viscous damping -------------------------------------------------------------
 
 
-def effective_width(w, a, level: float) -> float:
+def effective_width(w: Floats, a: Floats, level: float) -> float:
     """Total length [rad/s] of the frequencies where the amplitude is at most ``level`` (trapezoid on the grid)."""
     w, a = np.asarray(w, float), np.asarray(a, float)
     inside = (a <= level).astype(float)
     return _trapz(inside, w)
 
 
-def map_suddenness(data, values=None) -> float:
+def map_suddenness(data: MapData, values: Floats | None = None) -> float:
     """Largest change of the amplitude between neighbouring parameter values, per unit of the
     parameter's range, relative to the largest amplitude of the map:
     max_{j, w} |A(v_j+1, w) - A(v_j, w)| / (v_j+1 - v_j) * (v_max - v_min) / max A.
@@ -172,13 +183,13 @@ def map_suddenness(data, values=None) -> float:
     return float(dA.max() * (v.max() - v.min()) / A.max())
 
 
-def stuck_fraction(base, tmd, omega, settings) -> float:
+def stuck_fraction(base: BaseParams, tmd: TMDParams, omega: float, settings: RunSettings) -> float:
     ts = compute_time_series(base, tmd, omega, 1, 2000, settings)
     rel = ts.states[:, 1] - ts.states[:, 3]
     return float(np.mean(np.abs(rel) < 1e-4))
 
 
-def roughness(ts, n_periods: int) -> float:
+def roughness(ts: TimeSeries, n_periods: int) -> float:
     """Distortion of the base velocity xd over the portrait: the RMS of everything but the forcing
     harmonic, relative to the forcing harmonic (0 for the smooth ellipse of a linear response; the
     gear's rattle shows up as higher harmonics). Samples are uniform over ``n_periods`` whole periods."""
@@ -192,7 +203,7 @@ def roughness(ts, n_periods: int) -> float:
 # --- the simplified model ------------------------------------------------------------------------
 
 
-def viscous_errors(base: BaseParams, tmd: TMDParams, omegas, target, c: float) -> dict:
+def viscous_errors(base: BaseParams, tmd: TMDParams, omegas: Floats, target: Floats, c: float) -> dict[str, float]:
     """Errors of the simplified model (ideal inerter, viscous c only) against ``target`` amplitudes.
 
     area = integral |A_c - target| d omega [m rad/s] (trapezoidal, the shaded area of Fig. 6);
@@ -208,7 +219,12 @@ def viscous_errors(base: BaseParams, tmd: TMDParams, omegas, target, c: float) -
 
 
 def best_fit_viscous(
-    base: BaseParams, tmd: TMDParams, omegas, target, metric: str = "area", bounds=(0.0, 100.0)
+    base: BaseParams,
+    tmd: TMDParams,
+    omegas: Floats,
+    target: Floats,
+    metric: str = "area",
+    bounds: tuple[float, float] = (0.0, 100.0),
 ) -> dict:
     """The viscous c of the simplified model that best matches ``target`` (e.g. the full model's FRC).
 
@@ -228,7 +244,7 @@ def best_fit_viscous(
     return viscous_errors(base, tmd, omegas, target, c)
 
 
-def simplified_fits(run, case: int) -> dict:
+def simplified_fits(run: Any, case: int) -> dict[str, Any]:
     """Errors of the simplified model against the full model of a Fig. 6 run: the paper's +50 % c,
     and the best-fit c by area and by maximum."""
     d6 = run.datas["full_frc"]
@@ -242,7 +258,9 @@ def simplified_fits(run, case: int) -> dict:
     )
 
 
-def simplified_error_by_size(base: BaseParams, tmd: TMDParams, omegas, settings, c: float, scales) -> list[dict]:
+def simplified_error_by_size(
+    base: BaseParams, tmd: TMDParams, omegas: Floats, settings: RunSettings, c: float, scales: Iterable[float]
+) -> list[dict[str, Any]]:
     """Error of the +50 % simplified model against the model with viscous c and dry friction df = c
     (ideal inerter, no play: play alone changes no FRC macroscopically), for c and df scaled by each
     of ``scales``. Steady states by ``settings`` (monolithic, continuation). Returns per scale the

@@ -6,8 +6,10 @@ recoloured as in the paper, plus the panels the paper adds (phase portraits, ful
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import replace
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
@@ -16,20 +18,22 @@ from matplotlib.figure import Figure
 from ..scenario import plots
 from ..solvers.frequency_response import exact_amplitude
 from .claim_data import PAPER_SIMPLIFIED, curve
-from .reproduce import CASES
+from .reproduce import CASES, Run
 
 
-def _fig(nrows, ncols, w=4.6, h=3.3) -> tuple[Figure, np.ndarray]:
+def _fig(nrows: int, ncols: int, w: float = 4.6, h: float = 3.3) -> tuple[Figure, np.ndarray]:
     fig = Figure(figsize=(w * ncols, h * nrows), layout="constrained")
     FigureCanvasAgg(fig)
     return fig, fig.subplots(nrows, ncols, squeeze=False)
 
 
-def _letter(ax, k):
+def _letter(ax: Any, k: int) -> None:
     ax.set_title(f"({'abcdefghi'[k]}) " + ax.get_title(), fontsize=9)
 
 
-def _maps_and_frcs(runs, names, map_name, frc_name, path, dpi):
+def _maps_and_frcs(
+    runs: dict[str, Run], names: Sequence[str], map_name: str, frc_name: str, path: Path, dpi: int
+) -> None:
     fig, axes = _fig(len(names), 2)
     for i, n in enumerate(names):
         r = runs[n]
@@ -49,7 +53,7 @@ def _maps_and_frcs(runs, names, map_name, frc_name, path, dpi):
     fig.savefig(path, dpi=dpi)
 
 
-def _rasterize(fig):
+def _rasterize(fig: Figure) -> None:
     for ax in fig.axes:
         for coll in ax.collections:
             coll.set_rasterized(True)
@@ -63,7 +67,8 @@ def draw_figures(runs: dict, figdir: Path, dpi: int = 80) -> dict:
         plots.map_plot(runs["fig2_iratio"].datas["iratio_map"], ax=axes[0, 0])
         plots.frc_plot(runs["fig2_iratio"].datas["iratio_frc"], ax=axes[0, 1])
         axes[0, 1].legend(fontsize=6)
-        _letter(axes[0, 0], 0), _letter(axes[0, 1], 1)
+        _letter(axes[0, 0], 0)
+        _letter(axes[0, 1], 1)
         fig.savefig(figdir / "fig2.png", dpi=dpi)
         out["fig2"] = "fig2.png"
     for f, mp, fr in ((3, "damping_map", "damping_frc"), (4, "friction_map", "friction_frc")):
@@ -80,15 +85,15 @@ def draw_figures(runs: dict, figdir: Path, dpi: int = 80) -> dict:
             axes[0, j].set_title(axes[0, j].get_title(), fontsize=9)
             _letter(axes[0, j], j)
             ph = runs[n].datas["play_phase"]
-            for i, w in enumerate((21.0, 19.0)):
+            for i, w_phase in enumerate((21.0, 19.0)):
                 ax = axes[1 + i, j]
                 for col, cv in zip(colors, ph.study.curves):
-                    ts = ph.series.get((w, cv.label))
+                    ts = ph.series.get((w_phase, cv.label))
                     if ts is not None:
                         ax.plot(ts.states[:, 0], ts.states[:, 1], lw=0.7, color=col, label=cv.label)
                 ax.set_xlabel("x [m]")
                 ax.set_ylabel(r"$\dot x$ [m/s]")
-                ax.set_title(f"Case {n[-1]}: phase portrait, w = {w:g} rad/s", fontsize=9)
+                ax.set_title(f"Case {n[-1]}: phase portrait, w = {w_phase:g} rad/s", fontsize=9)
                 ax.legend(fontsize=6)
                 ax.grid(alpha=0.3)
                 _letter(ax, 3 * (1 + i) + j)
@@ -136,7 +141,8 @@ def draw_figures(runs: dict, figdir: Path, dpi: int = 80) -> dict:
             ax.set_title(f"Case {c}: full vs simplified (grey: area between)", fontsize=9)
             ax.grid(alpha=0.3)
             ax.legend(fontsize=6)
-            _letter(axes[i, 0], 2 * i), _letter(ax, 2 * i + 1)
+            _letter(axes[i, 0], 2 * i)
+            _letter(ax, 2 * i + 1)
         fig.savefig(figdir / "fig6.png", dpi=dpi)
         out["fig6"] = "fig6.png"
     return out

@@ -41,8 +41,9 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -76,13 +77,15 @@ def _active(tmd: TMDParams) -> list[int]:
     return [0, 1, 2, 3, 4, 5] if tmd.inerter == InerterModel.PLAY else [0, 1, 2, 3]
 
 
-def _reduced_system(base: BaseParams, tmd: TMDParams):
+def _reduced_system(base: BaseParams, tmd: TMDParams) -> tuple[np.ndarray, np.ndarray, list[int]]:
     A, b = linear_system(base, tmd)
     act = _active(tmd)
     return A[np.ix_(act, act)], b[act], act
 
 
-def linear_response(base: BaseParams, tmd: TMDParams, omegas) -> tuple[np.ndarray, np.ndarray]:
+def linear_response(
+    base: BaseParams, tmd: TMDParams, omegas: Sequence[float] | np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """Exact complex amplitudes (X, X - Y) of the base and of the TMD stroke at each omega [rad/s].
 
     Vectorised counterpart of :func:`pyfmu_wrapper.solvers.frequency_response.exact_response`
@@ -113,11 +116,11 @@ def h2_exact(base: BaseParams, tmd: TMDParams) -> float:
 # --- objectives ---------------------------------------------------------------------------------
 
 
-def _trapz(y, w):
+def _trapz(y: np.ndarray, w: np.ndarray) -> float:
     return float(np.trapezoid(y, w)) if len(w) > 1 else float(y[0])
 
 
-def _width(w):
+def _width(w: np.ndarray) -> float:
     return float(w[-1] - w[0]) if len(w) > 1 else 1.0
 
 
@@ -172,7 +175,7 @@ register(
 )
 
 
-def get_objective(name) -> Objective:
+def get_objective(name: str | Objective) -> Objective:
     if isinstance(name, Objective):
         return name
     try:
@@ -196,7 +199,7 @@ def split_parameter(parameter: str) -> tuple[str, str]:
     return owner, name
 
 
-def with_parameter(base: BaseParams, tmd: TMDParams, parameter: str, value: float):
+def with_parameter(base: BaseParams, tmd: TMDParams, parameter: str, value: float) -> tuple[BaseParams, TMDParams]:
     owner, name = split_parameter(parameter)
     if owner == "tmd":
         return base, replace(tmd, **{name: float(value)})
@@ -233,7 +236,7 @@ class Evaluator:
             return self.curves[key]
         return self._curve(value)
 
-    def _curve(self, value: float):
+    def _curve(self, value: float) -> tuple[np.ndarray, str, bool]:
         base, tmd = with_parameter(self.base, self.tmd, self.parameter, value)
         if tmd.is_linear and self.linear == "exact":
             X, R = linear_response(base, tmd, self.omegas)
@@ -296,7 +299,7 @@ class OptimisationResult:
         )
 
 
-def frequency_grid(band, points: int) -> np.ndarray:
+def frequency_grid(band: Sequence[float], points: int) -> np.ndarray:
     lo, hi = float(band[0]), float(band[1])
     if not (math.isfinite(lo) and math.isfinite(hi) and 0.0 < lo < hi):
         raise OptimisationError(f"band must be 0 < LO < HI [rad/s], got {band!r}")
@@ -337,11 +340,11 @@ def optimise(
     base: BaseParams,
     tmd: TMDParams,
     parameter: str,
-    objective="h2",
+    objective: str | Objective = "h2",
     config: OptimiseConfig | None = None,
     *,
-    progress=None,
-    curve_cache: dict | None = None,
+    progress: Callable[[float, float], Any] | None = None,
+    curve_cache: dict[Any, Any] | None = None,
 ) -> OptimisationResult:
     """Minimise ``objective`` over one parameter of the base or the TMD.
 
@@ -408,7 +411,7 @@ def optimise(
         curves=curve_cache,
     )
 
-    def f(v):
+    def f(v: float) -> float:
         J = ev(v)
         if progress is not None:
             progress(float(v), J)

@@ -12,7 +12,7 @@ from ..scenario.engines import ENGINES
 from ..scenario.tasks import code_version
 from .claim_data import FULL_C
 from .claims import Claim
-from .reproduce import ROOT
+from .reproduce import ROOT, Run
 
 CAPTIONS = {
     "fig2": "Fig. 2: (a) max|x| over Iratio and w (m + I = 10 kg, c = 0, exact response); (b) FRCs for Iratio = 0, 0.1, 0.5, 0.9, 1 and the base alone (black).",
@@ -47,7 +47,7 @@ SLIPS = [
 ]
 
 
-def _settings_text(r) -> str:
+def _settings_text(r: Run) -> str:
     """The settings the engine used for a run, from its summary.json."""
     st = r.summary.get("settings", {})
     if (

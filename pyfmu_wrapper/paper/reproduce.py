@@ -11,13 +11,15 @@ from __future__ import annotations
 
 import json
 import sys
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import yaml
 
 from ..scenario.engines import RunSettings
-from ..scenario.loader import _plain, parse_scenario
+from ..scenario.loader import Scenario, _plain, parse_scenario
 from ..scenario.output import run_scenario
 from ..scenario.runner import work_units
 from ..scenario.yamlio import load_marked
@@ -52,7 +54,7 @@ def _shrink(doc: dict, level: str, exact: bool) -> dict:
     return doc
 
 
-def load_paper_scenario(name: str, level: str | None = None):
+def load_paper_scenario(name: str, level: str | None = None) -> Scenario:
     """A scenario of scenarios/paper/, optionally shrunk ('quick' or 'coarse')."""
     path = PAPER_DIR / f"{name}.yaml"
     text = path.read_text(encoding="utf-8")
@@ -68,14 +70,22 @@ def load_paper_scenario(name: str, level: str | None = None):
 @dataclass
 class Run:
     name: str
-    scenario: object
+    scenario: Scenario
     level: str | None
     datas: dict  #: study name -> data object
     summary: dict
     folder: Path
 
 
-def run_all(names, results: Path, level_of, executor, resume=True, progress=True, engine: str = DEFAULT_ENGINE) -> dict:
+def run_all(
+    names: Iterable[str],
+    results: Path,
+    level_of: Callable[[str], str | None],
+    executor: Any,
+    resume: bool = True,
+    progress: bool = True,
+    engine: str = DEFAULT_ENGINE,
+) -> dict[str, Run]:
     """Run the scenarios with ``engine`` (checkpointed under ``results/.cache``) and collect their data objects."""
     from tqdm import tqdm
 

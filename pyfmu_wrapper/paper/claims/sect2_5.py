@@ -4,13 +4,16 @@ in report order."""
 from __future__ import annotations
 
 import math
+from collections.abc import Sequence
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
+from numpy.typing import NDArray
 
 from .. import claim_data as cd
 from ..claim_data import PAPER_COPT, PAPER_DFOPT
-from .table import CASES, FIG3, FIG4, Check, _nc_note, claim, fmt
+from .table import CASES, FIG3, FIG4, Check, ClaimResult, Context, _nc_note, claim, fmt
 
 # --- Sect. 2-3, Fig. 2 ------------------------------------------------------------------------------
 
@@ -21,7 +24,7 @@ from .table import CASES, FIG3, FIG4, Check, _nc_note, claim, fmt
     "20 'Hz', ~0.1 m",
     ["fig2_iratio"],
 )
-def _base_alone(ctx):
+def _base_alone(ctx: Context) -> ClaimResult:
     p0 = cd.peaks_of(ctx.data("fig2_iratio", "iratio_frc"), "no TMD")
     w, a = p0["peak_omega"], p0["peak_amplitude"]
     return (
@@ -35,7 +38,9 @@ def _base_alone(ctx):
     )
 
 
-def _two_peaks(frc, ratios=(0.0, 0.1, 0.5, 0.9)):
+def _two_peaks(
+    frc: Any, ratios: Sequence[float] = (0.0, 0.1, 0.5, 0.9)
+) -> list[tuple[float, dict[str, Any], dict[str, Any]]]:
     out = []
     for r in ratios:
         lm = sorted(cd.peaks_of(frc, f"Iratio = {r:g}")["local_maxima"], key=lambda p: p["omega"])
@@ -51,7 +56,7 @@ def _two_peaks(frc, ratios=(0.0, 0.1, 0.5, 0.9)):
     "qualitative",
     ["fig2_iratio"],
 )
-def _separation(ctx):
+def _separation(ctx: Context) -> ClaimResult:
     pk = _two_peaks(ctx.data("fig2_iratio", "iratio_frc"))
     seps = [hi["omega"] - lo["omega"] for _, lo, hi in pk]
     text = "; ".join(f"Iratio {r:g}: {lo['omega']:.2f} / {hi['omega']:.2f} rad/s" for r, lo, hi in pk)
@@ -76,7 +81,7 @@ def _separation(ctx):
     "qualitative",
     ["fig2_iratio"],
 )
-def _peak_ratio(ctx):
+def _peak_ratio(ctx: Context) -> ClaimResult:
     pk = _two_peaks(ctx.data("fig2_iratio", "iratio_frc"))
     ratios = [lo["amplitude"] / hi["amplitude"] for _, lo, hi in pk]
     return (
@@ -95,7 +100,7 @@ def _peak_ratio(ctx):
     "merge at Iratio = 1",
     ["fig2_iratio"],
 )
-def _iratio_one(ctx):
+def _iratio_one(ctx: Context) -> ClaimResult:
     frc = ctx.data("fig2_iratio", "iratio_frc")
     _, a1 = cd.curve(frc, "Iratio = 1")
     _, ab = cd.curve(frc, "no TMD")
@@ -113,7 +118,7 @@ def _iratio_one(ctx):
     "20 'Hz'",
     ["fig2_iratio"],
 )
-def _antiresonance(ctx):
+def _antiresonance(ctx: Context) -> ClaimResult:
     frc = ctx.data("fig2_iratio", "iratio_frc")
     base = ctx.runs["fig2_iratio"].scenario.base
     mins = []
@@ -138,7 +143,7 @@ def _antiresonance(ctx):
     "2.5 / 14 / 22.5 / 25 %",
     ["fig3_case1"],
 )
-def _critical(ctx):
+def _critical(ctx: Context) -> ClaimResult:
     tmd = ctx.data("fig3_case1", "damping_map").study.tmds[0]
     crit = 2.0 * math.sqrt(tmd.stiffness * (tmd.mass + tmd.inertance))
     paper = {10.0: 2.5, 56.38: 14.0, 90.0: 22.5, 100.0: 25.0}
@@ -152,7 +157,7 @@ def _critical(ctx):
 
 
 @claim("4 / Fig. 3", "Optimised c (Cases 1-3)", " / ".join(f"{PAPER_COPT[c]}" for c in CASES), FIG3)
-def _copt(ctx):
+def _copt(ctx: Context) -> ClaimResult:
     h2s, mm = [], []
     for c in CASES:
         r = ctx.runs[f"fig3_case{c}"]
@@ -174,7 +179,7 @@ def _copt(ctx):
 
 
 @claim("4 / Fig. 3", "The optimum c decreases as Iratio grows", "56.38 > 31.73 > 6.45", FIG3)
-def _copt_order(ctx):
+def _copt_order(ctx: Context) -> ClaimResult:
     mm = ctx.shared.get("copt_minmax")
     if mm is None:
         mm = [
@@ -196,7 +201,7 @@ def _copt_order(ctx):
 
 
 @claim("4 / Fig. 3", "The range of c with good damping narrows as Iratio grows", "qualitative", FIG3)
-def _c_width(ctx):
+def _c_width(ctx: Context) -> ClaimResult:
     widths = [cd.row_opt(ctx.data(n, "damping_map"))[2] for n in FIG3]
     return (
         "width of the c range whose peak is within 10 % of the best (map): "
@@ -212,7 +217,7 @@ def _c_width(ctx):
 
 
 @claim("4", "Case 1 behaves like a classical TMD without an inerter", "similar (qualitative)", FIG3)
-def _classical(ctx):
+def _classical(ctx: Context) -> ClaimResult:
     w = np.linspace(15.0, 25.0, 1001)
     cs = np.linspace(0.0, 100.0, 26)[1:]
     d = {
@@ -230,7 +235,7 @@ def _classical(ctx):
 
 
 @claim("4", "The FRC at the optimal c differs strongly between the Cases", "differs strongly", FIG3)
-def _frc_opt_differ(ctx):
+def _frc_opt_differ(ctx: Context) -> ClaimResult:
     curves = {c: cd.curve(ctx.data(f"fig3_case{c}", "damping_frc"), "c = " + f"{PAPER_COPT[c]:g}") for c in CASES}
     pairs = [(1, 2), (1, 3), (2, 3)]
     diffs = {p: cd.frc_pair_difference(*curves[p[0]], *curves[p[1]]) for p in pairs}
@@ -246,7 +251,7 @@ def _frc_opt_differ(ctx):
 
 
 @claim("5 / Fig. 4", "Optimised df (Cases 1-3)", " / ".join(f"{PAPER_DFOPT[c]}" for c in CASES), FIG4)
-def _dfopt(ctx):
+def _dfopt(ctx: Context) -> ClaimResult:
     rowh2 = [cd.row_h2(ctx.data(n, "friction_map")) for n in FIG4]
     if ctx.quick:
         best, how = rowh2, "H2 from the map rows (parabola through the grid minimum; --quick: optimiser skipped)"
@@ -277,7 +282,7 @@ def _dfopt(ctx):
 
 
 @claim("5 / Fig. 4", "The optimum df is smaller the bigger the inertance", "45.78 > 37.65 > 15.44", FIG4)
-def _dfopt_order(ctx):
+def _dfopt_order(ctx: Context) -> ClaimResult:
     best = ctx.shared.get("dfopt") or [cd.row_h2(ctx.data(n, "friction_map")) for n in FIG4]
     return (
         "H2 optimum: " + " > ".join(f"{h:.1f}" for h in best) + " N",
@@ -287,7 +292,7 @@ def _dfopt_order(ctx):
 
 
 @claim("5 / Fig. 4", "The range of good df shrinks as Iratio grows", "qualitative", FIG4)
-def _df_width(ctx):
+def _df_width(ctx: Context) -> ClaimResult:
     widths = [cd.row_opt(ctx.data(n, "friction_map"))[2] for n in FIG4]
     return (
         "width of the df range whose peak is within 10 % of the best: " + " / ".join(f"{w:.0f}" for w in widths) + " N",
@@ -300,7 +305,7 @@ def _df_width(ctx):
 
 
 @claim("5", "A properly chosen dry friction widens the range of effectiveness", "qualitative", FIG4)
-def _df_widens(ctx):
+def _df_widens(ctx: Context) -> ClaimResult:
     cells, gains, steps = [], [], []
     for c in CASES:
         frc = ctx.data(f"fig4_case{c}", "friction_frc")
@@ -320,7 +325,7 @@ def _df_widens(ctx):
 
 
 @claim("5", "Dry friction changes the FRC more suddenly than viscous damping", "qualitative", FIG3 + FIG4)
-def _sudden(ctx):
+def _sudden(ctx: Context) -> ClaimResult:
     cells, checks = [], []
     for c in CASES:
         fm = ctx.data(f"fig4_case{c}", "friction_map")
@@ -338,7 +343,7 @@ def _sudden(ctx):
     )
 
 
-def _on_omegas(mapdata, omegas):
+def _on_omegas(mapdata: Any, omegas: Sequence[float] | NDArray[np.float64]) -> Any:
     """A copy of a map's data resampled on other frequencies (linear interpolation along omega)."""
     w = np.asarray(mapdata.study.omegas, float)
     amp = np.array([np.interp(omegas, w, row) for row in mapdata.amplitude])
@@ -352,7 +357,7 @@ def _on_omegas(mapdata, omegas):
     "qualitative (Cases 1, 2)",
     FIG4[:2],
 )
-def _large_df(ctx):
+def _large_df(ctx: Context) -> ClaimResult:
     cells, checks = [], []
     for c in (1, 2):
         w, a = cd.curve(ctx.data(f"fig4_case{c}", "friction_frc"), "df = 90")
@@ -378,7 +383,7 @@ def _large_df(ctx):
     "physics notes, not the paper",
     ["fig4_case1"],
 )
-def _sticking(ctx):
+def _sticking(ctx: Context) -> ClaimResult:
     from ...scenario.engines import RunSettings
 
     r = ctx.runs["fig4_case1"]

@@ -9,13 +9,13 @@ import numpy as np
 
 from .. import claim_data as cd
 from ..claim_data import FULL_C
-from .table import CASES, FIG4, FIG5, FIG6, Check, _nc_note, _not_run, claim, fmt
+from .table import CASES, FIG4, FIG5, FIG6, Check, ClaimResult, Context, _nc_note, _not_run, claim, fmt
 
 # --- Sect. 6, Fig. 5 --------------------------------------------------------------------------------
 
 
 @claim("6 / Fig. 5a-c", "No overall macroscopic influence of play on max|x| for eps up to 2e-3 m", "qualitative", FIG5)
-def _play_macro(ctx):
+def _play_macro(ctx: Context) -> ClaimResult:
     cells, checks, pts = [], [], {}
     for c in CASES:
         m = ctx.data(f"fig5_case{c}", "play_map")
@@ -33,7 +33,7 @@ def _play_macro(ctx):
 
 
 @claim("6", "With the TMD active the base amplitude is at least 100 x the gap (eps = 1e-4 m)", ">= 1e-2 m", FIG6[:1])
-def _hundred_gap(ctx):
+def _hundred_gap(ctx: Context) -> ClaimResult:
     cells, checks = [], []
     for c in CASES:
         if f"fig6_case{c}" not in ctx.runs:
@@ -58,7 +58,7 @@ def _hundred_gap(ctx):
     "qualitative",
     FIG5,
 )
-def _rough(ctx):
+def _rough(ctx: Context) -> ClaimResult:
     cells, checks, spread = [], [], {}
     for c in CASES:
         ph = ctx.data(f"fig5_case{c}", "play_phase")
@@ -84,7 +84,7 @@ def _rough(ctx):
 
 
 @claim("6 / Fig. 5", "The effects of play do not depend on Iratio", "qualitative", FIG5)
-def _play_iratio(ctx):
+def _play_iratio(ctx: Context) -> ClaimResult:
     if "roughness" not in ctx.shared:
         _rough(ctx)
     if "play_influence" not in ctx.shared:
@@ -114,7 +114,7 @@ def _play_iratio(ctx):
     "overlapped",
     FIG6[:1],
 )
-def _play_alone(ctx):
+def _play_alone(ctx: Context) -> ClaimResult:
     cells, checks = [], []
     for c in CASES:
         if f"fig6_case{c}" not in ctx.runs:
@@ -139,7 +139,7 @@ def _play_alone(ctx):
     "15 / 15 / 7.5",
     FIG6[:1],
 )
-def _simplified(ctx):
+def _simplified(ctx: Context) -> ClaimResult:
     fits = ctx.fits()
     return (
         "; ".join(
@@ -154,7 +154,7 @@ def _simplified(ctx):
 
 
 @claim("7", "The agreement of the simplified model is the greater, the bigger Iratio", "Case 3 best", FIG6)
-def _simplified_order(ctx):
+def _simplified_order(ctx: Context) -> ClaimResult:
     fits = ctx.fits()
     ra = [fits[c]["paper"]["rel_area"] for c in CASES]
     return (
@@ -165,7 +165,7 @@ def _simplified_order(ctx):
 
 
 @claim("7 / Sect. 8", "The simplified model holds only for relatively small c and df", "qualitative", FIG4)
-def _simplified_small(ctx):
+def _simplified_small(ctx: Context) -> ClaimResult:
     from ...scenario.engines import RunSettings
 
     scales = (1.0, 9.0)  # the paper's c = df = 10 (5 for Case 3) and its 'large' 90 (45)

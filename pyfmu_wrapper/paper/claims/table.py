@@ -7,8 +7,9 @@ from __future__ import annotations
 
 import math
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 from .. import claim_data as cd
 
@@ -16,7 +17,7 @@ CASES = (1, 2, 3)
 _OPS = {"<=": lambda a, b: a <= b, "<": lambda a, b: a < b, ">=": lambda a, b: a >= b, ">": lambda a, b: a > b}
 
 
-def fmt(x, nd=3) -> str:
+def fmt(x: float | None, nd: int = 3) -> str:
     if x is None or (isinstance(x, float) and not math.isfinite(x)):
         return "-"
     if isinstance(x, str):
@@ -37,7 +38,7 @@ class Check:
     threshold: float
     unit: str = ""
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.op not in _OPS:
             raise ValueError(f"op must be one of {list(_OPS)}, got {self.op!r}")
 
@@ -101,11 +102,11 @@ class Claim:
 class Context:
     """What the claim functions read: the runs (name -> reproduce.Run), quick mode, shared results."""
 
-    runs: dict
+    runs: dict[str, Any]
     quick: bool = False
-    shared: dict = field(default_factory=dict)
+    shared: dict[str, Any] = field(default_factory=dict)
 
-    def data(self, name: str, study: str):
+    def data(self, name: str, study: str) -> Any:
         return self.runs[name].datas[study]
 
     def fits(self) -> dict:
@@ -117,27 +118,33 @@ class Context:
         return self.shared["fits"]
 
 
+#: what a claim function returns: (the project's numbers in words, its checks, a note)
+ClaimResult = tuple[str, Sequence[Check], str]
+
+
 @dataclass(frozen=True)
 class Entry:
     section: str
     claim: str
     paper: str
-    needs: tuple
-    compute: Callable[[Context], tuple]  #: callable(Context) -> (project text, checks, note)
+    needs: tuple[str, ...]
+    compute: Callable[[Context], ClaimResult]  #: callable(Context) -> (project text, checks, note)
 
 
 CLAIMS: list[Entry] = []
 
 
-def claim(section, text, paper, needs):
-    def deco(fn):
+def claim(
+    section: str, text: str, paper: str, needs: Iterable[str]
+) -> Callable[[Callable[[Context], ClaimResult]], Callable[[Context], ClaimResult]]:
+    def deco(fn: Callable[[Context], ClaimResult]) -> Callable[[Context], ClaimResult]:
         CLAIMS.append(Entry(section, text, paper, tuple(needs), fn))
         return fn
 
     return deco
 
 
-def _not_run(ctx, prefix: str) -> str:
+def _not_run(ctx: Context, prefix: str) -> str:
     """'; Case k: not run' for the Cases whose scenario ``prefix``k is missing."""
     miss = [c for c in CASES if f"{prefix}{c}" not in ctx.runs]
     return "".join(f"; Case {c}: scenario {prefix}{c} not run" for c in miss)
@@ -156,7 +163,7 @@ FIG5 = [f"fig5_case{c}" for c in CASES]
 # --- the table --------------------------------------------------------------------------------------
 
 
-def evaluate(ctx: Context, only=None) -> list[Claim]:
+def evaluate(ctx: Context, only: Iterable[str] | None = None) -> list[Claim]:
     """Every claim of :data:`CLAIMS` in order (``only``: those whose text starts with one of these
     strings): computed, not computed (scenario missing) or error."""
     rows = []
