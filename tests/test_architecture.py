@@ -56,14 +56,34 @@ def _resolve(name: str, mods: dict) -> str | None:
     return name
 
 
-def import_graph() -> dict[str, set[str]]:
-    """module -> the package modules it imports anywhere in its file (relative names)."""
+def _type_checking_nodes(tree: ast.AST) -> set[int]:
+    """ids of the nodes inside ``if TYPE_CHECKING:`` blocks (imports for annotations only)."""
+    inside: set[int] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.If) and (
+            (isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING")
+            or (isinstance(node.test, ast.Attribute) and node.test.attr == "TYPE_CHECKING")
+        ):
+            for stmt in node.body:
+                inside.update(id(n) for n in ast.walk(stmt))
+    return inside
+
+
+def import_graph(runtime_only: bool = False) -> dict[str, set[str]]:
+    """module -> the package modules it imports anywhere in its file (relative names).
+
+    runtime_only: leave out the imports under ``if TYPE_CHECKING:`` (never executed: they can form no
+    import cycle, but the architecture's layer rules apply to them too)."""
     mods = _modules()
     graph: dict[str, set[str]] = {}
     for mod, path in mods.items():
         is_pkg = path.name == "__init__.py"
         found: set[str] = set()
-        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"), str(path))):
+        tree = ast.parse(path.read_text(encoding="utf-8"), str(path))
+        skip = _type_checking_nodes(tree) if runtime_only else set()
+        for node in ast.walk(tree):
+            if id(node) in skip:
+                continue
             targets: list[str] = []
             if isinstance(node, ast.Import):
                 targets = [a.name for a in node.names if a.name == PACKAGE or a.name.startswith(PACKAGE + ".")]
@@ -206,13 +226,18 @@ def test_the_scan_sees_function_local_and_relative_imports():
     assert "scenario.plots" in g["scenario.output"]  # from . import plots
     assert "scenario.engines" in g["paper.claims.sect2_5"]  # inside a claim function
     assert "solvers.frequency_response" in g["solvers.start"]  # inside initial_guess
+    # an import under `if TYPE_CHECKING:` is seen by the layer rules, not by the cycle check
+    tree = ast.parse("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from .a import B\nfrom .c import D\n")
+    skipped = _type_checking_nodes(tree)
+    kept = [n.module for n in ast.walk(tree) if isinstance(n, ast.ImportFrom) and id(n) not in skipped]
+    assert kept == ["typing", "c"]
     # and Tarjan finds a planted ring, not a chain
     assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [frozenset("abc")]
     assert cycles({"a": {"b"}, "b": set()}) == []
 
 
 def test_no_import_cycle():
-    found = set(cycles(import_graph()))
+    found = set(cycles(import_graph(runtime_only=True)))
     known = set(KNOWN_CYCLES)
     new = sorted(sorted(c) for c in found - known)
     assert not new, f"import cycles (modules that import each other, directly or in a ring): {new}"

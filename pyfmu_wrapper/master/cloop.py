@@ -28,11 +28,19 @@ import os
 import shutil
 import subprocess
 import tempfile
+from collections.abc import Iterator
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .instance import MasterError
+
+if TYPE_CHECKING:
+    from ctypes import CDLL
+
+    from .instance3 import Instance3
+    from .master import Master
 
 HERE = Path(__file__).resolve().parent
 SOURCE = HERE / "cloop.c"
@@ -135,7 +143,7 @@ _SCHEME_CODE = {"jacobi": 0, "rate": 1, "gauss-seidel": 2}
 _lib = None
 
 
-def _cache_dirs():
+def _cache_dirs() -> Iterator[Path]:
     yield HERE / "__pycache__"
     yield Path(os.environ.get("XDG_CACHE_HOME", Path.home() / ".cache")) / "pyfmu_wrapper"
 
@@ -172,7 +180,7 @@ def library_path() -> Path:
     raise MasterError(f"no writable cache directory for the compiled loop ({last})")
 
 
-def library():
+def library() -> CDLL:
     global _lib
     if _lib is None:
         lib = ctypes.CDLL(str(library_path()))
@@ -190,7 +198,7 @@ def _addr(a: np.ndarray) -> int:
     return a.ctypes.data
 
 
-def scheme_of(master) -> str | None:
+def scheme_of(master: Master) -> str | None:
     """The compiled scheme that takes the master's fixed steps, or None if they stay in Python."""
     st = master.stepper
     if st.scheme == "gauss-seidel":
@@ -208,7 +216,7 @@ class CompiledLoop:
 
     MAX_WEIGHTS = 64
 
-    def __init__(self, master):
+    def __init__(self, master: Master) -> None:
         self.lib = library()
         m = master
         self.m = m
@@ -259,8 +267,8 @@ class CompiledLoop:
         c.n_inst, c.nsig = n, nsig
         self.work = {k: np.zeros(max(1, nsig)) for k in ("y0", "d1", "d2", "pred", "ynew")}
         self.stepped = np.zeros(max(1, nsig), dtype=np.uint8)
-        for k, a in self.work.items():
-            setattr(c, k, _addr(a))
+        for name, a in self.work.items():
+            setattr(c, name, _addr(a))
         c.stepped = _addr(self.stepped)
         self.gs_order = np.array([self.index[id(m.instances[nm])] for nm in m.wiring.order_gs], dtype=np.int64)
         c.gs_order = _addr(self.gs_order)
@@ -272,7 +280,7 @@ class CompiledLoop:
         self.generation = m.history.generation
         self.timing = True
 
-    def _fmi3_adapter(self, s, ins):
+    def _fmi3_adapter(self, s: Any, ins: Instance3) -> Any:
         """Point the loop's calls of an FMI 3.0 instance at the adapters of cloop.c."""
         f = _Fmi3()
         f.inst = ins._c
@@ -290,14 +298,14 @@ class CompiledLoop:
         s.set_der = ctypes.cast(lib.cl_f3_set_der, _vp).value if der.size else None
         s.do_step = ctypes.cast(lib.cl_f3_do_step, _vp).value
 
-    def _check_buffers(self):
+    def _check_buffers(self) -> None:
         m = self.m
         c = self.ctx
         # the master's arrays are updated in place everywhere; guard against a replaced one
         if c.y != _addr(m.y) or c.hist_y != _addr(m.history.y) or c.hist_t != _addr(m.history.t):
             raise MasterError("internal: the master's signal or history arrays were replaced")
 
-    def _add_weights(self, k: int, x0: float, x1: float):
+    def _add_weights(self, k: int, x0: float, x1: float) -> None:
         hist = self.m.history
         w1, w2 = hist.weights(int(k), self.ctx.t)
         if hist.generation != self.generation or self.ctx.n_w >= self.MAX_WEIGHTS:

@@ -8,10 +8,15 @@ those points; :func:`lagrange_weights` gives the derivative weights of any set o
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
+if TYPE_CHECKING:
+    from numpy import ndarray
 
-def lagrange_weights(s: np.ndarray):
+
+def lagrange_weights(s: np.ndarray) -> tuple[ndarray, ndarray]:
     """Weights (d1, d2): first and second derivative at s = 0 of the polynomial through s (1 to 3 points)."""
     n = len(s)
     d1 = np.zeros(n)
@@ -49,24 +54,24 @@ class History:
     depend only on the spacing of the points relative to the current time and are cached (a
     fixed step reuses one set)."""
 
-    def __init__(self, nsig: int):
+    def __init__(self, nsig: int) -> None:
         self.y = np.zeros((3, nsig))
         self.t = np.zeros(3)
         self.n = 0
         self._cache: dict = {}
         self.generation = 0  #: bumped whenever the weight cache is emptied (the compiled loop mirrors it)
 
-    def clear(self):
+    def clear(self) -> None:
         self.n = 0
 
-    def push(self, t: float, y: np.ndarray):
+    def push(self, t: float, y: np.ndarray) -> None:
         self.y[:-1] = self.y[1:]
         self.t[:-1] = self.t[1:]
         self.y[-1] = y
         self.t[-1] = t
         self.n = min(self.n + 1, 3)
 
-    def weights(self, k: int, t: float):
+    def weights(self, k: int, t: float) -> tuple[ndarray, ndarray]:
         """Cached derivative weights at t of the polynomial through the last k points."""
         ht = self.t
         key: tuple[float, ...]  # (k, the node offsets rounded): nodes at the same offsets share weights
@@ -85,13 +90,13 @@ class History:
             self._cache[key] = w
         return w
 
-    def clear_cache(self):
+    def clear_cache(self) -> None:
         self._cache.clear()
         self.generation += 1
 
-    def snapshot(self):
+    def snapshot(self) -> tuple[ndarray, ndarray, int]:
         return self.y.copy(), self.t.copy(), self.n
 
-    def restore(self, snap):
+    def restore(self, snap: tuple[ndarray, ndarray, int]) -> None:
         y, t, self.n = snap
         self.y[:], self.t[:] = y, t

@@ -17,13 +17,19 @@ Gauss-Seidel master steps them in.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass, field
+from typing import Any
 
 from fmpy.model_description import ModelDescription
 
 
 class GraphError(ValueError):
     """An inconsistent connection list (unknown instance or variable, wrong causality, two sources)."""
+
+
+#: a connection as a master is given it: a Connection, "a.x -> b.u", a dict of its fields, or (src, dst[, kind])
+ConnectionLike = Any
 
 
 @dataclass(frozen=True)
@@ -48,7 +54,7 @@ class Connection:
     init_src: str | None = None
     integral_src: str | None = None
 
-    def __post_init__(self):
+    def __post_init__(self) -> None:
         if self.kind not in ("value", "rate"):
             raise GraphError(f"connection {self.src} -> {self.dst}: kind must be 'value' or 'rate'")
 
@@ -69,7 +75,7 @@ class Connection:
         return self.dst.split(".", 1)[1]
 
     @staticmethod
-    def parse(item) -> Connection:
+    def parse(item: ConnectionLike) -> Connection:
         if isinstance(item, Connection):
             return item
         if isinstance(item, str):
@@ -132,7 +138,10 @@ def _direct_dependencies(md: ModelDescription) -> dict[str, list[str]]:
     return deps
 
 
-def build_graph(descriptions: dict[str, ModelDescription], connections) -> ConnectionGraph:
+def build_graph(
+    descriptions: dict[str, ModelDescription],
+    connections: Iterable[ConnectionLike],
+) -> ConnectionGraph:
     """The connection graph of instances (name -> model description) and a connection list.
 
     ``connections`` items are :class:`Connection`, ``(src, dst)`` pairs or ``"a.x -> b.u"`` strings.
@@ -184,7 +193,7 @@ def _tarjan(nodes: list[str], edges: dict[str, list[str]]) -> list[list[str]]:
     out: list[list[str]] = []
     counter = [0]
 
-    def visit(v: str):
+    def visit(v: str) -> None:
         # iterative Tarjan (no recursion limit on large graphs)
         work = [(v, iter(edges.get(v, ())))]
         index[v] = low[v] = counter[0]

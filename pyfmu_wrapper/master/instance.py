@@ -23,9 +23,17 @@ from __future__ import annotations
 import contextlib
 import ctypes
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from fmpy.fmi2 import FMU2Slave
+
+if TYPE_CHECKING:
+    from ctypes import c_void_p
+
+    from fmpy.fmi2 import fmi2CallbackFunctions
+    from fmpy.model_description import ModelDescription
+    from numpy import float64
 
 _DBL = ctypes.POINTER(ctypes.c_double)
 _UINT = ctypes.POINTER(ctypes.c_uint)
@@ -44,11 +52,11 @@ class MasterError(RuntimeError):
     """An FMI call failed or the coupling could not be solved."""
 
 
-def _ptr(a: np.ndarray, kind):
+def _ptr(a: np.ndarray, kind: Any) -> Any:
     return a.ctypes.data_as(kind)
 
 
-def _raw_function(slave: FMU2Slave, name: str, required: bool = True):
+def _raw_function(slave: FMU2Slave, name: str, required: bool = True) -> Any:
     """The C function ``name`` of the FMU's shared library with its FMI 2.0 prototype (None if the
     library does not export it and ``required`` is False). The only access below fmpy's API."""
     try:
@@ -60,7 +68,7 @@ def _raw_function(slave: FMU2Slave, name: str, required: bool = True):
     return _PROTOTYPES[name](_address(sym))
 
 
-def _address(f) -> int:
+def _address(f: Any) -> int:
     """The address of a ctypes function (never NULL for a symbol the library exports)."""
     addr = ctypes.cast(f, ctypes.c_void_p).value
     if addr is None:
@@ -89,7 +97,7 @@ class Instance:
     rate_prev: np.ndarray  #: mean rate of the previous step
     rate_ready: bool  #: rate_prev holds a step
 
-    def __init__(self, name: str, path: Path, md, unzipdir: str):
+    def __init__(self, name: str, path: Path, md: ModelDescription, unzipdir: str) -> None:
         self.name = name
         self.path = Path(path)
         self.md = md
@@ -119,26 +127,26 @@ class Instance:
         self.rate_orders = 0  # input derivatives set per step when it has rate connections
 
     # --- life-cycle calls the master makes (FMI 2.0 here, FMI 3.0 in Instance3) -------------
-    def enter_initialization(self, tol: float | None, t0: float):
+    def enter_initialization(self, tol: float | None, t0: float) -> None:
         self.slave.setupExperiment(tolerance=tol, startTime=t0)
         self.slave.enterInitializationMode()
 
-    def exit_initialization(self):
+    def exit_initialization(self) -> None:
         self.slave.exitInitializationMode()
 
-    def reset(self):
+    def reset(self) -> None:
         self.slave.reset()
 
-    def get_state(self):
+    def get_state(self) -> c_void_p:
         return self.slave.getFMUstate()
 
-    def set_state(self, state):
+    def set_state(self, state: c_void_p) -> None:
         self.slave.setFMUstate(state)
 
-    def free_state(self, state):
+    def free_state(self, state: c_void_p) -> None:
         self.slave.freeFMUstate(state)
 
-    def finalize_ports(self):
+    def finalize_ports(self) -> None:
         self.in_vr = np.array([self.vars[n].valueReference for n in self.inputs], dtype=np.uint32)
         self.out_vr = np.array([self.vars[n].valueReference for n in self.outputs], dtype=np.uint32)
         self.in_val = np.zeros(len(self.inputs))
@@ -153,7 +161,7 @@ class Instance:
         self.p_der_val = _ptr(self.der_val, _DBL)
         self.n_in, self.n_out = ni, len(self.outputs)
 
-    def set_order(self, order: int):
+    def set_order(self, order: int) -> None:
         """Degree of the input extrapolation (capped at 0 if the FMU cannot interpolate inputs)."""
         self.order = order if self.can_interpolate else 0
         self.n_orders = min(self.order, 2)
@@ -184,26 +192,26 @@ class Instance:
         }[name]
         return 0 if f is None else _address(f)
 
-    def set_inputs(self):
+    def set_inputs(self) -> None:
         if self.n_in and self._set_real(self._c, self.p_in_vr, self.n_in, self.p_in_val) > 1:
             raise self.failure("fmi2SetReal")
 
-    def set_derivatives(self, n_orders: int):
+    def set_derivatives(self, n_orders: int) -> None:
         if self.n_in and n_orders and self._set_der is not None:
             n = self.n_in * n_orders
             if self._set_der(self._c, self.p_der_vr, n, self.p_der_order, self.p_der_val) > 1:
                 raise self.failure("fmi2SetRealInputDerivatives")
 
-    def get_outputs(self):
+    def get_outputs(self) -> None:
         if self.n_out and self._get_real(self._c, self.p_out_vr, self.n_out, self.p_out_val) > 1:
             raise self.failure("fmi2GetReal")
 
-    def do_step(self, t: float, h: float):
+    def do_step(self, t: float, h: float) -> None:
         st = self._do_step(self._c, t, h, 0)
         if st > 1:
             raise self.failure("fmi2DoStep", st, t, h)
 
-    def _callbacks(self):
+    def _callbacks(self) -> fmi2CallbackFunctions:
         """FMI callbacks whose logger prints as fmpy's does and keeps the last error message, so
         that a failed call raises an error saying what the FMU said (e.g. where its integrator
         stopped, in which state and mode)."""
@@ -217,7 +225,7 @@ class Instance:
             printLogMessage,
         )
 
-        def logger(env, instance, status, category, message):
+        def logger(env: Any, instance: Any, status: int, category: bytes, message: bytes) -> None:
             if status > 1:
                 self.last_error = (message or b"").decode(errors="replace")
             printLogMessage(env, instance, status, category, message)
@@ -230,7 +238,7 @@ class Instance:
         return cb
 
     # --- parameters, partial derivatives ----------------------------------------------------
-    def set_value(self, name: str, value):
+    def set_value(self, name: str, value: float | int | float64) -> None:
         v = self.vars.get(name)
         if v is None:
             raise MasterError(f"{self.name} has no variable {name!r}")
@@ -249,7 +257,7 @@ class Instance:
     def _set_reals(self, vrs: list[int], values: list[float]) -> None:
         self.slave.setReal(vrs, values)
 
-    def get_real(self, names) -> list[float]:
+    def get_real(self, names: list[str]) -> list[float]:
         return self._get_reals([self.vars[n].valueReference for n in names])
 
     def partial(self, output: str, input_: str) -> float:
@@ -269,7 +277,7 @@ class Instance:
         return (yp - ym) / (2 * du)
 
     # --- life cycle -------------------------------------------------------------------------
-    def close(self):
+    def close(self) -> None:
         """Terminate and free the instance (errors of an FMU already in a failed state are ignored)."""
         with contextlib.suppress(Exception):
             self.slave.terminate()
@@ -278,15 +286,15 @@ class Instance:
 
 
 # --- FMU states of a set of instances (rollback) ------------------------------------------------
-def get_states(instances) -> list:
+def get_states(instances: list[Instance]) -> list[c_void_p]:
     return [ins.get_state() for ins in instances]
 
 
-def set_states(instances, states):
+def set_states(instances: list[Instance], states: list[c_void_p]) -> None:
     for ins, s in zip(instances, states):
         ins.set_state(s)
 
 
-def free_states(instances, states):
+def free_states(instances: list[Instance], states: list[c_void_p]) -> None:
     for ins, s in zip(instances, states):
         ins.free_state(s)

@@ -7,10 +7,14 @@ from __future__ import annotations
 
 import ctypes
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from .instance import _DBL, _UINT, Instance, MasterError, _address, _ptr
+
+if TYPE_CHECKING:
+    from fmpy.model_description import ModelDescription
 
 _BOOLP = ctypes.POINTER(ctypes.c_bool)
 #: FMI 3.0 prototypes of the lean calls
@@ -23,7 +27,7 @@ _PROTOTYPES3 = {
 }
 
 
-def _raw_function3(slave, name: str):
+def _raw_function3(slave: Any, name: str) -> Any:
     try:
         sym = getattr(slave.dll, name)
     except AttributeError:
@@ -45,7 +49,9 @@ class Instance3(Instance):
     fmi_version = 3
     LEAN_CALLS = ("fmi3SetFloat64", "fmi3SetFloat64", "fmi3DoStep", "fmi3GetFloat64")
 
-    def __init__(self, name: str, path: Path, md, unzipdir: str):  # not super().__init__: that one is FMI 2.0
+    def __init__(
+        self, name: str, path: Path, md: ModelDescription, unzipdir: str
+    ) -> None:  # not super().__init__: that one is FMI 2.0
         from fmpy.fmi3 import FMU3Slave
 
         self.name = name
@@ -88,10 +94,10 @@ class Instance3(Instance):
         self.n_orders = 0
         self.rate_orders = 0
 
-    def _log3(self):
+    def _log3(self) -> Any:
         from fmpy.fmi3 import printLogMessage
 
-        def logger(env, status, category, message):
+        def logger(env: Any, status: int, category: bytes, message: bytes) -> None:
             if status > 1:
                 self.last_error = (message or b"").decode(errors="replace")
             printLogMessage(env, status, category, message)
@@ -99,7 +105,7 @@ class Instance3(Instance):
         self._log_keep = logger
         return logger
 
-    def finalize_ports(self):
+    def finalize_ports(self) -> None:
         super().finalize_ports()
         ni = self.n_in
         #: the FMI 3.0 variable of each position of der_vr / der_order / der_val (empty: none)
@@ -129,41 +135,41 @@ class Instance3(Instance):
             {"fmi3SetFloat64": self._set_real, "fmi3GetFloat64": self._get_real, "fmi3DoStep": self._do_step}[name]
         )
 
-    def set_inputs(self):
+    def set_inputs(self) -> None:
         if self.n_in:
             self.set_val[: self.n_in] = self.in_val
             if self._set_real(self._c, self.p_set_vr, self.n_set, self.p_set_val, self.n_set) > 1:
                 raise self.failure("fmi3SetFloat64")
 
-    def set_derivatives(self, n_orders: int):
+    def set_derivatives(self, n_orders: int) -> None:
         if self.n_in and n_orders and self.can_interpolate:
             n = self.n_in * n_orders
             if self._set_real(self._c, self.p_der_vr, n, self.p_der_val, n) > 1:
                 raise self.failure("fmi3SetFloat64")
 
-    def get_outputs(self):
+    def get_outputs(self) -> None:
         if self.n_out and self._get_real(self._c, self.p_out_vr, self.n_out, self.p_out_val, self.n_out) > 1:
             raise self.failure("fmi3GetFloat64")
 
-    def do_step(self, t: float, h: float):
+    def do_step(self, t: float, h: float) -> None:
         f = self._flag_ptrs
         st = self._do_step(self._c, t, h, False, f[0], f[1], f[2], ctypes.byref(self._last_t))
         if st > 1:
             raise self.failure("fmi3DoStep", st, t, h)
 
-    def enter_initialization(self, tol: float | None, t0: float):
+    def enter_initialization(self, tol: float | None, t0: float) -> None:
         self.slave.enterInitializationMode(tolerance=tol, startTime=t0)
 
-    def get_state(self):
+    def get_state(self) -> Any:
         return self.slave.getFMUState()
 
-    def set_state(self, state):
+    def set_state(self, state: Any) -> None:
         self.slave.setFMUState(state)
 
-    def free_state(self, state):
+    def free_state(self, state: Any) -> None:
         self.slave.freeFMUState(state)
 
-    def set_value(self, name: str, value):
+    def set_value(self, name: str, value: float | int | bool) -> None:
         v = self.vars.get(name)
         if v is None:
             raise MasterError(f"{self.name} has no variable {name!r}")
@@ -192,7 +198,7 @@ def _fmi3_provides_dd(unzipdir: str) -> bool:
     return cs is not None and cs.get("providesDirectionalDerivatives") in ("true", "1")
 
 
-def open_instance(name: str, path: Path, md, unzipdir: str) -> Instance:
+def open_instance(name: str, path: Path, md: ModelDescription, unzipdir: str) -> Instance:
     """The instance of an FMU of either FMI version (its model description says which)."""
     if str(md.fmiVersion).startswith("3"):
         return Instance3(name, path, md, unzipdir)

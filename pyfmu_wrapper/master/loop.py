@@ -31,11 +31,11 @@ class CouplingSolver:
         instances: dict[str, Instance],
         y: np.ndarray,
         conn_sig: np.ndarray,
-        order_gs,
+        order_gs: list[str],
         has_loops: bool,
         tol: float = 1e-10,
         max_iter: int = 20,
-    ):
+    ) -> None:
         self.graph = graph
         self.instances = instances
         self.inst_list = list(instances.values())
@@ -47,7 +47,7 @@ class CouplingSolver:
         self.jac_inv: np.ndarray | None = None  #: (I - dG/du)^-1, None until the first solve
         self.uscale: np.ndarray | None = None  #: running scale max |u|, |G(u)| of the loop unknowns
 
-    def reset(self):
+    def reset(self) -> None:
         """Forget the Jacobian (new parameters or a new initialisation)."""
         self.jac_inv = None
 
@@ -70,13 +70,13 @@ class CouplingSolver:
         self.jac_inv = np.linalg.inv(np.eye(n) - self.coupling_jacobian())
         return self.jac_inv
 
-    def _set_all_inputs(self, u: np.ndarray):
+    def _set_all_inputs(self, u: np.ndarray) -> None:
         for ins in self.inst_list:
             if ins.n_in:
                 ins.in_val[:] = u[ins.conn_idx]
                 ins.set_inputs()
 
-    def _read_all(self):
+    def _read_all(self) -> None:
         y = self.y
         for ins in self.inst_list:
             ins.get_outputs()

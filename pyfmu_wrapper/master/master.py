@@ -61,14 +61,16 @@ import shutil
 import tempfile
 import time
 import weakref
+from collections.abc import Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from fmpy import extract, read_model_description
 
 from . import cloop, stepcontrol
 from .extrapolation import History
-from .graph import ConnectionGraph, build_graph
+from .graph import ConnectionGraph, ConnectionLike, build_graph
 from .instance import Instance, MasterError
 from .instance3 import open_instance
 from .loop import CouplingSolver
@@ -76,10 +78,13 @@ from .schemes import SCHEMES, Stepper
 from .stepcontrol import ErrorEstimate, Result
 from .wiring import reset_rate, wire
 
+if TYPE_CHECKING:
+    from .cloop import CompiledLoop
+
 __all__ = ["Master", "MasterError", "Result", "SCHEMES"]
 
 
-def _check_order(order) -> int:
+def _check_order(order: int) -> int:
     if order not in (0, 1, 2):
         raise ValueError("order must be 0, 1 or 2")
     return int(order)
@@ -104,16 +109,16 @@ class Master:
     def __init__(
         self,
         fmus: dict[str, str | Path],
-        connections,
+        connections: Iterable[ConnectionLike],
         parameters: dict | None = None,
         scheme: str = "loop",
         order: int = 2,
-        record=(),
+        record: Iterable[str] = (),
         loop_tol: float = 1e-10,
         max_loop_iter: int = 20,
         startup_iterations: int = 2,
         compiled: bool | None = None,
-    ):
+    ) -> None:
         if scheme not in SCHEMES:
             raise ValueError(f"scheme must be one of {SCHEMES}, got {scheme!r}")
         order = _check_order(order)
@@ -150,7 +155,7 @@ class Master:
         if compiled is None:  # $PYFMU_COMPILED_LOOP=0: every step on the Python reference path
             compiled = os.environ.get("PYFMU_COMPILED_LOOP", "1") != "0"
         self.compiled = bool(compiled)  #: fixed steps in the compiled loop (:mod:`.cloop`) where it applies
-        self._cloop = None
+        self._cloop: cloop.CompiledLoop | None = None
         self.python_seconds = 0.0  #: wall time of the steps taken on the Python path by :meth:`advance`
         self.t = 0.0
         self.steps = 0
@@ -163,7 +168,7 @@ class Master:
         return self.stepper.scheme
 
     @scheme.setter
-    def scheme(self, scheme: str):
+    def scheme(self, scheme: str) -> None:
         if scheme not in SCHEMES:
             raise ValueError(f"scheme must be one of {SCHEMES}, got {scheme!r}")
         self.stepper.scheme = scheme
@@ -173,7 +178,7 @@ class Master:
         """Degree of the input extrapolation (change it with :meth:`set_order`)."""
         return self.stepper.order
 
-    def set_order(self, order: int):
+    def set_order(self, order: int) -> None:
         """Change the degree of the input extrapolation (0, 1 or 2)."""
         order = _check_order(order)
         self.stepper.order = order
@@ -181,11 +186,11 @@ class Master:
             ins.set_order(order)
         self.history.clear_cache()
 
-    def set_parameters(self, values: dict):
+    def set_parameters(self, values: dict[str, Any]) -> None:
         self.parameters.update(values)
 
     # --- initialisation ---------------------------------------------------------------------
-    def initialize(self, t0: float = 0.0, parameters: dict | None = None, tol: float | None = None):
+    def initialize(self, t0: float = 0.0, parameters: dict | None = None, tol: float | None = None) -> None:
         """(Re-)initialise all FMUs at t0 with the stored parameters updated by ``parameters``."""
         if parameters:
             self.parameters.update(parameters)
@@ -222,13 +227,13 @@ class Master:
         self.history.clear()
         self.history.push(self.t, self.y)
 
-    def _read_all(self):
+    def _read_all(self) -> None:
         for ins in self.stepper.inst_list:
             ins.get_outputs()
             self.y[ins.sig_out] = ins.out_val
 
     # --- stepping ---------------------------------------------------------------------------
-    def step(self, h: float):
+    def step(self, h: float) -> None:
         """One communication step of size h [s] with the chosen scheme (:meth:`.schemes.Stepper.step`;
         the first steps after :meth:`initialize` are iterated to the full order when the FMUs can
         roll back)."""
@@ -237,7 +242,7 @@ class Master:
         self.steps += 1
         self.history.push(self.t, self.y)
 
-    def _compiled_loop(self):
+    def _compiled_loop(self) -> CompiledLoop | None:
         """The compiled loop of this master, or None if its steps stay in Python (``compiled=False``,
         the ``loop`` scheme on algebraic loops)."""
         if not self.compiled or cloop.scheme_of(self) is None:
@@ -273,11 +278,11 @@ class Master:
         if i < n and loop is not None:  # (without a compiled loop, the Python steps above took all n)
             loop.run(n - i, h, None if rec_t is None else rec_t[i:], None if rec_y is None else rec_y[i:])
 
-    def timing(self) -> dict:
+    def timing(self) -> dict[str, Any]:
         """Where the time of :meth:`advance` went: per FMU the seconds inside its fmi2 calls and
         their number (compiled loop), the seconds of the compiled loop in all, the master's own
         share of it (loop minus FMUs), and the seconds of steps taken on the Python path."""
-        out = dict(fmus={}, loop_seconds=0.0, master_seconds=0.0, python_seconds=self.python_seconds)
+        out: dict[str, Any] = dict(fmus={}, loop_seconds=0.0, master_seconds=0.0, python_seconds=self.python_seconds)
         if self._cloop is not None:
             out["fmus"] = self._cloop.fmu_times()
             out["loop_seconds"] = self._cloop.loop_seconds
@@ -317,15 +322,15 @@ class Master:
         inst, var = port.split(".", 1)
         return self.instances[inst].get_real([var])[0]
 
-    def close(self):
+    def close(self) -> None:
         self._cloop = None
         for ins in self.instances.values():
             ins.close()
         self.instances = {}
         shutil.rmtree(self._tmp, ignore_errors=True)
 
-    def __enter__(self):
+    def __enter__(self) -> Master:
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: object) -> None:
         self.close()

@@ -19,12 +19,17 @@ FMU state rollback. See the module doc of :mod:`.master` for orders and use.
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .extrapolation import History, combine, lagrange_weights
 from .instance import free_states, get_states, set_states
 from .loop import CouplingSolver
 from .wiring import Wiring
+
+if TYPE_CHECKING:
+    from numpy import ndarray
 
 SCHEMES = ("jacobi", "gauss-seidel", "loop")
 
@@ -45,7 +50,7 @@ class Stepper:
         scheme: str,
         order: int,
         startup_iterations: int,
-    ):
+    ) -> None:
         self.instances = instances
         self.inst_list = list(instances.values())
         self.wiring = wiring
@@ -58,12 +63,12 @@ class Stepper:
         self.pred: np.ndarray | None = None  #: the sources extrapolated to t + h (None before a step)
         self.reset()
 
-    def reset(self):
+    def reset(self) -> None:
         """State of a fresh start (no previous step)."""
         self.startup_probe = False  # a start-up step that will be rolled back
         self.h_prev = 0.0  # previous step size (slope of the rate reconstruction)
 
-    def step(self, t: float, h: float):
+    def step(self, t: float, h: float) -> None:
         """One communication step from t to t + h with the chosen scheme.
 
         While fewer than ``order + 1`` points are known (right after initialisation) and the
@@ -100,7 +105,7 @@ class Stepper:
         else:
             self.advance(t, h, d1, d2)
 
-    def advance(self, t, h, d1, d2):
+    def advance(self, t: float, h: float, d1: ndarray, d2: ndarray) -> None:
         """Jacobi step (and, with the loop scheme, the coupling solved at t + h); d1, d2: input
         derivatives at t of every signal."""
         if self.wiring.rate:
@@ -125,7 +130,7 @@ class Stepper:
             self.loop.correct(pred[self.wiring.conn_sig], t)
         self.pred = pred
 
-    def advance_rate(self, t, h, d1, d2):
+    def advance_rate(self, t: float, h: float, d1: ndarray, d2: ndarray) -> None:
         """Two phases: the sources of rate connections step first (extrapolated inputs); the
         destinations then get the mean rate over the step (exact increment of the source), as a
         linear polynomial whose mean is that rate and whose slope comes from the previous mean
@@ -178,7 +183,7 @@ class Stepper:
         self.h_prev = h
         self.pred = y0 + h * d1 + (0.5 * h * h) * d2
 
-    def step_gauss_seidel(self, t, h, d1, d2):
+    def step_gauss_seidel(self, t: float, h: float, d1: ndarray, d2: ndarray) -> None:
         """Sequential step in the order of the graph condensation; inputs whose source has
         already stepped get the polynomial through the new point."""
         y = self.y
@@ -211,7 +216,7 @@ class Stepper:
         self.pred = y + h * d1 + 0.5 * h * h * d2
         y[:] = ynew
 
-    def init_rate_inputs(self, iterations: int = 50, tol: float = 1e-12):
+    def init_rate_inputs(self, iterations: int = 50, tol: float = 1e-12) -> None:
         """Initialisation with rate connections: value inputs from their sources, rate inputs from
         their ``init_src`` ports, by fixed-point iteration (if it does not converge the values
         are kept: the rate inputs are recomputed at the first step anyway)."""

@@ -27,13 +27,21 @@ schema with them, and so does OMSimulator).
 
 from __future__ import annotations
 
+import os
 import zipfile
 from pathlib import Path
+from typing import TYPE_CHECKING
 from xml.sax.saxutils import quoteattr
 
 from fmpy import read_model_description
 
 from .graph import Connection, build_graph
+
+if TYPE_CHECKING:
+    from fmpy.ssp.ssd import ParameterSet
+    from numpy import float64
+
+    from .graph import Connection
 
 _NS = (
     'xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon" '
@@ -48,7 +56,7 @@ _OMS_TOLERANCE = 1e-4
 _TYPE_TAG = {"Real": "Real", "Integer": "Integer", "Enumeration": "Integer", "Boolean": "Boolean", "String": "String"}
 
 
-def _fmt(value, type_: str) -> str:
+def _fmt(value: float | float64 | int, type_: str) -> str:
     if type_ == "Real":
         return repr(float(value))
     if type_ in ("Integer", "Enumeration"):
@@ -61,7 +69,7 @@ def _fmt(value, type_: str) -> str:
 def ssd_xml(
     name: str,
     fmus: dict,
-    connections,
+    connections: list[Connection],
     start_time: float = 0.0,
     stop_time: float | None = None,
     step_size: float | None = None,
@@ -170,9 +178,9 @@ def ssv_xml(name: str, fmus: dict, parameters: dict) -> str:
 
 
 def export_ssp(
-    path,
+    path: str | os.PathLike[str],
     fmus: dict,
-    connections,
+    connections: tuple[str, str, str, str],
     parameters: dict,
     name: str = "CoupledSystem",
     start_time: float = 0.0,
@@ -196,7 +204,7 @@ def export_ssp(
     return path
 
 
-def ssp_parameter_set(path):
+def ssp_parameter_set(path: str | os.PathLike[str]) -> ParameterSet:
     """The parameter set stored in an exported SSP file, as fmpy's ``simulate_ssp`` takes it."""
     from fmpy.ssp.ssd import read_ssv
 

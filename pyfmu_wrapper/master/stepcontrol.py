@@ -13,10 +13,14 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .instance import MasterError, free_states, get_states, set_states
+
+if TYPE_CHECKING:
+    from .master import Master
 
 
 @dataclass
@@ -38,8 +42,8 @@ class ErrorEstimate:
     """Scaled local coupling error of the last step: max |extrapolated - found| / (atol + rtol
     max|signal|), the maximum of |signal| taken over every step estimated so far."""
 
-    def __init__(self):
-        self.ymax = None
+    def __init__(self) -> None:
+        self.ymax: np.ndarray | None = None
 
     def __call__(self, pred: np.ndarray, y: np.ndarray, rtol: float, atol: float) -> float:
         self.ymax = np.maximum(np.abs(y) if self.ymax is None else self.ymax, np.abs(y))
@@ -51,7 +55,7 @@ class Rollback:
     (time, signals, history, counters, rate-connection memory). :meth:`restore` puts it back;
     :meth:`free` releases the FMU states (call it exactly once)."""
 
-    def __init__(self, master):
+    def __init__(self, master: Master) -> None:
         m = master
         self.m = m
         self.states = get_states(m.stepper.inst_list)
@@ -60,7 +64,7 @@ class Rollback:
         self.rate = [(ins.rate_prev.copy(), ins.rate_ready) for ins in m.stepper.inst_list]
         self.h_prev = m.stepper.h_prev
 
-    def restore(self):
+    def restore(self) -> None:
         m = self.m
         set_states(m.stepper.inst_list, self.states)
         m.t, m.steps = self.t, self.steps
@@ -70,12 +74,12 @@ class Rollback:
             ins.rate_prev, ins.rate_ready = rp, rr
         m.stepper.h_prev = self.h_prev
 
-    def free(self):
+    def free(self) -> None:
         free_states(self.m.stepper.inst_list, self.states)
 
 
 def run(
-    master,
+    master: Master,
     t_end: float,
     step: float | None = None,
     tol: float | None = None,

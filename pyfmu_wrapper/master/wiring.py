@@ -10,11 +10,17 @@ the connection of each input (``conn_idx``) and, for rate connections, the ``rat
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .graph import ConnectionGraph
 from .instance import Instance, MasterError
+
+if TYPE_CHECKING:
+    from typing import Any
+
+    from .graph import Connection
 
 
 @dataclass
@@ -35,7 +41,9 @@ class Wiring:
         return len(self.signals)
 
 
-def wire(instances: dict[str, Instance], graph: ConnectionGraph, record, scheme: str, order: int) -> Wiring:
+def wire(
+    instances: dict[str, Instance], graph: ConnectionGraph, record: list[Any | str], scheme: str, order: int
+) -> Wiring:
     """Set every instance's ports and signal indices for the connections of ``graph`` plus the
     ``record`` ports; ``order`` is the extrapolation degree (:meth:`Instance.set_order`)."""
     conns = graph.connections
@@ -91,7 +99,7 @@ def wire(instances: dict[str, Instance], graph: ConnectionGraph, record, scheme:
     )
 
 
-def _wire_rate(ins: Instance, conns, sig_index: dict):
+def _wire_rate(ins: Instance, conns: list[Connection], sig_index: dict) -> None:
     """The rate-connection fields of an instance: positions of its rate inputs, their source
     signals and gains, the ports giving their initial values and exact integrals."""
     rate = [(j, conns[k]) for j, k in enumerate(ins.conn_idx) if conns[k].kind == "rate"]
@@ -106,7 +114,7 @@ def _wire_rate(ins: Instance, conns, sig_index: dict):
     reset_rate(ins)
 
 
-def reset_rate(ins: Instance):
+def reset_rate(ins: Instance) -> None:
     """Forget the previous step's mean rate (at initialisation)."""
     ins.rate_prev = np.zeros(len(ins.rate_pos))  # mean of the previous step (for the slope)
     ins.rate_ready = False
