@@ -17,8 +17,9 @@ portraits). An engine is a pair of functions registered in :data:`ENGINES`:
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -28,6 +29,15 @@ from ..solvers.frequency_response import exact_amplitude, exact_response
 from ..solvers.monolithic import periodic_time_series
 from ..solvers.sweep import sweep
 from .schema import SolverConfig, SweepConfig
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from numpy import ndarray
+
+    from ..cosim.steady import CosimSettings
+    from ..physics.params import BaseParams, TMDParams
+    from .schema import Scenario
 
 #: columns of every sweep table (one row per direction and omega)
 SWEEP_COLUMNS = (
@@ -94,7 +104,9 @@ class RunSettings:
     sweep: SweepConfig = SweepConfig()
 
     @classmethod
-    def for_scenario(cls, scn, engine: str = "monolithic", workers: int = 1, cosim=None) -> RunSettings:
+    def for_scenario(
+        cls, scn: Scenario, engine: str = "monolithic", workers: int = 1, cosim: CosimSettings | None = None
+    ) -> RunSettings:
         """The settings of a scenario for ``engine``; ``cosim`` replaces the scenario's cosim block."""
         _engine(engine)
         if cosim is None and engine in BLOCK_USERS["cosim"]:
@@ -131,7 +143,7 @@ class TimeSeries:
 
 @dataclass(frozen=True)
 class Engine:
-    sweep: Callable[[BaseParams, TMDParams, np.ndarray, RunSettings, Callable | None], pd.DataFrame]
+    sweep: Callable[[BaseParams, TMDParams, np.ndarray, RunSettings, Callable[..., Any] | None], pd.DataFrame]
     time_series: Callable[[BaseParams, TMDParams, float, int, int, RunSettings], TimeSeries]
     description: str = ""
 
@@ -145,7 +157,14 @@ def _mono_exact(tmd: TMDParams, settings: RunSettings) -> bool:
     return tmd.is_linear and settings.solver.linear == "exact"
 
 
-def _exact_table(base, tmd, omegas, settings, progress, engine) -> pd.DataFrame:
+def _exact_table(
+    base: BaseParams,
+    tmd: TMDParams,
+    omegas: ndarray,
+    settings: RunSettings,
+    progress: Callable[..., Any] | None,
+    engine: str,
+) -> pd.DataFrame:
     t0 = time.perf_counter()
     amp = exact_amplitude(base, tmd, omegas)
     dt = (time.perf_counter() - t0) / max(len(omegas), 1)
@@ -178,7 +197,13 @@ def _exact_table(base, tmd, omegas, settings, progress, engine) -> pd.DataFrame:
     )
 
 
-def _monolithic_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.DataFrame:
+def _monolithic_sweep(
+    base: BaseParams,
+    tmd: TMDParams,
+    omegas: ndarray,
+    settings: RunSettings,
+    progress: Callable[..., Any] | None = None,
+) -> pd.DataFrame:
     if _mono_exact(tmd, settings):
         return _exact_table(base, tmd, omegas, settings, progress, "monolithic")
     res = sweep(
@@ -200,7 +225,9 @@ def _monolithic_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -
     return _sweep_columns(table)
 
 
-def _monolithic_time_series(base, tmd, omega, n_periods, samples_per_period, settings: RunSettings) -> TimeSeries:
+def _monolithic_time_series(
+    base: BaseParams, tmd: TMDParams, omega: float, n_periods: int, samples_per_period: int, settings: RunSettings
+) -> TimeSeries:
     if _mono_exact(tmd, settings):
         T = 2.0 * np.pi / omega
         t = np.arange(n_periods * samples_per_period) * (T / samples_per_period)
@@ -228,14 +255,16 @@ def _monolithic_time_series(base, tmd, omega, n_periods, samples_per_period, set
     )
 
 
-def _cosim_settings(settings: RunSettings):
+def _cosim_settings(settings: RunSettings) -> Any:
     """The co-simulation settings of a run (its own block only: nothing is read from ``solver``)."""
     from ..cosim.steady import CosimSettings
 
     return settings.cosim if settings.cosim is not None else CosimSettings()
 
 
-def _cosim_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.DataFrame:
+def _cosim_sweep(
+    base: BaseParams, tmd: TMDParams, omegas: ndarray, settings: RunSettings, progress: Callable[..., Any] | None = None
+) -> pd.DataFrame:
     from ..cosim.steady import sweep as cosim_sweep
 
     cs = _cosim_settings(settings)
@@ -251,7 +280,9 @@ def _cosim_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.
     return _sweep_columns(table)
 
 
-def _both_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.DataFrame:
+def _both_sweep(
+    base: BaseParams, tmd: TMDParams, omegas: ndarray, settings: RunSettings, progress: Callable[..., Any] | None = None
+) -> pd.DataFrame:
     """Co-simulation and monolithic engine; the co-simulated rows carry the monolithic amplitude
     ('reference') and the relative difference cosim / monolithic - 1 ('difference'; NaN where the
     reference is zero to rounding, :data:`ZERO_REFERENCE`)."""
@@ -263,7 +294,7 @@ def _both_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.D
     one = {float(w): i for i, w in enumerate(mono["omega"])}
     rows = [ref.get((d, float(w)), one.get(float(w))) for d, w in zip(co["direction"], co["omega"])]
 
-    def pick(col, missing=np.nan):
+    def pick(col: str, missing: float = np.nan) -> list[Any]:
         v = mono[col].to_numpy()
         return [v[i] if i is not None else missing for i in rows]
 
@@ -287,17 +318,19 @@ def _both_sweep(base, tmd, omegas, settings: RunSettings, progress=None) -> pd.D
 class _Half:
     """progress(n) of one of the two engines of 'both': each of its points is half a table row."""
 
-    def __init__(self, progress):
+    def __init__(self, progress: Callable) -> None:
         self.progress = progress
 
-    def __call__(self, n):
+    def __call__(self, n: int) -> None:
         self.progress(0.5 * n)
 
-    def skip(self, n):
+    def skip(self, n: int) -> None:
         getattr(self.progress, "skip", self.progress)(0.5 * n)
 
 
-def _cosim_time_series(base, tmd, omega, n_periods, samples_per_period, settings: RunSettings) -> TimeSeries:
+def _cosim_time_series(
+    base: BaseParams, tmd: TMDParams, omega: float, n_periods: int, samples_per_period: int, settings: RunSettings
+) -> TimeSeries:
     from dataclasses import replace as _replace
 
     from ..cosim.steady import periodic_time_series as cosim_series
@@ -352,7 +385,11 @@ def _engine(name: str) -> Engine:
 
 
 def compute_sweep(
-    base: BaseParams, tmd: TMDParams, omegas, settings: RunSettings, progress: Callable[[int], object] | None = None
+    base: BaseParams,
+    tmd: TMDParams,
+    omegas: Sequence[float] | ndarray,
+    settings: RunSettings,
+    progress: Callable[[int], object] | None = None,
 ) -> pd.DataFrame:
     """Base amplitude [m] at each omega [rad/s] by the engine named in ``settings``.
 

@@ -33,11 +33,18 @@ import signal
 import time
 from collections.abc import Callable, Iterator
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
 from .tasks import Checkpoint, SweepTask, TaskStats, run_task
+
+if TYPE_CHECKING:
+    from collections.abc import Callable, Iterator
+
+    from pandas import DataFrame
+
+    from .tasks import SweepTask
 
 EXECUTORS = ("local", "dask", "sequential")
 
@@ -52,15 +59,17 @@ class SequentialExecutor:
     jobs = 1
     reports_points = True  #: submit_all takes progress(i, n): n points of task i finished
 
-    def submit_all(self, tasks: list[SweepTask], progress=None) -> Iterator[tuple[int, pd.DataFrame]]:
+    def submit_all(
+        self, tasks: list[SweepTask], progress: Callable[..., Any] | None = None
+    ) -> Iterator[tuple[int, pd.DataFrame]]:
         for i, t in enumerate(tasks):
             cb = None if progress is None else (lambda n, i=i: progress(i, n))
             yield i, run_task(t, keep_workers=True, progress=cb)
 
-    def close(self):
+    def close(self) -> None:
         pass
 
-    def abort(self):
+    def abort(self) -> None:
         pass
 
     def processes_used(self) -> int:
@@ -73,7 +82,7 @@ class SequentialExecutor:
 _WORKER_QUEUE = None  # set in each worker of a LocalExecutor's pool: where finished points are reported
 
 
-def _worker_init(queue) -> None:
+def _worker_init(queue: Any) -> None:
     """Initializer of the local pool's workers: report points through ``queue``; die with the parent
     (Linux PR_SET_PDEATHSIG), leave SIGINT to the parent (which ends the workers itself)."""
     global _WORKER_QUEUE
@@ -92,7 +101,7 @@ def _worker_init(queue) -> None:
         pass
 
 
-def _run_task_reporting(token, task: SweepTask) -> pd.DataFrame:
+def _run_task_reporting(token: tuple[int, int], task: SweepTask) -> pd.DataFrame:
     q = _WORKER_QUEUE
     cb = None if q is None else (lambda n: q.put((token, n)))
     return run_task(task, progress=cb)
@@ -104,14 +113,16 @@ class LocalExecutor:
     name = "local"
     reports_points = True
 
-    def __init__(self, jobs: int | None = 0):
+    def __init__(self, jobs: int | None = 0) -> None:
         self.jobs = int(jobs) if jobs else (os.cpu_count() or 1)
         self._pool: ProcessPoolExecutor | None = None
         self._queue: Any = None  #: a multiprocessing queue while the pool runs (its type depends on the context)
         self._max_processes = 0  #: worker processes started (0: everything ran in this process)
         self._batch = 0
 
-    def submit_all(self, tasks, progress=None):
+    def submit_all(
+        self, tasks: list[SweepTask], progress: Callable[..., Any] | None = None
+    ) -> Iterator[tuple[int, DataFrame]]:
         if not tasks:
             return
         if self.jobs == 1 or len(tasks) == 1:
@@ -134,7 +145,7 @@ class LocalExecutor:
             for f in done:
                 yield futs[f], f.result()
 
-    def _drain(self, progress) -> None:
+    def _drain(self, progress: Callable[..., Any] | None) -> None:
         import queue as _queue
 
         while True:
@@ -145,7 +156,7 @@ class LocalExecutor:
             if progress is not None and batch == self._batch:
                 progress(i, n)
 
-    def close(self):
+    def close(self) -> None:
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
@@ -153,7 +164,7 @@ class LocalExecutor:
             self._queue.close()
             self._queue = None
 
-    def abort(self):
+    def abort(self) -> None:
         """End the worker processes now (an interrupt): no task finishes, no worker is left running."""
         pool, self._pool = self._pool, None
         if pool is None:
@@ -195,7 +206,7 @@ class DaskExecutor:
 
     name = "dask"
 
-    def __init__(self, scheduler):
+    def __init__(self, scheduler: Any) -> None:
         try:
             import distributed
         except ImportError as exc:  # pragma: no cover - depends on the environment
@@ -208,7 +219,9 @@ class DaskExecutor:
                 raise ValueError("the dask executor needs a scheduler address (--scheduler tcp://HOST:PORT)")
             self.client, self._own = distributed.Client(scheduler), True
 
-    def submit_all(self, tasks):
+    def submit_all(
+        self, tasks: list[SweepTask], progress: Callable[..., Any] | None = None
+    ) -> Iterator[tuple[int, pd.DataFrame]]:
         if not tasks:
             return
         futs = [self.client.submit(run_task, t, pure=False) for t in tasks]
@@ -219,11 +232,11 @@ class DaskExecutor:
         finally:
             self.client.cancel([f for f in futs if not f.done()])
 
-    def close(self):
+    def close(self) -> None:
         if self._own:
             self.client.close()
 
-    def abort(self):
+    def abort(self) -> None:
         self.close()
 
     def processes_used(self) -> int:
@@ -236,7 +249,11 @@ class DaskExecutor:
         return f"dask ({self.client.scheduler.address})"
 
 
-def make_executor(name: str = "local", jobs: int | None = 0, scheduler=None):
+#: what runs a scenario's sweep tasks (``make_executor``)
+Executor = SequentialExecutor | LocalExecutor | DaskExecutor
+
+
+def make_executor(name: str = "local", jobs: int | None = 0, scheduler: str | None = None) -> Executor:
     """An executor by name: 'local' (process pool, ``jobs`` processes), 'dask' (``scheduler``), 'sequential'."""
     if name == "local":
         return LocalExecutor(jobs)
@@ -249,7 +266,7 @@ def make_executor(name: str = "local", jobs: int | None = 0, scheduler=None):
 
 def run_tasks(
     tasks: list[SweepTask],
-    executor=None,
+    executor: Executor | None = None,
     checkpoint: Checkpoint | None = None,
     progress: Callable[[float], object] | None = None,
     stats: TaskStats | None = None,
@@ -272,9 +289,9 @@ def run_tasks(
     ex = executor if executor is not None else SequentialExecutor()
     reported = [0.0] * len(missing)  # points of each missing task already reported
 
-    def points(j, n):  # capped: a late report of a finished task is not counted twice
+    def points(j: int, n: float) -> None:  # capped: a late report of a finished task is not counted twice
         n = min(n, todo[j].units() - reported[j])
-        if n > 0:
+        if n > 0 and progress is not None:  # points is handed over only with a progress
             reported[j] += n
             progress(n)
 

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import os
 import re
+from typing import TYPE_CHECKING
 
 import yaml
 
@@ -41,6 +42,16 @@ from .schema import (
 from .tmdspec import TMDSpec, detached_tmd
 from .yamlio import load_marked
 
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from pathlib import Path
+    from typing import Any
+
+    from numpy import ndarray
+
+    from .schema import FRCStudy, MapStudy, PhasePortraitStudy
+    from .yamlio import MarkedDict, MarkedList
+
 BASE_FIELDS = tuple(field_names(BaseParams))
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
@@ -48,7 +59,7 @@ _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 # --- the document ------------------------------------------------------------------------------
 
 
-def load_scenario(path) -> Scenario:
+def load_scenario(path: str | Path) -> Scenario:
     """Read, validate and resolve a scenario file. Raises ScenarioError on any problem."""
     path = os.fspath(path)
     file = path
@@ -156,7 +167,7 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
     )
 
 
-def _base_fails(b, key) -> bool:
+def _base_fails(b: MarkedDict, key: str) -> bool:
     try:
         BaseParams(**{key: b[key]})
         return False
@@ -177,7 +188,7 @@ _TO_SOLVER = {
 }
 
 
-def _sweep(rd: Reader, node, line) -> SweepConfig:
+def _sweep(rd: Reader, node: MarkedDict, line: int | None) -> SweepConfig:
     rd.mapping(node, "sweep", line, optional=_SWEEP_KEYS, hints={**_TO_COSIM, **_TO_SOLVER})
     d = SweepConfig()
     return SweepConfig(
@@ -186,7 +197,7 @@ def _sweep(rd: Reader, node, line) -> SweepConfig:
     )
 
 
-def _solver(rd: Reader, node, line) -> SolverConfig:
+def _solver(rd: Reader, node: MarkedDict, line: int | None) -> SolverConfig:
     rd.mapping(node, "solver", line, optional=_SOLVER_KEYS, hints={**_TO_SWEEP, **_TO_COSIM})
     d = SolverConfig()
     values = {k: _setting(rd, node, k, "solver") if k in node else getattr(d, k) for k in _SOLVER_SETTINGS}
@@ -195,7 +206,7 @@ def _solver(rd: Reader, node, line) -> SolverConfig:
     return cfg
 
 
-def _cosim(rd: Reader, node, line) -> CosimConfig:
+def _cosim(rd: Reader, node: MarkedDict, line: int | None) -> CosimConfig:
     rd.mapping(node, "cosim", line, optional=COSIM_KEYS, hints={**_TO_SWEEP, **_TO_SOLVER})
     overrides = tuple((k, _setting(rd, node, k, "cosim")) for k in node)
     cfg = CosimConfig(overrides)
@@ -203,7 +214,7 @@ def _cosim(rd: Reader, node, line) -> CosimConfig:
     return cfg
 
 
-def _setting(rd: Reader, node, key: str, block: str):
+def _setting(rd: Reader, node: MarkedDict, key: str, block: str) -> Any:
     """The value of setting ``key`` of a solver: / cosim: block, checked against its one rule (its
     row of :data:`pyfmu_wrapper.solvers.settings_table.SETTINGS`, which the engines' settings
     classes apply too); a float for a number, an int for an integer."""
@@ -217,7 +228,7 @@ def _setting(rd: Reader, node, key: str, block: str):
     return float(v) if s.kind == "number" else int(v) if s.kind == "integer" else v
 
 
-def _check_settings(rd: Reader, block: str, node, line, make):
+def _check_settings(rd: Reader, block: str, node: MarkedDict, line: int | None, make: Callable[..., Any]) -> None:
     """Build the engine's settings of a block: a value the settings refuse (their validation,
     :class:`~pyfmu_wrapper.solvers.steady.SteadySettings`, the one place of the range rules)
     becomes a ScenarioError naming ``block.field`` and its line."""
@@ -235,7 +246,9 @@ _KIND_KEYS = {
 }
 
 
-def _study(rd: Reader, node, path, line, top: TMDSpec, omegas):
+def _study(
+    rd: Reader, node: MarkedDict, path: str, line: int | None, top: TMDSpec, omegas: ndarray
+) -> FRCStudy | PhasePortraitStudy | MapStudy:
     if not isinstance(node, dict):
         rd.fail(path, line, "must be a mapping (a study)", node)
     if "kind" not in node:
@@ -289,7 +302,7 @@ def _study(rd: Reader, node, path, line, top: TMDSpec, omegas):
     return MapStudy(name=name, title=title, parameter=param, values=values, omegas=omegas, tmds=tuple(tmds))
 
 
-def _curves(rd: Reader, node, path, line, spec: TMDSpec) -> tuple[Curve, ...]:
+def _curves(rd: Reader, node: MarkedList, path: str, line: int | None, spec: TMDSpec) -> tuple[Curve, ...]:
     rd.sequence(node, path, line)
     out, labels = [], set()
     for i, c in enumerate(node):
@@ -310,7 +323,7 @@ def _curves(rd: Reader, node, path, line, spec: TMDSpec) -> tuple[Curve, ...]:
     return tuple(out)
 
 
-def _plain(obj):
+def _plain(obj: Any) -> Any:
     if isinstance(obj, dict):
         return {k: _plain(v) for k, v in obj.items()}
     if isinstance(obj, list):

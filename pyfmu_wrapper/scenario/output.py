@@ -39,8 +39,10 @@ import shutil
 import socket
 import tempfile
 import time
+from collections.abc import Callable, Sequence
 from importlib import metadata
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
@@ -52,6 +54,13 @@ from .runner import FRCData, MapData, run_studies
 from .schema import Scenario
 from .summary import study_summary
 from .tasks import code_version
+
+if TYPE_CHECKING:
+    from pathlib import Path
+    from typing import Any
+
+    from .executors import Executor
+    from .runner import FRCData, MapData, PhaseData
 
 #: the marker file of every folder run-scenario writes (results, partial folders, checkpoints)
 MARKER = ".run-scenario.json"
@@ -73,19 +82,19 @@ def default_output_dir(scn: Scenario) -> Path:
     return Path("results") / scn.name
 
 
-def default_checkpoint_dir(out_dir) -> Path:
+def default_checkpoint_dir(out_dir: str | os.PathLike[str]) -> Path:
     """Where the resumable checkpoints of a results folder live: ``<out>.checkpoints/`` beside it
     (one folder per output folder: ``--out /tmp/foo`` -> ``/tmp/foo.checkpoints/``)."""
     out = _abs(out_dir)
     return out.with_name(out.name + ".checkpoints")
 
 
-def _abs(p) -> Path:
+def _abs(p: str | os.PathLike[str]) -> Path:
     """Absolute, normalised ('.', '..' and doubled slashes removed) without resolving symbolic links."""
     return Path(os.path.abspath(os.fspath(p)))
 
 
-def read_marker(folder) -> dict | None:
+def read_marker(folder: Path) -> dict[str, Any] | None:
     """The marker of a folder written by run-scenario, or None (absent, unreadable or not ours)."""
     try:
         m = json.loads((Path(folder) / MARKER).read_text(encoding="utf-8"))
@@ -94,7 +103,7 @@ def read_marker(folder) -> dict | None:
     return m if isinstance(m, dict) and m.get("tool") == TOOL else None
 
 
-def _write_marker(folder: Path, **fields) -> None:
+def _write_marker(folder: Path, **fields: Any) -> None:
     m = dict(tool=TOOL, version=_version(), **fields)
     (folder / MARKER).write_text(json.dumps(m, indent=2) + "\n", encoding="utf-8")
 
@@ -127,7 +136,7 @@ def _foreign_entries(folder: Path) -> list[str]:
     return [n for n in names if n not in ours or (folder / n).is_symlink() or not (folder / n).is_file()]
 
 
-def _pid_alive(pid) -> bool:
+def _pid_alive(pid: Any) -> bool:
     try:
         os.kill(int(pid), 0)
     except (ProcessLookupError, ValueError, TypeError):
@@ -145,7 +154,7 @@ def _stale_partials(out: Path) -> list[Path]:
         return []
 
 
-def clean_stale_partials(out) -> list[str]:
+def clean_stale_partials(out: Path) -> list[str]:
     """Remove the partial folders of ``out`` left by killed runs (name and marker prove they are ours,
     the process that wrote them is gone); report the others. Returns one message per folder. Raises
     :class:`OutputError` if another live run-scenario is writing the same output folder."""
@@ -176,7 +185,9 @@ def clean_stale_partials(out) -> list[str]:
     return notes
 
 
-def check_output_dir(out, scenario_path=None, checkpoint_dir=None) -> list[str]:
+def check_output_dir(
+    out: str | os.PathLike[str], scenario_path: str | None = None, checkpoint_dir: Path | None = None
+) -> list[str]:
     """Refuse an output folder whose replacement could lose anything run-scenario did not write
     (:class:`OutputError`, before any computing), clean the stale partial folders of killed runs.
 
@@ -224,11 +235,11 @@ def check_output_dir(out, scenario_path=None, checkpoint_dir=None) -> list[str]:
 
 def run_scenario(
     scn: Scenario,
-    out_dir,
+    out_dir: str | os.PathLike[str],
     settings: RunSettings,
-    progress=None,
-    executor=None,
-    checkpoint_dir=None,
+    progress: Callable[..., Any] | None = None,
+    executor: Executor | None = None,
+    checkpoint_dir: Path | None = None,
     resume: bool = True,
     collect: list | None = None,
 ) -> Path:
@@ -292,7 +303,7 @@ def run_scenario(
             plots.save_figure(fig, tmp / f"{data.study.name}.png")
             files += [f"{data.study.name}.csv", f"{data.study.name}.png"]
         summary = make_summary(scn, settings, datas, compute_time, time.perf_counter() - t0)
-        used = executor.processes_used() if hasattr(executor, "processes_used") else 1
+        used = executor.processes_used() if executor is not None and hasattr(executor, "processes_used") else 1
         summary["workers"] = used
         summary["executor"] = dict(
             name=getattr(executor, "name", "sequential"),
@@ -362,7 +373,7 @@ def _replace_dir(tmp: Path, out: Path) -> None:
     shutil.rmtree(old, ignore_errors=True)
 
 
-def write_study_csv(data, path) -> None:
+def write_study_csv(data: FRCData | MapData | PhaseData, path: Path) -> None:
     if isinstance(data, (FRCData, MapData)):
         data.table.to_csv(path, index=False, float_format="%.10g")
         return
@@ -376,7 +387,7 @@ def write_study_csv(data, path) -> None:
     pd.concat(rows, ignore_index=True).to_csv(path, index=False, float_format="%.10g")
 
 
-def cosim_time_split(datas) -> dict | None:
+def cosim_time_split(datas: Sequence[Any]) -> dict[str, Any] | None:
     """Where the co-simulation's time went, summed over every study's sweep table: seconds inside each
     FMU's fmi2 calls (``fmus``), in the compiled stepping loop's own work (``master_loop``), in steps
     taken on the Python path (``python_steps``) and the rest of the points' wall time (``steady_state_logic``:
@@ -402,7 +413,13 @@ def cosim_time_split(datas) -> dict | None:
     )
 
 
-def make_summary(scn: Scenario, settings: RunSettings, datas, compute_time: float, total_time: float) -> dict:
+def make_summary(
+    scn: Scenario,
+    settings: RunSettings,
+    datas: list[FRCData | MapData | PhaseData],
+    compute_time: float,
+    total_time: float,
+) -> dict:
     try:
         version = metadata.version("pyfmu-wrapper")
     except metadata.PackageNotFoundError:  # pragma: no cover
@@ -429,7 +446,7 @@ def make_summary(scn: Scenario, settings: RunSettings, datas, compute_time: floa
     )
 
 
-def _finite(obj):
+def _finite(obj: Any) -> Any:
     """JSON has no inf/nan: write them as null."""
     if isinstance(obj, dict):
         return {str(k): _finite(v) for k, v in obj.items()}

@@ -7,12 +7,23 @@ built without pyplot (Agg canvas), so it works headless and never touches global
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 import pandas as pd
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 from matplotlib.lines import Line2D
 from matplotlib.ticker import MaxNLocator
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from matplotlib.axes import Axes
+    from pandas import DataFrame
+
+    from .runner import FRCData, MapData, PhaseData
+    from .schema import FRCStudy, PhasePortraitStudy
 
 _STYLE = {"up": "-", "down": "--"}
 #: per curve: line style and marker, so that curves lying on top of each other stay visible
@@ -34,14 +45,14 @@ NOTE_NOT_CONVERGED = "not converged"
 NOTE_IRREGULAR = "irregular (non-periodic): max over its windows"
 
 
-def _figure(width=7.0, height=4.5, ncols=1) -> tuple[Figure, list]:
+def _figure(width: float = 7.0, height: float = 4.5, ncols: int = 1) -> tuple[Figure, list]:
     fig = Figure(figsize=(width * (1 if ncols == 1 else 0.75 * ncols), height), layout="constrained")
     FigureCanvasAgg(fig)
     axes = fig.subplots(1, ncols, squeeze=False)[0]
     return fig, list(axes)
 
 
-def _units_title(study) -> str | None:
+def _units_title(study: PhasePortraitStudy | FRCStudy) -> str | None:
     """Legend title giving the units of the parameters the curve labels name or the curves differ in
     (e.g. "units: c [N s/m], df [N], eps [m]")."""
     import re
@@ -70,7 +81,7 @@ def _curve_style(k: int, n_points: int, one_direction: bool) -> dict:
     )
 
 
-def frc_plot(data, ax=None) -> Figure:
+def frc_plot(data: FRCData, ax: Axes | None = None) -> Figure:
     """Frequency-response curves: base amplitude max|x| [m] against omega [rad/s].
 
     Every curve has its own colour, line style and marker (a curve lying exactly on another stays
@@ -89,7 +100,7 @@ def frc_plot(data, ax=None) -> Figure:
     elif ax is None:
         fig, (ax,) = _figure(width=9.5)
     else:
-        fig = ax.figure
+        fig = ax.figure  # type: ignore[assignment]  # an Axes of the caller's figure (a SubFigure's is a Figure's too)
     one_direction = tab["direction"].nunique() == 1
     any_bad = any_irr = False
     for k, (label, t) in enumerate(tab.groupby("curve", sort=False)):
@@ -97,7 +108,9 @@ def frc_plot(data, ax=None) -> Figure:
         style = _curve_style(k, t["omega"].nunique(), one_direction)
         line = None
         for d, td in t.groupby("direction", sort=False):
-            kw = dict(color=line.get_color()) if line is not None else (dict(color=color) if color else {})
+            kw: dict[str, Any] = (
+                dict(color=line.get_color()) if line is not None else (dict(color=color) if color else {})
+            )
             lab = label if line is None else f"{label} ({d})"
             ls = style["ls"] if one_direction else _STYLE.get(d, "-")
             (line,) = ax.plot(
@@ -197,7 +210,7 @@ def frc_plot(data, ax=None) -> Figure:
     return fig
 
 
-def _difference_axes(dax, tab) -> None:
+def _difference_axes(dax: Axes, tab: DataFrame) -> None:
     """Engine 'both': the headline is the largest |difference| over the regular points; irregular
     points (open circles) have no single amplitude and are shown apart with their own scatter."""
     d = tab["difference"].to_numpy(float)
@@ -228,7 +241,7 @@ def _difference_axes(dax, tab) -> None:
     dax.grid(alpha=0.3)
 
 
-def _without(study, label) -> bool:
+def _without(study: FRCStudy, label: str) -> bool:
     return any(c.label == label and c.without_tmd for c in study.curves)
 
 
@@ -246,12 +259,12 @@ _PARAM_LABELS = {
 }
 
 
-def map_plot(data, ax=None) -> Figure:
+def map_plot(data: MapData, ax: Axes | None = None) -> Figure:
     """Two-parameter diagram: colour = max|x| [m] over (omega, parameter value)."""
     if ax is None:
         fig, (ax,) = _figure()
     else:
-        fig = ax.figure
+        fig = ax.figure  # type: ignore[assignment]  # an Axes of the caller's figure (a SubFigure's is a Figure's too)
     st = data.study
     w, v = np.asarray(st.omegas, float), np.asarray(st.values, float)
     if len(w) > 1 and len(v) > 1:
@@ -271,7 +284,7 @@ def map_plot(data, ax=None) -> Figure:
     return fig
 
 
-def phase_portrait_plot(data) -> Figure:
+def phase_portrait_plot(data: PhaseData) -> Figure:
     """Steady-state phase portraits (x, xd) of the base, one panel per omega, one line per curve."""
     st = data.study
     fig, axes = _figure(width=5.0, height=4.8, ncols=len(st.omegas))
@@ -309,7 +322,7 @@ def phase_portrait_plot(data) -> Figure:
     return fig
 
 
-def plot_study(data) -> Figure:
+def plot_study(data: Any) -> Figure:
     """The figure for any study data object."""
     kind = data.study.kind
     if kind == "frc":
@@ -319,5 +332,5 @@ def plot_study(data) -> Figure:
     return phase_portrait_plot(data)
 
 
-def save_figure(fig: Figure, path, dpi: int = 120) -> None:
+def save_figure(fig: Figure, path: Path, dpi: int = 120) -> None:
     fig.savefig(path, dpi=dpi)

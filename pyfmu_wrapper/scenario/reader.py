@@ -5,6 +5,9 @@ strings and grids and raises :class:`~.schema.ScenarioError` naming the file, th
 from __future__ import annotations
 
 import math
+import re
+from collections.abc import Iterable, Mapping
+from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
@@ -12,10 +15,17 @@ from ..physics.params import ParameterError
 from .schema import ScenarioError
 from .yamlio import MarkedDict, MarkedList
 
+if TYPE_CHECKING:
+    from typing import Any
+
+    from numpy import ndarray
+
+    from .yamlio import MarkedDict, MarkedList
+
 MAX_GRID = 100_000
 
 
-def key_path(path: str, key) -> str:
+def key_path(path: str, key: int | str) -> str:
     if isinstance(key, int):
         return f"{path}[{key}]"
     return f"{path}.{key}" if path else str(key)
@@ -24,28 +34,37 @@ def key_path(path: str, key) -> str:
 class Reader:
     """Validation context: the file name and helpers that raise located errors."""
 
-    def __init__(self, file: str):
+    def __init__(self, file: str) -> None:
         self.file = file
 
     # -- errors ---------------------------------------------------------------------------------
-    def fail(self, path: str, line, reason: str, value=None, *, show_value=True):
+    def fail(self, path: str, line: int | None, reason: str, value: Any = None, *, show_value: bool = True) -> NoReturn:
         where = f"{self.file}:{line}" if line else self.file
         got = f" (got {value!r})" if show_value else ""
         raise ScenarioError(
             f"{where}: {path or '<top level>'}: {reason}{got}", file=self.file, line=line, path=path, value=value
         )
 
-    def parameter_error(self, exc: ParameterError, path: str, line, value):
+    def parameter_error(self, exc: ParameterError, path: str, line: int | None, value: Any) -> NoReturn:
         """Re-raise a ParameterError built with ``source=self.source(path, line)`` as a ScenarioError."""
         text = str(exc).replace(f" (from {self.source(path, line)})", "")
         where = f"{self.file}:{line}" if line else self.file
         raise ScenarioError(f"{where}: {path}: {text}", file=self.file, line=line, path=path, value=value) from None
 
-    def source(self, path: str, line) -> str:
+    def source(self, path: str, line: int | None) -> str:
         return f"{self.file}:{line} {path}" if line else f"{self.file} {path}"
 
     # -- structure ------------------------------------------------------------------------------
-    def mapping(self, node, path, line, *, required=(), optional=(), hints=None):
+    def mapping(
+        self,
+        node: Any,
+        path: str,
+        line: int | None,
+        *,
+        required: Iterable[str] = (),
+        optional: Iterable[str] = (),
+        hints: Mapping[str, str] | None = None,
+    ) -> Any:
         """Check a mapping's keys; ``hints``: key -> where it belongs instead (a clearer refusal)."""
         if not isinstance(node, dict):
             self.fail(path, line, f"must be a mapping with keys {list(required) + list(optional)}", node)
@@ -64,7 +83,7 @@ class Reader:
                 self.fail(key_path(path, key), line_of(node), "missing required key", show_value=False)
         return node
 
-    def sequence(self, node, path, line, *, nonempty=True):
+    def sequence(self, node: Any, path: str, line: int | None, *, nonempty: bool = True) -> Any:
         if not isinstance(node, list):
             self.fail(path, line, "must be a list", node)
         if nonempty and not node:
@@ -72,14 +91,33 @@ class Reader:
         return node
 
     # -- scalars ------------------------------------------------------------------------------
-    def number(self, node, key, path, *, minimum=None, strict=False, maximum=None, default=None):
+    def number(
+        self,
+        node: Any,
+        key: str,
+        path: str,
+        *,
+        minimum: float | None = None,
+        strict: bool = False,
+        maximum: float | None = None,
+        default: Any = None,
+    ) -> Any:
         p = key_path(path, key)
         if key not in node:
             return default
         v, line = node[key], line_of(node, key)
         return self.check_number(v, p, line, minimum=minimum, strict=strict, maximum=maximum)
 
-    def check_number(self, v, p, line, *, minimum=None, strict=False, maximum=None):
+    def check_number(
+        self,
+        v: Any,
+        p: str,
+        line: int | None,
+        *,
+        minimum: float | None = None,
+        strict: bool = False,
+        maximum: float | None = None,
+    ) -> float:
         if isinstance(v, bool) or not isinstance(v, (int, float)):
             self.fail(p, line, "must be a number", v)
         if not math.isfinite(v):
@@ -90,7 +128,17 @@ class Reader:
             self.fail(p, line, f"must be <= {maximum:g}", v)
         return float(v)
 
-    def integer(self, node, key, path, *, minimum=None, maximum=None, default=None, allow_null=False):
+    def integer(
+        self,
+        node: Any,
+        key: str,
+        path: str,
+        *,
+        minimum: int | None = None,
+        maximum: int | None = None,
+        default: Any = None,
+        allow_null: bool = False,
+    ) -> Any:
         p = key_path(path, key)
         if key not in node:
             return default
@@ -105,7 +153,16 @@ class Reader:
             self.fail(p, line, f"must be <= {maximum}", v)
         return int(v)
 
-    def string(self, node, key, path, *, default=None, choices=None, pattern=None):
+    def string(
+        self,
+        node: Any,
+        key: str,
+        path: str,
+        *,
+        default: Any = None,
+        choices: Iterable[str] | None = None,
+        pattern: re.Pattern[str] | None = None,
+    ) -> Any:
         p = key_path(path, key)
         if key not in node:
             return default
@@ -118,7 +175,7 @@ class Reader:
             self.fail(p, line, "must be a simple name (letters, digits, '_', '-', '.')", v)
         return v
 
-    def boolean(self, node, key, path, *, default=False):
+    def boolean(self, node: Any, key: str, path: str, *, default: bool = False) -> bool:
         if key not in node:
             return default
         v = node[key]
@@ -127,7 +184,7 @@ class Reader:
         return v
 
     # -- grids ----------------------------------------------------------------------------------
-    def grid(self, node, path, line, *, positive=False):
+    def grid(self, node: Any, path: str, line: int | None, *, positive: bool = False) -> ndarray:
         """{start, stop, count} (evenly spaced, both ends included) or an explicit list of numbers."""
         minimum = 0.0 if positive else None
         if isinstance(node, list):
@@ -148,7 +205,7 @@ class Reader:
         return np.linspace(start, stop, count)
 
 
-def line_of(node, key=None):
+def line_of(node: Any, key: Any = None) -> int | None:
     if key is not None and isinstance(node, (MarkedDict, MarkedList)):
         return node.line_of(key)
     return getattr(node, "line", None)

@@ -9,9 +9,10 @@ Identical (parameters, frequencies) sweeps are computed once per run and shared 
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -22,6 +23,16 @@ from .executors import run_tasks
 from .schema import FRCStudy, MapStudy, PhasePortraitStudy, Scenario
 from .sweeptable import engine_differences, find_peaks, sweep_diagnostics
 from .tasks import Checkpoint, SweepTask, TaskStats, run_task
+
+if TYPE_CHECKING:
+    from pathlib import Path
+
+    from numpy import ndarray
+    from pandas import DataFrame
+
+    from ..physics.params import BaseParams, TMDParams
+    from .engines import RunSettings
+    from .executors import Executor
 
 
 @dataclass
@@ -89,15 +100,28 @@ class _Cache:
     in order) and through the study's checkpoint folder, so a killed run resumes where it stopped.
     """
 
-    def __init__(self, executor=None, checkpoint_dir=None, resume=True, checkpoint_marker=None):
+    def __init__(
+        self,
+        executor: Executor | None = None,
+        checkpoint_dir: Path | None = None,
+        resume: bool = True,
+        checkpoint_marker: dict[str, str] | None = None,
+    ) -> None:
         self.resume = resume
         self.checkpoint_marker = checkpoint_marker
-        self.tables = {}
+        self.tables: dict[Any, Any] = {}
         self.executor = executor
         self.checkpoint_dir = None if checkpoint_dir is None else Path(checkpoint_dir)
-        self.stats = {}  #: study name -> TaskStats
+        self.stats: dict[str, Any] = {}  #: study name -> TaskStats
 
-    def sweep(self, base, tmd, omegas, settings, progress):
+    def sweep(
+        self,
+        base: BaseParams,
+        tmd: TMDParams,
+        omegas: ndarray,
+        settings: RunSettings,
+        progress: Callable[..., Any] | None,
+    ) -> DataFrame:
         key = (tmd, np.asarray(omegas, float).tobytes())
         if key in self.tables:
             if progress is not None:
@@ -113,7 +137,15 @@ class _Cache:
         self.tables[key] = table
         return table
 
-    def sweeps(self, base, tmds, omegas, settings, progress, study_name) -> list:
+    def sweeps(
+        self,
+        base: BaseParams,
+        tmds: list[TMDParams],
+        omegas: ndarray,
+        settings: RunSettings,
+        progress: Callable[..., Any] | None,
+        study_name: str,
+    ) -> list[Any]:
         """Tables of several configurations over the same frequencies, in order."""
         omegas = np.asarray(omegas, float)
         out = [None] * len(tmds)
@@ -148,7 +180,13 @@ class _Cache:
         return out
 
 
-def frc_response(scn: Scenario, study: FRCStudy, settings: RunSettings, progress=None, cache=None) -> FRCData:
+def frc_response(
+    scn: Scenario,
+    study: FRCStudy,
+    settings: RunSettings,
+    progress: Callable[..., Any] | None = None,
+    cache: _Cache | None = None,
+) -> FRCData:
     cache = cache or _Cache()
     t0 = time.perf_counter()
     parts: list[pd.DataFrame] = []
@@ -168,7 +206,13 @@ def frc_response(scn: Scenario, study: FRCStudy, settings: RunSettings, progress
     return FRCData(study, pd.concat(parts, ignore_index=True), peaks, time.perf_counter() - t0)
 
 
-def map_response(scn: Scenario, study: MapStudy, settings: RunSettings, progress=None, cache=None) -> MapData:
+def map_response(
+    scn: Scenario,
+    study: MapStudy,
+    settings: RunSettings,
+    progress: Callable[..., Any] | None = None,
+    cache: _Cache | None = None,
+) -> MapData:
     cache = cache or _Cache()
     t0 = time.perf_counter()
     amp = np.empty((len(study.values), len(study.omegas)))
@@ -182,7 +226,9 @@ def map_response(scn: Scenario, study: MapStudy, settings: RunSettings, progress
     return MapData(study, amp, pd.concat(parts, ignore_index=True), time.perf_counter() - t0)
 
 
-def phase_portraits(scn: Scenario, study: PhasePortraitStudy, settings: RunSettings, progress=None) -> PhaseData:
+def phase_portraits(
+    scn: Scenario, study: PhasePortraitStudy, settings: RunSettings, progress: Callable[..., Any] | None = None
+) -> PhaseData:
     t0 = time.perf_counter()
     data = PhaseData(study)
     for w in study.omegas:
@@ -199,9 +245,9 @@ def phase_portraits(scn: Scenario, study: PhasePortraitStudy, settings: RunSetti
 def run_studies(
     scn: Scenario,
     settings: RunSettings,
-    progress=None,
-    executor=None,
-    checkpoint_dir=None,
+    progress: Callable[..., Any] | None = None,
+    executor: Executor | None = None,
+    checkpoint_dir: Path | None = None,
     stats: dict | None = None,
     resume: bool = True,
     checkpoint_marker: dict | None = None,

@@ -7,12 +7,16 @@ runner, the plots) works with them only, never with raw YAML.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..physics import registry
 from ..physics.params import BaseParams, TMDParams
 from ..solvers.monolithic import SolverSettings
+
+if TYPE_CHECKING:
+    from ..cosim.steady import CosimSettings
 
 SCHEMA_VERSION = 2
 #: older versions still read: 1 only when the file has no ``solver:`` block (docs/scenarios.md)
@@ -32,7 +36,15 @@ class ScenarioError(ValueError):
     ``studies[2].values[3]``, or None) and ``value`` (the offending value, when there is one).
     """
 
-    def __init__(self, message: str, *, file=None, line=None, path=None, value=None):
+    def __init__(
+        self,
+        message: str,
+        *,
+        file: str | None = None,
+        line: int | None = None,
+        path: str | None = None,
+        value: Any = None,
+    ) -> None:
         super().__init__(message)
         self.file, self.line, self.path, self.value = file, line, path, value
 
@@ -127,7 +139,7 @@ class CosimConfig:
 
     overrides: tuple = ()  #: ((key, value), ...) in file order
 
-    def settings(self):
+    def settings(self) -> CosimSettings:
         """The :class:`~pyfmu_wrapper.cosim.steady.CosimSettings` of the block."""
         from ..cosim.steady import CosimSettings  # lazy: the co-simulation engine imports fmpy
 

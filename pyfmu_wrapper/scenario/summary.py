@@ -4,6 +4,8 @@ irregular, the co-simulation's difference from the monolithic engine)."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 import pandas as pd
 
@@ -11,10 +13,13 @@ from ..physics.params import as_dict
 from .runner import FRCData, MapData, PhaseData
 from .sweeptable import engine_differences, irregular_mask, sweep_diagnostics
 
+if TYPE_CHECKING:
+    from .runner import FRCData, MapData, PhaseData
+
 # --- summary -----------------------------------------------------------------------------------
 
 
-def study_summary(data) -> dict:
+def study_summary(data: Any) -> dict[str, Any]:
     st = data.study
     d = dict(kind=st.kind, name=st.name, title=st.title, wall_time=data.wall_time)
     if isinstance(data, FRCData):
@@ -63,7 +68,7 @@ def study_summary(data) -> dict:
     return d
 
 
-def _grid(a) -> dict:
+def _grid(a: Any) -> dict[str, Any]:
     a = np.asarray(a, float)
     return dict(start=float(a[0]), stop=float(a[-1]), count=int(a.size))
 
@@ -71,11 +76,11 @@ def _grid(a) -> dict:
 # --- closing report ------------------------------------------------------------------------------
 
 
-def _w(x) -> str:
+def _w(x: float) -> str:
     return f"{float(x):g}"
 
 
-def _pct(x) -> str:
+def _pct(x: float) -> str:
     return "n/a" if x is None or not np.isfinite(x) else f"{100.0 * float(x):.3g} %"
 
 
@@ -106,7 +111,7 @@ def _flag_groups(t: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, int]:
     return t[~conv & ~irr], t[irr], int((~conv).sum())
 
 
-def study_report(data) -> list[str]:
+def study_report(data: Any) -> list[str]:
     """One line per study for the end of a run: which points did not converge or are irregular
     (and, for engine 'both', the difference over the regular points and the irregular ones apart)."""
     st = data.study

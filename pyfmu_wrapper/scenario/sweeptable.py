@@ -3,14 +3,19 @@ points, and (engine 'both') the co-simulation's difference from the monolithic e
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 from scipy.optimize import minimize_scalar
 
+if TYPE_CHECKING:
+    from collections.abc import Callable
 
-def find_peaks(omegas, amplitudes, refine=None) -> dict:
+    from pandas import Series
+
+
+def find_peaks(omegas: Series, amplitudes: Series, refine: Callable[..., Any] | None = None) -> dict:
     """Peak summary of one curve: global maximum and the interior local maxima.
 
     refine: optional callable(omegas array) -> amplitudes for a smooth (exact) curve; each local

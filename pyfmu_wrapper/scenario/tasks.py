@@ -24,6 +24,7 @@ import os
 import tempfile
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -31,6 +32,10 @@ import pandas as pd
 from ..codeversion import PACKAGE_DIR, source_hash
 from ..physics.params import BaseParams, TMDParams, as_dict
 from .engines import SWEEP_COLUMNS, RunSettings, compute_sweep
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from pathlib import Path
 
 #: bump when the layout or meaning of a checkpoint file changes
 CHECKPOINT_FORMAT = 2
@@ -77,7 +82,7 @@ class SweepTask:
         return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-def _exact_json(obj):
+def _exact_json(obj: Any) -> Any:
     """JSON of values json cannot write itself (numpy scalars, enums, dataclasses), without rounding."""
     if isinstance(obj, np.generic):
         return obj.item()
@@ -86,7 +91,7 @@ def _exact_json(obj):
     return repr(obj)
 
 
-def run_task(task: SweepTask, keep_workers: bool = False, progress=None) -> pd.DataFrame:
+def run_task(task: SweepTask, keep_workers: bool = False, progress: Callable[..., Any] | None = None) -> pd.DataFrame:
     """Compute one task (the function every executor runs): the engine's sweep table.
 
     With ``sweep.continuation: false`` every frequency is its own one-point sweep, started from the
@@ -127,7 +132,7 @@ _DTYPES = dict(
 class Checkpoint:
     """A folder of finished tasks, one CSV per task (lossless: floats written with 17 digits)."""
 
-    def __init__(self, folder, resume: bool = True, marker: dict | None = None):
+    def __init__(self, folder: Path, resume: bool = True, marker: dict | None = None) -> None:
         self.folder = Path(folder)
         self.resume = resume  #: False: never read back (recompute, overwrite)
         self.marker = marker  #: written as ``../.run-scenario.json`` with the first file (run-scenario's own folder)

@@ -4,10 +4,14 @@ that set a refused value."""
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
 
 from ..physics.params import CASES, InerterModel, ParameterError, TMDParams, field_names
 from .reader import Reader, key_path, line_of
+
+if TYPE_CHECKING:
+    from .yamlio import MarkedDict
 
 TMD_FIELDS = tuple(field_names(TMDParams))
 TMD_KEYS = ("case", "inertance_ratio") + TMD_FIELDS
@@ -17,11 +21,15 @@ class TMDSpec:
     """A TMD block merged over its parent (scenario tmd <- study tmd <- curve tmd <- map value),
     remembering for every key where it was set (key path, line)."""
 
-    def __init__(self, values=None, origin=None):
-        self.values = dict(values or {})
-        self.origin = dict(origin or {})
+    def __init__(
+        self,
+        values: Mapping[str, Any] | None = None,
+        origin: Mapping[str, tuple[str, int | None]] | None = None,
+    ) -> None:
+        self.values: dict[str, Any] = dict(values or {})
+        self.origin: dict[str, tuple[str, int | None]] = dict(origin or {})
 
-    def over(self, rd: Reader, node, path, line) -> TMDSpec:
+    def over(self, rd: Reader, node: MarkedDict, path: str, line: int | None) -> TMDSpec:
         rd.mapping(node, path, line, optional=TMD_KEYS)
         new = TMDSpec(self.values, self.origin)
         # a new case / ratio / explicit inertia split replaces the inherited one
@@ -37,7 +45,7 @@ class TMDSpec:
             new.set(rd, key, v, p, ln)
         return new
 
-    def set(self, rd: Reader, key, v, p, line):
+    def set(self, rd: Reader, key: str, v: float | str | int, p: str, line: int | None) -> None:
         if key == "case":
             if isinstance(v, bool) or v not in CASES:
                 rd.fail(p, line, f"must be one of {sorted(CASES)} (the paper's Cases)", v)
@@ -52,7 +60,7 @@ class TMDSpec:
         self.values[key] = v
         self.origin[key] = (p, line)
 
-    def build(self, rd: Reader, path, line) -> TMDParams:
+    def build(self, rd: Reader, path: str, line: int | None) -> TMDParams:
         """Resolve into TMDParams: defaults <- case <- explicit fields <- inertance_ratio."""
         v = self.values
         kw: dict[str, Any] = {}
@@ -78,7 +86,7 @@ class TMDSpec:
             raise  # pragma: no cover - the same values cannot pass the second time
 
 
-def _blamed_key(message: str, origin: dict):
+def _blamed_key(message: str, origin: Mapping[str, Any]) -> str:
     """The scenario key to blame for a ParameterError (its message starts with the field name)."""
     first = message.split()[0] if message else ""
     if first in origin:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import io
 import re
+from typing import Any
 
 import yaml
 
@@ -18,9 +19,9 @@ class MarkedDict(dict):
     """A mapping from YAML with ``line`` (of the mapping) and ``key_lines`` (line of each key's value)."""
 
     line: int | None = None
-    key_lines: dict
+    key_lines: dict[Any, int | None]
 
-    def line_of(self, key) -> int | None:
+    def line_of(self, key: Any) -> int | None:
         return getattr(self, "key_lines", {}).get(key, self.line)
 
 
@@ -28,9 +29,9 @@ class MarkedList(list):
     """A sequence from YAML with ``line`` (of the sequence) and ``item_lines``."""
 
     line: int | None = None
-    item_lines: list
+    item_lines: list[int | None]
 
-    def line_of(self, index: int) -> int | None:
+    def line_of(self, index: Any) -> int | None:
         lines = getattr(self, "item_lines", [])
         return lines[index] if 0 <= index < len(lines) else self.line
 
@@ -83,12 +84,12 @@ _MarkedSafeLoader.add_constructor(yaml.resolver.BaseResolver.DEFAULT_SEQUENCE_TA
 class _Named(io.StringIO):
     """Text stream with a name, so that PyYAML's messages name the file."""
 
-    def __init__(self, text: str, name: str):
+    def __init__(self, text: str, name: str) -> None:
         super().__init__(text)
         self.name = name
 
 
-def load_marked(text: str, name: str = "<string>"):
+def load_marked(text: str, name: str = "<string>") -> Any:
     """Parse YAML text with the safe loader; mappings/lists carry line numbers.
 
     Raises :class:`yaml.YAMLError` (with a ``problem_mark`` where PyYAML knows the position).
