@@ -41,8 +41,21 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from pathlib import Path
+    from typing import Any
+
+    from numpy import complex128, ndarray
+
+    from ..scenario.yamlio import MarkedDict
+    from .errors import DataError
+    from .harmonic import Series
+    from .records import Record
+    from .system.model import RecView
 
 CHANNELS = ("force", "x", "y", "xdd", "ydd")
 FILTER_TYPES = ("butterworth", "bessel")
@@ -62,7 +75,7 @@ class Chain:
     delay_s: float = 0.0  #: pure delay [s]
     filter_key: str = ""  #: the dataset.yaml key that declared the filter (for messages)
 
-    def ba(self):
+    def ba(self) -> tuple[ndarray, ndarray] | None:
         """Numerator and denominator of the analog low-pass in s [rad/s] (None without filter)."""
         if self.type is None:
             return None
@@ -73,7 +86,7 @@ class Chain:
             return signal.butter(self.order, wc, btype="low", analog=True)
         return signal.bessel(self.order, wc, btype="low", analog=True, norm="mag")
 
-    def response(self, omega):
+    def response(self, omega: float | ndarray) -> complex128 | ndarray:
         """G(i omega) = H(i omega) exp(-i omega delay_s) at angular frequencies omega [rad/s]."""
         w = np.asarray(omega, dtype=float)
         g = np.exp(-1j * w * self.delay_s)
@@ -84,7 +97,7 @@ class Chain:
             g = g * np.polyval(b, s) / np.polyval(a, s)
         return g
 
-    def describe(self):
+    def describe(self) -> str:
         parts = []
         if self.type is not None:
             parts.append(f"{self.type} low-pass, order {self.order}, -3 dB at {self.cutoff_hz:g} Hz")
@@ -93,7 +106,7 @@ class Chain:
         return ", ".join(parts) or "none"
 
 
-def rig_samples(chains: dict, t, channels: dict, step: int = 1) -> dict:
+def rig_samples(chains: dict, t: ndarray, channels: dict, step: int = 1) -> dict:
     """What the rig's acquisition makes of densely sampled true signals: each channel of ``channels``
     (uniformly sampled at times ``t``) run through its analog filter in the time domain
     (``scipy.signal.lsim``, started at the filter's DC equilibrium for the first value) and delayed
@@ -118,13 +131,13 @@ def rig_samples(chains: dict, t, channels: dict, step: int = 1) -> dict:
     return out
 
 
-def _err(file, msg):
+def _err(file: Path, msg: str) -> DataError:
     from .errors import DataError
 
     return DataError(f"{file}: {msg}")
 
 
-def _finite(v, file, key):
+def _finite(v: Any, file: Path, key: str) -> float:
     if isinstance(v, bool):
         raise _err(file, f"{key} must be a number, got {v!r}")
     try:
@@ -136,7 +149,7 @@ def _finite(v, file, key):
     return x
 
 
-def _parse_filter(f, file, key):
+def _parse_filter(f: str | MarkedDict, file: Path, key: str) -> dict[str, Any]:
     if f is None or (isinstance(f, str) and f.strip().lower() == "none"):
         return {"type": None}
     if not isinstance(f, dict):
@@ -164,7 +177,7 @@ def _parse_filter(f, file, key):
     return {"type": typ, "order": int(order), "cutoff_hz": fc}
 
 
-def parse_acquisition(block, file, level: str = "system") -> dict:
+def parse_acquisition(block: MarkedDict | None, file: Path, level: str = "system") -> dict:
     """Validate the ``acquisition`` block of dataset.yaml; returns {channel: Chain} (empty when the
     block is absent). Every problem is a DataError naming ``file`` and the key."""
     if block is None:
@@ -190,7 +203,7 @@ def parse_acquisition(block, file, level: str = "system") -> dict:
         bad = sorted(set(map(str, spec)) - set(CHANNEL_KEYS))
         if bad:
             raise _err(file, f"{key}: unknown key(s) {bad}; known: {list(CHANNEL_KEYS)}")
-        p = {}
+        p: dict[str, Any] = {}
         if "filter" in spec:
             p["filter"] = _parse_filter(spec["filter"], file, f"{key}.filter")
         if "delay_s" in spec:
@@ -219,7 +232,7 @@ def parse_acquisition(block, file, level: str = "system") -> dict:
     return out
 
 
-def check_records(chains: dict, records, file):
+def check_records(chains: dict, records: list[Record], file: Path) -> None:
     """A filter's cut-off must lie below the Nyquist frequency of every time record it applies to
     (an anti-alias filter above fs/2 is a typing error or a rig that aliases)."""
     for ch, c in chains.items():
@@ -238,7 +251,7 @@ def check_records(chains: dict, records, file):
                 )
 
 
-def correct_series(s, chains: dict):
+def correct_series(s: Series, chains: dict) -> Series:
     """Divide every harmonic of every declared channel of a fitted :class:`harmonic.Series` by the
     chain's G(i h w) (coefficients) and |G|^2 (their variance): the series then describe the true
     channels. The per-sample residuals (noise, rattle statistic) stay as measured."""
@@ -251,7 +264,7 @@ def correct_series(s, chains: dict):
     return s
 
 
-def correct_frc(records, chains: dict):
+def correct_frc(records: list[Record], chains: dict) -> list[Record]:
     """True x_max and force amplitude of FRC records: divided by |G_x(i w)| and |G_force(i w)|
     (measured values kept in ``Record.meta['measured']``)."""
     for r in records:
@@ -267,7 +280,7 @@ def correct_frc(records, chains: dict):
     return records
 
 
-def unobservable(views) -> list:
+def unobservable(views: list[RecView]) -> list:
     """What the time records cannot see: ``displacement DC`` when some record has no displacement
     channel pair (x, y) -- its mean displacement, a static preload -- and ``sensor_offset`` when no
     record has one."""

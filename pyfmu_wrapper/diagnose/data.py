@@ -18,11 +18,18 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import yaml
 
 from .errors import DataError
 from .records import REQUIRED, _err, _stderr, read_record
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from pathlib import Path
+    from typing import Any
+
 
 LINK_NOMINAL = ("stiffness", "damping", "friction_force", "friction_slope", "inertance")
 
@@ -56,12 +63,20 @@ ALLOWED_KEYS = {
 }
 
 
-def _line(node, key):
+def _line(node: Any, key: int | str) -> int | None:
     f = getattr(node, "line_of", None)
     return f(key) if f is not None else None
 
 
-def _number(v, file, key, line=None, minimum=None, strict=False, unit=""):
+def _number(
+    v: Any,
+    file: Path | str,
+    key: str,
+    line: int | None = None,
+    minimum: float | None = None,
+    strict: bool = False,
+    unit: str = "",
+) -> float:
     try:
         if isinstance(v, bool):
             raise TypeError
@@ -80,7 +95,12 @@ def _number(v, file, key, line=None, minimum=None, strict=False, unit=""):
     return x
 
 
-def _unknown_keys(node, allowed, file, where):
+def _unknown_keys(
+    node: Any,
+    allowed: tuple[str, ...],
+    file: Path,
+    where: str,
+) -> None:
     unknown = [k for k in node if k not in allowed]
     if unknown:
         k = unknown[0]
@@ -91,7 +111,7 @@ def _unknown_keys(node, allowed, file, where):
         )
 
 
-def _plain_data(x):
+def _plain_data(x: Any) -> Any:
     """MarkedDict/MarkedList (with line numbers) -> plain dict/list."""
     if isinstance(x, dict):
         return {k: _plain_data(v) for k, v in x.items()}
@@ -100,7 +120,9 @@ def _plain_data(x):
     return x
 
 
-def load_dataset(path, model_override: dict | None = None, log=_stderr, model_source=None) -> Dataset:
+def load_dataset(
+    path: Path | str, model_override: dict | None = None, log: Callable = _stderr, model_source: str | None = None
+) -> Dataset:
     """Load and validate ``path/dataset.yaml`` and its records (``model_override``: a nominal model
     read from the file ``model_source``). Progress of long records goes to ``log``."""
     from ..cli.errors import read_utf8
@@ -199,7 +221,7 @@ def load_dataset(path, model_override: dict | None = None, log=_stderr, model_so
     )
 
 
-def normalise_nominal(nom: dict, level: str, file) -> dict:
+def normalise_nominal(nom: dict, level: str, file: Path | str) -> dict:
     """Link: {stiffness, damping, friction_force, friction_slope, inertance} (missing = 0, slope 1e3),
     each within the physics registry's bounds (k, c, df, I >= 0; s > 0).
     System: {"base": BaseParams kwargs, "tmd": TMDParams kwargs} (validated by the physics classes)."""

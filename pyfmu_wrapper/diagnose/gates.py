@@ -31,8 +31,12 @@ tiny gap of a barely visible effect from being called unexplained.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ..physics.params import BaseParams, TMDParams
 
 Z_NOISE = 5.0
 EVIDENCE = 10.0
@@ -49,38 +53,42 @@ BOUNDS = {
 BASE_DAMPING_MAX = 2.0  #: the base damping may be at most (1 + this) x nominal
 
 
-def noise_gate(chi2, dof, z=None):
+def noise_gate(chi2: float | int, dof: int, z: float | None = None) -> bool:
     """True when chi2 exceeds what noise alone gives (dof) by more than z standard deviations."""
     z = Z_NOISE if z is None else z
     return (chi2 - dof) / math.sqrt(2.0 * max(dof, 1)) > z
 
 
-def evidence_gate(chi2_before, chi2_after, n_new_params, n, threshold=None):
+def evidence_gate(
+    chi2_before: float, chi2_after: float, n_new_params: int, n: int, threshold: float | None = None
+) -> bool:
     """True when the held-out chi-square drops by more than threshold (EVIDENCE) + p ln(n)."""
     threshold = EVIDENCE if threshold is None else threshold
     return chi2_before - chi2_after - n_new_params * math.log(max(n, 2)) > threshold
 
 
-def pair_gate(excess_single, excess_pair, share=None):
+def pair_gate(excess_single: float, excess_pair: float, share: float | None = None) -> bool:
     """True when the second effect closes at least ``share`` of the excess the first one leaves."""
     share = PAIR_SHARE if share is None else share
     return excess_single > 0 and (excess_single - excess_pair) >= share * excess_single
 
 
-def relevance_gate(effect_rms, link_rms, share=None):
+def relevance_gate(effect_rms: float, link_rms: float, share: float | None = None) -> bool:
     """True when a second effect changes the link force by more than ``share`` of its rms (an
     effect far below what any rig could act on is not proposed, however significant)."""
     share = RELEVANCE if share is None else share
     return effect_rms > share * link_rms
 
 
-def share_gate(gap_before, gap_after, share=None):
+def share_gate(gap_before: float, gap_after: float, share: float | None = None) -> bool:
     """True when the named effects close at least ``share`` (MIN_SHARE) of the held-out gap."""
     share = MIN_SHARE if share is None else share
     return gap_before > 0 and 1.0 - max(gap_after, 0.0) / gap_before >= share
 
 
-def remaining_gate(chi2_after, dof, gap_before, z=None, share=None):
+def remaining_gate(
+    chi2_after: float, dof: int, gap_before: float, z: float | None = None, share: float | None = None
+) -> bool:
     """True when what the named effects leave is still a structural gap: its held-out chi-square
     is above the noise by more than z (Z_REMAIN) standard deviations **and** the gap left is more
     than ``share`` (REMAIN_SHARE) of the gap before."""
@@ -93,7 +101,7 @@ def remaining_gate(chi2_after, dof, gap_before, z=None, share=None):
 Z_SIGNIF = 3.0  #: a second effect's parameter must differ from zero by more than this many std
 
 
-def significance_gate(params: dict, std: dict, effect: str, z=None):
+def significance_gate(params: dict, std: dict, effect: str, z: float | None = None) -> bool:
     """True when at least one parameter of ``effect`` differs from zero by more than z std in the
     fit on all the evidence (a second effect whose parameter is zero within its uncertainty only
     reshuffles the held-out folds; it is not named)."""
@@ -106,14 +114,14 @@ def significance_gate(params: dict, std: dict, effect: str, z=None):
     return any(not (np.isfinite(s) and s > 0) or abs(v) > z * s for v, s in vals)
 
 
-def plausibility(params: dict, std: dict, tmd, motion: dict, base=None) -> list:
+def plausibility(params: dict, std: dict, tmd: TMDParams, motion: dict, base: BaseParams | None = None) -> list:
     """Reasons why a fitted parameter set is unphysical (empty list: plausible)."""
     out = []
 
-    def g(k):
+    def g(k: str) -> Any:
         return params.get(k)
 
-    def s(k):
+    def s(k: str) -> float:
         return 2.0 * std.get(k, 0.0) if np.isfinite(std.get(k, 0.0)) else 0.0
 
     if g("friction.friction_force") is not None and g("friction.friction_force") < -s("friction.friction_force"):

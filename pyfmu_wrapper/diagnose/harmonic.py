@@ -17,14 +17,18 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from numpy import ndarray
 
 PERIODIC_R2 = 0.9  #: share of the variance a harmonic series must explain for a record to count as periodic
 H_MAX = 150  #: cap on the harmonics of the full (noise-estimating) fit
 
 
-def estimate_omega(t, s) -> float | None:
+def estimate_omega(t: ndarray, s: ndarray) -> float | None:
     """Dominant angular frequency [rad/s] of a sampled signal, or None when there is none.
 
     FFT peak refined by a parabola through the neighbouring bins (shift clipped to half a bin) and
@@ -81,14 +85,14 @@ class Series:
     span: tuple = (0, 0)  #: sample range used (whole periods)
     periodic: bool = True
 
-    def eval(self, ch, theta, deriv=0):
+    def eval(self, ch: str, theta: ndarray, deriv: int = 0) -> ndarray:
         """Series of channel ``ch`` (or its deriv-th derivative) at phases theta = w t."""
         h = np.arange(self.H + 1)
         c = self.coef[ch] * (1j * h * self.omega) ** deriv
         return np.real(np.exp(1j * np.outer(theta, h)) @ c)
 
 
-def whole_periods(t, omega):
+def whole_periods(t: ndarray, omega: float) -> tuple[slice, int]:
     """Index slice of the largest whole number of periods from the start of the record."""
     T = 2 * math.pi / omega
     nper = int(math.floor((t[-1] - t[0]) / T + 1e-9))
@@ -102,7 +106,7 @@ def whole_periods(t, omega):
 _BASIS: dict = {}
 
 
-def _basis(tt, omega, H):
+def _basis(tt: ndarray, omega: float, H: int) -> tuple[ndarray, ndarray, ndarray]:
     """Harmonic basis at the sample times tt, (B^T B)^-1 and its diagonal; cached for uniform sampling."""
     n = tt.size
     uniform = bool(np.max(np.abs(tt - np.linspace(0.0, tt[-1], n))) <= 1e-6 * tt[-1] / max(n - 1, 1))
@@ -125,7 +129,7 @@ def _basis(tt, omega, H):
     return _BASIS[key]
 
 
-def fit_series(t, channels: dict, omega: float, H: int | None = None) -> Series:
+def fit_series(t: ndarray, channels: dict, omega: float, H: int | None = None) -> Series:
     """Least-squares Fourier series of every channel over the whole periods of the record."""
     sl, nper = whole_periods(t, omega)
     tt = t[sl] - t[0]
@@ -171,7 +175,7 @@ def fit_series(t, channels: dict, omega: float, H: int | None = None) -> Series:
     return out
 
 
-def fuse(s: Series, pos: str, acc: str | None, H: int):
+def fuse(s: Series, pos: str, acc: str | None, H: int) -> tuple[ndarray, ndarray]:
     """Displacement coefficients X_h (h = 0..H) fused from a displacement and an acceleration
     channel, and their variance per real component. Returns (X, var).
 
@@ -198,7 +202,7 @@ def fuse(s: Series, pos: str, acc: str | None, H: int):
     return X, vx
 
 
-def grid_values(C, omega, n_grid: int, deriv=0):
+def grid_values(C: ndarray, omega: float, n_grid: int, deriv: int = 0) -> ndarray:
     """Samples over one period (theta_j = 2 pi j / n_grid) of the series with coefficients C."""
     h = np.arange(C.size)
     c = C * (1j * h * omega) ** deriv
@@ -211,7 +215,7 @@ def grid_values(C, omega, n_grid: int, deriv=0):
     return np.fft.irfft(full, n_grid)
 
 
-def grid_coef(vals, H: int):
+def grid_coef(vals: ndarray, H: int) -> ndarray:
     """Harmonic coefficients C_h (h = 0..H) of samples over one period."""
     n = vals.size
     f = np.fft.rfft(vals) / n

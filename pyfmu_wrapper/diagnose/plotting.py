@@ -3,12 +3,24 @@ modules return data; the reports call these)."""
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 
 from .link.localise import by_phase, by_record, by_state, harmonics
 
+if TYPE_CHECKING:
+    from pathlib import Path
 
-def plot_where(ld, r0, r1, path, title=""):
+    from numpy import ndarray
+
+    from .link.fit import Fit
+    from .link.models import LinkData
+    from .system.diagnosis import SystemDiagnosis
+    from .system.frc import FRCDiagnosis
+
+
+def plot_where(ld: LinkData, r0: ndarray, r1: ndarray, path: Path, title: str = "") -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -56,7 +68,9 @@ def plot_where(ld, r0, r1, path, title=""):
     plt.close(fig)
 
 
-def plot_loops(ld, pred_nom, pred_fit, test, path, max_records=4):
+def plot_loops(
+    ld: LinkData, pred_nom: ndarray, pred_fit: ndarray, test: ndarray, path: Path, max_records: int = 4
+) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -77,7 +91,7 @@ def plot_loops(ld, pred_nom, pred_fit, test, path, max_records=4):
     plt.close(fig)
 
 
-def plot_candidates(ranking, path):
+def plot_candidates(ranking: list[Fit], path: Path) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -93,7 +107,7 @@ def plot_candidates(ranking, path):
     plt.close(fig)
 
 
-def plot_system_harmonics(sd, path):
+def plot_system_harmonics(sd: SystemDiagnosis, path: Path) -> None:
     """Whitened residual per harmonic and record, nominal and fitted (periodic records only)."""
     import matplotlib
 
@@ -117,7 +131,7 @@ def plot_system_harmonics(sd, path):
     plt.close(fig)
 
 
-def plot_frc(self, path):
+def plot_frc(self: FRCDiagnosis, path: Path) -> None:
     """The FRC diagnosis (:class:`~.frc.FRCDiagnosis`): measured and fitted curves, residual by frequency."""
     import matplotlib
 

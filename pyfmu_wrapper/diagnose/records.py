@@ -16,11 +16,22 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import pandas as pd
 
 from .errors import DataError
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from pathlib import Path
+    from typing import Any
+
+    from numpy import float64, ndarray
+    from pandas import DataFrame, Index
+
+    from .errors import DataError
 
 REQUIRED = {
     "link": ["t", "displacement", "force"],
@@ -46,14 +57,16 @@ class Record:
     role: str | None = None  #: train | test | None (automatic)
     meta: dict = field(default_factory=dict)
 
-    def __getitem__(self, k):
+    def __getitem__(self, k: str) -> ndarray:
         return self.columns[k]
 
-    def has(self, k):
+    def has(self, k: str) -> bool:
         return k in self.columns
 
 
-def _err(file, msg, row=None, column=None, line=None):
+def _err(
+    file: str | Path, msg: str, row: int | None = None, column: str | None = None, line: int | None = None
+) -> DataError:
     where = str(file) if line is None else f"{file}:{line}"
     if row is not None:
         where += f", row {row}"
@@ -62,7 +75,7 @@ def _err(file, msg, row=None, column=None, line=None):
     return DataError(f"{where}: {msg}")
 
 
-def _kind_of(cols, level, file):
+def _kind_of(cols: Index, level: str, file: Path) -> str:
     if "omega" in cols or "x_max" in cols:
         return "frc"
     if level == "link" or "displacement" in cols:
@@ -80,17 +93,17 @@ MAX_SAMPLES = 100_000  #: samples kept per record; a longer record is block-aver
 CHUNK_ROWS = 500_000  #: rows parsed at a time from a long CSV (bounded memory)
 
 
-def _stderr(msg):
+def _stderr(msg: str) -> None:
     import sys
 
     print(msg, file=sys.stderr, flush=True)
 
 
-def _plainf(x) -> str:
+def _plainf(x: float) -> str:
     return repr(float(x))
 
 
-def _columns(df, file, kind, row0=0, t_prev=None):
+def _columns(df: DataFrame, file: Path, kind: str, row0: int = 0, t_prev: float64 | None = None) -> dict[str, ndarray]:
     """Validated numeric columns of (a block of) a record; rows counted from row0."""
     cols = {}
     for c in REQUIRED[kind] + OPTIONAL[kind]:
@@ -139,7 +152,7 @@ def _columns(df, file, kind, row0=0, t_prev=None):
     return cols
 
 
-def _check_header(df, file, level, entry):
+def _check_header(df: DataFrame, file: Path, level: str, entry: dict[str, Any]) -> str:
     df.columns = [str(c).strip() for c in df.columns]
     kind = entry.get("kind") or _kind_of(df.columns, level, file)
     if kind not in REQUIRED:
@@ -168,7 +181,7 @@ def _check_header(df, file, level, entry):
     return kind
 
 
-def _read_csv(file, **kw):
+def _read_csv(file: Path, **kw: Any) -> Any:
     try:
         return pd.read_csv(file, comment="#", skipinitialspace=True, **kw)
     except UnicodeDecodeError as e:  # pragma: no cover - caught by the byte scan first
@@ -177,7 +190,9 @@ def _read_csv(file, **kw):
         raise _err(file, f"cannot be read as CSV: {' '.join(str(e).split())}") from None
 
 
-def _read_long(file, level, entry, n_rows, log):
+def _read_long(
+    file: Path, level: str, entry: dict[str, Any], n_rows: int, log: Callable
+) -> tuple[str, dict[str, ndarray], tuple[dict[str, float], dict[str, float]], dict[str, Any]]:
     """A record with more than MAX_SAMPLES rows, read in blocks of CHUNK_ROWS rows (bounded memory):
     every q consecutive samples are averaged (a boxcar anti-alias filter, then one sample per block),
     q = ceil(rows / MAX_SAMPLES). For a linear model the averaged record obeys the same equations as
@@ -191,7 +206,9 @@ def _read_long(file, level, entry, n_rows, log):
         f"{file.name}: {n_rows:,} lines after the header, more than {MAX_SAMPLES:,}: reading {chunk:,} rows at a time and averaging "
         f"every {q} consecutive samples (boxcar anti-alias filter) -> about {n_rows // q:,} samples"
     )
-    parts, lo, hi = {}, {}, {}
+    parts: dict[Any, Any] = {}
+    lo: dict[Any, Any] = {}
+    hi: dict[Any, Any] = {}
     kind, t_prev, row0, dropped = None, None, 0, 0
     t0 = last = _time.monotonic()
     try:
@@ -245,7 +262,7 @@ def _read_long(file, level, entry, n_rows, log):
     return kind, cols, (lo, hi), info
 
 
-def read_record(file: Path, level: str, entry: dict | None = None, log=_stderr) -> Record:
+def read_record(file: Path, level: str, entry: dict | None = None, log: Callable = _stderr) -> Record:
     """Read and validate one CSV record (records longer than MAX_SAMPLES rows: see :func:`_read_long`)."""
     from ..cli.errors import scan_utf8_lines
 
@@ -314,7 +331,7 @@ def read_record(file: Path, level: str, entry: dict | None = None, log=_stderr) 
     return rec
 
 
-def estimate_omega(t, d) -> float | None:
+def estimate_omega(t: ndarray, d: ndarray) -> float | None:
     """Dominant angular frequency [rad/s] > 0 of a sampled signal, or None when it is not periodic
     (see :func:`harmonic.estimate_omega`)."""
     from .harmonic import estimate_omega as _est
@@ -322,7 +339,7 @@ def estimate_omega(t, d) -> float | None:
     return _est(t, d)
 
 
-def write_record(file: Path, columns: dict, header_comment: str | None = None, fmt="%.9g"):
+def write_record(file: Path, columns: dict, header_comment: str | None = None, fmt: str = "%.9g") -> None:
     """Write a record as CSV (the format read_record accepts)."""
     names = list(columns)
     data = np.column_stack([np.asarray(columns[c], dtype=float) for c in names])

@@ -14,10 +14,19 @@ import os
 import shutil
 import sys
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING, Literal, NoReturn
 
 from ..cli.errors import InputError, read_utf8
 from .data import DataError, load_dataset
+
+if TYPE_CHECKING:
+    from pathlib import Path
+    from typing import Any
+
+    from ..scenario.yamlio import MarkedDict
+    from .data import Dataset
 
 DIAGNOSE_MARKER = ".pyfmu-diagnose"  #: marks a folder written by diagnose
 BENCHMARK_MARKER = ".pyfmu-benchmark"  #: marks a folder written by make-benchmark
@@ -28,7 +37,7 @@ _LEGACY = {
 }
 
 
-def _load_model(spec: str | None):
+def _load_model(spec: str | None) -> dict[str, Any] | MarkedDict | None:
     if spec is None:
         return None
     import yaml
@@ -94,7 +103,7 @@ def _is_result(folder: Path, marker: str) -> bool:
     return _foreign(folder, marker) == []
 
 
-def check_out_folder(out, tool: str, marker: str) -> Path:
+def check_out_folder(out: Path | str, tool: str, marker: str) -> Path:
     """Refuse (InputError, before any computing) an --out that is a file, or a non-empty folder
     that is not a previous result of ``tool`` (or holds files ``tool`` did not write)."""
     out = Path(out)
@@ -133,7 +142,7 @@ def _pid_alive(pid: int) -> bool:
     return True
 
 
-def _interrupt(signum, frame):
+def _interrupt(signum: int, frame: Any) -> NoReturn:
     raise KeyboardInterrupt(f"signal {signum}")
 
 
@@ -143,11 +152,11 @@ class ResultFolder:
     tmp is removed. Partial folders of a killed run (``.<out>.partial-<pid>-*`` of a dead process)
     are removed on the next start, and said so."""
 
-    def __init__(self, out, marker):
+    def __init__(self, out: Path, marker: str) -> None:
         self.out, self.marker = Path(out), marker
         self.parent = self.out.parent if str(self.out.parent) else Path(".")
 
-    def _stale(self):
+    def _stale(self) -> None:
         for p in self.parent.glob(f".{self.out.name}.partial-*"):
             try:
                 pid = int(p.name.rsplit(".partial-", 1)[1].split("-")[0])
@@ -170,7 +179,7 @@ class ResultFolder:
                     self.saved[sig] = signal.signal(sig, _interrupt)
         return self.tmp
 
-    def __exit__(self, et, ev, tb):
+    def __exit__(self, et: object, ev: object, tb: object) -> Literal[False]:
         import signal
 
         for sig, h in self.saved.items():
@@ -205,11 +214,11 @@ class ResultFolder:
         return False
 
 
-def _reduced(ds) -> list:
+def _reduced(ds: Dataset) -> list:
     return [{"record": r.name, **r.meta["reduced"]} for r in ds.records if "reduced" in r.meta]
 
 
-def _append_reduction(res, out: Path | None):
+def _append_reduction(res: dict[str, Any], out: Path | None) -> None:
     """Say in report.md which long records were reduced, and how (res["input_reduced"])."""
     red = res.get("input_reduced")
     if not red or out is None or not (out / "report.md").is_file():
@@ -225,7 +234,9 @@ def _append_reduction(res, out: Path | None):
         fh.write("\n".join(L) + "\n")
 
 
-def run_diagnosis(dataset, out=None, model: str | None = None, log=None) -> dict:
+def run_diagnosis(
+    dataset: Path | str, out: Path | None = None, model: str | None = None, log: Callable[[str], Any] | None = None
+) -> dict:
     """Diagnose a dataset folder; write report.md, diagnosis.json and PNGs to ``out`` if given
     (``out`` is written as given: the CLI passes a fresh folder, see :class:`ResultFolder`)."""
     from .records import _stderr
@@ -239,12 +250,12 @@ def run_diagnosis(dataset, out=None, model: str | None = None, log=None) -> dict
     return res
 
 
-def _run(ds, out, red) -> dict:
+def _run(ds: Dataset, out: Path | None, red: list[Any]) -> dict:
     from .link.fit import diagnose_link
     from .link.models import build_link_data
     from .link.report import build_result, write_report
 
-    def finish(res):
+    def finish(res: dict[str, Any]) -> dict[str, Any]:
         if red:
             res["input_reduced"] = red
         fl = _flagged(ds, res)
@@ -297,7 +308,7 @@ def _run(ds, out, red) -> dict:
     return res
 
 
-def _flagged(ds, res) -> list:
+def _flagged(ds: Dataset, res: dict[str, Any]) -> list:
     """Records used only in part, beyond those the system analysis lists itself (time_records.flagged)."""
     known = {f["record"] for f in (res.get("time_records") or {}).get("flagged", [])}
     out = []

@@ -10,9 +10,14 @@ Shares are of the positive excess (chi-square minus its dof), so noise alone giv
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from typing import Any
+
+    from .system.diagnosis import SystemDiagnosis
 
 Z_POINT = 3.0  #: an FRC point is in the band when its held-out residual exceeds this many noise std
 
@@ -22,9 +27,9 @@ def _share(d: dict) -> dict:
     return {k: (max(v, 0.0) / tot if tot > 0 else 0.0) for k, v in d.items()}
 
 
-def localise(sd) -> dict:
+def localise(sd: SystemDiagnosis) -> dict:
     """Where the held-out gap left by the named effects lives (module doc)."""
-    cur = sd.cur if sd.chosen else None
+    cur: Any = sd.cur if sd.chosen else None
     fit = cur.fit if cur is not None else None
     rec: dict[str, float] = {}
     harm: dict[int, float] = {}
@@ -87,7 +92,7 @@ def localise(sd) -> dict:
     return out
 
 
-def _where_text(loc) -> str:
+def _where_text(loc: dict[str, Any]) -> str:
     parts = []
     ts = loc["time_records_share"]
     if ts is None or ts > 0.05:
@@ -112,7 +117,7 @@ def _where_text(loc) -> str:
     return "; ".join(parts) if parts else "no one place (spread over records, harmonics and equations)"
 
 
-def _param_text(sd, e, p, s, units):
+def _param_text(sd: SystemDiagnosis, e: str, p: dict[str, float], s: dict[str, Any], units: dict[str, str]) -> str:
     return ", ".join(
         f"{k.split('.', 1)[1]} = {v:.4g} +- {s.get(k, float('nan')):.2g} {units.get(k.split('.', 1)[1], '')}"
         for k, v in p.items()
@@ -124,7 +129,7 @@ def _param_text(sd, e, p, s, units):
     )
 
 
-def verdict_text(sd, labels, units) -> str:
+def verdict_text(sd: SystemDiagnosis, labels: dict[str, str], units: dict[str, str]) -> str:
     """The printed verdict: the named causes and what they close, then -- when a structural gap
     remains -- one sentence on it and where it lives, with the best candidate as a hint."""
     p, s = sd.params()

@@ -26,8 +26,9 @@ from __future__ import annotations
 import json
 import math
 import statistics
+from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import yaml
@@ -36,6 +37,11 @@ from ...physics.kernels import chain_force
 from ...physics.params import N_PARAMS, P_ci, P_eps, P_ki
 from ..records import write_record
 from .models import friction_vec
+
+if TYPE_CHECKING:
+    from typing import Any
+
+    from numpy import ndarray
 
 NOMINAL = dict(stiffness=4.0e3, damping=40.0, friction_force=0.0, friction_slope=1.0e6, inertance=1.0)
 SEVERITY = {
@@ -53,7 +59,7 @@ OMEGAS = (15.0, 20.0, 25.0)
 AMPS = (0.01, 0.02, 0.03)
 
 
-def _truth_param(effect, value):
+def _truth_param(effect: str, value: float) -> tuple[str, float]:
     """(parameter key in the diagnosis, value) that the fit should recover."""
     key = {
         "friction": "friction.friction_force",
@@ -69,7 +75,7 @@ def _truth_param(effect, value):
     return key, value
 
 
-def link_force(d, v, a, hidden: dict):
+def link_force(d: ndarray, v: ndarray, a: ndarray, hidden: dict) -> ndarray:
     k, c, I = NOMINAL["stiffness"], NOMINAL["damping"], NOMINAL["inertance"]
     c += hidden.get("viscous", 0.0)
     I += hidden.get("mass_split", 0.0)
@@ -84,7 +90,7 @@ def link_force(d, v, a, hidden: dict):
     return F * (1.0 + hidden.get("force_error", 0.0))
 
 
-def make_dataset(folder: Path, hidden: dict, seed: int, noise: float = NOISE, periods: int = 3, spp: int = 200):
+def make_dataset(folder: Path, hidden: dict, seed: int, noise: float = NOISE, periods: int = 3, spp: int = 200) -> None:
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     recs = []
@@ -116,7 +122,7 @@ def make_benchmark(
     clean_fraction: float = 0.25,
     pair_fraction: float = 0.2,
     noise: float = NOISE,
-):
+) -> list[Any]:
     """n link-level datasets (force noise std ``noise`` [N]): the link suite. The system suite is
     :func:`sysbench.make_system_benchmark`."""
     out = Path(out)
@@ -143,7 +149,7 @@ def make_benchmark(
     return manifest
 
 
-def score(bench: Path, results: dict | None = None, progress=None) -> dict:
+def score(bench: Path, results: dict | None = None, progress: Callable[..., Any] | None = None) -> dict:
     """Run the diagnosis on every dataset of a benchmark folder and compare with its manifest.
 
     A dataset is correct when the verdict's set of effects equals the hidden set (clean: empty);

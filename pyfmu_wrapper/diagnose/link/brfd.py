@@ -18,11 +18,15 @@ import json
 import re
 import shutil
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import yaml
 
 from ..records import write_record
+
+if TYPE_CHECKING:
+    from typing import Any
 
 IN, KIP = 0.0254, 4448.2216
 SAMPLES_PER_CYCLE = 256
@@ -45,7 +49,7 @@ NAME = re.compile(
 )
 
 
-def _parse(name):
+def _parse(name: str) -> tuple[float, float, float] | None:
     """(frequency [Hz], amplitude [in], tension [lb]) from a BRFD file name such as
     ``0.5Hz30lbtension1amplitude.json`` or ``2Hz_45lbtension_0.5inamplitude.json``; None if not one."""
     m = NAME.search(name)
@@ -59,12 +63,18 @@ def _dataset_label(src: Path) -> str:
     return f'"Dataset {m.group(1)}"' if m else f'the "{src.name}" files'
 
 
-def derive(src: Path, out: Path, test_amplitude_in=1.0, test_frequency_hz=2.0, tension_lb=None, dataset=None):
+def derive(
+    src: Path,
+    out: Path,
+    test_amplitude_in: float = 1.0,
+    test_frequency_hz: float = 2.0,
+    tension_lb: float | None = None,
+    dataset: str | None = None,
+) -> list[Any]:
     """Derive the link-level dataset from the BRFD JSON files in ``src`` (any band tension and file
     naming read by :func:`_parse`; with several tensions, pick one with ``tension_lb``)."""
     src, out = Path(src), Path(out)
-    files = [(f, _parse(f.name)) for f in sorted(src.glob("*.json"))]
-    files = [(f, p) for f, p in files if p is not None]
+    files = [(f, p) for f in sorted(src.glob("*.json")) if (p := _parse(f.name)) is not None]
     tensions = sorted({p[2] for _, p in files})
     if not files:
         raise ValueError(f"{src}: no BRFD files named like '<f>Hz<T>lbtension<A>amplitude.json'")
@@ -94,10 +104,10 @@ def derive(src: Path, out: Path, test_amplitude_in=1.0, test_frequency_hz=2.0, t
         sl = slice(i0, i1)
         k = (i1 - i0) // stride
 
-        def box(x, sl=sl, k=k, stride=stride):
+        def box(x: np.ndarray, sl: slice = sl, k: int = k, stride: int = stride) -> np.ndarray:
             return x[sl][: k * stride].reshape(k, stride).mean(axis=1)
 
-        def take(x, sl=sl, k=k, stride=stride):
+        def take(x: np.ndarray, sl: slice = sl, k: int = k, stride: int = stride) -> np.ndarray:
             return x[sl][: k * stride : stride]
 
         tt = take(t) - t[i0]

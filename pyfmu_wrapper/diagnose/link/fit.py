@@ -15,13 +15,22 @@ from __future__ import annotations
 
 import itertools
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.optimize import minimize
 
 from ..data import DataError
 from .models import Effect, LinkData, basis, effect_list, report_params
+
+if TYPE_CHECKING:
+    from typing import Any
+
+    from numpy import ndarray
+
+    from .models import Effect, LinkData
 
 EXCESS_THRESHOLD = 0.15  #: nominal held-out rms above (1 + this) x noise floor -> gap is structural
 BIC_THRESHOLD = 10.0  #: held-out BIC improvement needed to accept an effect (or a second one)
@@ -45,16 +54,16 @@ class Fit:
     nrmse_test: float = 0.0
 
     @property
-    def name(self):
+    def name(self) -> str:
         return "+".join(self.effects)
 
 
-def _log(x):
+def _log(x: float) -> float:
     """ln of a mean square; an exact fit (0) counts as 1e-300 (a perfect held-out prediction)."""
     return math.log(max(x, 1e-300))
 
 
-def split_masks(ld: LinkData):
+def split_masks(ld: LinkData) -> tuple[ndarray, ndarray]:
     """(train, test) sample masks: yaml roles, else every third record (sorted by omega, amplitude)
     held out, else the last 40 % of a single record."""
     n = len(ld.records)
@@ -82,7 +91,7 @@ def split_masks(ld: LinkData):
     return ld.mask(train_ids), ld.mask(test_ids)
 
 
-def _combined_basis(effects, ld, theta):
+def _combined_basis(effects: Sequence[Effect], ld: LinkData, theta: ndarray) -> tuple[ndarray, ndarray]:
     offs, cols, k = [], [], 0
     removes_friction = False
     for e in effects:
@@ -97,7 +106,7 @@ def _combined_basis(effects, ld, theta):
     return ld.F_nom + sum(offs), np.hstack(cols)
 
 
-def _solve(y, off, Phi, m):
+def _solve(y: ndarray, off: ndarray, Phi: ndarray, m: ndarray) -> tuple[ndarray, float]:
     A = Phi[m]
     sc = np.sqrt((A**2).mean(axis=0))
     sc[sc == 0] = 1.0
@@ -106,18 +115,18 @@ def _solve(y, off, Phi, m):
     return beta, float(r @ r)
 
 
-def _rho(r):
+def _rho(r: ndarray) -> float:
     r = r - r.mean()
     den = float(r @ r)
     return 0.0 if den == 0 else float(np.clip((r[1:] @ r[:-1]) / den, 0.0, 0.98))
 
 
-def fit_effects(effects, ld: LinkData, train, test) -> Fit:
+def fit_effects(effects: Sequence[Effect], ld: LinkData, train: ndarray, test: ndarray) -> Fit:
     """Fit a set of effects (1 or 2) on the training samples."""
     effects = tuple(effects)
     grids = [g for e in effects for g in e.theta0]
 
-    def rss(theta):
+    def rss(theta: np.ndarray) -> float:
         off, Phi = _combined_basis(effects, ld, theta)
         return _solve(ld.F, off, Phi, train)[1]
 
@@ -185,7 +194,7 @@ def fit_effects(effects, ld: LinkData, train, test) -> Fit:
     )
 
 
-def _order_sd(e: Effect, sds, n):
+def _order_sd(e: Effect, sds: list[float], n: int) -> list[float]:
     """Standard deviations in report_params order (linear first, then nonlinear)."""
     if e.name == "play" and len(e.theta0) == 1:  # report order: play_gap, link_stiffness
         return [sds[1], sds[0]]
@@ -194,7 +203,7 @@ def _order_sd(e: Effect, sds, n):
     return sds[:n] + [float("nan")] * (n - len(sds))
 
 
-def gap_closed(ms_before, ms_after, noise):
+def gap_closed(ms_before: float, ms_after: float, noise: float) -> float:
     g0 = max(ms_before - noise**2, 0.0)
     g1 = max(ms_after - noise**2, 0.0)
     return float("nan") if g0 <= 0 else 1.0 - g1 / g0
@@ -235,7 +244,7 @@ def diagnose_link(ld: LinkData, max_pairs_from: int = 7) -> Diagnosis:
     best = min(fits, key=lambda f: f.rss_test)
     n_eff = max(10.0, nt * (1 - _rho((ld.F - best.pred)[test])) / (1 + _rho((ld.F - best.pred)[test])))
 
-    def score(f):
+    def score(f: Fit) -> None:
         f.bic = n_eff * _log(f.rss_test / nt) + f.n_params * math.log(n_eff)
         f.closed = gap_closed(rss0 / nt, f.rss_test / nt, ld.noise)
         f.nrmse_test = math.sqrt(f.rss_test / nt) / f_rms if f_rms > 0 else float("nan")
@@ -289,7 +298,7 @@ def diagnose_link(ld: LinkData, max_pairs_from: int = 7) -> Diagnosis:
     return d
 
 
-def per_band(ld: LinkData, diag: Diagnosis, fit: Fit | None):
+def per_band(ld: LinkData, diag: Diagnosis, fit: Fit | None) -> list[Any]:
     """Held-out gap per frequency band (records grouped by drive frequency)."""
     rows = []
     oms = np.array([r.omega if r.omega is not None else -1.0 for r in ld.records])

@@ -3,13 +3,21 @@
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from typing import Any
+
+    from numpy import ndarray
+
+    from .models import LinkData
 
 N_HARM = 8
 
 
-def by_record(ld, r):
+def by_record(ld: LinkData, r: ndarray) -> list[Any]:
     rows = []
     for k, rec in enumerate(ld.records):
         m = ld.rec == k
@@ -26,7 +34,7 @@ def by_record(ld, r):
     return rows
 
 
-def harmonics(ld, r):
+def harmonics(ld: LinkData, r: ndarray) -> ndarray:
     """Residual amplitude at k w (k = 0..N_HARM), averaged over records, as a fraction of the total."""
     amps = np.zeros(N_HARM + 1)
     used = 0
@@ -45,7 +53,7 @@ def harmonics(ld, r):
     return amps / max(used, 1)
 
 
-def by_phase(ld, r, nbins=24):
+def by_phase(ld: LinkData, r: ndarray, nbins: int = 24) -> tuple[ndarray, ndarray, ndarray]:
     edges = np.linspace(0, 2 * math.pi, nbins + 1)
     idx = np.clip(np.digitize(ld.phase, edges) - 1, 0, nbins - 1)
     rms = np.array([np.sqrt(np.mean(r[idx == b] ** 2)) if np.any(idx == b) else np.nan for b in range(nbins)])
@@ -53,7 +61,7 @@ def by_phase(ld, r, nbins=24):
     return 0.5 * (edges[1:] + edges[:-1]), rms, mean
 
 
-def by_state(ld, r, nb=16):
+def by_state(ld: LinkData, r: ndarray, nb: int = 16) -> tuple[ndarray, ndarray, ndarray]:
     """Mean residual force on a grid of (displacement, velocity), restoring-force-surface style."""
     de = np.linspace(ld.d.min(), ld.d.max(), nb + 1)
     ve = np.linspace(ld.v.min(), ld.v.max(), nb + 1)
@@ -63,7 +71,7 @@ def by_state(ld, r, nb=16):
         return de, ve, s / np.where(c > 0, c, np.nan)
 
 
-def state_summary(ld, r):
+def state_summary(ld: LinkData, r: ndarray) -> dict[str, float]:
     """Share of the residual energy near velocity reversals and near the displacement extremes."""
     e = r**2
     tot = float(e.sum()) or 1.0
@@ -83,7 +91,7 @@ def state_summary(ld, r):
     }
 
 
-def describe(ld, r, harm, phase_rms):
+def describe(ld: LinkData, r: ndarray, harm: ndarray, phase_rms: ndarray) -> str:
     """A sentence or two on where the gap lies."""
     out = []
     share = harm / max(harm.sum(), 1e-300)

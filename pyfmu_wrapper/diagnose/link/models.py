@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -24,11 +25,14 @@ from ...physics.kernels import chain_force, friction_force
 from ...physics.params import N_PARAMS, P_ci, P_eps, P_ki
 from ..data import DataError, Dataset
 
+if TYPE_CHECKING:
+    from numpy import float64, ndarray
+
 MAX_SAMPLES_PER_RECORD = 4000
 
 
 @njit(cache=True)
-def friction_vec(v, df, s):
+def friction_vec(v: np.ndarray, df: float, s: float) -> np.ndarray:
     out = np.empty(v.shape[0])
     for i in range(v.shape[0]):
         out[i] = friction_force(v[i], df, s)
@@ -36,7 +40,7 @@ def friction_vec(v, df, s):
 
 
 @njit(cache=True)
-def deadzone_vec(d, eps):
+def deadzone_vec(d: np.ndarray, eps: float) -> np.ndarray:
     """Unit-stiffness spring in series with a gap +-eps (the kernels' chain force, ci = 0)."""
     p = np.zeros(N_PARAMS)
     p[P_ki], p[P_ci], p[P_eps] = 1.0, 0.0, eps
@@ -47,7 +51,7 @@ def deadzone_vec(d, eps):
 
 
 @njit(cache=True)
-def jenkins_gap(d, starts, eps, delta, n_pre):
+def jenkins_gap(d: np.ndarray, starts: np.ndarray, eps: float, delta: float, n_pre: np.ndarray) -> np.ndarray:
     """Normalised force of a dry-friction slider in series with a contact spring and a gap +-eps.
 
     The slider sits at q; the spring engages through the gap (kernels' chain force of d - q) and the
@@ -100,7 +104,7 @@ class LinkData:
     nominal: dict  #: link-level nominal parameters
     level: str
 
-    def mask(self, rec_ids):
+    def mask(self, rec_ids: list[int]) -> ndarray:
         return np.isin(self.rec, np.asarray(sorted(rec_ids), dtype=int))
 
 
@@ -119,7 +123,7 @@ def link_nominal(ds: Dataset) -> dict:
     )
 
 
-def nominal_force(nom, d, v, a):
+def nominal_force(nom: dict[str, float], d: ndarray, v: ndarray, a: ndarray) -> ndarray:
     """Nominal link force: the kernels' static link force (spring, damper, friction) at relative
     displacement d and velocity v, plus the ideal inerter I a."""
     from ...physics.params import P_c, P_df, P_k, P_s
@@ -136,7 +140,7 @@ def nominal_force(nom, d, v, a):
 SAVGOL_POINTS = 15  #: Savitzky-Golay window (samples, cubic) for non-periodic records
 
 
-def _deriv(t, x, omega=None, order=1):
+def _deriv(t: ndarray, x: ndarray, omega: float | None = None, order: int = 1) -> ndarray:
     """Derivative of a measured signal: from its Fourier series over whole periods when the record
     is periodic at omega (exact for the steady state, noise averaged over the periods), else from a
     cubic Savitzky-Golay smoother over SAVGOL_POINTS samples (cut-off ~ fs / SAVGOL_POINTS)."""
@@ -153,7 +157,7 @@ def _deriv(t, x, omega=None, order=1):
     return savgol_filter(x, w, 3, deriv=order, delta=dt)
 
 
-def _noise_floor(r):
+def _noise_floor(r: ndarray) -> float64:
     dr = np.diff(r)
     mad = np.median(np.abs(dr - np.median(dr)))
     return 1.4826 * mad / math.sqrt(2.0)
@@ -250,7 +254,7 @@ class Effect:
     theta0: tuple = ()  #: starting grid of nonlinear parameters (log10 values), one tuple per parameter
 
 
-def _scales(ld):
+def _scales(ld: LinkData) -> tuple[float, float]:
     return float(np.percentile(np.abs(ld.d), 99)) or 1.0, float(np.percentile(np.abs(ld.v), 99)) or 1.0
 
 
@@ -293,7 +297,7 @@ def effect_list(ld: LinkData) -> list:
     return effects
 
 
-def basis(effect: Effect, ld: LinkData, theta) -> tuple:
+def basis(effect: Effect, ld: LinkData, theta: ndarray) -> tuple:
     """(offset, Phi) of one effect: its force correction is offset + Phi beta (added to nominal)."""
     nom, n = ld.nominal, ld.F.shape[0]
     z = np.zeros(n)
@@ -323,7 +327,7 @@ def basis(effect: Effect, ld: LinkData, theta) -> tuple:
     raise KeyError(name)
 
 
-def report_params(effect: Effect, ld: LinkData, beta, theta) -> dict:
+def report_params(effect: Effect, ld: LinkData, beta: ndarray, theta: ndarray) -> dict:
     """Physical parameters of a fitted effect (linear beta, nonlinear theta as log10)."""
     name = effect.name
     if name == "friction":

@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -12,15 +13,24 @@ from .. import plotting
 from . import localise
 from .fit import per_band
 
+if TYPE_CHECKING:
+    from typing import Any
 
-def _f(x):
+    from numpy import float64
+
+    from ..data import Dataset
+    from .fit import Diagnosis, Fit
+    from .models import LinkData
+
+
+def _f(x: float | float64) -> float | None:
     if x is None:
         return None
     x = float(x)
     return None if not math.isfinite(x) else x
 
 
-def fit_dict(f, diag):
+def fit_dict(f: Fit, diag: Diagnosis) -> dict[str, Any]:
     return {
         "effects": list(f.effects),
         "labels": list(f.labels),
@@ -35,7 +45,7 @@ def fit_dict(f, diag):
     }
 
 
-def build_result(ds, ld, diag) -> dict:
+def build_result(ds: Dataset, ld: LinkData, diag: Diagnosis) -> dict:
     r0 = ld.F - ld.F_nom
     chosen = diag.chosen
     best = chosen or diag.ranking[0]
@@ -83,7 +93,7 @@ def build_result(ds, ld, diag) -> dict:
     return res
 
 
-def write_report(res: dict, ld, diag, out: Path, frc=None):
+def write_report(res: dict, ld: LinkData, diag: Diagnosis, out: Path, frc: Any = None) -> None:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     best = diag.chosen or diag.ranking[0]
@@ -167,7 +177,7 @@ def write_report(res: dict, ld, diag, out: Path, frc=None):
     (out / "report.md").write_text("\n".join(L) + "\n")
 
 
-def _json_default(o):
+def _json_default(o: Any) -> Any:
     if isinstance(o, (np.floating, np.integer)):
         return o.item()
     if isinstance(o, np.ndarray):

@@ -32,11 +32,18 @@ from __future__ import annotations
 import dataclasses
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 import yaml
 
 from ..records import write_record
+
+if TYPE_CHECKING:
+    from numpy import ndarray
+
+    from ...physics.params import BaseParams, TMDParams
+    from ...solvers.monolithic import SteadyState
 
 RANGES = {
     "friction": (1.5, 20.0),
@@ -91,7 +98,7 @@ def nominal(case: int, damping: float = 15.0) -> dict:
     }
 
 
-def true_tmd(nom: dict, hidden: dict):
+def true_tmd(nom: dict, hidden: dict) -> TMDParams:
     from ...physics.params import TMDParams
 
     return TMDParams(**true_tmd_kwargs(nom, hidden))
@@ -112,7 +119,15 @@ def true_tmd_kwargs(nom: dict, hidden: dict) -> dict:
     return tk
 
 
-def steady_record(base, tmd, omega, n_periods=N_PERIODS, fs=FS, settle_periods=None, rtol=1e-9):
+def steady_record(
+    base: BaseParams,
+    tmd: TMDParams,
+    omega: float,
+    n_periods: int = N_PERIODS,
+    fs: float = FS,
+    settle_periods: int | None = None,
+    rtol: float = 1e-9,
+) -> tuple[ndarray, ndarray, ndarray, SteadyState | None]:
     """(t, states, accelerations [n, 2]) of n_periods of the steady state sampled at fs."""
     from ...physics.kernels import rhs
     from ...physics.params import pack
@@ -151,7 +166,7 @@ def make_system_dataset(
     n_records: int = 4,
     frc: bool = True,
     n_periods: int = N_PERIODS,
-):
+) -> None:
     """Write one system-level dataset (time records + FRC) with the hidden effects ``hidden``."""
     from ...physics.params import BaseParams
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field, replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -48,6 +49,13 @@ from ..gates import (  # noqa: F401
 from .model import EFFECT_PARAMS, SIGN, SystemModel, fit_eq, folds_for, record_views, steady_signature
 from .play import PlayFit
 from .playfit import PlayMixin
+
+if TYPE_CHECKING:
+    from typing import Any
+
+    from ..data import Dataset
+    from .frc import FRCDiagnosis
+    from .model import EqFit
 
 MAX_EFFECTS = 2
 LABELS = {
@@ -117,7 +125,7 @@ class Cand:
     """An effect set with its time-record fit and its FRC chi-square."""
 
     effects: tuple
-    fit: object
+    fit: Any
     chi_t: float  #: held-out chi-square of the time records
     chi_f: float  #: FRC chi-square (0 without FRC records)
     params: dict
@@ -126,17 +134,17 @@ class Cand:
     why: list = field(default_factory=list)
 
     @property
-    def chi(self):
+    def chi(self) -> float:
         return self.chi_t + self.chi_f
 
 
 class SystemDiagnosis(PlayMixin):
-    def __init__(self, ds, frc=None):
+    def __init__(self, ds: Dataset, frc: FRCDiagnosis | None = None) -> None:
         self.ds, self.frc = ds, frc
         self.views, self.flagged = record_views(ds)
-        self.log = []
+        self.log: list[tuple[Any, ...]] = []
 
-    def run(self):
+    def run(self) -> SystemDiagnosis:
         v = self.views
         self.model = m = SystemModel(self.ds, v)
         self.folds = folds_for(v)
@@ -157,7 +165,7 @@ class SystemDiagnosis(PlayMixin):
         # play: the rattle gate, then the gap through the solver
         self.play = PlayFit(m.base, m.tmd, v)
         self.play_ok = False
-        base = ()
+        base: tuple[str, ...] = ()
         if self.play.indicated:
             try:
                 self.play.fit(self.train_ids, self.folds)
@@ -178,8 +186,8 @@ class SystemDiagnosis(PlayMixin):
         self.noise_ok = noise_gate(self.chi0, self.dof)
         self.unobservable = unobservable(v)  # acceleration-only records: no DC, no sensor offset
         self.effects = tuple(e for e in EQ_EFFECTS if e not in self.unobservable)
-        self.frc_ev = {}
-        self.cands = {}
+        self.frc_ev: dict[tuple[str, ...], Any] = {}
+        self.cands: dict[tuple[str, ...], Any] = {}
         start = self._cand(base) if base else Cand((), None, self.chi0_t, self.chi0_f, {}, {})
         self.singles = {}
         for e in self.effects:
@@ -187,7 +195,8 @@ class SystemDiagnosis(PlayMixin):
             pr = self._frc_prior(base, e, f)
             self.singles[e] = fit_eq(m, base + (e,), self.folds, prior=pr) if pr else f
         self._refine_friction(base)
-        chosen, cur = list(base), start
+        chosen: list[str] = list(base)
+        cur = start
         while len(chosen) < MAX_EFFECTS and noise_gate(cur.chi, self.dof):
             cands = []
             for e in self.effects:
@@ -280,7 +289,7 @@ class SystemDiagnosis(PlayMixin):
         self.localisation = localise(self)
         return self
 
-    def _frc_prior(self, base, e, f_time):
+    def _frc_prior(self, base: tuple[str, ...], e: str, f_time: EqFit) -> dict[int, Any] | None:
         """The FRC's own fit of effect ``e`` (fitted on two thirds of its frequencies) as a prior on
         its time-record parameter, so one informative record held out is predicted from the other
         records **and** the FRC (issue 19: a single informative record vetoed a cubic). Used only
@@ -300,7 +309,7 @@ class SystemDiagnosis(PlayMixin):
         k = sum(len(EFFECT_PARAMS[b]) for b in base)
         return {k: (SIGN.get(e, 1.0) * v, sd)}
 
-    def _cand(self, effects, parent=None) -> Cand:
+    def _cand(self, effects: tuple[str, ...], parent: Cand | None = None) -> Cand:
         """Fit ``effects`` on the time records; its FRC chi-square from the time-record parameters
         or, when that leaves a structural FRC gap, from the last effect's parameter fitted on the FRC."""
         effects = tuple(effects)
@@ -354,13 +363,13 @@ class SystemDiagnosis(PlayMixin):
         self.cands[effects] = c
         return c
 
-    def gaps(self):
+    def gaps(self) -> tuple[float, float]:
         """(held-out gap before, after the named effects) in chi-square units: time records + FRC +
         (with play) the rattle statistic."""
         ho = self.held_out()
         return ho["excess_before"], ho["excess_after"]
 
-    def _effect_rms(self, f, effect):
+    def _effect_rms(self, f: EqFit, effect: str) -> tuple[float, float]:
         """(rms of the force the effect adds in the base equation, rms of the nominal link force) [N]."""
         m = self.model
         k = 0
@@ -378,7 +387,7 @@ class SystemDiagnosis(PlayMixin):
             den += float(np.sum(np.abs(L[1:]) ** 2) / 2)
         return math.sqrt(num), math.sqrt(den)
 
-    def _refine_friction(self, base, iterations=2):
+    def _refine_friction(self, base: tuple[str, ...], iterations: int = 2) -> None:
         """When dry friction is a leading candidate, replace its regressor (the kernels' friction law
         along the measured, smoothed relative velocity) by the friction force along the steady state
         simulated with the fitted df (the solver resolves the stick phases), per newton; refit."""
@@ -411,20 +420,21 @@ class SystemDiagnosis(PlayMixin):
                 break
         self.singles["friction"] = g
 
-    def _frc_evidence(self, f):
+    def _frc_evidence(self, f: EqFit) -> Any:
         key = f.effects
         if key not in self.frc_ev:
+            assert self.frc is not None  # called only with FRC records
             self.frc_ev[key] = self.frc.evidence(f.params)
         return self.frc_ev[key]
 
     # --- results -------------------------------------------------------------------------------
-    def params(self):
+    def params(self) -> Any:
         if not self.chosen:
             return {}, {}
         c = self._cand(tuple(self.chosen))
         return dict(c.params), dict(c.std)
 
-    def held_out(self):
+    def held_out(self) -> dict[str, Any]:
         """Held-out chi-squares and gaps (time records + FRC points + rattle statistic), before and
         after the named effects."""
         dof = self.dof
@@ -476,9 +486,9 @@ class SystemDiagnosis(PlayMixin):
             "per_record": per,
         }
 
-    def candidates(self):
-        rows = []
-        base = ("play",) if self.play_ok else ()
+    def candidates(self) -> list[dict[str, Any]]:
+        rows: list[dict[str, Any]] = []
+        base: tuple[str, ...] = ("play",) if self.play_ok else ()
         chi_b = self._cand(base).chi if base else self.chi0
         for e, f in self.singles.items():
             c = self.cands.get(f.effects)
@@ -504,7 +514,7 @@ class SystemDiagnosis(PlayMixin):
         rows.sort(key=lambda r: -r["evidence"])
         return rows
 
-    def verdict_text(self):
+    def verdict_text(self) -> str:
         from ..verdict import verdict_text
 
         return verdict_text(self, LABELS, UNITS)

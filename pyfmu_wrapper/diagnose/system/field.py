@@ -22,7 +22,9 @@ integrator (:mod:`sysbench_oov`) for OOV dynamics.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
@@ -40,7 +42,7 @@ PLAY_PERIODS = 40  #: play (rattling): settle at most 40 periods; x_max = max ov
 
 
 # -- acquisition ------------------------------------------------------------------------------------
-def analog_zpk(spec: dict):
+def analog_zpk(spec: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, float]:
     """Analog prototype (z, p, k) of a declared filter {type, order, cutoff_hz}."""
     wc = 2 * math.pi * float(spec["cutoff_hz"])
     n = int(spec["order"])
@@ -51,7 +53,7 @@ def analog_zpk(spec: dict):
     raise ValueError(f"unknown filter type {spec['type']!r}")
 
 
-def filter_response(spec: dict, omega) -> np.ndarray:
+def filter_response(spec: dict[str, Any], omega: Any) -> np.ndarray:
     """H(i w) of the declared analog filter at omega [rad/s] (scipy freqs_zpk)."""
     z, p, k = analog_zpk(spec)
     return signal.freqs_zpk(z, p, k, np.atleast_1d(np.asarray(omega, dtype=float)))[1]
@@ -112,7 +114,17 @@ def truth_dense(truth: dict, omega: float, F_rec: float, tau: np.ndarray) -> dic
     return {"x": z[:, 0], "y": z[:, 2], "xdd": acc[:, 0], "ydd": acc[:, 1]}
 
 
-def measure(tr: dict, truth: dict, omega, F_rec, phi, t_dense, acq, fd, channels):
+def measure(
+    tr: dict[str, Any],
+    truth: dict[str, Any],
+    omega: float,
+    F_rec: float,
+    phi: float,
+    t_dense: np.ndarray,
+    acq: dict[str, Any] | None,
+    fd: float,
+    channels: Iterable[str],
+) -> dict[str, np.ndarray]:
     """Noise-free measured channels on the dense grid (readings, delay, filter)."""
     gains = truth.get("oov", {})
     out = {}
@@ -132,7 +144,7 @@ def measure(tr: dict, truth: dict, omega, F_rec, phi, t_dense, acq, fd, channels
     return out
 
 
-def record_grid(omega, fs, n_periods, phi):
+def record_grid(omega: float, fs: float, n_periods: int, phi: float) -> tuple[Any, ...]:
     """(dense solver times tau, dense record times t_dense, k, j0, n): the record's t = 0 is at
     tau = phi / w + 3 T; the ADC takes dense points j0 + k i, i < n."""
     T = 2 * math.pi / omega
@@ -146,7 +158,19 @@ def record_grid(omega, fs, n_periods, phi):
     return tau, t_dense, k, j0, n, fd
 
 
-def time_record(truth, nom, omega, F_rec, fs, n_periods, phi, acq, accel_only, rng, levels):
+def time_record(
+    truth: dict[str, Any],
+    nom: dict[str, Any],
+    omega: float,
+    F_rec: float,
+    fs: float,
+    n_periods: int,
+    phi: float,
+    acq: dict[str, Any] | None,
+    accel_only: bool,
+    rng: np.random.Generator,
+    levels: dict[str, Any],
+) -> tuple[Any, ...]:
     """(columns, noise-free difference chi-square against the nominal, noise stds)."""
     tau, t_dense, k, j0, n, fd = record_grid(omega, fs, n_periods, phi)
     chans = ("force", "xdd", "ydd") if accel_only else CHANNELS
@@ -167,7 +191,7 @@ def time_record(truth, nom, omega, F_rec, fs, n_periods, phi, acq, accel_only, r
     return {c: cols[c] for c in order}, chi2, sig
 
 
-def frc_amplitudes(truth: dict, omegas, F_rec) -> np.ndarray:
+def frc_amplitudes(truth: dict[str, Any], omegas: Any, F_rec: Any) -> np.ndarray:
     """Noise-free steady-state max |x| of the truth along a sweep (in the order given)."""
     from ...physics.params import BaseParams, TMDParams
     from .oov import has_dynamics, oov_model
@@ -208,7 +232,13 @@ def frc_amplitudes(truth: dict, omegas, F_rec) -> np.ndarray:
     return np.array(out)
 
 
-def frc_record(truth, nom, frc: dict, acq, rng):
+def frc_record(
+    truth: dict[str, Any],
+    nom: dict[str, Any],
+    frc: dict[str, Any],
+    acq: dict[str, Any] | None,
+    rng: np.random.Generator,
+) -> tuple[Any, ...]:
     """(columns, chi-square of the noise-free difference against the nominal)."""
     om = np.asarray(frc["omegas"], dtype=float)
     xm = frc_amplitudes(truth, om, frc["force"])
@@ -226,7 +256,7 @@ def frc_record(truth, nom, frc: dict, acq, rng):
     return cols, chi2
 
 
-def write_dataset(folder: Path, spec: dict, rng) -> dict:
+def write_dataset(folder: Path, spec: dict[str, Any], rng: np.random.Generator) -> dict[str, Any]:
     """Write dataset.yaml and the records of one drawn dataset ``spec`` (see sysbench_suite.draw_dataset);
     returns the visibility measure."""
     folder = Path(folder)
@@ -270,7 +300,7 @@ def write_dataset(folder: Path, spec: dict, rng) -> dict:
     return {"chi2_time": chi2_t, "chi2_frc": chi2_f, "chi2": chi2_t + chi2_f}
 
 
-def _write_frc(file: Path, om, F, xm, direction):
+def _write_frc(file: Path, om: np.ndarray, F: np.ndarray, xm: np.ndarray, direction: Any) -> None:
     with open(file, "w") as f:
         f.write("omega,force_amplitude,x_max,direction\n")
         for a, b, c in zip(om, F, xm):

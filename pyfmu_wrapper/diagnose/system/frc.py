@@ -24,6 +24,7 @@ import json
 import math
 from dataclasses import replace
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.optimize import least_squares, minimize_scalar
@@ -32,12 +33,21 @@ from ...physics.params import BaseParams, ParameterError, TMDParams
 from ...solvers.frequency_response import exact_amplitude
 from ...solvers.monolithic import SolverError, steady_state
 
+if TYPE_CHECKING:
+    from collections.abc import Iterator
+    from typing import Any
+
+    from numpy import float64, ndarray
+
+    from ...physics.params import BaseParams, TMDParams
+    from ..data import Dataset
+
 BIC_THRESHOLD = 6.0
 EXCESS_THRESHOLD = 0.15
 
 
 class FRCDiagnosis:
-    def __init__(self, ds):
+    def __init__(self, ds: Dataset) -> None:
         recs = [r for r in ds.records if r.kind == "frc"]
         self.names = [r.name for r in recs]
         self.w = np.concatenate([r["omega"] for r in recs])
@@ -72,14 +82,21 @@ class FRCDiagnosis:
         self._fold = np.zeros(self.w.size, int)
         self._fold[np.argsort(self.w, kind="stable")] = np.arange(self.w.size) % 3
 
-    def amplitude(self, base, tmd, gain=1.0, bias=0.0, only=None):
+    def amplitude(
+        self,
+        base: BaseParams,
+        tmd: TMDParams,
+        gain: float | float64 = 1.0,
+        bias: float | float64 = 0.0,
+        only: ndarray | None = None,
+    ) -> ndarray:
         """x_max at every FRC point (``only``: a mask of the points to compute; others are nan)."""
         if tmd.is_linear:
             a = exact_amplitude(replace(base, force_amplitude=1.0), tmd, self.w) * np.abs(self.F) * gain
         else:
             # a sweep in frequency order reusing the shooting Jacobian of the previous point
             a = np.full(self.w.size, np.nan)
-            hint = {}
+            hint: dict[str, Any] = {}
             for i in np.argsort(self.w, kind="stable"):
                 if only is not None and not only[i]:
                     continue
@@ -88,7 +105,7 @@ class FRCDiagnosis:
                 ).amplitude
         return a + bias
 
-    def predict(self, params: dict):
+    def predict(self, params: dict[str, Any]) -> ndarray | None:
         """x_max predicted by the nominal model changed by fitted effect parameters (names as in
         the diagnosis: ``effect.parameter``); None when an effect cannot be evaluated on FRC
         records (play: its effect on x_max is below the solver's steady-state scatter)."""
@@ -132,13 +149,13 @@ class FRCDiagnosis:
         return pred
 
     @property
-    def sigma(self):
+    def sigma(self) -> ndarray:
         """Noise std of every x_max [m]: x_max_noise when given, else the relative estimate."""
         if self.noise_given:
             return np.full(self.x.size, self.noise_given)
         return np.abs(self.x) * np.maximum(self.noise_rel_pt, 1e-12)
 
-    def _per_record(self, rel, pooled: float) -> np.ndarray:
+    def _per_record(self, rel: ndarray, pooled: float) -> np.ndarray:
         """Robust relative noise per FRC record (:func:`_d2_noise` on each record's own points; the
         pooled value for a record of fewer than 5 points), one value per point."""
         out = np.full(self.x.size, float(pooled))
@@ -149,17 +166,17 @@ class FRCDiagnosis:
                     out[m] = _d2_noise(rel[m], self.w[m]) or pooled
         return out
 
-    def chi2(self, pred, mask=None):
+    def chi2(self, pred: ndarray, mask: ndarray | None = None) -> float:
         r = (self.x - pred) / self.sigma
         if mask is not None:
             r = r[mask]
         return float(r @ r)
 
-    def chi2_points(self, pred):
+    def chi2_points(self, pred: np.ndarray) -> np.ndarray:
         r = (self.x - pred) / self.sigma
         return r * r
 
-    def bounds(self, key, stroke):
+    def bounds(self, key: str, stroke: float) -> tuple[float, float] | None:
         """Plausible range of an effect parameter for the FRC search (SI)."""
         b, t = self.base, self.tmd
         Fm = float(np.max(np.abs(self.F)))
@@ -176,7 +193,9 @@ class FRCDiagnosis:
             "tmd_stiffness.delta_stiffness": (-0.3 * t.stiffness, 0.3 * t.stiffness),
         }.get(key)
 
-    def fit_effect(self, key, fixed: dict, guess=None, std=None, stroke=0.0):
+    def fit_effect(
+        self, key: str, fixed: dict, guess: float | None = None, std: float | None = None, stroke: float = 0.0
+    ) -> dict[str, float] | None:
         """Fit parameter ``key`` on the FRC points with the parameters ``fixed`` (from the time
         records) held; search within guess +- 6 std (the time-record fit) clipped to the plausible
         range, or the whole range. Returns {value, std, chi2_all, chi2_cv} (chi2_cv: each third of
@@ -192,12 +211,12 @@ class FRCDiagnosis:
                 return None
         cache = {}
 
-        def pred(v):
+        def pred(v: float) -> Any:
             if v not in cache:
                 cache[v] = self.predict({**fixed, key: float(v)})
             return cache[v]
 
-        def obj(v):
+        def obj(v: float) -> float:
             try:
                 p = pred(v)
             except (SolverError, ParameterError, ValueError, FloatingPointError):
@@ -253,7 +272,7 @@ class FRCDiagnosis:
             return None
         return self.chi2(self.pred0) - self.chi2(pred)
 
-    def chi2_of(self, params: dict):
+    def chi2_of(self, params: dict[str, Any]) -> float | None:
         """FRC chi-square of the nominal changed by ``params`` (None when not evaluable)."""
         try:
             pred = self.predict(params)
@@ -263,13 +282,13 @@ class FRCDiagnosis:
             return None
         return self.chi2(pred)
 
-    def _noise(self):
+    def _noise(self) -> float:
         o = np.argsort(self.w)
         r = (self.x - self.amplitude(self.base, self.tmd))[o]
         d2 = np.diff(r, 2)
         return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0)) if d2.size else 0.0
 
-    def _candidates(self):
+    def _candidates(self) -> Iterator[Any]:
         b, t = self.base, self.tmd
         I0 = t.inertance
         yield (
@@ -331,7 +350,7 @@ class FRCDiagnosis:
             lambda p: self.amplitude(b, replace(t, stiffness=max(t.stiffness + p[0], 0.0))),
         )
 
-    def run(self):
+    def run(self) -> FRCDiagnosis:
         """Fit each candidate on the training frequencies; everything in relative residuals
         (x - model) / x_max, the form of the measurement noise (a % of x_max)."""
         sc = np.maximum(np.abs(self.x), 1e-300)
@@ -343,7 +362,7 @@ class FRCDiagnosis:
         for name, pnames, p0, model in self._candidates():
             if p0 is None or isinstance(p0, tuple):  # friction, cubic: bounded scalar search on the training points
 
-                def obj(v, model=model):
+                def obj(v: float, model: Any = model) -> float:
                     try:
                         return float(np.sum(((self.x - model([v], only=self.train)) / sc)[self.train] ** 2))
                     except (SolverError, ParameterError, ValueError, FloatingPointError):
@@ -412,7 +431,7 @@ class FRCDiagnosis:
         n = self.x.size
         c0, c1 = self.chi2(self.pred0), self.chi2(best["pred"])
         G0, G1 = max(c0 - n, 0.0), max(c1 - n, 0.0)
-        self.hint = None
+        self.hint: Any = None
         if self.chosen is not None and not share_gate(G0, G1):
             self.hint, self.chosen = best, None
         gap = noise_gate(c0, n)
@@ -422,7 +441,7 @@ class FRCDiagnosis:
             self.hint = best
         return self
 
-    def result(self):
+    def result(self) -> dict[str, Any]:
         nt = int(self.test.sum())
         xr = 1.0  # residuals are relative to x_max already
         c = self.chosen
@@ -464,7 +483,7 @@ class FRCDiagnosis:
             },
         }
 
-    def markdown(self):
+    def markdown(self) -> list[str]:
         res = self.result()
         h = res["held_out"]
         L = [
@@ -484,7 +503,7 @@ class FRCDiagnosis:
         L += ["", f"Held-out NRMSE {h['nrmse_before']:.4f} -> {h['nrmse_after']:.4f}.", ""]
         return L
 
-    def write(self, out: Path, res=None):
+    def write(self, out: Path, res: dict[str, Any] | None = None) -> None:
         out.mkdir(parents=True, exist_ok=True)
         from ..plotting import plot_frc
 
@@ -493,12 +512,12 @@ class FRCDiagnosis:
         (out / "report.md").write_text("# FRC diagnosis\n\n" + "\n".join(self.markdown()) + "\n")
 
 
-def _d2_noise(rel, w) -> float:
+def _d2_noise(rel: ndarray, w: ndarray) -> float:
     """Robust std of white noise on a smooth curve: 1.4826 MAD of the second differences in
     frequency order / sqrt(6)."""
     d2 = np.diff(np.asarray(rel)[np.argsort(w, kind="stable")], 2)
     return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0)) if d2.size else 0.0
 
 
-def diagnose_frc(ds) -> FRCDiagnosis:
+def diagnose_frc(ds: Dataset) -> FRCDiagnosis:
     return FRCDiagnosis(ds).run()

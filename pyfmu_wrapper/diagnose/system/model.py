@@ -23,7 +23,9 @@ parameters fitted on the others.
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -33,13 +35,21 @@ from ...physics.params import N_PARAMS, BaseParams, P_k3, TMDParams, pack
 from ..data import DataError
 from ..harmonic import PERIODIC_R2, fit_series, fuse, grid_coef, grid_values
 
+if TYPE_CHECKING:
+    from typing import Any
+
+    from numpy import ndarray
+
+    from ...physics.params import BaseParams, TMDParams
+    from ..data import Dataset
+
 H_EQ = 12  #: harmonics used in the equation error
 N_GRID = 256  #: samples per period for nonlinear force laws
 SLOPES = (1e2, 1e3, 1e4, 1e5, 1e6)  #: friction slopes [s/m] tried (kernels' regularisation)
 
 
 @njit(cache=True)
-def link_force_grid(x, xd, y, yd, p):
+def link_force_grid(x: np.ndarray, xd: np.ndarray, y: np.ndarray, yd: np.ndarray, p: np.ndarray) -> np.ndarray:
     out = np.empty(x.shape[0])
     for i in range(x.shape[0]):
         out[i] = static_link_force(x[i], xd[i], y[i], yd[i], p)
@@ -47,7 +57,7 @@ def link_force_grid(x, xd, y, yd, p):
 
 
 @njit(cache=True)
-def friction_grid(v, s):
+def friction_grid(v: np.ndarray, s: float) -> np.ndarray:
     out = np.empty(v.shape[0])
     for i in range(v.shape[0]):
         out[i] = friction_force(v[i], 1.0, s)
@@ -59,7 +69,7 @@ class RecView:
     name: str
     omega: float
     amplitude: float
-    series: object
+    series: Any
     X: np.ndarray
     vX: np.ndarray
     Y: np.ndarray
@@ -78,11 +88,11 @@ class RecView:
     acq: dict = field(default_factory=dict)  #: the dataset's acquisition chain (channel -> acquisition.Chain)
 
 
-def _nominal_objects(ds):
+def _nominal_objects(ds: Dataset) -> tuple[BaseParams, TMDParams]:
     return BaseParams(**ds.nominal["base"]), TMDParams(**ds.nominal["tmd"])
 
 
-def record_views(ds):
+def record_views(ds: Dataset) -> tuple[list[RecView], list[tuple[str, str]]]:
     """Periodic system time records as :class:`RecView`; returns (views, flagged) where flagged lists
     (record name, reason) for records left out of the harmonic analysis.
 
@@ -171,13 +181,13 @@ def record_views(ds):
 class SystemModel:
     """Nominal residuals, noise whitening and candidate regressors for a set of RecViews."""
 
-    def __init__(self, ds, views):
+    def __init__(self, ds: Dataset, views: list[RecView]) -> None:
         self.base, self.tmd = _nominal_objects(ds)
         self.views = views
         b, t = self.base, self.tmd
         self.p = pack(b, t, 0.0)
-        self.play_signature = {}
-        self.friction_signature = {}  #: record -> (A_h, B_h) per newton of friction, from the solver
+        self.play_signature: dict[str, Any] = {}
+        self.friction_signature: dict[str, Any] = {}  #: record -> (A_h, B_h) per newton of friction, from the solver
         for v in views:
             H = v.X.size - 1
             hw = np.arange(H + 1) * v.omega
@@ -196,7 +206,9 @@ class SystemModel:
             v.W = W
             v.r = self.whiten(v, A, B)
 
-    def residuals(self, v, X, Y, F, grid=None):
+    def residuals(
+        self, v: RecView, X: ndarray, Y: ndarray, F: ndarray, grid: dict[str, ndarray] | None = None
+    ) -> tuple[ndarray, ndarray]:
         """Equation errors (A_h, B_h) of the nominal model for displacement series X, Y and force F."""
         b, t = self.base, self.tmd
         H = X.size - 1
@@ -212,7 +224,7 @@ class SystemModel:
         zb = b.stiffness + 1j * b.damping * hw - b.mass * hw**2
         return F - zb * X - L, -t.mass * hw**2 * Y - L
 
-    def whiten(self, v, A, B):
+    def whiten(self, v: RecView, A: ndarray, B: ndarray) -> ndarray:
         """Real vector of whitened residual components (h = 0: real parts only)."""
         Z = np.einsum("hij,hj->hi", v.W, np.stack([A, B], axis=1))
         if not v.dc:  # acceleration-only record: the mean (h = 0) is not observed
@@ -220,7 +232,7 @@ class SystemModel:
         return np.concatenate([Z[0].real, Z[1:].real.ravel(), Z[1:].imag.ravel()])
 
     # --- candidate regressors: list of (A_h, B_h) complex pairs, one per linear parameter ----------
-    def columns(self, effect, v, theta=()):
+    def columns(self, effect: str, v: RecView, theta: Sequence[float] = ()) -> list[tuple[ndarray, ndarray]]:
         t, b = self.tmd, self.base
         H = v.X.size - 1
         hw = np.arange(H + 1) * v.omega
@@ -260,14 +272,14 @@ class SystemModel:
             return [(D, D)]
         raise KeyError(effect)
 
-    def unit_link_force(self, v, index):
+    def unit_link_force(self, v: RecView, index: int) -> ndarray:
         """The kernels' static link force over one period with only parameter ``index`` = 1."""
         p = np.zeros(N_PARAMS)
         p[index] = 1.0
         g = v.grid
         return link_force_grid(g["x"], g["xd"], g["y"], g["yd"], p)
 
-    def offset(self, effect, v):
+    def offset(self, effect: str, v: RecView) -> tuple[ndarray, ndarray] | None:
         """Offset added to the residual model by a candidate that replaces part of the nominal."""
         if effect == "play" and v.name in self.play_signature:
             return self.play_signature[v.name]
@@ -277,7 +289,7 @@ class SystemModel:
             return -f, -f
         return None
 
-    def design(self, effects, thetas):
+    def design(self, effects: tuple[str, ...], thetas: dict[str, Any]) -> list[tuple[ndarray, ndarray]]:
         """Per record: (whitened offset vector, whitened design matrix)."""
         out = []
         for v in self.views:
@@ -308,7 +320,7 @@ EFFECT_PARAMS = {
 SIGN = {"force_error": -1.0}  # beta = -alpha
 
 
-def _lstsq(Phi, y):
+def _lstsq(Phi: ndarray, y: ndarray) -> tuple[ndarray, ndarray]:
     sc = np.sqrt((Phi**2).sum(axis=0))
     sc[sc == 0] = 1.0
     A = Phi / sc
@@ -332,7 +344,7 @@ class EqFit:
     resid_ho: list = field(default_factory=list)  #: per record, the whitened held-out residual (None: never held out)
 
 
-def _with_prior(Phi, y, prior):
+def _with_prior(Phi: ndarray, y: ndarray, prior: dict[int, Any] | None) -> tuple[ndarray, ndarray]:
     """Append one row per prior (column k: value b with std sd) to a whitened least-squares problem."""
     if not prior:
         return Phi, y
@@ -343,7 +355,13 @@ def _with_prior(Phi, y, prior):
     return np.vstack([Phi, R]), np.concatenate([y, v])
 
 
-def fit_eq(model: SystemModel, effects, folds, theta=None, prior=None) -> EqFit:
+def fit_eq(
+    model: SystemModel,
+    effects: tuple[str, ...],
+    folds: list[tuple[list[int], list[int]]],
+    theta: dict[str, Any] | None = None,
+    prior: dict[int, Any] | None = None,
+) -> EqFit:
     """Fit the linear parameters of ``effects`` on all training records; held-out chi-square by folds.
 
     folds: list of (train record ids, test record ids). prior: {column: (value, std)} -- evidence
@@ -404,7 +422,7 @@ def fit_eq(model: SystemModel, effects, folds, theta=None, prior=None) -> EqFit:
     return f
 
 
-def folds_for(views):
+def folds_for(views: list[RecView]) -> list[tuple[list[int], list[int]]]:
     """Leave-one-record-out folds, or the dataset's roles (train/test)."""
     n = len(views)
     roles = [v.role for v in views]
@@ -427,11 +445,11 @@ def folds_for(views):
     return [([j for j in range(n) if j != i], [i]) for i in range(n)]
 
 
-def n_components(views, ids):
+def n_components(views: Sequence[RecView], ids: Iterable[int]) -> int:
     return sum(views[i].r.size for i in ids)
 
 
-def steady_signature(model: SystemModel, v: RecView, tmd) -> tuple:
+def steady_signature(model: SystemModel, v: RecView, tmd: TMDParams) -> tuple:
     """Equation errors (A_h, B_h) the nominal model leaves on the periodic steady state of ``tmd``
     simulated by the project's solver at the record's frequency and force amplitude, rotated into
     the phase of the measured force. For a link-force effect this is the effect's force along the

@@ -28,9 +28,16 @@ response.
 from __future__ import annotations
 
 import math
+from typing import TYPE_CHECKING
 
 import numpy as np
 from scipy.integrate import solve_ivp
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from typing import Any
+
+    from numpy import complex128, float64, ndarray
 
 V0_BASE_FRICTION = 1e-3  #: regularisation velocity of the base-ground Coulomb law [m/s]
 DYNAMIC = ("quadratic_damping", "base_friction", "base_hardening")
@@ -43,7 +50,7 @@ class OOVModel:
     """The coupled base + TMD with the OOV terms; ``nom`` is a benchmark nominal (dict of
     base/tmd keyword arguments, ideal inerter), ``F`` the true force amplitude [N]."""
 
-    def __init__(self, base: dict, tmd: dict, F: float, c2=0.0, mu=0.0, K3=0.0):
+    def __init__(self, base: dict, tmd: dict, F: float, c2: float = 0.0, mu: float = 0.0, K3: float = 0.0) -> None:
         self.M, self.K, self.C = float(base["mass"]), float(base["stiffness"]), float(base["damping"])
         self.m, self.k, self.c = float(tmd["mass"]), float(tmd["stiffness"]), float(tmd["damping"])
         self.I = float(tmd.get("inertance", 0.0))
@@ -58,7 +65,15 @@ class OOVModel:
         self.det = M1 * m1 - I * I
 
     # -- equations ------------------------------------------------------------------------------
-    def accelerations(self, t, x, xd, y, yd, omega):
+    def accelerations(
+        self,
+        t: Any,
+        x: ndarray | float64,
+        xd: ndarray | float64,
+        y: ndarray | float64,
+        yd: ndarray | float64,
+        omega: float,
+    ) -> tuple[ndarray, ndarray] | tuple[float64, float64]:
         """(xdd, ydd), vectorised over arrays."""
         v = xd - yd
         Fs = self.k * (x - y) + self.c * v + self.c2 * np.abs(v) * v
@@ -69,14 +84,14 @@ class OOVModel:
         ydd = (self.I * r1 + (self.M + self.I) * r2) / self.det
         return xdd, ydd
 
-    def rhs(self, omega):
-        def f(t, z):
+    def rhs(self, omega: float) -> Callable:
+        def f(t: float, z: np.ndarray) -> np.ndarray:
             xdd, ydd = self.accelerations(t, z[0], z[1], z[2], z[3], omega)
             return np.array([z[1], xdd, z[3], ydd])
 
         return f
 
-    def linear_response(self, omega):
+    def linear_response(self, omega: float) -> tuple[complex128, complex128]:
         """Complex amplitudes (X, Y) of the linear part (c2 = mu = K3 = 0): x = Re(X e^{i w t})."""
         w = omega
         Mm = np.array([[self.M + self.I, -self.I], [-self.I, self.m + self.I]])
@@ -85,18 +100,18 @@ class OOVModel:
         X = np.linalg.solve(-w * w * Mm + 1j * w * Cm + Km, np.array([self.F, 0.0], dtype=complex))
         return X[0], X[1]
 
-    def linear_state(self, omega, t=0.0):
+    def linear_state(self, omega: float, t: float = 0.0) -> ndarray:
         X, Y = self.linear_response(omega)
         e = np.exp(1j * omega * t)
         return np.real(np.array([X * e, 1j * omega * X * e, Y * e, 1j * omega * Y * e]))
 
     # -- steady state ---------------------------------------------------------------------------
-    def _scale(self, omega):
+    def _scale(self, omega: float) -> ndarray:
         X, Y = self.linear_response(omega)
         a = max(abs(X), abs(Y), 1e-9)
         return np.array([a, a * omega, a, a * omega])
 
-    def period_map(self, z, omega):
+    def period_map(self, z: ndarray, omega: float) -> ndarray:
         T = 2 * math.pi / omega
         sc = self._scale(omega)
         sol = solve_ivp(self.rhs(omega), (0.0, T), z, method="DOP853", rtol=RTOL, atol=1e-12 * sc)
@@ -104,7 +119,7 @@ class OOVModel:
             raise RuntimeError(f"OOV integrator failed at omega = {omega}: {sol.message}")
         return sol.y[:, -1]
 
-    def monodromy(self, z, phi, omega):
+    def monodromy(self, z: ndarray, phi: ndarray, omega: float) -> ndarray:
         """d(period map)/dz by forward differences."""
         sc = self._scale(omega)
         J = np.empty((4, 4))
@@ -114,7 +129,9 @@ class OOVModel:
             J[:, j] = (self.period_map(z + dz, omega) - phi) / dz[j]
         return J
 
-    def steady_state(self, omega, z0=None, hint: dict | None = None, tol=1e-9):
+    def steady_state(
+        self, omega: float, z0: ndarray | None = None, hint: dict | None = None, tol: float = 1e-9
+    ) -> ndarray:
         """State at phase w t = 0 of a stable periodic orbit: Newton shooting from z0 (default this
         module's linear response); if that fails, 30 periods of integration from the linear response
         and Newton again; last, up to 600 periods of integration."""
@@ -137,7 +154,9 @@ class OOVModel:
             z = zn
         raise RuntimeError(f"OOV steady state did not converge at omega = {omega}")
 
-    def _newton(self, omega, z0, hint, tol, max_iter):
+    def _newton(
+        self, omega: float, z0: ndarray | None, hint: dict[str, ndarray] | None, tol: float, max_iter: int
+    ) -> ndarray:
         """State at phase w t = 0 of a stable periodic orbit: Newton shooting with a line search
         (monodromy by finite differences; ``hint`` carries it along a sweep), falling back to
         plain periods of integration when a step does not lower the residual, and to 60 periods
@@ -185,7 +204,9 @@ class OOVModel:
             hint["J"] = J
         return z
 
-    def dense(self, omega, tau, z0=None, hint=None):
+    def dense(
+        self, omega: float, tau: ndarray, z0: ndarray | None = None, hint: dict[str, Any] | None = None
+    ) -> tuple[dict[str, ndarray], ndarray]:
         """(x, xd, y, yd, xdd, ydd) at the times ``tau`` >= 0 (force F cos(w tau)) on the orbit."""
         zs = self.steady_state(omega, z0, hint)
         if self.c2 == 0.0 and self.mu == 0.0 and self.K3 == 0.0:
@@ -207,7 +228,9 @@ class OOVModel:
         xdd, ydd = self.accelerations(tau, x, xd, y, yd, omega)
         return {"x": x, "xd": xd, "y": y, "yd": yd, "xdd": xdd, "ydd": ydd}, zs
 
-    def amplitude(self, omega, z0=None, hint=None, n=2048):
+    def amplitude(
+        self, omega: float, z0: ndarray | None = None, hint: dict[str, ndarray] | None = None, n: int = 2048
+    ) -> tuple[float, ndarray]:
         """max |x| over one steady period and the orbit's phase-0 state (for the next point)."""
         zs = self.steady_state(omega, z0, hint)
         T = 2 * math.pi / omega

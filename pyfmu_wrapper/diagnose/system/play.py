@@ -23,10 +23,20 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from ..harmonic import fit_series
+
+if TYPE_CHECKING:
+    from typing import Any
+
+    from numpy import float64
+
+    from ...physics.params import BaseParams, TMDParams
+    from ..harmonic import Series
+    from .model import RecView, SystemModel
 
 Z_GATE = 6.0  #: rattle statistic (in noise std) above which a record shows contact spikes
 EPS_LADDER = (1e-5, 1e-4, 1e-3)  #: gaps [m] of the first simulations
@@ -35,7 +45,7 @@ RTOL = 1e-6  #: integrator tolerance of the fitting simulations (the rattle stat
 SETTLE = 4  #: periods simulated from the companion orbit before the record starts
 
 
-def rattle_stat(s, M, m):
+def rattle_stat(s: Series, M: float, m: float) -> tuple[float, float]:
     """(S [N^2], z) of a fitted Series with xdd and ydd residuals."""
     ex, ey = s.resid.get("xdd"), s.resid.get("ydd")
     if ex is None or ey is None:
@@ -46,7 +56,9 @@ def rattle_stat(s, M, m):
     return -M * m * c, (-c / sd if sd > 0 else 0.0)
 
 
-def simulated_stat(base, tmd, omega, force, eps, dt, n_periods):
+def simulated_stat(
+    base: BaseParams, tmd: TMDParams, omega: float, force: float, eps: float, dt: float, n_periods: int
+) -> tuple[float, Series]:
     from ...physics.params import InerterModel
     from .bench import steady_record
 
@@ -60,24 +72,24 @@ def simulated_stat(base, tmd, omega, force, eps, dt, n_periods):
 class PlayFit:
     """Gap of the inerter gear from the rattle statistic of the records (module doc)."""
 
-    def __init__(self, base, tmd, views):
+    def __init__(self, base: BaseParams, tmd: TMDParams, views: list[RecView]) -> None:
         self.base, self.tmd, self.views = base, tmd, views
         self.S, self.z = [], []
         for v in views:
             S, z = rattle_stat(v.series, base.mass, tmd.mass)
             self.S.append(S)
             self.z.append(z)
-        self.curves = [dict() for _ in views]
-        self.sims = [dict() for _ in views]
+        self.curves: list[dict[float, float]] = [dict() for _ in views]
+        self.sims: list[dict[float, Any]] = [dict() for _ in views]
         self.n_sim = 0
 
     @property
-    def indicated(self):
+    def indicated(self) -> bool:
         """Contact spikes in the records: the rattle statistic beyond Z_GATE in at least half of them."""
         z = np.array(self.z)
         return bool(np.sum(z > Z_GATE) >= max(1, math.ceil(0.5 * z.size)))
 
-    def _sim(self, i, eps):
+    def _sim(self, i: int, eps: float) -> float:
         c = self.curves[i]
         if eps not in c:
             v = self.views[i]
@@ -86,18 +98,18 @@ class PlayFit:
             self.n_sim += 1
         return c[eps]
 
-    def _predict(self, i, eps):
+    def _predict(self, i: int, eps: float | float64) -> float:
         c = self.curves[i]
         e = np.array(sorted(c))
         S = np.array([c[k] for k in e])
         return float(np.exp(np.interp(math.log(eps), np.log(e), np.log(S))))
 
-    def _best(self, ids):
+    def _best(self, ids: list[int]) -> float:
         grid = np.exp(np.linspace(math.log(EPS_LADDER[0]), math.log(EPS_LADDER[-1]), 400))
         cost = [sum((math.log(max(self.S[i], 1e-30)) - math.log(self._predict(i, g))) ** 2 for i in ids) for g in grid]
         return float(grid[int(np.argmin(cost))])
 
-    def fit(self, train_ids, folds):
+    def fit(self, train_ids: list[int], folds: list[tuple[list[int], list[int]]]) -> PlayFit:
         """Gap fitted on train_ids (simulations on every record, for the held-out prediction)."""
         for i in range(len(self.views)):
             for e in EPS_LADDER:
@@ -120,15 +132,15 @@ class PlayFit:
         logs = [math.log(max(self.S[i], 1e-30)) - math.log(self._predict(i, self.eps)) for i in train_ids]
         # uncertainty: the log-scatter of the records mapped through the local slope of S(eps)
         c = self.curves[train_ids[0]]
-        e = np.array(sorted(c))
-        S = np.log([c[k] for k in e])
-        k = int(np.clip(np.searchsorted(e, self.eps), 1, e.size - 1))
-        slope = (S[k] - S[k - 1]) / math.log(e[k] / e[k - 1]) if e[k] != e[k - 1] else 1.0
+        eg = np.array(sorted(c))
+        S = np.log([c[k] for k in eg])
+        k = int(np.clip(np.searchsorted(eg, self.eps), 1, eg.size - 1))
+        slope = (S[k] - S[k - 1]) / math.log(eg[k] / eg[k - 1]) if eg[k] != eg[k - 1] else 1.0
         scat = float(np.std(logs)) / math.sqrt(max(len(logs) - 1, 1)) if len(logs) > 1 else 0.3
         self.std = self.eps * scat / max(abs(slope), 1e-3)
         return self
 
-    def signature(self, model, eps=None):
+    def signature(self, model: SystemModel, eps: float | None = None) -> dict[str, Any]:
         """Per record, the equation error (A_h, B_h) the nominal model leaves on the record simulated
         with the fitted gap (the periodic part of the rattling chain force minus I a), in the phase
         of the measured force: the play candidate's prediction for the harmonic residuals."""

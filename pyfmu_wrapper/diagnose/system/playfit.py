@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import replace
+from typing import Any
 
 import numpy as np
 
@@ -14,7 +15,15 @@ from .play import PlayFit
 
 
 class PlayMixin:
-    def _refit_play(self, c):
+    # what the mixin reads of the diagnosis it is mixed into (SystemDiagnosis)
+    model: Any
+    play: Any
+    folds: Any
+    views: Any
+    train_ids: Any
+    log: Any
+
+    def _refit_play(self, c: Any) -> None:
         """Play + a second effect in the TMD link: the rattle curves S(eps) were simulated with the
         nominal link; extra damping (or stiffness, friction, ...) changes the rattle, so the gap is
         fitted again on curves simulated with the second effect's fitted parameters."""
@@ -53,7 +62,7 @@ class PlayMixin:
             return
         self._take_play(c, pf)
 
-    def _take_play(self, c, pf):
+    def _take_play(self, c: Any, pf: Any) -> None:
         self.log.append(
             (
                 "note",
@@ -68,7 +77,7 @@ class PlayMixin:
         self.play.n_sim += pf.n_sim
         c.params["play.play_gap"], c.std["play.play_gap"] = pf.eps, pf.std
 
-    def _refine_play(self, factor=1.25):
+    def _refine_play(self, factor: float = 1.25) -> None:
         """The rattle statistic fixes the gap to ~10-25 %; the periodic part of the chain force is
         more sensitive to it: compare the equation error of the simulated signature at eps / factor,
         eps, eps * factor (training chi-square) and keep the vertex of the parabola in log eps."""
@@ -91,7 +100,7 @@ class PlayMixin:
         pf.eps = best
         m.play_signature = sigs[best]
 
-    def _spike_sd(self):
+    def _spike_sd(self) -> list[float]:
         out = []
         for w in self.views:
             ex, ey = w.series.resid.get("xdd"), w.series.resid.get("ydd")

@@ -5,21 +5,31 @@ from __future__ import annotations
 import json
 import math
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .. import gates, plotting
 from .diagnosis import LABELS, UNITS
 
+if TYPE_CHECKING:
+    from typing import Any
 
-def _f(x):
+    from numpy import float64
+
+    from ..data import Dataset
+    from .diagnosis import SystemDiagnosis
+    from .frc import FRCDiagnosis
+
+
+def _f(x: float | float64 | None) -> float | None:
     if x is None:
         return None
     x = float(x)
     return x if math.isfinite(x) else None
 
 
-def disagreements(sd, frc_res) -> list:
+def disagreements(sd: SystemDiagnosis, frc_res: dict[str, Any] | None) -> list:
     """Where the FRC records and the time records disagree, and why."""
     out: list[str] = []
     if frc_res is None:
@@ -72,7 +82,7 @@ def disagreements(sd, frc_res) -> list:
     return out
 
 
-def build_system_result(ds, sd, frc=None) -> dict:
+def build_system_result(ds: Dataset, sd: SystemDiagnosis, frc: FRCDiagnosis | None = None) -> dict:
     p, s = sd.params()
     ho = sd.held_out()
     frc_res = frc.result() if frc is not None else None
@@ -156,7 +166,7 @@ def build_system_result(ds, sd, frc=None) -> dict:
     }
 
 
-def write_system_report(res: dict, sd, out: Path, frc=None):
+def write_system_report(res: dict, sd: SystemDiagnosis, out: Path, frc: FRCDiagnosis | None = None) -> None:
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     (out / "diagnosis.json").write_text(json.dumps(res, indent=1, default=_json_default))
@@ -254,7 +264,7 @@ def write_system_report(res: dict, sd, out: Path, frc=None):
     plotting.plot_system_harmonics(sd, out / "where.png")
 
 
-def _json_default(o):
+def _json_default(o: Any) -> Any:
     if isinstance(o, (np.floating, np.integer)):
         return o.item()
     if isinstance(o, np.ndarray):

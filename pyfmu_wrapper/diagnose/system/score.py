@@ -24,13 +24,19 @@ import re
 import statistics
 import time
 from pathlib import Path
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+    from pathlib import Path
+    from typing import Any
 
 TEXT_UNEXPLAINED = re.compile(
     r"unexplained|none of the candidates|not explained|remains unexplained|"
     r"structural gap remains",
     re.I,
 )
-TARGETS = {  # issue 19, "Must show"
+TARGETS: dict[str, tuple[str, float]] = {  # issue 19, "Must show"
     "singles_top1": (">=", 0.95),
     "clean_false_positive_rate": ("<=", 0.10),
     "pairs_both_named": (">=", 0.80),
@@ -111,7 +117,7 @@ def score_row(m: dict, res: dict | None, error: str | None = None) -> dict:
     return row
 
 
-def _rate(rows, pred):
+def _rate(rows: list[Any], pred: Callable) -> float | None:
     return sum(1 for r in rows if pred(r)) / len(rows) if rows else None
 
 
@@ -120,7 +126,7 @@ def summarise(rows: list) -> dict:
     invocab = by["clean"] + by["single"] + by["pair"]
     perr = [e for r in invocab for e in r["param_rel_error"].values()]
     oov = by["oov"]
-    s = {
+    s: dict[str, Any] = {
         "n_datasets": len(rows),
         **{f"n_{c}": len(v) for c, v in by.items()},
         "singles_top1": _rate(by["single"], lambda r: r["correct"]),
@@ -177,7 +183,7 @@ def summarise(rows: list) -> dict:
     return s
 
 
-def is_system_suite(bench) -> bool:
+def is_system_suite(bench: Path) -> bool:
     """True when ``bench/manifest.json`` says it is the system suite (False when unreadable)."""
     try:
         return json.loads((Path(bench) / "manifest.json").read_text()).get("suite") == "system"
@@ -185,7 +191,7 @@ def is_system_suite(bench) -> bool:
         return False
 
 
-def score_system(bench: Path, results: dict | None = None, progress=None) -> dict:
+def score_system(bench: Path, results: dict | None = None, progress: Callable[..., Any] | None = None) -> dict:
     """Diagnose every dataset of a system-suite folder (or take ``results[name]``) and score it."""
     from ..data import DataError
     from ..run import run_diagnosis
@@ -210,7 +216,7 @@ def score_system(bench: Path, results: dict | None = None, progress=None) -> dic
     return {"suite": "system", "written_by": "score", "summary": summarise(rows), "rows": rows}
 
 
-def _pct(x):
+def _pct(x: float | None) -> str:
     return "-" if x is None else f"{100 * x:.0f} %"
 
 
@@ -226,14 +232,14 @@ def table(summary: dict) -> str:
         "|---|---|---|---|",
     ]
 
-    def add(name, key, frac):
+    def add(name: str, key: str, frac: str) -> None:
         t = s["targets"].get(key)
         lines.append(
             f"| {name} | {frac} ({_pct(s[key])}) | {t['target'] if t else ''} | "
             f"{'yes' if t and t['met'] else ('no' if t else '')} |"
         )
 
-    def cnt(c, pred_rate):
+    def cnt(c: str, pred_rate: str) -> str:
         return f"{round((s[pred_rate] or 0) * n[c])}/{n[c]}"
 
     add("singles: top-1 (the named set is the hidden one)", "singles_top1", cnt("single", "singles_top1"))

@@ -20,7 +20,9 @@ from __future__ import annotations
 
 import json
 import math
+from collections.abc import Callable, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -60,7 +62,7 @@ def in_vocab() -> list:
     return [e for e in RANGES if e != "cubic" or has_cubic()]
 
 
-def draw_value(rng, lo_hi, signed: bool, strength=None) -> float:
+def draw_value(rng: np.random.Generator, lo_hi: Sequence[float], signed: bool, strength: float | None = None) -> float:
     lo, hi = lo_hi
     u = rng.uniform() if strength is None else strength
     v = float(lo * (hi / lo) ** u)
@@ -83,7 +85,7 @@ def true_parts(nom: dict, hidden: dict, oov: dict) -> dict:
     }
 
 
-def draw_acquisition(rng, fs: float, accel_only: bool):
+def draw_acquisition(rng: np.random.Generator, fs: float, accel_only: bool) -> dict[str, Any] | None:
     mode = rng.choice(["none", "accel", "all"], p=[0.3, 0.3, 0.4])
     acq: dict[str, dict] = {}
     if mode != "none":
@@ -107,7 +109,9 @@ def draw_acquisition(rng, fs: float, accel_only: bool):
     return acq or None
 
 
-def draw_dataset(rng, hidden: dict, oov: dict, accel_only: bool | None = None) -> dict:
+def draw_dataset(
+    rng: np.random.Generator, hidden: dict[str, Any], oov: dict[str, Any], accel_only: bool | None = None
+) -> dict[str, Any]:
     case = int(rng.integers(1, 4))
     c = float(rng.choice([10.0, 15.0]))
     nom = nominal(case, c)
@@ -163,7 +167,9 @@ def draw_dataset(rng, hidden: dict, oov: dict, accel_only: bool | None = None) -
     }
 
 
-def composition(n: int | None, n_clean=None, n_pair=None, n_oov=None):
+def composition(
+    n: int | None, n_clean: int | None = None, n_pair: int | None = None, n_oov: int | None = None
+) -> tuple[int, int, int, int]:
     n = 52 if n is None else int(n)
     n_clean = int(round(0.19 * n)) if n_clean is None else n_clean
     n_pair = int(round(0.15 * n)) if n_pair is None else n_pair
@@ -174,7 +180,13 @@ def composition(n: int | None, n_clean=None, n_pair=None, n_oov=None):
     return n_clean, n_single, n_pair, n_oov
 
 
-def plan(rng, n=None, n_clean=None, n_pair=None, n_oov=None) -> list:
+def plan(
+    rng: np.random.Generator,
+    n: int | None = None,
+    n_clean: int | None = None,
+    n_pair: int | None = None,
+    n_oov: int | None = None,
+) -> list[Any]:
     """[(class, hidden, oov)] in a shuffled order."""
     from .oov import OOV_EFFECTS
 
@@ -221,8 +233,14 @@ def out_problem(out: Path) -> str | None:
 
 
 def make_field_benchmark(
-    out: Path, n: int | None = None, seed: int = 1, n_clean=None, n_pair=None, n_oov=None, progress=None
-) -> list:
+    out: Path,
+    n: int | None = None,
+    seed: int = 1,
+    n_clean: int | None = None,
+    n_pair: int | None = None,
+    n_oov: int | None = None,
+    progress: Callable[..., Any] | None = None,
+) -> list[Any]:
     """Write the suite to ``out`` (one folder per dataset + manifest.json); ``progress(row)`` is
     called with the public part of each row (name, seconds) -- never the labels."""
     import time
@@ -282,7 +300,7 @@ def make_system_benchmark(
     n_clean: int | None = None,
     n_pair: int | None = None,
     n_oov: int | None = None,
-    progress=None,
-):
+    progress: Callable[..., Any] | None = None,
+) -> list[Any]:
     """The field-like system suite (:func:`make_field_benchmark`); labels in manifest.json only."""
     return make_field_benchmark(out, n=n, seed=seed, n_clean=n_clean, n_pair=n_pair, n_oov=n_oov, progress=progress)
