@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from ...solvers.monolithic import SolverError
-from .model import fit_eq
+from .eqfit import fit_eq
 from .play import PlayFit
 
 
