@@ -293,14 +293,5 @@ def make_field_benchmark(
     return man
 
 
-def make_system_benchmark(
-    out: Path,
-    n: int | None = None,
-    seed: int = 1,
-    n_clean: int | None = None,
-    n_pair: int | None = None,
-    n_oov: int | None = None,
-    progress: Callable[..., Any] | None = None,
-) -> list[Any]:
-    """The field-like system suite (:func:`make_field_benchmark`); labels in manifest.json only."""
-    return make_field_benchmark(out, n=n, seed=seed, n_clean=n_clean, n_pair=n_pair, n_oov=n_oov, progress=progress)
+#: the field-like system suite (:func:`make_field_benchmark`); labels in manifest.json only
+make_system_benchmark = make_field_benchmark
