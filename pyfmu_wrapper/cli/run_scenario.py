@@ -216,7 +216,7 @@ class Progress:
 class Interrupted(KeyboardInterrupt):
     """SIGTERM or SIGHUP turned into the same clean stop as SIGINT (Ctrl-C)."""
 
-    def __init__(self, signum: int):
+    def __init__(self, signum: int) -> None:
         super().__init__(signum)
         self.signum = signum
 

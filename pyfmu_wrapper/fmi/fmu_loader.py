@@ -51,7 +51,7 @@ def files_hash(folder: str, files: list[str]) -> str:
 class Bundle:
     """The bundled package ``package`` beside the FMU's model.py (folder ``here``)."""
 
-    def __init__(self, here: str, package: str, bundle_hash: str, files: list[str], slave: str):
+    def __init__(self, here: str, package: str, bundle_hash: str, files: list[str], slave: str) -> None:
         self.here, self.package, self.bundle_hash, self.files, self.slave = here, package, bundle_hash, files, slave
         self.folder = os.path.join(here, package)
 
