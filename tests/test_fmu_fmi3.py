@@ -301,7 +301,8 @@ def test_cosimulation_through_fmi3_equals_fmi2_bit_for_bit(tmd_kw, monkeypatch):
     """run-scenario's co-simulation engine on the FMI 3.0 FMUs gives the FMI 2.0 numbers to the last bit
     (Case 1; the impulse coupling with its input derivatives and interface Jacobian), in the compiled
     stepping loop (its fmi3 adapters) and on the Python path."""
-    from pyfmu_wrapper.cosim.steady import CosimSettings, sweep
+    from pyfmu_wrapper.cosim.settings import CosimSettings
+    from pyfmu_wrapper.cosim.steady import sweep
     from pyfmu_wrapper.physics.params import BaseParams, paper_case
 
     base, tmd = BaseParams(), paper_case(1, **tmd_kw)

@@ -140,6 +140,7 @@ def test_stuck_pair_closed_form_cosimulation():
     stuck offsets defeats, then period after period until the base orbit has settled): the
     amplitude is the closed form to 2e-5, not the unconverged 7.1176e-3 m reported before."""
     from pyfmu_wrapper.cosim import steady as cs
+    from pyfmu_wrapper.cosim.settings import CosimSettings
     from pyfmu_wrapper.cosim.system import make_master
 
     tmd = paper_case(1, damping=0.0, friction_force=45.78)
@@ -147,7 +148,7 @@ def test_stuck_pair_closed_form_cosimulation():
     exact = BASE.force_amplitude / abs(BASE.stiffness - (BASE.mass + tmd.mass) * w**2 + 1j * BASE.damping * w)
     m = make_master(BASE, tmd, coupling="impulse")
     try:
-        ss = cs.steady_state(m, BASE, tmd, w, None, cs.CosimSettings())
+        ss = cs.steady_state(m, BASE, tmd, w, None, CosimSettings())
     finally:
         m.close()
     assert ss.converged

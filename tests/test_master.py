@@ -16,7 +16,8 @@ import math
 import numpy as np
 import pytest
 
-from pyfmu_wrapper.cosim.steady import CosimSettings, steady_state, steps_for_accuracy
+from pyfmu_wrapper.cosim.settings import CosimSettings, steps_for_accuracy
+from pyfmu_wrapper.cosim.steady import steady_state
 from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters, impulse_connections, make_master
 from pyfmu_wrapper.fmi.build import ensure_fmus
 from pyfmu_wrapper.master import Master, build_graph

@@ -14,7 +14,8 @@ import math
 import numpy as np
 import pytest
 
-from pyfmu_wrapper.cosim.steady import CosimSettings, steady_state
+from pyfmu_wrapper.cosim.settings import CosimSettings
+from pyfmu_wrapper.cosim.steady import steady_state
 from pyfmu_wrapper.cosim.system import fmu_parameters, make_master
 from pyfmu_wrapper.fmi.build import ensure_fmus
 from pyfmu_wrapper.master import Master, MasterError, cloop

@@ -272,7 +272,7 @@ def test_settings_blocks_per_engine(tmp_path):
     assert scn.solver.settings().rtol == 1e-7 and scn.solver.settings().window == 4 and scn.solver.linear == "simulate"
     cs = scn.cosim.settings()
     assert (cs.accuracy, cs.coupling, cs.window, cs.shooting, cs.interface_jacobian) == (1e-4, "force", 7, False, False)
-    from pyfmu_wrapper.cosim.steady import CosimSettings
+    from pyfmu_wrapper.cosim.settings import CosimSettings
 
     assert cs.tol_window == CosimSettings().tol_window  # not taken from solver:
 
@@ -367,7 +367,7 @@ def _fake_table(task):
 def test_checkpoint_key_follows_every_setting(tmp_path):
     from dataclasses import replace
 
-    from pyfmu_wrapper.cosim.steady import CosimSettings
+    from pyfmu_wrapper.cosim.settings import CosimSettings
 
     w = np.array([18.0, 20.0, 22.0])
     tmd = paper_case(1, friction_force=20.0)

@@ -29,7 +29,7 @@ studies:
 
 
 def _cosim_settings():
-    from pyfmu_wrapper.cosim.steady import CosimSettings
+    from pyfmu_wrapper.cosim.settings import CosimSettings
 
     return CosimSettings
 

@@ -62,7 +62,7 @@ def test_window_scatter_flags_an_irregular_response():
 def test_steady_settings_are_one_definition_for_both_engines(name, bad):
     """Both engines' settings are the shared SteadySettings (same fields, one validation): a value
     out of range is refused by both, naming the field (max_periods 2 < min_periods 3)."""
-    from pyfmu_wrapper.cosim.steady import CosimSettings
+    from pyfmu_wrapper.cosim.settings import CosimSettings
 
     for cls in (SolverSettings, CosimSettings):
         assert issubclass(cls, SteadySettings)

@@ -28,93 +28,15 @@ import pandas as pd
 from numpy.typing import ArrayLike
 
 from ..master.master import Master
-from ..physics.params import BaseParams, InerterModel, TMDParams, has_gap
-from ..solvers import settings_table as _table
+from ..physics.params import BaseParams, InerterModel, TMDParams
 from ..solvers.hermite import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
 from ..solvers.monolithic import SolverSettings, companion_start
-from ..solvers.settings_table import COSIM
 from ..solvers.shooting import shoot
 from ..solvers.start import initial_guess
-from ..solvers.steady import SteadySettings, WindowCriterion
+from ..solvers.steady import WindowCriterion
 from ..solvers.sweep import run_sweep_pieces
+from .settings import CosimSettings
 from .system import fmu_parameters, make_master
-
-
-@dataclass(frozen=True)
-class CosimSettings(SteadySettings):
-    """Co-simulation steady-state settings.
-
-    The steady-state fields (tol, tol_window, amp_atol, window, min_periods, max_periods,
-    scatter_tol, play_start, shooting, max_newton) are those of
-    :class:`~pyfmu_wrapper.solvers.steady.SteadySettings` (the definition shared with the
-    monolithic solver, validated there), with max_periods 240 and max_newton 12 here. Own fields:
-    steps_per_period: communication steps per forcing period (None: chosen from ``accuracy``
-    with the calibrated error model of :func:`steps_for_accuracy`); accuracy: the relative
-    amplitude error asked for (None: :data:`DEFAULT_ACCURACY`, 1e-3 without a gear gap and 2.5e-3
-    with one, where the error is set by the rattle, not by a smooth discretisation); coupling: "impulse"
-    (:func:`impulse_connections`) or "force" (:data:`CONNECTIONS`); scheme / order: see
-    :mod:`pyfmu_wrapper.master.master`; fmu_rtol: tolerance of the integrators inside the FMUs;
-    interface_jacobian: with the impulse coupling, hand the TMD the base's compliance 1/M and its
-    acceleration without the link force (:func:`impulse_connections`); fmi_version: run the FMI
-    2.0 or the FMI 3.0 variants of the FMUs (the same core: the same numbers).
-    """
-
-    max_periods: int = _table.default("max_periods", COSIM)
-    max_newton: int = _table.default("max_newton", COSIM)
-    steps_per_period: int | None = _table.default("steps_per_period", COSIM)
-    accuracy: float | None = _table.default("accuracy", COSIM)
-    coupling: str = _table.default("coupling", COSIM)
-    scheme: str = _table.default("scheme", COSIM)
-    order: int = _table.default("order", COSIM)
-    fmu_rtol: float = _table.default("fmu_rtol", COSIM)
-    interface_jacobian: bool = _table.default("interface_jacobian", COSIM)
-    fmi_version: int = _table.default("fmi_version", COSIM)
-    # (validated by SteadySettings.validate against solvers/settings_table.py)
-
-    def steps_for(self, tmd: TMDParams) -> int:
-        if self.steps_per_period is not None:
-            return int(self.steps_per_period)
-        play = has_gap(tmd)
-        accuracy = DEFAULT_ACCURACY[play] if self.accuracy is None else self.accuracy
-        return steps_for_accuracy(accuracy, self.order, self.coupling, play)
-
-    @property
-    def method(self) -> str:
-        """Short name of the co-simulation method (the 'method' column of sweep tables)."""
-        if self.coupling == "impulse":
-            return f"cosim_impulse_o{self.order}"
-        return f"cosim_force_{self.scheme}_o{self.order}"
-
-
-#: error model: relative FRC error ~ C (2 pi / N)^q with N steps per period, (C, q) per coupling and
-#: extrapolation order, fitted to the largest error against the monolithic solver over the
-#: configuration types (docs/cosimulation.md), C rounded up by a safety factor of about 3
-_ERR_MODEL = {
-    ("impulse", 2): (3.0, 3),
-    ("impulse", 1): (10.0, 2),
-    ("impulse", 0): (10.0, 1),
-    ("force", 2): (20.0, 3),
-    ("force", 1): (20.0, 2),
-    ("force", 0): (10.0, 1),
-}
-#: with a gear gap (play) the error is set by the rattling chain (contact times are sensitive to
-#: any perturbation), not by a smooth discretisation: fitted to the largest error over the 41-point
-#: sweeps of the six play and full-model configurations of the paper (regular points), impulse
-#: coupling with the interface Jacobian, order 2: 7.3e-3 at N = 96 and 2.3e-3 at N = 192
-#: (docs/cosimulation.md), no safety factor
-_ERR_MODEL_PLAY = {("impulse", 2): (0.69, 1.67)}
-#: accuracy used when none is asked for: without a gap 1e-3 (N = 96), with a gap 2.5e-3 (N = 184)
-DEFAULT_ACCURACY = {False: 1e-3, True: 2.5e-3}
-
-
-def steps_for_accuracy(accuracy: float, order: int = 2, coupling: str = "impulse", play: bool = False) -> int:
-    """Communication steps per forcing period for a requested relative amplitude accuracy
-    (a multiple of 8, at least 32); ``play``: the error model of the rattling configurations
-    (calibrated for the impulse coupling of order 2; the smooth model otherwise)."""
-    model = _ERR_MODEL_PLAY if play and (coupling, order) in _ERR_MODEL_PLAY else _ERR_MODEL
-    c, q = model[(coupling, order)]
-    n = 2 * math.pi / (accuracy / c) ** (1.0 / q)
-    return max(32, int(math.ceil(n / 8.0) * 8))
 
 
 @dataclass

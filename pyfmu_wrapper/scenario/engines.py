@@ -35,7 +35,7 @@ if TYPE_CHECKING:
 
     from numpy import ndarray
 
-    from ..cosim.steady import CosimSettings
+    from ..cosim.settings import CosimSettings
     from ..physics.params import BaseParams, TMDParams
     from .schema import Scenario
 
@@ -94,12 +94,12 @@ class RunSettings:
 
     sweep: direction and continuation (every engine); solver: the monolithic engine's block (read
     by 'monolithic' and by 'both' for its reference); cosim: the co-simulation engine's
-    :class:`~pyfmu_wrapper.cosim.steady.CosimSettings` (None: its defaults; read by 'cosim' and 'both').
+    :class:`~pyfmu_wrapper.cosim.settings.CosimSettings` (None: its defaults; read by 'cosim' and 'both').
     """
 
     engine: str = "monolithic"
     solver: SolverConfig = SolverConfig()
-    cosim: object = None  #: pyfmu_wrapper.cosim.steady.CosimSettings (None: its defaults)
+    cosim: object = None  #: pyfmu_wrapper.cosim.settings.CosimSettings (None: its defaults)
     workers: int = 1  #: processes per nonlinear sweep (1: strict stepped-sine continuation)
     sweep: SweepConfig = SweepConfig()
 
@@ -257,7 +257,7 @@ def _monolithic_time_series(
 
 def _cosim_settings(settings: RunSettings) -> Any:
     """The co-simulation settings of a run (its own block only: nothing is read from ``solver``)."""
-    from ..cosim.steady import CosimSettings
+    from ..cosim.settings import CosimSettings
 
     return settings.cosim if settings.cosim is not None else CosimSettings()
 

@@ -16,7 +16,7 @@ from ..physics.params import BaseParams, TMDParams
 from ..solvers.monolithic import SolverSettings
 
 if TYPE_CHECKING:
-    from ..cosim.steady import CosimSettings
+    from ..cosim.settings import CosimSettings
 
 SCHEMA_VERSION = 2
 #: older versions still read: 1 only when the file has no ``solver:`` block (docs/scenarios.md)
@@ -109,7 +109,7 @@ class SolverConfig:
         )
 
 
-#: keys of the ``cosim:`` block (fields of pyfmu_wrapper.cosim.steady.CosimSettings a scenario may set)
+#: keys of the ``cosim:`` block (fields of pyfmu_wrapper.cosim.settings.CosimSettings a scenario may set)
 COSIM_KEYS = (
     "accuracy",
     "steps_per_period",
@@ -133,15 +133,15 @@ class CosimConfig:
     """``cosim:`` block of a scenario: the settings of the co-simulation engine only.
 
     ``overrides`` holds the keys the file sets (names of
-    :class:`~pyfmu_wrapper.cosim.steady.CosimSettings` fields, :data:`COSIM_KEYS`); every other
+    :class:`~pyfmu_wrapper.cosim.settings.CosimSettings` fields, :data:`COSIM_KEYS`); every other
     field keeps its default. The monolithic engine reads none of these.
     """
 
     overrides: tuple = ()  #: ((key, value), ...) in file order
 
     def settings(self) -> CosimSettings:
-        """The :class:`~pyfmu_wrapper.cosim.steady.CosimSettings` of the block."""
-        from ..cosim.steady import CosimSettings  # lazy: the co-simulation engine imports fmpy
+        """The :class:`~pyfmu_wrapper.cosim.settings.CosimSettings` of the block."""
+        from ..cosim.settings import CosimSettings  # lazy: the co-simulation engine imports fmpy
 
         return CosimSettings(**dict(self.overrides))
 

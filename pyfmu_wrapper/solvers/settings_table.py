@@ -2,7 +2,7 @@
 
 As the model parameters are declared in :mod:`pyfmu_wrapper.physics.registry`, every setting of
 the monolithic engine (:class:`~pyfmu_wrapper.solvers.monolithic.SolverSettings`) and the
-co-simulation engine (:class:`~pyfmu_wrapper.cosim.steady.CosimSettings`) is one row of
+co-simulation engine (:class:`~pyfmu_wrapper.cosim.settings.CosimSettings`) is one row of
 :data:`SETTINGS`. From it derive:
 
 * the settings classes' defaults (:func:`default`) and their range checks
@@ -224,7 +224,7 @@ SETTINGS: tuple[Setting, ...] = (
         minimum=1,
         scenario=(),
     ),
-    # -- the co-simulation engine (cosim.steady.CosimSettings) ----------------------------------------
+    # -- the co-simulation engine (cosim.settings.CosimSettings) ----------------------------------------
     _s(
         "steps_per_period",
         "integer",

@@ -3,7 +3,7 @@
 :class:`SteadySettings` holds the settings every engine's steady state reads (tolerances, the
 window, period bounds, the play start, shooting) and validates them in one place;
 :class:`~pyfmu_wrapper.solvers.monolithic.SolverSettings` (the monolithic engine) and
-:class:`~pyfmu_wrapper.cosim.steady.CosimSettings` (the co-simulation engine) extend it with
+:class:`~pyfmu_wrapper.cosim.settings.CosimSettings` (the co-simulation engine) extend it with
 their own accuracy settings. :func:`default_window` and :class:`WindowCriterion` are the rule
 both engines apply to the per-period maxima of |x| (see the module doc of
 :mod:`pyfmu_wrapper.solvers.monolithic`).
