@@ -356,7 +356,7 @@ BASE = BaseParams(mass=100.0, stiffness=4.0e4, damping=100.0, force_amplitude=20
 def _fake_table(task):
     import pandas as pd
 
-    from pyfmu_wrapper.scenario.engines import SWEEP_COLUMNS
+    from pyfmu_wrapper.scenario.sweeptable import SWEEP_COLUMNS
 
     n = task.units()
     return pd.DataFrame(

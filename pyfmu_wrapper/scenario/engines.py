@@ -29,6 +29,7 @@ from ..solvers.frequency_response import exact_amplitude, exact_response
 from ..solvers.monolithic import periodic_time_series
 from ..solvers.sweep import sweep
 from .schema import SolverConfig, SweepConfig
+from .sweeptable import with_sweep_columns
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -38,44 +39,6 @@ if TYPE_CHECKING:
     from ..cosim.settings import CosimSettings
     from ..physics.params import BaseParams, TMDParams
     from .schema import Scenario
-
-#: columns of every sweep table (one row per direction and omega)
-SWEEP_COLUMNS = (
-    "engine",
-    "method",
-    "direction",
-    "omega",
-    "amplitude",
-    "periods",
-    "converged",
-    "irregular",
-    "change",
-    "steps",
-    "rejected",
-    "wall_time",
-    "reference",
-    "difference",
-    "reference_irregular",
-    "reference_change",
-    "fmu_time_base",
-    "fmu_time_tmd",
-    "master_loop_time",
-    "python_step_time",
-)
-#: co-simulation only (NaN for the monolithic engine): seconds inside each FMU's fmi2 calls of the
-#: compiled stepping loop, the loop's own work, and the steps taken on the Python path
-#: (``cosim.steady._time_split``); the rest of ``wall_time`` is the steady-state logic
-TIMING_COLUMNS = ("fmu_time_base", "fmu_time_tmd", "master_loop_time", "python_step_time")
-
-
-def _sweep_columns(table: pd.DataFrame) -> pd.DataFrame:
-    """The table with exactly :data:`SWEEP_COLUMNS`; a column an engine does not fill (the timing split
-    of the monolithic engine, of the Python stepping path) is NaN."""
-    for col in SWEEP_COLUMNS:
-        if col not in table:
-            table[col] = np.nan
-    return table[list(SWEEP_COLUMNS)]
-
 
 #: the engine run-scenario uses unless told otherwise
 DEFAULT_ENGINE = "cosim"
@@ -173,7 +136,7 @@ def _exact_table(
     if progress is not None:  # closed form, instantaneous: not counted in the speed of an ETA
         getattr(progress, "skip", progress)(n * len(settings.directions()))
     omegas = np.asarray(omegas, float)
-    return _sweep_columns(
+    return with_sweep_columns(
         pd.DataFrame(
             dict(
                 engine=engine,
@@ -222,7 +185,7 @@ def _monolithic_sweep(
     table["difference"] = np.nan
     table["reference_irregular"] = np.nan
     table["reference_change"] = np.nan
-    return _sweep_columns(table)
+    return with_sweep_columns(table)
 
 
 def _monolithic_time_series(
@@ -277,7 +240,7 @@ def _cosim_sweep(
     table["difference"] = np.nan
     table["reference_irregular"] = np.nan
     table["reference_change"] = np.nan
-    return _sweep_columns(table)
+    return with_sweep_columns(table)
 
 
 def _both_sweep(
@@ -312,7 +275,7 @@ def _both_sweep(
         co.loc[zero, "difference"] = np.nan
     co["engine"] = "both"
     co["wall_time"] = co["wall_time"].to_numpy()  # co-simulation time per point
-    return _sweep_columns(co)
+    return with_sweep_columns(co)
 
 
 class _Half:

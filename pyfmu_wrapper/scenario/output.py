@@ -392,7 +392,7 @@ def cosim_time_split(datas: Sequence[Any]) -> dict[str, Any] | None:
     FMU's fmi2 calls (``fmus``), in the compiled stepping loop's own work (``master_loop``), in steps
     taken on the Python path (``python_steps``) and the rest of the points' wall time (``steady_state_logic``:
     shooting, windows, re-initialisations). None when no point was co-simulated."""
-    from .engines import TIMING_COLUMNS
+    from .sweeptable import TIMING_COLUMNS
 
     tables = [d.table for d in datas if getattr(d, "table", None) is not None]
     rows = [t[t[list(TIMING_COLUMNS)].notna().any(axis=1)] for t in tables if set(TIMING_COLUMNS) <= set(t.columns)]

@@ -1,5 +1,6 @@
-"""What a sweep table says: its peaks (:func:`find_peaks`), its steady-state diagnostics, its irregular
-points, and (engine 'both') the co-simulation's difference from the monolithic engine per frequency."""
+"""What a sweep table is (its columns, :data:`SWEEP_COLUMNS`, the same for every engine) and what it
+says: its peaks (:func:`find_peaks`), its steady-state diagnostics, its irregular points, and (engine
+'both') the co-simulation's difference from the monolithic engine per frequency."""
 
 from __future__ import annotations
 
@@ -13,6 +14,44 @@ if TYPE_CHECKING:
     from collections.abc import Callable
 
     from pandas import Series
+
+
+#: columns of every sweep table (one row per direction and omega)
+SWEEP_COLUMNS = (
+    "engine",
+    "method",
+    "direction",
+    "omega",
+    "amplitude",
+    "periods",
+    "converged",
+    "irregular",
+    "change",
+    "steps",
+    "rejected",
+    "wall_time",
+    "reference",
+    "difference",
+    "reference_irregular",
+    "reference_change",
+    "fmu_time_base",
+    "fmu_time_tmd",
+    "master_loop_time",
+    "python_step_time",
+)
+#: co-simulation only (NaN for the monolithic engine): seconds inside each FMU's fmi2 calls of the
+#: compiled stepping loop, the loop's own work, and the steps taken on the Python path
+#: (``cosim.steady._time_split``); the rest of ``wall_time`` is the steady-state logic
+TIMING_COLUMNS = ("fmu_time_base", "fmu_time_tmd", "master_loop_time", "python_step_time")
+
+
+def with_sweep_columns(table: pd.DataFrame) -> pd.DataFrame:
+    """The table with exactly :data:`SWEEP_COLUMNS`; a column an engine does not fill (the timing split
+    of the monolithic engine, of the Python stepping path) is NaN."""
+    for col in SWEEP_COLUMNS:
+        if col not in table:
+            table[col] = np.nan
+    return table[list(SWEEP_COLUMNS)]
 
 
 def find_peaks(omegas: Series, amplitudes: Series, refine: Callable[..., Any] | None = None) -> dict:

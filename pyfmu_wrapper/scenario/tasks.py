@@ -31,7 +31,8 @@ import pandas as pd
 
 from ..codeversion import PACKAGE_DIR, source_hash
 from ..physics.params import BaseParams, TMDParams, as_dict
-from .engines import SWEEP_COLUMNS, RunSettings, compute_sweep
+from .engines import RunSettings, compute_sweep
+from .sweeptable import SWEEP_COLUMNS
 
 if TYPE_CHECKING:
     from collections.abc import Callable
