@@ -38,6 +38,7 @@ def main(argv: list[str] | None = None) -> int:
         "--fmi-version",
         default="2",
         choices=["2", "3", "2,3", "both"],
+        metavar="{2,3,both}",  # "2,3" is accepted as a spelling of "both"
         help="FMI version of the FMUs: 2 (default, into --out), 3 (FMI 3.0 co-simulation, into <out>/fmi3/), or both",
     )
     args = ap.parse_args(argv)
