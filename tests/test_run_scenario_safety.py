@@ -22,7 +22,7 @@ from pathlib import Path
 import pytest
 
 from pyfmu_wrapper.cli.run_scenario import main
-from pyfmu_wrapper.scenario import output
+from pyfmu_wrapper.scenario import outdir, output
 
 LINEAR = """\
 schema_version: 2
@@ -237,7 +237,7 @@ def test_checkpoints_live_beside_their_own_output_folder(tmp_path, capsys):
                     "--executor",
                     "sequential",
                     "--cache",
-                    str(output.default_checkpoint_dir(out)),
+                    str(outdir.default_checkpoint_dir(out)),
                 ]
             )
             == 0

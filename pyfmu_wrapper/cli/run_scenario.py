@@ -20,7 +20,8 @@ from typing import Literal, NoReturn, TextIO
 from ..scenario import ScenarioError, load_scenario
 from ..scenario.engines import DEFAULT_ENGINE, ENGINES, RunSettings
 from ..scenario.executors import EXECUTORS, make_executor
-from ..scenario.output import OutputError, check_output_dir, default_checkpoint_dir, default_output_dir, run_scenario
+from ..scenario.outdir import OutputError, check_output_dir, default_checkpoint_dir, default_output_dir
+from ..scenario.output import run_scenario
 from ..scenario.runner import instant_units, work_units
 from ..scenario.summary import study_report
 from .errors import cli_main

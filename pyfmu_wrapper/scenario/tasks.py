@@ -11,7 +11,7 @@ written atomically (temporary file + rename) as soon as a task finishes, so a sw
 restarts where it stopped: finished tasks are read back, only the missing ones are computed. A
 change of any input, or of any source file of the package, changes the hash, so a checkpoint
 written by other code or other settings is never reused. ``run-scenario`` keeps them in
-``<out>.checkpoints/<study>/`` beside its output folder (:func:`.output.default_checkpoint_dir`);
+``<out>.checkpoints/<study>/`` beside its output folder (:func:`.outdir.default_checkpoint_dir`);
 ``reproduce`` in ``<results>/.cache/<scenario>/<study>/``.
 """
 
