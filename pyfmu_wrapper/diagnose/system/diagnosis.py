@@ -47,6 +47,7 @@ from ..gates import (  # noqa: F401
     share_gate,
 )
 from . import outcome
+from .effects import EQ_EFFECTS, FRC_PRIOR, LABELS, MAX_EFFECTS, TMD_EFFECTS, UNITS
 from .eqfit import fit_eq, folds_for
 from .model import EFFECT_PARAMS, SIGN, SystemModel, record_views, steady_signature
 from .play import PlayFit
@@ -58,68 +59,6 @@ if TYPE_CHECKING:
     from ..data import Dataset
     from .eqfit import EqFit
     from .frc import FRCDiagnosis
-
-MAX_EFFECTS = 2
-LABELS = {
-    "friction": "dry friction in the TMD link",
-    "play": "play in the inerter gear",
-    "viscous": "extra viscous damping",
-    "mass_split": "different split of m and I (m + I fixed)",
-    "cubic": "cubic term in the TMD spring",
-    "force_error": "forcing-amplitude error",
-    "sensor_offset": "displacement-sensor offset",
-    "base_mass": "base mass M off the nominal",
-    "base_stiffness": "base stiffness K off the nominal",
-    "base_damping": "base damping C off the nominal",
-    "tmd_stiffness": "TMD spring stiffness k off the nominal",
-}
-UNITS = {
-    "friction_force": "N",
-    "friction_slope": "s/m",
-    "play_gap": "m",
-    "delta_inertance_eff": "kg",
-    "signature_scale": "1",
-    "delta_damping": "N s/m",
-    "delta_inertance": "kg",
-    "cubic_stiffness": "N/m^3",
-    "force_gain_error": "1",
-    "x_offset": "m",
-    "y_offset": "m",
-    "delta_mass": "kg",
-    "delta_stiffness": "N/m",
-}
-FRC_PRIOR = (
-    "viscous",
-    "mass_split",
-    "cubic",
-    "force_error",
-    "base_mass",
-    "base_stiffness",
-    "base_damping",
-    "tmd_stiffness",
-)  #: effects whose FRC-alone fit is a prior for the time-record folds
-TMD_EFFECTS = (
-    "viscous",
-    "tmd_stiffness",
-    "friction",
-    "cubic",
-    "mass_split",
-    "base_damping",
-    "base_mass",
-    "base_stiffness",
-)  #: effects that change the rattle (play is refitted with them)
-EQ_EFFECTS = (
-    "friction",
-    "viscous",
-    "mass_split",
-    "cubic",
-    "force_error",
-    "sensor_offset",
-    "base_mass",
-    "base_stiffness",
-    "base_damping",
-    "tmd_stiffness",
-)
 
 
 @dataclass

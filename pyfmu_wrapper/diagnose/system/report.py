@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import gates, plotting
-from .diagnosis import LABELS, UNITS
+from .effects import LABELS, UNITS
 
 if TYPE_CHECKING:
     from typing import Any
