@@ -110,7 +110,7 @@ MUTATIONS = (
     ),
     Mutation(
         "antiresonance verdict inverted",
-        "pyfmu_wrapper/paper/claims/sect2_5.py",
+        "pyfmu_wrapper/paper/claims/sect2_4.py",
         'Check("max |w_min - 20|", dev, "<=", 1e-3, "rad/s")',
         'Check("max |w_min - 20|", dev, ">", 1e-3, "rad/s")',
         ("tests/test_reproduction.py",),

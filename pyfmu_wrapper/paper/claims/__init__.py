@@ -8,7 +8,7 @@ row ('error') carrying the exception, and the report command exits non-zero. No 
 by hand. The table :data:`CLAIMS` (:mod:`.table`) lists the claims in report order with the scenarios they need.
 """
 
-from . import sect2_5, sect6_7  # noqa: F401 - the sections fill CLAIMS, in report order
+from . import sect2_4, sect5, sect6_7  # noqa: F401 - the sections fill CLAIMS, in report order
 from .table import CLAIMS, Check, Claim, Context, Entry, claim, evaluate, fmt
 
 __all__ = ["CLAIMS", "Check", "Claim", "Context", "Entry", "claim", "evaluate", "fmt"]
