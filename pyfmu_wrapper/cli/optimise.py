@@ -22,7 +22,8 @@ import sys
 import traceback
 from typing import Any
 
-from ..paper.optimise import OBJECTIVES, OptimisationError, OptimiseConfig, optimise, split_parameter, with_parameter
+from ..paper.objectives import OBJECTIVES, OptimisationError
+from ..paper.optimise import OptimiseConfig, optimise, split_parameter, with_parameter
 from ..physics.params import BaseParams, ParameterError, paper_case
 from .errors import cli_main, plain_text
 
