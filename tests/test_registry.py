@@ -22,7 +22,8 @@ import pytest
 from scipy.optimize import brentq, minimize_scalar
 
 from pyfmu_wrapper.cosim.system import fmu_parameters
-from pyfmu_wrapper.fmi.variables import BASE_OSCILLATOR, INTEGER, TMD_INERTER
+from pyfmu_wrapper.fmi.variables import BASE_OSCILLATOR, TMD_INERTER
+from pyfmu_wrapper.fmi.varspec import INTEGER
 from pyfmu_wrapper.generate import docs as docs_gen
 from pyfmu_wrapper.physics import jacobians as Jac
 from pyfmu_wrapper.physics import kernels as K

@@ -12,7 +12,7 @@ from collections.abc import Iterable
 from html import escape
 
 from .model_description import declared_range
-from .variables import FmuSpec, Variable
+from .varspec import FmuSpec, Variable
 
 
 def install_command(requires: Iterable[str], python: str = "python") -> str:

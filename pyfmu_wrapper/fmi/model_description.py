@@ -12,7 +12,7 @@ import uuid
 from collections.abc import Sequence
 from xml.sax.saxutils import quoteattr
 
-from .variables import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
+from .varspec import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
 
 #: SI base-unit exponents of the units the tables use (FMI 2.0 UnitDefinitions).
 UNITS = {

@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from xml.sax.saxutils import quoteattr
 
 from .model_description import LOG_CATEGORIES, UNITS, _fmt, declared_range
-from .variables import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
+from .varspec import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
 
 TYPE3 = {REAL: "Float64", INTEGER: "Int32", BOOLEAN: "Boolean"}
 #: orders of the input derivatives an FMI 3.0 variant declares (FMI 2.0: canInterpolateInputs, order <= 2)

@@ -13,7 +13,8 @@ from numpy.typing import NDArray
 
 from .._jit import njit
 from ..physics import kernels as kn
-from .variables import BASE_OSCILLATOR, BOOLEAN, INTEGER, TMD_INERTER, FmuSpec
+from .variables import BASE_OSCILLATOR, TMD_INERTER
+from .varspec import BOOLEAN, INTEGER, FmuSpec
 
 BASE_OUTPUTS = ("x", "xd", "xdd", "f_exc", "xdd_free")
 TMD_OUTPUTS = ("force", "y", "yd", "inerter_force", "contact")

@@ -37,7 +37,7 @@ from ..physics import kernels as kn
 from ..physics import registry
 from ..physics.params import N_PARAMS
 from .contract import NATIVE_MAX_STEP
-from .variables import BOOLEAN, INTEGER, FmuSpec
+from .varspec import BOOLEAN, INTEGER, FmuSpec
 
 OK, WARNING, ERROR, FATAL = 0, 1, 3, 4
 _CSTEP = 1e-30

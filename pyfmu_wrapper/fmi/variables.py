@@ -6,123 +6,13 @@ tables (:mod:`.model_description`), the C stub reads the type/causality table wr
 into ``resources/variables.tsv``, and the Python slaves (:mod:`.slaves`) address the shared value
 buffers through :meth:`FmuSpec.vr`.
 
-Value references are unique across all types of one FMU (the C stub keeps one buffer per type
-indexed by value reference).
-
-Dependencies in the ModelStructure (FMI 2.0, Sect. 2.2.8): ``depends_on`` lists the *inputs* an
-output depends on directly (algebraic feed-through within one communication point), with the
-matching ``dependencies_kind``; ``initial_depends_on`` lists the knowns (inputs and exact
-parameters) an initial unknown depends on during initialisation.
-
-Ranges: ``min`` / ``max`` (inclusive; ``min_exclusive``: the minimum itself is refused) come from
-the parameter registry for the model parameters and are declared here for the others. They go
-into ``modelDescription.xml`` (an exclusive minimum m as the next double above m: FMI's min is
-inclusive) and into the stub's table, which refuses an out-of-range value in fmi2SetReal /
-fmi2SetInteger with a message naming the variable, the value and the range.
+What a declaration holds (value references, dependencies, ranges) is :mod:`.varspec`.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-from typing import Any
-
 from ..physics import registry
-
-REAL, INTEGER, BOOLEAN = "Real", "Integer", "Boolean"
-
-
-@dataclass(frozen=True)
-class Variable:
-    """One FMI scalar variable."""
-
-    name: str
-    vr: int
-    type: str
-    causality: str  #: parameter | input | output | local | independent
-    variability: str  #: fixed | tunable | continuous | discrete | constant
-    description: str
-    unit: str | None = None
-    start: float | int | bool | None = None
-    initial: str | None = None  #: exact | approx | calculated (None: FMI default)
-    depends_on: tuple[str, ...] = ()
-    dependencies_kind: tuple[str, ...] = ()
-    initial_depends_on: tuple[str, ...] | None = None
-    min: float | None = None
-    max: float | None = None
-    min_exclusive: bool = False
-
-    def __post_init__(self) -> None:
-        if self.type not in (REAL, INTEGER, BOOLEAN):
-            raise ValueError(f"{self.name}: unsupported type {self.type!r}")
-        if self.causality in ("parameter", "input") and self.start is None:
-            raise ValueError(f"{self.name}: a {self.causality} needs a start value")
-        if self.causality == "output" and self.start is not None and self.initial != "approx":
-            raise ValueError(f"{self.name}: a calculated output takes no start value")
-        if len(self.depends_on) != len(self.dependencies_kind):
-            raise ValueError(f"{self.name}: depends_on and dependencies_kind differ in length")
-        if (self.min is not None or self.max is not None) and self.type == BOOLEAN:
-            raise ValueError(f"{self.name}: a Boolean has no range")
-        if self.start is not None and not self.in_range(self.start):
-            raise ValueError(f"{self.name}: start value {self.start!r} is outside its range {self.range_text()}")
-
-    def in_range(self, value: float | int | bool) -> bool:
-        """Whether value lies within min/max (what the stub accepts)."""
-        if self.min is not None and (value <= self.min if self.min_exclusive else value < self.min):
-            return False
-        return self.max is None or value <= self.max
-
-    def range_text(self) -> str:
-        """The range as people read it: ``> 0``, ``>= 0``, ``0 ... 2``, ``any``."""
-        lo = None if self.min is None else f"{'>' if self.min_exclusive else '>='} {self.min:g}"
-        if self.max is None:
-            return lo or "any"
-        if lo is None:
-            return f"<= {self.max:g}"
-        return f"{self.min:g} ... {self.max:g}" if not self.min_exclusive else f"{lo} and <= {self.max:g}"
-
-
-@dataclass(frozen=True)
-class FmuSpec:
-    """Everything needed to generate, build and run one FMU."""
-
-    model_name: str
-    model_identifier: str
-    description: str
-    slave: str  #: "module:Class" of the Python slave
-    variables: tuple[Variable, ...]
-    can_interpolate_inputs: bool = True
-    max_output_derivative_order: int = 0
-    provides_directional_derivative: bool = True
-    default_step: float = 1e-3
-    extra: dict[str, Any] = field(default_factory=dict)
-
-    def __post_init__(self) -> None:
-        names = [v.name for v in self.variables]
-        if len(set(names)) != len(names):
-            raise ValueError(f"{self.model_name}: duplicate variable names")
-        vrs = [v.vr for v in self.variables]
-        if len(set(vrs)) != len(vrs):
-            raise ValueError(f"{self.model_name}: duplicate value references")
-        for v in self.variables:
-            for d in v.depends_on:
-                if self.by_name(d).causality != "input":
-                    raise ValueError(f"{v.name}: dependency {d} is not an input")
-
-    def by_name(self, name: str) -> Variable:
-        for v in self.variables:
-            if v.name == name:
-                return v
-        raise KeyError(f"{self.model_name} has no variable {name!r}")
-
-    def vr(self, name: str) -> int:
-        return self.by_name(name).vr
-
-    def of(self, causality: str) -> list[Variable]:
-        return [v for v in self.variables if v.causality == causality]
-
-    def index(self, name: str) -> int:
-        """1-based index in ModelVariables (as ModelStructure refers to it)."""
-        return [v.name for v in self.variables].index(name) + 1
+from .varspec import INTEGER, REAL, FmuSpec, Variable
 
 
 def _par(
