@@ -81,3 +81,26 @@ def test_time_slack_is_the_tables(trivial):
     assert _step(s, 1.0 + 1.5 * off, h) == 3  # beyond the slack: refused
     assert "expected currentCommunicationPoint" in log[-1]
     assert _step(s, 1.0 + 0.5 * off, h) == 0  # within it: accepted (the host's time is taken)
+
+
+def test_log_categories_are_the_tables(trivial):
+    """One declaration of the log categories: the stub logs under no other (source scan), the model
+    description lists exactly them, and fmi2SetDebugLogging accepts each and refuses any other."""
+    import ctypes
+
+    used = set()
+    for f in sorted(SRC.glob("*.c")):
+        used |= set(re.findall(r"logmsg\(\s*[^,]+,\s*[^,]+,\s*\"(\w+)\"", f.read_text()))
+    assert used and used <= set(contract.LOG_CATEGORIES), used - set(contract.LOG_CATEGORIES)
+    md = fmpy.read_model_description(str(built_fmus()["Trivial"]))
+    assert tuple(c.name for c in md.logCategories) == contract.LOG_CATEGORIES
+    s, log, _ = trivial
+    f = s.dll.fmi2SetDebugLogging
+    f.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_size_t, ctypes.POINTER(ctypes.c_char_p)]
+    f.restype = ctypes.c_int
+    for cats in ([c] for c in contract.LOG_CATEGORIES):
+        arr = (ctypes.c_char_p * 1)(*(c.encode() for c in cats))
+        assert f(s.component, 1, 1, arr) == 0, cats
+    arr = (ctypes.c_char_p * 1)(b"logEverything")
+    assert f(s.component, 1, 1, arr) == 3
+    assert "unknown log category logEverything" in log[-1]

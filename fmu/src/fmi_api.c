@@ -68,10 +68,10 @@ const char *fmi2GetVersion(void) { return fmi2Version; }
 fmi2Status fmi2SetDebugLogging(fmi2Component comp, fmi2Boolean loggingOn, size_t n, const fmi2String cats[]) {
     Comp *c = (Comp *)comp;
     CHECK("fmi2SetDebugLogging", M_ANY_BUT_FATAL);
-    static const char *known[] = {"logStatusError", "logStatusWarning", "logAll"};
+    static const char *known[] = PYFMU_LOG_CATEGORIES; /* fmi/contract.py */
     if (n > 0) NULLARG("fmi2SetDebugLogging", cats);
     for (size_t i = 0; i < n; i++) {
-        if (!cats[i] || !code_of(cats[i], known, 3)) {
+        if (!cats[i] || !code_of(cats[i], known, PYFMU_N_LOG_CATEGORIES)) {
             logmsg(c, fmi2Error, "logStatusError", "fmi2SetDebugLogging: unknown log category %s", cats[i] ? cats[i] : "NULL");
             return fmi2Error;
         }

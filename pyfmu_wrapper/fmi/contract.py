@@ -6,7 +6,9 @@ fmi2Functions.c is: it refuses a step that is not finite, not positive, longer t
 :data:`TIME_SLACK` of the step, before Python is entered. Its constants are not written in C:
 :func:`c_header` turns this table into ``pyfmu_contract.h``, which the build writes next to the
 sources it compiles (:func:`pyfmu_wrapper.fmi.build.compile_stub`); the Python slave and the native
-step read the same names from here. ``tests/test_fmu_contract.py`` ties the compiled FMU to the table.
+step read the same names from here. The log categories (:data:`LOG_CATEGORIES`) are declared here too:
+the model descriptions list them and the stub's fmi2SetDebugLogging accepts exactly them.
+``tests/test_fmu_contract.py`` ties the compiled FMU to the table.
 """
 
 from __future__ import annotations
@@ -26,12 +28,18 @@ NATIVE_OK = 0x4F4B
 #: A doStep fails when it needs more integrator steps than this (bounded cost of any doStep).
 MAX_INTEGRATOR_STEPS = 200_000
 
-#: the constants the C stub uses: C name -> (value, C literal)
+#: The log categories of the FMUs: listed in both model descriptions, the only ones
+#: fmi2SetDebugLogging / fmi3SetDebugLogging accept, and the only ones the stub logs under.
+LOG_CATEGORIES = ("logStatusError", "logStatusWarning", "logAll")
+
+#: the constants the C stub uses: C name -> C literal
 C_CONSTANTS = {
     "PYFMU_MAX_STEP": repr(float(MAX_STEP)),
     "PYFMU_TIME_SLACK": repr(float(TIME_SLACK)),
     "PYFMU_NATIVE_MAX_STEP": repr(float(NATIVE_MAX_STEP)),
     "PYFMU_NATIVE_OK": hex(NATIVE_OK),
+    "PYFMU_LOG_CATEGORIES": "{" + ", ".join(f'"{c}"' for c in LOG_CATEGORIES) + "}",
+    "PYFMU_N_LOG_CATEGORIES": str(len(LOG_CATEGORIES)),
 }
 
 

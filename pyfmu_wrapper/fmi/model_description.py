@@ -12,6 +12,7 @@ import uuid
 from collections.abc import Sequence
 from xml.sax.saxutils import quoteattr
 
+from .contract import LOG_CATEGORIES
 from .varspec import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
 
 #: SI base-unit exponents of the units the tables use (FMI 2.0 UnitDefinitions).
@@ -29,8 +30,6 @@ UNITS = {
     "1/kg": dict(kg=-1),
 }
 
-#: Log categories the stub uses (keep in sync with fmi2SetDebugLogging in fmu/src/pyfmu_stub.c).
-LOG_CATEGORIES = ("logStatusError", "logStatusWarning", "logAll")
 
 TYPE_CODE = {REAL: "R", INTEGER: "I", BOOLEAN: "B"}
 

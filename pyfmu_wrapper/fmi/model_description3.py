@@ -21,7 +21,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from xml.sax.saxutils import quoteattr
 
-from .model_description import LOG_CATEGORIES, UNITS, _fmt, declared_range
+from .contract import LOG_CATEGORIES
+from .model_description import UNITS, _fmt, declared_range
 from .varspec import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
 
 TYPE3 = {REAL: "Float64", INTEGER: "Int32", BOOLEAN: "Boolean"}
