@@ -105,6 +105,7 @@ create = _loader.Bundle(_HERE, {package!r}, {bhash!r}, {files!r}, {slave!r}).cre
 
 
 def model_py(spec: FmuSpec, package: str, bhash: str, files: list[str]) -> str:
+    """The FMU's ``resources/model.py`` (:data:`MODEL_PY`) for ``spec``'s slave in the bundle ``package``."""
     module, _, cls = spec.slave.partition(":")
     rel = module.split(".", 1)[1] if module.startswith(PACKAGE_DIR.name + ".") else module
     return MODEL_PY.format(model=spec.model_name, package=package, bhash=bhash, files=files, slave=f"{rel}:{cls}")

@@ -30,6 +30,8 @@ _i64, _dbl, _vp = ctypes.c_int64, ctypes.c_double, ctypes.c_void_p
 
 
 class Inst(ctypes.Structure):
+    """cl_inst of cloop.c: one FMU instance, its fmi2 function pointers and the master's buffers."""
+
     _fields_ = [
         ("comp", _vp),
         ("set_real", _vp),
@@ -65,6 +67,8 @@ class Inst(ctypes.Structure):
 
 
 class Ctx(ctypes.Structure):
+    """cl_ctx of cloop.c: the scheme, the step, the signal buffers and the loop's status."""
+
     _fields_ = [
         ("n_inst", _i64),
         ("nsig", _i64),
@@ -161,6 +165,7 @@ def library_path() -> Path:
 
 
 def library() -> CDLL:
+    """The compiled loop, loaded once per process with its functions' signatures."""
     global _lib
     if _lib is None:
         lib = ctypes.CDLL(str(library_path()))

@@ -48,6 +48,7 @@ class OutputError(ValueError):
 
 
 def tool_version() -> str | None:
+    """The installed version of this package (None when it runs from a source tree not installed)."""
     try:
         return metadata.version("pyfmu-wrapper")
     except metadata.PackageNotFoundError:  # pragma: no cover
@@ -55,6 +56,7 @@ def tool_version() -> str | None:
 
 
 def default_output_dir(scn: Scenario) -> Path:
+    """Where a scenario's results go when no ``--out`` is given: ``results/<scenario name>``."""
     return Path("results") / scn.name
 
 
@@ -80,6 +82,7 @@ def read_marker(folder: Path) -> dict[str, Any] | None:
 
 
 def write_marker(folder: Path, **fields: Any) -> None:
+    """Write the run-scenario marker of ``folder`` (tool, version and ``fields``)."""
     m = dict(tool=TOOL, version=tool_version(), **fields)
     (folder / MARKER).write_text(json.dumps(m, indent=2) + "\n", encoding="utf-8")
 
