@@ -44,6 +44,21 @@ def source_hash(root: Path = PACKAGE_DIR) -> str:
     return _digest(_sources(Path(root)))
 
 
+@functools.cache
+def numbers_hash(root: Path = PACKAGE_DIR) -> str:
+    """SHA-256 over every source that can change a number: the package's ``.py`` files, its C sources
+    (the master's compiled loop) and, in a checkout, the FMUs' C stub (``fmu/src`` beside the
+    package). Checkpoints and results are keyed by it."""
+    root = Path(root)
+    files = _sources(root)
+    stub = root.parent / "fmu" / "src"
+    extra = [p for p in sorted(root.rglob("*")) if p.suffix in (".c", ".h") and "__pycache__" not in p.parts]
+    extra += sorted(p for p in stub.glob("*") if p.suffix in (".c", ".h")) if stub.is_dir() else []
+    for p in extra:
+        files[p.relative_to(root.parent).as_posix()] = p.read_bytes()
+    return _digest(files)
+
+
 def _module_file(root: Path, rel: str, module: str | None, level: int) -> list[str]:
     """Package-relative files an import statement in ``rel`` can refer to."""
     parts = rel.split("/")[:-1]  # the importing module's package, relative to root

@@ -146,13 +146,17 @@ def test_own_result_is_replaced_atomically_and_user_files_in_it_are_kept(tmp_pat
     assert _snapshot(tmp_path) == before
 
 
-def test_result_written_before_the_marker_is_recognised(tmp_path):
+def test_result_without_its_marker_is_no_longer_provably_ours(tmp_path, capsys):
+    """A folder of result files without run-scenario's marker (or with an old marker that records no
+    content hashes) cannot be told from files a user put there: refused, untouched."""
     scn = _scn(tmp_path)
     out = tmp_path / "out"
     assert main([str(scn), "--out", str(out)] + MONO) == 0
-    (out / ".run-scenario.json").unlink()  # as written by the earlier version
-    assert main([str(scn), "--out", str(out)] + MONO) == 0
-    assert (out / ".run-scenario.json").is_file()
+    (out / ".run-scenario.json").unlink()
+    before = _snapshot(tmp_path)
+    assert main([str(scn), "--out", str(out)] + MONO) == 2
+    assert "not a result of run-scenario" in capsys.readouterr().err
+    assert _snapshot(tmp_path) == before
 
 
 def _dead_pid() -> int:

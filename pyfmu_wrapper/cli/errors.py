@@ -19,6 +19,7 @@ import codecs
 import functools
 import os
 import re
+import stat
 import sys
 from collections.abc import Callable
 from typing import Any
@@ -141,11 +142,72 @@ def decode_utf8(data: bytes, name: str, error: type[Exception] = InputError) -> 
         raise error(bad_bytes_message(name, data, exc)) from None
 
 
-def read_utf8(path: str | os.PathLike[str], error: type[Exception] = InputError) -> str:
-    """The text of a file; bad bytes raise ``error`` naming file, line, column and byte offset."""
+#: the largest input file a tool reads whole, in bytes (scenario, model and dataset YAML files):
+#: far above any real one, far below what exhausts memory; raised by ``--max-input-size`` (MB)
+MAX_INPUT_BYTES = 16 * 2**20
+
+
+def set_max_input_size(megabytes: float | None) -> None:
+    """Raise or lower :data:`MAX_INPUT_BYTES` (the console scripts' ``--max-input-size MB``)."""
+    global MAX_INPUT_BYTES
+    if megabytes is None:
+        return
+    if not (megabytes > 0 and megabytes < 1e7):
+        raise InputError(f"--max-input-size {megabytes}: must be a size in MB, > 0")
+    MAX_INPUT_BYTES = int(megabytes * 2**20)
+
+
+def _mb(n: float) -> str:
+    return f"{n / 2**20:.3g} MB"
+
+
+def read_bytes_limited(
+    path: str | os.PathLike[str], error: type[Exception] = InputError, limit: int | None = None, what: str = "file"
+) -> bytes:
+    """The bytes of a file, refused with ``error`` (naming the file, its size and the limit) when it
+    holds more than ``limit`` bytes (default :data:`MAX_INPUT_BYTES`). The size is read before the
+    contents, and at most ``limit + 1`` bytes are ever read: a device (``/dev/zero``), a pipe or a
+    sparse file of any size costs no more than the limit."""
+    limit = MAX_INPUT_BYTES if limit is None else int(limit)
+    name = os.fspath(path)
     with open(path, "rb") as fh:
-        data = fh.read()
-    return decode_utf8(data, os.fspath(path), error)
+        try:
+            st = os.fstat(fh.fileno())
+            size = st.st_size if stat.S_ISREG(st.st_mode) else None
+        except OSError:  # pragma: no cover
+            size = None
+        if size is not None and size > limit:
+            raise error(
+                f"{name}: the {what} is {_mb(size)}, more than the limit of {_mb(limit)} for a {what}; "
+                "if it really is that large, raise the limit with --max-input-size MB"
+            )
+        data = fh.read(limit + 1)
+    if len(data) > limit:
+        raise error(
+            f"{name}: the {what} holds more than the limit of {_mb(limit)} (it is not a regular file, or it "
+            "grew while being read); if it really is that large, raise the limit with --max-input-size MB"
+        )
+    return data
+
+
+def read_utf8(
+    path: str | os.PathLike[str], error: type[Exception] = InputError, limit: int | None = None, what: str = "file"
+) -> str:
+    """The text of a file (at most ``limit`` bytes, :func:`read_bytes_limited`); bad bytes raise
+    ``error`` naming file, line, column and byte offset."""
+    return decode_utf8(read_bytes_limited(path, error, limit, what), os.fspath(path), error)
+
+
+def short(value: Any, width: int = 80) -> str:
+    """The repr of a value cut to about ``width`` characters, in bounded time and memory whatever the
+    value is (a deeply nested or alias-shared structure, a megabyte string)."""
+    import reprlib
+
+    r = reprlib.Repr()
+    r.maxlevel, r.maxdict, r.maxlist, r.maxtuple, r.maxset = 3, 6, 6, 6, 6
+    r.maxstring, r.maxother, r.maxlong = width, width, 40
+    text = r.repr(value)
+    return text if len(text) <= width else text[: width - 3] + "..."
 
 
 def scan_utf8_lines(path: str | os.PathLike[str], error: type[Exception] = InputError, block: int = 1 << 24) -> int:

@@ -21,17 +21,22 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 import time
 from pathlib import Path
 from typing import Any
 
 from ..paper.claims import Context, evaluate
-from ..paper.figures import draw_figures
-from ..paper.report import write_report
+from ..paper.figures import FIGURES, draw_figures
+from ..paper.report import REPORT_FILES, write_report
 from ..paper.reproduce import CASES, DEFAULT_ENGINE, NAMES, run_all
+from ..safeio.files import OwnedFiles
 from ..scenario.engines import ENGINES
 from ..scenario.executors import make_executor
 from .errors import InputError, cli_main
+
+#: the marker of the files reproduce writes into its --out folder (docs/ by default)
+REPRODUCE_MARKER = ".reproduce.json"
 
 
 @cli_main("reproduce")
@@ -66,11 +71,13 @@ def main(argv: list[str] | None = None) -> int:
         raise InputError(f"--dpi {a.dpi}: must be >= 10")
     if a.executor == "dask" and not a.scheduler:
         raise InputError("--executor dask needs --scheduler ADDRESS")
-    for opt, p in (("--out", out), ("--results", results)):
+    for opt, p in (("--results", results),):
         if p.exists() and not p.is_dir():
             raise InputError(
                 f"{opt} {p}: is a file, not a folder; reproduce writes a folder there and never overwrites a file"
             )
+    owned = OwnedFiles(out, "reproduce", REPRODUCE_MARKER)
+    owned.check(REPORT_FILES + [f"figures/{f}.png" for f in FIGURES])  # before computing
     names = a.only if a.only else NAMES
     level_of = lambda n: "quick" if a.quick else ("coarse" if n in a.coarse else None)  # noqa: E731
     ex = make_executor(a.executor, jobs=a.jobs, scheduler=a.scheduler)
@@ -88,13 +95,31 @@ def main(argv: list[str] | None = None) -> int:
             runs["_fits"] = ctx.fits()
         except Exception as exc:  # noqa: BLE001 - the claims table already flags it
             print(f"reproduce: error: simplified-model fits failed: {type(exc).__name__}: {exc}", file=sys.stderr)
-    figdir = out / "figures"
-    figs = draw_figures(runs, figdir, dpi=a.dpi)
     cmd = "reproduce " + " ".join(argv if argv is not None else sys.argv[1:])
     missing = [n for n in NAMES if n not in runs]
-    path = write_report(
-        runs, rows, figs, out, figdir, results, a.quick, a.engine, cmd.strip(), missing, time.perf_counter() - t0
-    )
+    with tempfile.TemporaryDirectory(prefix="reproduce-") as stage_dir:  # drawn here, then put in place
+        stage = Path(stage_dir)
+        figs = draw_figures(runs, stage / "figures", dpi=a.dpi)
+        write_report(
+            runs,
+            rows,
+            figs,
+            stage,
+            stage / "figures",
+            results,
+            a.quick,
+            a.engine,
+            cmd.strip(),
+            missing,
+            time.perf_counter() - t0,
+        )
+        owned.write_tree(stage)
+    path = out / "reproduction.md"
+    for name, where in owned.diverted:
+        print(
+            f"reproduce: warning: {out / name} changed during the run and was kept; the new one is {where}",
+            file=sys.stderr,
+        )
     errors = [r for r in rows if r.status == "error"]
     print(f"reproduce: wrote {path} ({len(rows)} claims, {len(figs)} figures) in {time.perf_counter() - t0:.0f} s")
     for r in errors:

@@ -14,17 +14,19 @@ import sys
 import threading
 import time
 import traceback
+from pathlib import Path
 from types import FrameType
 from typing import Literal, NoReturn, TextIO
 
+from ..safeio import Diverted, OutputError
 from ..scenario import ScenarioError, load_scenario
 from ..scenario.engines import DEFAULT_ENGINE, ENGINES, RunSettings
 from ..scenario.executors import EXECUTORS, make_executor
-from ..scenario.outdir import OutputError, check_output_dir, default_checkpoint_dir, default_output_dir
+from ..scenario.outdir import check_output_dir, default_checkpoint_dir, default_output_dir
 from ..scenario.output import run_scenario
 from ..scenario.runner import instant_units, work_units
 from ..scenario.summary import study_report
-from .errors import cli_main
+from .errors import cli_main, set_max_input_size
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -95,6 +97,13 @@ def _parser() -> argparse.ArgumentParser:
         "(default 5); on a terminal the line is redrawn every second",
     )
     p.add_argument("--traceback", action="store_true", help="print the full traceback on failure")
+    p.add_argument(
+        "--max-input-size",
+        type=float,
+        default=None,
+        metavar="MB",
+        help="the largest scenario file read, in MB (default 16): a larger file is refused before it is read",
+    )
     return p
 
 
@@ -270,11 +279,14 @@ def _workers(args: argparse.Namespace) -> tuple[int | None, str | None]:
 @cli_main("run-scenario")
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)  # exits 2 on bad options
+    set_max_input_size(args.max_input_size)
     try:
         scn = load_scenario(args.path)
     except ScenarioError as exc:
         return _err(str(exc))
     out = args.out if args.out is not None else default_output_dir(scn)
+    if args.cache is not None and (Path(args.cache).is_file() or Path(args.cache).is_symlink()):
+        return _err(f"--cache {args.cache}: is a file or a link; give a folder for the checkpoints")
     workers, problem = _workers(args)
     if problem:
         return _err(problem)
@@ -299,8 +311,8 @@ def main(argv: list[str] | None = None) -> int:
         return _err("--executor dask needs --scheduler ADDRESS")
     if not args.progress_every > 0:
         return _err(f"--progress-every must be > 0 seconds, got {args.progress_every}")
-    cache = args.cache if args.cache is not None else default_checkpoint_dir(out)
     try:  # before anything is computed: never replace what run-scenario did not write
+        cache = args.cache if args.cache is not None else default_checkpoint_dir(out)
         for note in check_output_dir(out, scn.path, cache):
             print(f"run-scenario: note: {note}", file=sys.stderr)
     except OutputError as exc:
@@ -310,6 +322,7 @@ def main(argv: list[str] | None = None) -> int:
     except Exception as exc:
         return _err(f"cannot start the {args.executor} executor: {exc}")
     datas: list = []
+    stats: dict = {}
     old_handlers = _install_signals()
     try:
         with Progress(
@@ -328,6 +341,7 @@ def main(argv: list[str] | None = None) -> int:
                 checkpoint_dir=cache,
                 resume=args.resume,
                 collect=datas,
+                stats_out=stats,
             )
     except KeyboardInterrupt as exc:
         executor.abort()
@@ -339,7 +353,10 @@ def main(argv: list[str] | None = None) -> int:
             file=sys.stderr,
         )
         return 128 + signum
-    except OutputError as exc:  # the folder changed under us since the check
+    except Diverted as exc:  # the folder changed during the run: the result is beside it
+        _report(datas, stats, cache)
+        return _err(str(exc))
+    except OutputError as exc:
         executor.abort()
         return _err(str(exc))
     except Exception as exc:  # a failed run: report it, leave nothing behind
@@ -356,13 +373,26 @@ def main(argv: list[str] | None = None) -> int:
         for sig, h in old_handlers.items():
             signal.signal(sig, h)
         executor.close()
+    _report(datas, stats, cache)
+    print(f"run-scenario: wrote {folder}" + (f" (checkpoints: {cache})" if Path(cache).exists() else ""))
+    return 0
+
+
+def _report(datas: list, stats: dict, cache: str | Path) -> None:
+    """The closing lines: per study, what did not converge; and how much came from checkpoints."""
     for d in datas:
         for line in study_report(d):
             print(f"run-scenario: {line}")
-    from pathlib import Path
-
-    print(f"run-scenario: wrote {folder}" + (f" (checkpoints: {cache})" if Path(cache).exists() else ""))
-    return 0
+    for v in stats.values():
+        for r in v.rejected:
+            print(f"run-scenario: note: checkpoint not used, computed again: {r}")
+    cached = sum(v.cached for v in stats.values())
+    total = cached + sum(v.computed for v in stats.values())
+    if cached:
+        print(
+            f"run-scenario: note: {cached} of {total} sweeps were read from the checkpoints of an earlier run in "
+            f"{cache}, not computed now (--no-resume recomputes them)"
+        )
 
 
 if __name__ == "__main__":  # pragma: no cover

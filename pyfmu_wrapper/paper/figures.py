@@ -59,6 +59,10 @@ def _rasterize(fig: Figure) -> None:
             coll.set_rasterized(True)
 
 
+#: the figures draw_figures can write (figures/<name>.png)
+FIGURES = ["fig2", "fig3", "fig4", "fig5", "fig6"]
+
+
 def draw_figures(runs: dict, figdir: Path, dpi: int = 80) -> dict:
     figdir.mkdir(parents=True, exist_ok=True)
     out = {}

@@ -79,6 +79,10 @@ def _claim_cells(i: int, c: Claim) -> list[str]:
     return [str(i), c.section, c.claim, c.paper, c.project or "-", checks, verdict, c.note]
 
 
+#: the files of the report, in its folder (the figures go to figures/)
+REPORT_FILES = ["reproduction.md", "reproduction.json"]
+
+
 def write_report(
     runs: dict,
     rows: list,

@@ -46,7 +46,9 @@ def _check(
 ) -> float:
     where = f" (from {source})" if source else ""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        raise ParameterError(f"{name} must be a number, got {value!r}{where}")
+        from ..cli.errors import short
+
+        raise ParameterError(f"{name} must be a number, got {short(value)}{where}")
     v = float(value)
     if not math.isfinite(v):
         raise ParameterError(f"{name} must be finite, got {value!r}{where}")

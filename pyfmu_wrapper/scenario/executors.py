@@ -286,6 +286,9 @@ def run_tasks(
                 getattr(progress, "skip", progress)(t.units())
         else:
             missing.append(i)
+    if checkpoint is not None:
+        stats.rejected += checkpoint.rejected
+        checkpoint.rejected = []
     ex = executor if executor is not None else SequentialExecutor()
     reported = [0.0] * len(missing)  # points of each missing task already reported
 

@@ -63,9 +63,10 @@ def load_scenario(path: str | Path) -> Scenario:
     """Read, validate and resolve a scenario file. Raises ScenarioError on any problem."""
     path = os.fspath(path)
     file = path
+    from ..cli.errors import read_bytes_limited
+
     try:
-        with open(path, "rb") as fh:
-            data = fh.read()
+        data = read_bytes_limited(path, ScenarioError, what="scenario file")
     except OSError as exc:
         raise ScenarioError(f"{file}: cannot read scenario file: {exc.strerror or exc}", file=file) from None
     try:

@@ -15,9 +15,7 @@ import datetime as _dt
 import json
 import math
 import os
-import shutil
 import socket
-import tempfile
 import time
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -29,7 +27,14 @@ import pandas as pd
 from ..physics.params import as_dict
 from . import plots
 from .engines import RunSettings
-from .outdir import TOOL, abs_path, check_output_dir, default_checkpoint_dir, replace_dir, tool_version, write_marker
+from .outdir import (
+    abs_path,
+    check_checkpoint_dir,
+    checkpoint_marker,
+    default_checkpoint_dir,
+    result_folder,
+    tool_version,
+)
 from .runner import FRCData, MapData, run_studies
 from .schema import Scenario
 from .summary import study_summary
@@ -52,6 +57,7 @@ def run_scenario(
     checkpoint_dir: Path | None = None,
     resume: bool = True,
     collect: list | None = None,
+    stats_out: dict | None = None,
 ) -> Path:
     """Compute every study of ``scn`` and write the results folder ``out_dir`` (replaced if it is an
     earlier result of run-scenario; any other non-empty folder or a file raises :class:`OutputError`
@@ -60,39 +66,23 @@ def run_scenario(
     executor: where the nonlinear sweeps run (:mod:`.executors`; None: in this process, in order);
     checkpoint_dir: folder of finished sweeps to resume from and add to (None: no checkpoints);
     resume=False recomputes every sweep (and overwrites its checkpoint); collect: a list that
-    receives the computed study data objects (for callers that draw their own figures).
-    Returns the folder. On failure nothing is left at ``out_dir`` that was not there before
+    receives the computed study data objects (for callers that draw their own figures); stats_out: a
+    dict that receives the task statistics per study (how many sweeps were read from checkpoints).
+    Returns the folder; raises :class:`~pyfmu_wrapper.safeio.Diverted` when the folder changed
+    during the run (the result is then beside it, the folder untouched). On failure nothing is left at ``out_dir`` that was not there before
     (checkpoints of finished sweeps are kept, so that the next run resumes).
     """
-    check_output_dir(out_dir, scn.path, checkpoint_dir)
-    out = abs_path(out_dir)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.partial-{os.getpid()}-", dir=out.parent))
+    rf = result_folder(out_dir, scn.path)
+    rf.check()
+    out = rf.out
+    check_checkpoint_dir(out, checkpoint_dir)
+    tmp = rf.begin()
     try:
-        started = _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
-        write_marker(
-            tmp,
-            kind="partial",
-            out=str(out),
-            pid=os.getpid(),
-            host=socket.gethostname(),
-            started=started,
-            scenario=scn.name,
-        )
-        umask = os.umask(0)
-        os.umask(umask)
-        os.chmod(tmp, 0o777 & ~umask)  # mkdtemp makes it private; the results folder is an ordinary one
         t0 = time.perf_counter()
         stats: dict = {}
         ck_marker = None
         if checkpoint_dir is not None and abs_path(checkpoint_dir) == default_checkpoint_dir(out):
-            ck_marker = dict(
-                tool=TOOL,
-                version=tool_version(),
-                kind="checkpoints",
-                out=str(out),
-                note="finished sweeps of run-scenario, for resuming a killed run; safe to delete",
-            )
+            ck_marker = checkpoint_marker(out)
         datas = run_studies(
             scn,
             settings,
@@ -106,12 +96,12 @@ def run_scenario(
         compute_time = time.perf_counter() - t0
         if collect is not None:
             collect.extend(datas)
-        files = []
+        if stats_out is not None:
+            stats_out.update(stats)
         for data in datas:
             write_study_csv(data, tmp / f"{data.study.name}.csv")
             fig = plots.plot_study(data)
             plots.save_figure(fig, tmp / f"{data.study.name}.png")
-            files += [f"{data.study.name}.csv", f"{data.study.name}.png"]
         summary = make_summary(scn, settings, datas, compute_time, time.perf_counter() - t0)
         used = executor.processes_used() if executor is not None and hasattr(executor, "processes_used") else 1
         summary["workers"] = used
@@ -124,24 +114,18 @@ def run_scenario(
             tasks={k: dict(cached=v.cached, computed=v.computed, wall_time=v.wall_time) for k, v in stats.items()},
         )
         (tmp / "summary.json").write_text(json.dumps(_finite(summary), indent=2) + "\n", encoding="utf-8")
-        files.append("summary.json")
-        write_marker(
-            tmp,
-            kind="result",
-            out=str(out),
-            scenario=scn.name,
-            scenario_file=str(scn.path),
-            code_version=code_version(),
-            created=summary["created"],
-            files=sorted(files),
-            pid=os.getpid(),
-            host=socket.gethostname(),
-        )
-        replace_dir(tmp, out)
     except BaseException:
-        shutil.rmtree(tmp, ignore_errors=True)
+        rf.abort()
         raise
-    return out
+    return rf.commit(
+        version=tool_version(),
+        scenario=scn.name,
+        scenario_file=str(abs_path(scn.path)) if scn.path else None,
+        code_version=code_version(),
+        created=summary["created"],
+        pid=os.getpid(),
+        host=socket.gethostname(),
+    )
 
 
 def write_study_csv(data: FRCData | MapData | PhaseData, path: Path) -> None:

@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
+from ..cli.errors import short
 from ..physics.params import ParameterError
 from .schema import ScenarioError
 from .yamlio import MarkedDict, MarkedList
@@ -23,6 +24,8 @@ if TYPE_CHECKING:
     from .yamlio import MarkedDict, MarkedList
 
 MAX_GRID = 100_000
+#: the longest text a scenario field may hold (a description of a few paragraphs is a few thousand)
+MAX_STRING = 20_000
 
 
 def key_path(path: str, key: int | str) -> str:
@@ -40,7 +43,7 @@ class Reader:
     # -- errors ---------------------------------------------------------------------------------
     def fail(self, path: str, line: int | None, reason: str, value: Any = None, *, show_value: bool = True) -> NoReturn:
         where = f"{self.file}:{line}" if line else self.file
-        got = f" (got {value!r})" if show_value else ""
+        got = f" (got {short(value)})" if show_value else ""
         raise ScenarioError(
             f"{where}: {path or '<top level>'}: {reason}{got}", file=self.file, line=line, path=path, value=value
         )
@@ -75,7 +78,7 @@ class Reader:
                 reason = (
                     f"does not apply here: {hint}"
                     if hint
-                    else f"unknown key {key!r}; allowed keys: {sorted(map(str, allowed))}"
+                    else f"unknown key {short(key)}; allowed keys: {sorted(map(str, allowed))}"
                 )
                 self.fail(key_path(path, key), line_of(node, key), reason, node[key])
         for key in required:
@@ -169,6 +172,8 @@ class Reader:
         v, line = node[key], line_of(node, key)
         if not isinstance(v, str):
             self.fail(p, line, "must be a string", v)
+        if len(v) > MAX_STRING:
+            self.fail(p, line, f"a text of {len(v):,} characters: at most {MAX_STRING:,}", show_value=False)
         if choices is not None and v not in choices:
             self.fail(p, line, f"must be one of {list(choices)}", v)
         if pattern is not None and not pattern.match(v):
@@ -189,6 +194,8 @@ class Reader:
         minimum = 0.0 if positive else None
         if isinstance(node, list):
             self.sequence(node, path, line)
+            if len(node) > MAX_GRID:
+                self.fail(path, line, f"a list of {len(node):,} values: at most {MAX_GRID:,}", show_value=False)
             vals = [
                 self.check_number(v, key_path(path, i), line_of(node, i), minimum=minimum, strict=positive)
                 for i, v in enumerate(node)

@@ -9,8 +9,10 @@ the resolved settings of every engine that computes the rows (the monolithic sol
 'monolithic', the co-simulation's for 'cosim', both for 'both'; see :meth:`SweepTask.key`). It is
 written atomically (temporary file + rename) as soon as a task finishes, so a sweep that is killed
 restarts where it stopped: finished tasks are read back, only the missing ones are computed. A
-change of any input, or of any source file of the package, changes the hash, so a checkpoint
-written by other code or other settings is never reused. ``run-scenario`` keeps them in
+change of any input, or of any source file (Python or C), changes the hash, so a checkpoint
+written by other code or other settings is never reused. The file's name also carries the hash of
+its own contents (``<key>-<content hash>.csv``): an edited or damaged checkpoint is not read back
+but computed again, and said so. ``run-scenario`` keeps them in
 ``<out>.checkpoints/<study>/`` beside its output folder (:func:`.outdir.default_checkpoint_dir`);
 ``reproduce`` in ``<results>/.cache/<scenario>/<study>/``.
 """
@@ -19,17 +21,18 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import io
 import json
 import os
 import tempfile
-from dataclasses import asdict, dataclass, replace
+from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
 
-from ..codeversion import PACKAGE_DIR, source_hash
+from ..codeversion import PACKAGE_DIR, numbers_hash
 from ..physics.params import BaseParams, TMDParams, as_dict
 from .engines import RunSettings, compute_sweep
 from .sweeptable import SWEEP_COLUMNS
@@ -39,13 +42,14 @@ if TYPE_CHECKING:
     from pathlib import Path
 
 #: bump when the layout or meaning of a checkpoint file changes
-CHECKPOINT_FORMAT = 2
+CHECKPOINT_FORMAT = 3
 
 
 def code_version() -> str:
-    """The code version a checkpoint key includes: :func:`pyfmu_wrapper.codeversion.source_hash`, the
-    sha256 of every source file of the package (first 16 hex digits; computed once per process)."""
-    return source_hash(PACKAGE_DIR)[:16]
+    """The code version a checkpoint key includes: :func:`pyfmu_wrapper.codeversion.numbers_hash`, the
+    sha256 of every source that can change a number, Python and C (first 16 hex digits; computed once
+    per process)."""
+    return numbers_hash(PACKAGE_DIR)[:16]
 
 
 @dataclass(frozen=True)
@@ -137,25 +141,33 @@ class Checkpoint:
         self.folder = Path(folder)
         self.resume = resume  #: False: never read back (recompute, overwrite)
         self.marker = marker  #: written as ``../.run-scenario.json`` with the first file (run-scenario's own folder)
+        self.rejected: list[str] = []  #: checkpoint files found but not used (edited, damaged)
 
-    def path(self, task: SweepTask) -> Path:
-        return self.folder / f"{task.key()}.csv"
+    def path(self, task: SweepTask, content: bytes | None = None) -> Path:
+        """``<key>-<first 16 hex digits of the content's sha256>.csv``; without content, the pattern."""
+        tag = "*" if content is None else hashlib.sha256(content).hexdigest()[:16]
+        return self.folder / f"{task.key()}-{tag}.csv"
 
     def load(self, task: SweepTask) -> pd.DataFrame | None:
-        p = self.path(task)
-        if not self.resume or not p.is_file():
+        if not self.resume or not self.folder.is_dir():
             return None
-        try:
-            t = pd.read_csv(p, keep_default_na=True)
-            for col in SWEEP_COLUMNS:  # columns added to the sweep table later (e.g. 'reference'): NaN
-                if col not in t.columns and col not in _DTYPES:
-                    t[col] = np.nan
-            t = t[list(SWEEP_COLUMNS)].astype({k: v for k, v in _DTYPES.items() if k in SWEEP_COLUMNS})
-        except Exception:  # a damaged file: compute the task again
-            return None
-        if len(t) != task.units():
-            return None
-        return t
+        for p in sorted(self.folder.glob(self.path(task).name)):
+            try:
+                data = p.read_bytes()
+            except OSError:
+                continue
+            if p.name != self.path(task, data).name:
+                self.rejected.append(f"{p} (its contents changed since it was written)")
+                continue
+            try:
+                t = pd.read_csv(io.BytesIO(data), keep_default_na=True)
+                t = t[list(SWEEP_COLUMNS)].astype({k: v for k, v in _DTYPES.items() if k in SWEEP_COLUMNS})
+            except Exception:  # noqa: BLE001 - a damaged file: compute the task again
+                self.rejected.append(f"{p} (unreadable)")
+                continue
+            if len(t) == task.units():
+                return t
+        return None
 
     def save(self, task: SweepTask, table: pd.DataFrame) -> None:
         self.folder.mkdir(parents=True, exist_ok=True)
@@ -163,11 +175,14 @@ class Checkpoint:
             (self.folder.parent / ".run-scenario.json").write_text(
                 json.dumps(self.marker, indent=2) + "\n", encoding="utf-8"
             )
+        buf = io.StringIO()
+        table[list(SWEEP_COLUMNS)].to_csv(buf, index=False, float_format="%.17g")
+        data = buf.getvalue().encode()
         fd, tmp = tempfile.mkstemp(prefix=".task-", suffix=".tmp", dir=self.folder)
         try:
-            with os.fdopen(fd, "w", newline="") as f:
-                table[list(SWEEP_COLUMNS)].to_csv(f, index=False, float_format="%.17g")
-            os.replace(tmp, self.path(task))
+            with os.fdopen(fd, "wb") as f:
+                f.write(data)
+            os.replace(tmp, self.path(task, data))
         except BaseException:
             with contextlib.suppress(OSError):
                 os.unlink(tmp)
@@ -183,4 +198,5 @@ class TaskStats:
 
     cached: int = 0
     computed: int = 0
+    rejected: list[str] = field(default_factory=list)  #: checkpoint files not used (edited or damaged)
     wall_time: float = 0.0

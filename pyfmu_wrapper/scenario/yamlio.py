@@ -59,7 +59,10 @@ def _construct_mapping(loader: _MarkedSafeLoader, node: yaml.MappingNode) -> Mar
             ) from None
         if key in out:
             raise DuplicateKeyError(
-                "while constructing a mapping", node.start_mark, f"found duplicate key {key!r}", key_node.start_mark
+                "while constructing a mapping",
+                node.start_mark,
+                f"found duplicate key {str(key)[:80]!r}",
+                key_node.start_mark,
             )
         out[key] = loader.construct_object(value_node, deep=True)
         out.key_lines[key] = value_node.start_mark.line + 1
@@ -89,9 +92,64 @@ class _Named(io.StringIO):
         self.name = name
 
 
+#: the most nodes a document may hold once its aliases are expanded (a scenario has a few hundred):
+#: a "billion laughs" of nested aliases is refused before anything walks it
+MAX_EXPANDED_NODES = 200_000
+
+
+class AliasBombError(yaml.MarkedYAMLError):
+    """A document whose aliases expand to more than :data:`MAX_EXPANDED_NODES` nodes."""
+
+
+def expanded_size(node: yaml.Node, limit: int = MAX_EXPANDED_NODES) -> int:
+    """How many nodes ``node`` stands for with every alias expanded (each shared node counted at each
+    use), computed in time linear in the composed (unexpanded) graph; stops counting past ``limit``."""
+    memo: dict[int, int] = {}
+    order: list[yaml.Node] = []
+    stack: list[tuple[yaml.Node, bool]] = [(node, False)]
+    while stack:  # post-order without recursion (a deep document cannot exhaust the stack)
+        n, done = stack.pop()
+        if id(n) in memo:
+            continue
+        if done:
+            kids = _children(n)
+            memo[id(n)] = min(limit + 1, 1 + sum(memo[id(k)] for k in kids))
+            order.append(n)
+            continue
+        stack.append((n, True))
+        stack.extend((k, False) for k in _children(n) if id(k) not in memo)
+    return memo[id(node)]
+
+
+def _children(n: yaml.Node) -> list[yaml.Node]:
+    if isinstance(n, yaml.SequenceNode):
+        return list(n.value)
+    if isinstance(n, yaml.MappingNode):
+        return [x for kv in n.value for x in kv]
+    return []
+
+
 def load_marked(text: str, name: str = "<string>") -> Any:
     """Parse YAML text with the safe loader; mappings/lists carry line numbers.
 
+    Aliases are allowed as long as the document they expand to holds at most
+    :data:`MAX_EXPANDED_NODES` nodes (:class:`AliasBombError` otherwise, before anything is built).
     Raises :class:`yaml.YAMLError` (with a ``problem_mark`` where PyYAML knows the position).
     """
-    return yaml.load(_Named(text, name), Loader=_MarkedSafeLoader)  # noqa: S506 - a SafeLoader subclass
+    loader = _MarkedSafeLoader(_Named(text, name))
+    try:
+        node = loader.get_single_node()
+        if node is None:
+            return None
+        n = expanded_size(node)
+        if n > MAX_EXPANDED_NODES:
+            raise AliasBombError(
+                None,
+                None,
+                f"its aliases (*name) expand to more than {MAX_EXPANDED_NODES:,} values; refusing to read it "
+                "(a scenario holds a few hundred: nested aliases that multiply, a 'billion laughs'?)",
+                node.start_mark,
+            )
+        return loader.construct_document(node)
+    finally:
+        loader.dispose()

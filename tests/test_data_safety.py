@@ -1,0 +1,290 @@
+"""Nothing lost while a tool runs, and bounded input (issue 28: items 1, 2, 4, 5, 6, 7).
+
+Each test is a case that lost data, crashed or ran out of memory on the code before this issue:
+files added to a results folder during a run (a real concurrent writer), an edited result file, a
+user's files in reproduce's --out, a result of another scenario file with the same name, an edited
+checkpoint, `--out /`, `--cache` at a file, an unwritable --out, and inputs that exhaust memory.
+"""
+
+from __future__ import annotations
+
+import os
+import resource
+import shutil
+import subprocess
+import sys
+import textwrap
+import time
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+from pyfmu_wrapper.cli.reproduce import main as reproduce_main
+from pyfmu_wrapper.cli.run_scenario import main
+from pyfmu_wrapper.codeversion import numbers_hash
+from pyfmu_wrapper.scenario import output
+
+LINEAR = """\
+schema_version: 2
+name: tiny
+base: {mass: 100.0, stiffness: 40000.0, damping: 100.0, force_amplitude: 200.0}
+tmd: {case: 1, inerter: ideal, stiffness: 4000.0, damping: 10.0}
+frequencies: {start: 17.0, stop: 23.0, count: 5}
+studies:
+  - kind: frc
+    name: frc
+    curves:
+      - {label: "c = 10"}
+"""
+
+#: friction curves (integrated, not closed form): a run long enough for a writer to act during it
+SLOW = """\
+schema_version: 2
+name: slow
+base: {mass: 100.0, stiffness: 40000.0, damping: 100.0, force_amplitude: 200.0}
+tmd: {case: 1, inerter: ideal, stiffness: 4000.0, damping: 0.0}
+frequencies: {start: 15.0, stop: 25.0, count: 41}
+studies:
+  - kind: frc
+    name: frc
+    curves:
+      - {label: "df = 10", tmd: {friction_force: 10.0}}
+      - {label: "df = 20", tmd: {friction_force: 20.0}}
+"""
+
+MONO = ["--quiet", "--engine", "monolithic", "--executor", "sequential"]
+
+
+def _scn(folder: Path, text: str = LINEAR, name: str = "scn.yaml") -> Path:
+    p = folder / name
+    p.write_text(textwrap.dedent(text))
+    return p
+
+
+def _snapshot(folder: Path) -> dict:
+    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+@pytest.fixture
+def no_computing(monkeypatch):
+    def fail(*a, **k):
+        raise AssertionError("computing started before the output was checked")
+
+    monkeypatch.setattr(output, "run_studies", fail)
+
+
+def _cli(args: list[str], cwd: Path, **kw) -> subprocess.Popen:
+    return subprocess.Popen(
+        [sys.executable, "-m", "pyfmu_wrapper.cli.run_scenario", *args],
+        cwd=cwd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        **kw,
+    )
+
+
+def test_files_added_to_the_results_folder_during_a_run_are_kept(tmp_path):
+    """A real concurrent writer: while run-scenario computes, the user adds a file and a folder with a
+    file to the results folder. They survive; the new result goes beside the folder, said so, exit 2."""
+    scn = _scn(tmp_path, SLOW)
+    out = tmp_path / "out"
+    first = _cli([str(scn), "--out", str(out), *MONO], tmp_path)
+    assert first.wait(timeout=600) == 0, first.stderr.read()
+    run = _cli([str(scn), "--out", str(out), "--no-resume", *MONO], tmp_path)
+    deadline = time.monotonic() + 300
+    while not list(tmp_path.glob(".out.partial-*")) and time.monotonic() < deadline:  # computing has begun
+        time.sleep(0.05)
+    assert run.poll() is None, "the run ended before the writer could act: make SLOW slower"
+    (out / "notes.txt").write_text("notes\n")
+    (out / "mydata").mkdir()
+    (out / "mydata" / "data.txt").write_text("important\n")
+    _, err = run.communicate(timeout=600)
+    assert run.returncode == 2, err
+    assert (out / "notes.txt").read_text() == "notes\n"
+    assert (out / "mydata" / "data.txt").read_text() == "important\n"
+    beside = sorted(tmp_path.glob("out.new-*"))
+    assert len(beside) == 1 and str(beside[0]) in err and "notes.txt" in err
+    new = pd.read_csv(beside[0] / "frc.csv")
+    old = pd.read_csv(out / "frc.csv")
+    assert len(new) == len(old) == 2 * 41  # both complete; the old one exactly as it was
+    assert not list(tmp_path.glob(".out.*")), "a partial or old folder was left behind"
+
+
+def test_an_edited_result_file_is_never_overwritten(tmp_path, capsys):
+    scn = _scn(tmp_path)
+    out = tmp_path / "out"
+    assert main([str(scn), "--out", str(out), *MONO]) == 0
+    with open(out / "frc.csv", "a") as fh:
+        fh.write("my own line\n")
+    before = _snapshot(tmp_path)
+    capsys.readouterr()
+    assert main([str(scn), "--out", str(out), *MONO]) == 2
+    assert "frc.csv (changed since run-scenario wrote it)" in capsys.readouterr().err
+    assert _snapshot(tmp_path) == before
+
+
+def test_a_result_of_another_scenario_file_with_the_same_name_is_not_replaced(tmp_path, capsys, no_computing):
+    a = tmp_path / "a"
+    b = tmp_path / "b"
+    a.mkdir()
+    b.mkdir()
+    out = tmp_path / "results" / "tiny"
+    out.mkdir(parents=True)
+    (out / "frc.csv").write_text("x\n")
+    from pyfmu_wrapper.safeio.tree import inventory, write_marker
+
+    write_marker(
+        out,
+        ".run-scenario.json",
+        "run-scenario",
+        kind="result",
+        scenario_file=str(_scn(a)),
+        **inventory(out, ".run-scenario.json"),
+    )
+    other = _scn(b)
+    before = _snapshot(tmp_path)
+    assert main([str(other), "--out", str(out), *MONO]) == 2
+    err = capsys.readouterr().err
+    assert "another scenario file" in err and str(a / "scn.yaml") in err
+    assert _snapshot(tmp_path) == before
+
+
+def test_reproduce_never_overwrites_a_users_files(tmp_path, capsys, monkeypatch):
+    import pyfmu_wrapper.cli.reproduce as rp
+
+    monkeypatch.setattr(rp, "run_all", lambda *a, **k: (_ for _ in ()).throw(AssertionError("computed")))
+    for name in ("reproduction.md", "reproduction.json", "figures/fig6.png"):
+        out = tmp_path / name.replace("/", "_")
+        (out / name).parent.mkdir(parents=True, exist_ok=True)
+        (out / name).write_text("mine\n")
+        assert reproduce_main(["--quick", "--out", str(out), "--results", str(tmp_path / "r")]) == 2
+        assert name in capsys.readouterr().err
+        assert (out / name).read_text() == "mine\n"
+
+
+def test_an_edited_checkpoint_is_computed_again_not_read_back(tmp_path, capsys):
+    scn = _scn(tmp_path, SLOW.replace("count: 41", "count: 5"))
+    out = tmp_path / "out"
+    assert main([str(scn), "--out", str(out), *MONO]) == 0
+    truth = pd.read_csv(out / "frc.csv")
+    cks = sorted((tmp_path / "out.checkpoints" / "frc").glob("*.csv"))
+    assert len(cks) == 2
+    for ck in cks:
+        t = pd.read_csv(ck)
+        t["amplitude"] *= 2
+        t.to_csv(ck, index=False, float_format="%.17g")
+    (out / ".run-scenario.json").unlink()  # replace the result: move it away first
+    shutil.rmtree(out)
+    capsys.readouterr()
+    assert main([str(scn), "--out", str(out), *MONO]) == 0
+    text = capsys.readouterr().out
+    assert text.count("checkpoint not used, computed again") == 2
+    again = pd.read_csv(out / "frc.csv")
+    assert (again["amplitude"] - truth["amplitude"]).abs().max() == 0.0
+
+
+def test_the_checkpoint_key_covers_the_c_sources(tmp_path):
+    import pyfmu_wrapper
+
+    root = Path(pyfmu_wrapper.__file__).parent
+    copy = tmp_path / "src" / "pyfmu_wrapper"
+    shutil.copytree(root, copy, ignore=shutil.ignore_patterns("__pycache__"))
+    (tmp_path / "src" / "fmu" / "src").mkdir(parents=True)
+    stub = tmp_path / "src" / "fmu" / "src" / "fmi_api.c"
+    stub.write_text("int a;\n")
+    h0 = numbers_hash(copy)
+    stub.write_text("int b;\n")
+    h1 = numbers_hash.__wrapped__(copy)
+    (copy / "master" / "cloop.c").write_text((copy / "master" / "cloop.c").read_text() + "\n/* */\n")
+    h2 = numbers_hash.__wrapped__(copy)
+    assert len({h0, h1, h2}) == 3
+
+
+@pytest.mark.parametrize("out", ["/", "//", "/tmp/.."])
+def test_out_at_the_root_is_refused_without_a_traceback(tmp_path, capsys, out, no_computing):
+    assert main([str(_scn(tmp_path)), "--out", out, *MONO]) == 2
+    err = capsys.readouterr().err
+    assert "root folder" in err and "Traceback" not in err
+
+
+def test_cache_at_a_file_is_refused_before_computing(tmp_path, capsys, no_computing):
+    f = tmp_path / "cachefile"
+    f.write_text("x")
+    assert main([str(_scn(tmp_path)), "--out", str(tmp_path / "o"), "--cache", str(f), *MONO]) == 2
+    assert "--cache" in capsys.readouterr().err and f.read_text() == "x"
+
+
+@pytest.mark.skipif(os.geteuid() != 0 or shutil.which("chattr") is None, reason="needs root and chattr")
+def test_an_immutable_output_folder_is_refused_before_computing(tmp_path, capsys, no_computing):
+    out = tmp_path / "out"
+    out.mkdir()
+    if subprocess.run(["chattr", "+i", str(out)], capture_output=True).returncode != 0:
+        pytest.skip("the file system does not support chattr +i")
+    try:
+        assert main([str(_scn(tmp_path)), "--out", str(out), *MONO]) == 2
+        assert "cannot write into" in capsys.readouterr().err
+    finally:
+        subprocess.run(["chattr", "-i", str(out)])
+
+
+def _bounded(args: list[str], cwd: Path) -> tuple[int, str, float]:
+    """Exit status, stderr and peak memory (MB) of a run-scenario process."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    p = subprocess.run(
+        [sys.executable, "-m", "pyfmu_wrapper.cli.run_scenario", *args],
+        cwd=cwd,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    return p.returncode, p.stderr, max(peak, before) / 1024
+
+
+BOMB = (
+    "schema_version: 2\nname: bomb\na: &a ["
+    + ",".join(['"lol"'] * 9)
+    + "]\n"
+    + "".join(f"{c}: &{c} [" + ",".join([f"*{p}"] * 9) + "]\n" for p, c in zip("abcdefgh", "bcdefghi"))
+    + "base: {mass: *i}\n"
+)
+
+
+@pytest.mark.parametrize(
+    "case",
+    ["alias bomb", "2 GB sparse file", "/dev/zero", "50 MB description", "long frequency list"],
+)
+def test_inputs_that_exhausted_memory_are_refused_in_bounded_memory(tmp_path, case):
+    if case == "alias bomb":
+        path = tmp_path / "bomb.yaml"
+        path.write_text(BOMB)
+        assert len(BOMB) < 1024
+    elif case == "2 GB sparse file":
+        path = tmp_path / "big.yaml"
+        with open(path, "wb") as fh:
+            fh.truncate(2 * 2**30)
+    elif case == "/dev/zero":
+        path = Path("/dev/zero")
+    elif case == "50 MB description":
+        path = tmp_path / "d.yaml"
+        path.write_text(LINEAR.replace("name: tiny", "name: tiny\ndescription: " + "x" * (50 * 2**20)))
+    else:
+        path = tmp_path / "f.yaml"
+        path.write_text(
+            LINEAR.replace("{start: 17.0, stop: 23.0, count: 5}", "[" + ", ".join(["20.0"] * 100_001) + "]")
+        )
+    code, err, peak = _bounded([str(path), "--out", str(tmp_path / "o"), "--quiet"], tmp_path)
+    assert code == 2, err
+    assert "Traceback" not in err and len(err.splitlines()) == 1 and len(err) < 600
+    assert peak < 500, f"{peak:.0f} MB"
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_description_and_values_in_messages_are_cut_short(tmp_path, capsys):
+    p = tmp_path / "s.yaml"
+    p.write_text(LINEAR.replace("mass: 100.0", "mass: '" + "9" * 5000 + "'", 1))
+    assert main([str(p), "--out", str(tmp_path / "o"), *MONO]) == 2
+    err = capsys.readouterr().err
+    assert "base.mass" in err and len(err) < 600
