@@ -175,7 +175,8 @@ def remove_own(folder: Path, marker: str, tool: str) -> list[str]:
     """Remove a folder of ours file by file: each file only if its hash is still the recorded one.
     Returns what was left (empty: the folder is gone)."""
     m = read_marker(folder, marker, tool) or {}
-    want = m.get("files") if isinstance(m.get("files"), dict) else {}
+    files_m = m.get("files")
+    want: dict[str, str] = files_m if isinstance(files_m, dict) else {}
     files, dirs, odd = walk(folder)
     left = list(odd)
     for n, p in files.items():
