@@ -52,10 +52,12 @@ def numbers_hash(root: Path = PACKAGE_DIR) -> str:
     root = Path(root)
     files = _sources(root)
     stub = root.parent / "fmu" / "src"
-    extra = [p for p in sorted(root.rglob("*")) if p.suffix in (".c", ".h") and "__pycache__" not in p.parts]
-    extra += sorted(p for p in stub.glob("*") if p.suffix in (".c", ".h")) if stub.is_dir() else []
-    for p in extra:
-        files[p.relative_to(root.parent).as_posix()] = p.read_bytes()
+    for p in sorted(root.rglob("*")):
+        if p.suffix in (".c", ".h") and "__pycache__" not in p.parts:
+            files[p.relative_to(root).as_posix()] = p.read_bytes()
+    for p in sorted(stub.glob("*")) if stub.is_dir() else []:
+        if p.suffix in (".c", ".h"):
+            files[f"../fmu/src/{p.name}"] = p.read_bytes()
     return _digest(files)
 
 

@@ -413,15 +413,16 @@ def test_checkpoint_key_follows_the_code(tmp_path, monkeypatch):
     ck = Checkpoint(tmp_path / "ck")
     ck.save(task, _fake_table(task))
     assert ck.load(task) is not None
-    assert task.key_payload()["code"] == tasks.source_hash(tasks.PACKAGE_DIR)[:16]
-    # a copy of the package with one kernel line changed has another source hash ...
+    assert task.key_payload()["code"] == tasks.numbers_hash(tasks.PACKAGE_DIR)[:16]
+    # a copy of the package (and of the FMU stub beside it) with one kernel line changed has another hash ...
     same, edited = tmp_path / "same" / "pkg", tmp_path / "edited" / "pkg"
     for d in (same, edited):
         shutil.copytree(tasks.PACKAGE_DIR, d, ignore=shutil.ignore_patterns("__pycache__", "*.so", "*.pyc"))
-    assert tasks.source_hash(same) == tasks.source_hash(tasks.PACKAGE_DIR)
+        shutil.copytree(tasks.PACKAGE_DIR.parent / "fmu" / "src", d.parent / "fmu" / "src")
+    assert tasks.numbers_hash(same) == tasks.numbers_hash(tasks.PACKAGE_DIR)
     kern = edited / "physics" / "kernels.py"
     kern.write_text(kern.read_text() + "\n# edited\n")
-    other = tasks.source_hash(edited)[:16]
+    other = tasks.numbers_hash(edited)[:16]
     assert other != tasks.code_version()
     # ... and a checkpoint written by the old code is not read back by the new one
     monkeypatch.setattr(tasks, "code_version", lambda: other)
