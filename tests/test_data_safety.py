@@ -8,6 +8,7 @@ checkpoint, `--out /`, `--cache` at a file, an unwritable --out, and inputs that
 
 from __future__ import annotations
 
+import json
 import os
 import resource
 import shutil
@@ -288,3 +289,19 @@ def test_a_description_and_values_in_messages_are_cut_short(tmp_path, capsys):
     assert main([str(p), "--out", str(tmp_path / "o"), *MONO]) == 2
     err = capsys.readouterr().err
     assert "base.mass" in err and len(err) < 600
+
+
+def test_optimise_json_replaces_only_its_own_unchanged_file(tmp_path, capsys):
+    from pyfmu_wrapper.cli.optimise import main as optimise_main
+
+    out = tmp_path / "opt.json"
+    args = ["--case", "1", "--parameter", "damping", "--quiet", "--scan", "3", "--json", str(out)]
+    assert optimise_main(args) == 0
+    first = json.loads(out.read_text())
+    assert first["parameter"] == "tmd.damping"
+    assert optimise_main(args) == 0  # its own, unchanged: replaced
+    out.write_text(out.read_text() + " ")  # edited by the user: refused before optimising, kept
+    before = out.read_bytes()
+    assert optimise_main(args) == 2
+    assert "changed since optimise wrote it" in capsys.readouterr().err
+    assert out.read_bytes() == before

@@ -25,6 +25,8 @@ from typing import Any
 from ..paper.objectives import OBJECTIVES, OptimisationError
 from ..paper.optimise import OptimiseConfig, optimise, split_parameter, with_parameter
 from ..physics.params import BaseParams, ParameterError, paper_case
+from ..safeio.files import OwnedFiles
+from ..safeio.tree import OutputError
 from .errors import cli_main, plain_text
 
 
@@ -101,27 +103,19 @@ def _fail(msg: str) -> int:
     return 2
 
 
-def _check_json_target(path: str | None) -> str | None:
-    """Why --json PATH must not be written (None: a new file or a previous optimise result)."""
-    import os
-
+def _json_target(path: str | None) -> OwnedFiles | None:
+    """Where --json PATH goes: a file optimise owns in its folder (:mod:`pyfmu_wrapper.safeio.files`:
+    a new file, or one optimise wrote and nobody changed since); refused before optimising otherwise."""
     if path in (None, "-"):
         return None
+    import os
+
     if os.path.isdir(path):
-        return f"--json {path}: is a folder; give a file name"
-    if os.path.exists(path):
-        try:
-            with open(path, encoding="utf-8") as fh:
-                prev = json.load(fh)
-            if isinstance(prev, dict) and {"parameter", "objective", "evaluations"} <= set(prev):
-                return None
-        except (OSError, ValueError):
-            pass
-        return (
-            f"--json {path}: the file exists and is not a previous optimise result: choose a new name "
-            "(optimise never overwrites files it did not write)"
-        )
-    return None
+        raise OutputError(f"--json {path}: is a folder; give a file name")
+    p = os.path.abspath(path)
+    owned = OwnedFiles(os.path.dirname(p), "optimise", ".optimise.json", option="--json")
+    owned.check([os.path.basename(p)])
+    return owned
 
 
 @cli_main("optimise")
@@ -139,9 +133,10 @@ def main(argv: list[str] | None = None) -> int:
         return _fail(f"--xtol must be a tolerance > 0, got {args.xtol}")
     if args.scan is not None and args.scan < 3:
         return _fail(f"--scan must be >= 3 points, got {args.scan}")
-    why = _check_json_target(args.json_out)
-    if why:
-        return _fail(why)
+    try:
+        owned = _json_target(args.json_out)
+    except OutputError as exc:
+        return _fail(str(exc))
     kw: dict[str, Any] = {}  # OptimiseConfig's settings from the scenario
     if args.scenario is not None:
         from ..scenario import ScenarioError, load_scenario
@@ -223,13 +218,16 @@ def main(argv: list[str] | None = None) -> int:
         text = json.dumps(doc, indent=2)
         if args.json_out == "-":
             print(text)
-        else:
+        elif owned is not None:
             import os
 
-            tmp = f"{args.json_out}.partial-{os.getpid()}"
-            with open(tmp, "w", encoding="utf-8") as fh:
-                fh.write(text + "\n")
-            os.replace(tmp, args.json_out)
+            owned.write(os.path.basename(os.path.abspath(args.json_out)), (text + "\n").encode())
+            for _, beside in owned.diverted:
+                print(
+                    f"optimise: error: {args.json_out} changed during the run and was kept; wrote {beside}",
+                    file=sys.stderr,
+                )
+                return 2
     return 0
 
 
