@@ -305,3 +305,17 @@ def test_optimise_json_replaces_only_its_own_unchanged_file(tmp_path, capsys):
     assert optimise_main(args) == 2
     assert "changed since optimise wrote it" in capsys.readouterr().err
     assert out.read_bytes() == before
+
+
+def test_a_rerun_served_from_checkpoints_says_so(tmp_path, capsys):
+    scn = _scn(tmp_path, SLOW.replace("count: 41", "count: 5"))
+    out = tmp_path / "out"
+    assert main([str(scn), "--out", str(out), *MONO]) == 0
+    assert "read from the checkpoints" not in capsys.readouterr().out
+    first = pd.read_csv(out / "frc.csv")
+    assert main([str(scn), "--out", str(out), *MONO]) == 0
+    said = capsys.readouterr().out
+    assert "2 of 2 sweeps were read from the checkpoints" in said and "--no-resume" in said
+    pd.testing.assert_frame_equal(
+        pd.read_csv(out / "frc.csv").drop(columns="wall_time"), first.drop(columns="wall_time")
+    )
