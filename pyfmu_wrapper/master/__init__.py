@@ -1,4 +1,4 @@
-"""Co-simulation master for FMI 2.0 co-simulation FMUs (fmpy): FMI and coupling only.
+"""Co-simulation master for FMI 2.0 and 3.0 co-simulation FMUs (fmpy): FMI and coupling only.
 
 The base + TMD application (co-simulated steady state, sweeps, SSP export of the pair) is
 :mod:`pyfmu_wrapper.cosim`.

@@ -1,4 +1,4 @@
-"""A co-simulation master for FMI 2.0 co-simulation FMUs, built on fmpy's FMU API.
+"""A co-simulation master for FMI 2.0 and FMI 3.0 co-simulation FMUs, built on fmpy's FMU API.
 
 Give it FMUs (instance name -> path), a connection list (``"a.y -> b.u"``) and parameter values;
 it reads every ``modelDescription.xml``, builds the connection graph
@@ -91,7 +91,7 @@ def _check_order(order: int) -> int:
 
 
 class Master:
-    """Co-simulation of FMI 2.0 co-simulation FMUs coupled by a connection list.
+    """Co-simulation of FMI 2.0 or 3.0 co-simulation FMUs coupled by a connection list.
 
     fmus: instance name -> FMU path; connections: ``"a.y -> b.u"`` strings or (src, dst) pairs;
     parameters: ``"instance.variable" -> value`` start values; scheme: see the module doc;

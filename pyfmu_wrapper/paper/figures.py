@@ -53,12 +53,6 @@ def _maps_and_frcs(
     fig.savefig(path, dpi=dpi)
 
 
-def _rasterize(fig: Figure) -> None:
-    for ax in fig.axes:
-        for coll in ax.collections:
-            coll.set_rasterized(True)
-
-
 #: the figures draw_figures can write (figures/<name>.png)
 FIGURES = ["fig2", "fig3", "fig4", "fig5", "fig6"]
 
