@@ -635,7 +635,7 @@ def test_console_scripts_apply_the_policy(prog, pick, tmp_path):
 
 
 def test_plain_numbers_in_messages():
-    from pyfmu_wrapper.cli.errors import plain, plain_text
+    from pyfmu_wrapper.errors import plain, plain_text
 
     assert plain_text("got np.float64(nan) and np.float32(0.5), np.int64(3)") == "got nan and 0.5, 3"
     assert repr(plain(np.float64(0.5))) == "0.5" and repr(plain(np.float64("nan"))) == "nan"

@@ -21,7 +21,8 @@ from ..diagnose.run import (
     load_manifest,
     run_diagnosis,
 )
-from .errors import InputError, cli_main
+from ..errors import InputError
+from .errors import cli_main
 
 
 @cli_main("diagnose")

@@ -22,12 +22,13 @@ import sys
 import traceback
 from typing import Any
 
+from ..errors import plain_text
 from ..paper.objectives import OBJECTIVES, OptimisationError
 from ..paper.optimise import OptimiseConfig, optimise, split_parameter, with_parameter
 from ..physics.params import BaseParams, ParameterError, paper_case
 from ..safeio.files import OwnedFiles
 from ..safeio.tree import OutputError
-from .errors import cli_main, plain_text
+from .errors import cli_main
 
 
 def _parser() -> argparse.ArgumentParser:

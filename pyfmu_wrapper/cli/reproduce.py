@@ -26,6 +26,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from ..errors import InputError
 from ..paper.claims import Context, evaluate
 from ..paper.figures import FIGURES, draw_figures
 from ..paper.report import REPORT_FILES, write_report
@@ -33,7 +34,7 @@ from ..paper.reproduce import CASES, DEFAULT_ENGINE, NAMES, run_all
 from ..safeio.files import OwnedFiles
 from ..scenario.engines import ENGINES
 from ..scenario.executors import make_executor
-from .errors import InputError, cli_main
+from .errors import cli_main
 
 #: the marker of the files reproduce writes into its --out folder (docs/ by default)
 REPRODUCE_MARKER = ".reproduce.json"

@@ -18,6 +18,7 @@ from pathlib import Path
 from types import FrameType
 from typing import Literal, NoReturn, TextIO
 
+from ..errors import set_max_input_size
 from ..safeio import Diverted, OutputError
 from ..scenario import ScenarioError, load_scenario
 from ..scenario.engines import DEFAULT_ENGINE, ENGINES, RunSettings
@@ -26,7 +27,7 @@ from ..scenario.outdir import check_output_dir, default_checkpoint_dir, default_
 from ..scenario.output import run_scenario
 from ..scenario.runner import instant_units, work_units
 from ..scenario.summary import study_report
-from .errors import cli_main, set_max_input_size
+from .errors import cli_main
 
 
 def _parser() -> argparse.ArgumentParser:

@@ -125,7 +125,7 @@ def load_dataset(
 ) -> Dataset:
     """Load and validate ``path/dataset.yaml`` and its records (``model_override``: a nominal model
     read from the file ``model_source``). Progress of long records goes to ``log``."""
-    from ..cli.errors import read_utf8
+    from ..errors import read_utf8
     from ..scenario.yamlio import load_marked
 
     path = Path(path)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from ..errors import InputError
 
-class DataError(ValueError):
+
+class DataError(InputError):
     """Bad measured data; the message names the file, row and column."""

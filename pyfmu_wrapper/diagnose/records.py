@@ -264,7 +264,7 @@ def _read_long(
 
 def read_record(file: Path, level: str, entry: dict | None = None, log: Callable = _stderr) -> Record:
     """Read and validate one CSV record (records longer than MAX_SAMPLES rows: see :func:`_read_long`)."""
-    from ..cli.errors import scan_utf8_lines
+    from ..errors import scan_utf8_lines
 
     entry = entry or {}
     file = Path(file)

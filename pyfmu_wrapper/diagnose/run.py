@@ -18,7 +18,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal, NoReturn
 
-from ..cli.errors import InputError, read_utf8
+from ..errors import InputError, read_utf8
 from .data import DataError, load_dataset
 
 if TYPE_CHECKING:

@@ -23,8 +23,10 @@ from typing import Any
 
 from fmpy.model_description import ModelDescription
 
+from ..errors import InputError
 
-class GraphError(ValueError):
+
+class GraphError(InputError):
     """An inconsistent connection list (unknown instance or variable, wrong causality, two sources)."""
 
 

@@ -22,11 +22,12 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.linalg import solve_continuous_lyapunov
 
+from ..errors import InputError
 from ..physics.params import BaseParams, InerterModel, TMDParams
 from ..solvers.frequency_response import linear_system
 
 
-class OptimisationError(ValueError):
+class OptimisationError(InputError):
     """Bad optimisation request (unknown objective or parameter, bad bounds or band)."""
 
 

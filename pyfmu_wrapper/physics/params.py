@@ -18,10 +18,11 @@ from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
 
 import numpy as np
 
+from ..errors import InputError
 from . import registry
 
 
-class ParameterError(ValueError):
+class ParameterError(InputError):
     """A non-physical or malformed parameter value."""
 
 
@@ -46,7 +47,7 @@ def _check(
 ) -> float:
     where = f" (from {source})" if source else ""
     if isinstance(value, bool) or not isinstance(value, (int, float, np.floating, np.integer)):
-        from ..cli.errors import short
+        from ..errors import short
 
         raise ParameterError(f"{name} must be a number, got {short(value)}{where}")
     v = float(value)

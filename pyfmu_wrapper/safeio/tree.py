@@ -14,7 +14,7 @@ import stat
 from pathlib import Path
 from typing import Any
 
-from ..cli.errors import InputError
+from ..errors import InputError
 
 
 class OutputError(InputError):

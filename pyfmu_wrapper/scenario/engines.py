@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from ..errors import InputError
 from ..physics.params import BaseParams, TMDParams
 from ..solvers.frequency_response import exact_amplitude, exact_response
 from ..solvers.monolithic import periodic_time_series
@@ -336,7 +337,7 @@ ENGINES: dict[str, Engine] = {
 }
 
 
-class EngineError(ValueError):
+class EngineError(InputError):
     """An unknown engine name."""
 
 

@@ -63,7 +63,7 @@ def load_scenario(path: str | Path) -> Scenario:
     """Read, validate and resolve a scenario file. Raises ScenarioError on any problem."""
     path = os.fspath(path)
     file = path
-    from ..cli.errors import read_bytes_limited
+    from ..errors import read_bytes_limited
 
     try:
         data = read_bytes_limited(path, ScenarioError, what="scenario file")
@@ -72,7 +72,7 @@ def load_scenario(path: str | Path) -> Scenario:
     try:
         text = data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:  # name the line and byte, not a traceback
-        from ..cli.errors import bad_bytes_message
+        from ..errors import bad_bytes_message
 
         raise ScenarioError(
             bad_bytes_message(file, data, exc), file=file, line=data.count(b"\n", 0, exc.start) + 1

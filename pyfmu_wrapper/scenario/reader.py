@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
-from ..cli.errors import short
+from ..errors import short
 from ..physics.params import ParameterError
 from .schema import ScenarioError
 from .yamlio import MarkedDict, MarkedList

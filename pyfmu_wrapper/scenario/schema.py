@@ -11,6 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from ..errors import InputError
 from ..physics import registry
 from ..physics.params import BaseParams, TMDParams
 from ..solvers.monolithic import SolverSettings
@@ -29,7 +30,7 @@ STUDY_KINDS = ("frc", "map", "phase_portrait")
 MAP_PARAMETERS = tuple(p.name for p in registry.fields("tmd") if p.mappable) + ("inertance_ratio",)
 
 
-class ScenarioError(ValueError):
+class ScenarioError(InputError):
     """A scenario file that cannot be read or is not valid.
 
     Attributes: ``file``, ``line`` (1-based, or None), ``path`` (key path such as

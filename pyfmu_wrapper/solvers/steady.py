@@ -19,6 +19,7 @@ from typing import Any, NoReturn
 import numpy as np
 from numpy.typing import NDArray
 
+from ..errors import InputError
 from ..physics.params import BaseParams, TMDParams, has_gap
 from . import settings_table as _table
 from .settings_table import MONO
@@ -27,7 +28,7 @@ from .settings_table import MONO
 PLAY_STARTS = ("companion", "previous")
 
 
-class SettingsError(ValueError):
+class SettingsError(InputError):
     """A settings value out of its range: ``field`` names it, ``value`` is the value, ``reason`` says why."""
 
     def __init__(self, owner: str, field: str, value: Any, reason: str) -> None:
