@@ -240,8 +240,8 @@ def test_acquisition_key_allowed_unknown_keys_refused(tmp_path):
 
 
 def test_result_folder_replaced_as_a_whole_user_files_never_touched(tmp_path):
-    from pyfmu_wrapper.errors import InputError
     from pyfmu_wrapper.diagnose.run import DIAGNOSE_MARKER, ResultFolder, check_out_folder
+    from pyfmu_wrapper.errors import InputError
 
     out = check_out_folder(tmp_path / "res", "diagnose", DIAGNOSE_MARKER)
     with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
