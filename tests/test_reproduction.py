@@ -300,12 +300,12 @@ def _fig2_context(text_edit=None):
 
     from pyfmu_wrapper.paper.claims import Context
     from pyfmu_wrapper.paper.reproduce import Run, load_paper_scenario
-    from pyfmu_wrapper.scenario.loader import _plain, parse_scenario
+    from pyfmu_wrapper.scenario.loader import parse_scenario, plain_data
     from pyfmu_wrapper.scenario.runner import run_studies
 
     scn = load_paper_scenario("fig2_iratio", "quick")
     if text_edit is not None:
-        doc = text_edit(_plain(scn.raw))
+        doc = text_edit(plain_data(scn.raw))
         scn = parse_scenario(yaml.safe_dump(doc, sort_keys=False), scn.path)
     datas = run_studies(scn, RunSettings.for_scenario(scn))
     return Context({"fig2_iratio": Run("fig2_iratio", scn, "quick", {d.study.name: d for d in datas}, {}, ROOT)})

@@ -19,7 +19,7 @@ from typing import Any
 import yaml
 
 from ..scenario.engines import RunSettings
-from ..scenario.loader import Scenario, _plain, parse_scenario
+from ..scenario.loader import Scenario, parse_scenario, plain_data
 from ..scenario.output import run_scenario
 from ..scenario.runner import work_units
 from ..scenario.yamlio import load_marked
@@ -59,7 +59,7 @@ def load_paper_scenario(name: str, level: str | None = None) -> Scenario:
     path = PAPER_DIR / f"{name}.yaml"
     text = path.read_text(encoding="utf-8")
     if level:
-        doc = _shrink(_plain(load_marked(text, name=str(path))), level, exact=name.startswith(("fig2", "fig3")))
+        doc = _shrink(plain_data(load_marked(text, name=str(path))), level, exact=name.startswith(("fig2", "fig3")))
         text = yaml.safe_dump(doc, sort_keys=False)
     return parse_scenario(text, str(path))
 

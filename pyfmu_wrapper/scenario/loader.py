@@ -164,7 +164,7 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
         studies=tuple(studies),
         sweep=sweep,
         cosim=cosim,
-        raw=_plain(doc),
+        raw=plain_data(doc),
     )
 
 
@@ -324,9 +324,10 @@ def _curves(rd: Reader, node: MarkedList, path: str, line: int | None, spec: TMD
     return tuple(out)
 
 
-def _plain(obj: Any) -> Any:
+def plain_data(obj: Any) -> Any:
+    """The YAML document as plain dicts and lists (the line-marked containers dropped)."""
     if isinstance(obj, dict):
-        return {k: _plain(v) for k, v in obj.items()}
+        return {k: plain_data(v) for k, v in obj.items()}
     if isinstance(obj, list):
-        return [_plain(v) for v in obj]
+        return [plain_data(v) for v in obj]
     return obj

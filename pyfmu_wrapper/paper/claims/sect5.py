@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from .. import claim_data as cd
 from ..claim_data import PAPER_DFOPT
-from .table import CASES, FIG3, FIG4, Check, ClaimResult, Context, _nc_note, claim
+from .table import CASES, FIG3, FIG4, Check, ClaimResult, Context, claim, nc_note
 
 # --- Sect. 5, Fig. 4 --------------------------------------------------------------------------------
 
@@ -41,7 +41,7 @@ def _dfopt(ctx: Context) -> ClaimResult:
         + " N; from the map rows: "
         + " / ".join(f"{h:.1f}" for h in rowh2)
         + " N"
-        + _nc_note(nc),
+        + nc_note(nc),
         (Check("max relative deviation", dev, "<=", 0.05),),
         "Objective of the paper not stated; H2 as for c.",
     )

@@ -9,7 +9,7 @@ import numpy as np
 
 from .. import claim_data as cd
 from ..claim_data import FULL_C
-from .table import CASES, FIG4, FIG5, FIG6, Check, ClaimResult, Context, _nc_note, _not_run, claim, fmt
+from .table import CASES, FIG4, FIG5, FIG6, Check, ClaimResult, Context, claim, fmt, nc_note, not_run
 
 # --- Sect. 6, Fig. 5 --------------------------------------------------------------------------------
 
@@ -25,7 +25,7 @@ def _play_macro(ctx: Context) -> ClaimResult:
         pts[c] = d
         cells.append(
             f"Case {c}: max |A(eps) - A(0)| = {d:.1%} of the peak, row peaks within {rel_peak:.2%}"
-            + _nc_note(cd.not_converged(m))
+            + nc_note(cd.not_converged(m))
         )
         checks += [Check(f"Case {c}: row peaks", rel_peak, "<=", 0.02), Check(f"Case {c}: any point", d, "<=", 0.05)]
     ctx.shared["play_influence"] = pts
@@ -42,11 +42,11 @@ def _hundred_gap(ctx: Context) -> ClaimResult:
         w, a = cd.curve(d6, "2:")
         k = int(np.argmin(a))
         cells.append(
-            f"Case {c}: min {a[k]:.2e} m at {w[k]:.1f} rad/s ({a[k] / 1e-4:.2f} x eps)" + _nc_note(cd.not_converged(d6))
+            f"Case {c}: min {a[k]:.2e} m at {w[k]:.1f} rad/s ({a[k] / 1e-4:.2f} x eps)" + nc_note(cd.not_converged(d6))
         )
         checks.append(Check(f"Case {c}: min amplitude / eps", a[k] / 1e-4, ">=", 100.0))
     return (
-        "; ".join(cells) + _not_run(ctx, "fig6_case"),
+        "; ".join(cells) + not_run(ctx, "fig6_case"),
         tuple(checks),
         "Near w = 20 rad/s (antiresonance, c = 0) the base amplitude is smaller than the gap itself.",
     )
@@ -123,10 +123,10 @@ def _play_alone(ctx: Context) -> ClaimResult:
         _, a1 = cd.curve(d6, "1:")
         _, a2 = cd.curve(d6, "2:")
         d = float(np.abs(a2 - a1).max() / a1.max())
-        cells.append(f"Case {c}: {d:.2%}" + _nc_note(cd.not_converged(d6)))
+        cells.append(f"Case {c}: {d:.2%}" + nc_note(cd.not_converged(d6)))
         checks.append(Check(f"Case {c}: max |A2 - A1| / max A1", d, "<=", 0.02))
     return (
-        "; ".join(cells) + _not_run(ctx, "fig6_case"),
+        "; ".join(cells) + not_run(ctx, "fig6_case"),
         tuple(checks),
         "'Overlapped' read as within 2 % of the peak.",
     )
@@ -147,7 +147,7 @@ def _simplified(ctx: Context) -> ClaimResult:
             f"{f['paper']['rel_area']:.1%}; best-fit c (area) {f['area']['c']:.2f}"
             for c, f in fits.items()
         )
-        + _not_run(ctx, "fig6_case"),
+        + not_run(ctx, "fig6_case"),
         tuple(Check(f"Case {c}: max error / peak", f["paper"]["rel_max"], "<", 0.10) for c, f in fits.items()),
         "'Slight' read as a maximum error below 10 % of the full model's peak. Best fits: table below.",
     )
@@ -186,7 +186,7 @@ def _simplified_small(ctx: Context) -> ClaimResult:
         cells.append(
             f"Case {c}: c = df = {small['c']:g}: {small['rule']['rel_max']:.1%} (best fit {small['best']['rel_max']:.1%}); "
             f"c = df = {large['c']:g}: {large['rule']['rel_max']:.1%} (best fit {large['best']['rel_max']:.1%})"
-            + _nc_note(small["not_converged"] + large["not_converged"])
+            + nc_note(small["not_converged"] + large["not_converged"])
         )
         checks += [
             Check(

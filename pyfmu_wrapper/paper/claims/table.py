@@ -144,13 +144,14 @@ def claim(
     return deco
 
 
-def _not_run(ctx: Context, prefix: str) -> str:
+def not_run(ctx: Context, prefix: str) -> str:
     """'; Case k: not run' for the Cases whose scenario ``prefix``k is missing."""
     miss = [c for c in CASES if f"{prefix}{c}" not in ctx.runs]
     return "".join(f"; Case {c}: scenario {prefix}{c} not run" for c in miss)
 
 
-def _nc_note(n: int) -> str:
+def nc_note(n: int) -> str:
+    """The note a claim carries when n steady states of its data did not converge."""
     return f" [{n} steady states of the data not converged]" if n else ""
 
 
