@@ -190,7 +190,6 @@ def rhs(t: float, z: Vec, p: Vec, out: Vec) -> None:
 # kappa > 0 the xdd input is that body's acceleration *without* this TMD's link force, and the TMD
 # adds the body's instantaneous reaction to its own force (:func:`mounted_acceleration`).
 SYS_COUPLED, SYS_BASE, SYS_TMD = 0, 1, 2
-SYSTEM_SIZE = (6, 2, 4)
 U_KAPPA = 10
 
 

@@ -184,6 +184,3 @@ TMD = OdeModel(
     ("y", "yd", "d", "dd"),
     _bind(_describe(False, 2), tmd_switching),
 )
-
-#: the models by the kernels' system ids (for the FMU code that still passes ids)
-BY_SYSTEM_ID = {SYS_COUPLED: COUPLED, SYS_BASE: BASE, SYS_TMD: TMD}

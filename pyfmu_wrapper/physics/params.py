@@ -12,9 +12,9 @@ kernels of :mod:`pyfmu_wrapper.physics.kernels`.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, field, fields, make_dataclass, replace
+from dataclasses import asdict, field, fields, make_dataclass
 from enum import IntEnum
-from typing import TYPE_CHECKING, Any, ClassVar, TypeVar
+from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
@@ -207,16 +207,6 @@ else:
         "TMD mass m and its links to the base (paper Table 1): spring k + k3 (x-y)^3, "
         "damper c, dry friction df, inerter I (none / ideal / with play ki, ci, eps).",
     )
-
-
-_P = TypeVar("_P", "BaseParams", "TMDParams")
-
-
-def with_values(obj: _P, source: str | None = None, **changes: Any) -> _P:
-    """A copy of a parameter object with some fields changed (and validated again)."""
-    if source is not None:
-        changes["source"] = source
-    return replace(obj, **changes)
 
 
 def as_dict(obj: Any) -> dict[str, Any]:
