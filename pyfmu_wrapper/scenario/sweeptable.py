@@ -38,8 +38,12 @@ SWEEP_COLUMNS = (
     "fmu_time_tmd",
     "master_loop_time",
     "python_step_time",
+    "coupling_error",
+    "reason",
 )
-#: co-simulation only (NaN for the monolithic engine): seconds inside each FMU's fmi2 calls of the
+#: co-simulation only (NaN for the monolithic engine): ``coupling_error``, the estimated relative
+#: amplitude error of the coupling (step doubling, ``cosim.checked``), and ``reason``, why a point is
+#: not converged (``cosim.steady.steady_state``); and the seconds inside each FMU's fmi2 calls of the
 #: compiled stepping loop, the loop's own work, and the steps taken on the Python path
 #: (``cosim.steady._time_split``); the rest of ``wall_time`` is the steady-state logic
 TIMING_COLUMNS = ("fmu_time_base", "fmu_time_tmd", "master_loop_time", "python_step_time")
