@@ -32,8 +32,8 @@ from ..master.master import Master
 from ..physics.params import BaseParams, TMDParams
 from ..solvers.start import initial_guess
 from ..solvers.sweep import run_sweep_pieces
-from .checked import companion_error, own_error
-from .periods import CosimSteadyState, Periods, can_shoot, run_steady
+from .checked import check_mode, companion_error, own_error, relative_gap
+from .periods import CosimSteadyState, Periods, run_steady
 from .settings import CosimSettings
 from .system import make_master
 from .timescales import choose_steps, fastest
@@ -86,18 +86,25 @@ def steady_state(
         )
     n = choice.steps
     tol = settings.coupling_tolerance(tmd)
-    smooth = can_shoot(tmd) and settings.window_for(tmd) == 1
+    mode = check_mode(base, tmd, settings, choice.limited_by)
     previous: tuple[int, float] | None = None
     steps = periods = 0
     while True:
         ss: CosimSteadyState | None = None
         est, problem = math.nan, ""
         try:
-            if not smooth:
+            coarse = math.nan
+            if mode == "companion":
                 est = companion_error(master, base, tmd, omega, settings, hint, n)
+            elif mode == "doubling":  # the play run itself at n/2 first: the master ends on the n run
+                coarse = previous[1] if previous is not None and 2 * previous[0] == n else math.nan
+                if math.isnan(coarse):
+                    coarse = run_steady(master, base, tmd, omega, z0, settings, hint, max(n // 2, 8)).amplitude
             ss = run_steady(master, base, tmd, omega, z0, settings, hint, n)
-            if smooth:
+            if mode == "own":
                 est = own_error(master, base, tmd, omega, ss, settings, hint, previous)
+            elif mode == "doubling":
+                est = relative_gap(ss.amplitude, coarse, base)
         except MasterError as exc:
             problem = f"the FMUs failed at {n} steps per period: {str(exc).splitlines()[0][:300]}"
             hint.pop("A", None)

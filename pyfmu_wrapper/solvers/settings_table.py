@@ -249,20 +249,19 @@ SETTINGS: tuple[Setting, ...] = (
     _s(
         "coupling_tol",
         "number",
-        {COSIM: None},
+        {COSIM: 5e-3},
         "1",
-        "tolerance of the coupling-error estimate (step doubling) at every point; a point above it is refined "
-        "(steps doubled) or reported not converged (null: the accuracy, 1e-3, 2.5e-3 with a gear gap)",
+        "tolerance of the coupling-error estimate (the amplitude's gap to the same steady state at half the "
+        "steps) at every point; a point above it is refined (steps doubled) or reported not converged",
         minimum=0.0,
         strict=True,
         maximum=0.5,
-        optional=True,
         scenario=(),
     ),
     _s(
         "max_steps_per_period",
         "integer",
-        {COSIM: 65536},
+        {COSIM: 262_144},
         "steps",
         "most communication steps per forcing period; a point whose structure (its fastest natural frequency) "
         "needs more is refused and reported not converged",
