@@ -99,6 +99,20 @@ def run_config(M: float, k: float, omegas: tuple, play: bool) -> list[dict]:
     return rows
 
 
+def _short(reason: str) -> str:
+    """A flagged point's reason in a few words (the full sentence is in the JSON)."""
+    if not reason:
+        return ""
+    if "communication steps per forcing period" in reason:  # refused by the structure's time scale
+        what = reason.split(" (")[0]
+        rate = reason.split(" is ")[1].split(":")[0]
+        need = reason.split("needs ")[1].split(" communication")[0]
+        return f"refused: {what} = {rate} needs {need} steps/period"
+    if reason.startswith("the FMUs failed"):
+        return reason.split(" (status")[0][:110]
+    return reason[:120]
+
+
 def markdown(rows: list[dict]) -> str:
     out = [
         "| model | M [kg] | k [N/m] | omega [rad/s] | reference [m] | deviation | converged | estimate | steps/period | wall [s] | reason (flagged points) |",
@@ -110,9 +124,7 @@ def markdown(rows: list[dict]) -> str:
         conv = "yes" if r["converged"] else "**flagged**"
         if r["bad"]:
             conv = "**yes, off by > 0.5 %**"
-        reason = r["reason"].split(" (")[0] if r["reason"] else ""
-        if r["reason"] and "refused" not in reason and r["steps_per_period"] == 0:
-            reason = r["reason"][:90] + "..."
+        reason = _short(r["reason"])
         out.append(
             f"| {r['model']} | {r['M']:g} | {r['k']:g} | {r['omega']:g} | {r['reference']:.4g} | {dev} | {conv} "
             f"| {est} | {r['steps_per_period'] or '-'} | {r['wall_time']:.2f} | {reason} |"
@@ -124,7 +136,11 @@ def main(argv: list[str] | None = None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--quick", action="store_true", help="two masses, two stiffnesses, three frequencies, no play")
     p.add_argument("--out", default=str(HERE / "results" / "cosim_stress.json"))
+    p.add_argument("--table", metavar="JSON", help="only print the markdown table of an earlier run's JSON")
     args = p.parse_args(argv)
+    if args.table:
+        print(markdown(json.loads(Path(args.table).read_text(encoding="utf-8"))["rows"]))
+        return 0
     masses: tuple[float, ...] = MASSES
     stiff: tuple[float, ...] = STIFFNESSES
     omegas: tuple[float, ...] = OMEGAS
