@@ -54,6 +54,7 @@ def steady_state(
     z0: ArrayLike | None = None,
     settings: CosimSettings = CosimSettings(),
     hint: dict | None = None,
+    restart: bool = True,
 ) -> CosimSteadyState:
     """Co-simulated steady state at omega [rad/s] (definition in the module doc), checked.
 
@@ -65,7 +66,8 @@ def steady_state(
     doubled (at most :data:`MAX_DOUBLINGS` times, within the cap; never with a fixed
     ``steps_per_period``) and the point is reported not converged, with the reason, if it still
     misses. A failure of the FMUs (an unstable exchange) also doubles the steps.
-    hint: a dict carried along a sweep (the shooting Jacobian, the companion's orbit)."""
+    hint: a dict carried along a sweep (the shooting Jacobian, the companion's orbit); restart: leave
+    the master on the converged orbit (for a time series that follows; a sweep does not need it)."""
     t_start = time.perf_counter()
     hint = {} if hint is None else hint
     fixed = settings.steps_per_period is not None
@@ -94,17 +96,20 @@ def steady_state(
         est, problem = math.nan, ""
         try:
             coarse = math.nan
+            companion = (math.nan, math.nan)
             if mode == "companion":
-                est = companion_error(master, base, tmd, omega, settings, hint, n)
+                companion = companion_error(master, base, tmd, omega, settings, hint, n)
             elif mode == "doubling":  # the play run itself at n/2 first: the master ends on the n run
                 coarse = previous[1] if previous is not None and 2 * previous[0] == n else math.nan
                 if math.isnan(coarse):
                     coarse = run_steady(master, base, tmd, omega, z0, settings, hint, max(n // 2, 8)).amplitude
             ss = run_steady(master, base, tmd, omega, z0, settings, hint, n)
             if mode == "own":
-                est = own_error(master, base, tmd, omega, ss, settings, hint, previous)
+                est = own_error(master, base, tmd, omega, ss, settings, hint, previous, restart)
             elif mode == "doubling":
                 est = relative_gap(ss.amplitude, coarse, base)
+            else:  # the companion's gap against the play model's amplitude
+                est = relative_gap(companion[0], companion[1], base, ss.amplitude)
         except MasterError as exc:
             problem = f"the FMUs failed at {n} steps per period: {str(exc).splitlines()[0][:300]}"
             hint.pop("A", None)
@@ -199,7 +204,7 @@ def _sweep_piece(
             if z is not None and w_prev is not None:
                 start = continuation_start(base, tmd, z, w_prev, float(w))
             before = master.timing()
-            ss = steady_state(master, base, tmd, float(w), start, settings, hint)
+            ss = steady_state(master, base, tmd, float(w), start, settings, hint, restart=False)
             z, w_prev = ss.state, float(w)
             rows.append(
                 dict(
