@@ -169,3 +169,11 @@ def test_time_series_at_a_low_frequency_uses_the_structure_step():
     assert ts_.converged and abs(ts_.amplitude / exact - 1.0) <= TOL
     assert np.all(np.isfinite(ts_.states[:, :4]))
     assert abs(np.max(np.abs(ts_.states[:, 0])) / exact - 1.0) <= TOL
+
+
+def test_refusal_names_the_parameter_and_counts_the_frequencies():
+    """The up-front form of the refusal (for a caller that exits 2 instead): None where every
+    frequency works, else the sentence naming the parameter and how many frequencies it refuses."""
+    assert ts.refusal(BaseParams(), CASE1, [0.05, 20.0], 262144) is None
+    msg = ts.refusal(BaseParams(mass=1e-3), CASE1, [0.05, 0.5, 20.0], 262144)
+    assert msg is not None and msg.startswith("1 of 3 frequencies") and "base.mass (M) = 0.001 kg" in msg

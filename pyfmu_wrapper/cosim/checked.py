@@ -9,8 +9,8 @@ every p >= 1 (the impulse coupling of order 2 measures p = 1.6-2.7 on light base
 Richardson divisor 2^2 - 1 of its nominal order would under-estimate: docs/cosimulation.md).
 
 * Smooth configurations (Newton shooting): the N/2 steady state by Newton from the converged
-  orbit with the Jacobian of the N run (:func:`coarse_amplitude`): two periods at N/2, one period's
-  cost at N.
+  orbit with the Jacobian of the N run (:func:`coarse_amplitude`): one or two periods at N/2 (the
+  Newton correction, times :data:`START_SENSITIVITY`, is added to the estimate when it stops early).
 * The play model (the gear chain's states are not FMU outputs, no shooting), where its rattle
   error model was calibrated (:func:`check_mode`: the paper's inerter-to-base mass ratios, I/M <=
   :data:`PLAY_CALIBRATED_RATIO`, and a step set by the accuracy model): the coupling error of its

@@ -144,3 +144,18 @@ def choose_steps(
     if n_struct > accuracy_steps:
         return StepChoice(min(n_struct, cap), "structure", None)
     return StepChoice(int(accuracy_steps), "accuracy", None)
+
+
+def refusal(base: BaseParams, tmd: TMDParams, omegas: object, cap: int) -> str | None:
+    """Why the co-simulation refuses some frequency of ``omegas`` [rad/s] for this configuration (the
+    sentence of :func:`choose_steps` at the lowest frequency, where the most steps are needed, with
+    how many of the frequencies it refuses), or None when it refuses none. For a caller that would
+    rather refuse a whole run up front (exit 2) than report the points not converged."""
+    w = np.asarray(omegas, dtype=float).ravel()
+    if w.size == 0:
+        return None
+    refused = [x for x in w if steps_for_structure(base, tmd, float(x)) > cap]
+    if not refused:
+        return None
+    why = choose_steps(base, tmd, float(min(refused)), 0, cap).refused
+    return f"{len(refused)} of {w.size} frequencies (up to {max(refused):.4g} rad/s): {why}"
