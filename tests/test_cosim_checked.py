@@ -177,3 +177,15 @@ def test_refusal_names_the_parameter_and_counts_the_frequencies():
     assert ts.refusal(BaseParams(), CASE1, [0.05, 20.0], 262144) is None
     msg = ts.refusal(BaseParams(mass=1e-3), CASE1, [0.05, 0.5, 20.0], 262144)
     assert msg is not None and msg.startswith("1 of 3 frequencies") and "base.mass (M) = 0.001 kg" in msg
+
+
+def test_fmu_failure_is_a_flagged_point_not_a_lost_sweep():
+    """A fixed step the structure cannot take (Case 1 at 0.5 rad/s, 96 steps per period: the TMD
+    FMU's integrator gives up on a diverging exchange) is one flagged point with the FMU's message;
+    the other frequencies of the sweep are computed (before: the MasterError ended the sweep)."""
+    table = cs.sweep(BaseParams(), CASE1, [0.5, 22.0], "up", CosimSettings(steps_per_period=96))
+    bad, good = table.iloc[0], table.iloc[1]
+    assert not bad["converged"] and math.isnan(bad["amplitude"])
+    assert bad["reason"].startswith("the FMUs failed at 96 steps per period")
+    exact = exact_amplitude(BaseParams(), CASE1, np.array([22.0]))[0]
+    assert good["converged"] and abs(good["amplitude"] / exact - 1.0) <= TOL

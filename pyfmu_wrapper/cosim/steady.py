@@ -90,6 +90,7 @@ def steady_state(
     tol = settings.coupling_tolerance(tmd)
     mode = check_mode(base, tmd, settings, choice.limited_by)
     previous: tuple[int, float] | None = None
+    last: tuple[CosimSteadyState, float, str] | None = None  #: the last run that finished
     steps = periods = 0
     while True:
         ss: CosimSteadyState | None = None
@@ -121,6 +122,10 @@ def steady_state(
                     f"coupling error estimate {est:.3g} (step doubling) above the tolerance {tol:g} "
                     f"at {n} steps per period"
                 )
+            last = (ss, est, problem)
+        elif last is not None:  # a refinement failed: report the last run that finished, with its problem
+            ss, est, problem = last[0], last[1], f"{last[2]}; at {n} steps per period: {problem}"
+            break
         if not problem or fixed or 2 * n > cap or n >= choice.steps * 2**MAX_DOUBLINGS:
             break
         previous = None if ss is None else (n, ss.amplitude)
