@@ -13,7 +13,8 @@ Richardson divisor 2^2 - 1 of its nominal order would under-estimate: docs/cosim
   Newton correction, times :data:`START_SENSITIVITY`, is added to the estimate when it stops early).
 * The play model (the gear chain's states are not FMU outputs, no shooting), where its rattle
   error model was calibrated (:func:`check_mode`: the paper's inerter-to-base mass ratios, I/M <=
-  :data:`PLAY_CALIBRATED_RATIO`, and a step set by the accuracy model): the coupling error of its
+  :data:`PLAY_CALIBRATED_RATIO`; a step the structure makes finer than the model's only helps the
+  rattle): the coupling error of its
   smooth companion (the same links with an ideal inerter; the coupling, the structure and the
   step are the same, the rattle is what the play model adds and its error model covers, see
   :func:`~pyfmu_wrapper.cosim.settings.steps_for_accuracy`), by shooting at N and N/2
@@ -46,14 +47,13 @@ PLAY_CALIBRATED_RATIO = 0.1
 AMPLITUDE_FLOOR = 1e-4
 
 
-def check_mode(base: BaseParams, tmd: TMDParams, settings: CosimSettings, limited_by: str) -> str:
+def check_mode(base: BaseParams, tmd: TMDParams, settings: CosimSettings) -> str:
     """How a point's coupling error is estimated (module doc): "own" (shooting, smooth
     configurations), "companion" (the play model where its error model holds) or "doubling" (the
     play run itself at N/2 and N)."""
     if can_shoot(tmd) and settings.window_for(tmd) == 1:
         return "own"
-    ratio = float(tmd.inertance) / float(base.mass)
-    if limited_by == "accuracy" and ratio <= PLAY_CALIBRATED_RATIO:
+    if float(tmd.inertance) / float(base.mass) <= PLAY_CALIBRATED_RATIO:
         return "companion"
     return "doubling"
 

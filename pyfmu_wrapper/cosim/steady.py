@@ -88,7 +88,7 @@ def steady_state(
         )
     n = choice.steps
     tol = settings.coupling_tolerance(tmd)
-    mode = check_mode(base, tmd, settings, choice.limited_by)
+    mode = check_mode(base, tmd, settings)
     previous: tuple[int, float] | None = None
     last: tuple[CosimSteadyState, float, str] | None = None  #: the last run that finished
     steps = periods = 0
