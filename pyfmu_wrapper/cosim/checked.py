@@ -74,6 +74,9 @@ def relative_gap(fine: float, coarse: float, base: BaseParams, amplitude: float 
 #: correction to the coarse orbit is delta, relative; A*: the coarse orbit's): measured at most
 #: 1.54 over Case 1 (c = 0, 15, df = 10) and a 0.001 kg base, 15-25 rad/s, taken with a margin
 START_SENSITIVITY = 4.0
+#: Newton on the coarse period map stops when the estimate (gap plus the bound above) is within this
+#: fraction of the tolerance: the point passes, and the estimate it reports stays informative
+DECIDED = 0.2
 
 
 def coarse_amplitude(
@@ -92,7 +95,7 @@ def coarse_amplitude(
     by :func:`~pyfmu_wrapper.solvers.shooting.shoot` with finite differences when there is none;
     and a bound on how far it may be from the coarse orbit's (:data:`START_SENSITIVITY` times the
     last Newton correction). Newton stops as soon as the gap to ``ss.amplitude`` plus that bound is
-    within ``tol`` (relative; the estimate is then decided) or the correction is within 1 % of
+    within :data:`DECIDED` ``tol`` (relative) or the correction is within 1 % of
     ``coupling_tol``. (NaN, 0) when Newton fails."""
     T = 2.0 * math.pi / omega
     run = Periods(master, n, T)
@@ -126,7 +129,7 @@ def coarse_amplitude(
             return math.nan, 0.0
         d = float(np.max(np.abs(delta) / np.maximum(np.abs(z), zs)))
         u = START_SENSITIVITY * d * fine
-        if d <= enough or relative_gap(ss.amplitude, a, base) + u / max(fine, 1e-300) <= tol:
+        if d <= enough or relative_gap(ss.amplitude, a, base) + u / max(fine, 1e-300) <= DECIDED * tol:
             return float(a), u
         z = z + delta
     return float(a), u
