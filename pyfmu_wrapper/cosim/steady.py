@@ -8,9 +8,12 @@ outputs x, xd at the communication points with the cubic Hermite interpolant bet
 windows of W periods (1 without play, 20 with a gap), W_j = max of A_k in window j; W = 1 stops
 when the estimated distance of the base state to the periodic orbit is below ``tol``, W > 1
 when two windows agree to ``tol_window`` or their scatter is known (irregular responses are
-flagged; :class:`~pyfmu_wrapper.solvers.steady.WindowCriterion`). The communication step is
-T / ``steps_per_period`` so that periods start at communication points. Each frequency starts from the previous frequency's
-final state (x, xd, y, yd read from the FMU outputs; d, dd of the play chain from
+flagged; :class:`~pyfmu_wrapper.solvers.steady.WindowCriterion`; the run at one step count is
+:mod:`.periods`). The communication step is T / N so that periods start at communication points,
+N the larger of the accuracy model's and the structure's own time scales' (:mod:`.timescales`);
+every point's coupling error is estimated by step doubling and held against ``coupling_tol``
+(:mod:`.checked`, :func:`steady_state`): refined, or reported not converged with its ``reason``.
+Each frequency starts from the previous frequency's final state (x, xd, y, yd read from the FMU outputs; d, dd of the play chain from
 :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`) or, for the first one, from
 :func:`initial_guess`.
 """
