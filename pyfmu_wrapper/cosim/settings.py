@@ -9,10 +9,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..physics.params import TMDParams, has_gap
+from ..physics.params import BaseParams, TMDParams, has_gap
 from ..solvers import settings_table as _table
 from ..solvers.settings_table import COSIM
 from ..solvers.steady import SteadySettings
+from .timescales import choose_steps
 
 
 @dataclass(frozen=True)
@@ -31,13 +32,20 @@ class CosimSettings(SteadySettings):
     :mod:`pyfmu_wrapper.master.master`; fmu_rtol: tolerance of the integrators inside the FMUs;
     interface_jacobian: with the impulse coupling, hand the TMD the base's compliance 1/M and its
     acceleration without the link force (:func:`impulse_connections`); fmi_version: run the FMI
-    2.0 or the FMI 3.0 variants of the FMUs (the same core: the same numbers).
+    2.0 or the FMI 3.0 variants of the FMUs (the same core: the same numbers); coupling_tol: the
+    tolerance of the coupling-error estimate checked at every point (:mod:`.checked`; 5e-3, the
+    agreement with the monolithic solver the co-simulation promises: the estimate bounds the error
+    from above, so a point that passes is within it); max_steps_per_period: the most steps per period a point may need (the structure's
+    time scales, :mod:`.timescales`, and the refinements of the check) before it is reported not
+    converged.
     """
 
     max_periods: int = _table.default("max_periods", COSIM)
     max_newton: int = _table.default("max_newton", COSIM)
     steps_per_period: int | None = _table.default("steps_per_period", COSIM)
     accuracy: float | None = _table.default("accuracy", COSIM)
+    coupling_tol: float = _table.default("coupling_tol", COSIM)
+    max_steps_per_period: int = _table.default("max_steps_per_period", COSIM)
     coupling: str = _table.default("coupling", COSIM)
     scheme: str = _table.default("scheme", COSIM)
     order: int = _table.default("order", COSIM)
@@ -49,9 +57,22 @@ class CosimSettings(SteadySettings):
     def steps_for(self, tmd: TMDParams) -> int:
         if self.steps_per_period is not None:
             return int(self.steps_per_period)
-        play = has_gap(tmd)
-        accuracy = DEFAULT_ACCURACY[play] if self.accuracy is None else self.accuracy
-        return steps_for_accuracy(accuracy, self.order, self.coupling, play)
+        return steps_for_accuracy(self.accuracy_for(tmd), self.order, self.coupling, has_gap(tmd))
+
+    def steps_at(self, base: BaseParams, tmd: TMDParams, omega: float) -> int:
+        """Steps per period at omega [rad/s] before any refinement: the larger of :meth:`steps_for`
+        and the structure's (:func:`~.timescales.choose_steps`); :meth:`steps_for` where the
+        structure is refused (the steady state then reports why)."""
+        choice = choose_steps(base, tmd, omega, self.steps_for(tmd), self.max_steps_per_period, False)
+        return choice.steps or self.steps_for(tmd)
+
+    def accuracy_for(self, tmd: TMDParams) -> float:
+        """The relative amplitude accuracy asked for (:data:`DEFAULT_ACCURACY` when not set)."""
+        return DEFAULT_ACCURACY[has_gap(tmd)] if self.accuracy is None else float(self.accuracy)
+
+    def coupling_tolerance(self, tmd: TMDParams) -> float:
+        """The tolerance of the coupling-error estimate (``coupling_tol``, the same for every model)."""
+        return float(self.coupling_tol)
 
     @property
     def method(self) -> str:

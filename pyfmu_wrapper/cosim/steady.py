@@ -8,9 +8,12 @@ outputs x, xd at the communication points with the cubic Hermite interpolant bet
 windows of W periods (1 without play, 20 with a gap), W_j = max of A_k in window j; W = 1 stops
 when the estimated distance of the base state to the periodic orbit is below ``tol``, W > 1
 when two windows agree to ``tol_window`` or their scatter is known (irregular responses are
-flagged; :class:`~pyfmu_wrapper.solvers.steady.WindowCriterion`). The communication step is
-T / ``steps_per_period`` so that periods start at communication points. Each frequency starts from the previous frequency's
-final state (x, xd, y, yd read from the FMU outputs; d, dd of the play chain from
+flagged; :class:`~pyfmu_wrapper.solvers.steady.WindowCriterion`; the run at one step count is
+:mod:`.periods`). The communication step is T / N so that periods start at communication points,
+N the larger of the accuracy model's and the structure's own time scales' (:mod:`.timescales`);
+every point's coupling error is estimated by step doubling and held against ``coupling_tol``
+(:mod:`.checked`, :func:`steady_state`): refined, or reported not converged with its ``reason``.
+Each frequency starts from the previous frequency's final state (x, xd, y, yd read from the FMU outputs; d, dd of the play chain from
 :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`) or, for the first one, from
 :func:`initial_guess`.
 """
@@ -20,115 +23,30 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field, replace
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
+from ..master.instance import MasterError
 from ..master.master import Master
-from ..physics.params import BaseParams, InerterModel, TMDParams
-from ..solvers.hermite import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
-from ..solvers.monolithic import SolverSettings, companion_start
-from ..solvers.shooting import shoot
+from ..physics.params import BaseParams, TMDParams
 from ..solvers.start import initial_guess
-from ..solvers.steady import WindowCriterion
 from ..solvers.sweep import run_sweep_pieces
+from .checked import check_mode, companion_error, own_error, relative_gap
+from .periods import CosimSteadyState, Periods, run_steady
 from .settings import CosimSettings
-from .system import fmu_parameters, make_master
+from .system import make_master
+from .timescales import choose_steps, fastest
+
+_Periods = Periods  # the former name (tests/test_master.py)
+__all__ = ["CosimSteadyState", "continuation_start", "periodic_time_series", "steady_state", "sweep"]
 
 
-@dataclass
-class CosimSteadyState:
-    omega: float
-    amplitude: float
-    state: np.ndarray  #: x, xd, y, yd, d, dd at the end (d, dd: not observable, from the start guess)
-    periods: int
-    converged: bool
-    change: float
-    steps: int
-    wall_time: float
-    period_max: np.ndarray | None = field(repr=False, default=None)
-    irregular: bool = False  #: settled into irregular motion; ``change`` is then its scatter
-
-
-class _Periods:
-    """Runs whole periods on an initialised master and returns x, xd at the communication points.
-
-    A period is one block of the master's :meth:`~pyfmu_wrapper.master.master.Master.advance`
-    (the compiled loop: no Python work per step), recorded into preallocated arrays."""
-
-    def __init__(self, master: Master, n: int, T: float):
-        self.m, self.n, self.h = master, n, T / n
-        self.ix, self.iv = master.signals.index("base.x"), master.signals.index("base.xd")
-        self.t_rec = np.zeros(n)
-        self.y_rec = np.zeros((n + 1, master.nsig))
-
-    def period(self, samples: np.ndarray | None = None) -> float:
-        m = self.m
-        rec = self.y_rec if samples is None else samples
-        rec[0] = m.y
-        m.advance(self.n, self.h, self.t_rec, rec[1:])
-        self.x = np.ascontiguousarray(rec[:, self.ix])  # x, xd at the communication points of the period
-        self.v = np.ascontiguousarray(rec[:, self.iv])
-        return _hermite_absmax(self.x, self.v, self.h)
-
-
-def _state_of(master: Master, z_guess: np.ndarray) -> np.ndarray:
-    s = master.signals
-    y = master.y
-    return np.array(
-        [y[s.index("base.x")], y[s.index("base.xd")], y[s.index("tmd.y")], y[s.index("tmd.yd")], z_guess[4], z_guess[5]]
-    )
-
-
-def _can_shoot(tmd: TMDParams) -> bool:
-    """Shooting needs the whole state observable at the FMU outputs: x, xd, y, yd (no play chain)."""
-    return tmd.inerter != InerterModel.PLAY
-
-
-def _start(
-    master: Master, base: BaseParams, tmd: TMDParams, omega: float, z: ArrayLike, settings: CosimSettings
-) -> None:
-    master.initialize(0.0, fmu_parameters(base, tmd, omega, z, settings.fmu_rtol))
-
-
-def _shoot(
-    master: Master,
-    base: BaseParams,
-    tmd: TMDParams,
-    omega: float,
-    z0: np.ndarray,
-    settings: CosimSettings,
-    run: _Periods,
-    hint: dict,
-) -> Any:
-    """Newton shooting (:func:`~pyfmu_wrapper.solvers.shooting.shoot`, the one shared with the
-    monolithic solver) on the co-simulated period map z -> z(T) over z = (x, xd, y, yd); each
-    evaluation re-initialises the FMUs from z. The Jacobian comes from the previous frequency of
-    the sweep (``hint['A']``) or from finite differences. Returns the ShootingResult or None."""
-    z = np.array(z0[:4], dtype=float)
-    tail = np.asarray(z0[4:6], dtype=float)
-    amp = max(
-        math.hypot(z[0], z[1] / omega),
-        math.hypot(z[2], z[3] / omega),
-        1e-6 * abs(base.force_amplitude) / base.stiffness,
-    )
-
-    def period_map(zz: np.ndarray) -> tuple[np.ndarray, float]:
-        _start(master, base, tmd, omega, np.concatenate([zz, tail]), settings)
-        a = run.period()
-        return _state_of(master, np.zeros(6))[:4], a
-
-    res = shoot(
-        period_map, z, np.array([amp, amp * omega, amp, amp * omega]), settings.tol, settings.max_newton, hint.get("A")
-    )
-    if res is None:
-        hint.pop("A", None)
-    else:
-        hint["A"] = res.jacobian
-    return res
+#: the most times the coupling-error check doubles the steps of one point
+MAX_DOUBLINGS = 3
 
 
 def steady_state(
@@ -139,70 +57,107 @@ def steady_state(
     z0: ArrayLike | None = None,
     settings: CosimSettings = CosimSettings(),
     hint: dict | None = None,
+    restart: bool = True,
 ) -> CosimSteadyState:
-    """Co-simulated steady state at omega [rad/s] (definition in the module doc).
+    """Co-simulated steady state at omega [rad/s] (definition in the module doc), checked.
 
-    Window 1 without play: Newton shooting on the co-simulated period map (``settings.shooting``,
-    :func:`~pyfmu_wrapper.solvers.shooting.shoot`, shared with the monolithic solver), the
-    amplitude is max |x| over the period started from the converged state; otherwise
-    (or if Newton fails) period after period until the window criterion holds.
-    hint: a dict carried along a sweep (the shooting Jacobian)."""
+    The steps per period are the larger of the accuracy model's and the structure's
+    (:func:`~.timescales.choose_steps`; a structure that needs more than
+    ``settings.max_steps_per_period`` is refused: amplitude NaN, not converged, ``reason`` naming
+    the parameters). The coupling error of the result is estimated by step doubling
+    (:mod:`.checked`) and held against ``settings.coupling_tolerance``: above it the steps are
+    doubled (at most :data:`MAX_DOUBLINGS` times, within the cap; never with a fixed
+    ``steps_per_period``) and the point is reported not converged, with the reason, if it still
+    misses. A failure of the FMUs (an unstable exchange) also doubles the steps.
+    hint: a dict carried along a sweep (the shooting Jacobian, the companion's orbit); restart: leave
+    the master on the converged orbit (for a time series that follows; a sweep does not need it)."""
     t_start = time.perf_counter()
     hint = {} if hint is None else hint
-    W = settings.window_for(tmd)
-    if W > 1 and settings.play_start == "companion":
-        # the play model starts from the orbit of its smooth companion (ideal inerter), as in the
-        # monolithic solver: the windows then settle in about two (see companion_start)
-        z = companion_start(
-            base, tmd, omega, SolverSettings(rtol=1e-8, atol_scale=1e-8), hint.setdefault("monolithic", {})
+    fixed = settings.steps_per_period is not None
+    cap = int(settings.max_steps_per_period)
+    choice = choose_steps(base, tmd, omega, settings.steps_for(tmd), cap, fixed)
+    if choice.refused is not None:
+        z = initial_guess(base, tmd, omega) if z0 is None else np.array(z0, dtype=float)
+        return CosimSteadyState(
+            omega=float(omega),
+            amplitude=math.nan,
+            state=z,
+            periods=0,
+            converged=False,
+            change=math.nan,
+            steps=0,
+            wall_time=time.perf_counter() - t_start,
+            reason=choice.refused,
         )
-    else:
-        guess = initial_guess(base, tmd, omega)
-        z = guess if z0 is None else np.array(z0, dtype=float)
-        if tmd.inerter == InerterModel.PLAY and z0 is not None:
-            z = np.concatenate([z[:4], guess[4:]])
-    T = 2.0 * math.pi / omega
-    n = settings.steps_for(tmd)
-    run = _Periods(master, n, T)
-    steps = 0
-    if W == 1 and settings.shooting and _can_shoot(tmd):
-        res = _shoot(master, base, tmd, omega, z, settings, run, hint)
-        if res is not None:  # the master stands at the end of the period from res.z
-            return CosimSteadyState(
-                omega=float(omega),
-                amplitude=res.amplitude,
-                state=_state_of(master, z),
-                periods=res.periods,
-                converged=True,
-                change=res.change,
-                steps=res.periods * n,
-                wall_time=time.perf_counter() - t_start,
-                period_max=np.array([res.amplitude]),
-            )
-        steps = 0
-    _start(master, base, tmd, omega, z, settings)
-    crit = WindowCriterion.from_settings(settings, W, base, omega)
-    ix, iv = master.signals.index("base.x"), master.signals.index("base.xd")
-    if W == 1:
-        crit.add(abs(master.y[ix]), (master.y[ix], master.y[iv]))  # the start, for the first residual
-        crit.period_max.clear()
-    k = 0
-    while k < crit.max_periods:
-        k += 1
-        if crit.add(run.period(), (master.y[ix], master.y[iv])):
+    n = choice.steps
+    tol = settings.coupling_tolerance(tmd)
+    mode = check_mode(base, tmd, settings)
+    previous: tuple[int, float] | None = None
+    last: tuple[CosimSteadyState, float, str] | None = None  #: the last run that finished
+    steps = periods = 0
+    while True:
+        ss: CosimSteadyState | None = None
+        est, problem = math.nan, ""
+        try:
+            coarse = math.nan
+            companion = (math.nan, math.nan)
+            if mode == "companion":
+                companion = companion_error(master, base, tmd, omega, settings, hint, n)
+            elif mode == "doubling":  # the play run itself at n/2 first: the master ends on the n run
+                coarse = previous[1] if previous is not None and 2 * previous[0] == n else math.nan
+                if math.isnan(coarse):
+                    coarse = run_steady(master, base, tmd, omega, z0, settings, hint, max(n // 2, 8)).amplitude
+            ss = run_steady(master, base, tmd, omega, z0, settings, hint, n)
+            if mode == "own":
+                est = own_error(master, base, tmd, omega, ss, settings, hint, previous, restart)
+            elif mode == "doubling":
+                est = relative_gap(ss.amplitude, coarse, base)
+            else:  # the companion's gap against the play model's amplitude
+                est = relative_gap(companion[0], companion[1], base, ss.amplitude)
+        except MasterError as exc:
+            problem = f"the FMUs failed at {n} steps per period: {str(exc).splitlines()[0][:300]}"
+            hint.pop("A", None)
+            hint.pop("companion_cosim", None)
+        if ss is not None:
+            steps, periods = steps + ss.steps, periods + ss.periods
+            if not (est <= tol):
+                problem = (
+                    f"coupling error estimate {est:.3g} (step doubling) above the tolerance {tol:g} "
+                    f"at {n} steps per period"
+                )
+            last = (ss, est, problem)
+        elif last is not None:  # a refinement failed: report the last run that finished, with its problem
+            ss, est, problem = last[0], last[1], f"{last[2]}; at {n} steps per period: {problem}"
             break
-    amplitude, converged, change = crit.result()
-    return CosimSteadyState(
-        omega=float(omega),
-        amplitude=amplitude,
-        state=_state_of(master, z),
-        periods=k,
-        converged=converged,
-        change=change,
-        steps=steps + k * n,
+        if not problem or fixed or 2 * n > cap or n >= choice.steps * 2**MAX_DOUBLINGS:
+            break
+        previous = None if ss is None else (n, ss.amplitude)
+        z0 = z0 if ss is None else ss.state
+        n *= 2
+    if ss is None:
+        z = initial_guess(base, tmd, omega) if z0 is None else np.array(z0, dtype=float)
+        ss = CosimSteadyState(
+            omega=float(omega),
+            amplitude=math.nan,
+            state=z,
+            periods=0,
+            converged=False,
+            change=math.nan,
+            steps=0,
+            wall_time=0.0,
+        )
+    reason = ss.reason or problem
+    if problem and not ss.reason and ss.steps_per_period:
+        limit = "a fixed steps_per_period" if fixed else f"max_steps_per_period = {cap} or {MAX_DOUBLINGS} doublings"
+        reason = f"{problem} ({limit}; {fastest(base, tmd).what} is {fastest(base, tmd).omega:.4g} rad/s)"
+    return replace(
+        ss,
+        converged=bool(ss.converged and not problem),
+        reason=reason,
+        coupling_error=float(est),
+        steps=steps,
+        periods=periods,
         wall_time=time.perf_counter() - t_start,
-        period_max=np.array(crit.period_max),
-        irregular=crit.irregular,
     )
 
 
@@ -257,7 +212,7 @@ def _sweep_piece(
             if z is not None and w_prev is not None:
                 start = continuation_start(base, tmd, z, w_prev, float(w))
             before = master.timing()
-            ss = steady_state(master, base, tmd, float(w), start, settings, hint)
+            ss = steady_state(master, base, tmd, float(w), start, settings, hint, restart=False)
             z, w_prev = ss.state, float(w)
             rows.append(
                 dict(
@@ -271,6 +226,9 @@ def _sweep_piece(
                     steps=ss.steps,
                     rejected=0,
                     wall_time=ss.wall_time,
+                    reason=ss.reason,
+                    coupling_error=ss.coupling_error,
+                    steps_per_period=ss.steps_per_period,
                     **_time_split(before, master.timing()),
                 )
             )
@@ -333,8 +291,11 @@ def periodic_time_series(
         if samples_per_period is not None:
             settings = replace(settings, steps_per_period=int(samples_per_period))
         ss = steady_state(m, base, tmd, omega, None, settings)
-        n = settings.steps_for(tmd)
-        run = _Periods(m, n, 2 * math.pi / omega)
+        n = ss.steps_per_period or settings.steps_for(tmd)
+        if not ss.steps_per_period:  # refused or failed: nothing to record
+            t = np.arange(n_periods * n) * (2 * math.pi / omega / n)
+            return t, np.full((t.size, 6), np.nan), ss
+        run = Periods(m, n, 2 * math.pi / omega)
         rec = []
         for _ in range(n_periods):
             buf = np.zeros((n + 1, m.nsig))

@@ -278,9 +278,11 @@ class Instance:
 
     # --- life cycle -------------------------------------------------------------------------
     def close(self) -> None:
-        """Terminate and free the instance (errors of an FMU already in a failed state are ignored)."""
-        with contextlib.suppress(Exception):
-            self.slave.terminate()
+        """Terminate (if it was ever initialised: fmi2Terminate is not allowed in state Instantiated)
+        and free the instance (errors of an FMU already in a failed state are ignored)."""
+        if self.initialized:
+            with contextlib.suppress(Exception):
+                self.slave.terminate()
         with contextlib.suppress(Exception):
             self.slave.freeInstance()
 

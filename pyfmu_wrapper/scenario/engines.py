@@ -301,7 +301,7 @@ def _cosim_time_series(
 
     cs = _cosim_settings(settings)
     # record at the communication points: at least the requested samples per period
-    n = max(int(samples_per_period), cs.steps_for(tmd))
+    n = max(int(samples_per_period), cs.steps_at(base, tmd, omega))  # the structure's step too
     t, states, ss = cosim_series(base, tmd, omega, n_periods, None, _replace(cs, steps_per_period=n))
     if n != samples_per_period:  # resample to the requested grid (cubic Hermite on x, xd; linear otherwise)
         T = 2.0 * np.pi / omega

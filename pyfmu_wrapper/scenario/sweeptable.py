@@ -38,8 +38,12 @@ SWEEP_COLUMNS = (
     "fmu_time_tmd",
     "master_loop_time",
     "python_step_time",
+    "coupling_error",
+    "reason",
 )
-#: co-simulation only (NaN for the monolithic engine): seconds inside each FMU's fmi2 calls of the
+#: co-simulation only (NaN for the monolithic engine): ``coupling_error``, the estimated relative
+#: amplitude error of the coupling (step doubling, ``cosim.checked``), and ``reason``, why a point is
+#: not converged (``cosim.steady.steady_state``); and the seconds inside each FMU's fmi2 calls of the
 #: compiled stepping loop, the loop's own work, and the steps taken on the Python path
 #: (``cosim.steady._time_split``); the rest of ``wall_time`` is the steady-state logic
 TIMING_COLUMNS = ("fmu_time_base", "fmu_time_tmd", "master_loop_time", "python_step_time")
@@ -62,6 +66,10 @@ def find_peaks(omegas: Series, amplitudes: Series, refine: Callable[..., Any] | 
     """
     w = np.asarray(omegas, float)
     a = np.asarray(amplitudes, float)
+    finite = np.isfinite(a)  # a point the co-simulation refused has no amplitude (NaN): not a peak
+    if not finite.any():
+        return dict(peak_amplitude=None, peak_omega=None, local_maxima=[])
+    w, a = w[finite], a[finite]
     local = []
     for i in range(1, len(a) - 1):
         if a[i] >= a[i - 1] and a[i] > a[i + 1]:
@@ -95,7 +103,21 @@ def sweep_diagnostics(t: pd.DataFrame) -> dict:
         periods_mean=float(t["periods"].mean()),
         max_change=float(t["change"].max()),
         wall_time=float(t["wall_time"].sum()),
+        **_reasons(t),
     )
+
+
+def _reasons(t: pd.DataFrame) -> dict:
+    """``not_converged_reasons``: omega and reason of each point reported not converged with a reason
+    (the co-simulation's coupling-error check and refusals; absent when there is none)."""
+    if "reason" not in t:
+        return {}
+    out = [
+        dict(omega=float(w), reason=str(r))
+        for w, r, c in zip(t["omega"], t["reason"], t["converged"])
+        if not bool(c) and isinstance(r, str) and r
+    ]
+    return dict(not_converged_reasons=out) if out else {}
 
 
 def irregular_mask(t: pd.DataFrame) -> np.ndarray:

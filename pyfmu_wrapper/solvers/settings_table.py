@@ -247,6 +247,29 @@ SETTINGS: tuple[Setting, ...] = (
         optional=True,
     ),
     _s(
+        "coupling_tol",
+        "number",
+        {COSIM: 5e-3},
+        "1",
+        "tolerance of the coupling-error estimate (the amplitude's gap to the same steady state at half the "
+        "steps) at every point; a point above it is refined (steps doubled) or reported not converged",
+        minimum=0.0,
+        strict=True,
+        maximum=0.5,
+        scenario=(),
+    ),
+    _s(
+        "max_steps_per_period",
+        "integer",
+        {COSIM: 262_144},
+        "steps",
+        "most communication steps per forcing period; a point whose structure (its fastest natural frequency) "
+        "needs more is refused and reported not converged",
+        minimum=32,
+        maximum=4_000_000,
+        scenario=(),
+    ),
+    _s(
         "coupling",
         "choice",
         {COSIM: "impulse"},

@@ -1,0 +1,208 @@
+"""The co-simulated steady state at one communication step: whole periods on the master, Newton
+shooting on the co-simulated period map, the window criterion (the definition of
+:mod:`pyfmu_wrapper.cosim.steady`, which checks the coupling error of what :func:`run_steady`
+returns and refines the step).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+from ..master.master import Master
+from ..physics.params import BaseParams, InerterModel, TMDParams
+from ..solvers.hermite import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
+from ..solvers.monolithic import SolverSettings, companion_start
+from ..solvers.shooting import shoot
+from ..solvers.start import initial_guess
+from ..solvers.steady import WindowCriterion
+from .settings import CosimSettings
+from .system import fmu_parameters
+
+
+@dataclass
+class CosimSteadyState:
+    omega: float
+    amplitude: float
+    state: np.ndarray  #: x, xd, y, yd, d, dd at the end (d, dd: not observable, from the start guess)
+    periods: int
+    converged: bool
+    change: float
+    steps: int
+    wall_time: float
+    period_max: np.ndarray | None = field(repr=False, default=None)
+    irregular: bool = False  #: settled into irregular motion; ``change`` is then its scatter
+    reason: str = ""  #: why it is not converged ("" when converged)
+    coupling_error: float = math.nan  #: estimated relative amplitude error of the coupling (step doubling)
+    steps_per_period: int = 0  #: communication steps per forcing period of the reported amplitude
+
+
+class Periods:
+    """Runs whole periods on an initialised master and returns x, xd at the communication points.
+
+    A period is one block of the master's :meth:`~pyfmu_wrapper.master.master.Master.advance`
+    (the compiled loop: no Python work per step), recorded into preallocated arrays."""
+
+    def __init__(self, master: Master, n: int, T: float):
+        self.m, self.n, self.h = master, n, T / n
+        self.ix, self.iv = master.signals.index("base.x"), master.signals.index("base.xd")
+        self.t_rec = np.zeros(n)
+        self.y_rec = np.zeros((n + 1, master.nsig))
+
+    def period(self, samples: np.ndarray | None = None) -> float:
+        m = self.m
+        rec = self.y_rec if samples is None else samples
+        rec[0] = m.y
+        m.advance(self.n, self.h, self.t_rec, rec[1:])
+        self.x = np.ascontiguousarray(rec[:, self.ix])  # x, xd at the communication points of the period
+        self.v = np.ascontiguousarray(rec[:, self.iv])
+        return _hermite_absmax(self.x, self.v, self.h)
+
+
+def state_of(master: Master, z_guess: np.ndarray) -> np.ndarray:
+    s = master.signals
+    y = master.y
+    return np.array(
+        [y[s.index("base.x")], y[s.index("base.xd")], y[s.index("tmd.y")], y[s.index("tmd.yd")], z_guess[4], z_guess[5]]
+    )
+
+
+def can_shoot(tmd: TMDParams) -> bool:
+    """Shooting needs the whole state observable at the FMU outputs: x, xd, y, yd (no play chain)."""
+    return tmd.inerter != InerterModel.PLAY
+
+
+def start(
+    master: Master, base: BaseParams, tmd: TMDParams, omega: float, z: ArrayLike, settings: CosimSettings
+) -> None:
+    master.initialize(0.0, fmu_parameters(base, tmd, omega, z, settings.fmu_rtol))
+
+
+def _shoot(
+    master: Master,
+    base: BaseParams,
+    tmd: TMDParams,
+    omega: float,
+    z0: np.ndarray,
+    settings: CosimSettings,
+    run: Periods,
+    hint: dict,
+) -> Any:
+    """Newton shooting (:func:`~pyfmu_wrapper.solvers.shooting.shoot`, the one shared with the
+    monolithic solver) on the co-simulated period map z -> z(T) over z = (x, xd, y, yd); each
+    evaluation re-initialises the FMUs from z. The Jacobian comes from the previous frequency of
+    the sweep (``hint['A']``) or from finite differences. Returns the ShootingResult or None."""
+    z = np.array(z0[:4], dtype=float)
+    tail = np.asarray(z0[4:6], dtype=float)
+    amp = max(
+        math.hypot(z[0], z[1] / omega),
+        math.hypot(z[2], z[3] / omega),
+        1e-6 * abs(base.force_amplitude) / base.stiffness,
+    )
+
+    def period_map(zz: np.ndarray) -> tuple[np.ndarray, float]:
+        start(master, base, tmd, omega, np.concatenate([zz, tail]), settings)
+        a = run.period()
+        return state_of(master, np.zeros(6))[:4], a
+
+    res = shoot(
+        period_map, z, np.array([amp, amp * omega, amp, amp * omega]), settings.tol, settings.max_newton, hint.get("A")
+    )
+    if res is None:
+        hint.pop("A", None)
+    else:
+        hint["A"] = res.jacobian
+    return res
+
+
+def run_steady(
+    master: Master,
+    base: BaseParams,
+    tmd: TMDParams,
+    omega: float,
+    z0: ArrayLike | None,
+    settings: CosimSettings,
+    hint: dict | None,
+    n: int,
+) -> CosimSteadyState:
+    """Co-simulated steady state at omega [rad/s] with ``n`` communication steps per period, no
+    check of the coupling error (that is :func:`pyfmu_wrapper.cosim.steady.steady_state`).
+
+    Window 1 without play: Newton shooting on the co-simulated period map (``settings.shooting``,
+    :func:`~pyfmu_wrapper.solvers.shooting.shoot`, shared with the monolithic solver), the
+    amplitude is max |x| over the period started from the converged state; otherwise
+    (or if Newton fails) period after period until the window criterion holds.
+    hint: a dict carried along a sweep (the shooting Jacobian)."""
+    t_start = time.perf_counter()
+    hint = {} if hint is None else hint
+    W = settings.window_for(tmd)
+    if W > 1 and settings.play_start == "companion":
+        # the play model starts from the orbit of its smooth companion (ideal inerter), as in the
+        # monolithic solver: the windows then settle in about two (see companion_start)
+        z = companion_start(
+            base, tmd, omega, SolverSettings(rtol=1e-8, atol_scale=1e-8), hint.setdefault("monolithic", {})
+        )
+    else:
+        guess = initial_guess(base, tmd, omega)
+        z = guess if z0 is None else np.array(z0, dtype=float)
+        if tmd.inerter == InerterModel.PLAY and z0 is not None:
+            z = np.concatenate([z[:4], guess[4:]])
+    T = 2.0 * math.pi / omega
+    run = Periods(master, n, T)
+    steps = 0
+    if W == 1 and settings.shooting and can_shoot(tmd):
+        res = _shoot(master, base, tmd, omega, z, settings, run, hint)
+        if res is not None:  # the master stands at the end of the period from res.z
+            return CosimSteadyState(
+                omega=float(omega),
+                amplitude=res.amplitude,
+                state=state_of(master, z),
+                periods=res.periods,
+                converged=True,
+                change=res.change,
+                steps=res.periods * n,
+                wall_time=time.perf_counter() - t_start,
+                period_max=np.array([res.amplitude]),
+                steps_per_period=n,
+            )
+        steps = 0
+    start(master, base, tmd, omega, z, settings)
+    crit = WindowCriterion.from_settings(settings, W, base, omega)
+    ix, iv = master.signals.index("base.x"), master.signals.index("base.xd")
+    if W == 1:
+        crit.add(abs(master.y[ix]), (master.y[ix], master.y[iv]))  # the start, for the first residual
+        crit.period_max.clear()
+    k = 0
+    while k < crit.max_periods:
+        k += 1
+        if crit.add(run.period(), (master.y[ix], master.y[iv])):
+            break
+    amplitude, converged, change = crit.result()
+    return CosimSteadyState(
+        omega=float(omega),
+        amplitude=amplitude,
+        state=state_of(master, z),
+        periods=k,
+        converged=converged,
+        change=change,
+        steps=steps + k * n,
+        wall_time=time.perf_counter() - t_start,
+        period_max=np.array(crit.period_max),
+        irregular=crit.irregular,
+        reason=_window_reason(crit, k, converged, change),
+        steps_per_period=n,
+    )
+
+
+def _window_reason(crit: WindowCriterion, periods: int, converged: bool, change: float) -> str:
+    """Why a period-after-period run is not converged ("" when it is)."""
+    if converged:
+        return ""
+    if crit.irregular:
+        return f"irregular response: the window maxima scatter by {change:.3g} (more than scatter_tol)"
+    return f"no steady state within max_periods = {periods} periods (last relative change {change:.3g})"
