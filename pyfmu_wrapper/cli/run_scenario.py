@@ -16,7 +16,7 @@ import time
 import traceback
 from pathlib import Path
 from types import FrameType
-from typing import Literal, NoReturn, TextIO
+from typing import Any, Literal, NoReturn, TextIO
 
 from ..errors import set_max_input_size
 from ..safeio import Diverted, OutputError
@@ -312,6 +312,11 @@ def main(argv: list[str] | None = None) -> int:
         return _err("--executor dask needs --scheduler ADDRESS")
     if not args.progress_every > 0:
         return _err(f"--progress-every must be > 0 seconds, got {args.progress_every}")
+    refused = _refused_curves(scn, settings) if args.engine != "monolithic" else []
+    for full, text in refused:
+        if full:
+            return _err(text)
+        print(f"run-scenario: warning: {text}", file=sys.stderr)
     try:  # before anything is computed: never replace what run-scenario did not write
         cache = args.cache if args.cache is not None else default_checkpoint_dir(out)
         for note in check_output_dir(out, scn.path, cache):
@@ -377,6 +382,30 @@ def main(argv: list[str] | None = None) -> int:
     _report(datas, stats, cache)
     print(f"run-scenario: wrote {folder}" + (f" (checkpoints: {cache})" if Path(cache).exists() else ""))
     return 0
+
+
+def _refused_curves(scn: Any, settings: RunSettings) -> list[tuple[bool, str]]:
+    """The configurations whose structure the co-simulation cannot step at some frequency (a time scale
+    far below the forcing period): (every frequency refused, the sentence naming the parameters)."""
+    from ..cosim.settings import CosimSettings
+    from ..cosim.timescales import refusal
+    from ..scenario.runner import study_configurations
+
+    cs = settings.cosim if isinstance(settings.cosim, CosimSettings) else CosimSettings()
+    cap = cs.max_steps_per_period
+    out = []
+    for where, tmd, omegas in study_configurations(scn):
+        why = refusal(scn.base, tmd, omegas, cap)
+        if why is not None:
+            full = why.startswith(f"{len(omegas)} of {len(omegas)} ")
+            out.append(
+                (
+                    full,
+                    f"{scn.path}: {where}: the co-simulation cannot resolve {why}"
+                    + ("" if full else "; those points are reported not converged"),
+                )
+            )
+    return out
 
 
 def _report(datas: list, stats: dict, cache: str | Path) -> None:

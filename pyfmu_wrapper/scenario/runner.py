@@ -72,6 +72,19 @@ def work_units(scn: Scenario, settings: RunSettings) -> int:
     return n
 
 
+def study_configurations(scn: Scenario) -> list[tuple[str, Any, np.ndarray]]:
+    """Every TMD configuration a scenario computes, with where it comes from and its frequencies:
+    (``studies[i] 'name' curve 'label'`` or ``... value v``, TMD parameters, omegas [rad/s])."""
+    out = []
+    for i, st in enumerate(scn.studies):
+        where = f"studies[{i}] ({st.name})"
+        if isinstance(st, MapStudy):
+            out += [(f"{where} {st.parameter} = {v:g}", tmd, st.omegas) for v, tmd in zip(st.values, st.tmds)]
+        else:
+            out += [(f'{where} curve "{c.label}"', c.tmd, st.omegas) for c in st.curves]
+    return out
+
+
 def instant_units(scn: Scenario, settings: RunSettings) -> int:
     """Progress units of a run that cost (almost) nothing: sweeps computed in closed form (the exact
     response of linear configurations with the monolithic engine) and sweeps that repeat one computed

@@ -114,6 +114,8 @@ class SolverConfig:
 COSIM_KEYS = (
     "accuracy",
     "steps_per_period",
+    "coupling_tol",
+    "max_steps_per_period",
     "coupling",
     "order",
     "scheme",

@@ -111,6 +111,24 @@ def _flag_groups(t: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame, int]:
     return t[~conv & ~irr], t[irr], int((~conv).sum())
 
 
+def _reason_lines(name: str, t: Any, most: int = 3) -> list[str]:
+    """Why points were reported not converged (the co-simulation's reasons), each distinct reason once
+    with the frequencies it applies to; the full list is in summary.json and the CSV's reason column."""
+    if "reason" not in t:
+        return []
+    by: dict[str, list[float]] = {}
+    for w, r, c in zip(t["omega"], t["reason"], t["converged"]):
+        if not bool(c) and isinstance(r, str) and r:
+            by.setdefault(r, []).append(float(w))
+    out = [
+        f"{name}: not converged at {_w(min(ws))}" + (f"-{_w(max(ws))}" if len(ws) > 1 else "") + f" rad/s because {r}"
+        for r, ws in list(by.items())[:most]
+    ]
+    if len(by) > most:
+        out.append(f"{name}: ... {len(by) - most} more reasons in summary.json (not_converged_reasons)")
+    return out
+
+
 def study_report(data: Any) -> list[str]:
     """One line per study for the end of a run: which points did not converge or are irregular
     (and, for engine 'both', the difference over the regular points and the irregular ones apart)."""
@@ -155,6 +173,7 @@ def study_report(data: Any) -> list[str]:
         lines.append(f"{st.name}: all {len(t)} points converged and periodic")
     else:
         lines.append(f"{st.name}: {n_nc} of {len(t)} points not converged, {n_irr} irregular: " + "; ".join(parts))
+        lines += _reason_lines(st.name, t)
     if "difference" in t and np.isfinite(t["difference"].to_numpy(float)).any():
         diff = engine_differences(t)
         where = "" if diff["omega_max_difference"] is None else f" (at {_w(diff['omega_max_difference'])} rad/s)"

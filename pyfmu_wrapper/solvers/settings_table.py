@@ -256,7 +256,6 @@ SETTINGS: tuple[Setting, ...] = (
         minimum=0.0,
         strict=True,
         maximum=0.5,
-        scenario=(),
     ),
     _s(
         "max_steps_per_period",
@@ -267,7 +266,6 @@ SETTINGS: tuple[Setting, ...] = (
         "needs more is refused and reported not converged",
         minimum=32,
         maximum=4_000_000,
-        scenario=(),
     ),
     _s(
         "coupling",
