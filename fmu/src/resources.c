@@ -90,21 +90,23 @@ int read_variables(Comp *c, const char *resdir, char *err, size_t nerr) {
     c->vname = calloc(c->nvr, sizeof(char *));
     c->vmin = malloc(c->nvr * sizeof(double));
     c->vmax = malloc(c->nvr * sizeof(double));
+    c->vlo = malloc(c->nvr * sizeof(double));
     c->vexcl = calloc(c->nvr, 1);
-    if (!c->vtype || !c->vcaus || !c->vvar || !c->vname || !c->vmin || !c->vmax || !c->vexcl) {
+    if (!c->vtype || !c->vcaus || !c->vvar || !c->vname || !c->vmin || !c->vlo || !c->vmax || !c->vexcl) {
         fclose(f);
         snprintf(err, nerr, "out of memory");
         return 0;
     }
     for (int i = 0; i < c->nvr; i++) {
         c->vmin[i] = -INFINITY;
+        c->vlo[i] = -INFINITY;
         c->vmax[i] = INFINITY;
     }
     rewind(f);
     while (fgets(line, sizeof line, f)) {
         int vr, excl = 0;
-        char t[8], ca[32], va[32], name[256] = "", lo[64] = "-inf", hi[64] = "inf";
-        int n = sscanf(line, "%d %7s %31s %31s %255s %63s %63s %d", &vr, t, ca, va, name, lo, hi, &excl);
+        char t[8], ca[32], va[32], name[256] = "", lo[64] = "-inf", hi[64] = "inf", dlo[64] = "";
+        int n = sscanf(line, "%d %7s %31s %31s %255s %63s %63s %d %63s", &vr, t, ca, va, name, lo, hi, &excl, dlo);
         if (n < 4 || vr < 0 || vr >= c->nvr) continue;
         c->vtype[vr] = t[0];
         c->vcaus[vr] = (char)code_of(ca, caus, 6);
@@ -112,8 +114,10 @@ int read_variables(Comp *c, const char *resdir, char *err, size_t nerr) {
         if (n >= 5) c->vname[vr] = strdup(name);
         if (n >= 7) {
             c->vmin[vr] = strtod(lo, NULL);
+            c->vlo[vr] = c->vmin[vr];
             c->vmax[vr] = strtod(hi, NULL);
         }
+        if (n >= 9) c->vlo[vr] = strtod(dlo, NULL); /* the declared (inclusive) minimum: enforced */
         if (n >= 8) c->vexcl[vr] = excl != 0;
         c->nvars++;
     }
