@@ -151,7 +151,7 @@ def main() -> None:
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
         objects = write_objects(tmp / "obj")
-        sizes = {f"{m}.{p}": o.stat().st_size for (m, p), o in objects.items()}
+        sizes = {f"{m}.{p}": sum(o.stat().st_size for o in obj) for (m, p), obj in objects.items()}
         fmus = ensure_fmus(names=("BaseOscillator", "TMDInerter"))
         (tmp / "timer.c").write_text(TIMER)
         (tmp / "fmu_timer.c").write_text(FMU_TIMER)
@@ -167,7 +167,7 @@ def main() -> None:
             (tmp / f"{case}.bin").write_bytes(blob)
             exe = tmp / f"timer_{model}"
             if not exe.exists():
-                srcs = [str(tmp / "timer.c"), str(RUNTIME_C), str(objects[(model, "linux64")])]
+                srcs = [str(tmp / "timer.c"), str(RUNTIME_C), *[str(o) for o in objects[(model, "linux64")]]]
                 subprocess.run(["gcc", "-O2", *srcs, "-o", str(exe), "-lm"], check=True)
             d = extract(fmus[model], tmp / case)
             yvr = spec.vr(OUTPUT[model])

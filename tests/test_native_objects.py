@@ -149,7 +149,7 @@ def _run(case: str, objects, tmp_path: Path, platform: str) -> tuple[bytes, byte
     (tmp_path / "driver.c").write_text(DRIVER)
     cc = "gcc" if platform == "linux64" else mingw_gcc()
     exe = tmp_path / ("driver" if platform == "linux64" else "driver.exe")
-    srcs = [str(tmp_path / "driver.c"), str(RUNTIME_C), str(objects[(model, platform)])]
+    srcs = [str(tmp_path / "driver.c"), str(RUNTIME_C), *[str(o) for o in objects[(model, platform)]]]
     subprocess.run([cc, "-O2", *srcs, "-o", str(exe), "-lm"], check=True, capture_output=True, text=True)
     run = [str(exe)] if platform == "linux64" else [shutil.which("wine") or "wine", str(exe)]
     env = {"PATH": "/usr/bin:/bin", "WINEDEBUG": "-all", "HOME": str(tmp_path), "WINEPREFIX": str(tmp_path / "wine")}

@@ -30,10 +30,16 @@ from .buildinfo import BuildError
 TRIPLES = {"linux64": "x86_64-unknown-linux-gnu", "win64": "x86_64-w64-windows-gnu"}
 #: FMI 3.0 platform tuple of each FMI 2.0 platform folder
 PLATFORM3 = {"linux64": "x86_64-linux", "win64": "x86_64-windows"}
-#: the models with a compiled step, and the factory in :mod:`.native` that compiles it
+#: the models with native functions: their step (:mod:`.native`) and the others (:mod:`.native_model`)
 MODELS = {"BaseOscillator": "base_step", "TMDInerter": "tmd_step"}
 #: the name the step has in the object file (the C side calls it by this name)
 STEP_SYMBOL = "pyfmu_model_step"
+#: the C names of the functions of :mod:`.native_model`
+ENTRIES = {
+    "configure": "pyfmu_model_configure",
+    "outputs": "pyfmu_model_outputs",
+    "derivative": "pyfmu_model_derivative",
+}
 #: symbols defined by fmu/src/native/native_rt.c
 RUNTIME_SYMBOLS = frozenset(
     {
@@ -68,34 +74,33 @@ import json, sys
 from numba.core import caching
 caching.Cache.load_overload = lambda self, *a, **k: None
 caching.Cache.save_overload = lambda self, *a, **k: None
-from pyfmu_wrapper.fmi import native
+from pyfmu_wrapper.fmi import native, native_model
+entries = json.loads(sys.argv[3])
 out = {}
 for model, factory in json.loads(sys.argv[2]).items():
     f = getattr(native, factory)()
-    out[model] = [f.native_name, f._library.get_llvm_str()]
+    out[model] = {sys.argv[4]: [f.native_name, f._library.get_llvm_str()]}
+    for key, fn in native_model.FUNCTIONS[model]().items():
+        out[model][entries[key]] = [fn.native_name, fn._library.get_llvm_str()]
 with open(sys.argv[1], "w") as fh:
     json.dump(out, fh)
 """
 
 
-def model_ir(models: tuple[str, ...] = tuple(MODELS)) -> dict[str, tuple[str, str]]:
-    """model -> (symbol of its step cfunc, the LLVM IR of its library), compiled afresh."""
+def model_ir(models: tuple[str, ...] = tuple(MODELS)) -> dict[str, dict[str, tuple[str, str]]]:
+    """model -> {C name: (symbol of the cfunc, the LLVM IR of its library)}, compiled afresh."""
     unknown = [m for m in models if m not in MODELS]
     if unknown:
         raise BuildError(f"no compiled step for {unknown}: native FMUs exist for {sorted(MODELS)}")
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "ir.json"
         env = dict(os.environ, NUMBA_CACHE_DIR=tmp)
-        r = subprocess.run(
-            [sys.executable, "-c", _IR_SCRIPT, str(out), json.dumps({m: MODELS[m] for m in models})],
-            capture_output=True,
-            text=True,
-            env=env,
-        )
+        args = [str(out), json.dumps({m: MODELS[m] for m in models}), json.dumps(ENTRIES), STEP_SYMBOL]
+        r = subprocess.run([sys.executable, "-c", _IR_SCRIPT, *args], capture_output=True, text=True, env=env)
         if r.returncode != 0:
             raise BuildError(f"compiling the model functions to LLVM IR failed:\n{r.stderr[-4000:]}")
         data = json.loads(out.read_text())
-    return {m: (sym, ir) for m, (sym, ir) in data.items()}
+    return {m: {name: (sym, ir) for name, (sym, ir) in fns.items()} for m, fns in data.items()}
 
 
 def external_symbols(ir: str) -> set[str]:
@@ -129,21 +134,28 @@ def emit_object(ir: str, symbol: str, platform: str, alias: str = STEP_SYMBOL) -
         cpu="x86-64", features="", opt=3, reloc="pic", codemodel="default"
     )
     m.data_layout = str(tm.target_data)
+    for f in m.functions:  # one entry per object: everything else private (several objects link together)
+        if not f.is_declaration and f.name != symbol:
+            f.linkage = llvm.Linkage.internal
+    for g in m.global_variables:
+        if not g.is_declaration:
+            g.linkage = llvm.Linkage.internal
     fn = m.get_function(symbol)
     fn.name = alias
     m.verify()
     return bytes(tm.emit_object(m))
 
 
-def write_objects(out_dir: Path, models: tuple[str, ...] = tuple(MODELS)) -> dict[tuple[str, str], Path]:
-    """(model, platform) -> the object file of its step, written into out_dir."""
+def write_objects(out_dir: Path, models: tuple[str, ...] = tuple(MODELS)) -> dict[tuple[str, str], list[Path]]:
+    """(model, platform) -> the object files of its functions (step first), written into out_dir."""
     out_dir.mkdir(parents=True, exist_ok=True)
-    paths = {}
-    for model, (symbol, ir) in model_ir(models).items():
+    paths: dict[tuple[str, str], list[Path]] = {}
+    for model, fns in model_ir(models).items():
         for platform in TRIPLES:
-            p = out_dir / f"{model}.{platform}.o"
-            p.write_bytes(emit_object(ir, symbol, platform))
-            paths[(model, platform)] = p
+            for alias, (symbol, ir) in fns.items():
+                p = out_dir / f"{model}.{alias}.{platform}.o"
+                p.write_bytes(emit_object(ir, symbol, platform, alias))
+                paths.setdefault((model, platform), []).append(p)
     return paths
 
 
