@@ -165,3 +165,36 @@ def test_derivatives_and_states_equal_the_python_hosted_fmu(native, hosted, tmp_
             s.freeInstance()
     assert out["native"] == out["hosted"]
     assert out["native"][1][0] != 0.0
+
+
+def test_fmi3_native_equals_the_python_hosted_fmi3(tmp_path):
+    from fmpy.fmi3 import FMU3Slave
+    from fmpy.validation import validate_fmu
+
+    from pyfmu_wrapper.fmi.build import ensure_fmus
+
+    nat = {p.stem: p for p in build_native_fmus(["TMDInerter"], tmp_path / "n3", fmi_version=3)}
+    hosted3 = ensure_fmus(names=("TMDInerter",), fmi_version=3)
+    out = {}
+    for tag, fmu in (("native", nat["TMDInerter"]), ("hosted", hosted3["TMDInerter"])):
+        assert validate_fmu(str(fmu)) == []
+        md = fmpy.read_model_description(str(fmu))
+        d = tmp_path / f"x3{tag}"
+        fmpy.extract(str(fmu), str(d))
+        s = FMU3Slave(guid=md.guid, unzipDirectory=str(d), modelIdentifier="TMDInerter", instanceName=tag)
+        s.instantiate()
+        vr = {v.name: v.valueReference for v in md.modelVariables}
+        start = s.getFloat64([vr["m"], vr["k"]])  # readable in Instantiated (issue 30)
+        s.enterInitializationMode(startTime=0.0)
+        s.setFloat64([vr[k] for k in ("m", "I", "c", "eps", "ki")], [9.0, 1.0, 10.0, 1e-4, 2e7])
+        s.setInt32([vr["inerter"]], [2])
+        s.exitInitializationMode()
+        res = []
+        for k in range(100):
+            s.setFloat64([vr["x"], vr["xd"], vr["xdd"]], [2e-3 * np.sin(0.05 * k), 0.1 * np.cos(0.05 * k), -0.2])
+            s.doStep(k * 1e-3, 1e-3)
+            res += s.getFloat64([vr["force"], vr["y"], vr["yd"]])
+        out[tag] = (start, res)
+        s.terminate()
+        s.freeInstance()
+    assert out["native"] == out["hosted"]
