@@ -32,6 +32,7 @@ from _fmu_support import extract, guid  # noqa: E402
 from test_native_objects import CASES, _blob_and_reference  # noqa: E402
 
 from pyfmu_wrapper.fmi.build import ensure_fmus, fmi_headers_dir  # noqa: E402
+from pyfmu_wrapper.fmi.native_build import build_native_fmus  # noqa: E402
 from pyfmu_wrapper.fmi.native_obj import RUNTIME_C, STEP_SYMBOL, write_objects  # noqa: E402
 from pyfmu_wrapper.fmi.variables import SPECS  # noqa: E402
 
@@ -98,6 +99,8 @@ static void logger(fmi2ComponentEnvironment e, fmi2String n, fmi2Status s, fmi2S
 #define SYM(T, n) T *n = (T *)dlsym(h, #n); if (!n) return 2;
 int main(int argc, char **argv) {
     /* argv: binary, resource URI, guid, steps, output vr, "vr vr vr" inputs, amplitudes x3, then r:VR=V / i:VR=V */
+    struct timespec i0, i1;
+    clock_gettime(CLOCK_MONOTONIC, &i0);
     void *h = dlopen(argv[1], RTLD_NOW | RTLD_LOCAL);
     if (!h) { fprintf(stderr, "%s\n", dlerror()); return 2; }
     SYM(fmi2InstantiateTYPE, fmi2Instantiate) SYM(fmi2SetupExperimentTYPE, fmi2SetupExperiment)
@@ -118,6 +121,7 @@ int main(int argc, char **argv) {
         else if (sscanf(argv[i], "i:%u=%d", &vr, &iv) == 2) fmi2SetInteger(c, &vr, 1, &iv);
     }
     if (fmi2ExitInitializationMode(c)) return 3;
+    clock_gettime(CLOCK_MONOTONIC, &i1);
     fmi2Integer o1[3] = {1, 1, 1}, o2[3] = {2, 2, 2};
     struct timespec a, b;
     clock_gettime(CLOCK_MONOTONIC, &a);
@@ -133,7 +137,8 @@ int main(int argc, char **argv) {
         sum += yv;
     }
     clock_gettime(CLOCK_MONOTONIC, &b);
-    printf("%.6f %.17g\n", ((b.tv_sec - a.tv_sec) * 1e9 + (b.tv_nsec - a.tv_nsec)) / 1e3 / n, sum);
+    printf("%.6f %.17g %.6f\n", ((b.tv_sec - a.tv_sec) * 1e9 + (b.tv_nsec - a.tv_nsec)) / 1e3 / n, sum,
+           ((i1.tv_sec - i0.tv_sec) * 1e9 + (i1.tv_nsec - i0.tv_nsec)) / 1e6);
     fmi2FreeInstance(c);
     return 0;
 }
@@ -153,6 +158,12 @@ def main() -> None:
         objects = write_objects(tmp / "obj")
         sizes = {f"{m}.{p}": sum(o.stat().st_size for o in obj) for (m, p), obj in objects.items()}
         fmus = ensure_fmus(names=("BaseOscillator", "TMDInerter"))
+        native = {p.stem: p for p in build_native_fmus(out_dir=tmp / "native")}
+        fmu_bytes = {
+            f"{n}.{kind}": f.stat().st_size
+            for kind, fs in (("native", native), ("hosted", fmus))
+            for n, f in fs.items()
+        }
         (tmp / "timer.c").write_text(TIMER)
         (tmp / "fmu_timer.c").write_text(FMU_TIMER)
         host = tmp / "fmu_timer"
@@ -169,37 +180,51 @@ def main() -> None:
             if not exe.exists():
                 srcs = [str(tmp / "timer.c"), str(RUNTIME_C), *[str(o) for o in objects[(model, "linux64")]]]
                 subprocess.run(["gcc", "-O2", *srcs, "-o", str(exe), "-lm"], check=True)
-            d = extract(fmus[model], tmp / case)
+            dirs = {"hosted": extract(fmus[model], tmp / case), "native": extract(native[model], tmp / f"n_{case}")}
             yvr = spec.vr(OUTPUT[model])
             in_vrs = " ".join(str(spec.vr(k)) for k, _ in inputs)
             sets = [f"r:{spec.vr(k)}={v}" for k, v in params.items() if not isinstance(v, int)]
             sets += [f"i:{spec.vr(k)}={v}" for k, v in params.items() if isinstance(v, int)]
             amps = [str(x) for _, x in inputs] + ["0"] * (3 - len(inputs))
-            obj_us, fmu_us = [], []
+            us: dict[str, list[float]] = {"object": [], "hosted": [], "native": []}
+            init_ms: dict[str, list[float]] = {"hosted": [], "native": []}
+            sums: dict[str, set[str]] = {"hosted": set(), "native": set()}
             for _ in range(a.rounds):
                 r = subprocess.run(
                     [str(exe), str(tmp / f"{case}.bin"), str(a.steps), str(yvr), *amps],
                     capture_output=True, text=True, check=True,
                 )  # fmt: skip
-                obj_us.append(float(r.stdout.split()[0]))
-                so = d / "binaries" / "linux64" / f"{model}.so"
-                r = subprocess.run(
-                    [str(host), str(so), (d / "resources").as_uri(), guid(d), str(a.steps), str(yvr), in_vrs, *amps,
-                     *sets],
-                    capture_output=True, text=True, check=True,
-                )  # fmt: skip
-                fmu_us.append(float(r.stdout.split()[0]))
+                us["object"].append(float(r.stdout.split()[0]))
+                for kind, d in dirs.items():
+                    so = d / "binaries" / "linux64" / f"{model}.so"
+                    r = subprocess.run(
+                        [str(host), str(so), (d / "resources").as_uri(), guid(d), str(a.steps), str(yvr), in_vrs,
+                         *amps, *sets],
+                        capture_output=True, text=True, check=True,
+                    )  # fmt: skip
+                    step_us, total, init = r.stdout.split()
+                    us[kind].append(float(step_us))
+                    init_ms[kind].append(float(init))
+                    sums[kind].add(total)
             rows[case] = {
-                "object_us": statistics.median(obj_us),
-                "fmu_python_hosted_us": statistics.median(fmu_us),
-                "rounds_object": obj_us,
-                "rounds_fmu": fmu_us,
+                **{f"{k}_us": statistics.median(v) for k, v in us.items()},
+                **{f"{k}_init_ms": statistics.median(v) for k, v in init_ms.items()},
+                "same_outputs": sums["hosted"] == sums["native"] and len(sums["native"]) == 1,
+                "rounds_us": us,
+                "rounds_init_ms": init_ms,
             }
-            print(f"{case:10s} object {rows[case]['object_us']:.3f} us  Python-hosted FMU "
-                  f"{rows[case]['fmu_python_hosted_us']:.3f} us per set+step+get")  # fmt: skip
+            print(
+                f"{case:10s} us per set+step+get: object {rows[case]['object_us']:.3f}, native FMU "
+                f"{rows[case]['native_us']:.3f}, Python-hosted FMU {rows[case]['hosted_us']:.3f}; instantiate+init ms: "
+                f"native {rows[case]['native_init_ms']:.3f}, Python-hosted {rows[case]['hosted_init_ms']:.1f}; "
+                f"same outputs {rows[case]['same_outputs']}"
+            )
     load = Path("/proc/loadavg").read_text().split()[:3]
-    out = {"steps": a.steps, "rounds": a.rounds, "h": 1e-3, "load": load, "object_bytes": sizes, "cases": rows}
-    print(json.dumps(out["object_bytes"]), "load", load)
+    out = {
+        "steps": a.steps, "rounds": a.rounds, "h": 1e-3, "load": load, "object_bytes": sizes,
+        "fmu_bytes": fmu_bytes, "cases": rows,
+    }  # fmt: skip
+    print(json.dumps(out["object_bytes"]), json.dumps(fmu_bytes), "load", load)
     res = REPO / "benchmarks" / "results"
     res.mkdir(exist_ok=True)
     (res / "bench_native_step.json").write_text(json.dumps(out, indent=1))

@@ -2,7 +2,11 @@
  * standalone FMU's bundled runtime),
  * variables.tsv (the variable table) and the resource location URI. */
 #define _GNU_SOURCE
+#if defined(_WIN32)
+#include <windows.h>
+#else
 #include <dlfcn.h>
+#endif
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -152,13 +156,27 @@ void uri_to_path(const char *uri, char *out, size_t n) {
     }
     out[j] = 0;
     while (j > 1 && out[j - 1] == '/') out[--j] = 0;
+#if defined(_WIN32)
+    /* file:///C:/dir -> /C:/dir -> C:/dir */
+    if (out[0] == '/' && out[1] && out[2] == ':') memmove(out, out + 1, strlen(out));
+#endif
 }
 
 void resources_from_library(char *out, size_t n) {
-    Dl_info info;
     out[0] = 0;
+#if defined(_WIN32)
+    HMODULE mod = NULL;
+    if (!GetModuleHandleExA(GET_MODULE_HANDLE_EX_FLAG_FROM_ADDRESS | GET_MODULE_HANDLE_EX_FLAG_UNCHANGED_REFCOUNT,
+                            (LPCSTR)(void *)&resources_from_library, &mod) ||
+        !GetModuleFileNameA(mod, out, (DWORD)n))
+        return;
+    for (char *q = out; *q; q++)
+        if (*q == '\\') *q = '/';
+#else
+    Dl_info info;
     if (!dladdr((void *)&resources_from_library, &info) || !info.dli_fname) return;
     snprintf(out, n, "%s", info.dli_fname);
+#endif
     for (int i = 0; i < 3; i++) { /* <fmu>/binaries/linux64/x.so -> <fmu> */
         char *s = strrchr(out, '/');
         if (s) *s = 0;

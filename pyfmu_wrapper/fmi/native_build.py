@@ -9,7 +9,9 @@ and derivative of :mod:`.native_model`). The model's table (sizes, value referen
 the messages of its checks) is generated here from the FMU's declaration into
 ``pyfmu_native_model.h``. The archive holds what a Python-hosted FMU holds but the bundled Python
 code: ``modelDescription.xml``, ``documentation/``, ``resources/pyfmu.cfg`` and
-``resources/variables.tsv``, and the binary for Linux x86-64.
+``resources/variables.tsv``, and the binaries for Linux x86-64 (``linux64`` / ``x86_64-linux``) and,
+when mingw-w64 is installed, Windows x86-64 (``win64`` / ``x86_64-windows``; cross-compiled, linking
+only KERNEL32 and msvcrt).
 """
 
 from __future__ import annotations
@@ -31,7 +33,7 @@ from .integrators import BASE_U_SIZE
 from .model_description import guid_of, model_description_xml, variable_table_tsv
 from .model_description3 import model_description3_xml
 from .native_model import TMD_CHECKS
-from .native_obj import MODELS, RUNTIME_C, write_objects
+from .native_obj import MODELS, PLATFORM3, RUNTIME_C, mingw_gcc, write_objects
 from .variables import SPECS
 from .varspec import FmuSpec
 
@@ -40,7 +42,9 @@ NATIVE_DIR = STUB_DIR / "native"
 NATIVE_SUBDIR = "native"
 #: the core's sources a native binary is compiled from (py_embed.c and py_config.c are replaced)
 CORE = ("fmi_api.c", "fmi3_api.c", "fmi_state.c", "log.c", "resources.c")
-BINARY_DIR = {2: "binaries/linux64", 3: "binaries/x86_64-linux"}
+#: the binary folder of each platform, per FMI version (FMI 2.0 names, FMI 3.0 platform tuples), and the suffix
+PLATFORM_DIR = {(2, p): f"binaries/{p}" for p in PLATFORM3} | {(3, p): f"binaries/{t}" for p, t in PLATFORM3.items()}
+SUFFIX = {"linux64": ".so", "win64": ".dll"}
 
 
 def model_header(spec: FmuSpec) -> str:
@@ -141,12 +145,50 @@ def compile_native(spec: FmuSpec, objects: list[Path], out_so: Path, fmi_version
         raise BuildError(f"linking the native FMU failed:\n{' '.join(cmd)}\n{r.stderr}")
 
 
+def compile_native_win64(spec: FmuSpec, objects: list[Path], out_dll: Path, fmi_version: int) -> None:
+    """The same binary for Windows x86-64, cross-compiled with mingw-w64: a DLL that needs only
+    KERNEL32 and msvcrt (libgcc and winpthreads linked in). It exports the fmi{2,3}* functions (a .def file
+    lists those of ``fmi_version``; the FMI headers also mark the other version's dllexport, so both are)."""
+    cc = mingw_gcc()
+    if cc is None:
+        raise BuildError("the mingw-w64 cross compiler (Debian: gcc-mingw-w64-x86-64) is needed for win64 binaries")
+    nm = cc.replace("-gcc", "-nm").replace("-posix", "").replace("-win32", "")
+    out_dll.parent.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix=".native-win-", dir=out_dll.parent) as gen_name:
+        gen = Path(gen_name)
+        (gen / "pyfmu_contract.h").write_text(c_header())
+        (gen / "pyfmu_native_model.h").write_text(model_header(spec))
+        srcs = [*[STUB_DIR / n for n in CORE], NATIVE_DIR / "native_embed.c", RUNTIME_C]
+        flags = ["-O2", "-std=gnu11", "-w", "-D__USE_MINGW_ANSI_STDIO=1", f"-I{gen}", f"-I{STUB_DIR}"]
+        flags.append(f"-I{fmi_headers_dir()}")
+        objs = []
+        for src in srcs:
+            o = gen / (src.stem + ".obj")
+            r = subprocess.run([cc, *flags, "-c", str(src), "-o", str(o)], capture_output=True, text=True)
+            if r.returncode != 0:
+                raise BuildError(f"compiling {src.name} for win64 failed:\n{r.stderr}")
+            objs.append(o)
+        r = subprocess.run([nm, "-g", "--defined-only", *map(str, objs)], capture_output=True, text=True)
+        names = {ln.split()[-1] for ln in r.stdout.splitlines() if ln.strip()}
+        exports = sorted(n for n in names if n.startswith(f"fmi{fmi_version}"))
+        (gen / "fmi.def").write_text("EXPORTS\n" + "".join(f"    {e}\n" for e in exports))
+        cmd = [cc, "-shared", "-s", "-o", str(out_dll), *map(str, objs), *map(str, objects), str(gen / "fmi.def"),
+               "-static-libgcc", "-Wl,-Bstatic", "-lpthread", "-Wl,-Bdynamic"]  # fmt: skip
+        r = subprocess.run(cmd, capture_output=True, text=True)
+    if r.returncode != 0 or not exports:
+        raise BuildError(f"linking the win64 native FMU failed:\n{' '.join(cmd)}\n{r.stderr}")
+
+
 def build_native_fmus(
     names: Iterable[str] = tuple(MODELS),
     out_dir: str | os.PathLike[str] = DEFAULT_OUT / NATIVE_SUBDIR,
     fmi_version: int = 2,
+    win64: bool | None = None,
 ) -> list[Path]:
-    """Build native FMUs of one FMI version into ``out_dir`` (FMI 3.0: pass :func:`.build.fmi_out_dir`'s)."""
+    """Build native FMUs of one FMI version into ``out_dir`` (FMI 3.0: pass :func:`.build.fmi_out_dir`'s),
+    with the win64 binary beside the linux64 one (``win64`` None: when mingw-w64 is installed)."""
+    if win64 is None:
+        win64 = mingw_gcc() is not None
     names = list(names)
     missing = [n for n in names if n not in MODELS]
     if missing:
@@ -160,18 +202,25 @@ def build_native_fmus(
         objects = write_objects(tmp / "obj", tuple(names))
         for n in names:
             spec = SPECS[n]
-            so = tmp / f"{n}.so"
-            compile_native(spec, objects[(n, "linux64")], so, fmi_version)
+            binaries = {"linux64": tmp / f"{n}.so"}
+            compile_native(spec, objects[(n, "linux64")], binaries["linux64"], fmi_version)
+            if win64:
+                binaries["win64"] = tmp / f"{n}.dll"
+                compile_native_win64(spec, objects[(n, "win64")], binaries["win64"], fmi_version)
             guid = guid_of(spec, "native" + nhash)
             md = model_description_xml(spec, guid) if fmi_version == 2 else model_description3_xml(spec, guid)
-            cfg = f"guid={guid}\nmodel_identifier={spec.model_identifier}\nvariant=native\nsource_hash={nhash}\n"
+            cfg = (
+                f"guid={guid}\nmodel_identifier={spec.model_identifier}\nvariant=native\n"
+                f"platforms={' '.join(binaries)}\nsource_hash={nhash}\n"
+            )
             target = out / f"{spec.model_identifier}.fmu"
             part = out / f".{spec.model_identifier}.fmu.{os.getpid()}.{os.urandom(4).hex()}.part"
             try:
                 with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
                     z.writestr("modelDescription.xml", md)
                     z.writestr("documentation/index.html", documentation_html(spec, guid, (), "none: native code"))
-                    z.write(so, f"{BINARY_DIR[fmi_version]}/{spec.model_identifier}.so")
+                    for plat, b in binaries.items():
+                        z.write(b, f"{PLATFORM_DIR[(fmi_version, plat)]}/{spec.model_identifier}{SUFFIX[plat]}")
                     z.writestr("resources/pyfmu.cfg", cfg)
                     z.writestr("resources/variables.tsv", variable_table_tsv(spec))
             except BaseException:
