@@ -17,6 +17,7 @@ as long as the maths functions of the C library agree (glibc on Linux: the same 
 
 from __future__ import annotations
 
+import functools
 import json
 import os
 import subprocess
@@ -87,8 +88,10 @@ with open(sys.argv[1], "w") as fh:
 """
 
 
+@functools.cache
 def model_ir(models: tuple[str, ...] = tuple(MODELS)) -> dict[str, dict[str, tuple[str, str]]]:
-    """model -> {C name: (symbol of the cfunc, the LLVM IR of its library)}, compiled afresh."""
+    """model -> {C name: (symbol of the cfunc, the LLVM IR of its library)}, compiled afresh (once per
+    process and set of models: the sources do not change under a running build)."""
     unknown = [m for m in models if m not in MODELS]
     if unknown:
         raise BuildError(f"no compiled step for {unknown}: native FMUs exist for {sorted(MODELS)}")
