@@ -198,3 +198,43 @@ def test_fmi3_native_equals_the_python_hosted_fmi3(tmp_path):
         s.terminate()
         s.freeInstance()
     assert out["native"] == out["hosted"]
+
+
+def test_native_configure_checks_are_tmdparams_checks():
+    """The cross-field checks restated in the compiled configure (fmi/native_model.py) refuse exactly
+    what TMDParams refuses, on a grid of mass, inertance and inerter model including the edges."""
+    import ctypes
+
+    from pyfmu_wrapper.fmi.contract import NATIVE_OK
+    from pyfmu_wrapper.fmi.native_model import TMD_CHECKS, tmd_functions
+    from pyfmu_wrapper.fmi.variables import TMD_INERTER
+    from pyfmu_wrapper.physics.params import ParameterError, TMDParams
+
+    nvr = max(v.vr for v in TMD_INERTER.variables) + 1
+    reals, ints = np.zeros(nvr), np.zeros(nvr, dtype=np.int32)
+    for v in TMD_INERTER.variables:
+        if v.start is not None:
+            (ints if v.type != "Real" else reals)[v.vr] = v.start
+    p, z, u = np.zeros(64), np.zeros(4), np.zeros(64)
+    conf = tmd_functions()["configure"]
+    f64 = ctypes.POINTER(ctypes.c_double)
+    seen = set()
+    for model in (0, 1, 2):
+        for m in (0.0, 1e-300, 1.0, 9.0):
+            for inertance in (0.0, 5e-324, 1.0):
+                reals[TMD_INERTER.vr("m")], reals[TMD_INERTER.vr("I")] = m, inertance
+                ints[TMD_INERTER.vr("inerter")] = model
+                rc = conf.ctypes(
+                    reals.ctypes.data_as(f64), ints.ctypes.data_as(ctypes.POINTER(ctypes.c_int32)),
+                    p.ctypes.data_as(f64), z.ctypes.data_as(f64), u.ctypes.data_as(f64),
+                )  # fmt: skip
+                try:
+                    TMDParams(mass=m, inertance=inertance, inerter=model)
+                    refused = None
+                except ParameterError as e:
+                    refused = str(e)
+                assert (rc != NATIVE_OK) == (refused is not None), (model, m, inertance, rc, refused)
+                if refused:
+                    assert TMD_CHECKS[rc - 1].split(" (")[0].split(" for ")[0] in refused, (refused, rc)
+                    seen.add(rc)
+    assert seen == {1, 2, 3, 4}  # every check is reached on the grid
