@@ -32,7 +32,7 @@ from .documentation import documentation_html
 from .integrators import BASE_U_SIZE
 from .model_description import guid_of, model_description_xml, variable_table_tsv
 from .model_description3 import model_description3_xml
-from .native_model import TMD_CHECKS
+from .native_model import FIELD_CODE, KAPPA_CODE, TMD_CHECKS, field_messages
 from .native_obj import MODELS, PLATFORM3, RUNTIME_C, mingw_gcc, write_objects
 from .variables import SPECS
 from .varspec import FmuSpec
@@ -99,6 +99,12 @@ def model_header(spec: FmuSpec) -> str:
         f"#define NM_VR_MASS {names['m'] if is_tmd else 0}",
         f"#define NM_VR_INERTANCE {names['I'] if is_tmd else 0}",
         f"#define NM_VR_MODEL {names['inerter'] if is_tmd else 0}",
+        f"#define NM_FIELD_CODE {FIELD_CODE}",
+        f"#define NM_KAPPA_CODE {KAPPA_CODE}",
+        f"#define NM_VR_KAPPA {names.get('base_compliance', 0)}",
+        "static const char *const NM_FIELD_MSG[] = {"
+        + ", ".join(f'"{m}"' for m in field_messages("tmd" if is_tmd else "base"))
+        + "};",
         "#endif",
         "",
     ]

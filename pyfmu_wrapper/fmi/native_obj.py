@@ -40,6 +40,7 @@ ENTRIES = {
     "configure": "pyfmu_model_configure",
     "outputs": "pyfmu_model_outputs",
     "derivative": "pyfmu_model_derivative",
+    "sensitivity": "pyfmu_model_sensitivity",
 }
 #: symbols defined by fmu/src/native/native_rt.c
 RUNTIME_SYMBOLS = frozenset(

@@ -31,6 +31,7 @@ extern int32_t pyfmu_model_step(double *, int32_t *, double *, double *, double 
 extern int32_t pyfmu_model_configure(double *, int32_t *, double *, double *, double *);
 extern int32_t pyfmu_model_outputs(double *, int32_t *, double *, double *, double *, double);
 extern int32_t pyfmu_model_derivative(double *, int32_t *, double *, double *, double *, double, double *, double *);
+extern int32_t pyfmu_model_sensitivity(double *, int32_t *, double *, double *, double *, double, int32_t, double *);
 
 enum { K_NONE = 1, K_DICT, K_LOAD, K_MODULE, K_CREATE, K_BUF, K_BYTES, K_SLAVE, K_METHOD, K_LONG };
 enum { X_SETUP = 1, X_ENTER, X_EXIT, X_UPDATE, X_STEP, X_RESET, X_TERMINATE, X_GET, X_SET, X_DD, X_RESTORE, X_NATIVE };
@@ -114,9 +115,16 @@ static long configure(Slave *s) {
     int32_t rc = pyfmu_model_configure(s->reals, s->ints, s->p, s->z, s->u);
     if (rc == PYFMU_NATIVE_OK) return OK;
     char why[1024];
-    snprintf(why, sizeof why, "ParameterError: %s, got m = %.17g, I = %.17g, inerter = %d",
-             rc >= 1 && rc <= NM_NCHECKS ? NM_CHECKS[rc - 1] : "a check of the compiled configure failed",
-             s->reals[NM_VR_MASS], s->reals[NM_VR_INERTANCE], (int)s->ints[NM_VR_MODEL]);
+    if (rc >= NM_FIELD_CODE && rc < NM_FIELD_CODE + NM_NP)
+        snprintf(why, sizeof why, "ParameterError: %s, got %.17g", NM_FIELD_MSG[rc - NM_FIELD_CODE],
+                 s->p[rc - NM_FIELD_CODE]);
+    else if (rc == NM_KAPPA_CODE)
+        snprintf(why, sizeof why, "ParameterError: base_compliance = %.17g 1/kg: must be finite and >= 0 (1/M of "
+                 "the body the TMD is mounted on, 0: off)", s->reals[NM_VR_KAPPA]);
+    else
+        snprintf(why, sizeof why, "ParameterError: %s, got m = %.17g, I = %.17g, inerter = %d",
+                 rc >= 1 && rc <= NM_NCHECKS ? NM_CHECKS[rc - 1] : "a check of the compiled configure failed",
+                 s->reals[NM_VR_MASS], s->reals[NM_VR_INERTANCE], (int)s->ints[NM_VR_MODEL]);
     return fail(s, why);
 }
 
@@ -149,22 +157,43 @@ static long do_step(Slave *s, double t, double h) {
     return fail(s, why);
 }
 
+/* The Python slave's directional_derivative: inputs by complex step, and in initialisation mode the Real
+ * parameters among the knowns by the compiled sensitivity (each parameter once, in the order it first
+ * appears, its seeds summed); an unknown that is not an output: 1 with respect to itself. */
 static long derivative(Slave *s, long nu, long nk, long init) {
     double *sc = s->scratch, *seed = sc + nu + nk, *res = sc + nu + 2 * nk;
-    double direction[NM_NIN > 0 ? NM_NIN : 1] = {0}, dy[NM_NOUT > 0 ? NM_NOUT : 1] = {0};
-    int any = 0;
+    double direction[NM_NIN > 0 ? NM_NIN : 1] = {0}, dy[NM_NOUT > 0 ? NM_NOUT : 1] = {0}, sens[NM_NOUT > 0 ? NM_NOUT : 1];
+    int pvr[64], np_ = 0, any = 0;
+    double pdv[64];
     for (long i = 0; i < nk; i++) {
         int vr = (int)sc[nu + i], k = -1;
         for (int j = 0; j < NM_NIN; j++)
             if (NM_IN_VR[j] == vr) k = j;
         if (k >= 0) direction[k] += seed[i];
-        else if (init && NM_KIND[vr] == 'p' && seed[i] != 0.0)
-            return fail(s, "directional derivatives with respect to parameters in initialisation mode are not "
-                           "provided by the native FMU (use the Python-hosted FMU)");
+        else if (init && vr >= 0 && vr < NM_NVR && NM_KIND[vr] == 'p') {
+            int q = -1;
+            for (int j = 0; j < np_; j++)
+                if (pvr[j] == vr) q = j;
+            if (q < 0 && np_ < 64) {
+                q = np_++;
+                pvr[q] = vr;
+                pdv[q] = 0.0;
+            }
+            if (q >= 0) pdv[q] += seed[i];
+        }
     }
     for (int j = 0; j < NM_NIN; j++) any |= direction[j] != 0.0;
     if (any && pyfmu_model_derivative(s->reals, s->ints, s->z, s->p, s->u, s->th[0], direction, dy) != PYFMU_NATIVE_OK)
         return fail(s, "the compiled derivative raised");
+    for (int q = 0; q < np_; q++) {
+        if (pyfmu_model_sensitivity(s->reals, s->ints, s->z, s->p, s->u, s->th[0], pvr[q], sens) != PYFMU_NATIVE_OK) {
+            char why[300];
+            snprintf(why, sizeof why, "FmuStepError: directional derivative with respect to parameter %d is not "
+                     "available at %.17g: the parameter's domain excludes both sides", pvr[q], s->reals[pvr[q]]);
+            return fail(s, why);
+        }
+        for (int j = 0; j < NM_NOUT; j++) dy[j] += pdv[q] * sens[j];
+    }
     for (long i = 0; i < nu; i++) {
         int vr = (int)sc[i], j = -1;
         for (int o = 0; o < NM_NOUT; o++)
