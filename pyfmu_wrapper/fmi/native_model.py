@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 from numba import carray, cfunc, types
 
+from .._jit import njit
 from ..physics import kernels as kn
 from ..physics import registry
 from ..physics.params import N_PARAMS, BaseParams, TMDParams, pack
@@ -169,7 +170,6 @@ def _sensitivity(
 @functools.cache
 def base_functions() -> dict[str, Any]:
     """The BaseOscillator's configure, outputs, derivative and sensitivity cfuncs (compiled on first use)."""
-    from numba import njit
 
     pack_, fields_, sens_ = njit(_pack), njit(_fields), njit(_sensitivity)
 
@@ -222,7 +222,6 @@ def base_functions() -> dict[str, Any]:
 @functools.cache
 def tmd_functions() -> dict[str, Any]:
     """The TMDInerter's configure, outputs, derivative and sensitivity cfuncs (compiled on first use)."""
-    from numba import njit
 
     pack_, fields_, sens_ = njit(_pack), njit(_fields), njit(_sensitivity)
 
