@@ -159,7 +159,7 @@ def test_values_at_the_edges_of_their_ranges_are_accepted(fmus, tmp_path):
         f.s.setupExperiment(startTime=0.0)
         f.s.enterInitializationMode()
         for var, v in (
-            ("atol", 5e-324),
+            ("atol", sys.float_info.min),  # "> 0" is declared as the smallest normal double
             ("rtol", 1.0),
             ("eps", 0.0),
             ("base_compliance", 0.0),

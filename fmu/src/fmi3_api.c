@@ -21,6 +21,7 @@
  *    fmi3Error with a message (never fmi3OK).
  */
 #define _GNU_SOURCE
+#include <math.h>
 #include <stdarg.h>
 #include <stdbool.h>
 #include <stdio.h>
@@ -151,7 +152,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
                                          const fmi3ValueReference requiredIntermediateVariables[],
                                          size_t nRequiredIntermediateVariables, fmi3InstanceEnvironment instanceEnvironment,
                                          fmi3LogMessageCallback logMessage, fmi3IntermediateUpdateCallback intermediateUpdate) {
-    (void)eventModeUsed; (void)earlyReturnAllowed; (void)requiredIntermediateVariables; (void)intermediateUpdate;
+    (void)earlyReturnAllowed; (void)requiredIntermediateVariables; (void)intermediateUpdate;
     Env3 *env = calloc(1, sizeof *env);
     if (!env) return NULL;
     env->magic = ENV3_MAGIC;
@@ -160,14 +161,19 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
     fmi2CallbackFunctions cb = {0};
     cb.logger = (fmi2CallbackLogger)logger3;
     cb.componentEnvironment = env;
-    if (nRequiredIntermediateVariables > 0) { /* no intermediate update: nothing can be provided */
+    const char *refused = NULL;
+    if (nRequiredIntermediateVariables > 0) /* no intermediate update: nothing can be provided */
+        refused = "required intermediate variables were given, but this FMU provides no intermediate update "
+                  "(providesIntermediateUpdate = false)";
+    else if (eventModeUsed) /* FMI 3.0.2, 4.3.1: an FMU without event mode must fail to instantiate */
+        refused = "eventModeUsed = true, but this FMU has no event mode (hasEventMode = false): instantiate it with "
+                  "eventModeUsed = false";
+    if (refused) {
         Comp tmp = {0};
         tmp.instance_name = (char *)(instanceName ? instanceName : "?");
         tmp.logger = cb.logger;
         tmp.env = env;
-        logmsg(&tmp, fmi2Error, "logStatusError",
-               "fmi3InstantiateCoSimulation: %zu required intermediate variables, but this FMU provides no "
-               "intermediate update (providesIntermediateUpdate = false)", nRequiredIntermediateVariables);
+        logmsg(&tmp, fmi2Error, "logStatusError", "fmi3InstantiateCoSimulation: %s", refused);
         free(env);
         return NULL;
     }
@@ -191,6 +197,7 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
     Comp *c = (Comp *)fmi2Instantiate(instanceName, fmi2CoSimulation, instantiationToken, uri, &cb, visible, loggingOn);
     free(uri);
     if (!c) free(env);
+    else c->fmi3 = 1;
     return c;
 }
 
@@ -232,94 +239,79 @@ fmi3Status fmi3Reset(fmi3Instance instance) {
 }
 
 /* ---- values ---------------------------------------------------------------------------------- */
+/* Float64 values in one pass, no allocation: the core's checks per value reference (the FMI 2.0
+ * table's variables), then the outputs recomputed once if needed, then every value copied. */
 fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                           fmi3Float64 values[], size_t nValues) {
     INST(0);
     const char *f = "fmi3GetFloat64";
+    if (!check_state(c, f, get_mask(c))) return fmi3Error;
     NVALUES(f);
     if (nValueReferences == 0) return fmi3OK;
     NULLARG(f, valueReferences);
     NULLARG(f, values);
-    /* the FMI 2.0 table's variables in one core call, time and derivatives here */
-    fmi2Status s = fmi2OK;
+    int order, plain = 0;
     for (size_t i = 0; i < nValueReferences; i++) {
         fmi3ValueReference vr = valueReferences[i];
-        int order;
-        if (is_time_vr(c, vr)) {
-            if (!check_state(c, f, M_GET)) return fmi3Error;
-            values[i] = c->time;
-        } else if (derivative_of(c, vr, &order) >= 0) {
-            if (!check_state(c, f, M_GET)) return fmi3Error;
-            values[i] = c->derivs[2 * derivative_of(c, vr, &order) + order - 1];
-        } else {
-            fmi2Status si = fmi2GetReal(c, &vr, 1, &values[i]);
-            if (si > fmi2Warning) return (fmi3Status)si;
-            if (si > s) s = si;
-        }
+        if (is_time_vr(c, vr) || derivative_of(c, vr, &order) >= 0) continue;
+        if (!check_vr(c, f, vr, 'R')) return fmi3Error;
+        plain = 1;
+    }
+    fmi2Status s = plain ? refresh(c, f) : fmi2OK;
+    if (s > fmi2Warning) return (fmi3Status)s;
+    for (size_t i = 0; i < nValueReferences; i++) {
+        fmi3ValueReference vr = valueReferences[i];
+        if (!is_time_vr(c, vr) && derivative_of(c, vr, &order) < 0 && !check_finite(c, f, vr)) return fmi3Error;
+    }
+    for (size_t i = 0; i < nValueReferences; i++) {
+        fmi3ValueReference vr = valueReferences[i];
+        int v;
+        if (is_time_vr(c, vr)) values[i] = c->time;
+        else if ((v = derivative_of(c, vr, &order)) >= 0) values[i] = c->derivs[2 * v + order - 1];
+        else values[i] = c->reals[vr];
     }
     return (fmi3Status)s;
 }
 
+/* Float64 values in one pass, no allocation: everything checked (the core's checks) before anything
+ * changes; setting an input does not clear its derivatives (FMI 3.0), which apply to the next step. */
 fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[], size_t nValueReferences,
                           const fmi3Float64 values[], size_t nValues) {
     INST(0);
     const char *f = "fmi3SetFloat64";
+    if (!check_state(c, f, M_SET)) return fmi3Error;
     NVALUES(f);
-    if (nValueReferences == 0) {
-        if (!check_state(c, f, M_SET)) return fmi3Error;
-        return fmi3OK;
-    }
+    if (nValueReferences == 0) return fmi3OK;
     NULLARG(f, valueReferences);
     NULLARG(f, values);
-    /* check everything before changing anything (as the core does) */
-    size_t nplain = 0;
+    int order, plain = 0;
     for (size_t i = 0; i < nValueReferences; i++) {
         fmi3ValueReference vr = valueReferences[i];
-        int order;
         if (is_time_vr(c, vr)) {
-            if (!check_state(c, f, M_SET)) return fmi3Error;
             logmsg(c, fmi2Error, "logStatusError", "%s: variable %u (time) is the independent variable: it cannot be set",
                    f, vr);
             return fmi3Error;
         }
-        if (derivative_of(c, vr, &order) < 0) {
-            nplain++;
+        int v = derivative_of(c, vr, &order);
+        if (v >= 0) {
+            if (!isfinite(values[i])) {
+                logmsg(c, fmi2Error, "logStatusError", "%s: value for the derivative of order %d of %s (value reference "
+                       "%u) must be finite but was %g", f, order, var_name(c, (unsigned)v), vr, values[i]);
+                return fmi3Error;
+            }
             continue;
         }
-        int v = derivative_of(c, vr, &order);
-        fmi2Integer o = order;
-        /* the core's checks of an input derivative (state, finite value); nothing is kept */
-        double keep = c->derivs[2 * v + order - 1];
-        fmi2ValueReference v2 = (fmi2ValueReference)v;
-        fmi2Status s = fmi2SetRealInputDerivatives(c, &v2, 1, &o, &values[i]);
-        c->derivs[2 * v + order - 1] = keep;
-        if (s > fmi2Warning) return (fmi3Status)s;
-    }
-    if (nplain > 0) {
-        fmi2ValueReference *vrs = malloc(nplain * sizeof *vrs);
-        double *vals = malloc(nplain * sizeof *vals);
-        double *saved = malloc(2 * (size_t)c->nvr * sizeof *saved);
-        if (!vrs || !vals || !saved) {
-            free(vrs); free(vals); free(saved);
-            return refuse(c, f, "out of memory");
-        }
-        size_t k = 0;
-        int order;
-        for (size_t i = 0; i < nValueReferences; i++)
-            if (!is_time_vr(c, valueReferences[i]) && derivative_of(c, valueReferences[i], &order) < 0) {
-                vrs[k] = valueReferences[i];
-                vals[k++] = values[i];
-            }
-        memcpy(saved, c->derivs, 2 * (size_t)c->nvr * sizeof *saved);
-        fmi2Status s = fmi2SetReal(c, vrs, nplain, vals);
-        memcpy(c->derivs, saved, 2 * (size_t)c->nvr * sizeof *saved); /* FMI 3.0: derivatives hold */
-        free(vrs); free(vals); free(saved);
-        if (s > fmi2Warning) return (fmi3Status)s;
+        if (!check_vr(c, f, vr, 'R') || !check_settable(c, f, vr) || !check_value(c, f, vr, values[i], 'R'))
+            return fmi3Error;
+        plain = 1;
     }
     for (size_t i = 0; i < nValueReferences; i++) {
-        int order, v = derivative_of(c, valueReferences[i], &order);
+        fmi3ValueReference vr = valueReferences[i];
+        int v = derivative_of(c, vr, &order);
         if (v >= 0) c->derivs[2 * v + order - 1] = values[i];
+        else c->reals[vr] = values[i];
     }
+    if (plain) c->dirty = 1;
     return fmi3OK;
 }
 
@@ -369,7 +361,7 @@ fmi3Status fmi3SetBoolean(fmi3Instance instance, const fmi3ValueReference valueR
 /* Types this FMU declares no variable of: any value reference is invalid. */
 static fmi3Status no_such(fmi3Instance instance, const char *f, const fmi3ValueReference vr[], size_t nvr, int set) {
     INST(0);
-    if (!check_state(c, f, set ? M_SET : M_GET)) return fmi3Error;
+    if (!check_state(c, f, set ? M_SET : get_mask(c))) return fmi3Error;
     if (nvr == 0) return fmi3OK;
     NULLARG(f, vr);
     logmsg(c, fmi2Error, "logStatusError", "%s: invalid value reference %u (this FMU has no variable of this type)", f,

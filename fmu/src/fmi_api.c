@@ -53,6 +53,7 @@ static void free_comp(Comp *c) {
         for (int i = 0; i < c->nvr; i++) free(c->vname[i]);
     free(c->vname);
     free(c->vmin);
+    free(c->vlo);
     free(c->vmax);
     free(c->vexcl);
     free(c->instance_name);
@@ -120,8 +121,8 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     tmp.env = functions ? functions->componentEnvironment : NULL;
     Comp *c = &tmp;
     if (!functions) return NULL;
-    if (!instanceName || !instanceName[0]) {
-        logmsg(c, fmi2Error, "logStatusError", "fmi2Instantiate: missing instance name");
+    if (!instanceName || !instanceName[strspn(instanceName, " \t\r\n\v\f")]) { /* NULL, empty or blank */
+        logmsg(c, fmi2Error, "logStatusError", "fmi2Instantiate: missing instance name (NULL, empty or blank)");
         return NULL;
     }
     if (fmuType != fmi2CoSimulation) {
@@ -356,7 +357,7 @@ int check_vr(Comp *c, const char *f, fmi2ValueReference vr, char type) {
     return 1;
 }
 
-static int check_settable(Comp *c, const char *f, fmi2ValueReference vr) {
+int check_settable(Comp *c, const char *f, fmi2ValueReference vr) {
     int ca = c->vcaus[vr], va = c->vvar[vr];
     int ok = 0;
     if (ca == C_INPUT) ok = 1;
@@ -376,17 +377,24 @@ static void range_text(const Comp *c, fmi2ValueReference vr, char *out, size_t n
     else if (has_lo) snprintf(out, n, "%s %s", c->vexcl[vr] ? ">" : ">=", lo);
     else if (has_hi) snprintf(out, n, "<= %s", hi);
     else snprintf(out, n, "any finite value");
+    if (c->vlo[vr] != c->vmin[vr]) { /* "> 0": declared (and enforced) as the smallest normal double */
+        char dlo[40];
+        size_t k = strlen(out);
+        fmt_double(c->vlo[vr], dlo, sizeof dlo);
+        snprintf(out + k, n - k, " (declared min %s)", dlo);
+    }
 }
 
-/* Whether v lies in the declared range of vr (from the variable table: registry bounds). */
+/* Whether v lies in the range of vr declared in modelDescription.xml (exactly that: an exclusive
+ * minimum m is declared, and enforced, as the next double above m, the smallest normal for m = 0). */
 static int in_range(const Comp *c, fmi2ValueReference vr, double v) {
     if (c->vexcl[vr] ? !(v > c->vmin[vr]) : !(v >= c->vmin[vr])) return 0;
-    return v <= c->vmax[vr];
+    return v >= c->vlo[vr] && v <= c->vmax[vr];
 }
 
 /* Real values must be finite and Real/Integer values within the variable's range (declared as
  * min/max in modelDescription.xml); Booleans 0 or 1. */
-static int check_value(Comp *c, const char *f, fmi2ValueReference vr, double v, char type) {
+int check_value(Comp *c, const char *f, fmi2ValueReference vr, double v, char type) {
     if (type == 'R' && !isfinite(v)) {
         logmsg(c, fmi2Error, "logStatusError", "%s: value of variable %u (%s) must be finite but was %g", f, vr,
                var_name(c, vr), v);
@@ -412,21 +420,28 @@ static int check_value(Comp *c, const char *f, fmi2ValueReference vr, double v, 
 /* Never answer OK with a value that is not finite: a model driven past the range of doubles (huge
  * parameters or inputs that are each within their declared range) overflows; that is an error naming
  * the variable, not a number for the host to propagate. */
+int check_finite(Comp *c, const char *f, fmi2ValueReference vr) {
+    if (isfinite(c->reals[vr])) return 1;
+    logmsg(c, fmi2Error, "logStatusError",
+           "%s: %s (value reference %u) is %g: the model overflowed (parameters, start values or inputs "
+           "too large for each other?); nothing returned", f, var_name(c, vr), vr, c->reals[vr]);
+    return 0;
+}
+
 static int all_finite(Comp *c, const char *f, const fmi2ValueReference vr[], size_t nvr) {
     for (size_t i = 0; i < nvr; i++)
-        if (!isfinite(c->reals[vr[i]])) {
-            logmsg(c, fmi2Error, "logStatusError",
-                   "%s: %s (value reference %u) is %g: the model overflowed (parameters, start values or inputs "
-                   "too large for each other?); nothing returned", f, var_name(c, vr[i]), vr[i], c->reals[vr[i]]);
-            return 0;
-        }
+        if (!check_finite(c, f, vr[i])) return 0;
     return 1;
 }
+
+/* Where values can be read: FMI 2.0 from initialisation mode on; FMI 3.0 also in Instantiated
+ * (the start values, or what the host set), as FMI 3.0's state machine allows. */
+int get_mask(const Comp *c) { return M_GET | ((c && c->magic == COMP_MAGIC && c->fmi3) ? S_INSTANTIATED : 0); }
 
 #define GETTER(NAME, CTYPE, TCODE, BUF, CONV)                                                    \
     fmi2Status NAME(fmi2Component comp, const fmi2ValueReference vr[], size_t nvr, CTYPE value[]) { \
         Comp *c = (Comp *)comp;                                                                  \
-        CHECK(#NAME, M_GET);                                                                     \
+        CHECK(#NAME, get_mask(c));                                                               \
         if (nvr == 0) return fmi2OK;                                                             \
         NULLARG(#NAME, vr);                                                                      \
         NULLARG(#NAME, value);                                                                   \
@@ -535,8 +550,18 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component comp, const fmi2ValueRefer
     int g = gil_take();
     s = py_status(c, f, py.CallFunction(c->m_dd, "nni", (Py_ssize_t)nUnknown, (Py_ssize_t)nKnown, c->state == S_INIT));
     GIL_DROP(g);
-    if (s <= fmi2Warning)
-        for (size_t i = 0; i < nUnknown; i++) dvUnknown[i] = c->scratch[2 * nKnown + nUnknown + i];
+    if (s > fmi2Warning) return s;
+    for (size_t i = 0; i < nUnknown; i++) { /* never OK with a derivative that is not finite */
+        double d = c->scratch[2 * nKnown + nUnknown + i];
+        if (!isfinite(d)) {
+            logmsg(c, fmi2Error, "logStatusError",
+                   "%s: the derivative of %s (value reference %u) is %g: the model overflowed (parameters, start "
+                   "values or inputs too large for each other?); nothing returned", f, var_name(c, vUnknown_ref[i]),
+                   vUnknown_ref[i], d);
+            return fmi2Error;
+        }
+    }
+    for (size_t i = 0; i < nUnknown; i++) dvUnknown[i] = c->scratch[2 * nKnown + nUnknown + i];
     return s;
 }
 

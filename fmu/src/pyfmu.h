@@ -119,8 +119,9 @@ typedef struct {
     char *vcaus;
     char *vvar;
     char **vname;       /* variable names (messages) */
-    double *vmin, *vmax; /* range per value reference (-inf / inf: none) */
-    char *vexcl;        /* 1: the minimum itself is out of range */
+    double *vmin, *vmax; /* range per value reference (-inf / inf: none), as the registry states it */
+    char *vexcl;        /* 1: the minimum itself is out of range ("> vmin") */
+    double *vlo;        /* the minimum declared in modelDescription.xml (inclusive): what is enforced */
     /* buffers shared with Python (bytearrays) */
     double *reals;
     int32_t *ints;
@@ -135,6 +136,7 @@ typedef struct {
     /* native step (pyfmu_wrapper/fmi/native.py): a compiled function and the slave's arrays */
     NativeStep native;
     void *nat[7]; /* z, p, stats, th, u, atol, backup */
+    int fmi3;     /* instantiated through the FMI 3.0 API (its state machine: values readable in Instantiated) */
 } Comp;
 #define COMP_MAGIC 0x434f4d50u
 
@@ -196,6 +198,10 @@ HIDDEN int pyconfig_start_isolated(void *lib, const char *home, char *err, size_
 /* ---- fmi_api.c / fmi_state.c --------------------------------------------------------------- */
 HIDDEN fmi2Status refresh(Comp *c, const char *f);
 HIDDEN int check_vr(Comp *c, const char *f, fmi2ValueReference vr, char type);
+HIDDEN int check_settable(Comp *c, const char *f, fmi2ValueReference vr);
+HIDDEN int check_value(Comp *c, const char *f, fmi2ValueReference vr, double v, char type);
+HIDDEN int check_finite(Comp *c, const char *f, fmi2ValueReference vr); /* the Real's value is finite */
+HIDDEN int get_mask(const Comp *c); /* the states in which values can be read */
 HIDDEN size_t free_states_of(uint64_t instance_id); /* fmi2FreeInstance: every state of the instance */
 
 #endif

@@ -2,7 +2,11 @@
  * standalone FMU's bundled runtime),
  * variables.tsv (the variable table) and the resource location URI. */
 #define _GNU_SOURCE
+#if defined(_WIN32)
+#include <windows.h>
+#else
 #include <dlfcn.h>
+#endif
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -90,21 +94,23 @@ int read_variables(Comp *c, const char *resdir, char *err, size_t nerr) {
     c->vname = calloc(c->nvr, sizeof(char *));
     c->vmin = malloc(c->nvr * sizeof(double));
     c->vmax = malloc(c->nvr * sizeof(double));
+    c->vlo = malloc(c->nvr * sizeof(double));
     c->vexcl = calloc(c->nvr, 1);
-    if (!c->vtype || !c->vcaus || !c->vvar || !c->vname || !c->vmin || !c->vmax || !c->vexcl) {
+    if (!c->vtype || !c->vcaus || !c->vvar || !c->vname || !c->vmin || !c->vlo || !c->vmax || !c->vexcl) {
         fclose(f);
         snprintf(err, nerr, "out of memory");
         return 0;
     }
     for (int i = 0; i < c->nvr; i++) {
         c->vmin[i] = -INFINITY;
+        c->vlo[i] = -INFINITY;
         c->vmax[i] = INFINITY;
     }
     rewind(f);
     while (fgets(line, sizeof line, f)) {
         int vr, excl = 0;
-        char t[8], ca[32], va[32], name[256] = "", lo[64] = "-inf", hi[64] = "inf";
-        int n = sscanf(line, "%d %7s %31s %31s %255s %63s %63s %d", &vr, t, ca, va, name, lo, hi, &excl);
+        char t[8], ca[32], va[32], name[256] = "", lo[64] = "-inf", hi[64] = "inf", dlo[64] = "";
+        int n = sscanf(line, "%d %7s %31s %31s %255s %63s %63s %d %63s", &vr, t, ca, va, name, lo, hi, &excl, dlo);
         if (n < 4 || vr < 0 || vr >= c->nvr) continue;
         c->vtype[vr] = t[0];
         c->vcaus[vr] = (char)code_of(ca, caus, 6);
@@ -112,8 +118,10 @@ int read_variables(Comp *c, const char *resdir, char *err, size_t nerr) {
         if (n >= 5) c->vname[vr] = strdup(name);
         if (n >= 7) {
             c->vmin[vr] = strtod(lo, NULL);
+            c->vlo[vr] = c->vmin[vr];
             c->vmax[vr] = strtod(hi, NULL);
         }
+        if (n >= 9) c->vlo[vr] = strtod(dlo, NULL); /* the declared (inclusive) minimum: enforced */
         if (n >= 8) c->vexcl[vr] = excl != 0;
         c->nvars++;
     }
@@ -148,13 +156,27 @@ void uri_to_path(const char *uri, char *out, size_t n) {
     }
     out[j] = 0;
     while (j > 1 && out[j - 1] == '/') out[--j] = 0;
+#if defined(_WIN32)
+    /* file:///C:/dir -> /C:/dir -> C:/dir */
+    if (out[0] == '/' && out[1] && out[2] == ':') memmove(out, out + 1, strlen(out));
+#endif
 }
 
 void resources_from_library(char *out, size_t n) {
-    Dl_info info;
     out[0] = 0;
+#if defined(_WIN32)
+    HMODULE mod = NULL;
+    if (!GetModuleHandleExA(GET_MODULE_HANDLE_EX_FLAG_FROM_ADDRESS | GET_MODULE_HANDLE_EX_FLAG_UNCHANGED_REFCOUNT,
+                            (LPCSTR)(void *)&resources_from_library, &mod) ||
+        !GetModuleFileNameA(mod, out, (DWORD)n))
+        return;
+    for (char *q = out; *q; q++)
+        if (*q == '\\') *q = '/';
+#else
+    Dl_info info;
     if (!dladdr((void *)&resources_from_library, &info) || !info.dli_fname) return;
     snprintf(out, n, "%s", info.dli_fname);
+#endif
     for (int i = 0; i < 3; i++) { /* <fmu>/binaries/linux64/x.so -> <fmu> */
         char *s = strrchr(out, '/');
         if (s) *s = 0;

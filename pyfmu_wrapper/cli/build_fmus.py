@@ -35,6 +35,12 @@ def main(argv: list[str] | None = None) -> int:
         "where no Python is installed (always rebuilt; default --out fmu/build/standalone)",
     )
     ap.add_argument(
+        "--native",
+        action="store_true",
+        help="the model compiled into the binary: no Python on the target (BaseOscillator, TMDInerter; "
+        "default --out fmu/build/native)",
+    )
+    ap.add_argument(
         "--fmi-version",
         default="2",
         choices=["2", "3", "2,3", "both"],
@@ -46,12 +52,24 @@ def main(argv: list[str] | None = None) -> int:
     unknown = [n for n in args.names if n not in SPECS]
     if unknown:
         ap.error(f"unknown FMU(s) {unknown}; choose from {sorted(SPECS)}")
+    if args.native and args.standalone:
+        ap.error("--native and --standalone exclude each other (a native FMU needs no Python to bundle)")
+    if args.native and "Trivial" in args.names:
+        ap.error("--native: Trivial has no native variant (BaseOscillator, TMDInerter)")
     if Path(args.out).exists() and not Path(args.out).is_dir():  # before compiling anything
         ap.error(f"--out {args.out}: is a file, not a folder (build-fmus writes the FMUs into a folder)")
     try:
         paths = []
         for v in versions:
-            if args.standalone:
+            if args.native:
+                from ..fmi.native_build import NATIVE_SUBDIR, build_native_fmus, ensure_native_fmus
+
+                out = DEFAULT_OUT / NATIVE_SUBDIR if args.out == str(DEFAULT_OUT) else args.out
+                if args.force:
+                    paths += build_native_fmus(args.names, fmi_out_dir(out, v), fmi_version=v)
+                else:
+                    paths += list(ensure_native_fmus(out, args.names, fmi_version=v).values())
+            elif args.standalone:
                 out = DEFAULT_OUT / "standalone" if args.out == str(DEFAULT_OUT) else args.out
                 paths += build_fmus(args.names, fmi_out_dir(out, v), standalone=True, fmi_version=v)
             elif args.force:

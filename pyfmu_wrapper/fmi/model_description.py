@@ -152,15 +152,16 @@ def model_description_xml(spec: FmuSpec, guid: str, generation_tool: str = "pyfm
 
 def variable_table_tsv(spec: FmuSpec) -> str:
     """The table the C stub reads, one variable per line: vr, type code, causality, variability,
-    name, minimum, maximum (``-inf`` / ``inf``: none; exact bounds, not the declared ones) and 1 if
-    the minimum is exclusive, else 0."""
+    name, minimum, maximum (``-inf`` / ``inf``: none; the registry's bounds, for messages), 1 if
+    the minimum is exclusive, else 0, and the minimum declared in modelDescription.xml
+    (:func:`declared_range`), which is what the stub enforces: "> 0" refuses the subnormals too."""
 
     def bound(x: float | None, default: str) -> str:
         return default if x is None else repr(float(x))
 
     rows = [
         f"{v.vr}\t{TYPE_CODE[v.type]}\t{v.causality}\t{v.variability}\t{v.name}\t{bound(v.min, '-inf')}\t"
-        f"{bound(v.max, 'inf')}\t{int(v.min_exclusive)}"
+        f"{bound(v.max, 'inf')}\t{int(v.min_exclusive)}\t{bound(declared_range(v)[0], '-inf')}"
         for v in spec.variables
     ]
     return "\n".join(rows) + "\n"

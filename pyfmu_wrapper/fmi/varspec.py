@@ -19,6 +19,7 @@ fmi2SetInteger with a message naming the variable, the value and the range.
 
 from __future__ import annotations
 
+import sys
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -60,8 +61,11 @@ class Variable:
             raise ValueError(f"{self.name}: start value {self.start!r} is outside its range {self.range_text()}")
 
     def in_range(self, value: float | int | bool) -> bool:
-        """Whether value lies within min/max (what the stub accepts)."""
+        """Whether value lies within min/max (what the stub accepts: an exclusive minimum m as
+        declared, the next value above m, the smallest normal double for m = 0.0)."""
         if self.min is not None and (value <= self.min if self.min_exclusive else value < self.min):
+            return False
+        if self.min_exclusive and self.min == 0.0 and self.type == REAL and value < sys.float_info.min:
             return False
         return self.max is None or value <= self.max
 

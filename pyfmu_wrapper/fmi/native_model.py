@@ -1,0 +1,291 @@
+"""The model functions a native FMU needs besides its step (:mod:`.native`), as numba cfuncs (issue 30).
+
+A native FMU (:mod:`.native_build`) runs with no Python: its stub calls these compiled functions
+where the Python-hosted FMU calls its slave (:mod:`.slaves`). Each computes what the slave computes,
+with the same compiled code, so the numbers are bit-identical (tests/test_native_fmu.py):
+
+- ``configure(reals, ints, p, z, u) -> int32``: the slave's ``configure``: the packed parameters
+  (:func:`~pyfmu_wrapper.physics.params.pack`, as a table generated from the registry: the slot of
+  each registry parameter is read from its FMU variable, the other subsystem's slots hold the
+  defaults ``pack`` puts there), the initial state and, for the TMD, the mounting compliance.
+  Returns :data:`~.contract.NATIVE_OK`, or the number of the first cross-field check of
+  :class:`~pyfmu_wrapper.physics.params.TMDParams` that fails (:data:`TMD_CHECKS`; the single-field
+  ranges are declared and enforced by the stub);
+- ``outputs(reals, ints, z, p, u, t) -> int32``: the outputs at the current inputs (the slave's
+  ``update_outputs``), written into the value buffers;
+- ``derivative(reals, ints, z, p, u, t, direction, dy) -> int32``: d outputs along ``direction`` in
+  the inputs, by the complex step of the slave's ``directional_derivative``.
+"""
+
+from __future__ import annotations
+
+import functools
+from typing import Any
+
+import numpy as np
+from numba import carray, cfunc, types
+
+from .._jit import njit
+from ..physics import kernels as kn
+from ..physics import registry
+from ..physics.params import N_PARAMS, BaseParams, TMDParams, pack
+from .contract import NATIVE_OK
+from .integrators import BASE_U_SIZE
+from .native import B_NVR, T_NVR, write_outputs
+from .outputs import BASE_OUT_INT, BASE_OUT_VR, TMD_OUT_INT, TMD_OUT_VR, base_outputs, tmd_outputs
+from .slave import _CSTEP
+from .variables import BASE_OSCILLATOR, TMD_INERTER
+from .varspec import FmuSpec
+
+F64P, I32P = types.CPointer(types.float64), types.CPointer(types.int32)
+CONFIGURE_SIG = types.int32(F64P, I32P, F64P, F64P, F64P)
+OUTPUTS_SIG = types.int32(F64P, I32P, F64P, F64P, F64P, types.float64)
+DERIVATIVE_SIG = types.int32(F64P, I32P, F64P, F64P, F64P, types.float64, F64P, F64P)
+SENSITIVITY_SIG = types.int32(F64P, I32P, F64P, F64P, F64P, types.float64, types.int32, F64P)
+
+#: the cross-field checks of TMDParams, in the order configure numbers them (1, 2, ...)
+TMD_CHECKS = (
+    "inertance must be 0 when inerter is 'none'",
+    "inertance must be > 0 for an inerter (ideal or with play)",
+    "mass + inertance (m + I) must be > 0",
+    "mass (m) must be > 0 unless the inerter is ideal (the TMD node would be massless)",
+)
+
+
+def pack_table(spec: FmuSpec, subsystem: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per slot of the packed parameters: source (0: the constant, 1: a Real variable, 2: an Integer
+    variable), its value reference, the constant. The slots of ``subsystem`` come from the FMU's
+    variables, the others hold what ``pack`` puts there (the defaults of the other subsystem, and
+    omega = 0 for the TMD)."""
+    const = pack(BaseParams(), TMDParams(), 0.0)
+    src = np.zeros(N_PARAMS, dtype=np.int64)
+    vr = np.zeros(N_PARAMS, dtype=np.int64)
+    for i, par in enumerate(registry.PARAMETERS):
+        if par.subsystem == subsystem:
+            v = spec.by_name(par.fmu_name)
+            src[i] = 1 if v.type == "Real" else 2
+            vr[i] = v.vr
+    return src, vr, const
+
+
+B_SRC, B_VR, B_CONST = pack_table(BASE_OSCILLATOR, "base")
+T_SRC, T_VR, T_CONST = pack_table(TMD_INERTER, "tmd")
+B_Z0 = np.array([BASE_OSCILLATOR.vr(n) for n in ("x0", "xd0")], dtype=np.int64)
+T_Z0 = np.array([TMD_INERTER.vr(n) for n in ("y0", "yd0", "d0", "dd0")], dtype=np.int64)
+B_FLINK = BASE_OSCILLATOR.vr("f_link")
+T_IN = np.array([TMD_INERTER.vr(n) for n in ("x", "xd", "xdd")], dtype=np.int64)
+T_KAPPA, T_I, T_m, T_MODEL = (TMD_INERTER.vr(n) for n in ("base_compliance", "I", "m", "inerter"))
+B_NOUT, T_NOUT = BASE_OUT_VR.size, TMD_OUT_VR.size
+NU_TMD = kn.U_KAPPA + 1
+NP = N_PARAMS
+
+
+def field_checks(subsystem: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Per slot of the packed parameters: checked (the subsystem's real registry fields, as
+    ``physics.params._validate_fields`` checks them: finite, and the minimum), the minimum (NaN:
+    none) and whether it is strict."""
+    on = np.zeros(N_PARAMS, dtype=np.bool_)
+    lo = np.full(N_PARAMS, np.nan)
+    strict = np.zeros(N_PARAMS, dtype=np.bool_)
+    for par in registry.fields(subsystem):
+        if par.kind != "real":
+            continue
+        i = list(registry.PARAMETERS).index(par)
+        on[i] = True
+        lo[i] = np.nan if par.minimum is None else par.minimum
+        strict[i] = par.strict
+    return on, lo, strict
+
+
+def field_messages(subsystem: str) -> list[str]:
+    """The message of configure's code FIELD_CODE + slot (the wording of ``physics.params._check``)."""
+    out = []
+    for par in registry.PARAMETERS:
+        name = f"{par.name} ({par.symbol})"
+        if par.minimum is None:
+            out.append(f"{name} must be finite")
+        else:
+            out.append(f"{name} must be finite and {'>' if par.strict else '>='} {par.minimum:g}")
+    return out
+
+
+#: configure's code of a field check that fails: FIELD_CODE + the slot; KAPPA_CODE: base_compliance
+FIELD_CODE, KAPPA_CODE = 100, 99
+B_ON, B_LO, B_STRICT = field_checks("base")
+T_ON, T_LO, T_STRICT = field_checks("tmd")
+
+
+def _pack(src: Any, vr: Any, const: Any, reals: Any, ints: Any, p: Any) -> None:
+    for i in range(NP):
+        if src[i] == 1:
+            p[i] = reals[vr[i]]
+        elif src[i] == 2:
+            p[i] = float(ints[vr[i]])
+        else:
+            p[i] = const[i]
+
+
+def _fields(on: Any, lo: Any, strict: Any, p: Any) -> int:
+    for i in range(NP):
+        if on[i]:
+            v = p[i]
+            if not np.isfinite(v):
+                return FIELD_CODE + i
+            if not np.isnan(lo[i]) and ((strict[i] and not v > lo[i]) or (not strict[i] and not v >= lo[i])):
+                return FIELD_CODE + i
+    return NATIVE_OK
+
+
+def _sensitivity(
+    configure: Any, outputs: Any, reals: Any, ints: Any, z: Any, p: Any, u: Any, t: float, vr: int, res: Any
+) -> int:
+    """The slave's ``_parameter_sensitivity``: d outputs / d parameter vr by a central difference
+    through configure (one-sided at the edge of the parameter's domain); 1 if neither side works."""
+    n = res.shape[0]
+    r0 = reals[vr]
+    d = 1e-6 * max(abs(r0), 1e-6)
+    rows = np.zeros((3, n))
+    ok = np.zeros(3, dtype=np.bool_)
+    vals = (r0 + d, r0 - d, r0)
+    for k in range(3):
+        reals[vr] = vals[k]
+        if configure(reals, ints, p, z, u) == NATIVE_OK:
+            outputs(reals, z, p, u, t, rows[k])
+            ok[k] = True
+    reals[vr] = r0
+    configure(reals, ints, p, z, u)
+    if ok[0] and ok[1]:
+        for j in range(n):
+            res[j] = (rows[0, j] - rows[1, j]) / (2 * d)
+        return NATIVE_OK
+    if ok[2] and (ok[0] or ok[1]):
+        k = 0 if ok[0] else 1
+        v = vals[k]
+        for j in range(n):
+            res[j] = (rows[k, j] - rows[2, j]) / (v - r0)
+        return NATIVE_OK
+    return 1
+
+
+@functools.cache
+def base_functions() -> dict[str, Any]:
+    """The BaseOscillator's configure, outputs, derivative and sensitivity cfuncs (compiled on first use)."""
+
+    pack_, fields_, sens_ = njit(_pack), njit(_fields), njit(_sensitivity)
+
+    @njit
+    def configure_(reals: Any, ints: Any, p: Any, z: Any, u: Any) -> int:
+        pack_(B_SRC, B_VR, B_CONST, reals, ints, p)
+        rc = fields_(B_ON, B_LO, B_STRICT, p)
+        if rc != NATIVE_OK:
+            return rc
+        z[0] = reals[B_Z0[0]]
+        z[1] = reals[B_Z0[1]]
+        return NATIVE_OK
+
+    @njit
+    def outputs_(reals: Any, z: Any, p: Any, u: Any, t: float, out: Any) -> None:
+        base_outputs(z, t, reals[B_FLINK], p, out)
+
+    @cfunc(CONFIGURE_SIG)
+    def configure(reals_p: Any, ints_p: Any, p_p: Any, z_p: Any, u_p: Any) -> int:
+        reals, ints = carray(reals_p, (B_NVR,)), carray(ints_p, (B_NVR,))
+        return configure_(reals, ints, carray(p_p, (NP,)), carray(z_p, (2,)), carray(u_p, (BASE_U_SIZE,)))
+
+    @cfunc(OUTPUTS_SIG)
+    def outputs(reals_p: Any, ints_p: Any, z_p: Any, p_p: Any, u_p: Any, t: float) -> int:
+        reals, ints = carray(reals_p, (B_NVR,)), carray(ints_p, (B_NVR,))
+        out = np.empty(B_NOUT)
+        outputs_(reals, carray(z_p, (2,)), carray(p_p, (NP,)), carray(u_p, (BASE_U_SIZE,)), t, out)
+        write_outputs(out, BASE_OUT_VR, BASE_OUT_INT, reals, ints)
+        return NATIVE_OK
+
+    @cfunc(DERIVATIVE_SIG)
+    def derivative(reals_p: Any, ints_p: Any, z_p: Any, p_p: Any, u_p: Any, t: float, d_p: Any, dy_p: Any) -> int:
+        reals, z, p = carray(reals_p, (B_NVR,)), carray(z_p, (2,)), carray(p_p, (NP,))
+        direction, dy = carray(d_p, (1,)), carray(dy_p, (B_NOUT,))
+        out = np.empty(B_NOUT, dtype=np.complex128)
+        base_outputs(z, t, reals[B_FLINK] + 1j * _CSTEP * direction[0], p, out)
+        for j in range(B_NOUT):
+            dy[j] = 0.0 + out[j].imag / _CSTEP
+        return NATIVE_OK
+
+    @cfunc(SENSITIVITY_SIG)
+    def sensitivity(reals_p: Any, ints_p: Any, z_p: Any, p_p: Any, u_p: Any, t: float, vr: int, res_p: Any) -> int:
+        reals, ints = carray(reals_p, (B_NVR,)), carray(ints_p, (B_NVR,))
+        z, p, u = carray(z_p, (2,)), carray(p_p, (NP,)), carray(u_p, (BASE_U_SIZE,))
+        return sens_(configure_, outputs_, reals, ints, z, p, u, t, vr, carray(res_p, (B_NOUT,)))
+
+    return {"configure": configure, "outputs": outputs, "derivative": derivative, "sensitivity": sensitivity}
+
+
+@functools.cache
+def tmd_functions() -> dict[str, Any]:
+    """The TMDInerter's configure, outputs, derivative and sensitivity cfuncs (compiled on first use)."""
+
+    pack_, fields_, sens_ = njit(_pack), njit(_fields), njit(_sensitivity)
+
+    @njit
+    def configure_(reals: Any, ints: Any, p: Any, z: Any, u: Any) -> int:
+        model, inertance, mass = ints[T_MODEL], reals[T_I], reals[T_m]
+        pack_(T_SRC, T_VR, T_CONST, reals, ints, p)
+        rc = fields_(T_ON, T_LO, T_STRICT, p)
+        if rc != NATIVE_OK:
+            return rc
+        if model == 0 and inertance != 0.0:
+            return 1
+        if model != 0 and inertance <= 0.0:
+            return 2
+        if mass + inertance <= 0.0:
+            return 3
+        if mass <= 0.0 and model != 1:
+            return 4
+        kappa = reals[T_KAPPA]
+        if not (np.isfinite(kappa) and kappa >= 0.0):
+            return KAPPA_CODE
+        u[kn.U_KAPPA] = kappa
+        for i in range(4):
+            z[i] = reals[T_Z0[i]]
+        return NATIVE_OK
+
+    @njit
+    def outputs_(reals: Any, z: Any, p: Any, u: Any, t: float, out: Any) -> None:
+        tmd_outputs(z, reals[T_IN[0]], reals[T_IN[1]], reals[T_IN[2]], u[kn.U_KAPPA], p, out)
+
+    @cfunc(CONFIGURE_SIG)
+    def configure(reals_p: Any, ints_p: Any, p_p: Any, z_p: Any, u_p: Any) -> int:
+        reals, ints = carray(reals_p, (T_NVR,)), carray(ints_p, (T_NVR,))
+        return configure_(reals, ints, carray(p_p, (NP,)), carray(z_p, (4,)), carray(u_p, (NU_TMD,)))
+
+    @cfunc(OUTPUTS_SIG)
+    def outputs(reals_p: Any, ints_p: Any, z_p: Any, p_p: Any, u_p: Any, t: float) -> int:
+        reals, ints = carray(reals_p, (T_NVR,)), carray(ints_p, (T_NVR,))
+        out = np.empty(T_NOUT)
+        outputs_(reals, carray(z_p, (4,)), carray(p_p, (NP,)), carray(u_p, (NU_TMD,)), t, out)
+        write_outputs(out, TMD_OUT_VR, TMD_OUT_INT, reals, ints)
+        return NATIVE_OK
+
+    @cfunc(DERIVATIVE_SIG)
+    def derivative(reals_p: Any, ints_p: Any, z_p: Any, p_p: Any, u_p: Any, t: float, d_p: Any, dy_p: Any) -> int:
+        reals, z, p, u = carray(reals_p, (T_NVR,)), carray(z_p, (4,)), carray(p_p, (NP,)), carray(u_p, (NU_TMD,))
+        direction, dy = carray(d_p, (3,)), carray(dy_p, (T_NOUT,))
+        x = reals[T_IN[0]] + 1j * _CSTEP * direction[0]
+        xd = reals[T_IN[1]] + 1j * _CSTEP * direction[1]
+        xdd = reals[T_IN[2]] + 1j * _CSTEP * direction[2]
+        out = np.empty(T_NOUT, dtype=np.complex128)
+        tmd_outputs(z, x, xd, xdd, u[kn.U_KAPPA], p, out)
+        for j in range(T_NOUT):
+            dy[j] = 0.0 + out[j].imag / _CSTEP
+        return NATIVE_OK
+
+    @cfunc(SENSITIVITY_SIG)
+    def sensitivity(reals_p: Any, ints_p: Any, z_p: Any, p_p: Any, u_p: Any, t: float, vr: int, res_p: Any) -> int:
+        reals, ints = carray(reals_p, (T_NVR,)), carray(ints_p, (T_NVR,))
+        z, p, u = carray(z_p, (4,)), carray(p_p, (NP,)), carray(u_p, (NU_TMD,))
+        return sens_(configure_, outputs_, reals, ints, z, p, u, t, vr, carray(res_p, (T_NOUT,)))
+
+    return {"configure": configure, "outputs": outputs, "derivative": derivative, "sensitivity": sensitivity}
+
+
+#: model -> the factory of its functions
+FUNCTIONS = {"BaseOscillator": base_functions, "TMDInerter": tmd_functions}

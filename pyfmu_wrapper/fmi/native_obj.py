@@ -1,0 +1,173 @@
+"""Object code of the compiled model functions, per target (the native FMUs of issue 30).
+
+The numba source of truth (:mod:`.native`: the step cfuncs, which call the same compiled integrators
+and outputs as the Python slaves) is compiled by numba to LLVM IR; llvmlite turns that IR into an
+object file for each target triple (:data:`TRIPLES`: x86_64 Linux and x86_64 Windows, the FMI
+platforms linux64 / win64 and x86_64-linux / x86_64-windows). The object is linked with C: what numba's
+generated code calls outside itself is either the C library's maths (:data:`LIBM`) or the small run
+time of ``fmu/src/native/native_rt.c`` (:data:`RUNTIME_SYMBOLS`: NRT allocation, and the exception
+path of a cfunc wrapper, which does nothing without Python). No model code is written in C.
+
+numba's on-disk cache holds machine code without its IR, so the IR is produced in a fresh interpreter
+with the cache neither read nor written (:func:`model_ir`). The code is generated for a generic
+x86-64 CPU (no host-specific instructions: the binary runs on any x86-64). numba emits no contracted
+(fused) floating-point operations, so the object computes the bits the JIT-compiled function computes,
+as long as the maths functions of the C library agree (glibc on Linux: the same library the JIT calls).
+"""
+
+from __future__ import annotations
+
+import functools
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+from .buildinfo import BuildError
+
+#: FMI 2.0 platform folder -> LLVM target triple
+TRIPLES = {"linux64": "x86_64-unknown-linux-gnu", "win64": "x86_64-w64-windows-gnu"}
+#: FMI 3.0 platform tuple of each FMI 2.0 platform folder
+PLATFORM3 = {"linux64": "x86_64-linux", "win64": "x86_64-windows"}
+#: the models with native functions: their step (:mod:`.native`) and the others (:mod:`.native_model`)
+MODELS = {"BaseOscillator": "base_step", "TMDInerter": "tmd_step"}
+#: the name the step has in the object file (the C side calls it by this name)
+STEP_SYMBOL = "pyfmu_model_step"
+#: the C names of the functions of :mod:`.native_model`
+ENTRIES = {
+    "configure": "pyfmu_model_configure",
+    "outputs": "pyfmu_model_outputs",
+    "derivative": "pyfmu_model_derivative",
+    "sensitivity": "pyfmu_model_sensitivity",
+}
+#: symbols defined by fmu/src/native/native_rt.c
+RUNTIME_SYMBOLS = frozenset(
+    {
+        "NRT_Free",
+        "NRT_MemInfo_alloc_aligned",
+        "NRT_MemInfo_call_dtor",
+        "PyBytes_FromStringAndSize",
+        "PyErr_Clear",
+        "PyErr_SetNone",
+        "PyErr_SetString",
+        "PyErr_WriteUnraisable",
+        "PyUnicode_FromString",
+        "Py_DecRef",
+        "numba_do_raise",
+        "numba_gil_ensure",
+        "numba_gil_release",
+        "numba_runtime_build_excinfo_struct",
+        "numba_unpickle",
+        "PyExc_RuntimeError",
+        "PyExc_StopIteration",
+        "PyExc_SystemError",
+    }
+)
+#: maths functions of the C library the code may call (libm on Linux, the C run time on Windows)
+LIBM = frozenset({"atan", "sqrt", "log2", "log", "exp", "sin", "cos", "pow", "exp2", "ceil", "floor", "fabs", "atan2"})
+RUNTIME_C = Path(__file__).resolve().parents[2] / "fmu" / "src" / "native" / "native_rt.c"
+
+# Run in a fresh interpreter: numba's cache off (it keeps no IR), each factory's cfunc compiled, its
+# IR and symbol written as JSON to argv[1].
+_IR_SCRIPT = """
+import json, sys
+from numba.core import caching
+caching.Cache.load_overload = lambda self, *a, **k: None
+caching.Cache.save_overload = lambda self, *a, **k: None
+from pyfmu_wrapper.fmi import native, native_model
+entries = json.loads(sys.argv[3])
+out = {}
+for model, factory in json.loads(sys.argv[2]).items():
+    f = getattr(native, factory)()
+    out[model] = {sys.argv[4]: [f.native_name, f._library.get_llvm_str()]}
+    for key, fn in native_model.FUNCTIONS[model]().items():
+        out[model][entries[key]] = [fn.native_name, fn._library.get_llvm_str()]
+with open(sys.argv[1], "w") as fh:
+    json.dump(out, fh)
+"""
+
+
+@functools.cache
+def model_ir(models: tuple[str, ...] = tuple(MODELS)) -> dict[str, dict[str, tuple[str, str]]]:
+    """model -> {C name: (symbol of the cfunc, the LLVM IR of its library)}, compiled afresh (once per
+    process and set of models: the sources do not change under a running build)."""
+    unknown = [m for m in models if m not in MODELS]
+    if unknown:
+        raise BuildError(f"no compiled step for {unknown}: native FMUs exist for {sorted(MODELS)}")
+    with tempfile.TemporaryDirectory() as tmp:
+        out = Path(tmp) / "ir.json"
+        env = dict(os.environ, NUMBA_CACHE_DIR=tmp)
+        args = [str(out), json.dumps({m: MODELS[m] for m in models}), json.dumps(ENTRIES), STEP_SYMBOL]
+        r = subprocess.run([sys.executable, "-c", _IR_SCRIPT, *args], capture_output=True, text=True, env=env)
+        if r.returncode != 0:
+            raise BuildError(f"compiling the model functions to LLVM IR failed:\n{r.stderr[-4000:]}")
+        data = json.loads(out.read_text())
+    return {m: {name: (sym, ir) for name, (sym, ir) in fns.items()} for m, fns in data.items()}
+
+
+def external_symbols(ir: str) -> set[str]:
+    """The functions and globals the IR declares but does not define (LLVM intrinsics left out)."""
+    import llvmlite.binding as llvm  # type: ignore[import-untyped]
+
+    m = llvm.parse_assembly(ir)
+    names = {f.name for f in m.functions if f.is_declaration and not f.name.startswith("llvm.")}
+    return names | {g.name for g in m.global_variables if g.is_declaration}
+
+
+def emit_object(ir: str, symbol: str, platform: str, alias: str = STEP_SYMBOL) -> bytes:
+    """The IR as an object file for ``platform`` (a key of :data:`TRIPLES`), its function ``symbol``
+    renamed ``alias``; refused if it needs a symbol that is neither the run time's nor libm's."""
+    import llvmlite.binding as llvm
+
+    if platform not in TRIPLES:
+        raise BuildError(f"platform {platform!r}: native FMUs are built for {sorted(TRIPLES)}")
+    missing = external_symbols(ir) - RUNTIME_SYMBOLS - LIBM
+    if missing:
+        raise BuildError(
+            f"the compiled model needs {sorted(missing)}, which neither {RUNTIME_C.name} nor the C library "
+            "provides: add them to the run time (or restructure the compiled function)"
+        )
+    llvm.initialize_all_targets()
+    llvm.initialize_all_asmprinters()
+    triple = TRIPLES[platform]
+    m = llvm.parse_assembly(ir)
+    m.triple = triple
+    tm = llvm.Target.from_triple(triple).create_target_machine(
+        cpu="x86-64", features="", opt=3, reloc="pic", codemodel="default"
+    )
+    m.data_layout = str(tm.target_data)
+    for f in m.functions:  # one entry per object: everything else private (several objects link together)
+        if not f.is_declaration and f.name != symbol:
+            f.linkage = llvm.Linkage.internal
+    for g in m.global_variables:
+        if not g.is_declaration:
+            g.linkage = llvm.Linkage.internal
+    fn = m.get_function(symbol)
+    fn.name = alias
+    m.verify()
+    return bytes(tm.emit_object(m))
+
+
+def write_objects(out_dir: Path, models: tuple[str, ...] = tuple(MODELS)) -> dict[tuple[str, str], list[Path]]:
+    """(model, platform) -> the object files of its functions (step first), written into out_dir."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    paths: dict[tuple[str, str], list[Path]] = {}
+    for model, fns in model_ir(models).items():
+        for platform in TRIPLES:
+            for alias, (symbol, ir) in fns.items():
+                p = out_dir / f"{model}.{alias}.{platform}.o"
+                p.write_bytes(emit_object(ir, symbol, platform, alias))
+                paths.setdefault((model, platform), []).append(p)
+    return paths
+
+
+def mingw_gcc() -> str | None:
+    """The mingw-w64 cross compiler for win64 (Debian's gcc-mingw-w64-x86-64), if installed."""
+    import shutil
+
+    for name in ("x86_64-w64-mingw32-gcc", "x86_64-w64-mingw32-gcc-posix", "x86_64-w64-mingw32-gcc-win32"):
+        if shutil.which(name):
+            return name
+    return None
