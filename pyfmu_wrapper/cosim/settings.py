@@ -32,7 +32,8 @@ class CosimSettings(SteadySettings):
     :mod:`pyfmu_wrapper.master.master`; fmu_rtol: tolerance of the integrators inside the FMUs;
     interface_jacobian: with the impulse coupling, hand the TMD the base's compliance 1/M and its
     acceleration without the link force (:func:`impulse_connections`); fmi_version: run the FMI
-    2.0 or the FMI 3.0 variants of the FMUs (the same core: the same numbers); coupling_tol: the
+    2.0 or the FMI 3.0 variants of the FMUs (the same core: the same numbers); fmu_build: the native
+    FMUs (model code compiled into the binary) or the Python-hosted ones (bit-identical); coupling_tol: the
     tolerance of the coupling-error estimate checked at every point (:mod:`.checked`; 5e-3, the
     agreement with the monolithic solver the co-simulation promises: the estimate bounds the error
     from above, so a point that passes is within it); max_steps_per_period: the most steps per period a point may need (the structure's
@@ -52,6 +53,7 @@ class CosimSettings(SteadySettings):
     fmu_rtol: float = _table.default("fmu_rtol", COSIM)
     interface_jacobian: bool = _table.default("interface_jacobian", COSIM)
     fmi_version: int = _table.default("fmi_version", COSIM)
+    fmu_build: str = _table.default("fmu_build", COSIM)
     # (validated by SteadySettings.validate against solvers/settings_table.py)
 
     def steps_for(self, tmd: TMDParams) -> int:

@@ -201,6 +201,7 @@ def _sweep_piece(
         coupling=settings.coupling,
         interface_jacobian=settings.interface_jacobian,
         fmi_version=settings.fmi_version,
+        fmu_build=settings.fmu_build,
     )
     rows = []
     z = None if z0 is None else np.asarray(z0, dtype=float)
@@ -285,6 +286,7 @@ def periodic_time_series(
             coupling=settings.coupling,
             interface_jacobian=settings.interface_jacobian,
             fmi_version=settings.fmi_version,
+            fmu_build=settings.fmu_build,
         )
     )
     try:

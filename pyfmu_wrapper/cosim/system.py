@@ -100,16 +100,24 @@ def make_master(
     coupling: str = "force",
     interface_jacobian: bool = True,
     fmi_version: int = 2,
+    fmu_build: str = "native",
 ) -> Master:
     """A master for the base + TMD pair (the FMUs are built if missing or stale).
 
     coupling: "force" (tmd.force -> base.f_link, the algebraic loop of the ideal inerter) or
     "impulse" (:func:`impulse_connections`; needs ``tmd``; ``interface_jacobian`` sets
-    ``tmd.base_compliance`` = 1/M of ``base``); fmi_version: 2 or 3 (the FMUs of that version)."""
+    ``tmd.base_compliance`` = 1/M of ``base``); fmi_version: 2 or 3 (the FMUs of that version);
+    fmu_build: "native" (the model compiled into the FMUs' binaries) or "python" (the Python-hosted
+    FMUs, the reference)."""
     if fmus is None:
-        from ..fmi.build import ensure_fmus
+        if fmu_build == "native":
+            from ..fmi.native_build import ensure_native_fmus
 
-        paths = ensure_fmus(fmi_version=fmi_version)
+            paths = ensure_native_fmus(fmi_version=fmi_version)
+        else:
+            from ..fmi.build import ensure_fmus
+
+            paths = ensure_fmus(fmi_version=fmi_version)
         fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
     if coupling == "impulse":
         pars = {"tmd.base_compliance": 1.0 / (base or BaseParams()).mass} if interface_jacobian else {}

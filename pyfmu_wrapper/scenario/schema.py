@@ -128,6 +128,7 @@ COSIM_KEYS = (
     "shooting",
     "interface_jacobian",
     "fmi_version",
+    "fmu_build",
 )
 
 

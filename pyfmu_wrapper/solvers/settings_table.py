@@ -311,6 +311,15 @@ SETTINGS: tuple[Setting, ...] = (
         minimum=2,
         maximum=3,
     ),
+    _s(
+        "fmu_build",
+        "choice",
+        {COSIM: "native"},
+        "-",
+        "which build of the two FMUs the master runs: native (the model compiled into the FMU's binary, no Python) "
+        "or python (the Python-hosted FMUs, the reference; the same numbers bit for bit)",
+        choices=("native", "python"),
+    ),
 )
 
 BY_NAME = {s.name: s for s in SETTINGS}
