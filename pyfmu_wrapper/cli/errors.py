@@ -2,7 +2,7 @@
 
 ``@cli_main("prog")`` wraps a ``main(argv) -> int``: the project's typed input errors (every
 subclass of :class:`pyfmu_wrapper.errors.InputError`: scenario, parameter, setting, data, engine,
-graph, optimisation and output errors), bytes that are not UTF-8, and an ``OSError`` naming a file
+optimisation and output errors), bytes that are not UTF-8, and an ``OSError`` naming a file
 become **one line** on stderr, ``prog: error: <what and where>``, and exit status 2, without a
 traceback. Anything else is a bug: its traceback is shown (exit 1).
 ``argparse`` errors keep their own exit status 2. Ctrl-C gives exit 130.

@@ -23,10 +23,8 @@ from typing import Any
 
 from fmpy.model_description import ModelDescription
 
-from ..errors import InputError
 
-
-class GraphError(InputError):
+class GraphError(ValueError):
     """An inconsistent connection list (unknown instance or variable, wrong causality, two sources)."""
 
 
