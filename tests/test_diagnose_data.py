@@ -314,7 +314,7 @@ def test_make_benchmark_prints_no_hidden_labels(tmp_path, capsys, monkeypatch):
     from pyfmu_wrapper.cli import diagnose as cli
     from pyfmu_wrapper.diagnose.system import suite as sysbench
 
-    def fake(out, n, seed, progress=None):
+    def fake(out, n, seed, progress=None, **kw):
         man = []
         for i in range(n):
             (out / f"sys{i:03d}").mkdir()

@@ -28,12 +28,13 @@ def plot_where(ld: LinkData, r0: ndarray, r1: ndarray, path: Path, title: str = 
 
     fig, ax = plt.subplots(2, 2, figsize=(11, 8))
     rows = by_record(ld, r0)
-    om = [x["omega"] for x in rows]
+    om = [np.nan if x["omega"] is None else x["omega"] for x in rows]  # no drive frequency: not placed
     amp = np.array([x["amplitude"] or 0 for x in rows])
     sc = ax[0, 0].scatter(om, [x["nrmse"] for x in rows], c=amp, cmap="viridis")
     if r1 is not None:
         ax[0, 0].scatter(om, [x["nrmse"] for x in by_record(ld, r1)], c=amp, cmap="viridis", marker="x")
-    fig.colorbar(sc, ax=ax[0, 0], label="amplitude")
+    unit = "displacement amplitude [m]" if ld.level == "link" else "force amplitude [N]"
+    fig.colorbar(sc, ax=ax[0, 0], label=unit)
     ax[0, 0].set(
         xlabel="drive frequency w [rad/s]", ylabel="NRMSE of force", title="gap per record (o nominal, x fitted)"
     )

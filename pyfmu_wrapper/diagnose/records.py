@@ -153,6 +153,17 @@ def _columns(df: DataFrame, file: Path, kind: str, row0: int = 0, t_prev: float6
 
 
 def _check_header(df: DataFrame, file: Path, level: str, entry: dict[str, Any]) -> str:
+    from .record_checks import header_names
+
+    names = header_names(file)
+    dup = sorted({c for c in names if names.count(c) > 1})
+    if dup:
+        raise _err(
+            file,
+            f"column(s) {dup} appear more than once in the header {names}: which one is the measured "
+            "channel is ambiguous; keep one (rename or drop the other)",
+            column=dup[0],
+        )
     df.columns = [str(c).strip() for c in df.columns]
     kind = entry.get("kind") or _kind_of(df.columns, level, file)
     if kind not in REQUIRED:
@@ -297,6 +308,14 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
     omega = entry.get("omega")
     if omega is None and entry.get("frequency_hz") is not None:
         omega = 2 * math.pi * float(entry["frequency_hz"])
+    elif omega is not None and entry.get("frequency_hz") is not None:
+        w_hz = 2 * math.pi * float(entry["frequency_hz"])
+        if abs(w_hz - float(omega)) > 1e-6 * max(abs(w_hz), abs(float(omega))):
+            raise _err(
+                file,
+                f"dataset.yaml gives omega = {_plainf(float(omega))} rad/s and frequency_hz = "
+                f"{_plainf(float(entry['frequency_hz']))} Hz (= {w_hz:.6g} rad/s): they disagree; give one of them",
+            )
     amp = entry.get("force_amplitude", entry.get("amplitude"))
     rec = Record(
         name=file.name,
@@ -316,6 +335,12 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
             rec.meta["periodic"] = False
     if rec.omega is not None and not rec.omega > 0:
         raise _err(file, f"omega must be > 0 rad/s, got {_plainf(rec.omega)}")
+    if kind in ("link", "time") and rec.omega is not None and not rec.meta.get("omega_estimated"):
+        from .record_checks import declared_omega_problem
+
+        bad = declared_omega_problem(cols["t"], cols["displacement"] if kind == "link" else cols["force"], rec.omega)
+        if bad:
+            raise _err(file, bad[0], column=bad[1])
     if kind == "time" and rec.omega is not None:
         span_s, period = float(cols["t"][-1] - cols["t"][0]), 2 * math.pi / rec.omega
         if span_s < period:
