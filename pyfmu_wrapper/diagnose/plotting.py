@@ -18,6 +18,7 @@ if TYPE_CHECKING:
     from .link.models import LinkData
     from .system.diagnosis import SystemDiagnosis
     from .system.frc import FRCDiagnosis
+    from .system.transient import TransientDiagnosis
 
 
 def plot_where(ld: LinkData, r0: ndarray, r1: ndarray, path: Path, title: str = "") -> None:
@@ -155,4 +156,38 @@ def plot_frc(self: FRCDiagnosis, path: Path) -> None:
     ax[1].legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def plot_transient(td: TransientDiagnosis, res: dict, path: Path) -> None:
+    """Transient records: the nominal's whitened residual over time per record and channel (the
+    noise band is +-1), and where its excess lives by frequency."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    views = td.views
+    fig, axs = plt.subplots(len(views) + 1, 1, figsize=(11, 2.4 * (len(views) + 1)), squeeze=False)
+    names = ("x", "y", "xdd", "ydd")
+    for ax, v, e in zip(axs[:, 0], views, td.nominal_resid):
+        for k in range(4):
+            if v.has[k]:
+                ax.plot(v.t, e[:, k], lw=0.5, label=names[k])
+        ax.axhspan(-1, 1, color="k", alpha=0.15, lw=0)
+        ax.set(
+            xlabel="t [s]",
+            ylabel="residual / noise std [1]",
+            title=f"{v.name}: nominal model, simulated with the measured force",
+        )
+        ax.legend(fontsize=7, loc="upper right")
+    ax = axs[-1, 0]
+    rows = [c for c in res["candidates"] if c.get("ok") and c.get("gap_closed") is not None]
+    rows.sort(key=lambda c: c["z"])
+    ax.barh([" + ".join(c["effects"]) for c in rows[:12]], [max(c["z"], 0.1) for c in rows[:12]])
+    ax.set_xscale("log")
+    ax.axvline(5.0, color="k", lw=0.8)
+    ax.set(xlabel="held-out z = (chi2 - dof) / sqrt(2 dof) [1] (line: explained to the noise)", title="candidates")
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
     plt.close(fig)

@@ -37,6 +37,7 @@ REQUIRED = {
     "link": ["t", "displacement", "force"],
     "time": ["t", "force"],
     "frc": ["omega", "force_amplitude", "x_max"],
+    "transient": ["t"],
 }
 
 
@@ -44,6 +45,7 @@ OPTIONAL = {
     "link": ["velocity", "acceleration"],
     "time": ["x", "y", "xd", "yd", "xdd", "ydd"],
     "frc": ["direction"],
+    "transient": ["force", "x", "y", "xdd", "ydd"],
 }
 
 
@@ -84,7 +86,11 @@ def _kind_of(cols: Index, level: str, file: Path) -> str:
 
 
 #: channels that must move in a record of each kind: constant means a dead sensor
-LIVE_CHANNELS = {"link": ("displacement", "force"), "time": ("force", "x", "y", "xdd", "ydd")}
+LIVE_CHANNELS = {
+    "link": ("displacement", "force"),
+    "time": ("force", "x", "y", "xdd", "ydd"),
+    "transient": ("x", "y", "xdd", "ydd"),  # force may be absent or zero (a free decay)
+}
 
 
 MAX_SAMPLES = 100_000  #: samples kept per record; a longer record is block-averaged down to at most this
@@ -167,7 +173,9 @@ def _check_header(df: DataFrame, file: Path, level: str, entry: dict[str, Any]) 
     df.columns = [str(c).strip() for c in df.columns]
     kind = entry.get("kind") or _kind_of(df.columns, level, file)
     if kind not in REQUIRED:
-        raise _err(file, f"unknown record kind {kind!r} (link, time or frc)")
+        raise _err(file, f"unknown record kind {kind!r} (link, time, frc or transient)")
+    if level == "link" and kind == "transient":  # a link record without a drive frequency
+        kind = "link"
     if level == "link" and kind != "link":
         raise _err(file, f"a link-level dataset needs columns {REQUIRED['link']}, got {list(df.columns)}")
     missing = [c for c in REQUIRED[kind] if c not in df.columns]
@@ -177,6 +185,13 @@ def _check_header(df: DataFrame, file: Path, level: str, entry: dict[str, Any]) 
             f"missing column(s) {missing} for a {kind} record (needs {REQUIRED[kind]}, "
             f"optional {OPTIONAL[kind]}); found {list(df.columns)}",
             column=missing[0],
+        )
+    if kind == "transient" and not any(c in df.columns for c in ("x", "y", "xdd", "ydd")):
+        raise _err(
+            file,
+            "a transient record needs at least one response channel of x, y, xdd, ydd (and 'force', "
+            f"unless it is a free decay); found {list(df.columns)}",
+            column="x",
         )
     if kind == "time":  # displacements or accelerations of both bodies (acceleration-only records)
         opts = [[c for c in pair if c not in df.columns] for pair in (("x", "y"), ("xdd", "ydd"))]
@@ -328,7 +343,14 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
     )
     if reduced is not None:
         rec.meta["reduced"] = reduced
-    if kind in ("link", "time") and rec.omega is None:
+    if entry.get("kind") == "transient":  # no steady state, no drive frequency
+        if rec.omega is not None:
+            raise _err(
+                file,
+                "a transient record has no drive frequency: leave omega / frequency_hz out (or give kind: time)",
+            )
+        rec.meta["transient"] = True
+    elif kind in ("link", "time") and rec.omega is None:
         rec.omega = estimate_omega(cols["t"], cols["displacement"] if kind == "link" else cols["force"])
         rec.meta["omega_estimated"] = True
         if rec.omega is None:

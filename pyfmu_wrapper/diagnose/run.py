@@ -123,6 +123,10 @@ def _run(ds: Dataset, out: Path | None, red: list[Any]) -> dict:
         if out is not None:
             frc.write(out, res)
         return res
+    if ds.level == "system" and any(r.kind == "transient" for r in ds.records):
+        from .system.transient_report import run_transient
+
+        return finish(run_transient(ds, out, lambda sub: _run(sub, None, [])))
     if ds.level == "system":
         from .system.diagnosis import SystemDiagnosis
         from .system.report import build_system_result, write_system_report
