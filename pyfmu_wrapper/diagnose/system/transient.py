@@ -4,7 +4,7 @@ Steps (docs/diagnose.md, "Transient records"):
 
 1. Views (:mod:`.transient_sim`): each record averaged to at most FIT_MAX fit samples; its start
    state estimated under the nominal (two passes); the noise std of every channel of every record
-   measured from the nominal's residual (second differences: the white part).
+   measured from the raw samples (fourth differences: the white part).
 2. Held out by **time segment**: every record is cut into SEGMENTS equal segments; parameters are
    fitted on the even ones and the odd ones are predicted (the simulation runs through them, their
    samples never enter the fit). The nominal, every single candidate and pairs are scored by the
@@ -31,7 +31,7 @@ import numpy as np
 
 from .transient_fit import LABELS as T_LABELS
 from .transient_fit import TEFFECTS, TFit, apply, chi2_of, fit, scales, start_update, z_of
-from .transient_sim import CHANNELS, make_view, robust_noise, start_responses
+from .transient_sim import CHANNELS, make_view, start_responses
 from .transient_where import SEGMENTS, where
 
 if TYPE_CHECKING:
@@ -80,21 +80,27 @@ class TransientDiagnosis:
         return out
 
     def prepare(self) -> None:
-        """Start states and noise under the nominal."""
+        """Start states under the nominal, and the noise of every channel of every fit sample."""
+        from ...physics.params import P_I, P_M, P_MODEL, P_m
+
         allm = self._masks(None)
         nom = apply(self.p_nom, (), np.zeros(0))
         assert not isinstance(nom, str)
+        p = self.p_nom
+        I = p[P_I] if int(p[P_MODEL]) == 1 else 0.0
+        gx = 1.0 / (p[P_M] + (p[P_m] * I / (p[P_m] + I) if I > 0 else 0.0))
+        feed = (0.0, 0.0, gx, gx * (I / (p[P_m] + I) if I > 0 else 0.0))  # force noise into xdd, ydd
         for v, m in zip(self.views, allm):
             v.phi = start_responses(v, self.p_nom)
             for _ in range(2):
                 start_update(v, nom, m)
-            from .transient_fit import residual
-
-            v.sigma = np.ones(4)
-            e = residual(v, nom, m)
-            if e is None:
-                raise ValueError(f"{v.name}: the nominal model's simulation blows up")
-            v.sigma = np.array([robust_noise(e[m, k]) if v.has[k] else 1.0 for k in range(4)])
+            sf = v.raw_noise.get("force", 0.0)
+            v.sigma = np.array(
+                [
+                    math.hypot(v.raw_noise[c], feed[k] * sf) / math.sqrt(v.q) if v.has[k] else 1.0
+                    for k, c in enumerate(CHANNELS)
+                ]
+            )
         xs = [np.nanstd(v.meas[:, 0]) for v in self.views if v.has[0]]
         self.xscale = float(np.mean(xs)) if xs else 1e-3
         strokes = [np.nanstd(v.meas[:, 0] - v.meas[:, 1]) * 2 for v in self.views if v.has[0] and v.has[1]]

@@ -29,13 +29,15 @@ if TYPE_CHECKING:
 #: the play candidate's gear contact (a nuisance of the model; stiff enough that the contact is short
 #: against the motion, soft enough for an explicit step of ~1/1000 of the TMD period)
 PLAY_KI, PLAY_CI = 2.0e6, 20.0
-#: dry friction is regularised as df (2/pi) atan(s v) with s = FRICTION_RATE x (the nominal's fastest
-#: rate) x m / (df 2/pi): the slope an explicit step resolves (transition velocity ~ 1e-4 of the motion)
+#: a nominal's dry friction is regularised as df (2/pi) atan(s v) with s = FRICTION_RATE x (the
+#: nominal's fastest modal rate) x m / (df 2/pi); the friction candidate fits its slope s within
+#: FRICTION_SLOPE (a transition velocity of 0.2 mm/s at most is resolved: the explicit step's cost)
 FRICTION_RATE = 20.0
+FRICTION_SLOPE = (10.0, 5000.0)
 #: effect -> (parameter names, units, scale of each parameter)
 TEFFECTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "viscous": (("delta_damping",), ("N s/m",)),
-    "friction": (("friction_force",), ("N",)),
+    "friction": (("friction_force", "friction_slope"), ("N", "s/m")),
     "play": (("play_gap",), ("m",)),
     "mass_split": (("delta_inertance",), ("kg",)),
     "cubic": (("cubic_stiffness",), ("N/m^3",)),
@@ -48,7 +50,13 @@ TEFFECTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     "tmd_mass": (("delta_mass",), ("kg",)),
     "inertance": (("delta_inertance",), ("kg",)),
 }
-NONNEG = ("friction", "play")  #: effects whose parameter is >= 0 (a bound of the fit)
+TOL = {"ftol": 1e-7, "xtol": 1e-6, "gtol": 1e-8}  #: least_squares stopping (relative change of the cost / step)
+#: bounds of the fit (SI)
+BOUNDS = {
+    "friction.friction_force": (0.0, np.inf),
+    "friction.friction_slope": FRICTION_SLOPE,
+    "play.play_gap": (0.0, np.inf),
+}
 LABELS = {
     "tmd_mass": "TMD mass m off the nominal",
     "inertance": "inertance I off the nominal (m unchanged)",
@@ -59,7 +67,7 @@ def scales(p: ndarray, stroke: float, xscale: float) -> dict[str, tuple[float, .
     """Typical size of each parameter (the fit works in units of these)."""
     return {
         "viscous": (0.1 * p[P_c] + 1.0,),
-        "friction": (1.0,),
+        "friction": (1.0, 1000.0),
         "play": (1e-4,),
         "mass_split": (0.1,),
         "cubic": (0.1 * p[P_k] / max(stroke, 1e-6) ** 2,),
@@ -95,14 +103,9 @@ def apply(p_nom: ndarray, effects: tuple[str, ...], theta: ndarray) -> Model | s
         if e == "viscous":
             p[P_c] += th[0]
         elif e == "friction":
-            df = th[0]
-            if df < 0:
-                return f"friction force df < 0 ({df:.3g} N)"
-            p[P_df] = df
-            if df > 0:
-                p0 = p_nom.copy()
-                p0[P_df] = 0.0
-                p[P_s] = FRICTION_RATE * fastest_rate(p0) * p[P_m] / (df * 2 / math.pi)
+            if th[0] < 0:
+                return f"friction force df < 0 ({th[0]:.3g} N)"
+            p[P_df], p[P_s] = th[0], th[1]
         elif e == "play":
             if th[0] < 0:
                 return f"play gap < 0 ({th[0]:.3g} m)"
@@ -128,6 +131,8 @@ def apply(p_nom: ndarray, effects: tuple[str, ...], theta: ndarray) -> Model | s
             p[P_m] += th[0]
         elif e == "inertance":
             p[P_I] += th[0]
+    if p[P_df] > 0 and "friction" not in effects:  # a nominal's friction: the slope an explicit step resolves
+        p[P_s] = min(p_nom[P_s], FRICTION_RATE * fastest_rate(p_nom) * max(p[P_m], 1e-9) / (p[P_df] * 2 / math.pi))
     for idx, name in ((P_M, "M"), (P_K, "K"), (P_m, "m"), (P_k, "k")):
         if p[idx] <= 0:
             return f"{name} <= 0 ({p[idx]:.3g})"
@@ -223,7 +228,12 @@ def fit(
     scale = np.array([s for e in effects for s in sc[e]], float)
     npar = scale.size
     dec = [i for i, v in enumerate(views) if v.free_decay]
-    lb = np.array([0.0 if e in NONNEG else -np.inf for e in effects for _ in TEFFECTS[e][0]] + [-np.inf] * 4 * len(dec))
+    lb = np.array([BOUNDS.get(f"{e}.{n}", (-np.inf, np.inf))[0] for e in effects for n in TEFFECTS[e][0]])
+    ub = np.array([BOUNDS.get(f"{e}.{n}", (-np.inf, np.inf))[1] for e in effects for n in TEFFECTS[e][0]])
+    lb, ub = (
+        np.concatenate([lb / scale, [-np.inf] * 4 * len(dec)]),
+        np.concatenate([ub / scale, [np.inf] * 4 * len(dec)]),
+    )
     BAD = 1e6
     sizes = [int(v.has.sum()) * int(m.sum()) for v, m in zip(views, train)]
     offs = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
@@ -278,7 +288,9 @@ def fit(
         views[i].phi = None  # a decay's start state is a fitted unknown, not projected
     try:
         if starts is None:
-            starts = [np.where(np.isfinite(lb[:npar]), 1.0, 0.0)]  # a non-negative parameter starts at its scale
+            starts = [
+                np.clip(np.where(np.isfinite(lb[:npar]), 1.0, 0.0), lb[:npar], ub[:npar])
+            ]  # bounded: at its scale
         starts = [np.concatenate([u0, np.zeros(4 * len(dec))]) for u0 in starts]
         best = None
         if not starts[0].size:
@@ -290,7 +302,9 @@ def fit(
             return _finish(views, effects, np.zeros(0), np.zeros(0), st[1], train, test)
         for u0 in starts:
             try:
-                r = least_squares(fun, u0, jac=jac, bounds=(lb, np.inf), method="trf", x_scale=1.0, max_nfev=max_nfev)
+                r = least_squares(
+                    fun, u0, jac=jac, bounds=(lb, ub), method="trf", x_scale=1.0, max_nfev=max_nfev, **TOL
+                )
             except (ValueError, np.linalg.LinAlgError):
                 continue
             if best is None or r.cost < best.cost:
@@ -304,7 +318,7 @@ def fit(
                 cache.clear()
                 with contextlib.suppress(ValueError, np.linalg.LinAlgError):
                     best = least_squares(
-                        fun, best.x, jac=jac, bounds=(lb, np.inf), method="trf", x_scale=1.0, max_nfev=max_nfev
+                        fun, best.x, jac=jac, bounds=(lb, ub), method="trf", x_scale=1.0, max_nfev=10, **TOL
                     )
         if best is not None:
             fun(best.x)  # leaves the decays' fitted start states in the views for the chi-squares
