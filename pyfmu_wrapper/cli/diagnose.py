@@ -69,10 +69,14 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", required=True, help="output folder: new, empty, or a previous make-benchmark result")
     ap.add_argument(
         "--suite",
-        choices=["system", "link"],
+        choices=["system", "link", "transient"],
         default="system",
         help="system: the coupled base + TMD simulated and measured as a rig does (default); "
-        "link: one TMD link on a displacement-controlled rig",
+        "link: one TMD link on a displacement-controlled rig; transient: the coupled system under "
+        "swept sines, random force, hammer impulses and free decays (docs/diagnose.md, Check 3)",
+    )
+    ap.add_argument(
+        "--seconds", type=float, default=None, help="transient suite only: length of each record [s] (default 60)"
     )
     ap.add_argument("-n", type=int, default=None, help="number of datasets (default: system 52, link 40)")
     ap.add_argument("--seed", type=int, default=1)
@@ -108,7 +112,9 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
         raise InputError(f"--clean-fraction + --pair-fraction + --oov-fraction = {total:g}: must be <= 1")
     if a.noise is not None and (not a.noise >= 0.0 or a.noise == float("inf")):
         raise InputError(f"--noise {a.noise}: must be a finite force noise std >= 0 N")
-    if a.suite == "system" and a.noise is not None:
+    if a.seconds is not None and (a.suite != "transient" or not 1.0 <= a.seconds <= 3600.0):
+        raise InputError(f"--seconds {a.seconds}: only for --suite transient, from 1 to 3600 s")
+    if a.suite != "link" and a.noise is not None:
         raise InputError(
             f"--noise {a.noise}: the system suite draws its sensor noise per channel and record (0.3-3 % of "
             "the rms, docs/diagnose.md); --noise is the link suite's force noise: leave it out or use --suite link"
@@ -116,10 +122,12 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
     if a.suite == "link" and a.oov_fraction is not None:
         raise InputError("--oov-fraction: the link suite has no out-of-vocabulary class; use --suite system")
     composition = None
-    if a.suite == "system":
+    if a.suite in ("system", "transient"):
         from ..diagnose.system.suite import composition_from_fractions
 
-        composition = composition_from_fractions(a.n, a.clean_fraction, a.pair_fraction, a.oov_fraction)
+        composition = composition_from_fractions(
+            a.n if a.n is not None or a.suite == "system" else 60, a.clean_fraction, a.pair_fraction, a.oov_fraction
+        )
     elif (0.25 if a.clean_fraction is None else a.clean_fraction) + (
         0.2 if a.pair_fraction is None else a.pair_fraction
     ) > 1.0:
@@ -145,6 +153,21 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
                     f"{r['dataset']}: written" + (f" ({r['seconds']:.1f} s)" if "seconds" in r else ""), flush=True
                 ),
             )
+        elif a.suite == "transient":
+            from ..diagnose.system.transient_suite import make_transient_benchmark
+
+            assert composition is not None
+            nc, _, npair, noov = composition
+            man = make_transient_benchmark(
+                tmp,
+                n=sum(composition),
+                seed=a.seed,
+                n_clean=nc,
+                n_pair=npair,
+                n_oov=noov,
+                seconds=60.0 if a.seconds is None else a.seconds,
+                progress=lambda r: print(f"{r['dataset']}: written ({r['seconds']:.1f} s)", flush=True),
+            )
         else:
             man = make_benchmark(
                 tmp,
@@ -155,7 +178,7 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
                 noise=0.5 if a.noise is None else a.noise,
             )
     print(
-        f"wrote {len(man)} {'system' if a.suite == 'system' else 'link'}-level datasets and manifest.json "
+        f"wrote {len(man)} {a.suite if a.suite != 'system' else 'system-level'} datasets and manifest.json "
         f"(the hidden labels) to {out}"
     )
     return 0
@@ -191,9 +214,9 @@ def main_score(argv: list[str] | None = None) -> int:
     )
     print(json.dumps(res["summary"], indent=1))
     if res.get("suite") == "system":  # the system suite's table (OOV classes, unexplained), docs/diagnose.md
-        from ..diagnose.system.score import table
+        from ..diagnose.system.score import tables
 
-        print(table(res["summary"]))
+        print(tables(res["summary"]))
     if a.out:
         tmp = Path(a.out).with_name(f".{Path(a.out).name}.partial-{os.getpid()}")
         tmp.write_text(json.dumps(res, indent=1))
