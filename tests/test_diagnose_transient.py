@@ -120,3 +120,55 @@ def test_link_level_transient_record_has_no_drive_frequency(tmp_path):
     )
     r = load_dataset(tmp_path).records[0]
     assert r.kind == "link" and r.omega is None and r.meta["transient"]
+
+
+def test_mixed_transient_and_steady_records_agree(tmp_path):
+    """A dataset with steady-state records (project's solver, system.bench) and transient ones
+    (independent truth), both with 10 N s/m of extra damping: one verdict, both sources listed, no
+    disagreement."""
+    from pyfmu_wrapper.diagnose.system.bench import make_system_dataset
+
+    ds = tmp_path / "ds"
+    make_system_dataset(ds, {"viscous": 10.0}, seed=1, case=1, n_records=3, frc=False)
+    steady = yaml.safe_load((ds / "dataset.yaml").read_text())
+    make(tmp_path / "tr", {"dc": 10.0}, [SWEEP_UP, DECAY], seed=5)
+    tr = yaml.safe_load((tmp_path / "tr" / "dataset.yaml").read_text())
+    for r in tr["records"]:
+        (ds / r["file"]).write_bytes((tmp_path / "tr" / r["file"]).read_bytes())
+    steady["records"] += tr["records"]
+    steady["acquisition"] = tr["acquisition"]
+    (ds / "dataset.yaml").write_text(yaml.safe_dump(steady))
+    res = run_diagnosis(ds)
+    v = res["verdict"]
+    assert v["effects"] == ["viscous"] and not v["unexplained"], v["text"]
+    assert res["steady"]["verdict"]["effects"] == ["viscous"] and v["disagreements"] == []
+    assert v["sources"]["transient_records"] == ["r0.csv", "r1.csv"] and len(v["sources"]["steady_records"]) == 3
+
+
+def test_score_reports_transient_and_steady_apart():
+    from pyfmu_wrapper.diagnose.system.score import summarise, tables
+
+    rows = []
+    for kind, found in (("transient", ["viscous"]), ("transient", []), ("steady", ["viscous"])):
+        rows.append(
+            {
+                "dataset": kind,
+                "class": "single",
+                "hidden": ["viscous"],
+                "found": found,
+                "correct": found == ["viscous"],
+                "both_named": False,
+                "unexplained": False,
+                "text_flag_disagree": False,
+                "param_rel_error": {},
+                "error": None,
+                "seconds": 1.0,
+                "record_kind": kind,
+            }
+        )
+    s = summarise(rows)
+    s["by_record_kind"] = {k: summarise([r for r in rows if r["record_kind"] == k]) for k in ("steady", "transient")}
+    assert s["by_record_kind"]["transient"]["singles_top1"] == 0.5
+    assert s["by_record_kind"]["steady"]["singles_top1"] == 1.0
+    out = tables(s)
+    assert "### steady records" in out and "### transient records" in out

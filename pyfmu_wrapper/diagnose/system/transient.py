@@ -29,16 +29,16 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .transient_fit import LABELS as T_LABELS
-from .transient_fit import TEFFECTS, TFit, apply, chi2_of, fit, scales, start_update, z_of
-from .transient_sim import CHANNELS, make_view, start_responses
+from .transient_effects import LABELS as T_LABELS
+from .transient_effects import TEFFECTS, apply, meaningless, scales
+from .transient_fit import TFit, chi2_of, fit, start_update, z_of
+from .transient_sim import CHANNELS, input_noise_response, make_view, start_responses
 from .transient_where import SEGMENTS, where
 
 if TYPE_CHECKING:
     from numpy import ndarray
 
     from ..data import Dataset
-    from .transient_sim import TView
 
 EXPLAINS_Z = 5.0  #: held-out chi-square within this many std of its dof: explained to the noise
 PAIR_TRIES = 5  #: second effects tried next to the best single
@@ -160,6 +160,10 @@ class TransientDiagnosis:
                 ex2 = f.chi2["test"] - f.chi2["dof_test"]
                 j = len(TEFFECTS[first.effects[0]][0])
                 signif = bool(np.all(np.abs(f.theta[j:]) > 3 * f.std[j:]))
+                small = meaningless(s.effects[0], f.theta[j:], self.p_nom, self.stroke)
+                if small:
+                    row["second_not_meaningful"] = small
+                    signif = False
                 closes = 1 - ex2 / ex1 if ex1 > 0 else 0.0
                 row.update(second_closes=closes, second_significant=signif)
                 if z_of(f.chi2["test"], f.chi2["dof_test"]) <= EXPLAINS_Z and closes >= PAIR_SHARE and signif:
@@ -314,27 +318,6 @@ class TransientDiagnosis:
             for v in self.views
         ]
         return res
-
-
-def input_noise_response(v: TView, p: ndarray, seed: int = 0) -> ndarray:
-    """Std per channel (x, y, xdd, ydd) of the fit-block means of the nominal's response to white
-    noise of the force channel's measured std (the measured force is the simulation's input, so its
-    noise reaches every simulated channel: directly in the accelerations, through the structure in
-    all of them). Simulated once per record (zero start; the first 10 % discarded)."""
-    sf = v.raw_noise.get("force", 0.0)
-    if v.free_decay or sf <= 0:
-        return np.zeros(4)
-    g, fc, z0 = v.force, v.fcache, v.z0
-    v.force, v.fcache, v.z0 = np.random.default_rng(seed).normal(0.0, sf, g.size), {}, np.zeros(6)
-    try:
-        from .transient_sim import simulate
-
-        y = simulate(v, p)
-    finally:
-        v.force, v.fcache, v.z0 = g, fc, z0
-    if y is None:
-        return np.zeros(4)
-    return np.std(y[y.shape[0] // 10 :], axis=0)
 
 
 def _closed(c0: float, c1: float, n: int) -> float | None:

@@ -1,8 +1,4 @@
-"""Transient records: the candidate effects as changes of the simulated model, and their fits.
-
-Every candidate is a change of the model that :mod:`.transient_sim` simulates with the measured
-force: the vocabulary of the system diagnosis (:mod:`.effects`) plus every parameter of the
-nominal model (M, K, C, m, k, c, I; dry friction df through ``friction``). Parameters are fitted by
+"""Transient records: fits of the candidate effects (:mod:`.transient_effects`). Parameters are fitted by
 nonlinear least squares (``scipy.optimize.least_squares``, trust region, finite-difference
 Jacobian) on the whitened simulation error of the training samples, the start state of every
 record projected out (variable projection, :mod:`.transient_sim`). Their std is
@@ -18,132 +14,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ...physics.params import P_C, P_I, P_K, P_M, P_MODEL, P_c, P_ci, P_df, P_eps, P_k, P_k3, P_ki, P_m, P_s
-from .transient_sim import fastest_rate, simulate
+from .transient_effects import BOUNDS, TEFFECTS, Model, apply
+from .transient_sim import simulate
 
 if TYPE_CHECKING:
     from numpy import ndarray
 
     from .transient_sim import TView
 
-#: the play candidate's gear contact (a nuisance of the model; stiff enough that the contact is short
-#: against the motion, soft enough for an explicit step of ~1/1000 of the TMD period)
-PLAY_KI, PLAY_CI = 2.0e6, 20.0
-#: a nominal's dry friction is regularised as df (2/pi) atan(s v) with s = FRICTION_RATE x (the
-#: nominal's fastest modal rate) x m / (df 2/pi); the friction candidate fits its slope s within
-#: FRICTION_SLOPE (a transition velocity of 0.2 mm/s at most is resolved: the explicit step's cost)
-FRICTION_RATE = 20.0
-FRICTION_SLOPE = (10.0, 5000.0)
-#: effect -> (parameter names, units, scale of each parameter)
-TEFFECTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
-    "viscous": (("delta_damping",), ("N s/m",)),
-    "friction": (("friction_force", "friction_slope"), ("N", "s/m")),
-    "play": (("play_gap",), ("m",)),
-    "mass_split": (("delta_inertance",), ("kg",)),
-    "cubic": (("cubic_stiffness",), ("N/m^3",)),
-    "force_error": (("force_gain_error",), ("1",)),
-    "sensor_offset": (("x_offset", "y_offset"), ("m", "m")),
-    "base_mass": (("delta_mass",), ("kg",)),
-    "base_stiffness": (("delta_stiffness",), ("N/m",)),
-    "base_damping": (("delta_damping",), ("N s/m",)),
-    "tmd_stiffness": (("delta_stiffness",), ("N/m",)),
-    "tmd_mass": (("delta_mass",), ("kg",)),
-    "inertance": (("delta_inertance",), ("kg",)),
-}
 TOL = {"ftol": 1e-7, "xtol": 1e-6, "gtol": 1e-8}  #: least_squares stopping (relative change of the cost / step)
-#: bounds of the fit (SI)
-BOUNDS = {
-    "friction.friction_force": (0.0, np.inf),
-    "friction.friction_slope": FRICTION_SLOPE,
-    "play.play_gap": (0.0, np.inf),
-}
-LABELS = {
-    "tmd_mass": "TMD mass m off the nominal",
-    "inertance": "inertance I off the nominal (m unchanged)",
-}
-
-
-def scales(p: ndarray, stroke: float, xscale: float) -> dict[str, tuple[float, ...]]:
-    """Typical size of each parameter (the fit works in units of these)."""
-    return {
-        "viscous": (0.1 * p[P_c] + 1.0,),
-        "friction": (1.0, 1000.0),
-        "play": (1e-4,),
-        "mass_split": (0.1,),
-        "cubic": (0.1 * p[P_k] / max(stroke, 1e-6) ** 2,),
-        "force_error": (0.01,),
-        "sensor_offset": (0.01 * xscale, 0.01 * xscale),
-        "base_mass": (0.01 * p[P_M],),
-        "base_stiffness": (0.01 * p[P_K],),
-        "base_damping": (0.1 * p[P_C],),
-        "tmd_stiffness": (0.01 * p[P_k],),
-        "tmd_mass": (0.01 * p[P_m],),
-        "inertance": (0.1,),
-    }
-
-
-@dataclass
-class Model:
-    """A candidate model: the kernels' parameter vector, a force gain and sensor offsets."""
-
-    p: ndarray
-    gain: float = 1.0
-    offset: tuple[float, float] = (0.0, 0.0)
-
-
-def apply(p_nom: ndarray, effects: tuple[str, ...], theta: ndarray) -> Model | str:
-    """The model with the effects at parameters theta (in SI, concatenated in effect order), or the
-    reason it is not physical (m, M, K, k <= 0, I, c, C, df, gap < 0, 1 + a <= 0)."""
-    p = p_nom.copy()
-    mdl = Model(p)
-    i = 0
-    for e in effects:
-        th = theta[i : i + len(TEFFECTS[e][0])]
-        i += len(th)
-        if e == "viscous":
-            p[P_c] += th[0]
-        elif e == "friction":
-            if th[0] < 0:
-                return f"friction force df < 0 ({th[0]:.3g} N)"
-            p[P_df], p[P_s] = th[0], th[1]
-        elif e == "play":
-            if th[0] < 0:
-                return f"play gap < 0 ({th[0]:.3g} m)"
-            p[P_MODEL], p[P_ki], p[P_ci], p[P_eps] = 2.0, PLAY_KI, PLAY_CI, th[0]
-        elif e == "mass_split":
-            p[P_I] += th[0]
-            p[P_m] -= th[0]
-        elif e == "cubic":
-            p[P_k3] += th[0]
-        elif e == "force_error":
-            mdl.gain = 1.0 + th[0]
-        elif e == "sensor_offset":
-            mdl.offset = (float(th[0]), float(th[1]))
-        elif e == "base_mass":
-            p[P_M] += th[0]
-        elif e == "base_stiffness":
-            p[P_K] += th[0]
-        elif e == "base_damping":
-            p[P_C] += th[0]
-        elif e == "tmd_stiffness":
-            p[P_k] += th[0]
-        elif e == "tmd_mass":
-            p[P_m] += th[0]
-        elif e == "inertance":
-            p[P_I] += th[0]
-    if p[P_df] > 0 and "friction" not in effects:  # a nominal's friction: the slope an explicit step resolves
-        p[P_s] = min(p_nom[P_s], FRICTION_RATE * fastest_rate(p_nom) * max(p[P_m], 1e-9) / (p[P_df] * 2 / math.pi))
-    for idx, name in ((P_M, "M"), (P_K, "K"), (P_m, "m"), (P_k, "k")):
-        if p[idx] <= 0:
-            return f"{name} <= 0 ({p[idx]:.3g})"
-    for idx, name in ((P_C, "C"), (P_c, "c"), (P_I, "I")):
-        if p[idx] < 0:
-            return f"{name} < 0 ({p[idx]:.3g})"
-    if int(p[P_MODEL]) == 2 and p[P_I] <= 0:
-        return "play needs an inertance I > 0"
-    if mdl.gain <= 0:
-        return f"1 + a <= 0 ({mdl.gain:.3g})"
-    return mdl
 
 
 def residual(v: TView, mdl: Model, mask: ndarray) -> ndarray | None:

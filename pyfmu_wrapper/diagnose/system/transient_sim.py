@@ -115,6 +115,7 @@ class TView:
     phi: ndarray | None = None  #: (n_out, 4, 4) response to unit start states (x, xd, y, yd)
     fcache: dict = field(default_factory=dict)  #: the force on the last simulation grid
     raw_noise: dict = field(default_factory=dict)  #: channel -> noise std of one record sample
+    h_max: float = np.inf  #: longest RK4 step that resolves the force (8 steps per period of its 99 % frequency)
 
     @property
     def fs(self) -> float:
@@ -135,12 +136,13 @@ def make_view(rec: Record, chains: dict, f_mode: float) -> TView:
             f"{rec.name}, column 't': a transient record must be uniformly sampled (spacing varies by more "
             f"than 1 % of dt = {dt:.6g} s)"
         )
-    f_top = f_mode
+    f_top, f99 = f_mode, 0.0
     if "force" in c:
         P = np.abs(np.fft.rfft(np.asarray(c["force"], float) - np.mean(c["force"]))) ** 2
         fr = np.fft.rfftfreq(n, dt)
         cum = np.cumsum(P) / max(P.sum(), 1e-300)
-        f_top = min(max(f_mode, float(fr[min(int(np.searchsorted(cum, 0.99)), fr.size - 1)])), 4 * f_mode)
+        f99 = float(fr[min(int(np.searchsorted(cum, 0.99)), fr.size - 1)])
+        f_top = min(max(f_mode, f99), 4 * f_mode)
     q = max(1, int(1.0 / (dt * FIT_RATE * f_top)), math.ceil(n / FIT_MAX))
     n_out = n // q
     meas = np.full((n_out, 4), np.nan)
@@ -161,6 +163,7 @@ def make_view(rec: Record, chains: dict, f_mode: float) -> TView:
     raw = {ch: robust_noise(np.asarray(c[ch], float)) for ch in ("force", *CHANNELS) if ch in c}
     return TView(
         raw_noise=raw,
+        h_max=1.0 / (8.0 * f99) if f99 > 0 else np.inf,
         name=rec.name,
         t=tb,
         meas=meas,
@@ -208,9 +211,12 @@ STEP_LIMITS = (STEP_OMEGA, 1.0, 2.0)
 
 
 def refinement(v: TView, p: ndarray) -> int:
-    """Grid intervals per fit block (even, >= 2): RK4 step h within STEP_LIMITS of every rate."""
+    """Grid intervals per fit block (even, >= 2): RK4 step h within STEP_LIMITS of every rate, and
+    short enough for the force (``h_max``, at most two grid intervals per record sample)."""
     T = v.dt * v.q
     n = max(2, *(math.ceil(r * T / lim) for r, lim in zip(rates(p), STEP_LIMITS)))
+    if math.isfinite(v.h_max):  # the force's own content (a hammer impulse reaches the accelerations directly)
+        n = max(n, min(math.ceil(T / v.h_max), 2 * v.q))
     return n + (n % 2)
 
 
@@ -302,3 +308,22 @@ def robust_noise(r: ndarray) -> float:
     if d4.size < 3:
         return float(np.std(r)) or 1.0
     return float(1.4826 * np.median(np.abs(d4 - np.median(d4))) / math.sqrt(70.0)) or float(np.std(d4)) or 1e-300
+
+
+def input_noise_response(v: TView, p: ndarray, seed: int = 0) -> ndarray:
+    """Std per channel (x, y, xdd, ydd) of the fit-block means of the nominal's response to white
+    noise of the force channel's measured std (the measured force is the simulation's input, so its
+    noise reaches every simulated channel: directly in the accelerations, through the structure in
+    all of them). Simulated once per record (zero start; the first 10 % discarded)."""
+    sf = v.raw_noise.get("force", 0.0)
+    if v.free_decay or sf <= 0:
+        return np.zeros(4)
+    g, fc, z0 = v.force, v.fcache, v.z0
+    v.force, v.fcache, v.z0 = np.random.default_rng(seed).normal(0.0, sf, g.size), {}, np.zeros(6)
+    try:
+        y = simulate(v, p)
+    finally:
+        v.force, v.fcache, v.z0 = g, fc, z0
+    if y is None:
+        return np.zeros(4)
+    return np.std(y[y.shape[0] // 10 :], axis=0)
