@@ -114,6 +114,7 @@ class TView:
     z0: ndarray = field(default_factory=lambda: np.zeros(6))  #: start state of the simulation
     phi: ndarray | None = None  #: (n_out, 4, 4) response to unit start states (x, xd, y, yd)
     fcache: dict = field(default_factory=dict)  #: the force on the last simulation grid
+    gcache: dict = field(default_factory=dict)  #: the chains' responses on the fit-rate FFT grid
     raw_noise: dict = field(default_factory=dict)  #: channel -> noise std of one record sample
     h_max: float = np.inf  #: longest RK4 step that resolves the force (8 steps per period of its 99 % frequency)
 
@@ -220,7 +221,7 @@ def refinement(v: TView, p: ndarray) -> int:
     return n + (n % 2)
 
 
-def apply_chain(y: ndarray, fs: float, chains: dict, dt: float | None = None) -> ndarray:
+def apply_chain(y: ndarray, fs: float, chains: dict, dt: float | None = None, cache: dict | None = None) -> ndarray:
     """Each simulated channel (columns of y: block means at the fit rate fs) through its declared chain
     G(i w); with ``dt`` (the record's sample spacing, when blocks hold several samples) also from the
     continuous block mean to the mean of the block's samples: (w dt / 2) / sin(w dt / 2)."""
@@ -228,16 +229,25 @@ def apply_chain(y: ndarray, fs: float, chains: dict, dt: float | None = None) ->
     n = y.shape[0]
     lead = min(n, 256)  # the record's first value held before it (the chain at rest there, as on the rig)
     nf = 1 << int(math.ceil(math.log2(2 * n + 2 * lead)))
-    w = 2 * math.pi * np.fft.rfftfreq(nf, 1.0 / fs)
-    disc = None
-    if dt is not None:
-        a = 0.5 * w * dt
-        disc = np.where(a > 1e-12, a / np.sin(np.maximum(a, 1e-12)), 1.0)
-    for k, ch in enumerate(CHANNELS):
-        c = chains.get(ch)
-        g = None if c is None or (c.type is None and not c.delay_s) else c.response(w)
-        if disc is not None:
-            g = disc if g is None else g * disc
+    key = (nf, fs, dt)
+    if cache is not None and cache.get("key") == key:
+        gs = cache["g"]
+    else:
+        w = 2 * math.pi * np.fft.rfftfreq(nf, 1.0 / fs)
+        disc = None
+        if dt is not None:
+            a = 0.5 * w * dt
+            disc = np.where(a > 1e-12, a / np.sin(np.maximum(a, 1e-12)), 1.0)
+        gs = []
+        for ch in CHANNELS:
+            c = chains.get(ch)
+            g = None if c is None or (c.type is None and not c.delay_s) else c.response(w)
+            if disc is not None:
+                g = disc if g is None else g * disc
+            gs.append(g)
+        if cache is not None:
+            cache.update(key=key, g=gs)
+    for k, g in enumerate(gs):
         if g is None:
             continue
         u = y[:, k]
@@ -261,7 +271,8 @@ def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
         w = 2 * math.pi * np.fft.rfftfreq(nf, v.dt)
         g = cf.response(w)
         pad = np.concatenate([f, np.full(nf - f.size, f[-1])])
-        f = np.fft.irfft(np.fft.rfft(pad) / np.where(np.abs(g) > 1e-3, g, 1e-3), nf)[: f.size]
+        # regularised inverse: 1 / G in the pass band, no amplification of noise beyond the cut-off
+        f = np.fft.irfft(np.fft.rfft(pad) * np.conj(g) / (np.abs(g) ** 2 + 0.01), nf)[: f.size]
     h = v.dt * v.q / n_sub
     tg = -0.5 * v.dt + 0.5 * h * np.arange(2 * v.n_out * n_sub + 1)  # time from the first sample
     edges = v.dt * (np.arange(f.size + 1) - 0.5)
@@ -273,14 +284,14 @@ def simulate(v: TView, p: ndarray, z0: ndarray | None = None, force_gain: float 
     """(n_out, 4) fit-block means of x, y, xdd, ydd of the model p driven by the record's measured
     force (times force_gain), through the declared chains; None when the simulation blows up."""
     n_sub = refinement(v, p)
-    key = (n_sub, force_gain)
-    if v.fcache.get("key") != key:
-        v.fcache = {"key": key, "f": grid_force(v, n_sub, force_gain)}
+    if v.fcache.get("key") != n_sub:
+        v.fcache = {"key": n_sub, "f": grid_force(v, n_sub)}
+    f = v.fcache["f"] if force_gain == 1.0 else force_gain * v.fcache["f"]  # the force enters linearly
     out = np.empty((v.n_out, 4))
-    ok = _integrate(p, v.fcache["f"], v.dt * v.q / n_sub, n_sub, v.n_out, v.z0 if z0 is None else z0, out)
+    ok = _integrate(p, f, v.dt * v.q / n_sub, n_sub, v.n_out, v.z0 if z0 is None else z0, out)
     if not ok or not np.all(np.isfinite(out)):
         return None
-    return apply_chain(out, v.fs, v.chains, v.dt if v.q > 1 else None)
+    return apply_chain(out, v.fs, v.chains, v.dt if v.q > 1 else None, v.gcache)
 
 
 def start_responses(v: TView, p_lin: ndarray) -> ndarray:
