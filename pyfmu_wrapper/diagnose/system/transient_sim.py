@@ -271,8 +271,10 @@ def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
         w = 2 * math.pi * np.fft.rfftfreq(nf, v.dt)
         g = cf.response(w)
         pad = np.concatenate([f, np.full(nf - f.size, f[-1])])
-        # regularised inverse: 1 / G in the pass band, no amplification of noise beyond the cut-off
-        f = np.fft.irfft(np.fft.rfft(pad) * np.conj(g) / (np.abs(g) ** 2 + 0.01), nf)[: f.size]
+        # 1 / G where |G| > 0.1 (the pass band, exact), no amplification of noise beyond the cut-off
+        a2 = np.abs(g) ** 2
+        ginv = np.conj(g) / np.maximum(a2, 0.01)
+        f = np.fft.irfft(np.fft.rfft(pad) * ginv, nf)[: f.size]
     h = v.dt * v.q / n_sub
     tg = -0.5 * v.dt + 0.5 * h * np.arange(2 * v.n_out * n_sub + 1)  # time from the first sample
     edges = v.dt * (np.arange(f.size + 1) - 0.5)

@@ -169,7 +169,7 @@ def measure(
     out = {"t": t[::step] - t[0]}
     for ch, u in sig.items():
         u = np.asarray(u, float) * (1 + (gains or {}).get(ch, 0.0)) + (offsets or {}).get(ch, 0.0)
-        spec = (acq or {}).get(ch) or (acq or {}).get("all")
+        spec = {**((acq or {}).get("all") or {}), **((acq or {}).get(ch) or {})}  # key by key, as declared
         if spec and spec.get("filter"):
             fl = spec["filter"]
             wc = 2 * math.pi * fl["cutoff_hz"]
