@@ -357,12 +357,6 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
             rec.meta["periodic"] = False
     if rec.omega is not None and not rec.omega > 0:
         raise _err(file, f"omega must be > 0 rad/s, got {_plainf(rec.omega)}")
-    if kind in ("link", "time") and rec.omega is not None and not rec.meta.get("omega_estimated"):
-        from .record_checks import declared_omega_problem
-
-        bad = declared_omega_problem(cols["t"], cols["displacement"] if kind == "link" else cols["force"], rec.omega)
-        if bad:
-            raise _err(file, bad[0], column=bad[1])
     if kind == "time" and rec.omega is not None:
         span_s, period = float(cols["t"][-1] - cols["t"][0]), 2 * math.pi / rec.omega
         if span_s < period:
@@ -372,6 +366,12 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
                 f"({period:.4g} s): the harmonic analysis of a system time record needs whole periods "
                 "(at least 2)",
             )
+    if kind in ("link", "time") and rec.omega is not None and not rec.meta.get("omega_estimated"):
+        from .record_checks import declared_omega_problem
+
+        bad = declared_omega_problem(cols["t"], cols["displacement"] if kind == "link" else cols["force"], rec.omega)
+        if bad:
+            raise _err(file, bad[0], column=bad[1])
     if kind == "link" and rec.amplitude is None:
         d = cols["displacement"]
         rec.amplitude = 0.5 * float(np.percentile(d, 99.5) - np.percentile(d, 0.5))
