@@ -240,7 +240,7 @@ def test_acquisition_key_allowed_unknown_keys_refused(tmp_path):
 
 
 def test_result_folder_replaced_as_a_whole_user_files_never_touched(tmp_path):
-    from pyfmu_wrapper.diagnose.run import DIAGNOSE_MARKER, ResultFolder, check_out_folder
+    from pyfmu_wrapper.diagnose.outfolder import DIAGNOSE_MARKER, ResultFolder, check_out_folder
     from pyfmu_wrapper.errors import InputError
 
     out = check_out_folder(tmp_path / "res", "diagnose", DIAGNOSE_MARKER)
@@ -259,7 +259,7 @@ def test_result_folder_replaced_as_a_whole_user_files_never_touched(tmp_path):
     assert sorted(p.name for p in out.iterdir()) == [DIAGNOSE_MARKER, "report.md"]  # no stale old.png
     assert (out / "report.md").read_text() == "two"
     (out / "my_notes.md").write_text("mine")
-    with pytest.raises(InputError, match=r"also holds files diagnose did not write \(my_notes\.md\)"):
+    with pytest.raises(InputError, match=r"my_notes\.md \(not written by diagnose\)"):
         check_out_folder(out, "diagnose", DIAGNOSE_MARKER)
     assert (out / "my_notes.md").read_text() == "mine"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
@@ -288,7 +288,7 @@ def test_sigterm_removes_the_partial_folder_and_stale_ones_are_cleaned(tmp_path)
     import os
     import signal
 
-    from pyfmu_wrapper.diagnose.run import DIAGNOSE_MARKER, ResultFolder
+    from pyfmu_wrapper.diagnose.outfolder import DIAGNOSE_MARKER, ResultFolder
 
     out = tmp_path / "res"
     with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
@@ -298,12 +298,22 @@ def test_sigterm_removes_the_partial_folder_and_stale_ones_are_cleaned(tmp_path)
         os.kill(os.getpid(), signal.SIGTERM)
     assert (out / "report.md").read_text() == "one"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
-    dead = tmp_path / ".res.partial-999999999-abc"  # no such process
+    dead = tmp_path / ".res.partial-999999999-abc"  # left by a killed run: its marker names a dead process
     dead.mkdir()
     (dead / "report.md").write_text("left by a killed run")
+    import json
+    import socket
+
+    (dead / DIAGNOSE_MARKER).write_text(
+        json.dumps(
+            dict(tool="diagnose", kind="partial", out=str(out.resolve()), pid=999999999, host=socket.gethostname())
+        )
+    )
+    unproven = tmp_path / ".res.partial-1-xyz"  # no marker: not provably ours, reported and left alone
+    unproven.mkdir()
     with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
         (tmp / "report.md").write_text("two")
-    assert sorted(p.name for p in tmp_path.iterdir()) == ["res"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == [".res.partial-1-xyz", "res"]
     assert signal.getsignal(signal.SIGTERM) == signal.SIG_DFL
 
 
@@ -314,7 +324,7 @@ def test_make_benchmark_prints_no_hidden_labels(tmp_path, capsys, monkeypatch):
     from pyfmu_wrapper.cli import diagnose as cli
     from pyfmu_wrapper.diagnose.system import suite as sysbench
 
-    def fake(out, n, seed, progress=None):
+    def fake(out, n, seed, progress=None, **kw):
         man = []
         for i in range(n):
             (out / f"sys{i:03d}").mkdir()

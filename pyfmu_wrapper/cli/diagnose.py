@@ -12,15 +12,8 @@ import json
 import os
 from pathlib import Path
 
-from ..diagnose.run import (
-    BENCHMARK_MARKER,
-    DIAGNOSE_MARKER,
-    ResultFolder,
-    check_out_folder,
-    flagged_lines,
-    load_manifest,
-    run_diagnosis,
-)
+from ..diagnose.outfolder import BENCHMARK_MARKER, DIAGNOSE_MARKER, ResultFolder, check_out_file, check_out_folder
+from ..diagnose.run import flagged_lines, load_manifest, run_diagnosis
 from ..errors import InputError
 from .errors import cli_main
 
@@ -77,51 +70,116 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
     ap.add_argument("--out", required=True, help="output folder: new, empty, or a previous make-benchmark result")
     ap.add_argument(
         "--suite",
-        choices=["system", "link"],
+        choices=["system", "link", "transient"],
         default="system",
         help="system: the coupled base + TMD simulated and measured as a rig does (default); "
-        "link: one TMD link on a displacement-controlled rig",
+        "link: one TMD link on a displacement-controlled rig; transient: the coupled system under "
+        "swept sines, random force, hammer impulses and free decays (docs/diagnose.md, Check 3)",
+    )
+    ap.add_argument(
+        "--seconds", type=float, default=None, help="transient suite only: length of each record [s] (default 60)"
     )
     ap.add_argument("-n", type=int, default=None, help="number of datasets (default: system 52, link 40)")
     ap.add_argument("--seed", type=int, default=1)
-    ap.add_argument("--clean-fraction", type=float, default=0.25)
-    ap.add_argument("--pair-fraction", type=float, default=0.2)
-    ap.add_argument("--noise", type=float, default=0.5, help="link suite: force noise std [N]")
+    ap.add_argument(
+        "--clean-fraction", type=float, default=None, help="share of clean datasets (default: system 0.19, link 0.25)"
+    )
+    ap.add_argument(
+        "--pair-fraction",
+        type=float,
+        default=None,
+        help="share of two-effect datasets (default: system 0.15, link 0.2)",
+    )
+    ap.add_argument(
+        "--oov-fraction",
+        type=float,
+        default=None,
+        help="system suite: share of out-of-vocabulary datasets (default 0.23; with --clean-fraction or "
+        "--pair-fraction given, at most what they leave)",
+    )
+    ap.add_argument("--noise", type=float, default=None, help="link suite only: force noise std [N] (default 0.5)")
     a = ap.parse_args(argv)
     if a.n is not None and a.n < 1:
         raise InputError(f"-n {a.n}: the number of datasets must be >= 1")
-    for name, v in (("--clean-fraction", a.clean_fraction), ("--pair-fraction", a.pair_fraction)):
-        if not 0.0 <= v <= 1.0:
+    for name, v in (
+        ("--clean-fraction", a.clean_fraction),
+        ("--pair-fraction", a.pair_fraction),
+        ("--oov-fraction", a.oov_fraction),
+    ):
+        if v is not None and not 0.0 <= v <= 1.0:
             raise InputError(f"{name} {v}: must be in [0, 1]")
-    if a.clean_fraction + a.pair_fraction > 1.0:
-        raise InputError(f"--clean-fraction + --pair-fraction = {a.clean_fraction + a.pair_fraction:g}: must be <= 1")
-    if not a.noise >= 0.0 or a.noise == float("inf"):
+    total = sum(v or 0.0 for v in (a.clean_fraction, a.pair_fraction, a.oov_fraction))
+    if total > 1.0:
+        raise InputError(f"--clean-fraction + --pair-fraction + --oov-fraction = {total:g}: must be <= 1")
+    if a.noise is not None and (not a.noise >= 0.0 or a.noise == float("inf")):
         raise InputError(f"--noise {a.noise}: must be a finite force noise std >= 0 N")
+    if a.seconds is not None and (a.suite != "transient" or not 1.0 <= a.seconds <= 3600.0):
+        raise InputError(f"--seconds {a.seconds}: only for --suite transient, from 1 to 3600 s")
+    if a.suite != "link" and a.noise is not None:
+        raise InputError(
+            f"--noise {a.noise}: the system suite draws its sensor noise per channel and record (0.3-3 % of "
+            "the rms, docs/diagnose.md); --noise is the link suite's force noise: leave it out or use --suite link"
+        )
+    if a.suite == "link" and a.oov_fraction is not None:
+        raise InputError("--oov-fraction: the link suite has no out-of-vocabulary class; use --suite system")
+    composition = None
+    if a.suite in ("system", "transient"):
+        from ..diagnose.system.suite import composition_from_fractions
+
+        composition = composition_from_fractions(
+            a.n if a.n is not None or a.suite == "system" else 60, a.clean_fraction, a.pair_fraction, a.oov_fraction
+        )
+    elif (0.25 if a.clean_fraction is None else a.clean_fraction) + (
+        0.2 if a.pair_fraction is None else a.pair_fraction
+    ) > 1.0:
+        raise InputError(
+            "--clean-fraction + --pair-fraction (link defaults 0.25 and 0.2 for the one not given) must be <= 1"
+        )
     out = check_out_folder(a.out, "make-benchmark", BENCHMARK_MARKER)
     with ResultFolder(out, BENCHMARK_MARKER) as tmp:
         if a.suite == "system":
             from ..diagnose.system.suite import make_system_benchmark
 
             # progress without the labels: a blind benchmark does not print what it hides
+            assert composition is not None
+            nc, _, npair, noov = composition
             man = make_system_benchmark(
                 tmp,
                 n=a.n,
                 seed=a.seed,
+                n_clean=nc,
+                n_pair=npair,
+                n_oov=noov,
                 progress=lambda r: print(
                     f"{r['dataset']}: written" + (f" ({r['seconds']:.1f} s)" if "seconds" in r else ""), flush=True
                 ),
+            )
+        elif a.suite == "transient":
+            from ..diagnose.system.transient_suite import make_transient_benchmark
+
+            assert composition is not None
+            nc, _, npair, noov = composition
+            man = make_transient_benchmark(
+                tmp,
+                n=sum(composition),
+                seed=a.seed,
+                n_clean=nc,
+                n_pair=npair,
+                n_oov=noov,
+                seconds=60.0 if a.seconds is None else a.seconds,
+                progress=lambda r: print(f"{r['dataset']}: written ({r['seconds']:.1f} s)", flush=True),
             )
         else:
             man = make_benchmark(
                 tmp,
                 n=40 if a.n is None else a.n,
                 seed=a.seed,
-                clean_fraction=a.clean_fraction,
-                pair_fraction=a.pair_fraction,
-                noise=a.noise,
+                clean_fraction=0.25 if a.clean_fraction is None else a.clean_fraction,
+                pair_fraction=0.2 if a.pair_fraction is None else a.pair_fraction,
+                noise=0.5 if a.noise is None else a.noise,
             )
     print(
-        f"wrote {len(man)} {'system' if a.suite == 'system' else 'link'}-level datasets and manifest.json "
+        f"wrote {len(man)} {a.suite if a.suite != 'system' else 'system-level'} datasets and manifest.json "
         f"(the hidden labels) to {out}"
     )
     return 0
@@ -137,9 +195,7 @@ def main_score(argv: list[str] | None = None) -> int:
     a = ap.parse_args(argv)
     load_manifest(Path(a.benchmark))
     if a.out:
-        o = Path(a.out)
-        if o.is_dir():
-            raise InputError(f"--out {o}: is a folder; give a file name for score.json")
+        o = check_out_file(a.out)
         if o.exists():
             try:
                 prev = json.loads(o.read_text(encoding="utf-8"))
@@ -159,9 +215,9 @@ def main_score(argv: list[str] | None = None) -> int:
     )
     print(json.dumps(res["summary"], indent=1))
     if res.get("suite") == "system":  # the system suite's table (OOV classes, unexplained), docs/diagnose.md
-        from ..diagnose.system.score import table
+        from ..diagnose.system.score import tables
 
-        print(table(res["summary"]))
+        print(tables(res["summary"]))
     if a.out:
         tmp = Path(a.out).with_name(f".{Path(a.out).name}.partial-{os.getpid()}")
         tmp.write_text(json.dumps(res, indent=1))

@@ -239,7 +239,7 @@ def check_records(chains: dict, records: list[Record], file: Path) -> None:
         if c.type is None:
             continue
         for r in records:
-            if r.kind != "time" or ch not in r.columns:
+            if r.kind not in ("time", "transient") or ch not in r.columns:
                 continue
             t = r.columns["t"]
             fs = (t.size - 1) / (t[-1] - t[0])

@@ -158,6 +158,7 @@ def load_dataset(
     if not isinstance(entries, list) or not entries:
         raise _err(yml, "'records' must be a non-empty list of {file: ..., ...}", line=_line(raw, "records"))
     records = []
+    seen: dict[Path, int] = {}
     for i, entry in enumerate(entries):
         ln = _line(entries, i)
         if isinstance(entry, str):
@@ -192,6 +193,15 @@ def load_dataset(
                 f"records[{i}].kind must be one of {list(REQUIRED)}, got {entry['kind']!r}",
                 line=_line(entry, "kind") or ln,
             )
+        real = (path / entry["file"]).resolve()
+        if real in seen:
+            raise _err(
+                yml,
+                f"records[{i}] ({entry['file']}) is the same file as records[{seen[real]}]: a record listed "
+                "twice could be both fitted and held out; list each record once",
+                line=_line(entry, "file") or ln,
+            )
+        seen[real] = i
         records.append(read_record(path / entry["file"], level, _plain_data(entry), log=log))
     roles = [r.role for r in records if r.kind != "frc"]
     if any(roles) and "test" not in roles:

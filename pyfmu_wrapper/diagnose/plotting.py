@@ -18,6 +18,7 @@ if TYPE_CHECKING:
     from .link.models import LinkData
     from .system.diagnosis import SystemDiagnosis
     from .system.frc import FRCDiagnosis
+    from .system.transient import TransientDiagnosis
 
 
 def plot_where(ld: LinkData, r0: ndarray, r1: ndarray, path: Path, title: str = "") -> None:
@@ -28,12 +29,13 @@ def plot_where(ld: LinkData, r0: ndarray, r1: ndarray, path: Path, title: str = 
 
     fig, ax = plt.subplots(2, 2, figsize=(11, 8))
     rows = by_record(ld, r0)
-    om = [x["omega"] for x in rows]
+    om = [np.nan if x["omega"] is None else x["omega"] for x in rows]  # no drive frequency: not placed
     amp = np.array([x["amplitude"] or 0 for x in rows])
     sc = ax[0, 0].scatter(om, [x["nrmse"] for x in rows], c=amp, cmap="viridis")
     if r1 is not None:
         ax[0, 0].scatter(om, [x["nrmse"] for x in by_record(ld, r1)], c=amp, cmap="viridis", marker="x")
-    fig.colorbar(sc, ax=ax[0, 0], label="amplitude")
+    unit = "displacement amplitude [m]" if ld.level == "link" else "force amplitude [N]"
+    fig.colorbar(sc, ax=ax[0, 0], label=unit)
     ax[0, 0].set(
         xlabel="drive frequency w [rad/s]", ylabel="NRMSE of force", title="gap per record (o nominal, x fitted)"
     )
@@ -154,4 +156,38 @@ def plot_frc(self: FRCDiagnosis, path: Path) -> None:
     ax[1].legend(fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=90)
+    plt.close(fig)
+
+
+def plot_transient(td: TransientDiagnosis, res: dict, path: Path) -> None:
+    """Transient records: the nominal's whitened residual over time per record and channel (the
+    noise band is +-1), and where its excess lives by frequency."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    views = td.views
+    fig, axs = plt.subplots(len(views) + 1, 1, figsize=(11, 2.4 * (len(views) + 1)), squeeze=False)
+    names = ("x", "y", "xdd", "ydd")
+    for ax, v, e in zip(axs[:, 0], views, td.nominal_resid):
+        for k in range(4):
+            if v.has[k]:
+                ax.plot(v.t, e[:, k], lw=0.5, label=names[k])
+        ax.axhspan(-1, 1, color="k", alpha=0.15, lw=0)
+        ax.set(
+            xlabel="t [s]",
+            ylabel="residual / noise std [1]",
+            title=f"{v.name}: nominal model, simulated with the measured force",
+        )
+        ax.legend(fontsize=7, loc="upper right")
+    ax = axs[-1, 0]
+    rows = [c for c in res["candidates"] if c.get("ok") and c.get("gap_closed") is not None]
+    rows.sort(key=lambda c: c["z"])
+    ax.barh([" + ".join(c["effects"]) for c in rows[:12]], [max(c["z"], 0.1) for c in rows[:12]])
+    ax.set_xscale("log")
+    ax.axvline(5.0, color="k", lw=0.8)
+    ax.set(xlabel="held-out z = (chi2 - dof) / sqrt(2 dof) [1] (line: explained to the noise)", title="candidates")
+    fig.tight_layout()
+    fig.savefig(path, dpi=80)
     plt.close(fig)

@@ -37,6 +37,7 @@ REQUIRED = {
     "link": ["t", "displacement", "force"],
     "time": ["t", "force"],
     "frc": ["omega", "force_amplitude", "x_max"],
+    "transient": ["t"],
 }
 
 
@@ -44,6 +45,7 @@ OPTIONAL = {
     "link": ["velocity", "acceleration"],
     "time": ["x", "y", "xd", "yd", "xdd", "ydd"],
     "frc": ["direction"],
+    "transient": ["force", "x", "y", "xdd", "ydd"],
 }
 
 
@@ -84,7 +86,11 @@ def _kind_of(cols: Index, level: str, file: Path) -> str:
 
 
 #: channels that must move in a record of each kind: constant means a dead sensor
-LIVE_CHANNELS = {"link": ("displacement", "force"), "time": ("force", "x", "y", "xdd", "ydd")}
+LIVE_CHANNELS = {
+    "link": ("displacement", "force"),
+    "time": ("force", "x", "y", "xdd", "ydd"),
+    "transient": ("x", "y", "xdd", "ydd"),  # force may be absent or zero (a free decay)
+}
 
 
 MAX_SAMPLES = 100_000  #: samples kept per record; a longer record is block-averaged down to at most this
@@ -153,10 +159,23 @@ def _columns(df: DataFrame, file: Path, kind: str, row0: int = 0, t_prev: float6
 
 
 def _check_header(df: DataFrame, file: Path, level: str, entry: dict[str, Any]) -> str:
+    from .record_checks import header_names
+
+    names = header_names(file)
+    dup = sorted({c for c in names if names.count(c) > 1})
+    if dup:
+        raise _err(
+            file,
+            f"column(s) {dup} appear more than once in the header {names}: which one is the measured "
+            "channel is ambiguous; keep one (rename or drop the other)",
+            column=dup[0],
+        )
     df.columns = [str(c).strip() for c in df.columns]
     kind = entry.get("kind") or _kind_of(df.columns, level, file)
     if kind not in REQUIRED:
-        raise _err(file, f"unknown record kind {kind!r} (link, time or frc)")
+        raise _err(file, f"unknown record kind {kind!r} (link, time, frc or transient)")
+    if level == "link" and kind == "transient":  # a link record without a drive frequency
+        kind = "link"
     if level == "link" and kind != "link":
         raise _err(file, f"a link-level dataset needs columns {REQUIRED['link']}, got {list(df.columns)}")
     missing = [c for c in REQUIRED[kind] if c not in df.columns]
@@ -166,6 +185,13 @@ def _check_header(df: DataFrame, file: Path, level: str, entry: dict[str, Any]) 
             f"missing column(s) {missing} for a {kind} record (needs {REQUIRED[kind]}, "
             f"optional {OPTIONAL[kind]}); found {list(df.columns)}",
             column=missing[0],
+        )
+    if kind == "transient" and not any(c in df.columns for c in ("x", "y", "xdd", "ydd")):
+        raise _err(
+            file,
+            "a transient record needs at least one response channel of x, y, xdd, ydd (and 'force', "
+            f"unless it is a free decay); found {list(df.columns)}",
+            column="x",
         )
     if kind == "time":  # displacements or accelerations of both bodies (acceleration-only records)
         opts = [[c for c in pair if c not in df.columns] for pair in (("x", "y"), ("xdd", "ydd"))]
@@ -297,6 +323,14 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
     omega = entry.get("omega")
     if omega is None and entry.get("frequency_hz") is not None:
         omega = 2 * math.pi * float(entry["frequency_hz"])
+    elif omega is not None and entry.get("frequency_hz") is not None:
+        w_hz = 2 * math.pi * float(entry["frequency_hz"])
+        if abs(w_hz - float(omega)) > 1e-6 * max(abs(w_hz), abs(float(omega))):
+            raise _err(
+                file,
+                f"dataset.yaml gives omega = {_plainf(float(omega))} rad/s and frequency_hz = "
+                f"{_plainf(float(entry['frequency_hz']))} Hz (= {w_hz:.6g} rad/s): they disagree; give one of them",
+            )
     amp = entry.get("force_amplitude", entry.get("amplitude"))
     rec = Record(
         name=file.name,
@@ -309,7 +343,14 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
     )
     if reduced is not None:
         rec.meta["reduced"] = reduced
-    if kind in ("link", "time") and rec.omega is None:
+    if entry.get("kind") == "transient":  # no steady state, no drive frequency
+        if rec.omega is not None:
+            raise _err(
+                file,
+                "a transient record has no drive frequency: leave omega / frequency_hz out (or give kind: time)",
+            )
+        rec.meta["transient"] = True
+    elif kind in ("link", "time") and rec.omega is None:
         rec.omega = estimate_omega(cols["t"], cols["displacement"] if kind == "link" else cols["force"])
         rec.meta["omega_estimated"] = True
         if rec.omega is None:
@@ -325,6 +366,12 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
                 f"({period:.4g} s): the harmonic analysis of a system time record needs whole periods "
                 "(at least 2)",
             )
+    if kind in ("link", "time") and rec.omega is not None and not rec.meta.get("omega_estimated"):
+        from .record_checks import declared_omega_problem
+
+        bad = declared_omega_problem(cols["t"], cols["displacement"] if kind == "link" else cols["force"], rec.omega)
+        if bad:
+            raise _err(file, bad[0], column=bad[1])
     if kind == "link" and rec.amplitude is None:
         d = cols["displacement"]
         rec.amplitude = 0.5 * float(np.percentile(d, 99.5) - np.percentile(d, 0.5))

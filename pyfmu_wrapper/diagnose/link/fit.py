@@ -310,7 +310,7 @@ def per_band(ld: LinkData, diag: Diagnosis, fit: Fit | None) -> list[Any]:
         ms0 = float(np.mean(r0**2))
         fr = float(np.sqrt(np.mean(ld.F[m] ** 2)))
         row = {
-            "omega": float(w),
+            "omega": float(w) if w > 0 else None,  # None: records without a drive frequency
             "records": [ld.records[i].name for i in ids],
             "nrmse_before": math.sqrt(ms0) / fr if fr > 0 else float("nan"),
         }

@@ -146,9 +146,13 @@ def _deriv(t: ndarray, x: ndarray, omega: float | None = None, order: int = 1) -
     cubic Savitzky-Golay smoother over SAVGOL_POINTS samples (cut-off ~ fs / SAVGOL_POINTS)."""
     from ..harmonic import fit_series
 
-    if omega:
-        s = fit_series(t, {"s": x}, omega, H=40)
-        if s.periodic and s.r2["s"] >= 0.9:
+    dt_mean = (t[-1] - t[0]) / max(len(t) - 1, 1)
+    if omega and 2 * math.pi / omega >= 4 * dt_mean:  # at least 4 samples per period
+        try:
+            s = fit_series(t, {"s": x}, omega, H=40)
+        except np.linalg.LinAlgError:  # a basis the samples cannot resolve: use the smoother
+            s = None
+        if s is not None and s.periodic and s.r2["s"] >= 0.9:
             return s.eval("s", omega * (t - t[0]), deriv=order)
     from scipy.signal import savgol_filter
 

@@ -135,7 +135,7 @@ def write_report(res: dict, ld: LinkData, diag: Diagnosis, out: Path, frc: Any =
         "|---|---|---|---|",
     ]
     L += [
-        f"| {r['record']} | {r['omega']:.4g} | {r['amplitude']:.4g} | {r['nrmse']:.3f} |"
+        f"| {r['record']} | {_num(r['omega'])} | {_num(r['amplitude'])} | {r['nrmse']:.3f} |"
         for r in res["where"]["per_record"]
     ]
     L += [
@@ -169,12 +169,17 @@ def write_report(res: dict, ld: LinkData, diag: Diagnosis, out: Path, frc: Any =
         gc = b.get("gap_closed")
         gc = "n/a" if gc is None or gc != gc else f"{100 * gc:.0f} %"
         L.append(
-            f"| {b['omega']:.4g} | {', '.join(b['records'])} | {b['nrmse_before']:.4f} | {b.get('nrmse_after', float('nan')):.4f} | {gc} |"
+            f"| {_num(b['omega'])} | {', '.join(b['records'])} | {b['nrmse_before']:.4f} | {b.get('nrmse_after', float('nan')):.4f} | {gc} |"
         )
     L += ["", "![loops](loops.png)", ""]
     if frc is not None:
         L += frc.markdown()
     (out / "report.md").write_text("\n".join(L) + "\n")
+
+
+def _num(x: float | None) -> str:
+    """A table cell: the number, or 'none (transient)' for a record without a drive frequency."""
+    return "none (transient)" if x is None else f"{x:.4g}"
 
 
 def _json_default(o: Any) -> Any:

@@ -209,11 +209,15 @@ def score_system(bench: Path, results: dict | None = None, progress: Callable[..
         except Exception as e:  # a failed diagnosis is scored as a failure, the rest still runs
             err = f"{type(e).__name__}: {e}"
         row = score_row(m, res, err)
+        row["record_kind"] = m.get("record_kind", "steady")
         row["seconds"] = time.perf_counter() - t0
         rows.append(row)
         if progress:
             progress(row)
-    return {"suite": "system", "written_by": "score", "summary": summarise(rows), "rows": rows}
+    summary = summarise(rows)
+    kinds = sorted({r["record_kind"] for r in rows})
+    summary["by_record_kind"] = {k: summarise([r for r in rows if r["record_kind"] == k]) for k in kinds}
+    return {"suite": "system", "written_by": "score", "summary": summary, "rows": rows}
 
 
 def _pct(x: float | None) -> str:
@@ -312,5 +316,13 @@ def score_line(r: dict) -> str:
 def score_summary(res: dict) -> str:
     """What ``score`` prints at the end: the table (system suite) or the summary as JSON (link suite)."""
     if res.get("suite") == "system":
-        return table(res["summary"])
+        return tables(res["summary"])
     return json.dumps(res["summary"], indent=1)
+
+
+def tables(summary: dict) -> str:
+    """The table of every record kind apart (transient, steady), or the one table."""
+    by = summary.get("by_record_kind") or {}
+    if len(by) <= 1:
+        return table(summary)
+    return "\n\n".join(f"### {k} records\n\n" + table(s) for k, s in by.items())

@@ -180,6 +180,24 @@ def composition(
     return n_clean, n_single, n_pair, n_oov
 
 
+#: default shares of the system suite's classes (the rest are single effects)
+DEFAULT_FRACTIONS = {"clean": 0.19, "pair": 0.15, "oov": 0.23}
+
+
+def composition_from_fractions(
+    n: int | None, clean: float | None = None, pair: float | None = None, oov: float | None = None
+) -> tuple[int, int, int, int]:
+    """(clean, single, pair, oov) counts for ``n`` datasets from the shares of the command line
+    (None: the default share; an OOV share not given is cut to what the given shares leave)."""
+    n = 52 if n is None else int(n)
+    nc = int(round((DEFAULT_FRACTIONS["clean"] if clean is None else clean) * n))
+    npair = int(round((DEFAULT_FRACTIONS["pair"] if pair is None else pair) * n))
+    nc, npair = min(nc, n), min(npair, n - min(nc, n))
+    no = int(round((DEFAULT_FRACTIONS["oov"] if oov is None else oov) * n))
+    no = min(no, n - nc - npair)
+    return composition(n, nc, npair, no)
+
+
 def plan(
     rng: np.random.Generator,
     n: int | None = None,

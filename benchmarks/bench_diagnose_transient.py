@@ -1,0 +1,125 @@
+"""Speed and memory of ``diagnose`` on transient records (issue 31):
+
+    nice python benchmarks/bench_diagnose_transient.py [--out /tmp/bench_transient] [--seconds 120] [--fs 4000]
+
+Four datasets of 4 transient records each (an up-sweep, a log down-sweep, band-limited random force,
+a free decay), ``--seconds`` long at ``--fs`` Hz, measured with a declared 4th-order Butterworth on
+the accelerometers and 1 % noise, truths: clean, extra damping 10 N s/m, dry friction 5 N, OOV
+quadratic damping c2 = 20 N s^2/m^2 (simulated by transient_truth's own solve_ivp integrator, on the
+record's own grid). Each ``diagnose`` runs as a separate process (``python -m pyfmu_wrapper.cli``
+is not needed: the console script), timed by wall clock, its peak memory from ``getrusage`` of the
+child. The baseline measured in the same run: one steady-state FRC sweep (21 points, Case 1), as in
+bench_diagnose.py, so that the ratio carries over between machines and loads.
+Targets: median <= 30 s, worst <= 90 s, peak memory <= 1 GB (2-core machine, low load).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+BASE = {"mass": 100.0, "stiffness": 4.0e4, "damping": 100.0, "force_amplitude": 200.0}
+TMD = {"mass": 9.0, "stiffness": 4.0e3, "damping": 15.0, "inertance": 1.0, "inerter": "ideal"}
+FILT = {"filter": {"type": "butterworth", "order": 4, "cutoff_hz": 400.0}}
+TRUTHS = {"clean": {}, "viscous": {"dc": 10.0}, "friction": {"df": 5.0}, "quadratic_damping": {"c2": 20.0}}
+KINDS = [
+    ("sweep_lin", {"f0": 1.5, "f1": 5.0}),
+    ("sweep_log", {"f0": 5.0, "f1": 1.5}),
+    ("random", {"f_lo": 1.0, "f_hi": 8.0, "amp": 60.0}),
+    ("decay", {}),
+]
+
+
+def make(path: Path, changes: dict, T: float, fs: float, seed: int) -> None:
+    from pyfmu_wrapper.diagnose.records import write_record
+    from pyfmu_wrapper.diagnose.system.transient_truth import Truth, force_signal, measure
+
+    path.mkdir(parents=True, exist_ok=True)
+    rng = np.random.default_rng(seed)
+    acq = {"xdd": FILT, "ydd": FILT}
+    recs = []
+    for i, (kind, kw) in enumerate(KINDS):
+        kw = dict(kw)
+        t = np.arange(0.0, T, 1.0 / fs)
+        F = force_signal(kind, rng, T, kw.pop("amp", 150.0), **kw)
+        z0 = np.array([0.005, 0.0, 0.01, 0.0]) if kind == "decay" else None
+        sig = Truth(BASE, TMD, T, **changes).simulate(F, t, z0)
+        if kind == "decay":
+            sig.pop("force")
+        m = measure(sig, t, 1, rng, {"x": 0.01, "y": 0.01, "xdd": 0.01, "ydd": 0.01, "force": 0.005}, acq)
+        write_record(path / f"r{i}.csv", m)
+        recs.append({"file": f"r{i}.csv", "kind": "transient"})
+    doc = {"level": "system", "nominal": {"base": BASE, "tmd": TMD}, "records": recs, "acquisition": acq}
+    (path / "dataset.yaml").write_text(yaml.safe_dump(doc))
+
+
+def sweep_baseline() -> float:
+    from pyfmu_wrapper.physics.params import BaseParams, paper_case
+    from pyfmu_wrapper.solvers.monolithic import steady_state
+
+    base, tmd = BaseParams(), paper_case(1)
+    steady_state(base, tmd, 20.0)  # compile
+    t0 = time.perf_counter()
+    for w in np.linspace(15, 25, 21):
+        steady_state(base, tmd, float(w))
+    return time.perf_counter() - t0
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--out", default="/tmp/bench_transient")
+    ap.add_argument("--seconds", type=float, default=120.0)
+    ap.add_argument("--fs", type=float, default=4000.0)
+    a = ap.parse_args()
+    out = Path(a.out)
+    rows = []
+    base = sweep_baseline()
+    exe = Path(sys.executable).with_name("diagnose")
+    for k, (name, ch) in enumerate(TRUTHS.items()):
+        ds = out / name
+        if not (ds / "dataset.yaml").is_file():
+            t0 = time.perf_counter()
+            make(ds, ch, a.seconds, a.fs, seed=k)
+            print(f"{name}: generated in {time.perf_counter() - t0:.0f} s", flush=True)
+        res_dir = out / f"{name}.out"
+        t0 = time.perf_counter()
+        before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+        p = subprocess.run([str(exe), str(ds), "--out", str(res_dir)], capture_output=True, text=True)
+        wall = time.perf_counter() - t0
+        peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+        verdict = p.stdout.strip().splitlines()[0] if p.stdout.strip() else p.stderr.strip()[-300:]
+        row = {
+            "dataset": name,
+            "seconds": round(wall, 1),
+            "ratio_to_sweep": round(wall / base, 1),
+            "peak_rss_mb_max_so_far": round(max(peak, before) / 1024, 0),
+            "exit": p.returncode,
+            "verdict": verdict,
+            "load": os.getloadavg()[0],
+        }
+        rows.append(row)
+        print(json.dumps(row), flush=True)
+    walls = [r["seconds"] for r in rows]
+    summary = {
+        "records": f"4 x {a.seconds:g} s at {a.fs:g} Hz",
+        "median_s": statistics.median(walls),
+        "worst_s": max(walls),
+        "peak_rss_mb": max(r["peak_rss_mb_max_so_far"] for r in rows),
+        "sweep_baseline_s": round(base, 2),
+    }
+    print(json.dumps(summary))
+    (out / "bench_transient.json").write_text(json.dumps({"rows": rows, "summary": summary}, indent=1))
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,361 @@
+"""Diagnosis of transient records (system level): which effect explains the data **to the noise**.
+
+Steps (docs/diagnose.md, "Transient records"):
+
+1. Views (:mod:`.transient_sim`): each record averaged to at most FIT_MAX fit samples; its start
+   state estimated under the nominal (two passes); the noise std of every channel of every record
+   measured from the raw samples (fourth differences: the white part).
+2. Held out by **time segment**: every record is cut into SEGMENTS equal segments; parameters are
+   fitted on the even ones and the odd ones are predicted (the simulation runs through them, their
+   samples never enter the fit). The nominal, every single candidate and pairs are scored by the
+   held-out chi-square ``z = (chi2 - dof) / sqrt(2 dof)``.
+3. A set of effects **explains the data** when its held-out z <= EXPLAINS_Z. The nominal explaining
+   it: no structural effect. Else the best single candidate that explains it is named; every other
+   single that also does is listed as equally good. No single explains it: pairs of the best single
+   with the next PAIR_TRIES singles; the second effect is needed only if the pair explains the data,
+   closes >= PAIR_SHARE of the excess the first leaves, and its parameter is > 3 std from 0.
+4. The named set is refitted on all samples, and on each record alone: the per-record values must
+   agree within their errors (chi-square test at AGREE_P); a disagreement is reported and nothing is
+   named (a drift between records, or a pair of effects mimicking the truth). Held out **by record**:
+   each record predicted from the others (only its start state fitted on itself).
+5. Nothing explains the data: ``unexplained``, with the best candidate as a hint and where the
+   residual lives (:func:`where`).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .transient_effects import LABELS as T_LABELS
+from .transient_effects import TEFFECTS, apply, meaningless, scales
+from .transient_fit import TFit, chi2_of, fit, start_update, z_of
+from .transient_sim import CHANNELS, input_noise_response, make_view, start_responses
+from .transient_where import SEGMENTS, where
+
+if TYPE_CHECKING:
+    from numpy import ndarray
+
+    from ..data import Dataset
+
+EXPLAINS_Z = 5.0  #: held-out chi-square within this many std of its dof: explained to the noise
+PAIR_TRIES = 5  #: second effects tried next to the best single
+PAIR_SHARE = 0.5  #: a second effect must close at least this share of what the first leaves
+AGREE_P = 1e-3  #: per-record parameters disagree when the agreement chi-square's p-value is below this
+#: model-error floor of a per-record parameter in the agreement test, as a share of max(|mean|, its
+#: scale): the measured force is the simulation's input with its own noise (errors in variables), which
+#: the statistical std does not cover (measured: viscous dc = 10 N s/m on four records scatters by 0.3 %)
+AGREE_FLOOR = 0.01
+
+
+def _label(e: str) -> str:
+    from .effects import LABELS
+
+    return LABELS.get(e) or T_LABELS.get(e, e)
+
+
+class TransientDiagnosis:
+    def __init__(self, ds: Dataset) -> None:
+        from ...physics.params import BaseParams, TMDParams, pack
+
+        self.ds = ds
+        from .transient_sim import fastest_rate
+
+        recs = [r for r in ds.records if r.kind == "transient"]
+        self.p_nom = pack(BaseParams(**ds.nominal["base"]), TMDParams(**ds.nominal["tmd"]))
+        f_mode = fastest_rate(self.p_nom) / (2 * math.pi)
+        self.views = [make_view(r, ds.acquisition, f_mode) for r in recs]
+        self.log: list[str] = []
+        self.nominal_resid: list[ndarray] = []
+
+    # --- masks -----------------------------------------------------------------------------
+    def _masks(self, odd: bool | None) -> list[ndarray]:
+        out = []
+        for v in self.views:
+            seg = np.minimum((np.arange(v.n_out) * SEGMENTS) // v.n_out, SEGMENTS - 1)
+            m = np.ones(v.n_out, bool) if odd is None else (seg % 2 == (1 if odd else 0))
+            m[: v.skip] = False
+            out.append(m)
+        return out
+
+    def prepare(self) -> None:
+        """Start states under the nominal, and the noise of every channel of every fit sample: the
+        sensor's own (raw noise / sqrt(q)) and the response of the nominal to the force channel's
+        noise, which drives the simulation (errors in the input: :func:`input_noise_response`)."""
+        allm = self._masks(None)
+        nom = apply(self.p_nom, (), np.zeros(0))
+        assert not isinstance(nom, str)
+        for v, m in zip(self.views, allm):
+            v.phi = start_responses(v, self.p_nom)
+            for _ in range(2):
+                start_update(v, nom, m)
+            v.sigma = np.array(
+                [
+                    math.hypot(v.raw_noise[c] / math.sqrt(v.q), s_in) if v.has[k] else 1.0
+                    for k, (c, s_in) in enumerate(zip(CHANNELS, input_noise_response(v, self.p_nom)))
+                ]
+            )
+        xs = [np.nanstd(v.meas[:, 0]) for v in self.views if v.has[0]]
+        self.xscale = float(np.mean(xs)) if xs else 1e-3
+        strokes = [np.nanstd(v.meas[:, 0] - v.meas[:, 1]) * 2 for v in self.views if v.has[0] and v.has[1]]
+        self.stroke = float(np.mean(strokes)) if strokes else self.xscale
+        self.sc = scales(self.p_nom, self.stroke, self.xscale)
+
+    def candidates(self) -> list[str]:
+        disp = any(v.has[0] or v.has[1] for v in self.views)
+        out = [e for e in TEFFECTS if e != "sensor_offset" or disp]
+        if all(v.free_decay for v in self.views):
+            out.remove("force_error")  # no force: nothing to scale
+        return out
+
+    def _fit(self, effects: tuple[str, ...], train: list[ndarray], test: list[ndarray] | None) -> TFit:
+        starts = None
+        if "play" in effects:
+            k = list(effects).index("play")
+            starts = []
+            for g in (0.1, 1.0, 10.0):  # gap 1e-5, 1e-4, 1e-3 m
+                u = np.zeros(sum(len(TEFFECTS[e][0]) for e in effects))
+                u[sum(len(TEFFECTS[e][0]) for e in effects[:k])] = g
+                starts.append(u)
+        return fit(self.views, self.p_nom, effects, train, test, self.sc, starts=starts)
+
+    # --- the decision ------------------------------------------------------------------------
+    def run(self) -> dict[str, Any]:
+        self.prepare()
+        tr, te = self._masks(False), self._masks(True)
+        nom = self._fit((), tr, te)
+        self.nominal_resid = nom.resid
+        z0 = z_of(nom.chi2["test"], nom.chi2["dof_test"])
+        ex0 = nom.chi2["test"] - nom.chi2["dof_test"]
+        res: dict[str, Any] = {"nominal": {"z": z0, **nom.chi2}, "candidates": []}
+        if z0 <= EXPLAINS_Z:
+            return self._result(res, nom, None, [], "none")
+        singles = []
+        import time
+
+        for e in self.candidates():
+            t0 = time.perf_counter()
+            f = self._fit((e,), tr, te)
+            row = self._row(f, ex0)
+            row["seconds"] = round(time.perf_counter() - t0, 2)
+            res["candidates"].append(row)
+            if f.ok:
+                singles.append(f)
+        singles.sort(key=lambda f: f.chi2["test"])
+        passing = [f for f in singles if z_of(f.chi2["test"], f.chi2["dof_test"]) <= EXPLAINS_Z]
+        if passing:
+            return self._result(res, nom, passing[0], passing[1:], "single")
+        pairs = []
+        if singles:
+            first = singles[0]
+            ex1 = first.chi2["test"] - first.chi2["dof_test"]
+            for s in singles[1 : 1 + PAIR_TRIES]:
+                f = self._fit((first.effects[0], s.effects[0]), tr, te)
+                row = self._row(f, ex0)
+                res["candidates"].append(row)
+                if not f.ok:
+                    continue
+                ex2 = f.chi2["test"] - f.chi2["dof_test"]
+                j = len(TEFFECTS[first.effects[0]][0])
+                signif = bool(np.all(np.abs(f.theta[j:]) > 3 * f.std[j:]))
+                small = meaningless(s.effects[0], f.theta[j:], self.p_nom, self.stroke)
+                if small:
+                    row["second_not_meaningful"] = small
+                    signif = False
+                closes = 1 - ex2 / ex1 if ex1 > 0 else 0.0
+                row.update(second_closes=closes, second_significant=signif)
+                if z_of(f.chi2["test"], f.chi2["dof_test"]) <= EXPLAINS_Z and closes >= PAIR_SHARE and signif:
+                    pairs.append(f)
+            pairs.sort(key=lambda f: f.chi2["test"])
+        if pairs:
+            return self._result(res, nom, pairs[0], pairs[1:], "pair")
+        return self._result(res, nom, singles[0] if singles else None, [], "unexplained")
+
+    def _row(self, f: TFit, ex0: float) -> dict[str, Any]:
+        row: dict[str, Any] = {"effects": list(f.effects), "ok": f.ok, "reason": f.reason}
+        if f.ok:
+            ex = f.chi2["test"] - f.chi2["dof_test"]
+            row.update(
+                z=z_of(f.chi2["test"], f.chi2["dof_test"]),
+                gap_closed=1 - ex / ex0 if ex0 > 0 else None,
+                params=self._params(f),
+            )
+        return row
+
+    def _params(self, f: TFit) -> dict[str, dict[str, Any]]:
+        out, i = {}, 0
+        for e in f.effects:
+            names, units = TEFFECTS[e]
+            for n, u in zip(names, units):
+                out[f"{e}.{n}"] = {"value": float(f.theta[i]), "std": float(f.std[i]), "unit": u}
+                i += 1
+        return out
+
+    def agreement(self, effects: tuple[str, ...]) -> dict[str, Any]:
+        """Each record alone: its parameters, and the chi-square of their agreement."""
+        if len(self.views) < 2:
+            return {"records": [], "p_value": None, "agree": True}
+        from scipy.stats import chi2 as chi2dist
+
+        allm = self._masks(None)
+        rows, vals, stds = [], [], []
+        for v, m in zip(self.views, allm):
+            f = fit([v], self.p_nom, effects, [m], None, self.sc)
+            if not f.ok:
+                continue
+            rows.append({"record": v.name, "params": self._params(f)})
+            vals.append(f.theta)
+            stds.append(f.std)
+        if len(vals) < 2:
+            return {"records": rows, "p_value": None, "agree": True}
+        V, S = np.array(vals), np.maximum(np.array(stds), 1e-300)
+        scale = np.array([s for e in effects for s in self.sc[e]], float)
+        mean = (V / S**2).sum(0) / (1 / S**2).sum(0)
+        S = np.sqrt(S**2 + (AGREE_FLOOR * np.maximum(np.abs(mean), scale)) ** 2)
+        w = 1 / S**2
+        mean = (V * w).sum(0) / w.sum(0)
+        c2 = float(((V - mean) ** 2 * w).sum())
+        dof = V.size - V.shape[1]
+        p = float(chi2dist.sf(c2, dof))
+        return {"records": rows, "chi2": c2, "dof": dof, "p_value": p, "agree": p >= AGREE_P}
+
+    def by_record(self, effects: tuple[str, ...]) -> list[dict[str, Any]]:
+        """Each record predicted from the others (its start state fitted on itself)."""
+        if len(self.views) < 2:
+            return []
+        allm = self._masks(None)
+        nom = self._fit((), allm, None)
+        out = []
+        for i, v in enumerate(self.views):
+            others = [u for j, u in enumerate(self.views) if j != i]
+            om = [m for j, m in enumerate(allm) if j != i]
+            f = fit(others, self.p_nom, effects, om, None, self.sc)
+            if not f.ok:
+                continue
+            mdl = apply(self.p_nom, effects, f.theta)
+            if isinstance(mdl, str):
+                continue
+            from .transient_fit import residual
+
+            z_saved = v.z0.copy()
+            for _ in range(2):  # the held-out record's start state under the fitted model (not a parameter)
+                start_update(v, mdl, allm[i])
+            e = residual(v, mdl, allm[i])
+            v.z0 = z_saved
+            if e is None:
+                continue
+            c1, n1 = chi2_of([v], [e], [allm[i]])
+            c0, _ = chi2_of([v], [nom.resid[i]], [allm[i]])
+            out.append(
+                {"record": v.name, "chi2_before": c0, "chi2_after": c1, "dof": n1, "gap_closed": _closed(c0, c1, n1)}
+            )
+        return out
+
+    def _result(self, res: dict[str, Any], nom: TFit, best: TFit | None, alts: list[TFit], how: str) -> dict[str, Any]:
+        named: tuple[str, ...] = () if how in ("none", "unexplained") or best is None else best.effects
+        notes: list[str] = []
+        final = None
+        agree: dict[str, Any] = {}
+        if named:
+            final = self._fit(named, self._masks(None), None)
+            agree = self.agreement(named)
+            if not agree["agree"]:
+                notes.append(
+                    f"the records disagree on the parameters of {' + '.join(named)} (p = {agree['p_value']:.2g}): "
+                    "a parameter that drifts between records, or effects that only mimic the truth; not named"
+                )
+                named, how = (), "disagree"
+        n_ex = nom.chi2["test"] - nom.chi2["dof_test"]
+        ref = best if best is not None else nom
+        ex = ref.chi2["test"] - ref.chi2["dof_test"]
+        z_after = z_of(ref.chi2["test"], ref.chi2["dof_test"])
+        res["held_out"] = {
+            "by_segment": {
+                "chi2_before": nom.chi2["test"],
+                "chi2_after": ref.chi2["test"],
+                "dof": nom.chi2["dof_test"],
+                "z_before": z_of(nom.chi2["test"], nom.chi2["dof_test"]),
+                "z_after": z_after,
+                "gap_closed": 1 - ex / n_ex if n_ex > 0 else None,
+            },
+            "by_record": self.by_record(named) if named else [],
+            "level": f"explained when the held-out z <= {EXPLAINS_Z:g}",
+        }
+        res["agreement"] = agree
+        res["where"] = where(self.views, (best if how in ("unexplained", "disagree") and best else nom).resid)
+        unexplained = how in ("unexplained", "disagree")
+        params = self._params(final) if (final is not None and named) else {}
+        alternatives = [list(a.effects) for a in alts]
+        text = _text(named, params, res, alternatives, unexplained, best, notes)
+        res["verdict"] = {
+            "structural": how != "none",
+            "effects": list(named),
+            "labels": [_label(e) for e in named],
+            "parameters": params,
+            "alternatives": alternatives,
+            "unexplained": unexplained,
+            "unexplained_share": (
+                0.0 if how == "none" else (1.0 if not named else max(ex, 0) / n_ex if n_ex > 0 else 0.0)
+            ),
+            "hint": None if (named or best is None) else {"effects": list(best.effects), **self._row(best, n_ex)},
+            "notes": notes,
+            "text": text,
+        }
+        res["noise"] = [
+            {"record": v.name, "noise_std": {c: float(s) for c, s, h in zip(CHANNELS, v.sigma, v.has) if h}}
+            for v in self.views
+        ]
+        res["records"] = [
+            {
+                "record": v.name,
+                "fit_rate_hz": v.fs,
+                "averaged": v.q,
+                "skipped_start_s": v.skip / v.fs,
+                "free_decay": v.free_decay,
+            }
+            for v in self.views
+        ]
+        return res
+
+
+def _closed(c0: float, c1: float, n: int) -> float | None:
+    return 1 - (c1 - n) / (c0 - n) if c0 > n else None
+
+
+def _text(
+    named: tuple[str, ...],
+    params: dict[str, Any],
+    res: dict[str, Any],
+    alts: list[list[str]],
+    unexplained: bool,
+    best: TFit | None,
+    notes: list[str],
+) -> str:
+    h = res["held_out"]["by_segment"]
+    if not named and not unexplained:
+        return (
+            f"No structural effect: the nominal model explains the transient records to the noise "
+            f"(held-out z = {h['z_before']:.1f} <= {EXPLAINS_Z:g})."
+        )
+    w = res["where"]["text"]
+    if unexplained:
+        hint = ""
+        if best is not None:
+            hint = (
+                f" The closest candidate, {' + '.join(_label(e) for e in best.effects)}, closes "
+                f"{100 * (h['gap_closed'] or 0):.0f} % and leaves z = {h['z_after']:.0f}: a hint, not a cause."
+            )
+        return f"A structural gap remains that no candidate explains to the noise; it lives in {w}.{hint}" + (
+            " " + " ".join(notes) if notes else ""
+        )
+    ps = "; ".join(f"{k} = {v['value']:.4g} +- {v['std']:.2g} {v['unit']}" for k, v in params.items())
+    alt = ""
+    if alts:
+        alt = " Equally good (also explain the data to the noise): " + "; ".join(" + ".join(a) for a in alts) + "."
+    return (
+        f"Gap attributed to {' + '.join(_label(e) for e in named)} ({ps}); it explains the held-out "
+        f"segments to the noise (z {h['z_before']:.0f} -> {h['z_after']:.1f}, closes "
+        f"{100 * (h['gap_closed'] or 0):.1f} %). The nominal's gap lived in {w}.{alt}"
+    )

@@ -1,0 +1,177 @@
+"""Transient records: the candidate effects as changes of the simulated model.
+
+Every candidate is a change of the model that :mod:`.transient_sim` simulates with the measured
+force: the vocabulary of the system diagnosis (:mod:`.effects`) plus every parameter of the
+nominal model (M, K, C, m, k, c, I; dry friction df through ``friction``), with the bounds of their
+fits and the smallest size a second effect must have to mean something physically.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ...physics.params import P_C, P_I, P_K, P_M, P_MODEL, P_c, P_ci, P_df, P_eps, P_k, P_k3, P_ki, P_m, P_s
+from .transient_sim import fastest_rate
+
+if TYPE_CHECKING:
+    from numpy import ndarray
+
+#: the play candidate's gear contact (a nuisance of the model; stiff enough that the contact is short
+#: against the motion, soft enough for an explicit step of ~1/1000 of the TMD period)
+PLAY_KI, PLAY_CI = 2.0e6, 20.0
+#: a nominal's dry friction is regularised as df (2/pi) atan(s v) with s = FRICTION_RATE x (the
+#: nominal's fastest modal rate) x m / (df 2/pi); the friction candidate fits its slope s within
+#: FRICTION_SLOPE (a transition velocity of 0.2 mm/s at most is resolved: the explicit step's cost)
+FRICTION_RATE = 20.0
+FRICTION_SLOPE = (10.0, 5000.0)
+#: effect -> (parameter names, units, scale of each parameter)
+TEFFECTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
+    "viscous": (("delta_damping",), ("N s/m",)),
+    "friction": (("friction_force", "friction_slope"), ("N", "s/m")),
+    "play": (("play_gap",), ("m",)),
+    "mass_split": (("delta_inertance",), ("kg",)),
+    "cubic": (("cubic_stiffness",), ("N/m^3",)),
+    "force_error": (("force_gain_error",), ("1",)),
+    "sensor_offset": (("x_offset", "y_offset"), ("m", "m")),
+    "base_mass": (("delta_mass",), ("kg",)),
+    "base_stiffness": (("delta_stiffness",), ("N/m",)),
+    "base_damping": (("delta_damping",), ("N s/m",)),
+    "tmd_stiffness": (("delta_stiffness",), ("N/m",)),
+    "tmd_mass": (("delta_mass",), ("kg",)),
+    "inertance": (("delta_inertance",), ("kg",)),
+}
+#: bounds of the fit (SI)
+BOUNDS = {
+    "friction.friction_force": (0.0, np.inf),
+    "friction.friction_slope": FRICTION_SLOPE,
+    "play.play_gap": (0.0, np.inf),
+}
+LABELS = {
+    "tmd_mass": "TMD mass m off the nominal",
+    "inertance": "inertance I off the nominal (m unchanged)",
+}
+
+
+def scales(p: ndarray, stroke: float, xscale: float) -> dict[str, tuple[float, ...]]:
+    """Typical size of each parameter (the fit works in units of these)."""
+    return {
+        "viscous": (0.1 * p[P_c] + 1.0,),
+        "friction": (1.0, 1000.0),
+        "play": (1e-4,),
+        "mass_split": (0.1,),
+        "cubic": (0.1 * p[P_k] / max(stroke, 1e-6) ** 2,),
+        "force_error": (0.01,),
+        "sensor_offset": (0.01 * xscale, 0.01 * xscale),
+        "base_mass": (0.01 * p[P_M],),
+        "base_stiffness": (0.01 * p[P_K],),
+        "base_damping": (0.1 * p[P_C],),
+        "tmd_stiffness": (0.01 * p[P_k],),
+        "tmd_mass": (0.01 * p[P_m],),
+        "inertance": (0.1,),
+    }
+
+
+@dataclass
+class Model:
+    """A candidate model: the kernels' parameter vector, a force gain and sensor offsets."""
+
+    p: ndarray
+    gain: float = 1.0
+    offset: tuple[float, float] = (0.0, 0.0)
+
+
+def apply(p_nom: ndarray, effects: tuple[str, ...], theta: ndarray) -> Model | str:
+    """The model with the effects at parameters theta (in SI, concatenated in effect order), or the
+    reason it is not physical (m, M, K, k <= 0, I, c, C, df, gap < 0, 1 + a <= 0)."""
+    p = p_nom.copy()
+    mdl = Model(p)
+    i = 0
+    for e in effects:
+        th = theta[i : i + len(TEFFECTS[e][0])]
+        i += len(th)
+        if e == "viscous":
+            p[P_c] += th[0]
+        elif e == "friction":
+            if th[0] < 0:
+                return f"friction force df < 0 ({th[0]:.3g} N)"
+            p[P_df], p[P_s] = th[0], th[1]
+        elif e == "play":
+            if th[0] < 0:
+                return f"play gap < 0 ({th[0]:.3g} m)"
+            p[P_MODEL], p[P_ki], p[P_ci], p[P_eps] = 2.0, PLAY_KI, PLAY_CI, th[0]
+        elif e == "mass_split":
+            p[P_I] += th[0]
+            p[P_m] -= th[0]
+        elif e == "cubic":
+            p[P_k3] += th[0]
+        elif e == "force_error":
+            mdl.gain = 1.0 + th[0]
+        elif e == "sensor_offset":
+            mdl.offset = (float(th[0]), float(th[1]))
+        elif e == "base_mass":
+            p[P_M] += th[0]
+        elif e == "base_stiffness":
+            p[P_K] += th[0]
+        elif e == "base_damping":
+            p[P_C] += th[0]
+        elif e == "tmd_stiffness":
+            p[P_k] += th[0]
+        elif e == "tmd_mass":
+            p[P_m] += th[0]
+        elif e == "inertance":
+            p[P_I] += th[0]
+    if p[P_df] > 0 and "friction" not in effects:  # a nominal's friction: the slope an explicit step resolves
+        p[P_s] = min(p_nom[P_s], FRICTION_RATE * fastest_rate(p_nom) * max(p[P_m], 1e-9) / (p[P_df] * 2 / math.pi))
+    for idx, name in ((P_M, "M"), (P_K, "K"), (P_m, "m"), (P_k, "k")):
+        if p[idx] <= 0:
+            return f"{name} <= 0 ({p[idx]:.3g})"
+    for idx, name in ((P_C, "C"), (P_c, "c"), (P_I, "I")):
+        if p[idx] < 0:
+            return f"{name} < 0 ({p[idx]:.3g})"
+    if int(p[P_MODEL]) == 2 and p[P_I] <= 0:
+        return "play needs an inertance I > 0"
+    if mdl.gain <= 0:
+        return f"1 + a <= 0 ({mdl.gain:.3g})"
+    return mdl
+
+
+#: the smallest physically meaningful size of a second effect (SI or share of the nominal value)
+MEANINGFUL = {
+    "base_mass": 0.005,  # of M
+    "base_stiffness": 0.005,  # of K
+    "base_damping": 0.05,  # of C
+    "tmd_stiffness": 0.005,  # of k
+    "tmd_mass": 0.005,  # of m
+    "viscous": 0.02,  # of c
+    "force_error": 0.005,  # a
+    "mass_split": 0.005,  # of m + I
+    "inertance": 0.005,  # of m + I
+}
+
+
+def meaningless(effect: str, theta: ndarray, p: ndarray, stroke: float) -> str:
+    """Why a second effect's parameter is too small to mean anything physically ('' when it is not):
+    below MEANINGFUL of the nominal value it changes (a 0.2 % forcing gain or 0.3 % of K beside a
+    named effect is calibration scatter, not a cause); a cubic term under 0.5 % of k over the stroke."""
+    from ...physics.params import P_C, P_I, P_K, P_M, P_c, P_k, P_m
+
+    ref = {
+        "base_mass": p[P_M],
+        "base_stiffness": p[P_K],
+        "base_damping": p[P_C],
+        "tmd_stiffness": p[P_k],
+        "tmd_mass": p[P_m],
+        "viscous": max(p[P_c], 1.0),
+        "force_error": 1.0,
+        "mass_split": p[P_m] + p[P_I],
+        "inertance": p[P_m] + p[P_I],
+    }
+    if effect in MEANINGFUL and abs(theta[0]) < MEANINGFUL[effect] * ref[effect]:
+        return f"|{theta[0]:.3g}| < {MEANINGFUL[effect]:g} x {ref[effect]:.4g}"
+    if effect == "cubic" and abs(theta[0]) * stroke**2 < 0.005 * p[P_k]:
+        return f"k3 d^2 = {abs(theta[0]) * stroke**2:.3g} N/m < 0.5 % of k"
+    return ""

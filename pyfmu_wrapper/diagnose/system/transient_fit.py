@@ -1,0 +1,258 @@
+"""Transient records: fits of the candidate effects (:mod:`.transient_effects`). Parameters are fitted by
+nonlinear least squares (``scipy.optimize.least_squares``, trust region, finite-difference
+Jacobian) on the whitened simulation error of the training samples, the start state of every
+record projected out (variable projection, :mod:`.transient_sim`). Their std is
+``sqrt(diag((J^T J)^-1))`` of the whitened problem (the noise is measured, so no rescaling).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .transient_effects import BOUNDS, TEFFECTS, Model, apply
+from .transient_sim import simulate
+
+if TYPE_CHECKING:
+    from numpy import ndarray
+
+    from .transient_sim import TView
+
+TOL = {"ftol": 1e-7, "xtol": 1e-6, "gtol": 1e-8}  #: least_squares stopping (relative change of the cost / step)
+
+
+def residual(v: TView, mdl: Model, mask: ndarray) -> ndarray | None:
+    """Whitened simulation error (n_out, 4) of record v with the start state projected out on the
+    samples of ``mask`` (NaN for channels not recorded); None when the simulation blows up."""
+    y = simulate(v, mdl.p, force_gain=mdl.gain)
+    if y is None:
+        return None
+    y[:, 0] += mdl.offset[0]
+    y[:, 1] += mdl.offset[1]
+    e = (v.meas - y) / v.sigma
+    if v.phi is not None:
+        A = (v.phi / v.sigma[None, :, None])[:, v.has, :][mask].reshape(-1, 4)
+        b = e[:, v.has][mask].ravel()
+        d = np.linalg.lstsq(A, b, rcond=None)[0]
+        e = e - np.einsum("nck,k->nc", v.phi / v.sigma[None, :, None], d)
+    return e
+
+
+def start_update(v: TView, mdl: Model, mask: ndarray) -> None:
+    """Fold the projected start state into the simulation's start state (one pass)."""
+    y = simulate(v, mdl.p, force_gain=mdl.gain)
+    if y is None or v.phi is None:
+        return
+    y[:, 0] += mdl.offset[0]
+    y[:, 1] += mdl.offset[1]
+    e = (v.meas - y) / v.sigma
+    A = (v.phi / v.sigma[None, :, None])[:, v.has, :][mask].reshape(-1, 4)
+    d = np.linalg.lstsq(A, e[:, v.has][mask].ravel(), rcond=None)[0]
+    v.z0[:4] += 1e-3 * d
+
+
+@dataclass
+class TFit:
+    effects: tuple[str, ...]
+    theta: ndarray
+    std: ndarray
+    ok: bool = True
+    reason: str = ""
+    chi2: dict = field(default_factory=dict)  #: "train" / "test" -> float; "dof_*"
+    resid: list = field(default_factory=list)  #: whitened residual per record (n_out, 4)
+
+
+def _stack(views: list[TView], mdl: Model, masks: list[ndarray]) -> tuple[ndarray, list[ndarray]] | None:
+    out, full = [], []
+    for v, m in zip(views, masks):
+        e = residual(v, mdl, m)
+        if e is None:
+            return None
+        full.append(e)
+        out.append(e[:, v.has][m].ravel())
+    return np.concatenate(out), full
+
+
+def chi2_of(views: list[TView], full: list[ndarray], masks: list[ndarray]) -> tuple[float, int]:
+    """(sum of squares, count) of the whitened residuals on the masked samples of every record."""
+    s, n = 0.0, 0
+    for v, e, m in zip(views, full, masks):
+        x = e[:, v.has][m]
+        s += float(np.sum(x**2))
+        n += int(x.size)
+    return s, n
+
+
+def fit(
+    views: list[TView],
+    p_nom: ndarray,
+    effects: tuple[str, ...],
+    train: list[ndarray],
+    test: list[ndarray] | None,
+    sc: dict[str, tuple[float, ...]],
+    starts: list[ndarray] | None = None,
+    max_nfev: int = 40,
+) -> TFit:
+    """Fit the effects' parameters on the ``train`` samples; chi-squares on train and test.
+
+    The start state of a free-decay record (its whole response) is fitted with the parameters, as
+    four more unknowns (units of 1 mm, 1 mm/s); other records' start states are projected out
+    linearly and refreshed under the fitted model before a second pass."""
+    from scipy.optimize import least_squares
+
+    scale = np.array([s for e in effects for s in sc[e]], float)
+    npar = scale.size
+    dec = [i for i, v in enumerate(views) if v.free_decay]
+    lb = np.array([BOUNDS.get(f"{e}.{n}", (-np.inf, np.inf))[0] for e in effects for n in TEFFECTS[e][0]])
+    ub = np.array([BOUNDS.get(f"{e}.{n}", (-np.inf, np.inf))[1] for e in effects for n in TEFFECTS[e][0]])
+    lb, ub = (
+        np.concatenate([lb / scale, [-np.inf] * 4 * len(dec)]),
+        np.concatenate([ub / scale, [np.inf] * 4 * len(dec)]),
+    )
+    BAD = 1e6
+    sizes = [int(v.has.sum()) * int(m.sum()) for v, m in zip(views, train)]
+    offs = np.concatenate([[0], np.cumsum(sizes)]).astype(int)
+    n_res = int(offs[-1])
+    saved = [v.z0.copy() for v in views]
+    phis = [v.phi for v in views]
+    cache: dict[str, Any] = {}
+
+    def one(i: int, mdl: Model, u: ndarray) -> ndarray | None:
+        v = views[i]
+        if i in dec:
+            k = npar + 4 * dec.index(i)
+            v.z0 = saved[i].copy()
+            v.z0[:4] += 1e-3 * u[k : k + 4]
+        e = residual(v, mdl, train[i])
+        return None if e is None else e[:, v.has][train[i]].ravel()
+
+    def fun(u: ndarray) -> ndarray:
+        key = u.tobytes()
+        if cache.get("key") == key:
+            return cache["f"]
+        mdl = apply(p_nom, effects, u[:npar] * scale)
+        f = np.full(n_res, BAD)
+        if not isinstance(mdl, str):
+            for i in range(len(views)):
+                r = one(i, mdl, u)
+                if r is None:
+                    f[:] = BAD
+                    break
+                f[offs[i] : offs[i + 1]] = r
+        cache.update(key=key, f=f)
+        return f
+
+    def jac(u: ndarray) -> ndarray:
+        f0 = fun(u).copy()
+        J = np.zeros((n_res, u.size))
+        mdl0 = apply(p_nom, effects, u[:npar] * scale)
+        for j in range(u.size):
+            h = 1e-3 * max(1.0, abs(u[j]))
+            up = u.copy()
+            up[j] += h
+            if j < npar:
+                J[:, j] = (fun(up) - f0) / h
+            elif not isinstance(mdl0, str):
+                i = dec[(j - npar) // 4]
+                r = one(i, mdl0, up)
+                if r is not None:
+                    J[offs[i] : offs[i + 1], j] = (r - f0[offs[i] : offs[i + 1]]) / h
+        return J
+
+    for i in dec:
+        views[i].phi = None  # a decay's start state is a fitted unknown, not projected
+    try:
+        if starts is None:
+            starts = [
+                np.clip(np.where(np.isfinite(lb[:npar]), 1.0, 0.0), lb[:npar], ub[:npar])
+            ]  # bounded: at its scale
+        starts = [np.concatenate([u0, np.zeros(4 * len(dec))]) for u0 in starts]
+        best = None
+        if not starts[0].size:
+            mdl = apply(p_nom, (), np.zeros(0))
+            assert not isinstance(mdl, str)
+            st = _stack(views, mdl, train)
+            if st is None:
+                return TFit(effects, np.zeros(0), np.zeros(0), ok=False, reason="the nominal simulation blows up")
+            return _finish(views, effects, np.zeros(0), np.zeros(0), st[1], train, test)
+        for u0 in starts:
+            try:
+                r = least_squares(
+                    fun, u0, jac=jac, bounds=(lb, ub), method="trf", x_scale=1.0, max_nfev=max_nfev, **TOL
+                )
+            except (ValueError, np.linalg.LinAlgError):
+                continue
+            if best is None or r.cost < best.cost:
+                best = r
+        if best is not None and len(dec) < len(views):  # the others' start states under the fitted model
+            m1 = apply(p_nom, effects, best.x[:npar] * scale)
+            if not isinstance(m1, str):
+                for i, (v, m) in enumerate(zip(views, train)):
+                    if i not in dec:
+                        start_update(v, m1, m)
+                cache.clear()
+                with contextlib.suppress(ValueError, np.linalg.LinAlgError):
+                    best = least_squares(
+                        fun, best.x, jac=jac, bounds=(lb, ub), method="trf", x_scale=1.0, max_nfev=10, **TOL
+                    )
+        if best is not None:
+            fun(best.x)  # leaves the decays' fitted start states in the views for the chi-squares
+        return _conclude(views, p_nom, effects, train, test, scale, best, n_res, BAD)
+    finally:
+        for v, z, ph in zip(views, saved, phis):
+            v.z0, v.phi = z, ph
+
+
+def _conclude(
+    views: list[TView],
+    p_nom: ndarray,
+    effects: tuple[str, ...],
+    train: list[ndarray],
+    test: list[ndarray] | None,
+    scale: ndarray,
+    best: Any,
+    n_res: int,
+    BAD: float,
+) -> TFit:
+    if best is None or best.cost >= 0.5 * n_res * BAD**2 * 0.5:
+        return TFit(effects, np.zeros(scale.size), np.full(scale.size, np.inf), ok=False, reason="fit failed")
+    npar = scale.size
+    theta = best.x[:npar] * scale
+    mdl = apply(p_nom, effects, theta)
+    if isinstance(mdl, str):
+        return TFit(effects, theta, np.full(scale.size, np.inf), ok=False, reason=mdl)
+    try:
+        cov = np.linalg.inv(best.jac.T @ best.jac)
+        std = np.sqrt(np.clip(np.diag(cov)[:npar], 0, None)) * scale
+    except np.linalg.LinAlgError:
+        std = np.full(scale.size, np.inf)
+    st = _stack(views, mdl, train)
+    if st is None:
+        return TFit(effects, theta, std, ok=False, reason="the fitted model's simulation blows up")
+    return _finish(views, effects, theta, std, st[1], train, test)
+
+
+def _finish(
+    views: list[TView],
+    effects: tuple[str, ...],
+    theta: ndarray,
+    std: ndarray,
+    full: list[ndarray],
+    train: list[ndarray],
+    test: list[ndarray] | None,
+) -> TFit:
+    c_tr, n_tr = chi2_of(views, full, train)
+    f = TFit(effects, theta, std, chi2={"train": c_tr, "dof_train": n_tr}, resid=full)
+    if test is not None:
+        c_te, n_te = chi2_of(views, full, test)
+        f.chi2.update(test=c_te, dof_test=n_te)
+    return f
+
+
+def z_of(chi2: float, dof: int) -> float:
+    """(chi2 - dof) / sqrt(2 dof): the chi-square's distance from the noise in std."""
+    return (chi2 - dof) / math.sqrt(2.0 * max(dof, 1))

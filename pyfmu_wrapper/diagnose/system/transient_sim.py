@@ -1,0 +1,342 @@
+"""Transient records (system level, ``kind: transient``): the coupled model simulated with the
+**measured force as its input**, sampled the way the record was.
+
+A transient record (swept sine, random or burst force, free decay, hammer impulse) has no steady
+state, so nothing periodic is assumed: the kernels' right-hand side (:func:`physics.kernels.rhs_fext`,
+the one statement of the equations of motion) is integrated by classical RK4 on a grid ``r`` times
+finer than the record's samples, the force linearly interpolated between its samples. The record is
+reduced for the fit by averaging every ``q`` consecutive samples: FIT_RATE fit samples per period of
+the highest frequency that matters (the nominal's highest mode, or the frequency below which 99 % of
+the force's power lies, at most 4 times that mode), and FIT_MAX fit samples at most;
+the simulation is averaged over **the same sample instants**, so the reduction is matched exactly
+(no anti-alias approximation). The declared acquisition chain of each channel (analog low-pass,
+delay) is applied to the simulated channel as ``G(i w)`` in the frequency domain (linear and time
+invariant, so it commutes with the averaging); the fit skips the first ``settle`` seconds where
+the chain's own start-up (and the wrap of the discrete transform) lives: ``10 order / (2 pi
+cutoff) + delay``, at least one fit sample (the stated start rule).
+
+Start state: the record may start anywhere (a decay from an initial displacement, a rig already
+moving). Its start state (x, xd, y, yd) is a nuisance: the residual's projection on the responses
+to a unit start state (of the nominal linear model, through the same chain) is removed (variable
+projection), and the estimate is fed back as the simulation's start state for the next pass, so a
+nonlinear candidate is simulated from the estimated start.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from ..._jit import njit
+from ...physics.kernels import rhs_fext
+
+if TYPE_CHECKING:
+    from numpy import ndarray
+
+    from ..records import Record
+
+CHANNELS = ("x", "y", "xdd", "ydd")  #: response channels, in this order in every array
+FIT_MAX = 20000  #: fit samples per record at most (every q consecutive samples averaged)
+FIT_RATE = 12.0  #: fit samples per period of the highest frequency that matters (see :func:`make_view`)
+STEP_OMEGA = 0.25  #: RK4 step: h * (fastest rate of the model) at most this
+
+
+@njit(cache=True)
+def _integrate(p: ndarray, f: ndarray, h: float, n_sub: int, n_out: int, z0: ndarray, out: ndarray) -> bool:
+    """RK4 on the grid t_j = j h (force f[2 j] at every grid point, f[2 j + 1] at its midpoint); out[i] = the Simpson mean over
+    grid points i n_sub .. (i + 1) n_sub of (x, y, xdd, ydd): the mean over one fit block.
+    Returns False when the state blows up (a candidate far outside its stable range)."""
+    z = z0.copy()
+    k1 = np.empty(6)
+    k2 = np.empty(6)
+    k3 = np.empty(6)
+    k4 = np.empty(6)
+    zt = np.empty(6)
+    out[:, :] = 0.0
+    n_grid = n_out * n_sub
+    inv = 1.0 / n_sub
+    for j in range(n_grid + 1):
+        f0 = f[2 * j]
+        rhs_fext(z, f0, p, k1)
+        i = j // n_sub
+        kk = j % n_sub
+        w = (1.0 if kk == 0 else (4.0 if kk % 2 else 2.0)) * inv / 3.0  # Simpson (n_sub even)
+        if i < n_out:
+            out[i, 0] += w * z[0]
+            out[i, 1] += w * z[2]
+            out[i, 2] += w * k1[1]
+            out[i, 3] += w * k1[3]
+        if kk == 0 and i > 0:  # the block's closing end point
+            w = inv / 3.0
+            out[i - 1, 0] += w * z[0]
+            out[i - 1, 1] += w * z[2]
+            out[i - 1, 2] += w * k1[1]
+            out[i - 1, 3] += w * k1[3]
+        if j == n_grid:
+            break
+        f1 = f[2 * j + 2]
+        fm = f[2 * j + 1]
+        for s in range(6):
+            zt[s] = z[s] + 0.5 * h * k1[s]
+        rhs_fext(zt, fm, p, k2)
+        for s in range(6):
+            zt[s] = z[s] + 0.5 * h * k2[s]
+        rhs_fext(zt, fm, p, k3)
+        for s in range(6):
+            zt[s] = z[s] + h * k3[s]
+        rhs_fext(zt, f1, p, k4)
+        for s in range(6):
+            z[s] += h / 6.0 * (k1[s] + 2.0 * k2[s] + 2.0 * k3[s] + k4[s])
+        if not (abs(z[0]) < 1e6 and abs(z[2]) < 1e6):
+            return False
+    return True
+
+
+@dataclass
+class TView:
+    """One transient record prepared for the fit."""
+
+    name: str
+    t: ndarray  #: fit-sample times (block means) [s]
+    meas: ndarray  #: (n_out, 4) measured block means of x, y, xdd, ydd (NaN: channel not recorded)
+    has: ndarray  #: (4,) bool: channel recorded
+    force: ndarray  #: measured force at the record's samples [N] (zeros for a free decay)
+    dt: float  #: record sample spacing [s]
+    q: int  #: record samples per fit sample
+    n_out: int
+    skip: int  #: fit samples skipped at the start (the chain's start-up)
+    chains: dict  #: channel -> acquisition.Chain
+    sigma: ndarray = field(default_factory=lambda: np.ones(4))  #: noise std per channel of a fit sample
+    free_decay: bool = False
+    z0: ndarray = field(default_factory=lambda: np.zeros(6))  #: start state of the simulation
+    phi: ndarray | None = None  #: (n_out, 4, 4) response to unit start states (x, xd, y, yd)
+    fcache: dict = field(default_factory=dict)  #: the force on the last simulation grid
+    gcache: dict = field(default_factory=dict)  #: the chains' responses on the fit-rate FFT grid
+    raw_noise: dict = field(default_factory=dict)  #: channel -> noise std of one record sample
+    h_max: float = np.inf  #: longest RK4 step that resolves the force (8 steps per period of its 99 % frequency)
+
+    @property
+    def fs(self) -> float:
+        return 1.0 / (self.dt * self.q)
+
+
+def make_view(rec: Record, chains: dict, f_mode: float) -> TView:
+    """The fit view of a transient record: samples averaged in blocks of q, the chain's start-up
+    skipped (f_mode: the nominal's highest modal frequency [Hz])."""
+    from ..errors import DataError
+
+    c = rec.columns
+    t = np.asarray(c["t"], float)
+    n = t.size
+    dt = float(t[-1] - t[0]) / (n - 1)
+    if np.max(np.abs(np.diff(t) - dt)) > 0.01 * dt:
+        raise DataError(
+            f"{rec.name}, column 't': a transient record must be uniformly sampled (spacing varies by more "
+            f"than 1 % of dt = {dt:.6g} s)"
+        )
+    f_top, f99 = f_mode, 0.0
+    if "force" in c:
+        P = np.abs(np.fft.rfft(np.asarray(c["force"], float) - np.mean(c["force"]))) ** 2
+        fr = np.fft.rfftfreq(n, dt)
+        cum = np.cumsum(P) / max(P.sum(), 1e-300)
+        f99 = float(fr[min(int(np.searchsorted(cum, 0.99)), fr.size - 1)])
+        f_top = min(max(f_mode, f99), 4 * f_mode)
+    q = max(1, int(1.0 / (dt * FIT_RATE * f_top)), math.ceil(n / FIT_MAX))
+    n_out = n // q
+    meas = np.full((n_out, 4), np.nan)
+    has = np.zeros(4, bool)
+    for k, ch in enumerate(CHANNELS):
+        if ch in c:
+            meas[:, k] = np.asarray(c[ch], float)[: n_out * q].reshape(n_out, q).mean(axis=1)
+            has[k] = True
+    tb = t[: n_out * q].reshape(n_out, q).mean(axis=1)
+    settle = 0.0
+    for ch in ("force", *CHANNELS):
+        ch_c = chains.get(ch)
+        if ch_c is not None:
+            s_c = 10 * ch_c.order / (2 * math.pi * ch_c.cutoff_hz) if ch_c.type is not None else 0.0
+            settle = max(settle, s_c + ch_c.delay_s)
+    skip = max(1, math.ceil(settle / (dt * q)))
+    force = np.asarray(c["force"], float).copy() if "force" in c else np.zeros(n)
+    raw = {ch: robust_noise(np.asarray(c[ch], float)) for ch in ("force", *CHANNELS) if ch in c}
+    return TView(
+        raw_noise=raw,
+        h_max=1.0 / (8.0 * f99) if f99 > 0 else np.inf,
+        name=rec.name,
+        t=tb,
+        meas=meas,
+        has=has,
+        force=force,
+        dt=dt,
+        q=q,
+        n_out=n_out,
+        skip=skip,
+        chains=chains,
+        free_decay="force" not in c,
+    )
+
+
+def rates(p: ndarray) -> tuple[float, float, float]:
+    """(modal, contact, friction) rates [1/s] of the model with parameters p: the largest |eigenvalue|
+    of the linear part (friction, play left out), the play chain's contact frequency sqrt(ki / mu)
+    (0 without play) and the friction's relaxation rate df (2/pi) s / mu (0 without friction)."""
+    from ...physics.params import P_C, P_I, P_K, P_M, P_MODEL, P_c, P_df, P_k, P_ki, P_m, P_s
+
+    M, K, C, m, k, c, I = (p[i] for i in (P_M, P_K, P_C, P_m, P_k, P_c, P_I))
+    contact = 0.0
+    mu = 1.0 / (1.0 / m + 1.0 / M)
+    if int(p[P_MODEL]) == 2:  # play: the chain's contact mode
+        contact = math.sqrt(p[P_ki] / (1.0 / (1.0 / I + 1.0 / m + 1.0 / M)))
+        I = 0.0
+    Mt = np.array([[M + I, -I], [-I, m + I]])
+    Kt = np.array([[K + k, -k], [-k, k]])
+    Ct = np.array([[C + c, -c], [-c, c]])
+    Mi = np.linalg.inv(Mt)
+    A = np.block([[np.zeros((2, 2)), np.eye(2)], [-Mi @ Kt, -Mi @ Ct]])
+    modal = float(np.max(np.abs(np.linalg.eigvals(A))))
+    friction = p[P_df] * 2 / math.pi * p[P_s] / mu if p[P_df] > 0 else 0.0
+    return modal, contact, float(friction)
+
+
+def fastest_rate(p: ndarray) -> float:
+    """The nominal's highest modal rate [1/s] (friction and play left out)."""
+    return rates(p)[0]
+
+
+#: RK4 step limits, h x rate: the modes (accuracy), the play contact (an oscillation that only has to
+#: stay stable and short), the friction's relaxation (real and stiff: stability of RK4 is 2.78)
+STEP_LIMITS = (STEP_OMEGA, 1.0, 2.0)
+
+
+def refinement(v: TView, p: ndarray) -> int:
+    """Grid intervals per fit block (even, >= 2): RK4 step h within STEP_LIMITS of every rate, and
+    short enough for the force (``h_max``, at most two grid intervals per record sample)."""
+    T = v.dt * v.q
+    n = max(2, *(math.ceil(r * T / lim) for r, lim in zip(rates(p), STEP_LIMITS)))
+    if math.isfinite(v.h_max):  # the force's own content (a hammer impulse reaches the accelerations directly)
+        n = max(n, min(math.ceil(T / v.h_max), 2 * v.q))
+    return n + (n % 2)
+
+
+def apply_chain(y: ndarray, fs: float, chains: dict, dt: float | None = None, cache: dict | None = None) -> ndarray:
+    """Each simulated channel (columns of y: block means at the fit rate fs) through its declared chain
+    G(i w); with ``dt`` (the record's sample spacing, when blocks hold several samples) also from the
+    continuous block mean to the mean of the block's samples: (w dt / 2) / sin(w dt / 2)."""
+    out = y.copy()
+    n = y.shape[0]
+    lead = min(n, 256)  # the record's first value held before it (the chain at rest there, as on the rig)
+    nf = 1 << int(math.ceil(math.log2(2 * n + 2 * lead)))
+    key = (nf, fs, dt)
+    if cache is not None and cache.get("key") == key:
+        gs = cache["g"]
+    else:
+        w = 2 * math.pi * np.fft.rfftfreq(nf, 1.0 / fs)
+        disc = None
+        if dt is not None:
+            a = 0.5 * w * dt
+            disc = np.where(a > 1e-12, a / np.sin(np.maximum(a, 1e-12)), 1.0)
+        gs = []
+        for ch in CHANNELS:
+            c = chains.get(ch)
+            g = None if c is None or (c.type is None and not c.delay_s) else c.response(w)
+            if disc is not None:
+                g = disc if g is None else g * disc
+            gs.append(g)
+        if cache is not None:
+            cache.update(key=key, g=gs)
+    for k, g in enumerate(gs):
+        if g is None:
+            continue
+        u = y[:, k]
+        pad = np.concatenate([np.full(lead, u[0]), u, np.full(nf - n - lead, u[-1])])
+        out[:, k] = np.fft.irfft(np.fft.rfft(pad) * g, nf)[lead : lead + n]
+    return out
+
+
+def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
+    """The measured force at the simulation's grid points and their midpoints (2 n_out n_sub + 1
+    values, spacing h / 2 with h = q dt / n_sub, from half a sample before the first): the derivative
+    of a cubic spline through the force's running integral (each sample standing for dt) -- exact
+    for a smooth force to O(dt^3), and it keeps the area of an impulse shorter than a sample. The
+    force channel's declared chain is divided out first (the true force drives the model)."""
+    from scipy.interpolate import CubicSpline
+
+    f = v.force * gain
+    cf = v.chains.get("force")
+    if cf is not None:
+        nf = 1 << int(math.ceil(math.log2(2 * f.size)))
+        w = 2 * math.pi * np.fft.rfftfreq(nf, v.dt)
+        g = cf.response(w)
+        pad = np.concatenate([f, np.full(nf - f.size, f[-1])])
+        # 1 / G where |G| > 0.1 (the pass band, exact), no amplification of noise beyond the cut-off
+        a2 = np.abs(g) ** 2
+        ginv = np.conj(g) / np.maximum(a2, 0.01)
+        f = np.fft.irfft(np.fft.rfft(pad) * ginv, nf)[: f.size]
+    h = v.dt * v.q / n_sub
+    tg = -0.5 * v.dt + 0.5 * h * np.arange(2 * v.n_out * n_sub + 1)  # time from the first sample
+    edges = v.dt * (np.arange(f.size + 1) - 0.5)
+    cum = np.concatenate([[0.0], np.cumsum(f) * v.dt])
+    return np.asarray(CubicSpline(edges, cum)(np.clip(tg, edges[0], edges[-1]), 1))
+
+
+def simulate(v: TView, p: ndarray, z0: ndarray | None = None, force_gain: float = 1.0) -> ndarray | None:
+    """(n_out, 4) fit-block means of x, y, xdd, ydd of the model p driven by the record's measured
+    force (times force_gain), through the declared chains; None when the simulation blows up."""
+    n_sub = refinement(v, p)
+    if v.fcache.get("key") != n_sub:
+        v.fcache = {"key": n_sub, "f": grid_force(v, n_sub)}
+    f = v.fcache["f"] if force_gain == 1.0 else force_gain * v.fcache["f"]  # the force enters linearly
+    out = np.empty((v.n_out, 4))
+    ok = _integrate(p, f, v.dt * v.q / n_sub, n_sub, v.n_out, v.z0 if z0 is None else z0, out)
+    if not ok or not np.all(np.isfinite(out)):
+        return None
+    return apply_chain(out, v.fs, v.chains, v.dt if v.q > 1 else None, v.gcache)
+
+
+def start_responses(v: TView, p_lin: ndarray) -> ndarray:
+    """(n_out, 4, 4): the chained fit-sample responses to unit start states x, xd, y, yd of the
+    linear model p_lin with no force (scaled: 1 mm, 1 mm/s x the model's fastest rate)."""
+    g, fc = v.force, v.fcache
+    v.force, v.fcache = np.zeros_like(g), {}
+    try:
+        cols = []
+        for s in range(4):
+            z = np.zeros(6)
+            z[s] = 1e-3
+            y = simulate(v, p_lin, z)
+            cols.append(np.zeros((v.n_out, 4)) if y is None else y)
+    finally:
+        v.force, v.fcache = g, fc
+    return np.stack(cols, axis=2)
+
+
+def robust_noise(r: ndarray) -> float:
+    """Noise std of a sampled channel from its fourth differences: 1.4826 MAD(diff4) / sqrt(70) (white
+    noise; a signal at w leaks in as (w dt)^4 of its amplitude: 2e-4 at 5 Hz sampled at 256 Hz, where
+    second differences would let 1.5 % in)."""
+    d4 = np.diff(r, 4)
+    if d4.size < 3:
+        return float(np.std(r)) or 1.0
+    return float(1.4826 * np.median(np.abs(d4 - np.median(d4))) / math.sqrt(70.0)) or float(np.std(d4)) or 1e-300
+
+
+def input_noise_response(v: TView, p: ndarray, seed: int = 0) -> ndarray:
+    """Std per channel (x, y, xdd, ydd) of the fit-block means of the nominal's response to white
+    noise of the force channel's measured std (the measured force is the simulation's input, so its
+    noise reaches every simulated channel: directly in the accelerations, through the structure in
+    all of them). Simulated once per record (zero start; the first 10 % discarded)."""
+    sf = v.raw_noise.get("force", 0.0)
+    if v.free_decay or sf <= 0:
+        return np.zeros(4)
+    g, fc, z0 = v.force, v.fcache, v.z0
+    v.force, v.fcache, v.z0 = np.random.default_rng(seed).normal(0.0, sf, g.size), {}, np.zeros(6)
+    try:
+        y = simulate(v, p)
+    finally:
+        v.force, v.fcache, v.z0 = g, fc, z0
+    if y is None:
+        return np.zeros(4)
+    return np.std(y[y.shape[0] // 10 :], axis=0)

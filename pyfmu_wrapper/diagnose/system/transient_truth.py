@@ -1,0 +1,188 @@
+"""Truth for transient records (tests and ``make-benchmark``): the coupled base + TMD driven by a
+swept sine, random or burst force, hammer impulses, or released from a displaced start, simulated
+by an integrator of its own (``scipy.integrate.solve_ivp``, right-hand side written here, not the
+project's kernels) and measured as a rig does (anti-alias filter, delay, sensor gain and offset,
+white ADC noise, sampling).
+
+Truth model (ideal inerter I, passive sign convention of the physics notes)::
+
+    (M + I) xdd - I ydd = F(t) - C xd - K x - K3 x^3 - mu tanh(xd / v0) - Fs
+    -I xdd + (m + I) ydd = Fs
+    Fs = k (1 + drift t / T) (x - y) + k3 (x - y)^3 + c (xd - yd) + c2 |v| v + df (2/pi) atan(s v)
+
+with v = xd - yd; ``elastic_inerter`` puts a spring kb in series with the inerter (state u, the
+inerter terminal: I (xdd - udd) = kb (u - y)), ``k2`` an asymmetric quadratic spring term.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+    from numpy import ndarray
+
+FRICTION_SLOPE = 2.0e3  #: regularisation of the truth's dry friction [s/m] (transition at ~1 mm/s)
+V0 = 1e-3  #: base friction regularisation [m/s]
+
+
+def force_signal(kind: str, rng: np.random.Generator, T: float, amp: float, **kw: Any) -> Callable[[Any], Any]:
+    """F(t) [N], vectorised. kinds: sweep_lin, sweep_log (kw f0, f1 [Hz]; f1 < f0: down), random, burst
+    (kw f_lo, f_hi; amp = rms), hammer (amp = peak; kw n_hits, width), decay (no force)."""
+    if kind in ("sweep_lin", "sweep_log"):
+        f0, f1 = kw.get("f0", 1.5), kw.get("f1", 5.0)
+        ramp = min(2.0, 0.05 * T)
+        if kind == "sweep_lin":
+
+            def ph(t: Any) -> Any:
+                return 2 * math.pi * (f0 * t + 0.5 * (f1 - f0) / T * t**2)
+        else:
+            b = math.log(f1 / f0) / T
+
+            def ph(t: Any) -> Any:
+                return 2 * math.pi * f0 * (np.exp(b * t) - 1) / b
+
+        return lambda t: amp * np.minimum(np.asarray(t) / ramp, 1.0) * np.sin(ph(t))
+    if kind in ("random", "burst"):
+        f_lo, f_hi = kw.get("f_lo", 1.0), kw.get("f_hi", 8.0)
+        n = 60
+        f = rng.uniform(f_lo, f_hi, n)
+        phs = rng.uniform(0, 2 * math.pi, n)
+        a = amp * math.sqrt(2.0 / n)
+        on = kw.get("on", 0.6)
+        period = kw.get("period", T / 6)
+
+        def F(t: Any) -> Any:
+            t = np.asarray(t, float)
+            s = a * np.sum(np.sin(2 * math.pi * f[:, None] * np.atleast_1d(t)[None, :] + phs[:, None]), axis=0)
+            if kind == "burst":
+                ph_ = np.mod(np.atleast_1d(t), period) / period
+                s = s * np.where(ph_ < on, np.sin(math.pi * np.minimum(ph_ / on, 1.0)) ** 0.5, 0.0)
+            return s if t.ndim else s[0]
+
+        return F
+    if kind == "hammer":
+        n_hits, width = int(kw.get("n_hits", 6)), kw.get("width", 0.004)
+        times = np.sort(rng.uniform(0.05 * T, 0.85 * T, n_hits))
+        peaks = amp * rng.uniform(0.5, 1.0, n_hits)
+
+        def H(t: Any) -> Any:
+            t = np.asarray(t, float)
+            tt = np.atleast_1d(t)
+            s = np.zeros_like(tt)
+            for t0, p in zip(times, peaks):
+                u = (tt - t0) / width
+                s += np.where((u >= 0) & (u <= 1), p * np.sin(math.pi * np.clip(u, 0, 1)), 0.0)
+            return s if t.ndim else s[0]
+
+        H.hits = times  # type: ignore[attr-defined]
+        return H
+    if kind == "decay":
+        return lambda t: 0.0 * np.asarray(t, float)
+    raise ValueError(f"unknown force kind {kind!r}")
+
+
+class Truth:
+    """The true system: nominal dicts plus changes (keys as in the module docstring)."""
+
+    def __init__(self, base: dict, tmd: dict, T: float, **ch: float) -> None:
+        self.M = float(base["mass"]) + ch.get("dM", 0.0)
+        self.K = float(base["stiffness"]) + ch.get("dK", 0.0)
+        self.C = float(base["damping"]) + ch.get("dC", 0.0)
+        self.m = float(tmd["mass"]) + ch.get("dm", 0.0) - ch.get("dI_split", 0.0)
+        self.k = float(tmd["stiffness"]) + ch.get("dk", 0.0)
+        self.c = float(tmd["damping"]) + ch.get("dc", 0.0)
+        self.I = float(tmd.get("inertance", 0.0)) + ch.get("dI", 0.0) + ch.get("dI_split", 0.0)
+        self.df, self.k3, self.c2 = ch.get("df", 0.0), ch.get("k3", 0.0), ch.get("c2", 0.0)
+        self.mu, self.K3, self.k2 = ch.get("mu", 0.0), ch.get("K3", 0.0), ch.get("k2", 0.0)
+        self.kb, self.drift, self.T = ch.get("kb", 0.0), ch.get("drift", 0.0), T
+
+    def deriv(self, t: Any, z: ndarray, F: Callable[[Any], Any]) -> ndarray:
+        """dz/dt, vectorised over the columns of z (and t)."""
+        x, xd, y, yd = z[0], z[1], z[2], z[3]
+        v = xd - yd
+        u = x - y
+        Fs = (
+            self.k * (1 + self.drift * np.asarray(t) / self.T) * u
+            + self.k3 * u**3
+            + self.k2 * u * np.abs(u)
+            + self.c * v
+            + self.c2 * np.abs(v) * v
+            + self.df * (2 / math.pi) * np.arctan(FRICTION_SLOPE * v)
+        )
+        Fb = self.C * xd + self.K * x + self.K3 * x**3 + self.mu * np.tanh(xd / V0)
+        r1 = F(t) - Fb - Fs
+        if self.kb > 0:  # elastic inerter: I (xdd - wdd) = kb (w - y), w the inerter's far end
+            w, wd = z[4], z[5]
+            P = self.kb * (w - y)
+            xdd = (r1 - P) / self.M
+            ydd = (Fs + P) / self.m
+            return np.array([xd, xdd, yd, ydd, wd, xdd - P / self.I])
+        M1, m1, I = self.M + self.I, self.m + self.I, self.I
+        det = M1 * m1 - I * I
+        return np.array([xd, (m1 * r1 + I * Fs) / det, yd, (I * r1 + M1 * Fs) / det])
+
+    def simulate(
+        self, F: Callable[[Any], Any], t: ndarray, z0: ndarray | None = None, max_step: float = 2e-3
+    ) -> dict[str, ndarray]:
+        """x, y, xdd, ydd, force on the grid t (solve_ivp, DOP853, rtol 1e-9)."""
+        from scipy.integrate import solve_ivp
+
+        n = 6 if self.kb > 0 else 4
+        z = np.zeros(n) if z0 is None else np.concatenate([z0, np.zeros(n - len(z0))])
+        if self.kb > 0:
+            z[4], z[5] = z[0], z[1]
+        sol = solve_ivp(
+            lambda tt, zz: self.deriv(tt, zz, F),
+            (t[0], t[-1]),
+            z,
+            method="DOP853",
+            t_eval=t,
+            rtol=1e-9,
+            atol=1e-12,
+            max_step=max_step,
+        )
+        if not sol.success:
+            raise RuntimeError(sol.message)
+        d = self.deriv(t, sol.y, F)
+        return {"x": sol.y[0], "y": sol.y[2], "xdd": d[1], "ydd": d[3], "force": np.asarray(F(t), float)}
+
+
+def measure(
+    sig: dict[str, ndarray],
+    t: ndarray,
+    step: int,
+    rng: np.random.Generator,
+    noise: dict[str, float],
+    acq: dict[str, Any] | None = None,
+    gains: dict[str, float] | None = None,
+    offsets: dict[str, float] | None = None,
+) -> dict[str, ndarray]:
+    """What the rig records: sensor gain/offset, the declared analog chain (filter by lsim at the
+    dense rate, delay), every step-th sample, white noise of std noise[ch] x rms."""
+    from scipy import signal
+
+    out = {"t": t[::step] - t[0]}
+    for ch, u in sig.items():
+        u = np.asarray(u, float) * (1 + (gains or {}).get(ch, 0.0)) + (offsets or {}).get(ch, 0.0)
+        spec = {**((acq or {}).get("all") or {}), **((acq or {}).get(ch) or {})}  # key by key, as declared
+        if spec and spec.get("filter"):
+            fl = spec["filter"]
+            wc = 2 * math.pi * fl["cutoff_hz"]
+            ba = (
+                signal.butter(fl["order"], wc, analog=True)
+                if fl["type"] == "butterworth"
+                else signal.bessel(fl["order"], wc, analog=True, norm="mag")
+            )
+            A, B, C, D = signal.tf2ss(*ba)
+            x0 = -np.linalg.solve(A, B[:, 0]) * u[0]
+            _, u, _ = signal.lsim((A, B, C, D), u, t, X0=x0)
+        if spec and spec.get("delay_s"):
+            u = np.interp(t - spec["delay_s"], t, u)
+        s = u[::step]
+        out[ch] = s + rng.normal(0, noise.get(ch, 0.0) * (np.std(s) or 1.0), s.size)
+    return out
