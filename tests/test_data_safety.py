@@ -319,3 +319,37 @@ def test_a_rerun_served_from_checkpoints_says_so(tmp_path, capsys):
     pd.testing.assert_frame_equal(
         pd.read_csv(out / "frc.csv").drop(columns="wall_time"), first.drop(columns="wall_time")
     )
+
+
+def _diagnose_bounded(dataset: Path, out: Path) -> tuple[int, str, float]:
+    before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    p = subprocess.run(
+        [sys.executable, "-c", "import sys; from pyfmu_wrapper.cli.diagnose import main_diagnose as m; sys.exit(m())"]
+        + [str(dataset), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        env={**os.environ, "PYTHONPATH": str(Path(__file__).resolve().parents[1])},
+    )
+    peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
+    return p.returncode, p.stderr, max(peak, before) / 1024
+
+
+@pytest.mark.parametrize("case", ["alias bomb in dataset.yaml", "2 GB sparse record", "a record of NUL bytes"])
+def test_diagnose_refuses_inputs_that_exhausted_memory(tmp_path, case):
+    ds = tmp_path / "ds"
+    shutil.copytree(Path(__file__).resolve().parents[1] / "data" / "brfd_link", ds)
+    rec = sorted(ds.glob("*.csv"))[0]
+    if case == "alias bomb in dataset.yaml":
+        text = (ds / "dataset.yaml").read_text()
+        (ds / "dataset.yaml").write_text(BOMB.split("base:")[0].replace("schema_version: 2\nname: bomb\n", "") + text)
+    elif case == "2 GB sparse record":
+        with open(rec, "r+b") as fh:
+            fh.truncate(2 * 2**30)
+    else:
+        rec.write_bytes(b"\0" * (8 * 2**20))
+    code, err, peak = _diagnose_bounded(ds, tmp_path / "out")
+    assert code == 2, err
+    assert "Traceback" not in err and len(err.strip().splitlines()) == 1
+    assert peak < 500, f"{peak:.0f} MB"
+    assert not (tmp_path / "out").exists()

@@ -13,8 +13,9 @@ import os
 from pathlib import Path
 
 from ..diagnose.outfolder import BENCHMARK_MARKER, DIAGNOSE_MARKER, ResultFolder, check_out_file, check_out_folder
+from ..diagnose.records import set_max_record_size
 from ..diagnose.run import flagged_lines, load_manifest, run_diagnosis
-from ..errors import InputError
+from ..errors import InputError, set_max_input_size
 from .errors import cli_main
 
 
@@ -33,7 +34,19 @@ def main_diagnose(argv: list[str] | None = None) -> int:
         help="output folder (report.md, diagnosis.json, PNGs): new, empty, or "
         "a previous diagnose result (replaced as a whole)",
     )
+    ap.add_argument(
+        "--max-record-size",
+        type=float,
+        default=None,
+        metavar="MB",
+        help="the largest record file read (default 1024 MB)",
+    )
+    ap.add_argument(
+        "--max-input-size", type=float, default=None, metavar="MB", help="the largest YAML file read (default 16 MB)"
+    )
     a = ap.parse_args(argv)
+    set_max_record_size(a.max_record_size)
+    set_max_input_size(a.max_input_size)
     out = check_out_folder(a.out, "diagnose", DIAGNOSE_MARKER)
     with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
         res = run_diagnosis(a.dataset, tmp, a.model)
