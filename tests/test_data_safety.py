@@ -14,65 +14,20 @@ import resource
 import shutil
 import subprocess
 import sys
-import textwrap
 import time
 from pathlib import Path
 
 import pandas as pd
 import pytest
+from _scenario_support import LINEAR, MONO, snapshot, write_scenario
+from _scenario_support import SLOW as SLOW4
 
 from pyfmu_wrapper.cli.reproduce import main as reproduce_main
 from pyfmu_wrapper.cli.run_scenario import main
 from pyfmu_wrapper.codeversion import numbers_hash
-from pyfmu_wrapper.scenario import output
 
-LINEAR = """\
-schema_version: 2
-name: tiny
-base: {mass: 100.0, stiffness: 40000.0, damping: 100.0, force_amplitude: 200.0}
-tmd: {case: 1, inerter: ideal, stiffness: 4000.0, damping: 10.0}
-frequencies: {start: 17.0, stop: 23.0, count: 5}
-studies:
-  - kind: frc
-    name: frc
-    curves:
-      - {label: "c = 10"}
-"""
-
-#: friction curves (integrated, not closed form): a run long enough for a writer to act during it
-SLOW = """\
-schema_version: 2
-name: slow
-base: {mass: 100.0, stiffness: 40000.0, damping: 100.0, force_amplitude: 200.0}
-tmd: {case: 1, inerter: ideal, stiffness: 4000.0, damping: 0.0}
-frequencies: {start: 15.0, stop: 25.0, count: 41}
-studies:
-  - kind: frc
-    name: frc
-    curves:
-      - {label: "df = 10", tmd: {friction_force: 10.0}}
-      - {label: "df = 20", tmd: {friction_force: 20.0}}
-"""
-
-MONO = ["--quiet", "--engine", "monolithic", "--executor", "sequential"]
-
-
-def _scn(folder: Path, text: str = LINEAR, name: str = "scn.yaml") -> Path:
-    p = folder / name
-    p.write_text(textwrap.dedent(text))
-    return p
-
-
-def _snapshot(folder: Path) -> dict:
-    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
-
-
-@pytest.fixture
-def no_computing(monkeypatch):
-    def fail(*a, **k):
-        raise AssertionError("computing started before the output was checked")
-
-    monkeypatch.setattr(output, "run_studies", fail)
+#: two friction curves (integrated, not closed form) of 41 points: a run long enough for a writer to act
+SLOW = "\n".join(SLOW4.replace("count: 81", "count: 41").splitlines()[:-2]) + "\n"
 
 
 def _cli(args: list[str], cwd: Path, **kw) -> subprocess.Popen:
@@ -89,7 +44,7 @@ def _cli(args: list[str], cwd: Path, **kw) -> subprocess.Popen:
 def test_files_added_to_the_results_folder_during_a_run_are_kept(tmp_path):
     """A real concurrent writer: while run-scenario computes, the user adds a file and a folder with a
     file to the results folder. They survive; the new result goes beside the folder, said so, exit 2."""
-    scn = _scn(tmp_path, SLOW)
+    scn = write_scenario(tmp_path, SLOW)
     out = tmp_path / "out"
     first = _cli([str(scn), "--out", str(out), *MONO], tmp_path)
     assert first.wait(timeout=600) == 0, first.stderr.read()
@@ -114,16 +69,16 @@ def test_files_added_to_the_results_folder_during_a_run_are_kept(tmp_path):
 
 
 def test_an_edited_result_file_is_never_overwritten(tmp_path, capsys):
-    scn = _scn(tmp_path)
+    scn = write_scenario(tmp_path)
     out = tmp_path / "out"
     assert main([str(scn), "--out", str(out), *MONO]) == 0
     with open(out / "frc.csv", "a") as fh:
         fh.write("my own line\n")
-    before = _snapshot(tmp_path)
+    before = snapshot(tmp_path)
     capsys.readouterr()
     assert main([str(scn), "--out", str(out), *MONO]) == 2
     assert "frc.csv (changed since run-scenario wrote it)" in capsys.readouterr().err
-    assert _snapshot(tmp_path) == before
+    assert snapshot(tmp_path) == before
 
 
 def test_a_result_of_another_scenario_file_with_the_same_name_is_not_replaced(tmp_path, capsys, no_computing):
@@ -141,15 +96,15 @@ def test_a_result_of_another_scenario_file_with_the_same_name_is_not_replaced(tm
         ".run-scenario.json",
         "run-scenario",
         kind="result",
-        scenario_file=str(_scn(a)),
+        scenario_file=str(write_scenario(a)),
         **inventory(out, ".run-scenario.json"),
     )
-    other = _scn(b)
-    before = _snapshot(tmp_path)
+    other = write_scenario(b)
+    before = snapshot(tmp_path)
     assert main([str(other), "--out", str(out), *MONO]) == 2
     err = capsys.readouterr().err
     assert "another scenario file" in err and str(a / "scn.yaml") in err
-    assert _snapshot(tmp_path) == before
+    assert snapshot(tmp_path) == before
 
 
 def test_reproduce_never_overwrites_a_users_files(tmp_path, capsys, monkeypatch):
@@ -166,7 +121,7 @@ def test_reproduce_never_overwrites_a_users_files(tmp_path, capsys, monkeypatch)
 
 
 def test_an_edited_checkpoint_is_computed_again_not_read_back(tmp_path, capsys):
-    scn = _scn(tmp_path, SLOW.replace("count: 41", "count: 5"))
+    scn = write_scenario(tmp_path, SLOW.replace("count: 41", "count: 5"))
     out = tmp_path / "out"
     assert main([str(scn), "--out", str(out), *MONO]) == 0
     truth = pd.read_csv(out / "frc.csv")
@@ -205,7 +160,7 @@ def test_the_checkpoint_key_covers_the_c_sources(tmp_path):
 
 @pytest.mark.parametrize("out", ["/", "//", "/tmp/.."])
 def test_out_at_the_root_is_refused_without_a_traceback(tmp_path, capsys, out, no_computing):
-    assert main([str(_scn(tmp_path)), "--out", out, *MONO]) == 2
+    assert main([str(write_scenario(tmp_path)), "--out", out, *MONO]) == 2
     err = capsys.readouterr().err
     assert "root folder" in err and "Traceback" not in err
 
@@ -213,7 +168,7 @@ def test_out_at_the_root_is_refused_without_a_traceback(tmp_path, capsys, out, n
 def test_cache_at_a_file_is_refused_before_computing(tmp_path, capsys, no_computing):
     f = tmp_path / "cachefile"
     f.write_text("x")
-    assert main([str(_scn(tmp_path)), "--out", str(tmp_path / "o"), "--cache", str(f), *MONO]) == 2
+    assert main([str(write_scenario(tmp_path)), "--out", str(tmp_path / "o"), "--cache", str(f), *MONO]) == 2
     assert "--cache" in capsys.readouterr().err and f.read_text() == "x"
 
 
@@ -224,7 +179,7 @@ def test_an_immutable_output_folder_is_refused_before_computing(tmp_path, capsys
     if subprocess.run(["chattr", "+i", str(out)], capture_output=True).returncode != 0:
         pytest.skip("the file system does not support chattr +i")
     try:
-        assert main([str(_scn(tmp_path)), "--out", str(out), *MONO]) == 2
+        assert main([str(write_scenario(tmp_path)), "--out", str(out), *MONO]) == 2
         assert "cannot write into" in capsys.readouterr().err
     finally:
         subprocess.run(["chattr", "-i", str(out)])
@@ -308,7 +263,7 @@ def test_optimise_json_replaces_only_its_own_unchanged_file(tmp_path, capsys):
 
 
 def test_a_rerun_served_from_checkpoints_says_so(tmp_path, capsys):
-    scn = _scn(tmp_path, SLOW.replace("count: 41", "count: 5"))
+    scn = write_scenario(tmp_path, SLOW.replace("count: 41", "count: 5"))
     out = tmp_path / "out"
     assert main([str(scn), "--out", str(out), *MONO]) == 0
     assert "read from the checkpoints" not in capsys.readouterr().out

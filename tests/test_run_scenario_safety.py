@@ -15,118 +15,65 @@ import os
 import signal
 import subprocess
 import sys
-import textwrap
 import time
 from pathlib import Path
 
 import pytest
+from _scenario_support import LINEAR, MONO, SLOW, snapshot, write_scenario
 
 from pyfmu_wrapper.cli.run_scenario import main
-from pyfmu_wrapper.scenario import outdir, output
-
-LINEAR = """\
-schema_version: 2
-name: tiny
-base: {mass: 100.0, stiffness: 40000.0, damping: 100.0, force_amplitude: 200.0}
-tmd: {case: 1, inerter: ideal, stiffness: 4000.0, damping: 10.0}
-frequencies: {start: 17.0, stop: 23.0, count: 5}
-studies:
-  - kind: frc
-    name: frc
-    curves:
-      - {label: "c = 10"}
-"""
-
-#: friction curves with the co-simulation: a few seconds per curve, several curves in parallel
-SLOW = """\
-schema_version: 2
-name: slow
-base: {mass: 100.0, stiffness: 40000.0, damping: 100.0, force_amplitude: 200.0}
-tmd: {case: 1, inerter: ideal, stiffness: 4000.0, damping: 0.0}
-frequencies: {start: 15.0, stop: 25.0, count: 81}
-studies:
-  - kind: frc
-    name: frc
-    curves:
-      - {label: "df = 10", tmd: {friction_force: 10.0}}
-      - {label: "df = 20", tmd: {friction_force: 20.0}}
-      - {label: "df = 30", tmd: {friction_force: 30.0}}
-      - {label: "df = 40", tmd: {friction_force: 40.0}}
-"""
-
-MONO = ["--quiet", "--engine", "monolithic", "--executor", "sequential"]
-
-
-def _scn(folder: Path, text=LINEAR, name="scn.yaml") -> Path:
-    p = folder / name
-    p.write_text(textwrap.dedent(text))
-    return p
-
-
-def _snapshot(folder: Path) -> dict:
-    """Every file under folder (hidden ones too) with its bytes."""
-    return {str(p.relative_to(folder)): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
-
-
-@pytest.fixture
-def no_computing(monkeypatch):
-    """Fail if anything is computed: the refusals must come first."""
-
-    def fail(*a, **k):
-        raise AssertionError("run_studies was called: the output folder was not checked before computing")
-
-    monkeypatch.setattr(output, "run_studies", fail)
+from pyfmu_wrapper.scenario import outdir
 
 
 def test_out_is_an_existing_file(tmp_path, capsys, no_computing):
-    scn = _scn(tmp_path)
+    scn = write_scenario(tmp_path)
     f = tmp_path / "existing.txt"
     f.write_text("my notes\n")
-    before = _snapshot(tmp_path)
+    before = snapshot(tmp_path)
     assert main([str(scn), "--out", str(f)] + MONO) == 2
     err = capsys.readouterr().err
     assert "existing.txt" in err and "not a folder" in err and "Traceback" not in err
-    assert _snapshot(tmp_path) == before  # the file and nothing else: no partial folder, no checkpoints
+    assert snapshot(tmp_path) == before  # the file and nothing else: no partial folder, no checkpoints
 
 
 def test_out_is_a_folder_of_user_files(tmp_path, capsys, no_computing):
-    scn = _scn(tmp_path)
+    scn = write_scenario(tmp_path)
     thesis = tmp_path / "thesis"
     thesis.mkdir()
     (thesis / "chapter1.tex").write_text("\\chapter{One}\n")
     (thesis / "measurements.csv").write_text("t,x\n0,1\n")
-    before = _snapshot(tmp_path)
+    before = snapshot(tmp_path)
     assert main([str(scn), "--out", str(thesis)] + MONO) == 2
     err = capsys.readouterr().err
     assert "chapter1.tex" in err and "measurements.csv" in err and "not a result of run-scenario" in err
-    assert _snapshot(tmp_path) == before
+    assert snapshot(tmp_path) == before
 
 
 @pytest.mark.parametrize("out", [".", "..", "sub/.."])
 def test_out_is_the_current_folder_or_a_parent(tmp_path, monkeypatch, capsys, no_computing, out):
     work = tmp_path / "work"
     (work / "sub").mkdir(parents=True)
-    _scn(work)
+    write_scenario(work)
     monkeypatch.chdir(work)
-    before = _snapshot(tmp_path)
+    before = snapshot(tmp_path)
     assert main(["scn.yaml", "--out", out] + MONO) == 2
     err = capsys.readouterr().err
     assert "refusing to replace" in err and "current folder" in err
-    assert _snapshot(tmp_path) == before
+    assert snapshot(tmp_path) == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["work"]  # no ..old-* or .partial-* beside it
 
 
 def test_out_is_the_folder_of_the_scenario_file(tmp_path, capsys, no_computing):
     (tmp_path / "scenarios").mkdir()
-    scn = _scn(tmp_path / "scenarios")
-    before = _snapshot(tmp_path)
+    scn = write_scenario(tmp_path / "scenarios")
+    before = snapshot(tmp_path)
     assert main([str(scn), "--out", str(scn.parent)] + MONO) == 2
     assert "scenario file" in capsys.readouterr().err
-    assert _snapshot(tmp_path) == before
+    assert snapshot(tmp_path) == before
 
 
 def test_own_result_is_replaced_atomically_and_user_files_in_it_are_kept(tmp_path, capsys):
-    scn = _scn(tmp_path)
+    scn = write_scenario(tmp_path)
     out = tmp_path / "out"
     assert main([str(scn), "--out", str(out)] + MONO) == 0
     first = json.loads((out / ".run-scenario.json").read_text())
@@ -139,24 +86,24 @@ def test_own_result_is_replaced_atomically_and_user_files_in_it_are_kept(tmp_pat
     assert sorted(p.name for p in tmp_path.iterdir()) == ["out", "scn.yaml"]  # no .old-*, no .partial-*
     # a file the user put into the result folder makes it no longer ours alone: refused, kept
     (out / "my_notes.txt").write_text("keep me\n")
-    before = _snapshot(tmp_path)
+    before = snapshot(tmp_path)
     capsys.readouterr()
     assert main([str(scn), "--out", str(out)] + MONO) == 2
     assert "my_notes.txt" in capsys.readouterr().err
-    assert _snapshot(tmp_path) == before
+    assert snapshot(tmp_path) == before
 
 
 def test_result_without_its_marker_is_no_longer_provably_ours(tmp_path, capsys):
     """A folder of result files without run-scenario's marker (or with an old marker that records no
     content hashes) cannot be told from files a user put there: refused, untouched."""
-    scn = _scn(tmp_path)
+    scn = write_scenario(tmp_path)
     out = tmp_path / "out"
     assert main([str(scn), "--out", str(out)] + MONO) == 0
     (out / ".run-scenario.json").unlink()
-    before = _snapshot(tmp_path)
+    before = snapshot(tmp_path)
     assert main([str(scn), "--out", str(out)] + MONO) == 2
     assert "not a result of run-scenario" in capsys.readouterr().err
-    assert _snapshot(tmp_path) == before
+    assert snapshot(tmp_path) == before
 
 
 def _dead_pid() -> int:
@@ -166,7 +113,7 @@ def _dead_pid() -> int:
 
 
 def test_stale_partial_folder_is_cleaned_or_reported(tmp_path, capsys):
-    scn = _scn(tmp_path)
+    scn = write_scenario(tmp_path)
     out = tmp_path / "out"
     ours = tmp_path / ".out.partial-123-abcd"
     ours.mkdir()
@@ -193,7 +140,7 @@ def test_stale_partial_folder_is_cleaned_or_reported(tmp_path, capsys):
 
 
 def test_live_partial_folder_of_another_run_is_refused(tmp_path, capsys, no_computing):
-    scn = _scn(tmp_path)
+    scn = write_scenario(tmp_path)
     out = tmp_path / "out"
     other = tmp_path / ".out.partial-1-abcd"
     other.mkdir()
@@ -221,7 +168,7 @@ def test_live_partial_folder_of_another_run_is_refused(tmp_path, capsys, no_comp
 def test_checkpoints_live_beside_their_own_output_folder(tmp_path, capsys):
     """<out>.checkpoints/<study>/ with a marker; two outputs in one parent never share checkpoints;
     nothing goes to <parent>/.cache/; a foreign folder of that name is refused."""
-    scn = _scn(
+    scn = write_scenario(
         tmp_path,
         LINEAR.replace(
             '      - {label: "c = 10"}', '      - {label: "df = 10", tmd: {damping: 0.0, friction_force: 10.0}}'
@@ -301,7 +248,7 @@ def _env() -> dict:
 
 
 def _start_slow_run(tmp_path):
-    scn = _scn(tmp_path, SLOW)
+    scn = write_scenario(tmp_path, SLOW)
     out = tmp_path / "out"
     log = open(tmp_path / "stderr.txt", "w")  # noqa: SIM115 - the child's stderr; the caller closes it
     cmd = [sys.executable, "-m", "pyfmu_wrapper.cli.run_scenario", str(scn), "--out", str(out), "--workers", "2"]
@@ -347,7 +294,7 @@ def test_sigkill_leaves_no_orphan_and_the_next_start_cleans_the_partial_folder(t
     assert not any(_alive(w) for w in workers), "orphan worker processes after SIGKILL"
     stale = list(tmp_path.glob(".out.partial-*"))
     assert len(stale) == 1  # what a SIGKILL leaves; cleaned on the next start
-    scn = _scn(tmp_path, LINEAR)  # the same output folder, a quick scenario
+    scn = write_scenario(tmp_path, LINEAR)  # the same output folder, a quick scenario
     assert main([str(scn), "--out", str(out)] + MONO) == 0
     assert f"removed {stale[0]}" in capsys.readouterr().err
     assert not stale[0].exists() and (out / "summary.json").is_file()
