@@ -282,7 +282,7 @@ def test_progress_lines_and_closing_lines_when_not_on_a_terminal(tmp_path):
 def test_progress_eta_is_the_speed_of_the_points_computed(monkeypatch):
     """ETA = points left x (time so far / points computed); points read back from checkpoints
     (skip) count as done but not in the speed. 50 skipped, 10 computed in 20 s, 40 left: 80 s."""
-    from pyfmu_wrapper.cli import run_scenario as rs
+    from pyfmu_wrapper.cli import progress as rs
 
     now = [1000.0]
     monkeypatch.setattr(rs.time, "monotonic", lambda: now[0])

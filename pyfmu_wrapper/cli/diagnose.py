@@ -13,7 +13,7 @@ import os
 from pathlib import Path
 
 from ..diagnose.outfolder import BENCHMARK_MARKER, DIAGNOSE_MARKER, ResultFolder, check_out_file, check_out_folder
-from ..diagnose.records import set_max_record_size
+from ..diagnose.record_checks import set_max_record_size
 from ..diagnose.run import flagged_lines, load_manifest, run_diagnosis
 from ..errors import InputError, set_max_input_size
 from .errors import cli_main

@@ -7,6 +7,7 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
+from .errors import DataError
 from .harmonic import estimate_omega
 
 if TYPE_CHECKING:
@@ -56,3 +57,41 @@ def declared_omega_problem(t: ndarray, s: ndarray, omega: float) -> tuple[str, s
         "(it is then estimated from the data)",
         None,
     )
+
+
+#: the largest record file read (bytes); ``diagnose --max-record-size MB`` raises it (:func:`set_max_record_size`)
+MAX_RECORD_BYTES = 2**30
+#: the longest line (on average) of a CSV record of numbers, in bytes
+MAX_LINE_BYTES = 4096
+
+
+def set_max_record_size(megabytes: float | None) -> None:
+    """Raise or lower :data:`MAX_RECORD_BYTES` (``--max-record-size MB``)."""
+    global MAX_RECORD_BYTES
+    if megabytes is None:
+        return
+    if not 0 < megabytes < 1e7:
+        raise DataError(f"--max-record-size {megabytes}: must be a size in MB, > 0")
+    MAX_RECORD_BYTES = int(megabytes * 2**20)
+
+
+def check_record_size(file: Path) -> int:
+    """The size of a record file in bytes, refused (DataError) above :data:`MAX_RECORD_BYTES` before a
+    byte of it is read."""
+    size = file.stat().st_size
+    if size > MAX_RECORD_BYTES:
+        raise DataError(
+            f"{file}: the record is {size / 2**20:,.0f} MB, more than the limit of {MAX_RECORD_BYTES / 2**20:,.0f} MB "
+            "for one record (600 s at 12.8 kHz with six channels is about 700 MB); if it really is that large, raise "
+            "the limit with --max-record-size MB"
+        )
+    return size
+
+
+def check_line_length(file: Path, size: int, n_rows: int) -> None:
+    """Refuse a file whose lines are far too long for a CSV record of numbers (a binary file)."""
+    if size > MAX_LINE_BYTES * (n_rows + 2):
+        raise DataError(
+            f"{file}: {size:,} bytes in {n_rows + 1:,} lines: lines of {size // (n_rows + 1):,} bytes on average are "
+            "not a CSV record of numbers (a binary file, or a file of NUL bytes?)"
+        )

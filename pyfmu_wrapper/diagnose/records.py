@@ -25,13 +25,10 @@ from .errors import DataError
 
 if TYPE_CHECKING:
     from collections.abc import Callable
-    from pathlib import Path
     from typing import Any
 
     from numpy import float64, ndarray
     from pandas import DataFrame, Index
-
-    from .errors import DataError
 
 REQUIRED = {
     "link": ["t", "displacement", "force"],
@@ -288,45 +285,18 @@ def _read_long(
     return kind, cols, (lo, hi), info
 
 
-#: the largest record file read (bytes); ``diagnose --max-record-size MB`` raises it (:func:`set_max_record_size`)
-MAX_RECORD_BYTES = 2**30
-#: the longest line (on average) of a CSV record of numbers, in bytes
-MAX_LINE_BYTES = 4096
-
-
-def set_max_record_size(megabytes: float | None) -> None:
-    """Raise or lower :data:`MAX_RECORD_BYTES` (``--max-record-size MB``)."""
-    global MAX_RECORD_BYTES
-    if megabytes is None:
-        return
-    if not 0 < megabytes < 1e7:
-        raise DataError(f"--max-record-size {megabytes}: must be a size in MB, > 0")
-    MAX_RECORD_BYTES = int(megabytes * 2**20)
-
-
 def read_record(file: Path, level: str, entry: dict | None = None, log: Callable = _stderr) -> Record:
     """Read and validate one CSV record (records longer than MAX_SAMPLES rows: see :func:`_read_long`)."""
     from ..errors import scan_utf8_lines
+    from .record_checks import check_line_length, check_record_size
 
     entry = entry or {}
     file = Path(file)
     if not file.is_file():
         raise _err(file, "file not found")
-    size = file.stat().st_size
-    if size > MAX_RECORD_BYTES:
-        raise _err(
-            file,
-            f"the record is {size / 2**20:,.0f} MB, more than the limit of {MAX_RECORD_BYTES / 2**20:,.0f} MB for one "
-            "record (600 s at 12.8 kHz with six channels is about 700 MB); if it really is that large, raise the "
-            "limit with --max-record-size MB",
-        )
+    size = check_record_size(file)
     n_rows = max(scan_utf8_lines(file, error=DataError) - 1, 0)  # header excluded (comments counted)
-    if size > MAX_LINE_BYTES * (n_rows + 2):
-        raise _err(
-            file,
-            f"{size:,} bytes in {n_rows + 1:,} lines: lines of {size // (n_rows + 1):,} bytes on average are not a "
-            "CSV record of numbers (a binary file, or a file of NUL bytes?)",
-        )
+    check_line_length(file, size, n_rows)
     reduced = None
     if n_rows <= MAX_SAMPLES:
         df = _read_csv(file)

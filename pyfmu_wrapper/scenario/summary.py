@@ -117,8 +117,9 @@ def _reason_lines(name: str, t: Any, most: int = 3) -> list[str]:
     if "reason" not in t:
         return []
     by: dict[str, list[float]] = {}
-    for w, r, c in zip(t["omega"], t["reason"], t["converged"]):
-        if not bool(c) and isinstance(r, str) and r:
+    irr = t["irregular"].fillna(False).astype(bool) if "irregular" in t else [False] * len(t)
+    for w, r, c, i in zip(t["omega"], t["reason"], t["converged"], irr):
+        if not bool(c) and not i and isinstance(r, str) and r:  # (an irregular point's scatter is said already)
             by.setdefault(r, []).append(float(w))
     out = [
         f"{name}: not converged at {_w(min(ws))}" + (f"-{_w(max(ws))}" if len(ws) > 1 else "") + f" rad/s because {r}"
