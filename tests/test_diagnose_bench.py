@@ -279,7 +279,9 @@ def test_make_benchmark_refuses_to_overwrite_foreign_files(tmp_path, capsys):
 
     (tmp_path / "notes.txt").write_text("mine")
     assert status(main_make_benchmark, ["--out", str(tmp_path), "-n", "3"]) == 2
-    assert "not empty" in capsys.readouterr().err and sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+    assert "non-empty folder that is not a result of make-benchmark" in capsys.readouterr().err and sorted(
+        p.name for p in tmp_path.iterdir()
+    ) == ["notes.txt"]
     assert status(main_make_benchmark, ["--out", str(tmp_path / "b"), "-n", "0"]) == 2
     assert not (tmp_path / "b").exists()
 

@@ -407,17 +407,17 @@ CASES = [
     (
         "diagnose-out-is-file",
         lambda tmp: ["diagnose", link_dataset(tmp), "--out", a_file(tmp)],
-        r"--out .*existing\.txt: is a file, not a folder",
+        r"--out .*existing\.txt: .*existing\.txt exists and is not a folder; refusing to replace it",
     ),
     (
         "diagnose-out-foreign-folder",
         lambda tmp: ["diagnose", link_dataset(tmp), "--out", foreign_folder(tmp)],
-        r"--out .*thesis: the folder is not empty and is not a previous diagnose result",
+        r"--out .*thesis: .*thesis is a non-empty folder that is not a result of diagnose \(it holds chapter1\.tex\)",
     ),
     (
         "diagnose-out-is-dataset",
         lambda tmp: ["diagnose", link_dataset(tmp), "--out", str(tmp / "ds")],
-        r"--out .*ds: the folder is not empty and is not a previous diagnose result",
+        r"--out .*ds: .*ds is a non-empty folder that is not a result of diagnose \(it holds dataset\.yaml",
     ),
     # make-benchmark
     (
@@ -438,12 +438,12 @@ CASES = [
     (
         "make-benchmark-out-file",
         lambda tmp: ["make-benchmark", "-n", "1", "--out", a_file(tmp)],
-        r"existing\.txt: is a file",
+        r"existing\.txt exists and is not a folder",
     ),
     (
         "make-benchmark-out-foreign",
         lambda tmp: ["make-benchmark", "-n", "1", "--out", foreign_folder(tmp)],
-        r"thesis: the folder is not empty and is not a previous make-benchmark result",
+        r"thesis is a non-empty folder that is not a result of make-benchmark",
     ),
     # score
     ("score-no-manifest", lambda tmp: ["score", foreign_folder(tmp)], r"thesis/manifest\.json: file not found"),

@@ -117,7 +117,7 @@ def test_compiled_loop_stops_with_the_fmus_own_message():
     and stays at the start of the failed step."""
     tmd = TMDParams(friction_force=10.0)
     for compiled in (False, True):
-        m = make_master(BASE, tmd, "loop", 0, coupling="impulse")  # order 0: no start-up steps in Python
+        m = make_master(BASE, tmd, "loop", 0, coupling="impulse", fmu_build="python")  # order 0: no Python start-up
         m.compiled = compiled
         try:
             p = fmu_parameters(BASE, tmd, 20.0, initial_guess(BASE, tmd, 20.0), fmu_rtol=1e-30)
