@@ -308,3 +308,23 @@ def test_diagnose_refuses_inputs_that_exhausted_memory(tmp_path, case):
     assert "Traceback" not in err and len(err.strip().splitlines()) == 1
     assert peak < 500, f"{peak:.0f} MB"
     assert not (tmp_path / "out").exists()
+
+
+def test_build_fmus_keeps_a_file_that_appears_at_its_target_while_it_builds(tmp_path, monkeypatch):
+    """The FMU is written beside its target and put in place only if what is there then is an FMU of
+    build-fmus: a user's file that appeared meanwhile is kept, the new FMU goes beside it (exit 2)."""
+    from pyfmu_wrapper.fmi import build
+    from pyfmu_wrapper.safeio import Diverted
+
+    out = tmp_path / "fmus"
+    real = build._write_archive
+
+    def write_then_user_file(part, spec, *a, **k):
+        real(part, spec, *a, **k)
+        (out / f"{spec.model_identifier}.fmu").write_text("my own file\n")  # the user, during the build
+
+    monkeypatch.setattr(build, "_write_archive", write_then_user_file)
+    with pytest.raises(Diverted) as err:
+        build.build_fmu("BaseOscillator", out)
+    assert (out / "BaseOscillator.fmu").read_text() == "my own file\n"
+    assert err.value.path.exists() and build.fmu_source_hash(err.value.path) is not None

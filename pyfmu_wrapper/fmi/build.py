@@ -45,6 +45,7 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from ..safeio.files import replace_checked
 from .buildinfo import BuildError, version_of
 from .bundle import PACKAGE_DIR, bundle_hash, bundle_package, bundled_files, model_py
 from .contract import c_header
@@ -256,7 +257,7 @@ def build_fmu(
         except BaseException:
             part.unlink(missing_ok=True)  # ours: never left behind
             raise
-        os.replace(part, target)
+        replace_checked(part, target, lambda f: fmu_source_hash(f) is not None, "build-fmus")
     return target
 
 

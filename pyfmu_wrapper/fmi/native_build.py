@@ -25,7 +25,8 @@ import zipfile
 from collections.abc import Iterable
 from pathlib import Path
 
-from .build import DEFAULT_OUT, STUB_DIR, check_output, fmi_headers_dir, fmi_out_dir, source_hash
+from ..safeio.files import replace_checked
+from .build import DEFAULT_OUT, STUB_DIR, check_output, fmi_headers_dir, fmi_out_dir, fmu_source_hash, source_hash
 from .buildinfo import BuildError
 from .contract import c_header
 from .documentation import documentation_html
@@ -232,7 +233,7 @@ def build_native_fmus(
             except BaseException:
                 part.unlink(missing_ok=True)
                 raise
-            os.replace(part, target)
+            replace_checked(part, target, lambda f: fmu_source_hash(f) is not None, "build-fmus")
             built.append(target)
     return built
 
@@ -243,7 +244,6 @@ def ensure_native_fmus(
     fmi_version: int = 2,
 ) -> dict[str, Path]:
     """Paths of the native FMUs, building those missing or stale (FMI 3.0 ones in ``out_dir/fmi3``)."""
-    from .build import fmu_source_hash
 
     d = fmi_out_dir(out_dir, fmi_version)
     nhash = native_hash()

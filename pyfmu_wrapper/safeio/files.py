@@ -14,9 +14,10 @@ import contextlib
 import json
 import os
 import tempfile
+from collections.abc import Callable
 from pathlib import Path
 
-from .tree import OutputError, abs_path, read_marker, sha256_file, stamp
+from .tree import Diverted, OutputError, abs_path, read_marker, sha256_file, stamp
 
 
 class OwnedFiles:
@@ -118,3 +119,19 @@ def _umask() -> int:
     u = os.umask(0)
     os.umask(u)
     return u
+
+
+def replace_checked(part: Path, target: Path, ours: Callable[[Path], bool], tool: str) -> Path:
+    """Put a finished file (``part``, beside ``target``) at ``target``, checking again, just before,
+    that whatever is at ``target`` is the tool's own (``ours``, e.g. an FMU carrying the tool's
+    source hash): if something else appeared there while the tool worked, it is left as it is, the
+    new file goes beside it (``<stem>.new-<time><suffix>``) and :class:`Diverted` says where."""
+    if (target.exists() or target.is_symlink()) and (target.is_symlink() or not target.is_file() or not ours(target)):
+        beside = target.with_name(f"{target.stem}.new-{stamp()}{target.suffix}")
+        os.replace(part, beside)
+        raise Diverted(
+            f"{target} appeared while {tool} ran and was not written by it: left as it is; the new file is {beside}",
+            beside,
+        )
+    os.replace(part, target)
+    return target
