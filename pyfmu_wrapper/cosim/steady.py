@@ -49,6 +49,21 @@ __all__ = ["CosimSteadyState", "continuation_start", "periodic_time_series", "st
 MAX_DOUBLINGS = 3
 
 
+def _no_result(base: BaseParams, tmd: TMDParams, omega: float, z0: ArrayLike | None) -> CosimSteadyState:
+    """A point with no steady state: no amplitude, not converged, the start state it would have used."""
+    z = initial_guess(base, tmd, omega) if z0 is None else np.array(z0, dtype=float)
+    return CosimSteadyState(
+        omega=float(omega),
+        amplitude=math.nan,
+        state=z,
+        periods=0,
+        converged=False,
+        change=math.nan,
+        steps=0,
+        wall_time=0.0,
+    )
+
+
 def steady_state(
     master: Master,
     base: BaseParams,
@@ -77,18 +92,7 @@ def steady_state(
     cap = int(settings.max_steps_per_period)
     choice = choose_steps(base, tmd, omega, settings.steps_for(tmd), cap, fixed)
     if choice.refused is not None:
-        z = initial_guess(base, tmd, omega) if z0 is None else np.array(z0, dtype=float)
-        return CosimSteadyState(
-            omega=float(omega),
-            amplitude=math.nan,
-            state=z,
-            periods=0,
-            converged=False,
-            change=math.nan,
-            steps=0,
-            wall_time=time.perf_counter() - t_start,
-            reason=choice.refused,
-        )
+        return replace(_no_result(base, tmd, omega, z0), wall_time=time.perf_counter() - t_start, reason=choice.refused)
     n = choice.steps
     tol = settings.coupling_tolerance(tmd)
     mode = check_mode(base, tmd, settings)
@@ -135,17 +139,7 @@ def steady_state(
         z0 = z0 if ss is None else ss.state
         n *= 2
     if ss is None:
-        z = initial_guess(base, tmd, omega) if z0 is None else np.array(z0, dtype=float)
-        ss = CosimSteadyState(
-            omega=float(omega),
-            amplitude=math.nan,
-            state=z,
-            periods=0,
-            converged=False,
-            change=math.nan,
-            steps=0,
-            wall_time=0.0,
-        )
+        ss = _no_result(base, tmd, omega, z0)
     reason = ss.reason or problem
     if problem and not ss.reason and ss.steps_per_period:
         limit = "a fixed steps_per_period" if fixed else f"max_steps_per_period = {cap} or {MAX_DOUBLINGS} doublings"

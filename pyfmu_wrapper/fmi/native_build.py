@@ -1,4 +1,4 @@
-"""Build native FMUs: the model's compiled functions linked into the stub, no Python on the target (issue 30).
+"""Build native FMUs: the model's compiled functions linked into the stub, no Python on the target.
 
 ``build-fmus --native`` / :func:`build_native_fmus`. The stub's core (``fmu/src/*.c`` but
 ``py_embed.c`` and ``py_config.c``) is compiled with ``fmu/src/native/native_embed.c`` in their

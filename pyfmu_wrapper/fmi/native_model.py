@@ -1,4 +1,4 @@
-"""The model functions a native FMU needs besides its step (:mod:`.native`), as numba cfuncs (issue 30).
+"""The model functions a native FMU needs besides its step (:mod:`.native`), as numba cfuncs.
 
 A native FMU (:mod:`.native_build`) runs with no Python: its stub calls these compiled functions
 where the Python-hosted FMU calls its slave (:mod:`.slaves`). Each computes what the slave computes,

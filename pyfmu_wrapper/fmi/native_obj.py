@@ -1,4 +1,4 @@
-"""Object code of the compiled model functions, per target (the native FMUs of issue 30).
+"""Object code of the compiled model functions, per target (the native FMUs).
 
 The numba source of truth (:mod:`.native`: the step cfuncs, which call the same compiled integrators
 and outputs as the Python slaves) is compiled by numba to LLVM IR; llvmlite turns that IR into an
