@@ -25,6 +25,7 @@ import pytest
 from _fmu_support import damped_forced_response, guid
 
 from pyfmu_wrapper.fmi.build import REPO_ROOT, build_fmus, fmi_headers_dir
+from pyfmu_wrapper.fmi.elfpath import run_paths
 from pyfmu_wrapper.fmi.standalone import runtime_config, runtime_files
 
 PAIR_SOURCE = Path(__file__).parent / "c_host" / "fmu_pair.c"
@@ -50,6 +51,17 @@ def test_runtime_holds_libpython_stdlib_and_packages(tmp_path):
     assert any(a.endswith("/libllvmlite.so") for a in files)
     # byte code compiled at build time for every bundled module
     assert f"{std}__pycache__/os.{sys.implementation.cache_tag}.pyc" in files
+    # no path of the build machine in any bundled ELF: run paths only relative to the file ($ORIGIN)
+    elf = [(a, src) for a, src in files.items() if ".so" in a.rsplit("/", 1)[-1]]
+    assert len(elf) > 50
+    for arc, src in elf:
+        d = subprocess.run(["readelf", "-d", str(src)], capture_output=True, text=True).stdout
+        for line in d.splitlines():
+            if "RUNPATH" in line or "RPATH" in line:
+                for part in line.split("[", 1)[1].rstrip("]").split(":"):
+                    assert part.startswith("$ORIGIN") or not part, (arc, line)
+    lib = Path(files[cfg["runtime_libpython"]])
+    assert "/root/" not in " ".join(run_paths(lib)) and sys.base_prefix not in " ".join(run_paths(lib))
 
 
 @pytest.fixture(scope="module")
@@ -265,3 +277,30 @@ def test_missing_bundled_runtime_is_named_in_the_error(tmp_path):
     ]
     pos = [msg.find(o) for o in order]
     assert all(p >= 0 for p in pos) and pos == sorted(pos), msg[-3000:]
+
+
+@pytest.mark.slow
+def test_missing_system_library_is_named_with_the_interpreter(standalone):
+    """A target without libffi (simulated: the runtime's _ctypes module removed, which is what a
+    missing libffi.so.8 makes of it): instantiation fails with a message naming the missing system
+    library, its package and the bundled interpreter (not an empty name, "(, 3.11.7)")."""
+    root, dirs, exe, home = standalone
+    moved = []
+    try:
+        for d in dirs.values():
+            for so in (d / "resources" / "python" / "lib").glob("python3*/lib-dynload/_ctypes.*.so"):
+                so.rename(so.with_suffix(".off"))
+                moved.append(so)
+        b, t = dirs["BaseOscillator"], dirs["TMDInerter"]
+        cmd = ["env", "-i", "PATH=/usr/bin:/bin", f"HOME={home}", str(exe), "0.01", "0.001"]
+        r = subprocess.run(
+            [*cmd, str(b), guid(b), str(t), guid(t)], capture_output=True, text=True, cwd=root, timeout=900
+        )
+    finally:
+        for so in moved:
+            so.with_suffix(".off").rename(so)
+    assert moved and r.returncode != 0
+    assert "the system library libffi.so.8 is missing (Debian/Ubuntu package libffi8" in r.stderr, r.stderr[-3000:]
+    ver = f"{sys.version_info[0]}.{sys.version_info[1]}"
+    assert f"/resources/python/bin/python{ver}, {sys.version.split()[0]})" in r.stderr, r.stderr[-3000:]
+    assert "(, " not in r.stderr

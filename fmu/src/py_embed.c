@@ -46,12 +46,30 @@ static void *g_lib = NULL; /* the libpython this stub dlopened (NULL: the host's
     "        if not digits: break\n"                                                             \
     "        out.append(int(digits))\n"                                                              \
     "    return tuple(out)\n"                                                                        \
+    "_SYSLIBS = (('libffi.so.8', 'libffi8'), ('libstdc++.so.6', 'libstdc++6'), ('libgcc_s.so.1', 'libgcc-s1'),\n" \
+    "            ('libz.so.1', 'zlib1g'))\n"                                                        \
+    "def _syslibs():\n"                                                                             \
+    "    try:\n"                                                                                     \
+    "        import ctypes\n"                                                                        \
+    "    except ImportError as e:\n"                                                                 \
+    "        return ['the system library libffi.so.8 is missing (Debian/Ubuntu package libffi8; %s)' % e]\n" \
+    "    out = []\n"                                                                                 \
+    "    for lib, pkg in _SYSLIBS[1:]:\n"                                                            \
+    "        try:\n"                                                                                 \
+    "            ctypes.CDLL(lib)\n"                                                                 \
+    "        except OSError:\n"                                                                      \
+    "            out.append('the system library %s is missing (Debian/Ubuntu package %s)' % (lib, pkg))\n" \
+    "    return out\n"                                                                               \
+    "def _exe():\n"                                                                                  \
+    "    import os, sys\n"                                                                           \
+    "    return sys.executable or os.path.join(sys.base_prefix, 'bin', 'python%d.%d' % sys.version_info[:2])\n" \
     "def _fit(requires, min_python):\n"                                                              \
     "    import sys, re, importlib, importlib.metadata as md\n"                                      \
     "    why = []\n"                                                                                 \
     "    if min_python and sys.version_info[:2] < _vt(min_python):\n"                                \
     "        why.append('Python %d.%d is older than %s' % (sys.version_info[0], sys.version_info[1], min_python))\n" \
     "        return why\n"                                                                           \
+    "    why += _syslibs()\n"                                                                        \
     "    for req in requires.split():\n"                                                             \
     "        name = re.match(r'[A-Za-z0-9_.-]+', req).group(0)\n"                                    \
     "        try:\n"                                                                                 \
@@ -105,7 +123,7 @@ const char *BOOTSTRAP =
     "        raise FmuEnvironmentError('the Python running this FMU (%s, %s) cannot run its model: %s. '\n"
     "            'Install what it needs into that Python: %s -m pip install %s '\n"
     "            '(see documentation/index.html in the FMU)'\n"
-    "            % (sys.executable, sys.version.split()[0], '; '.join(why), sys.executable,\n"
+    "            % (_exe(), sys.version.split()[0], '; '.join(why), _exe(),\n"
     "               ' '.join('\"%s\"' % r for r in requires.split())))\n"
     "    spec = importlib.util.spec_from_file_location(modname, model_file)\n"
     "    mod = importlib.util.module_from_spec(spec)\n"

@@ -27,6 +27,17 @@ NATIVE_MAX_STEP = 1.0
 NATIVE_OK = 0x4F4B
 #: A doStep fails when it needs more integrator steps than this (bounded cost of any doStep).
 MAX_INTEGRATOR_STEPS = 200_000
+#: Why a native step failed, written after the state in its ``backup`` array (:func:`backup_size`):
+#: a state not finite, the integrator's two failures (1 + its status: step size underflow, its cap
+#: of steps per call), more than :data:`MAX_INTEGRATOR_STEPS` integrator steps in one doStep.
+FAIL_NOT_FINITE, FAIL_UNDERFLOW, FAIL_CAP, FAIL_BUDGET = 1, 2, 3, 4
+
+
+def backup_size(n_state: int) -> int:
+    """Length of a native step's ``backup`` array: z and the 4 integrator counters at the start of the
+    step (put back when it fails or raises), then the failure code, the time reached and the state there."""
+    return 2 * n_state + 6
+
 
 #: The log categories of the FMUs: listed in both model descriptions, the only ones
 #: fmi2SetDebugLogging / fmi3SetDebugLogging accept, and the only ones the stub logs under.
@@ -38,6 +49,11 @@ C_CONSTANTS = {
     "PYFMU_TIME_SLACK": repr(float(TIME_SLACK)),
     "PYFMU_NATIVE_MAX_STEP": repr(float(NATIVE_MAX_STEP)),
     "PYFMU_NATIVE_OK": hex(NATIVE_OK),
+    "PYFMU_MAX_INTEGRATOR_STEPS": str(MAX_INTEGRATOR_STEPS),
+    "PYFMU_FAIL_NOT_FINITE": str(FAIL_NOT_FINITE),
+    "PYFMU_FAIL_UNDERFLOW": str(FAIL_UNDERFLOW),
+    "PYFMU_FAIL_CAP": str(FAIL_CAP),
+    "PYFMU_FAIL_BUDGET": str(FAIL_BUDGET),
     "PYFMU_LOG_CATEGORIES": "{" + ", ".join(f'"{c}"' for c in LOG_CATEGORIES) + "}",
     "PYFMU_N_LOG_CATEGORIES": str(len(LOG_CATEGORIES)),
 }

@@ -15,10 +15,15 @@ C signature (all pointers to the slave's own arrays, which keep their address fo
                double t, double h)
 
 Returns :data:`NATIVE_OK` on success, 1 to ask the stub for the Python path: ``debug_raise`` is
-set (the Python slave raises with a traceback), or the integration failed (step size underflow, or
-more than :data:`~.contract.MAX_INTEGRATOR_STEPS` steps): the state is put back to the start of the
-step and the Python slave retakes it, which fails the same way and reports where the integrator
-stopped, why, the state and its mode (:func:`~pyfmu_wrapper.solvers.rodas.failure_message`).
+set (the Python slave raises with a traceback), or the step failed (a state not finite, a step
+size underflow, more than :data:`~.contract.MAX_INTEGRATOR_STEPS` steps in one call or in one
+doStep): the state is put back to the start of the step and the tail of ``backup`` says why
+(:data:`~.contract.FAIL_NOT_FINITE` ... :data:`~.contract.FAIL_BUDGET`), the time reached and the state there, which a
+native FMU's stub turns into its message; the Python-hosted FMU retakes the step in Python, which
+fails the same way and names it (:func:`~pyfmu_wrapper.solvers.rodas.failure_message`).
+
+A step longer than :data:`~.slave.CHUNK` is taken in pieces exactly as the Python slave takes it
+(:meth:`~.slaves.TMDInerterSlave.advance`), so a native FMU takes steps of any length.
 
 An exception inside the compiled code (e.g. a ZeroDivisionError) cannot leave a ``cfunc``: numba
 prints it to stderr and the function returns 0, the null value of its return type. That is why
@@ -32,6 +37,7 @@ the FMI logger. ``debug_raise`` = 2 raises inside the compiled step (a test of t
 from __future__ import annotations
 
 import functools
+import math
 from typing import Any
 
 import numpy as np
@@ -41,7 +47,8 @@ from numpy.typing import NDArray
 from .._jit import njit
 from ..physics import kernels as kn
 from ..physics.params import N_PARAMS, P_s
-from .contract import MAX_INTEGRATOR_STEPS, NATIVE_OK
+from ..solvers.rodas import STAT_STEPS
+from .contract import FAIL_BUDGET, FAIL_NOT_FINITE, MAX_INTEGRATOR_STEPS, NATIVE_MAX_STEP, NATIVE_OK, backup_size
 from .integrators import BASE_U_SIZE, advance_base, fill_atol, integrate_tmd
 from .outputs import BASE_OUT_INT, BASE_OUT_VR, TMD_OUT_INT, TMD_OUT_VR, base_outputs, tmd_outputs
 from .variables import BASE_OSCILLATOR, TMD_INERTER
@@ -74,6 +81,20 @@ T_X, T_XD, T_XDD = (TMD_INERTER.vr(n) for n in ("x", "xd", "xdd"))
 T_RTOL, T_ATOL, T_DEBUG = (TMD_INERTER.vr(n) for n in ("rtol", "atol", "debug_raise"))
 SYS_BASE, SYS_TMD, U_KAPPA = kn.SYS_BASE, kn.SYS_TMD, kn.U_KAPPA
 MAX_STEPS = MAX_INTEGRATOR_STEPS
+CHUNK = NATIVE_MAX_STEP
+B_BACKUP, T_BACKUP = backup_size(2), backup_size(4)
+
+
+@njit(cache=True)
+def record_failure(backup: NDArray[np.float64], z: NDArray[np.float64], code: int, tf: float) -> None:
+    """The tail of ``backup`` after a failed step: its code, the time reached, the state there; then z
+    is put back to the start of the step (the head of ``backup``)."""
+    n = z.shape[0]
+    backup[n + 4] = code
+    backup[n + 5] = tf
+    for i in range(n):
+        backup[n + 6 + i] = z[i]
+        z[i] = backup[i]
 
 
 @njit(cache=True)
@@ -120,7 +141,8 @@ def base_step() -> Any:
         stats = carray(stats_p, (4,))
         th = carray(th_p, (2,))
         u = carray(u_p, (BASE_U_SIZE,))  # the input polynomial, then the exact step's cache
-        backup = carray(backup_p, (2 + 4,))
+        backup = carray(backup_p, (B_BACKUP,))
+        backup[2 + 4] = 0.0
         for i in range(2):
             backup[i] = z[i]
         for i in range(4):
@@ -133,7 +155,9 @@ def base_step() -> Any:
         u[1] = reals[B_FLINK]
         u[2] = derivs[2 * B_FLINK]
         u[3] = derivs[2 * B_FLINK + 1]
-        if advance_base(z, t, h, p, u, stats) != 0:  # not finite: the Python path retakes it and says so
+        if advance_base(z, t, h, p, u, stats) != 0:  # not finite: z is at the start of the step
+            backup[2 + 4] = FAIL_NOT_FINITE
+            backup[2 + 5] = t + h
             return 1
         th[1] = h
         t1 = t + h
@@ -176,7 +200,8 @@ def tmd_step() -> Any:
         th = carray(th_p, (2,))
         u = carray(u_p, (U_KAPPA + 1,))  # u[U_KAPPA]: the mounting compliance, set by configure
         atol = carray(atol_p, (4,))
-        backup = carray(backup_p, (4 + 4,))
+        backup = carray(backup_p, (T_BACKUP,))
+        backup[4 + 4] = 0.0
         for i in range(4):
             backup[i] = z[i]
         for i in range(4):
@@ -197,13 +222,21 @@ def tmd_step() -> Any:
         u[9] = derivs[2 * T_XDD + 1]
         fill_atol(SYS_TMD, reals[T_ATOL], p, atol)
         band = 1.0 / p[P_s] if p[P_s] > 0 else 1e-6
-        z0, z1, z2, z3 = z[0], z[1], z[2], z[3]
-        hn, _, status, _ = integrate_tmd(
-            z, t, t + h, p, u, reals[T_RTOL], atol, th[1], h, np.zeros(0), np.zeros((0, 4)), band, stats, MAX_STEPS
-        )
-        if status != 0:  # back to the start of the step: the Python path retakes it and names the failure
-            z[0], z[1], z[2], z[3] = z0, z1, z2, z3
-            return 1
+        n = 1 if h <= CHUNK else int(math.ceil(h / CHUNK))  # long steps in pieces, as the Python slave
+        start = stats[STAT_STEPS]
+        hn = th[1]
+        no_t, no_s = np.zeros(0), np.zeros((0, 4))
+        for k in range(n):
+            a, b = (t, t + h) if n == 1 else (t + h * k / n, (t + h if k == n - 1 else t + h * (k + 1) / n))
+            hn, _, status, tf = integrate_tmd(
+                z, a, b, p, u, reals[T_RTOL], atol, hn, h if n == 1 else b - a, no_t, no_s, band, stats, MAX_STEPS
+            )
+            if status != 0:  # back to the start of the step, with why, when and where it stopped
+                record_failure(backup, z, 1 + status, tf)
+                return 1
+            if stats[STAT_STEPS] - start > MAX_STEPS:
+                record_failure(backup, z, FAIL_BUDGET, b)
+                return 1
         th[1] = hn
         t1 = t + h
         th[0] = t1

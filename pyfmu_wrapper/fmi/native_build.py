@@ -28,7 +28,7 @@ from pathlib import Path
 from ..safeio.files import replace_checked
 from .build import DEFAULT_OUT, STUB_DIR, check_output, fmi_headers_dir, fmi_out_dir, fmu_source_hash, source_hash
 from .buildinfo import BuildError
-from .contract import c_header
+from .contract import MAX_INTEGRATOR_STEPS, c_header
 from .documentation import documentation_html
 from .integrators import BASE_U_SIZE
 from .model_description import guid_of, model_description_xml, variable_table_tsv
@@ -48,14 +48,30 @@ PLATFORM_DIR = {(2, p): f"binaries/{p}" for p in PLATFORM3} | {(3, p): f"binarie
 SUFFIX = {"linux64": ".so", "win64": ".dll"}
 
 
+def failure_reasons() -> tuple[str, ...]:
+    """Why a native step failed, by its code (:data:`~.contract.FAIL_NOT_FINITE` ...), in the words
+    of the Python-hosted FMU's messages."""
+    from ..solvers.rodas import STEP_CAP, STEP_UNDERFLOW, failure_reason
+
+    return (
+        "",
+        "the state is not finite at its end",
+        failure_reason(STEP_UNDERFLOW, MAX_INTEGRATOR_STEPS),
+        failure_reason(STEP_CAP, MAX_INTEGRATOR_STEPS),
+        f"it needs more than {MAX_INTEGRATOR_STEPS} integrator steps; use shorter communication steps",
+    )
+
+
 def model_header(spec: FmuSpec) -> str:
     """pyfmu_native_model.h: the table native_embed.c needs of one model, from its declaration."""
     from ..physics import kernels as kn
+    from ..physics import models
     from ..physics.params import N_PARAMS
 
     nvr = max(v.vr for v in spec.variables) + 1
     is_tmd = spec.model_identifier == "TMDInerter"
     nstate = 4 if is_tmd else 2
+    state_names = (models.TMD if is_tmd else models.BASE).state_names
     inputs = [v for v in spec.variables if v.causality == "input"]
     outs = [v for v in spec.variables if v.causality == "output"]
     starts = [v for v in spec.variables if v.start is not None]
@@ -94,7 +110,8 @@ def model_header(spec: FmuSpec) -> str:
         f'static const char NM_KIND[] = "{"".join(kind)}";',
         f"#define NM_RTOL_VR {names.get('rtol', -1)}",
         f"#define NM_DEBUG_VR {names.get('debug_raise', -1)}",
-        f"#define NM_LONG_STEPS {0 if is_tmd else 1}",
+        "static const char *const NM_STATE_NAMES[] = {" + ", ".join(f'"{n}"' for n in state_names) + "};",
+        "static const char *const NM_FAIL_WHY[] = {" + ", ".join(f'"{w}"' for w in failure_reasons()) + "};",
         f"#define NM_NCHECKS {len(checks)}",
         "static const char *const NM_CHECKS[] = {" + (", ".join(f'"{c}"' for c in checks) or '""') + "};",
         f"#define NM_VR_MASS {names['m'] if is_tmd else 0}",

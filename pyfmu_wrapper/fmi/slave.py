@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 from ..physics import kernels as kn
 from ..physics import registry
 from ..physics.params import N_PARAMS
-from .contract import NATIVE_MAX_STEP
+from .contract import NATIVE_MAX_STEP, backup_size
 from .varspec import BOOLEAN, INTEGER, FmuSpec
 
 OK, WARNING, ERROR, FATAL = 0, 1, 3, 4
@@ -118,7 +118,7 @@ class Slave:
             return b""
         self._native_ref = step  # keep the compiled function alive with the slave
         # z and the integrator counters at the start of the native step (put back if it raised)
-        self._native_backup = np.zeros(self.n_state + self.stats.size)
+        self._native_backup = np.zeros(backup_size(self.n_state))
         arrays = (self.z, self.p, self.stats, self._th, self._u, self._atol, self._native_backup)
         return np.array([step.address] + [a.ctypes.data for a in arrays], dtype=np.uint64).tobytes()
 
@@ -128,7 +128,7 @@ class Slave:
         counters back to where the step started, so the Python path retakes the same step."""
         b = self._native_backup
         self.z[:] = b[: self.n_state]
-        self.stats[:] = b[self.n_state :].astype(np.int64)
+        self.stats[:] = b[self.n_state : self.n_state + self.stats.size].astype(np.int64)
 
     def _native_step(self) -> Any:
         return None

@@ -27,6 +27,7 @@ import sysconfig
 from pathlib import Path
 
 from .buildinfo import BuildError, version_of
+from .elfpath import run_paths, set_run_path
 
 #: Distributions bundled into a standalone FMU (with what they import at run time: numba needs
 #: numpy and llvmlite; llvmlite's libllvmlite.so and numpy's numpy.libs are in their file lists).
@@ -137,7 +138,25 @@ def runtime_files(pyc_dir: Path) -> list[tuple[Path, str]]:
             if "tests" in f.parts[1:-1]:
                 continue
             _pyc(src, f"{pre}/site-packages/{f.as_posix()}", pyc_dir, out)
-    return out
+    return [_relocated(src, arc, pyc_dir) for src, arc in out]
+
+
+def _relocated(src: Path, arc: str, pyc_dir: Path) -> tuple[Path, str]:
+    """(src, arc), or a copy of src whose run path names the bundled runtime's ``lib`` folder relative
+    to the file (``$ORIGIN/...``) instead of the build interpreter's folders (:mod:`.elfpath`)."""
+    if ".so" not in src.name:
+        return src, arc
+    paths = run_paths(src)
+    if not paths or all(p.startswith("$ORIGIN") for path in paths for p in path.split(":") if p):
+        return src, arc
+    up = arc.count("/") - f"{RUNTIME_DIR}/lib/x".count("/")
+    rel = "/".join(["$ORIGIN", *[".."] * up]) if up > 0 else "$ORIGIN"
+    keep = [p for path in paths for p in path.split(":") if p.startswith("$ORIGIN")]
+    copy = pyc_dir / "relocated" / arc
+    copy.parent.mkdir(parents=True, exist_ok=True)
+    shutil.copyfile(src, copy)
+    set_run_path(copy, ":".join(dict.fromkeys([*keep, rel])))
+    return copy, arc
 
 
 def libpython_path() -> Path:

@@ -341,6 +341,15 @@ def contact_mode(model: Any, z: FloatSeq, p: FloatArray, atol: FloatSeq, frictio
     return model.describe(z, p, atol, friction_band)
 
 
+def failure_reason(status: int, max_steps: int = DEFAULT_MAX_STEPS) -> str:
+    """Why an integrator of :func:`make_integrator` stopped, from its status (the words of every
+    message that names it, the native FMUs' included)."""
+    return {
+        STEP_UNDERFLOW: "the step size fell below the resolution of t (error test failed at the minimum step)",
+        STEP_CAP: f"the cap of {max_steps} steps per call was reached",
+    }.get(int(status), f"status {status}")
+
+
 def failure_message(
     status: int,
     model: Any,
@@ -353,10 +362,7 @@ def failure_message(
 ) -> str:
     """A sentence naming why an integrator of :func:`make_integrator` stopped, at which time, in
     which state and mode."""
-    why = {
-        STEP_UNDERFLOW: "the step size fell below the resolution of t (error test failed at the minimum step)",
-        STEP_CAP: f"the cap of {max_steps} steps per call was reached",
-    }.get(int(status), f"status {status}")
+    why = failure_reason(status, max_steps)
     names = tuple(model.state_names)
     if len(names) != len(z):
         names = tuple(f"z{i}" for i in range(len(z)))

@@ -42,7 +42,7 @@ static const char *const METHODS[] = {"", "setup_experiment", "enter_initializat
 typedef struct {
     double *reals, *derivs, *scratch;
     int32_t *ints;
-    double th[2], z[NM_NSTATE > 0 ? NM_NSTATE : 1], p[NM_NP], u[NM_NU], atol[NM_NATOL], backup[NM_NSTATE + 4];
+    double th[2], z[NM_NSTATE > 0 ? NM_NSTATE : 1], p[NM_NP], u[NM_NU], atol[NM_NATOL], backup[2 * NM_NSTATE + 6];
     int64_t stats[4];
     char err[2048];
 } Slave;
@@ -141,19 +141,37 @@ static long do_step(Slave *s, double t, double h) {
                  (int)s->ints[NM_DEBUG_VR], t);
         return fail(s, why);
     }
-    char why[400];
-    if (h > PYFMU_NATIVE_MAX_STEP && !NM_LONG_STEPS) {
-        snprintf(why, sizeof why, "a step of %g s: the native FMU takes steps of at most %g s (split it into "
-                 "shorter steps; the Python-hosted FMU takes longer ones in pieces)", h, PYFMU_NATIVE_MAX_STEP);
+    /* the compiled step: the base steps exactly over any h in one call, the TMD in pieces of at most
+     * PYFMU_NATIVE_MAX_STEP, each as its Python slave does */
+    int32_t rc = pyfmu_model_step(s->reals, s->ints, s->derivs, s->z, s->p, s->stats, s->th, s->u, s->atol,
+                                  s->backup, t, h);
+    if (rc == PYFMU_NATIVE_OK) return OK;
+    if (rc == 0) { /* the compiled step raised (its message is on stderr): back to the start of the step */
+        memcpy(s->z, s->backup, NM_NSTATE * sizeof(double));
+        for (int i = 0; i < 4; i++) s->stats[i] = (int64_t)s->backup[NM_NSTATE + i];
+        char why[300];
+        snprintf(why, sizeof why, "FmuStepError: doStep of %g s from t = %.16g s: the compiled step raised an "
+                 "exception (printed on stderr); the FMU is left at the start of the step", h, t);
         return fail(s, why);
     }
-    /* the compiled step (the base steps exactly over any h, in one call, as its Python slave does) */
-    if (pyfmu_model_step(s->reals, s->ints, s->derivs, s->z, s->p, s->stats, s->th, s->u, s->atol, s->backup, t, h) ==
-        PYFMU_NATIVE_OK)
-        return OK;
-    snprintf(why, sizeof why, "FmuStepError: doStep of %g s from t = %.16g s failed: the state is not finite at "
-             "its end or the integrator stopped (step size underflow, or more than the allowed number of steps); "
-             "the state is that of the start of the step", h, t);
+    /* failed: z is back at the start of the step; backup's tail says why, when and where (fmi/contract.py) */
+    const double *tail = s->backup + NM_NSTATE + 4;
+    int code = (int)tail[0];
+    if (code < PYFMU_FAIL_NOT_FINITE || code > PYFMU_FAIL_BUDGET) code = PYFMU_FAIL_NOT_FINITE;
+    const double *zs = code == PYFMU_FAIL_NOT_FINITE ? s->z : tail + 2;
+    char why[1400], state[600] = "";
+    size_t n = 0;
+    for (int i = 0; i < NM_NSTATE && n < sizeof state; i++)
+        n += (size_t)snprintf(state + n, sizeof state - n, "%s%s = %.17g", i ? ", " : "", NM_STATE_NAMES[i], zs[i]);
+    if (code == PYFMU_FAIL_NOT_FINITE)
+        snprintf(why, sizeof why, "FmuStepError: doStep of %g s from t = %.16g s: %s (from %s)", h, t,
+                 NM_FAIL_WHY[code], state);
+    else if (code == PYFMU_FAIL_BUDGET)
+        snprintf(why, sizeof why, "FmuStepError: doStep of %g s from t = %.16g s: %s (at t = %.12g s; state %s)", h,
+                 t, NM_FAIL_WHY[code], tail[1], state);
+    else
+        snprintf(why, sizeof why, "FmuStepError: doStep from t = %.16g s: integrator stopped at t = %.12g s: %s; "
+                 "state %s (the FMU is left at the start of the step)", t, tail[1], NM_FAIL_WHY[code], state);
     return fail(s, why);
 }
 
