@@ -9,7 +9,8 @@ with the same compiled code, so the numbers are bit-identical (tests/test_native
   each registry parameter is read from its FMU variable, the other subsystem's slots hold the
   defaults ``pack`` puts there), the initial state and, for the TMD, the mounting compliance.
   Returns :data:`~.contract.NATIVE_OK`, or the number of the first cross-field check of
-  :class:`~pyfmu_wrapper.physics.params.TMDParams` that fails (:data:`TMD_CHECKS`; the single-field
+  :class:`~pyfmu_wrapper.physics.params.TMDParams` that fails (:data:`~pyfmu_wrapper.physics.params.TMD_CHECKS`, by the same compiled
+  :func:`~pyfmu_wrapper.physics.params.tmd_check`; the single-field
   ranges are declared and enforced by the stub);
 - ``outputs(reals, ints, z, p, u, t) -> int32``: the outputs at the current inputs (the slave's
   ``update_outputs``), written into the value buffers;
@@ -28,7 +29,7 @@ from numba import carray, cfunc, types
 from .._jit import njit
 from ..physics import kernels as kn
 from ..physics import registry
-from ..physics.params import N_PARAMS, BaseParams, TMDParams, pack
+from ..physics.params import N_PARAMS, BaseParams, TMDParams, pack, tmd_check
 from .contract import NATIVE_OK
 from .integrators import BASE_U_SIZE
 from .native import B_NVR, T_NVR, write_outputs
@@ -42,14 +43,6 @@ CONFIGURE_SIG = types.int32(F64P, I32P, F64P, F64P, F64P)
 OUTPUTS_SIG = types.int32(F64P, I32P, F64P, F64P, F64P, types.float64)
 DERIVATIVE_SIG = types.int32(F64P, I32P, F64P, F64P, F64P, types.float64, F64P, F64P)
 SENSITIVITY_SIG = types.int32(F64P, I32P, F64P, F64P, F64P, types.float64, types.int32, F64P)
-
-#: the cross-field checks of TMDParams, in the order configure numbers them (1, 2, ...)
-TMD_CHECKS = (
-    "inertance must be 0 when inerter is 'none'",
-    "inertance must be > 0 for an inerter (ideal or with play)",
-    "mass + inertance (m + I) must be > 0",
-    "mass (m) must be > 0 unless the inerter is ideal (the TMD node would be massless)",
-)
 
 
 def pack_table(spec: FmuSpec, subsystem: str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -232,14 +225,9 @@ def tmd_functions() -> dict[str, Any]:
         rc = fields_(T_ON, T_LO, T_STRICT, p)
         if rc != NATIVE_OK:
             return rc
-        if model == 0 and inertance != 0.0:
-            return 1
-        if model != 0 and inertance <= 0.0:
-            return 2
-        if mass + inertance <= 0.0:
-            return 3
-        if mass <= 0.0 and model != 1:
-            return 4
+        check = tmd_check(mass, inertance, model)
+        if check != 0:
+            return check
         kappa = reals[T_KAPPA]
         if not (np.isfinite(kappa) and kappa >= 0.0):
             return KAPPA_CODE

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
 
+from .._jit import njit
 from ..errors import InputError
 from . import registry
 
@@ -109,17 +110,11 @@ class _TMDMixin:
             ) from None
         object.__setattr__(self, "inerter", model)
         _validate_fields(self, "tmd")
-        if model == InerterModel.NONE and self.inertance != 0.0:
-            raise ParameterError(f"inertance must be 0 when inerter is 'none', got {self.inertance!r}{where}")
-        if model != InerterModel.NONE and self.inertance <= 0.0:
+        code = tmd_check(float(self.mass), float(self.inertance), int(model))
+        if code:
             raise ParameterError(
-                f"inertance must be > 0 for inerter '{model.name.lower()}', got {self.inertance!r}{where}"
-            )
-        if self.mass + self.inertance <= 0.0:
-            raise ParameterError(f"mass + inertance (m + I) must be > 0, got {self.mass!r} + {self.inertance!r}{where}")
-        if self.mass <= 0.0 and model != InerterModel.IDEAL:
-            raise ParameterError(
-                f"mass (m) must be > 0 unless the inerter is ideal (the TMD node would be massless), got {self.mass!r}{where}"
+                f"{TMD_CHECKS[code - 1]}, got m = {self.mass!r}, I = {self.inertance!r}, "
+                f"inerter = '{model.name.lower()}'{where}"
             )
 
     @property
@@ -255,6 +250,31 @@ def pack(base: BaseParams, tmd: TMDParams, omega: float = 0.0) -> np.ndarray:
         else:
             p[i] = float(int(getattr(tmd, par.name))) if par.kind == "enum" else getattr(tmd, par.name)
     return p
+
+
+#: the cross-field checks of a TMD, in the order :func:`tmd_check` numbers them (1, 2, ...): the
+#: words of TMDParams' errors and of the native FMU's configure (fmi/native_model.py calls tmd_check)
+TMD_CHECKS = (
+    "inertance must be 0 when inerter is 'none'",
+    "inertance must be > 0 for an inerter (ideal or with play)",
+    "mass + inertance (m + I) must be > 0",
+    "mass (m) must be > 0 unless the inerter is ideal (the TMD node would be massless)",
+)
+
+
+@njit(cache=True)
+def tmd_check(mass: float, inertance: float, model: int) -> int:
+    """0 when a TMD's mass m, inertance I and inerter model (0 none, 1 ideal, 2 play) go together, else
+    the number of the first check of :data:`TMD_CHECKS` they fail."""
+    if model == 0 and inertance != 0.0:
+        return 1
+    if model != 0 and inertance <= 0.0:
+        return 2
+    if mass + inertance <= 0.0:
+        return 3
+    if mass <= 0.0 and model != 1:
+        return 4
+    return 0
 
 
 # Paper cases (Sect. 3): m + I = 10 kg.
