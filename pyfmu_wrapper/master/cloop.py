@@ -29,7 +29,7 @@ from .instance import MasterError
 
 if TYPE_CHECKING:
     from .instance3 import Instance3
-    from .master import Master
+    from .state import MasterState
 
 from .cloop_lib import DONE, NEED_WEIGHTS, SCHEME_CODE, Ctx, Fmi3, Inst, library
 
@@ -38,7 +38,7 @@ def _addr(a: np.ndarray) -> int:
     return a.ctypes.data
 
 
-def scheme_of(master: Master) -> str | None:
+def scheme_of(master: MasterState) -> str | None:
     """The compiled scheme that takes the master's fixed steps, or None if they stay in Python."""
     st = master.stepper
     if st.scheme == "gauss-seidel":
@@ -56,7 +56,7 @@ class CompiledLoop:
 
     MAX_WEIGHTS = 64
 
-    def __init__(self, master: Master) -> None:
+    def __init__(self, master: MasterState) -> None:
         self.lib = library()
         m = master
         self.m = m

@@ -20,7 +20,7 @@ import numpy as np
 from .instance import MasterError, free_states, get_states, set_states
 
 if TYPE_CHECKING:
-    from .master import Master
+    from .state import MasterState
 
 
 @dataclass
@@ -55,7 +55,7 @@ class Rollback:
     (time, signals, history, counters, rate-connection memory). :meth:`restore` puts it back;
     :meth:`free` releases the FMU states (call it exactly once)."""
 
-    def __init__(self, master: Master) -> None:
+    def __init__(self, master: MasterState) -> None:
         m = master
         self.m = m
         self.states = get_states(m.stepper.inst_list)
@@ -79,7 +79,7 @@ class Rollback:
 
 
 def run(
-    master: Master,
+    master: MasterState,
     t_end: float,
     step: float | None = None,
     tol: float | None = None,
