@@ -1,0 +1,1 @@
+"""The console entry points: each command's main, its arguments and its exit statuses."""

@@ -1,0 +1,1 @@
+"""The physics of the paper's models: parameters, equations, Jacobians and exact linear responses."""
