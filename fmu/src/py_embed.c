@@ -62,7 +62,10 @@ static void *g_lib = NULL; /* the libpython this stub dlopened (NULL: the host's
     "    return out\n"                                                                               \
     "def _exe():\n"                                                                                  \
     "    import os, sys\n"                                                                           \
-    "    return sys.executable or os.path.join(sys.base_prefix, 'bin', 'python%d.%d' % sys.version_info[:2])\n" \
+    "    own = os.path.join(sys.prefix, 'bin', 'python%d.%d' % sys.version_info[:2])\n"               \
+    "    exe = sys.executable or ''\n"                                                               \
+    "    inside = exe and os.path.realpath(exe).startswith(os.path.realpath(sys.prefix) + os.sep)\n"  \
+    "    return exe if inside else own\n"                                                             \
     "def _fit(requires, min_python):\n"                                                              \
     "    import sys, re, importlib, importlib.metadata as md\n"                                      \
     "    why = []\n"                                                                                 \
