@@ -19,9 +19,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from _ecos_support import ecos_simulation
 from _fmu_support import built_fmus
 
-from pyfmu_wrapper.cosim.ecos import ecos_simulation
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
 from pyfmu_wrapper.solvers import monolithic as mono
 

@@ -1,4 +1,4 @@
-"""The base + TMD pair in another vendor's master, Ecos (pip ``ecospy``, a C++ co-simulation engine
+"""Test support, not part of the package: the base + TMD pair in another vendor's master, Ecos (pip ``ecospy``, a C++ co-simulation engine
 with a fixed-step, zero-order-hold force coupling): one set-up for the tests
 (tests/test_fmu_ecos.py) and the accuracy table (benchmarks/accuracy_table.py)."""
 
@@ -11,8 +11,8 @@ from typing import Any
 
 from numpy.typing import ArrayLike
 
-from ..physics.params import BaseParams, TMDParams
-from .system import CONNECTIONS, fmu_parameters
+from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters
+from pyfmu_wrapper.physics.params import BaseParams, TMDParams
 
 
 def load_ecospy() -> Any:
