@@ -57,9 +57,22 @@ def _relative_imports(rel: str, source: bytes) -> set[str]:
     return found
 
 
+#: bundled_files' last answer, kept while no module of the package has changed (key: every module's
+#: name, size and modification time): parsing the import closure is most of what a hash costs
+_CLOSURE: dict[tuple, list[str]] = {}
+
+
 def bundled_files() -> list[str]:
     """Package-relative files the slaves need: fmi/slaves.py and its package imports, transitively,
     with the ``__init__.py`` of every package on the way."""
+    key = tuple((str(f), st.st_size, st.st_mtime_ns) for f in sorted(PACKAGE_DIR.rglob("*.py")) if (st := f.stat()))
+    if key not in _CLOSURE:
+        _CLOSURE.clear()
+        _CLOSURE[key] = _closure()
+    return list(_CLOSURE[key])
+
+
+def _closure() -> list[str]:
     todo, seen = [SLAVE_MODULE, LOADER_MODULE], set()
     while todo:
         rel = todo.pop()
