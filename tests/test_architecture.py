@@ -316,6 +316,55 @@ def test_layer_rules_stated_in_words():
         assert phrase.replace("\n", " ") in text.replace("\n", " "), phrase
 
 
+# --- private names stay in their module -----------------------------------------------------------------
+
+#: imports of a private name across modules that exist on main today and are being removed as the
+#: branches merge (module, imported module, name); emptied by the lead like KNOWN_CYCLES (a stale entry fails)
+KNOWN_PRIVATE_IMPORTS: set[tuple[str, str, str]] = {
+    ("diagnose.data", "diagnose.records", "_err"),
+    ("diagnose.data", "diagnose.records", "_stderr"),
+    ("diagnose.run", "diagnose.records", "_stderr"),
+    ("diagnose.system.bench", "solvers.monolithic", "_atol"),
+    *{("solvers.rodas", "solvers.hermite", n) for n in ("_hermite_absmax", "_hermite_state")},
+    *{
+        ("solvers.rodas", "solvers.rodas_method", n)
+        for n in ("_A", "_ALPHA", "_C", "_E", "_GAMMA", "_GAMMAI", "_M", "_lu", "_lu_solve")
+    },
+}
+
+
+def private_imports() -> set[tuple[str, str, str]]:
+    """(module, imported module, name) of every import of a name with one leading underscore from
+    another module of the package."""
+    out = set()
+    mods = _modules()
+    for m, path in mods.items():
+        pkg = m if path.name == "__init__.py" else m.rpartition(".")[0]
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if not isinstance(node, ast.ImportFrom):
+                continue
+            if node.level:
+                base = pkg.split(".") if pkg else []
+                base = base[: len(base) - (node.level - 1)] if node.level > 1 else base
+                target = ".".join([*base, *((node.module or "").split(".") if node.module else [])])
+            elif (node.module or "").startswith(PACKAGE + "."):
+                target = node.module[len(PACKAGE) + 1 :]
+            else:
+                continue
+            for a in node.names:
+                if a.name.startswith("_") and not a.name.startswith("__"):
+                    out.add((m, target, a.name))
+    return out
+
+
+def test_no_private_name_imported_across_modules():
+    found = private_imports()
+    new = sorted(found - KNOWN_PRIVATE_IMPORTS)
+    assert not new, f"private names imported from another module (make them public, or move the code): {new}"
+    stale = sorted(KNOWN_PRIVATE_IMPORTS - found)
+    assert not stale, f"KNOWN_PRIVATE_IMPORTS lists imports that no longer exist: remove {stale}"
+
+
 # --- one job per module --------------------------------------------------------------------------------
 
 

@@ -34,7 +34,7 @@ UNITS = {
 TYPE_CODE = {REAL: "R", INTEGER: "I", BOOLEAN: "B"}
 
 
-def _fmt(v: float | int | bool | str) -> str:
+def xml_value(v: float | int | bool | str) -> str:
     if isinstance(v, bool):
         return "true" if v else "false"
     if isinstance(v, int):
@@ -54,12 +54,12 @@ def _variable_xml(v: Variable) -> str:
         inner += f' unit="{v.unit}"'
     if v.start is not None:
         start = bool(v.start) if v.type == BOOLEAN else (int(v.start) if v.type == INTEGER else float(v.start))
-        inner += f' start="{_fmt(start)}"'
+        inner += f' start="{xml_value(start)}"'
     lo, hi = declared_range(v)
     if lo is not None:
-        inner += f' min="{_fmt(lo)}"'
+        inner += f' min="{xml_value(lo)}"'
     if hi is not None:
-        inner += f' max="{_fmt(hi)}"'
+        inner += f' max="{xml_value(hi)}"'
     return f"    <ScalarVariable {attrs}>\n      <{v.type}{inner}/>\n    </ScalarVariable>"
 
 
@@ -126,7 +126,7 @@ def model_description_xml(spec: FmuSpec, guid: str, generation_tool: str = "pyfm
         "  <LogCategories>",
         *[f'    <Category name="{c}"/>' for c in LOG_CATEGORIES],
         "  </LogCategories>",
-        f'  <DefaultExperiment startTime="0.0" stepSize="{_fmt(spec.default_step)}"/>',
+        f'  <DefaultExperiment startTime="0.0" stepSize="{xml_value(spec.default_step)}"/>',
         "  <ModelVariables>",
     ]
     for v in spec.variables:

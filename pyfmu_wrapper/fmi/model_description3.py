@@ -22,7 +22,7 @@ from collections.abc import Sequence
 from xml.sax.saxutils import quoteattr
 
 from .contract import LOG_CATEGORIES
-from .model_description import UNITS, _fmt, declared_range
+from .model_description import UNITS, declared_range, xml_value
 from .varspec import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
 
 TYPE3 = {REAL: "Float64", INTEGER: "Int32", BOOLEAN: "Boolean"}
@@ -110,12 +110,12 @@ def _variable3(v: Variable, unit: str | None = None) -> str:
         attrs += f' unit="{unit}"'
     lo, hi = declared_range(v)
     if lo is not None:
-        attrs += f' min="{_fmt(lo)}"'
+        attrs += f' min="{xml_value(lo)}"'
     if hi is not None:
-        attrs += f' max="{_fmt(hi)}"'
+        attrs += f' max="{xml_value(hi)}"'
     if v.start is not None:
         start = bool(v.start) if v.type == BOOLEAN else (int(v.start) if v.type == INTEGER else float(v.start))
-        attrs += f' start="{_fmt(start)}"'
+        attrs += f' start="{xml_value(start)}"'
     return f"    <{t} {attrs}/>"
 
 
@@ -152,7 +152,7 @@ def model_description3_xml(spec: FmuSpec, token: str, generation_tool: str = "py
         "  <LogCategories>",
         *[f'    <Category name="{c}"/>' for c in LOG_CATEGORIES],
         "  </LogCategories>",
-        f'  <DefaultExperiment startTime="0.0" stepSize="{_fmt(spec.default_step)}"/>',
+        f'  <DefaultExperiment startTime="0.0" stepSize="{xml_value(spec.default_step)}"/>',
         "  <ModelVariables>",
         f'    <Float64 name="time" valueReference="{time_vr(spec)}" causality="independent" '
         f'variability="continuous" description="simulation time" unit="s"/>',

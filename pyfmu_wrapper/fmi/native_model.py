@@ -29,12 +29,12 @@ from numba import carray, cfunc, types
 from .._jit import njit
 from ..physics import kernels as kn
 from ..physics import registry
+from ..physics.jacobians import CSTEP
 from ..physics.params import N_PARAMS, BaseParams, TMDParams, pack, tmd_check
 from .contract import NATIVE_OK
 from .integrators import BASE_U_SIZE
 from .native import B_NVR, T_NVR, write_outputs
 from .outputs import BASE_OUT_INT, BASE_OUT_VR, TMD_OUT_INT, TMD_OUT_VR, base_outputs, tmd_outputs
-from .slave import _CSTEP
 from .variables import BASE_OSCILLATOR, TMD_INERTER
 from .varspec import FmuSpec
 
@@ -198,9 +198,9 @@ def base_functions() -> dict[str, Any]:
         reals, z, p = carray(reals_p, (B_NVR,)), carray(z_p, (2,)), carray(p_p, (NP,))
         direction, dy = carray(d_p, (1,)), carray(dy_p, (B_NOUT,))
         out = np.empty(B_NOUT, dtype=np.complex128)
-        base_outputs(z, t, reals[B_FLINK] + 1j * _CSTEP * direction[0], p, out)
+        base_outputs(z, t, reals[B_FLINK] + 1j * CSTEP * direction[0], p, out)
         for j in range(B_NOUT):
-            dy[j] = 0.0 + out[j].imag / _CSTEP
+            dy[j] = 0.0 + out[j].imag / CSTEP
         return NATIVE_OK
 
     @cfunc(SENSITIVITY_SIG)
@@ -257,13 +257,13 @@ def tmd_functions() -> dict[str, Any]:
     def derivative(reals_p: Any, ints_p: Any, z_p: Any, p_p: Any, u_p: Any, t: float, d_p: Any, dy_p: Any) -> int:
         reals, z, p, u = carray(reals_p, (T_NVR,)), carray(z_p, (4,)), carray(p_p, (NP,)), carray(u_p, (NU_TMD,))
         direction, dy = carray(d_p, (3,)), carray(dy_p, (T_NOUT,))
-        x = reals[T_IN[0]] + 1j * _CSTEP * direction[0]
-        xd = reals[T_IN[1]] + 1j * _CSTEP * direction[1]
-        xdd = reals[T_IN[2]] + 1j * _CSTEP * direction[2]
+        x = reals[T_IN[0]] + 1j * CSTEP * direction[0]
+        xd = reals[T_IN[1]] + 1j * CSTEP * direction[1]
+        xdd = reals[T_IN[2]] + 1j * CSTEP * direction[2]
         out = np.empty(T_NOUT, dtype=np.complex128)
         tmd_outputs(z, x, xd, xdd, u[kn.U_KAPPA], p, out)
         for j in range(T_NOUT):
-            dy[j] = 0.0 + out[j].imag / _CSTEP
+            dy[j] = 0.0 + out[j].imag / CSTEP
         return NATIVE_OK
 
     @cfunc(SENSITIVITY_SIG)

@@ -18,7 +18,7 @@ slave (they are only ever written in place). :meth:`Slave.do_step` runs for long
 when ``debug_raise`` is set, and when the stub runs without native steps (``PYFMU_NATIVE=0``).
 
 Every method called by the stub returns an int status (0 ok, 1 warning, 3 error, 4 fatal) and
-never raises: an exception is caught by :func:`_guarded`, its full traceback is kept in
+never raises: an exception is caught by :func:`guarded`, its full traceback is kept in
 ``last_error`` and the stub forwards it to the FMI logger.
 
 """
@@ -35,12 +35,12 @@ from numpy.typing import NDArray
 
 from ..physics import kernels as kn
 from ..physics import registry
+from ..physics.jacobians import CSTEP
 from ..physics.params import N_PARAMS
 from .contract import NATIVE_MAX_STEP, backup_size
 from .varspec import BOOLEAN, INTEGER, FmuSpec
 
 OK, WARNING, ERROR, FATAL = 0, 1, 3, 4
-_CSTEP = 1e-30
 #: A doStep is integrated in pieces of at most this length [s] (the native step's longest step) and
 #: fails when it needs more integrator steps than MAX_INTEGRATOR_STEPS; the step itself (finite,
 #: 0 < h <= MAX_STEP, on the FMU's time within TIME_SLACK h) is checked by the C stub before Python
@@ -59,7 +59,7 @@ class InjectedError(RuntimeError):
     """Raised on purpose when the debug_raise parameter is set (tests of error reporting)."""
 
 
-def _guarded(method: Callable[..., int | None]) -> Callable[..., int]:
+def guarded(method: Callable[..., int | None]) -> Callable[..., int]:
     @functools.wraps(method)
     def wrapper(self: Slave, *args: Any) -> int:
         try:
@@ -122,7 +122,7 @@ class Slave:
         arrays = (self.z, self.p, self.stats, self._th, self._u, self._atol, self._native_backup)
         return np.array([step.address] + [a.ctypes.data for a in arrays], dtype=np.uint64).tobytes()
 
-    @_guarded
+    @guarded
     def native_restore(self) -> None:
         """The compiled step raised (numba printed the exception and returned 0): put z and the
         counters back to where the step started, so the Python path retakes the same step."""
@@ -183,7 +183,7 @@ class Slave:
         """Integrate the state over [t, t + h] with input polynomials u."""
 
     # --- stub entry points -----------------------------------------------------------------
-    @_guarded
+    @guarded
     def setup_experiment(
         self, tolerance_defined: int, tolerance: float, t_start: float, stop_defined: int, t_stop: float
     ) -> None:
@@ -195,23 +195,23 @@ class Slave:
         if tolerance_defined and tolerance > 0 and "rtol" in {v.name for v in self.spec.variables}:
             self.r[self.spec.vr("rtol")] = tolerance
 
-    @_guarded
+    @guarded
     def enter_initialization(self) -> None:
         pass
 
-    @_guarded
+    @guarded
     def update_outputs(self, initializing: int) -> None:
         if initializing:
             self.configure()
         self._write_outputs(self.outputs(self._current_inputs()))
 
-    @_guarded
+    @guarded
     def exit_initialization(self) -> None:
         self.configure()
         self.h = 0.0
         self._write_outputs(self.outputs(self._current_inputs()))
 
-    @_guarded
+    @guarded
     def do_step(self, t: float, h: float, no_set_prior: int) -> None:
         # (t, h) were checked by the C stub, the one guard of the doStep contract (fmi/contract.py)
         if self._debug_vr is not None and self.i[self._debug_vr]:
@@ -225,7 +225,7 @@ class Slave:
         self._write_outputs(self.outputs(self._inputs_at(self.t)))
         self.du[self._input_vr] = 0.0  # input derivatives are valid for one step only
 
-    @_guarded
+    @guarded
     def reset(self) -> None:
         self._start_values()
         self.t = 0.0
@@ -233,7 +233,7 @@ class Slave:
         self.z[:] = 0.0
         self.stats[:] = 0
 
-    @_guarded
+    @guarded
     def terminate(self) -> None:
         pass
 
@@ -245,7 +245,7 @@ class Slave:
             self.last_error = traceback.format_exc()
             return None
 
-    @_guarded
+    @guarded
     def set_state(self, data: Buffer) -> None:
         a = np.frombuffer(data, dtype=np.float64)
         n = 2 + self.p.size + self.n_state + 4
@@ -257,7 +257,7 @@ class Slave:
         self.z[:] = a[k : k + self.n_state]
         self.stats[:] = a[k + self.n_state :].astype(np.int64)
 
-    @_guarded
+    @guarded
     def directional_derivative(self, n_unknown: int, n_known: int, initializing: int = 0) -> None:
         """Scratch layout: [vUnknown (nu), vKnown (nk), dvKnown (nk)] -> dvUnknown after them.
 
@@ -284,8 +284,8 @@ class Slave:
                 params[vr] = params.get(vr, 0.0) + dv
         dy = np.zeros(len(self._outputs))
         if np.any(direction != 0.0):
-            y = self.outputs(self._current_inputs() + 1j * _CSTEP * direction)
-            dy += np.array([np.imag(complex(v)) for v in y]) / _CSTEP
+            y = self.outputs(self._current_inputs() + 1j * CSTEP * direction)
+            dy += np.array([np.imag(complex(v)) for v in y]) / CSTEP
         for vr, dv in params.items():
             dy += dv * self._parameter_sensitivity(vr)
         res = s[n_unknown + 2 * n_known : 2 * n_unknown + 2 * n_known]

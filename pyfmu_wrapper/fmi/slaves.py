@@ -22,7 +22,7 @@ from ..solvers.rodas import STAT_STEPS, failure_message
 from .contract import MAX_INTEGRATOR_STEPS
 from .integrators import BASE_U_SIZE, TMD_MODEL, advance_base, fill_atol, integrate_tmd
 from .outputs import base_outputs, tmd_outputs
-from .slave import CHUNK, FloatArray, FmuStepError, Slave, _guarded
+from .slave import CHUNK, FloatArray, FmuStepError, Slave, guarded
 from .variables import BASE_OSCILLATOR, TMD_INERTER, TRIVIAL
 
 
@@ -144,7 +144,7 @@ class TrivialSlave(Slave):
     def outputs(self, inputs: NDArray[Any]) -> list[Any]:
         return [self.r[0] * inputs[0]]
 
-    @_guarded
+    @guarded
     def do_step(self, t: float, h: float, no_set_prior: int) -> None:
         self.t = t + h
         self.r[2] = self.r[0] * self.r[1]

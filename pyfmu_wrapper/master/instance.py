@@ -35,15 +35,15 @@ if TYPE_CHECKING:
     from fmpy.model_description import ModelDescription
     from numpy import float64
 
-_DBL = ctypes.POINTER(ctypes.c_double)
-_UINT = ctypes.POINTER(ctypes.c_uint)
+DBL = ctypes.POINTER(ctypes.c_double)
+UINT = ctypes.POINTER(ctypes.c_uint)
 _INT = ctypes.POINTER(ctypes.c_int)
 
 #: FMI 2.0 prototypes of the raw calls (fmi2Status f(fmi2Component, ...))
 _PROTOTYPES = {
-    "fmi2SetReal": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, _UINT, ctypes.c_size_t, _DBL),
-    "fmi2GetReal": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, _UINT, ctypes.c_size_t, _DBL),
-    "fmi2SetRealInputDerivatives": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, _UINT, ctypes.c_size_t, _INT, _DBL),
+    "fmi2SetReal": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, UINT, ctypes.c_size_t, DBL),
+    "fmi2GetReal": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, UINT, ctypes.c_size_t, DBL),
+    "fmi2SetRealInputDerivatives": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, UINT, ctypes.c_size_t, _INT, DBL),
     "fmi2DoStep": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_int),
 }
 
@@ -52,7 +52,7 @@ class MasterError(RuntimeError):
     """An FMI call failed or the coupling could not be solved."""
 
 
-def _ptr(a: np.ndarray, kind: Any) -> Any:
+def pointer_to(a: np.ndarray, kind: Any) -> Any:
     return a.ctypes.data_as(kind)
 
 
@@ -65,10 +65,10 @@ def _raw_function(slave: FMU2Slave, name: str, required: bool = True) -> Any:
         if required:
             raise MasterError(f"{slave.instanceName}: the FMU does not export {name}") from None
         return None
-    return _PROTOTYPES[name](_address(sym))
+    return _PROTOTYPES[name](address_of(sym))
 
 
-def _address(f: Any) -> int:
+def address_of(f: Any) -> int:
     """The address of a ctypes function (never NULL for a symbol the library exports)."""
     addr = ctypes.cast(f, ctypes.c_void_p).value
     if addr is None:
@@ -155,10 +155,10 @@ class Instance:
         self.der_vr = np.concatenate([self.in_vr, self.in_vr]).astype(np.uint32)
         self.der_order = np.array([1] * ni + [2] * ni, dtype=np.int32)
         self.der_val = np.zeros(2 * ni)
-        self.p_in_vr, self.p_in_val = _ptr(self.in_vr, _UINT), _ptr(self.in_val, _DBL)
-        self.p_out_vr, self.p_out_val = _ptr(self.out_vr, _UINT), _ptr(self.out_val, _DBL)
-        self.p_der_vr, self.p_der_order = _ptr(self.der_vr, _UINT), _ptr(self.der_order, _INT)
-        self.p_der_val = _ptr(self.der_val, _DBL)
+        self.p_in_vr, self.p_in_val = pointer_to(self.in_vr, UINT), pointer_to(self.in_val, DBL)
+        self.p_out_vr, self.p_out_val = pointer_to(self.out_vr, UINT), pointer_to(self.out_val, DBL)
+        self.p_der_vr, self.p_der_order = pointer_to(self.der_vr, UINT), pointer_to(self.der_order, _INT)
+        self.p_der_val = pointer_to(self.der_val, DBL)
         self.n_in, self.n_out = ni, len(self.outputs)
 
     def set_order(self, order: int) -> None:
@@ -190,7 +190,7 @@ class Instance:
             "fmi2SetRealInputDerivatives": self._set_der,
             "fmi2DoStep": self._do_step,
         }[name]
-        return 0 if f is None else _address(f)
+        return 0 if f is None else address_of(f)
 
     def set_inputs(self) -> None:
         if self.n_in and self._set_real(self._c, self.p_in_vr, self.n_in, self.p_in_val) > 1:

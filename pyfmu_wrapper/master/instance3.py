@@ -11,7 +11,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .instance import _DBL, _UINT, Instance, MasterError, _address, _ptr
+from .instance import DBL, UINT, Instance, MasterError, address_of, pointer_to
 
 if TYPE_CHECKING:
     from fmpy.model_description import ModelDescription
@@ -19,10 +19,10 @@ if TYPE_CHECKING:
 _BOOLP = ctypes.POINTER(ctypes.c_bool)
 #: FMI 3.0 prototypes of the lean calls
 _PROTOTYPES3 = {
-    "fmi3SetFloat64": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, _UINT, ctypes.c_size_t, _DBL, ctypes.c_size_t),
-    "fmi3GetFloat64": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, _UINT, ctypes.c_size_t, _DBL, ctypes.c_size_t),
+    "fmi3SetFloat64": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, UINT, ctypes.c_size_t, DBL, ctypes.c_size_t),
+    "fmi3GetFloat64": ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, UINT, ctypes.c_size_t, DBL, ctypes.c_size_t),
     "fmi3DoStep": ctypes.CFUNCTYPE(
-        ctypes.c_int, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_bool, _BOOLP, _BOOLP, _BOOLP, _DBL
+        ctypes.c_int, ctypes.c_void_p, ctypes.c_double, ctypes.c_double, ctypes.c_bool, _BOOLP, _BOOLP, _BOOLP, DBL
     ),
 }
 
@@ -32,7 +32,7 @@ def _raw_function3(slave: Any, name: str) -> Any:
         sym = getattr(slave.dll, name)
     except AttributeError:
         raise MasterError(f"{slave.instanceName}: the FMU does not export {name}") from None
-    return _PROTOTYPES3[name](_address(sym))
+    return _PROTOTYPES3[name](address_of(sym))
 
 
 def derivative_name(input_name: str, order: int) -> str:
@@ -122,8 +122,8 @@ class Instance3(Instance):
         self.set_vr = np.concatenate([self.in_vr, self.der_vr if self.can_interpolate else []]).astype(np.uint32)
         self.set_val = np.zeros(len(self.set_vr))
         self.n_set = len(self.set_vr)
-        self.p_set_vr, self.p_set_val = _ptr(self.set_vr, _UINT), _ptr(self.set_val, _DBL)
-        self.p_der_vr = _ptr(self.der_vr, _UINT)
+        self.p_set_vr, self.p_set_val = pointer_to(self.set_vr, UINT), pointer_to(self.set_val, DBL)
+        self.p_der_vr = pointer_to(self.der_vr, UINT)
         self.n_in = ni
 
     def raw_address(self, name: str) -> int:
@@ -131,7 +131,7 @@ class Instance3(Instance):
 
     def raw3_address(self, name: str) -> int:
         """Address of the raw fmi3 function ``name``, for the compiled loop's adapters."""
-        return _address(
+        return address_of(
             {"fmi3SetFloat64": self._set_real, "fmi3GetFloat64": self._get_real, "fmi3DoStep": self._do_step}[name]
         )
 

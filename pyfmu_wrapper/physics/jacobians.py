@@ -36,7 +36,8 @@ from .kernels import (
 )
 from .params import P_C, P_F, P_I, P_K, P_M, P_MODEL, P_W, P_c, P_ci, P_df, P_eps, P_k, P_k3, P_ki, P_m, P_s
 
-_CSTEP = 1e-30  # complex-step size
+#: the complex step of every complex-step derivative (Jacobians here, the FMUs' directional derivatives)
+CSTEP = 1e-30
 
 
 @njit(cache=True)
@@ -187,10 +188,10 @@ def system_jacobian_work(system: int, t: float, z: Vec, p: Vec, u: Vec, J: Vec, 
     for j in range(n):
         for i in range(n):
             zc[i] = z[i]
-        zc[j] = z[j] + 1j * _CSTEP
+        zc[j] = z[j] + 1j * CSTEP
         system_rhs(system, t, zc, p, u, oc)
         for i in range(n):
-            J[i, j] = oc[i].imag / _CSTEP
+            J[i, j] = oc[i].imag / CSTEP
 
 
 @njit(cache=True)
@@ -208,9 +209,9 @@ def system_dfdt_work(system: int, t: float, z: Vec, p: Vec, u: Vec, out: Vec, zc
     n = z.shape[0]
     for i in range(n):
         zc[i] = z[i]
-    system_rhs(system, t + 1j * _CSTEP, zc, p, u, oc)
+    system_rhs(system, t + 1j * CSTEP, zc, p, u, oc)
     for i in range(n):
-        out[i] = oc[i].imag / _CSTEP
+        out[i] = oc[i].imag / CSTEP
 
 
 @njit(cache=True)
