@@ -38,10 +38,10 @@ def fill_atol(system: int, a: float, p: NDArray[np.float64], atol: NDArray[np.fl
     Every state gets a, except the gear chain's rate dd of the play model, which gets
     a sqrt(ki/I) (at least a): the rate of a chain ringing at the mesh frequency sqrt(ki/I) is
     sqrt(ki/I) times its deflection d, so this asks the same of dd as of d (the monolithic
-    solver's scaling, ``solvers.monolithic._atol``). Held to a alone, dd was resolved 4472 times
-    finer than d (Case 1) and the rattling chain cost the TMD FMU 2.7x the integrator steps per
-    period (docs/cosimulation.md, issue 20). Both step paths (native and Python) call this, so
-    they stay bit-identical; without the play model the tolerances are a, as before."""
+    solver's scaling). Held to a alone, dd would be resolved 4472 times finer than d (Case 1) and
+    the rattling chain would cost the TMD FMU 2.7x the integrator steps per period
+    (docs/cosimulation.md). Both step paths (native and Python) call this, so they stay
+    bit-identical; without the play model every tolerance is a."""
     for i in range(atol.shape[0]):
         atol[i] = a
     if system == kn.SYS_TMD and int(p[P_MODEL]) == kn.MODEL_PLAY and p[P_ki] > 0.0 and p[P_I] > 0.0:

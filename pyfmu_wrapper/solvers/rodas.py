@@ -26,7 +26,7 @@ next step starts on the right branch with the right Jacobian.
 Always advancing. A state within SURFACE_TOL * atol of a contact surface (or within the friction
 band of a reversal) is on it, in that surface's mode, and is integrated with the ordinary error
 control: a gear chain resting on its contact at d + eps ~ -1e-20 is not retaken onto the surface
-again and again (the stall of issue 13). Minimum step: retakes shorter than 100 hmin are not
+again and again (which stalled the integrator). Minimum step: retakes shorter than 100 hmin are not
 made (the step is judged by its error estimate alone); an error-test rejection below hmin =
 1e-14 max(1, |t1|) ends the call with STEP_UNDERFLOW. At most ``max_steps`` steps (accepted,
 rejected and retaken) per call, else STEP_CAP. The callers turn a status into an error naming
