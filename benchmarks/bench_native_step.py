@@ -132,8 +132,9 @@ int main(int argc, char **argv) {
             double ph = w * t + j * 1.5707963267948966;
             v[j] = amp[j] * sin(ph); d1[j] = amp[j] * w * cos(ph); d2[j] = -amp[j] * w * w * sin(ph);
         }
-        if (fmi2SetReal(c, in, ni, v) || fmi2SetRealInputDerivatives(c, in, ni, o1, d1) ||
-            fmi2SetRealInputDerivatives(c, in, ni, o2, d2) || fmi2DoStep(c, t, hh, 1) || fmi2GetReal(c, &y, 1, &yv))
+        if ((ni && (fmi2SetReal(c, in, ni, v) || fmi2SetRealInputDerivatives(c, in, ni, o1, d1) ||
+                    fmi2SetRealInputDerivatives(c, in, ni, o2, d2))) ||
+            fmi2DoStep(c, t, hh, 1) || fmi2GetReal(c, &y, 1, &yv))
             return 4;
         sum += yv;
     }
