@@ -12,14 +12,16 @@ VanDerPol, the FMI Compliance Checker); the commands are in benchmarks/README_fm
    VanDerPol FMUs, into a temporary folder outside the checkout.
 2. Runs fmusim (co-simulation, h = 1 ms: the base with f_link = 50 sin(25 t), the TMD Case 1 with an
    ideal inerter and with play, inputs x, xd, xdd of x = 2 mm sin(25 t) from a CSV file, parameters
-   as ``--start-value``) and the compliance checker (FMI 2.0 only: it reads no FMI 3.0) on the native
-   FMUs and VanDerPol with ``env -i`` inside a user + mount namespace (``unshare -rm``) in which every
-   Python installation, venv, site-packages folder, libpython and python executable is covered by
-   an empty tmpfs or /dev/null, under ``strace -f -e trace=openat``; counts the Python files opened
-   (must be 0), the exit status and the warnings and errors each tool reports. The Python-hosted
-   FMUs run the same commands without the namespace (they need Python).
+   as ``--start-value``; and the TMD with communication steps of 2 s) and the compliance checker
+   (FMI 2.0 only: it reads no FMI 3.0) on the native FMUs and VanDerPol with ``env -i`` inside a
+   user + mount namespace (``unshare -rm``) in which every Python installation, venv, site-packages
+   folder, libpython and python executable is covered by an empty tmpfs or /dev/null, under
+   ``strace -f -e trace=openat``; counts the Python files opened (must be 0), the exit status, the
+   warnings and errors each tool reports and the FMI calls that did not return OK (fmusim's
+   ``--log-fmi-calls``). The Python-hosted FMUs run the same commands without the namespace (they
+   need Python).
 3. Compares the native FMUs' outputs with the Python-hosted FMUs' (fmusim's CSV prints 16 significant
-   digits, the checker's 17: identical text there is identical bits).
+   digits; the checker's has 17, so identical text there means identical bits).
 4. Measures, in one run with the C host of benchmarks/bench_native_step.py (FMI 2.0), the archive
    size, dlopen + instantiate + initialise, and set + doStep + get at h = 1 ms of the native FMUs,
    the Python-hosted FMUs and VanDerPol (no inputs: doStep + get); the kinds alternate within each
@@ -61,6 +63,8 @@ W, H = 25.0, 1e-3
 PYTHON_FILE = re.compile(r"python|site-packages|dist-packages|\.pyc?$|/\.venv/|\.pyenv|numba|numpy|llvmlite", re.I)
 #: fmusim's log lines of a status worse than OK (the FMU's messages and its own)
 FMUSIM_BAD = re.compile(r"^\[(Warning|Discard|Error|Fatal)\]", re.M)
+#: fmusim's log of the FMI calls (--log-fmi-calls): the status each call returned
+FMI_CALL_STATUS = re.compile(r"^(fmi[23]\w+)\(.*-> (OK|Warning|Discard|Error|Fatal|Pending)", re.M)
 CHECKER_SUMMARY = re.compile(
     r"FMU reported:\s*(\d+) warning\(s\) and error\(s\)\s*Checker reported:\s*(\d+) Warning\(s\)\s*(\d+) Error\(s\)"
 )
@@ -128,9 +132,17 @@ def input_csvs(tmp: Path, stop: float) -> dict[str, Path]:
     return {"BaseOscillator": base, "TMDInerter": tmd}
 
 
-def fmusim_cmd(fmusim: str, fmu: Path, out: Path, stop: float, inp: Path | None, params: dict) -> list[str]:
+def fmusim_cmd(
+    fmusim: str, fmu: Path, out: Path, stop: float, inp: Path | None, params: dict, interval: float = H
+) -> list[str]:
     cmd = [fmusim, "--interface-type", "cs", "--logging-on", "--log-level", "ok", "--stop-time", repr(stop)]
-    cmd += ["--output-interval", repr(H)]
+    cmd += [
+        "--output-interval",
+        repr(interval),
+        "--log-fmi-calls",
+        "--fmi-log-file",
+        str(out.with_suffix(".calls.txt")),
+    ]
     for k, v in params.items():
         cmd += ["--start-value", k, repr(v)]
     if inp is not None:
@@ -172,6 +184,10 @@ def tool_runs(a: argparse.Namespace, tmp: Path, fmus: dict, hide: tuple[list[str
                 if a.fmusim:
                     out = tmp / f"fmusim_{kind}{v}_{case}.csv"
                     jobs.append(("fmusim", v, kind, case, fmusim_cmd(a.fmusim, fmu, out, a.stop_time, inp, params)))
+                if a.fmusim and case == "tmd_ideal":  # communication steps of 2 s (the hosted FMU takes them in pieces)
+                    out = tmp / f"fmusim_{kind}{v}_tmd_step2s.csv"
+                    cmd = fmusim_cmd(a.fmusim, fmu, out, 6.0, None, {"y0": 0.01}, interval=2.0)
+                    jobs.append(("fmusim", v, kind, "tmd_step2s", cmd))
                 if a.fmuchk and v == 2 and case != "tmd_play":  # the checker sets no parameter: the defaults
                     case = "tmd_default" if case == "tmd_ideal" else case
                     work = tmp / f"chk_{kind}_{case}"
@@ -316,7 +332,7 @@ def main() -> None:
     res = REPO / "benchmarks" / "results"
     res.mkdir(exist_ok=True)
     (res / "bench_native_external.json").write_text(json.dumps(out, indent=1))
-    bad = [r for r in runs if r["rc"] or r["warnings"] or r["errors"] or r["python_files"]]
+    bad = [r for r in runs if r["rc"] or r["warnings"] or r["errors"] or r["python_files"] or r.get("fmi_calls_not_ok")]
     if bad or not all(same.values()):
         sys.exit(1)
 
