@@ -6,7 +6,7 @@
 
 (or ``--fmusim``, ``--fmuchk``, ``--vanderpol2``, ``--vanderpol3``; a tool not given is skipped and
 said so). The tools are built by hand from their public sources (Reference-FMUs' fmusim and
-VanDerPol, the FMI Compliance Checker); the commands are in benchmarks/README_fmu.md.
+VanDerPol, the FMI Compliance Checker); their versions are in benchmarks/README_fmu.md.
 
 1. Builds the native FMUs and the Python-hosted FMUs (FMI 2.0 and 3.0) and copies them, with the
    VanDerPol FMUs, into a temporary folder outside the checkout.
@@ -203,17 +203,23 @@ def tool_runs(a: argparse.Namespace, tmp: Path, fmus: dict, hide: tuple[list[str
             bad = FMUSIM_BAD.findall(r["out"])
             row["warnings"] = sum(b == "Warning" for b in bad)
             row["errors"] = len(bad) - row["warnings"]
+            calls_log = out.with_suffix(".calls.txt")
+            calls = FMI_CALL_STATUS.findall(calls_log.read_text()) if calls_log.exists() else []
+            row["fmi_calls"] = len(calls)
+            row["fmi_calls_not_ok"] = sorted({f"{f} -> {st}" for f, st in calls if st != "OK"})
         else:
             m = CHECKER_SUMMARY.search(r["out"])
             row["fmu_reported"], row["warnings"], row["errors"] = (int(g) for g in m.groups()) if m else (-1,) * 3
         row["output"] = str(out)
         row["rows"] = len(out.read_text().splitlines()) if out.exists() else 0
-        if row["rc"] or row["errors"] or row["warnings"]:
+        if row["rc"] or row["errors"] or row["warnings"] or row.get("fmi_calls_not_ok"):
             row["log"] = r["out"][-2000:]
         runs.append(row)
         print(
             f"{tool:8s} FMI {v}.0 {kind:9s} {case:10s} rc {row['rc']} warnings {row['warnings']} errors "
-            f"{row['errors']} rows {row['rows']} Python files opened "
+            f"{row['errors']} rows {row['rows']}"
+            + (f" FMI calls {row['fmi_calls']} not OK {len(row['fmi_calls_not_ok'])}" if tool == "fmusim" else "")
+            + " Python files opened "
             f"{'n/a (needs Python)' if r['python_files'] is None else len(r['python_files'])}"
             + (f" of {r['opened']}" if r["opened"] is not None else "")
         )
