@@ -1,11 +1,11 @@
 """The native FMUs in other vendors' tools with no Python on the machine (issue 30), in one run.
 
-    FMUSIM=/path/fmusim FMUCHK=/path/fmuCheck.linux64 \\
+    FMUSIM=/path/fmusim FMUSIM_WIN=/path/fmusim.exe FMUCHK=/path/fmuCheck.linux64 \\
     VANDERPOL2=/path/VanDerPol-fmi2.fmu VANDERPOL3=/path/VanDerPol-fmi3.fmu \\
         python benchmarks/bench_native_external.py [--stop-time 2] [--steps 200000] [--rounds 3]
 
-(or ``--fmusim``, ``--fmuchk``, ``--vanderpol2``, ``--vanderpol3``; a tool not given is skipped and
-said so). The tools are built by hand from their public sources (Reference-FMUs' fmusim and
+(or ``--fmusim``, ``--fmusim-win``, ``--fmuchk``, ``--vanderpol2``, ``--vanderpol3``; a tool not given
+is skipped and said so). The tools are built by hand from their public sources (Reference-FMUs' fmusim and
 VanDerPol, the FMI Compliance Checker); their versions are in benchmarks/README_fmu.md.
 
 1. Builds the native FMUs and the Python-hosted FMUs (FMI 2.0 and 3.0) and copies them, with the
@@ -19,9 +19,11 @@ VanDerPol, the FMI Compliance Checker); their versions are in benchmarks/README_
    ``strace -f -e trace=openat``; counts the Python files opened (must be 0), the exit status, the
    warnings and errors each tool reports and the FMI calls that did not return OK (fmusim's
    ``--log-fmi-calls``). The Python-hosted FMUs run the same commands without the namespace (they
-   need Python).
+   need Python). With ``FMUSIM_WIN``, fmusim built for Windows runs the native FMUs' win64 binaries
+   under wine with the same arguments (the Python-hosted FMUs have no win64 binary).
 3. Compares the native FMUs' outputs with the Python-hosted FMUs' (fmusim's CSV prints 16 significant
-   digits; the checker's has 17, so identical text there means identical bits).
+   digits; the checker's has 17, so identical text there means identical bits), and the win64
+   binary's with the linux64 one's (values that differ, largest relative difference).
 4. Measures, in one run with the C host of benchmarks/bench_native_step.py (FMI 2.0), the archive
    size, dlopen + instantiate + initialise, and set + doStep + get at h = 1 ms of the native FMUs,
    the Python-hosted FMUs and VanDerPol (no inputs: doStep + get); the kinds alternate within each
@@ -132,22 +134,29 @@ def input_csvs(tmp: Path, stop: float) -> dict[str, Path]:
     return {"BaseOscillator": base, "TMDInerter": tmd}
 
 
+def winpath(p: Path) -> str:
+    """A path as wine's Windows programs see it (drive Z: is /)."""
+    return "Z:" + str(p).replace("/", "\\")
+
+
 def fmusim_cmd(
-    fmusim: str, fmu: Path, out: Path, stop: float, inp: Path | None, params: dict, interval: float = H
+    fmusim: list[str], fmu: Path, out: Path, stop: float, inp: Path | None, params: dict, interval: float = H
 ) -> list[str]:
-    cmd = [fmusim, "--interface-type", "cs", "--logging-on", "--log-level", "ok", "--stop-time", repr(stop)]
+    """fmusim's command line; ``fmusim`` ["wine", "fmusim.exe"]: the Windows build under wine, Windows paths."""
+    path = winpath if fmusim[0] == "wine" else str
+    cmd = [*fmusim, "--interface-type", "cs", "--logging-on", "--log-level", "ok", "--stop-time", repr(stop)]
     cmd += [
         "--output-interval",
         repr(interval),
         "--log-fmi-calls",
         "--fmi-log-file",
-        str(out.with_suffix(".calls.txt")),
+        path(out.with_suffix(".calls.txt")),
     ]
     for k, v in params.items():
         cmd += ["--start-value", k, repr(v)]
     if inp is not None:
-        cmd += ["--input-file", str(inp)]
-    return [*cmd, "--output-file", str(out), str(fmu)]
+        cmd += ["--input-file", path(inp)]
+    return [*cmd, "--output-file", path(out), path(fmu)]
 
 
 def checker_cmd(fmuchk: str, fmu: Path, out: Path, stop: float, inp: Path | None, work: Path) -> list[str]:
@@ -169,7 +178,9 @@ def tool_runs(a: argparse.Namespace, tmp: Path, fmus: dict, hide: tuple[list[str
     """fmusim (FMI 2.0, 3.0) and the checker (FMI 2.0) on every FMU; native and VanDerPol with Python hidden."""
     inputs = input_csvs(tmp, a.stop_time)
     runs = []
-    jobs = []  # (tool, FMI version, kind, case, command)
+    jobs = []  # (tool, FMI version, kind, case, command, output file)
+    sims = [("fmusim", [a.fmusim])] if a.fmusim else []
+    wine = [("win64", ["wine", a.fmusim_win])] if a.fmusim_win else []
     for v in (2, 3):
         kinds = ["native", "hosted"] + (["reference"] if ("vanderpol", v) in fmus else [])
         for kind in kinds:
@@ -181,22 +192,25 @@ def tool_runs(a: argparse.Namespace, tmp: Path, fmus: dict, hide: tuple[list[str
             group = "vanderpol" if kind == "reference" else kind
             for case, (model, params) in cases.items():
                 fmu, inp = fmus[(group, v)][model], inputs.get(model)
-                if a.fmusim:
-                    out = tmp / f"fmusim_{kind}{v}_{case}.csv"
-                    jobs.append(("fmusim", v, kind, case, fmusim_cmd(a.fmusim, fmu, out, a.stop_time, inp, params)))
-                if a.fmusim and case == "tmd_ideal":  # communication steps of 2 s (the hosted FMU takes them in pieces)
-                    out = tmp / f"fmusim_{kind}{v}_tmd_step2s.csv"
-                    cmd = fmusim_cmd(a.fmusim, fmu, out, 6.0, None, {"y0": 0.01}, interval=2.0)
-                    jobs.append(("fmusim", v, kind, "tmd_step2s", cmd))
+                for k, sim in sims + (wine if kind == "native" else []):  # the win64 binary: fmusim.exe under wine
+                    k = kind if k == "fmusim" else k
+                    out = tmp / f"fmusim_{k}{v}_{case}.csv"
+                    jobs.append(("fmusim", v, k, case, fmusim_cmd(sim, fmu, out, a.stop_time, inp, params), out))
+                    if case == "tmd_ideal":  # communication steps of 2 s (the hosted FMU takes them in pieces)
+                        out = tmp / f"fmusim_{k}{v}_tmd_step2s.csv"
+                        cmd = fmusim_cmd(sim, fmu, out, 6.0, None, {"y0": 0.01}, interval=2.0)
+                        jobs.append(("fmusim", v, k, "tmd_step2s", cmd, out))
                 if a.fmuchk and v == 2 and case != "tmd_play":  # the checker sets no parameter: the defaults
                     case = "tmd_default" if case == "tmd_ideal" else case
                     work = tmp / f"chk_{kind}_{case}"
                     work.mkdir()
                     out = tmp / f"checker_{kind}{v}_{case}.csv"
-                    jobs.append(("checker", v, kind, case, checker_cmd(a.fmuchk, fmu, out, a.stop_time, inp, work)))
-    for tool, v, kind, case, cmd in jobs:
-        out = Path(cmd[cmd.index("--output-file" if tool == "fmusim" else "-o") + 1])
-        r = run_tool(cmd, None if kind == "hosted" else hide, tmp / f"strace_{tool}_{kind}{v}_{case}.txt")
+                    jobs.append(
+                        ("checker", v, kind, case, checker_cmd(a.fmuchk, fmu, out, a.stop_time, inp, work), out)
+                    )
+    for tool, v, kind, case, cmd, out in jobs:
+        sandbox = hide if kind in ("native", "reference") else None
+        r = run_tool(cmd, sandbox, tmp / f"strace_{tool}_{kind}{v}_{case}.txt")
         row = {"tool": tool, "fmi": v, "kind": kind, "case": case, "rc": r["rc"], "python_files": r["python_files"]}
         row["files_opened"] = r["opened"]
         if tool == "fmusim":
@@ -220,7 +234,7 @@ def tool_runs(a: argparse.Namespace, tmp: Path, fmus: dict, hide: tuple[list[str
             f"{row['errors']} rows {row['rows']}"
             + (f" FMI calls {row['fmi_calls']} not OK {len(row['fmi_calls_not_ok'])}" if tool == "fmusim" else "")
             + " Python files opened "
-            f"{'n/a (needs Python)' if r['python_files'] is None else len(r['python_files'])}"
+            f"{'n/a' if r['python_files'] is None else len(r['python_files'])}"
             + (f" of {r['opened']}" if r["opened"] is not None else "")
         )
     return runs
@@ -235,6 +249,21 @@ def compare_outputs(runs: list[dict]) -> dict[str, bool]:
         if kind == "native" and other is not None:
             a, b = Path(r["output"]), Path(other["output"])
             out[f"{tool} FMI {v}.0 {case}"] = a.exists() and b.exists() and a.read_bytes() == b.read_bytes()
+    return out
+
+
+def compare_win64(runs: list[dict]) -> dict[str, dict]:
+    """The win64 binary (fmusim.exe under wine) against the linux64 one (fmusim): every value of every row."""
+    out = {}
+    by = {(r["tool"], r["fmi"], r["kind"], r["case"]): r for r in runs}
+    for (tool, v, kind, case), r in by.items():
+        lin = by.get((tool, v, "native", case))
+        if kind != "win64" or lin is None or not r["rows"] or r["rows"] != lin["rows"]:
+            continue
+        rows = [[line.split(",") for line in Path(x["output"]).read_text().splitlines()] for x in (r, lin)]
+        pairs = [(float(a), float(b)) for ra, rb in zip(*(rr[1:] for rr in rows)) for a, b in zip(ra, rb)]
+        diff = [abs(a - b) / max(abs(b), 1e-300) for a, b in pairs if a != b]
+        out[f"FMI {v}.0 {case}"] = {"values": len(pairs), "differ": len(diff), "max_rel": max(diff, default=0.0)}
     return out
 
 
@@ -282,6 +311,9 @@ def c_host_timing(a: argparse.Namespace, tmp: Path, fmus: dict) -> dict:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--fmusim", default=os.environ.get("FMUSIM"), help="fmusim executable (env FMUSIM)")
+    ap.add_argument(
+        "--fmusim-win", default=os.environ.get("FMUSIM_WIN"), help="fmusim.exe, run by wine (env FMUSIM_WIN)"
+    )
     ap.add_argument("--fmuchk", default=os.environ.get("FMUCHK"), help="FMI Compliance Checker (env FMUCHK)")
     ap.add_argument("--vanderpol2", default=os.environ.get("VANDERPOL2"), help="VanDerPol FMI 2.0 (env VANDERPOL2)")
     ap.add_argument("--vanderpol3", default=os.environ.get("VANDERPOL3"), help="VanDerPol FMI 3.0 (env VANDERPOL3)")
@@ -289,13 +321,16 @@ def main() -> None:
     ap.add_argument("--steps", type=int, default=200_000)
     ap.add_argument("--rounds", type=int, default=3)
     a = ap.parse_args()
-    for name in ("fmusim", "fmuchk", "vanderpol2", "vanderpol3"):
-        p = getattr(a, name)
+    tools = {n: getattr(a, n) for n in ("fmusim", "fmusim_win", "fmuchk", "vanderpol2", "vanderpol3")}
+    for name, p in tools.items():
         if p is not None and not Path(p).is_file():
-            print(f"bench_native_external: --{name} {p}: no such file", file=sys.stderr)
+            print(f"bench_native_external: --{name.replace('_', '-')} {p}: no such file", file=sys.stderr)
             sys.exit(2)
         if p is None:
             print(f"bench_native_external: no {name} given: skipped", file=sys.stderr)
+    if a.fmusim_win and shutil.which("wine") is None:
+        print("bench_native_external: --fmusim-win needs wine (apt-get install wine64)", file=sys.stderr)
+        sys.exit(2)
     if (a.fmusim or a.fmuchk) and (shutil.which("strace") is None or shutil.which("unshare") is None):
         print(
             "bench_native_external: strace and unshare are needed (apt-get install strace util-linux)", file=sys.stderr
@@ -320,6 +355,11 @@ def main() -> None:
         same = compare_outputs(runs)
         for k, ok in same.items():
             print(f"native vs Python-hosted, {k}: {'identical' if ok else 'DIFFERENT'}")
+        win = compare_win64(runs)
+        for k, d in win.items():
+            print(
+                f"win64 (wine) vs linux64, {k}: {d['differ']} of {d['values']} values differ, max rel {d['max_rel']:.3g}"
+            )
         timing = c_host_timing(a, tmp, fmus)
         for r in runs:
             r.pop("output")
@@ -330,10 +370,9 @@ def main() -> None:
             f"{label:28s} {r['bytes']:9d} {r['init_ms']:9.3f} {r['step_us']:8.3f}  {r.get('same_outputs_as_hosted', '')}"
         )
     print("hidden:", len(hide[0]), "folders,", len(hide[1]), "files; load", load)
-    tools = {"fmusim": a.fmusim, "fmuchk": a.fmuchk, "vanderpol2": a.vanderpol2, "vanderpol3": a.vanderpol3}
     out = {
         "stop_time": a.stop_time, "h": H, "steps": a.steps, "rounds": a.rounds, "load": load, "tools": tools,
-        "hidden_dirs": hide[0], "hidden_files": hide[1], "runs": runs, "same_outputs": same, "c_host": timing,
+        "hidden_dirs": hide[0], "hidden_files": hide[1], "runs": runs, "same_outputs": same, "win64_vs_linux64": win, "c_host": timing,
     }  # fmt: skip
     res = REPO / "benchmarks" / "results"
     res.mkdir(exist_ok=True)
