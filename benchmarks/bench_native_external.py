@@ -253,17 +253,23 @@ def compare_outputs(runs: list[dict]) -> dict[str, bool]:
 
 
 def compare_win64(runs: list[dict]) -> dict[str, dict]:
-    """The win64 binary (fmusim.exe under wine) against the linux64 one (fmusim): every value of every row."""
+    """The win64 binary (fmusim.exe under wine) against the linux64 one (fmusim), per output column: how many
+    values differ, and the largest difference relative to the column's largest magnitude."""
     out = {}
     by = {(r["tool"], r["fmi"], r["kind"], r["case"]): r for r in runs}
     for (tool, v, kind, case), r in by.items():
         lin = by.get((tool, v, "native", case))
         if kind != "win64" or lin is None or not r["rows"] or r["rows"] != lin["rows"]:
             continue
-        rows = [[line.split(",") for line in Path(x["output"]).read_text().splitlines()] for x in (r, lin)]
-        pairs = [(float(a), float(b)) for ra, rb in zip(*(rr[1:] for rr in rows)) for a, b in zip(ra, rb)]
-        diff = [abs(a - b) / max(abs(b), 1e-300) for a, b in pairs if a != b]
-        out[f"FMI {v}.0 {case}"] = {"values": len(pairs), "differ": len(diff), "max_rel": max(diff, default=0.0)}
+        w, x = ([line.split(",") for line in Path(q["output"]).read_text().splitlines()] for q in (r, lin))
+        cols = {}
+        for j, name in enumerate(x[0][1:], 1):
+            pairs = [(float(rw[j]), float(rx[j])) for rw, rx in zip(w[1:], x[1:])]
+            scale = max(abs(b) for _, b in pairs) or 1.0
+            diff = [abs(a - b) for a, b in pairs if a != b]
+            if diff:
+                cols[name.strip('"')] = {"differ": len(diff), "of": len(pairs), "max_rel": max(diff) / scale}
+        out[f"FMI {v}.0 {case}"] = {"columns": cols, "max_rel": max((c["max_rel"] for c in cols.values()), default=0.0)}
     return out
 
 
@@ -357,8 +363,9 @@ def main() -> None:
             print(f"native vs Python-hosted, {k}: {'identical' if ok else 'DIFFERENT'}")
         win = compare_win64(runs)
         for k, d in win.items():
+            cols = ", ".join(f"{n} {c['differ']}/{c['of']} ({c['max_rel']:.2g})" for n, c in d["columns"].items())
             print(
-                f"win64 (wine) vs linux64, {k}: {d['differ']} of {d['values']} values differ, max rel {d['max_rel']:.3g}"
+                f"win64 (wine) vs linux64, {k}: max rel to the column's range {d['max_rel']:.3g}; {cols or 'identical'}"
             )
         timing = c_host_timing(a, tmp, fmus)
         for r in runs:
