@@ -115,6 +115,8 @@ def run_tool(cmd: list[str], hide: tuple[list[str], list[str]] | None, trace: Pa
     if r.returncode == 97:
         raise SystemExit(f"bench_native_external: could not hide Python: {r.stderr.strip()}")
     opened = re.findall(r'openat\([^"]*"([^"]*)"', trace.read_text()) if trace.exists() else []
+    if not opened:  # every run opens its C library at least: no trace is no proof
+        raise SystemExit(f"bench_native_external: strace recorded no file opened by {cmd[0]}: {r.stderr.strip()}")
     py = sorted({p for p in opened if PYTHON_FILE.search(p)})
     return {"rc": r.returncode, "out": r.stdout + r.stderr, "python_files": py, "opened": len(opened)}
 
