@@ -114,6 +114,7 @@ int main(int argc, char **argv) {
     long n = atol(argv[4]);
     fmi2ValueReference y = (fmi2ValueReference)atoi(argv[5]), in[3];
     int ni = sscanf(argv[6], "%u %u %u", &in[0], &in[1], &in[2]);
+    if (ni < 0) ni = 0; /* no inputs (e.g. VanDerPol): doStep + get */
     double amp[3] = {atof(argv[7]), atof(argv[8]), atof(argv[9])}, w = 25.0, hh = 1e-3, sum = 0, yv;
     for (int i = 10; i < argc; i++) {
         fmi2ValueReference vr; double v; int iv;
@@ -131,8 +132,9 @@ int main(int argc, char **argv) {
             double ph = w * t + j * 1.5707963267948966;
             v[j] = amp[j] * sin(ph); d1[j] = amp[j] * w * cos(ph); d2[j] = -amp[j] * w * w * sin(ph);
         }
-        if (fmi2SetReal(c, in, ni, v) || fmi2SetRealInputDerivatives(c, in, ni, o1, d1) ||
-            fmi2SetRealInputDerivatives(c, in, ni, o2, d2) || fmi2DoStep(c, t, hh, 1) || fmi2GetReal(c, &y, 1, &yv))
+        if ((ni && (fmi2SetReal(c, in, ni, v) || fmi2SetRealInputDerivatives(c, in, ni, o1, d1) ||
+                    fmi2SetRealInputDerivatives(c, in, ni, o2, d2))) ||
+            fmi2DoStep(c, t, hh, 1) || fmi2GetReal(c, &y, 1, &yv))
             return 4;
         sum += yv;
     }
@@ -146,6 +148,40 @@ int main(int argc, char **argv) {
 
 #: output read per step (as in benchmarks/bench_fmu.py: the base's x, the TMD's force)
 OUTPUT = {"BaseOscillator": "x", "TMDInerter": "force"}
+
+
+def compile_fmu_timer(tmp: Path) -> Path:
+    """The FMI 2.0 C host of FMU_TIMER, compiled into ``tmp``: dlopen, instantiate + initialise (timed),
+    then per step set the inputs and their derivatives, doStep, get one output (timed)."""
+    (tmp / "fmu_timer.c").write_text(FMU_TIMER)
+    host = tmp / "fmu_timer"
+    subprocess.run(
+        ["gcc", "-O2", f"-I{fmi_headers_dir()}", str(tmp / "fmu_timer.c"), "-o", str(host), "-ldl", "-lm"],
+        check=True,
+    )
+    return host
+
+
+def case_args(case: str) -> list[str]:
+    """FMU_TIMER's arguments after the step count for one of CASES: output vr, input vrs, amplitudes, settings."""
+    model, params, inputs = CASES[case]
+    spec = SPECS[model]
+    in_vrs = " ".join(str(spec.vr(k)) for k, _ in inputs)
+    sets = [f"r:{spec.vr(k)}={v}" for k, v in params.items() if not isinstance(v, int)]
+    sets += [f"i:{spec.vr(k)}={v}" for k, v in params.items() if isinstance(v, int)]
+    amps = [str(x) for _, x in inputs] + ["0"] * (3 - len(inputs))
+    return [str(spec.vr(OUTPUT[model])), in_vrs, *amps, *sets]
+
+
+def time_fmu(
+    host: Path, binary: Path, resources_uri: str, token: str, steps: int, args: list[str]
+) -> tuple[float, str, float]:
+    """One FMU_TIMER run: (us per set+doStep+get, %.17g sum of the output read, instantiate+initialise ms)."""
+    r = subprocess.run(
+        [str(host), str(binary), resources_uri, token, str(steps), *args], capture_output=True, text=True, check=True
+    )
+    step_us, total, init = r.stdout.split()
+    return float(step_us), total, float(init)
 
 
 def main() -> None:
@@ -165,14 +201,9 @@ def main() -> None:
             for n, f in fs.items()
         }
         (tmp / "timer.c").write_text(TIMER)
-        (tmp / "fmu_timer.c").write_text(FMU_TIMER)
-        host = tmp / "fmu_timer"
-        subprocess.run(
-            ["gcc", "-O2", f"-I{fmi_headers_dir()}", str(tmp / "fmu_timer.c"), "-o", str(host), "-ldl", "-lm"],
-            check=True,
-        )
+        host = compile_fmu_timer(tmp)
         rows = {}
-        for case, (model, params, inputs) in CASES.items():
+        for case, (model, _params, inputs) in CASES.items():
             spec = SPECS[model]
             blob, _ = _blob_and_reference(case)
             (tmp / f"{case}.bin").write_bytes(blob)
@@ -182,10 +213,8 @@ def main() -> None:
                 subprocess.run(["gcc", "-O2", *srcs, "-o", str(exe), "-lm"], check=True)
             dirs = {"hosted": extract(fmus[model], tmp / case), "native": extract(native[model], tmp / f"n_{case}")}
             yvr = spec.vr(OUTPUT[model])
-            in_vrs = " ".join(str(spec.vr(k)) for k, _ in inputs)
-            sets = [f"r:{spec.vr(k)}={v}" for k, v in params.items() if not isinstance(v, int)]
-            sets += [f"i:{spec.vr(k)}={v}" for k, v in params.items() if isinstance(v, int)]
             amps = [str(x) for _, x in inputs] + ["0"] * (3 - len(inputs))
+            fmu_args = case_args(case)
             us: dict[str, list[float]] = {"object": [], "hosted": [], "native": []}
             init_ms: dict[str, list[float]] = {"hosted": [], "native": []}
             sums: dict[str, set[str]] = {"hosted": set(), "native": set()}
@@ -197,14 +226,9 @@ def main() -> None:
                 us["object"].append(float(r.stdout.split()[0]))
                 for kind, d in dirs.items():
                     so = d / "binaries" / "linux64" / f"{model}.so"
-                    r = subprocess.run(
-                        [str(host), str(so), (d / "resources").as_uri(), guid(d), str(a.steps), str(yvr), in_vrs,
-                         *amps, *sets],
-                        capture_output=True, text=True, check=True,
-                    )  # fmt: skip
-                    step_us, total, init = r.stdout.split()
-                    us[kind].append(float(step_us))
-                    init_ms[kind].append(float(init))
+                    step_us, total, init = time_fmu(host, so, (d / "resources").as_uri(), guid(d), a.steps, fmu_args)
+                    us[kind].append(step_us)
+                    init_ms[kind].append(init)
                     sums[kind].add(total)
             rows[case] = {
                 **{f"{k}_us": statistics.median(v) for k, v in us.items()},
