@@ -5,7 +5,8 @@ test that needs no external tool: the same calls through fmpy.
 takes such a step in pieces of at most 1 s (fmi/slaves.py: advance); the native TMD FMU refused it with
 an error ("the native FMU takes steps of at most 1 s"), so fmusim stopped with exit status 3 on the
 native FMU and ran to the end on the Python-hosted one. A native FMU must compute what the Python-hosted
-FMU computes: the same outputs, bit for bit, after each long step.
+FMU computes: the same outputs, bit for bit, after each long step. It does now: the compiled step takes
+long steps in the Python slave's pieces (fmi/native.py tmd_step).
 """
 
 from __future__ import annotations
@@ -48,11 +49,6 @@ def _run(fmu, tmp_path, tag, steps):
     return np.array(rows)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="native TMD FMU refuses communication steps > 1 s (NM_LONG_STEPS = 0, native_embed.c do_step); the fix "
-    "belongs in the compiled step (fmi/native.py tmd_step: the pieces of slaves.py advance), see report-tools.md",
-)
 def test_native_tmd_takes_a_2s_step_as_the_python_hosted_fmu(tmd_pair, tmp_path):
     steps = (2.0, 2.0, 1.5)  # 2 s twice (two pieces each), then 1.5 s (two pieces of 0.75 s)
     hosted = _run(tmd_pair["hosted"], tmp_path, "hosted", steps)
@@ -64,7 +60,7 @@ def test_native_tmd_takes_a_2s_step_as_the_python_hosted_fmu(tmd_pair, tmp_path)
 
 
 def test_steps_of_at_most_1s_agree_bit_for_bit(tmd_pair, tmp_path):
-    """The same run in steps of 1 s (the longest the native step takes in one call): identical today."""
+    """The same run in steps of 1 s (the longest piece of a step): identical."""
     steps = (1.0,) * 5 + (0.5,)
     hosted = _run(tmd_pair["hosted"], tmp_path, "hosted1", steps)
     native = _run(tmd_pair["native"], tmp_path, "native1", steps)
