@@ -16,7 +16,7 @@ from pyfmu_wrapper.physics import frame as ref
 from pyfmu_wrapper.physics.frame_model import FrameParams
 from pyfmu_wrapper.scenario.engines import RunSettings
 from pyfmu_wrapper.scenario.loader import load_scenario, parse_scenario
-from pyfmu_wrapper.scenario.runner import curve_structure, run_studies
+from pyfmu_wrapper.scenario.runner import curve_structure
 from pyfmu_wrapper.scenario.schema import ScenarioError
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
@@ -131,7 +131,15 @@ def test_attachment_keys_need_a_frame():
         parse_scenario(doc, "bad.yaml")
 
 
-def test_frame_with_the_cosim_engine_is_refused_before_any_work(tmp_path, capsys):
+def test_a_model_without_fmus_is_refused_by_the_cosim_engine_before_any_work(tmp_path, capsys, monkeypatch):
+    """A registered model whose unit says it has no FMUs (cosim=False) cannot run --engine cosim or
+    both: one line naming the model, exit status 2, nothing written (the frame has FMUs: tests of its
+    co-simulation in tests/test_frame_cosim.py)."""
+    from dataclasses import replace
+
+    from pyfmu_wrapper.physics.units import MODELS
+
+    monkeypatch.setitem(MODELS._units, "frame", replace(MODELS.get("frame"), cosim=False))
     path = tmp_path / "f.yaml"
     path.write_text(textwrap.dedent(FRAME_DOC))
     assert main([str(path), "--out", str(tmp_path / "out"), "--engine", "both"]) == 2
@@ -141,4 +149,3 @@ def test_frame_with_the_cosim_engine_is_refused_before_any_work(tmp_path, capsys
     with pytest.raises(Exception, match="no FMUs"):
         RunSettings.for_scenario(load_scenario(path), engine="cosim")
     assert RunSettings.for_scenario(load_scenario(path), engine="monolithic").engine == "monolithic"
-    assert run_studies  # (imported for the API the runner offers)

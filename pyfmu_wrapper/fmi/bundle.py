@@ -58,9 +58,14 @@ def _relative_imports(rel: str, source: bytes) -> set[str]:
 
 
 def bundled_files() -> list[str]:
-    """Package-relative files the slaves need: fmi/slaves.py and its package imports, transitively,
-    with the ``__init__.py`` of every package on the way."""
-    todo, seen = [SLAVE_MODULE, LOADER_MODULE], set()
+    """Package-relative files the slaves need: the modules of every FMU's slave (fmi/slaves.py and
+    those :data:`~.variables.SPECS` name) and their package imports, transitively, with the
+    ``__init__.py`` of every package on the way."""
+    from .variables import SPECS
+
+    roots = {SLAVE_MODULE, LOADER_MODULE}
+    roots |= {spec.slave.split(":")[0].split(".", 1)[1].replace(".", "/") + ".py" for spec in SPECS.values()}
+    todo, seen = sorted(roots), set()
     while todo:
         rel = todo.pop()
         if rel in seen:

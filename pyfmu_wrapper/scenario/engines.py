@@ -233,13 +233,19 @@ def _cosim_settings(settings: RunSettings) -> Any:
     return settings.cosim if settings.cosim is not None else CosimSettings()
 
 
+def _cosim_system(base: Any) -> Callable[..., pd.DataFrame]:
+    """The co-simulation sweep of a structure's model: the paper's pair (:mod:`pyfmu_wrapper.cosim.steady`)
+    or the frame with its TMD (:mod:`pyfmu_wrapper.cosim.frame_system`, force coupling at two storeys)."""
+    from ..cosim import frame_system, steady
+
+    return steady.sweep if MODELS.of(base).name == "base_tmd" else frame_system.sweep
+
+
 def _cosim_sweep(
     base: Any, tmd: TMDParams, omegas: ndarray, settings: RunSettings, progress: Callable[..., Any] | None = None
 ) -> pd.DataFrame:
-    from ..cosim.steady import sweep as cosim_sweep
-
     cs = _cosim_settings(settings)
-    table = cosim_sweep(
+    table = _cosim_system(base)(
         base, tmd, omegas, direction=settings.sweep.direction, settings=cs, progress=progress, workers=settings.workers
     )
     table.insert(0, "method", cs.method)
@@ -305,6 +311,9 @@ def _cosim_time_series(
     from dataclasses import replace as _replace
 
     from ..cosim.steady import periodic_time_series as cosim_series
+
+    if MODELS.of(base).name != "base_tmd":
+        raise EngineError("the co-simulated phase portrait is written for the paper's base + TMD only")
 
     cs = _cosim_settings(settings)
     # record at the communication points: at least the requested samples per period

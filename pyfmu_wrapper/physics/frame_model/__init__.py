@@ -16,10 +16,23 @@ from ..kernels import inerter_force
 from ..models import OdeModel, bind_describe, contact_mode_index, mode_describer
 from ..params import N_PARAMS, TMDParams, pack
 from ..unit import ModelUnit
-from .equations import F_LOAD, F_N, F_TMD, F_TO, F_VALUES, frame_jacobian, frame_rhs, frame_switching, storey_index
+from .equations import (
+    F_LOAD,
+    F_N,
+    F_TMD,
+    F_TO,
+    F_VALUES,
+    frame_jacobian,
+    frame_rhs,
+    frame_switching,
+    no_switching,
+    storey_index,
+    storeys_jacobian,
+    storeys_rhs,
+)
 from .params import PARAMETERS, FrameParams
 
-__all__ = ["UNIT", "FrameParams", "frame_pack", "storey_index"]
+__all__ = ["STOREYS", "UNIT", "FrameParams", "frame_pack", "storey_index"]
 
 
 def frame_pack(frame: FrameParams, tmd: TMDParams, omega: float = 0.0) -> NDArray[np.float64]:
@@ -83,6 +96,20 @@ FRAME = OdeModel(
     describe=bind_describe(mode_describer(True, 4), frame_switching),
 )
 
+#: the frame alone, driven by the TMD's forces as input polynomials (the ShearFrame FMU's step)
+STOREYS = OdeModel(
+    name="frame_storeys",
+    rhs=storeys_rhs,
+    jacobian=storeys_jacobian,
+    switching=no_switching,
+    mode=contact_mode_index,
+    n_switches=3,
+    n_modes=3,
+    switch_tolerance=(1000, 1000, 1000),
+    state_names=("x_top", "xd_top", "y", "yd", "d", "dd"),
+    describe=lambda z, p, atol, band: "smooth",
+)
+
 UNIT = ModelUnit(
     name="frame",
     ode=FRAME,
@@ -93,5 +120,6 @@ UNIT = ModelUnit(
     atol=_atol,
     active=lambda frame, tmd: active_states(tmd, _n_state(frame)),
     inerter_force=_inerter_force,
+    cosim=True,
     description="a shear frame of 1-20 storeys with the TMD-inerter on any storey (TMDI: inerter to another storey or the ground)",
 )

@@ -25,7 +25,7 @@ dampings (:data:`FRAME_AT` onwards).
 from __future__ import annotations
 
 from ..._jit import njit
-from ..kernels import Vec, excitation, static_link_force, switching_functions, tmd_link
+from ..kernels import Num, Vec, excitation, input_value, static_link_force, switching_functions, tmd_link
 from ..params import N_PARAMS, P_df
 
 #: index of the frame's part of the packed array: n, loaded storey, TMD storey, inerter terminal,
@@ -42,18 +42,15 @@ def storey_index(i: int, n: int) -> int:
 
 
 @njit(cache=True)
-def frame_rhs(t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
-    """dz/dt of the frame with its TMD under F cos(w t) (module doc); z real or complex.
-
-    Each storey's force is summed in the order of the paper's base equation (excitation, damper
-    and spring below, those above, the TMD's force), so a 1-storey frame gives the paper's numbers
-    to the last bit."""
+def storey_rates(t: float, z: Vec, p: Vec, f0: Num, fs: Num, a: Num, out: Vec) -> Num:
+    """The storeys' entries of dz/dt under F cos(w t) and the TMD's forces: fs (spring, damper,
+    friction) on the TMD's storey s, f0 - fs (the inerter) on the terminal j, the feed-through a
+    joining M_j; returns xdd_j (0 for the ground). Each storey's force is summed in the order of the
+    paper's base equation (excitation, damper and spring below, those above, the TMD's force), so a
+    1-storey frame gives the paper's numbers to the last bit."""
     n = int(p[F_N])
     m0, k0, c0 = F_VALUES, F_VALUES + n, F_VALUES + 2 * n
     load, s, j = int(p[F_LOAD]), int(p[F_TMD]), int(p[F_TO])
-    sx = storey_index(s, n)
-    f0, a, ydd0, ya, ddd0, da, _ = tmd_link(z[sx], z[sx + 1], z[2], z[3], z[4], z[5], p)
-    fs = static_link_force(z[sx], z[sx + 1], z[2], z[3], p)
     xdd = 0.0 * z[0]  # the inerter terminal's acceleration (0: the ground)
     for i in range(1, n + 1):
         ix = storey_index(i, n)
@@ -74,10 +71,32 @@ def frame_rhs(t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
         out[ix + 1] = f / (p[m0 + i - 1] + a) if i == j else f / p[m0 + i - 1]
         if i == j:
             xdd = out[ix + 1]
+    return xdd
+
+
+@njit(cache=True)
+def frame_rhs(t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
+    """dz/dt of the frame with its TMD under F cos(w t) (module doc); z real or complex."""
+    sx = storey_index(int(p[F_TMD]), int(p[F_N]))
+    f0, a, ydd0, ya, ddd0, da, _ = tmd_link(z[sx], z[sx + 1], z[2], z[3], z[4], z[5], p)
+    fs = static_link_force(z[sx], z[sx + 1], z[2], z[3], p)
+    xdd = storey_rates(t, z, p, f0, fs, a, out)
     out[2] = z[3]
     out[3] = ydd0 + ya * xdd
     out[4] = z[5]
     out[5] = ddd0 + da * xdd
+
+
+@njit(cache=True)
+def storeys_rhs(t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
+    """dz/dt of the frame alone (the frame FMU): the TMD's force on the structure f = u[0] (its
+    links' total, TMDInerter.force) and its inerter's share P = u[1] (TMDInerter.inerter_force) are
+    input polynomials (:func:`~pyfmu_wrapper.physics.kernels.input_value`): f - P acts on the TMD's
+    storey, P on the inerter's terminal. The TMD's slots z[2:6] stay at rest."""
+    f = input_value(u, 0, t)
+    storey_rates(t, z, p, f, f - input_value(u, 1, t), 0.0, out)
+    for i in range(2, 6):
+        out[i] = 0.0 * z[0]
 
 
 @njit(cache=True)
@@ -99,6 +118,24 @@ def frame_jacobian(t: float, z: Vec, p: Vec, u: Vec, J: Vec, ft: Vec, zc: Vec, o
 
 
 @njit(cache=True)
+def storeys_jacobian(t: float, z: Vec, p: Vec, u: Vec, J: Vec, ft: Vec, zc: Vec, oc: Vec) -> None:
+    """The complex-step J and ft of :func:`storeys_rhs`."""
+    n = z.shape[0]
+    for j in range(n):
+        for i in range(n):
+            zc[i] = z[i]
+        zc[j] = z[j] + 1j * _CSTEP
+        storeys_rhs(t, zc, p, u, oc)
+        for i in range(n):
+            J[i, j] = oc[i].imag / _CSTEP
+    for i in range(n):
+        zc[i] = z[i]
+    storeys_rhs(t + 1j * _CSTEP, zc, p, u, oc)
+    for i in range(n):
+        ft[i] = oc[i].imag / _CSTEP
+
+
+@njit(cache=True)
 def frame_switching(z: Vec, p: Vec, g: Vec) -> None:
     """The paper's switching functions (:func:`~pyfmu_wrapper.physics.kernels.switching_functions`)
     with the friction's relative velocity taken at the TMD's storey."""
@@ -106,3 +143,11 @@ def frame_switching(z: Vec, p: Vec, g: Vec) -> None:
     if p[P_df] > 0.0:
         sx = storey_index(int(p[F_TMD]), int(p[F_N]))
         g[0] = z[sx + 1] - z[3]
+
+
+@njit(cache=True)
+def no_switching(z: Vec, p: Vec, g: Vec) -> None:
+    """The frame alone is smooth: no switching function is active."""
+    g[0] = 1.0
+    g[1] = 1.0
+    g[2] = 1.0

@@ -1,0 +1,87 @@
+"""The frame's co-simulation: the ShearFrame FMU (Python-hosted) and the TMDInerter FMU coupled by
+forces at two storeys (cosim/frame_system.py), held against the exact response of the whole structure
+from its matrices (physics/frame.py) and against the monolithic engine."""
+
+from __future__ import annotations
+
+import zipfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pyfmu_wrapper.cli.run_scenario import main
+from pyfmu_wrapper.cosim.frame_system import FRAME_FMUS, connections, sweep
+from pyfmu_wrapper.cosim.settings import CosimSettings
+from pyfmu_wrapper.fmi.build import ensure_fmus
+from pyfmu_wrapper.physics import frame as ref
+from pyfmu_wrapper.physics.frame_model import FrameParams
+from pyfmu_wrapper.physics.params import TMDParams
+from pyfmu_wrapper.scenario.tmdspec import detached_tmd
+
+SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
+TMD = TMDParams(mass=10.0, stiffness=3500.0, damping=20.0, inerter="ideal", inertance=5.0)
+
+
+@pytest.mark.parametrize("fmi_version", [2, 3])
+def test_shear_frame_fmu_validates(fmi_version, tmp_path):
+    from fmpy.validation import validate_fmu
+
+    paths = ensure_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
+    problems = validate_fmu(str(paths["ShearFrame"]))
+    assert problems == []
+    with zipfile.ZipFile(paths["ShearFrame"]) as z:
+        md = z.read("modelDescription.xml").decode()
+    assert 'name="storeys"' in md and 'name="f_inerter"' in md and 'name="m20"' in md
+
+
+@pytest.mark.parametrize(
+    ("n", "storey", "to", "omegas"),
+    [
+        (3, 3, -1, (12.0, 17.0, 22.0)),  # the TMD-inerter on the top storey
+        (3, 3, 2, (13.75, 17.0, 22.0)),  # the TMDI: inerter to storey 2
+        (3, 3, 0, (12.0, 22.0)),  # the inerter to the ground
+        (3, 2, 3, (15.0,)),  # the TMD on storey 2, its inerter to storey 3
+    ],
+)
+def test_cosimulated_frame_is_the_structures_exact_response(n, storey, to, omegas):
+    frame = FrameParams.uniform(n, 100.0, 1.2e5, 100.0, force_amplitude=200.0, tmd_storey=storey, inerter_to=to)
+    assert ("frame.xdd -> tmd.xdd" in connections(frame)) == (frame.terminal > 0)
+    structure = ref.ShearFrame.uniform(n, 100.0, 1.2e5, 100.0, force_amplitude=200.0)
+    lin = ref.LinearTMD(storey, 10.0, 3500.0, 20.0, 5.0, inerter_to=None if to < 0 else to)
+    w = np.array(omegas)
+    table = sweep(frame, TMD, w, settings=CosimSettings())
+    assert table["converged"].all()
+    err = np.abs(table["amplitude"].to_numpy() / ref.top_amplitude(structure, lin, w) - 1)
+    assert np.max(err) < 1e-4, err
+
+
+def test_cosimulated_frame_without_tmd():
+    frame = FrameParams.uniform(10, 100.0, 1.8e6, 200.0, force_amplitude=200.0)
+    w = np.array([20.0, 25.0])
+    table = sweep(frame, detached_tmd(TMD), w, settings=CosimSettings())
+    exact = ref.top_amplitude(ref.ShearFrame.uniform(10, 100.0, 1.8e6, 200.0, force_amplitude=200.0), None, w)
+    assert np.max(np.abs(table["amplitude"].to_numpy() / exact - 1)) < 1e-4
+
+
+def test_run_scenario_both_engines_on_the_frame(tmp_path):
+    """run-scenario --engine both: the co-simulated curves of frame3_tmdi.yaml (every 12th frequency)
+    against the exact response and the monolithic engine, within 1e-4."""
+    text = (SCENARIOS / "frame3_tmdi.yaml").read_text().replace("count: 61", "count: 6")
+    path = tmp_path / "frame3.yaml"
+    path.write_text(text)
+    assert main([str(path), "--out", str(tmp_path / "out"), "--engine", "both", "--quiet"]) == 0
+    table = pd.read_csv(tmp_path / "out" / "frame3_frc.csv")
+    assert set(table["engine"]) == {"both"} and len(table) == 18 and table["converged"].all()
+    assert table["difference"].abs().max() < 1e-4
+    structure = ref.ShearFrame.uniform(3, 100.0, 1.2e5, 100.0, force_amplitude=200.0)
+    lins = {
+        "no TMD": None,
+        "TMD-inerter": ref.LinearTMD(3, 10.0, 3500.0, 20.0, 5.0),
+        "TMDI": ref.LinearTMD(3, 10.0, 3500.0, 20.0, 5.0, inerter_to=2),
+    }
+    for label, lin in lins.items():
+        rows = table[table["curve"] == label]
+        exact = ref.top_amplitude(structure, lin, rows["omega"].to_numpy())
+        assert np.max(np.abs(rows["amplitude"].to_numpy() / exact - 1)) < 1e-4, label
