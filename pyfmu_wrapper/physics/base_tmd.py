@@ -81,4 +81,5 @@ UNIT = ModelUnit(
     inerter_force=_inerter_force,
     description="the paper's base oscillator with the TMD-inerter (one storey, one TMD)",
     cosim=True,
+    example=BaseParams,
 )

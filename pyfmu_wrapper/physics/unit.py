@@ -55,6 +55,8 @@ class ModelUnit:
     #: inerter_force(z, p) -> the inerter link's force P [N] at state z (packed parameters p)
     inerter_force: Callable[[NDArray[np.float64], NDArray[np.float64]], float]
     description: str = ""
+    #: example() -> a structure of this model (the tests run every registered model on it)
+    example: Callable[[], Any] | None = None
     #: the unit has FMUs and a co-simulation system (the co-simulation engine can run it)
     cosim: bool = False
 
