@@ -8,8 +8,12 @@ Connections (:func:`connections`)::
     tmd.force -> frame.f_link                       the links' total force on the structure
     tmd.inerter_force -> frame.f_inerter            its inerter's share, which acts on storey j
 
-With the ideal inerter, frame.xdd -> tmd.xdd -> tmd.force -> frame.xdd is an algebraic loop, which
-the master's ``loop`` scheme solves. The steady state is the definition of both engines
+With the ideal inerter on another storey (the TMDI), frame.xdd -> tmd.xdd -> tmd.force -> frame.xdd is
+an algebraic loop, which the master's ``loop`` scheme solves. With the inerter on the TMD's own
+storey (j = s, the paper's TMD-inerter) the interface Jacobian of the paper's pair is used instead:
+``frame.xdd_free -> tmd.xdd`` and ``tmd.base_compliance`` = 1/M_s, so the TMD adds the storey's
+instantaneous reaction to its own force within each step (no loop; the play chain's gear mesh meets a
+storey that reacts without a step of delay: with frame.xdd it diverged, frame3_full at 62 s). The steady state is the definition of both engines
 (:class:`~pyfmu_wrapper.solvers.steady.WindowCriterion` on max |x| of the top storey per period),
 started from the monolithic engine's start (the exact response of the linear companion, or the play
 model's companion orbit); the amplitude is the cubic Hermite maximum of the top storey between the
@@ -29,6 +33,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
+from ..master.instance import MasterError
 from ..master.master import Master
 from ..physics import registry
 from ..physics.frame_model import FrameParams, storey_index
@@ -59,9 +64,16 @@ def connections(frame: FrameParams) -> list[str]:
         "tmd.force -> frame.f_link",
         "tmd.inerter_force -> frame.f_inerter",
     ]
-    if frame.terminal > 0:
+    if frame.terminal == frame.tmd_at:
+        out.append("frame.xdd_free -> tmd.xdd")
+    elif frame.terminal > 0:
         out.append("frame.xdd -> tmd.xdd")
     return out
+
+
+def compliance(frame: FrameParams) -> float:
+    """tmd.base_compliance: 1/M_s when the inerter's terminal is the TMD's storey s, else 0 (off)."""
+    return 1.0 / frame.masses[frame.tmd_at - 1] if frame.terminal == frame.tmd_at else 0.0
 
 
 def fmu_parameters(frame: FrameParams, tmd: TMDParams, omega: float, z0: ArrayLike, fmu_rtol: float = 1e-8) -> dict:
@@ -98,6 +110,7 @@ def fmu_parameters(frame: FrameParams, tmd: TMDParams, omega: float, z0: ArrayLi
             "tmd.dd0": z[5],
             "tmd.rtol": fmu_rtol,
             "tmd.atol": min(atol, play_atol(first, tmd)) if has_gap(tmd) else atol,
+            "tmd.base_compliance": compliance(frame),
         }
     )
     return out
@@ -170,7 +183,15 @@ def _sweep_piece(
     try:
         for w in seq:
             n = max(settings.steps_for(tmd), int(settings.steps_per_period or 0))
-            ss = steady_state(master, frame, tmd, float(w), settings, n)
+            t0 = time.perf_counter()
+            try:
+                ss = steady_state(master, frame, tmd, float(w), settings, n)
+            except MasterError as exc:  # this point is not converged, the sweep goes on with new FMUs
+                master.close()
+                master = make_master(frame, settings.order, settings.fmi_version)
+                why = f"the FMUs failed at {n} steps per period: {str(exc).splitlines()[0][:300]}"
+                ss = CosimSteadyState(float(w), math.nan, np.zeros(0), 0, False, math.inf, 0, 0.0, reason=why)
+                ss.wall_time = time.perf_counter() - t0
             rows.append(
                 dict(
                     direction=direction,

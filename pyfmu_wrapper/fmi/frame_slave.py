@@ -67,8 +67,10 @@ class ShearFrameSlave(Slave):
         z = self.z[:m].astype(rates.dtype)
         f, P = inputs[0], inputs[1]
         xdd = storey_rates(self.t, z, self.p, f, f - P, 0.0, rates)
+        free = storey_rates(self.t, z, self.p, 0.0 * f, 0.0 * f, 0.0, rates)
         sx = storey_index(int(self.p[F_TMD]), n)
-        return [z[0], z[1], z[sx], z[sx + 1], xdd if int(self.p[F_TO]) > 0 else 0.0 * xdd]
+        ground = int(self.p[F_TO]) <= 0
+        return [z[0], z[1], z[sx], z[sx + 1], 0.0 * xdd if ground else xdd, 0.0 * free if ground else free]
 
     def advance(self, t: float, h: float, u: FloatArray) -> None:
         """RODAS4 over [t, t + h] on the frame alone (long steps in pieces of CHUNK)."""

@@ -105,6 +105,14 @@ SHEAR_FRAME = FmuSpec(
         _out("x", 22, "m", "displacement of the TMD's storey (TMDInerter.x)", False),
         _out("xd", 23, "m/s", "velocity of the TMD's storey (TMDInerter.xd)", False),
         _out("xdd", 24, "m/s2", "acceleration of the inerter's terminal, 0 for the ground (TMDInerter.xdd)", True),
+        _out(
+            "xdd_free",
+            25,
+            "m/s2",
+            "acceleration of the inerter's terminal without the TMD's forces: the input of a TMDInerter with "
+            "base_compliance = 1/M of that storey (when the terminal is the TMD's storey)",
+            False,
+        ),
         _par(
             "rtol",
             90,
