@@ -89,3 +89,31 @@ def test_run_scenario_both_engines_on_the_frame(tmp_path):
         rows = table[table["curve"] == label]
         exact = ref.top_amplitude(structure, lin, rows["omega"].to_numpy())
         assert np.max(np.abs(rows["amplitude"].to_numpy() / exact - 1)) < 1e-4, label
+
+
+def test_a_failing_point_is_reported_and_the_sweep_goes_on(monkeypatch):
+    """An FMU failure at one frequency (a MasterError) makes that point not converged, with the
+    failure as its reason; the next frequency runs on new FMUs (before: the whole run ended)."""
+    from pyfmu_wrapper.cosim import frame_system
+    from pyfmu_wrapper.master.instance import MasterError
+
+    real = frame_system.steady_state
+    calls = []
+
+    def flaky(master, frame, tmd, omega, settings, n):
+        calls.append(omega)
+        if len(calls) == 1:
+            raise MasterError("tmd: fmi2DoStep failed at t = 1 s (injected)")
+        return real(master, frame, tmd, omega, settings, n)
+
+    monkeypatch.setattr(frame_system, "steady_state", flaky)
+    frame = FrameParams.uniform(3, 100.0, 1.2e5, 100.0, force_amplitude=200.0)
+    table = sweep(frame, TMD, np.array([12.0, 22.0]), settings=CosimSettings())
+    first, second = table.iloc[0], table.iloc[1]
+    assert not first["converged"] and np.isnan(first["amplitude"]) and "injected" in first["reason"]
+    exact = ref.top_amplitude(
+        ref.ShearFrame.uniform(3, 100.0, 1.2e5, 100.0, force_amplitude=200.0),
+        ref.LinearTMD(3, 10.0, 3500.0, 20.0, 5.0),
+        [22.0],
+    )[0]
+    assert second["converged"] and abs(second["amplitude"] / exact - 1) < 1e-4
