@@ -312,3 +312,74 @@ def test_modelica_generated_blocks_follow_the_registry(tmp_path):
         if par.modelica_name:
             assert f" {par.modelica_name} = {gen.PACKAGE}.Defaults.{par.modelica_name} " in text, par.name
     assert gen.main(["--check", "--dir", str(tmp_path / "nowhere")]) == 2
+
+
+# --- the registry of model units ------------------------------------------------------------------
+
+#: the paper model's numbers on main at commit 54ba3a5, before the engines took their model from the
+#: registry of model units (float.hex): the registry must not change a bit of the paper's numbers
+GOLDEN_UNITS = {
+    "ideal_c10@18.0": "0x1.c002d8011f26fp-6",
+    "ideal_c10@21.0": "0x1.cb9eb3efe5ffbp-8",
+    "friction@18.0": "0x1.b9cc2c414ae6ap-6",
+    "friction@21.0": "0x1.fa1ad83cdc0e7p-8",
+    "full@18.0": "0x1.b1369954225bcp-6",
+    "full@21.0": "0x1.18858184f95edp-7",
+    "exact": ["0x1.ee4dd6c54facap-7", "0x1.87dccc5c70902p-9", "0x1.bae54d5324422p-7"],
+    "linearise": ["0x1.f4f7a6ea3a8e3p-6"],
+    "simulate": [
+        "0x1.59f81857bce7fp-7",
+        "0x1.0c4343eb0a4ffp-3",
+        "-0x1.98b24d59149bdp-6",
+        "0x1.69fc5e8d102c5p+0",
+        "-0x1.a8e5c754f2a71p-14",
+        "-0x1.e4603a2625411p-5",
+    ],
+}
+
+
+def test_model_units_leave_the_papers_numbers_bit_identical():
+    from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
+    from pyfmu_wrapper.solvers.monolithic import simulate
+
+    cases = {
+        "ideal_c10": paper_case(1, damping=10.0),
+        "friction": paper_case(1, friction_force=10.0, damping=5.0),
+        "full": paper_case(1, inerter="play", play_gap=1e-4, damping=10.0, friction_force=10.0),
+    }
+    for name, tmd in cases.items():
+        for w in (18.0, 21.0):
+            assert steady_state(BASE, tmd, w).amplitude.hex() == GOLDEN_UNITS[f"{name}@{w}"], (name, w)
+    exact = exact_amplitude(BASE, cases["ideal_c10"], [15.0, 20.0, 25.0])
+    assert [float(v).hex() for v in exact] == GOLDEN_UNITS["exact"]
+    lin = exact_amplitude(BASE, paper_case(2, cubic_stiffness=1e6), [19.0], linearise=True)
+    assert [float(v).hex() for v in lin] == GOLDEN_UNITS["linearise"]
+    _, z = simulate(BASE, cases["full"], 20.0, 1.0, n_samples=5)
+    assert [float(v).hex() for v in z[-1]] == GOLDEN_UNITS["simulate"]
+
+
+def test_the_registry_holds_every_model_and_finds_it_by_structure():
+    from pyfmu_wrapper.physics import base_tmd, frame_model
+    from pyfmu_wrapper.physics.unit import ModelError, Registry
+    from pyfmu_wrapper.physics.units import MODELS
+
+    assert MODELS.names() == ("base_tmd", "frame")
+    assert MODELS.of(BASE) is base_tmd.UNIT and MODELS.get("frame") is frame_model.UNIT
+    frame = frame_model.FrameParams.uniform(2, 100.0, 1e5, 10.0)
+    assert MODELS.of(frame) is frame_model.UNIT
+    with pytest.raises(ModelError, match="no registered model takes a TMDParams"):
+        MODELS.of(TMDParams())
+    with pytest.raises(ModelError, match="no model named 'x'; registered: base_tmd, frame"):
+        MODELS.get("x")
+    fresh = Registry()
+    fresh.register(base_tmd.UNIT)
+    with pytest.raises(ValueError, match="registered already"):
+        fresh.register(base_tmd.UNIT)
+    # a unit's own subsystem is declared in the parameter registry, beside base and tmd, and not packed
+    # with the paper's array
+    assert [p.name for p in registry.of("frame")][:4] == ["storeys", "mass", "stiffness", "damping"]
+    assert all(p.subsystem in ("base", "tmd") for p in registry.PARAMETERS)
+    with pytest.raises(ValueError, match="subsystem must be one of base, tmd, frame"):
+        registry.of("bridge")
+    for unit in MODELS.units():  # every unit's declared parameters carry unit, bounds and a description
+        assert unit.parameters and all(p.unit and p.description for p in unit.parameters)

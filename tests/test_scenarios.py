@@ -72,7 +72,10 @@ def test_committed_scenario_loads(path):
     assert scn.schema_version == 2
     assert scn.name == path.stem  # the default results folder is results/<file stem>
     assert scn.studies
-    assert scn.base.natural_frequency == pytest.approx(20.0)
+    if not path.stem.startswith(
+        "frame"
+    ):  # the paper's base: sqrt(K/M) = 20 rad/s (frames: tests/test_frame_scenarios.py)
+        assert scn.base.natural_frequency == pytest.approx(20.0)
     for st in scn.studies:
         assert np.all(st.omegas > 0) if not isinstance(st, PhasePortraitStudy) else all(w > 0 for w in st.omegas)
 

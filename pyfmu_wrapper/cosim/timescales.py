@@ -25,7 +25,7 @@ and refuses a step count above the cap with a sentence naming the parameters tha
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from typing import Any, NamedTuple
 
 import numpy as np
 
@@ -146,13 +146,14 @@ def choose_steps(
     return StepChoice(int(accuracy_steps), "accuracy", None)
 
 
-def refusal(base: BaseParams, tmd: TMDParams, omegas: object, cap: int) -> str | None:
+def refusal(base: Any, tmd: TMDParams, omegas: object, cap: int) -> str | None:
     """Why the co-simulation refuses some frequency of ``omegas`` [rad/s] for this configuration (the
     sentence of :func:`choose_steps` at the lowest frequency, where the most steps are needed, with
     how many of the frequencies it refuses), or None when it refuses none. For a caller that would
-    rather refuse a whole run up front (exit 2) than report the points not converged."""
+    rather refuse a whole run up front (exit 2) than report the points not converged. The time scales
+    are the paper's pair's (a frame's co-simulation takes its steps from the accuracy asked for: None)."""
     w = np.asarray(omegas, dtype=float).ravel()
-    if w.size == 0:
+    if not isinstance(base, BaseParams) or w.size == 0:
         return None
     refused = [x for x in w if steps_for_structure(base, tmd, float(x)) > cap]
     if not refused:

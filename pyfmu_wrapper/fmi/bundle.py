@@ -63,8 +63,9 @@ _CLOSURE: dict[tuple, list[str]] = {}
 
 
 def bundled_files() -> list[str]:
-    """Package-relative files the slaves need: fmi/slaves.py and its package imports, transitively,
-    with the ``__init__.py`` of every package on the way."""
+    """Package-relative files the slaves need: the modules of every FMU's slave (fmi/slaves.py and
+    those :data:`~.variables.SPECS` name) and their package imports, transitively, with the
+    ``__init__.py`` of every package on the way."""
     key = tuple((str(f), st.st_size, st.st_mtime_ns) for f in sorted(PACKAGE_DIR.rglob("*.py")) if (st := f.stat()))
     if key not in _CLOSURE:
         _CLOSURE.clear()
@@ -73,7 +74,11 @@ def bundled_files() -> list[str]:
 
 
 def _closure() -> list[str]:
-    todo, seen = [SLAVE_MODULE, LOADER_MODULE], set()
+    from .variables import SPECS
+
+    roots = {SLAVE_MODULE, LOADER_MODULE}
+    roots |= {spec.slave.split(":")[0].split(".", 1)[1].replace(".", "/") + ".py" for spec in SPECS.values()}
+    todo, seen = sorted(roots), set()
     while todo:
         rel = todo.pop()
         if rel in seen:

@@ -12,6 +12,7 @@ What a declaration holds (value references, dependencies, ranges) is :mod:`.vars
 from __future__ import annotations
 
 from ..physics import registry
+from .frame_variables import SHEAR_FRAME
 from .varspec import INTEGER, REAL, FmuSpec, Variable
 
 
@@ -326,6 +327,6 @@ TRIVIAL = FmuSpec(
     provides_directional_derivative=True,
 )
 
-SPECS = {s.model_identifier: s for s in (BASE_OSCILLATOR, TMD_INERTER, TRIVIAL)}
+SPECS = {s.model_identifier: s for s in (BASE_OSCILLATOR, TMD_INERTER, TRIVIAL, SHEAR_FRAME)}
 #: The FMUs of the project (the trivial one is built only on request).
 PROJECT_FMUS = ("BaseOscillator", "TMDInerter")

@@ -66,7 +66,7 @@ def contact_mode_index(g: Vec) -> int:
 _SURFACE_TOL = 1e-3  # the integrator's default surface_tol (solvers.rodas.SURFACE_TOL), for messages
 
 
-def _describe(friction: bool, contact_index: int) -> Callable[..., str]:
+def mode_describer(friction: bool, contact_index: int) -> Callable[..., str]:
     def describe(z: ArrayLike, p: Vec, atol: ArrayLike, band: float, _switching: Any = None) -> str:
         g = np.empty(3)
         _switching(np.asarray(z, dtype=float), p, g)
@@ -88,7 +88,7 @@ def _describe(friction: bool, contact_index: int) -> Callable[..., str]:
     return describe
 
 
-def _bind(describe: Callable[..., str], switching: Any) -> Callable[[ArrayLike, Vec, ArrayLike, float], str]:
+def bind_describe(describe: Callable[..., str], switching: Any) -> Callable[[ArrayLike, Vec, ArrayLike, float], str]:
     return lambda z, p, atol, band: describe(z, p, atol, band, _switching=switching)
 
 
@@ -158,7 +158,7 @@ COUPLED = OdeModel(
     3,
     (-1, 4, 4),
     ("x", "xd", "y", "yd", "d", "dd"),
-    _bind(_describe(True, 4), coupled_switching),
+    bind_describe(mode_describer(True, 4), coupled_switching),
 )
 BASE = OdeModel(
     "base",
@@ -170,7 +170,7 @@ BASE = OdeModel(
     3,
     (-1, 2, 2),
     ("x", "xd"),
-    _bind(_describe(False, 2), base_switching),
+    bind_describe(mode_describer(False, 2), base_switching),
 )
 TMD = OdeModel(
     "tmd",
@@ -182,5 +182,5 @@ TMD = OdeModel(
     3,
     (-1, 2, 2),
     ("y", "yd", "d", "dd"),
-    _bind(_describe(False, 2), tmd_switching),
+    bind_describe(mode_describer(False, 2), tmd_switching),
 )

@@ -247,8 +247,10 @@ def pack(base: BaseParams, tmd: TMDParams, omega: float = 0.0) -> np.ndarray:
     for i, par in enumerate(registry.PARAMETERS):
         if par.subsystem == "base":
             p[i] = omega if par.name == "omega" else getattr(base, par.name)
-        else:
+        elif par.subsystem == "tmd":
             p[i] = float(int(getattr(tmd, par.name))) if par.kind == "enum" else getattr(tmd, par.name)
+        else:  # pragma: no cover - PARAMETERS holds base and tmd only (others are declared)
+            raise ValueError(f"parameter {par.subsystem}.{par.name} is not packed with the paper's array")
     return p
 
 

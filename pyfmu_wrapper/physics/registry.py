@@ -275,10 +275,28 @@ PACK_INDEX: dict[str, int] = {f"{p.subsystem}.{p.name}": i for i, p in enumerate
 N_PARAMS = len(PARAMETERS)
 
 
+#: the parameters of the subsystems declared by model units (:func:`declare`), beside base and tmd
+_DECLARED: dict[str, tuple[Parameter, ...]] = {}
+
+
+def declare(subsystem: str, parameters: tuple[Parameter, ...]) -> tuple[Parameter, ...]:
+    """Declare the parameters of a model unit's own subsystem (a frame, ...): they are not packed
+    with the paper's array (:data:`PARAMETERS`), their unit packs them itself."""
+    if subsystem in ("base", "tmd") or subsystem in _DECLARED:
+        raise ValueError(f"subsystem {subsystem!r} is declared already")
+    if any(p.subsystem != subsystem for p in parameters):
+        raise ValueError(f"every parameter declared for {subsystem!r} must name that subsystem")
+    _DECLARED[subsystem] = tuple(parameters)
+    return _DECLARED[subsystem]
+
+
 def of(subsystem: str) -> tuple[Parameter, ...]:
-    """The parameters of one subsystem (``base`` or ``tmd``), in registry order."""
+    """The parameters of one subsystem (``base``, ``tmd`` or one a unit declared), in registry order."""
+    if subsystem in _DECLARED:
+        return _DECLARED[subsystem]
     if subsystem not in ("base", "tmd"):
-        raise ValueError(f"subsystem must be 'base' or 'tmd', got {subsystem!r}")
+        known = ", ".join(("base", "tmd", *_DECLARED))
+        raise ValueError(f"subsystem must be one of {known}, got {subsystem!r}")
     return tuple(p for p in PARAMETERS if p.subsystem == subsystem)
 
 
@@ -301,8 +319,10 @@ def fmu_start_values(base: Any, tmd: Any, omega: float) -> dict[str, float | int
     for p in PARAMETERS:
         if p.subsystem == "base":
             v = float(omega) if p.name == "omega" else getattr(base, p.name)
-        else:
+        elif p.subsystem == "tmd":
             v = getattr(tmd, p.name)
+        else:  # pragma: no cover - PARAMETERS holds base and tmd only (others are declared)
+            raise ValueError(f"parameter {p.subsystem}.{p.name} is not packed with the paper's array")
         out[f"{p.subsystem}.{p.fmu_name}"] = int(v) if p.kind == "enum" else float(v)
     return out
 

@@ -25,7 +25,8 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
-from ..physics.params import BaseParams, TMDParams
+from ..physics.params import TMDParams
+from ..physics.units import MODELS
 from ..solvers.frequency_response import exact_amplitude, exact_response
 from ..solvers.monolithic import periodic_time_series
 from ..solvers.sweep import sweep
@@ -38,7 +39,7 @@ if TYPE_CHECKING:
     from numpy import ndarray
 
     from ..cosim.settings import CosimSettings
-    from ..physics.params import BaseParams, TMDParams
+    from ..physics.params import TMDParams
     from .schema import Scenario
 
 #: the engine run-scenario uses unless told otherwise
@@ -73,6 +74,12 @@ class RunSettings:
     ) -> RunSettings:
         """The settings of a scenario for ``engine``; ``cosim`` replaces the scenario's cosim block."""
         _engine(engine)
+        unit = MODELS.of(scn.base)
+        if engine in BLOCK_USERS["cosim"] and not unit.cosim:
+            raise EngineError(
+                f"engine {engine!r}: the co-simulation has no FMUs of model {unit.name!r} yet "
+                f"({unit.description}); run it with --engine monolithic"
+            )
         if cosim is None and engine in BLOCK_USERS["cosim"]:
             cosim = scn.cosim.settings()
         return cls(engine=engine, solver=scn.solver, cosim=cosim, workers=workers, sweep=scn.sweep)
@@ -107,8 +114,8 @@ class TimeSeries:
 
 @dataclass(frozen=True)
 class Engine:
-    sweep: Callable[[BaseParams, TMDParams, np.ndarray, RunSettings, Callable[..., Any] | None], pd.DataFrame]
-    time_series: Callable[[BaseParams, TMDParams, float, int, int, RunSettings], TimeSeries]
+    sweep: Callable[[Any, TMDParams, np.ndarray, RunSettings, Callable[..., Any] | None], pd.DataFrame]
+    time_series: Callable[[Any, TMDParams, float, int, int, RunSettings], TimeSeries]
     description: str = ""
 
 
@@ -122,7 +129,7 @@ def _mono_exact(tmd: TMDParams, settings: RunSettings) -> bool:
 
 
 def _exact_table(
-    base: BaseParams,
+    base: Any,
     tmd: TMDParams,
     omegas: ndarray,
     settings: RunSettings,
@@ -162,7 +169,7 @@ def _exact_table(
 
 
 def _monolithic_sweep(
-    base: BaseParams,
+    base: Any,
     tmd: TMDParams,
     omegas: ndarray,
     settings: RunSettings,
@@ -190,7 +197,7 @@ def _monolithic_sweep(
 
 
 def _monolithic_time_series(
-    base: BaseParams, tmd: TMDParams, omega: float, n_periods: int, samples_per_period: int, settings: RunSettings
+    base: Any, tmd: TMDParams, omega: float, n_periods: int, samples_per_period: int, settings: RunSettings
 ) -> TimeSeries:
     if _mono_exact(tmd, settings):
         T = 2.0 * np.pi / omega
@@ -226,13 +233,19 @@ def _cosim_settings(settings: RunSettings) -> Any:
     return settings.cosim if settings.cosim is not None else CosimSettings()
 
 
-def _cosim_sweep(
-    base: BaseParams, tmd: TMDParams, omegas: ndarray, settings: RunSettings, progress: Callable[..., Any] | None = None
-) -> pd.DataFrame:
-    from ..cosim.steady import sweep as cosim_sweep
+def _cosim_system(base: Any) -> Callable[..., pd.DataFrame]:
+    """The co-simulation sweep of a structure's model: the paper's pair (:mod:`pyfmu_wrapper.cosim.steady`)
+    or the frame with its TMD (:mod:`pyfmu_wrapper.cosim.frame_system`, force coupling at two storeys)."""
+    from ..cosim import frame_system, steady
 
+    return steady.sweep if MODELS.of(base).name == "base_tmd" else frame_system.sweep
+
+
+def _cosim_sweep(
+    base: Any, tmd: TMDParams, omegas: ndarray, settings: RunSettings, progress: Callable[..., Any] | None = None
+) -> pd.DataFrame:
     cs = _cosim_settings(settings)
-    table = cosim_sweep(
+    table = _cosim_system(base)(
         base, tmd, omegas, direction=settings.sweep.direction, settings=cs, progress=progress, workers=settings.workers
     )
     table.insert(0, "method", cs.method)
@@ -245,7 +258,7 @@ def _cosim_sweep(
 
 
 def _both_sweep(
-    base: BaseParams, tmd: TMDParams, omegas: ndarray, settings: RunSettings, progress: Callable[..., Any] | None = None
+    base: Any, tmd: TMDParams, omegas: ndarray, settings: RunSettings, progress: Callable[..., Any] | None = None
 ) -> pd.DataFrame:
     """Co-simulation and monolithic engine; the co-simulated rows carry the monolithic amplitude
     ('reference') and the relative difference cosim / monolithic - 1 ('difference'; NaN where the
@@ -293,11 +306,14 @@ class _Half:
 
 
 def _cosim_time_series(
-    base: BaseParams, tmd: TMDParams, omega: float, n_periods: int, samples_per_period: int, settings: RunSettings
+    base: Any, tmd: TMDParams, omega: float, n_periods: int, samples_per_period: int, settings: RunSettings
 ) -> TimeSeries:
     from dataclasses import replace as _replace
 
     from ..cosim.steady import periodic_time_series as cosim_series
+
+    if MODELS.of(base).name != "base_tmd":
+        raise EngineError("the co-simulated phase portrait is written for the paper's base + TMD only")
 
     cs = _cosim_settings(settings)
     # record at the communication points: at least the requested samples per period
@@ -349,7 +365,7 @@ def _engine(name: str) -> Engine:
 
 
 def compute_sweep(
-    base: BaseParams,
+    base: Any,
     tmd: TMDParams,
     omegas: Sequence[float] | ndarray,
     settings: RunSettings,
@@ -364,7 +380,7 @@ def compute_sweep(
 
 
 def compute_time_series(
-    base: BaseParams, tmd: TMDParams, omega: float, n_periods: int, samples_per_period: int, settings: RunSettings
+    base: Any, tmd: TMDParams, omega: float, n_periods: int, samples_per_period: int, settings: RunSettings
 ) -> TimeSeries:
     """Steady-state time series over n_periods at omega [rad/s] by the engine named in ``settings``."""
     return _engine(settings.engine).time_series(

@@ -13,13 +13,14 @@ from __future__ import annotations
 
 import os
 import re
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import yaml
 
 from ..physics.params import BaseParams, ParameterError, field_names
 from ..solvers import settings_table as _settings
 from ..solvers.steady import SettingsError
+from .framespec import attached, read_frame
 from .reader import Reader, key_path, line_of
 from .schema import (
     COSIM_KEYS,
@@ -45,7 +46,6 @@ from .yamlio import load_marked
 if TYPE_CHECKING:
     from collections.abc import Callable
     from pathlib import Path
-    from typing import Any
 
     from numpy import ndarray
 
@@ -98,9 +98,16 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
         doc,
         "",
         1,
-        required=("schema_version", "name", "base", "tmd", "frequencies", "studies"),
-        optional=("description", "sweep", "solver", "cosim"),
+        required=("schema_version", "name", "tmd", "frequencies", "studies"),
+        optional=("description", "sweep", "solver", "cosim", "base", "frame"),
     )
+    if ("base" in doc) == ("frame" in doc):
+        rd.fail(
+            "",
+            1,
+            "needs exactly one primary structure: a base: block (the paper's base oscillator) or a frame: block",
+            show_value=False,
+        )
     version = doc["schema_version"]
     if isinstance(version, bool) or version not in READ_VERSIONS:
         rd.fail(
@@ -124,21 +131,13 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
     name = rd.string(doc, "name", "", pattern=_NAME_RE)
     description = rd.string(doc, "description", "", default="")
 
-    b = rd.mapping(doc["base"], "base", line_of(doc, "base"), required=BASE_FIELDS)
-    for key in BASE_FIELDS:
-        rd.number(b, key, "base")
-    try:
-        base = BaseParams(**{k: b[k] for k in BASE_FIELDS})
-    except ParameterError:
-        key = next(k for k in BASE_FIELDS if _base_fails(b, k))
-        p, ln = f"base.{key}", line_of(b, key)
-        try:
-            BaseParams(**{k: b[k] for k in BASE_FIELDS}, source=rd.source(p, ln))
-        except ParameterError as exc:
-            rd.parameter_error(exc, p, ln, b[key])
-
+    if "frame" in doc:
+        base: Any = read_frame(rd, doc["frame"], line_of(doc, "frame"))
+    else:
+        base = _base(rd, doc)
     top = TMDSpec().over(rd, doc["tmd"], "tmd", line_of(doc, "tmd"))
     tmd = top.build(rd, "tmd", line_of(doc, "tmd"))
+    base = attached(rd, base, top, "tmd", line_of(doc, "tmd"))
     omegas = rd.grid(doc["frequencies"], "frequencies", line_of(doc, "frequencies"), positive=True)
     sweep = _sweep(rd, doc.get("sweep", {}), line_of(doc, "sweep"))
     solver = _solver(rd, doc.get("solver", {}), line_of(doc, "solver"))
@@ -147,7 +146,7 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
     studies_node = rd.sequence(doc["studies"], "studies", line_of(doc, "studies"))
     studies, names = [], set()
     for i, st in enumerate(studies_node):
-        s = _study(rd, st, f"studies[{i}]", line_of(studies_node, i), top, omegas)
+        s = _study(rd, st, f"studies[{i}]", line_of(studies_node, i), top, omegas, base)
         if s.name in names:
             rd.fail(f"studies[{i}].name", line_of(st, "name"), "duplicate study name", s.name)
         names.add(s.name)
@@ -166,6 +165,22 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
         cosim=cosim,
         raw=plain_data(doc),
     )
+
+
+def _base(rd: Reader, doc: MarkedDict) -> BaseParams:
+    b = rd.mapping(doc["base"], "base", line_of(doc, "base"), required=BASE_FIELDS)
+    for key in BASE_FIELDS:
+        rd.number(b, key, "base")
+    try:
+        return BaseParams(**{k: b[k] for k in BASE_FIELDS})
+    except ParameterError:
+        key = next(k for k in BASE_FIELDS if _base_fails(b, k))
+        p, ln = f"base.{key}", line_of(b, key)
+        try:
+            BaseParams(**{k: b[k] for k in BASE_FIELDS}, source=rd.source(p, ln))
+        except ParameterError as exc:
+            rd.parameter_error(exc, p, ln, b[key])
+        raise  # pragma: no cover - the same values cannot pass the second time
 
 
 def _base_fails(b: MarkedDict, key: str) -> bool:
@@ -248,7 +263,7 @@ _KIND_KEYS = {
 
 
 def _study(
-    rd: Reader, node: MarkedDict, path: str, line: int | None, top: TMDSpec, omegas: ndarray
+    rd: Reader, node: MarkedDict, path: str, line: int | None, top: TMDSpec, omegas: ndarray, base: Any
 ) -> FRCStudy | PhasePortraitStudy | MapStudy:
     if not isinstance(node, dict):
         rd.fail(path, line, "must be a mapping (a study)", node)
@@ -270,18 +285,20 @@ def _study(
             node["frequencies"], key_path(path, "frequencies"), line_of(node, "frequencies"), positive=True
         )
     if kind == "frc":
-        curves = _curves(rd, node["curves"], key_path(path, "curves"), line_of(node, "curves"), spec)
+        curves = _curves(rd, node["curves"], key_path(path, "curves"), line_of(node, "curves"), spec, base)
         return FRCStudy(name=name, title=title, omegas=omegas, curves=curves)
     if kind == "phase_portrait":
         wp = key_path(path, "omegas")
         w = rd.grid(node["omegas"], wp, line_of(node, "omegas"), positive=True)
-        curves = _curves(rd, node["curves"], key_path(path, "curves"), line_of(node, "curves"), spec)
+        curves = _curves(rd, node["curves"], key_path(path, "curves"), line_of(node, "curves"), spec, base)
         n = rd.integer(node, "n_periods", path, minimum=1, maximum=1000, default=1)
         sp = rd.integer(node, "samples_per_period", path, minimum=8, maximum=100_000, default=400)
         return PhasePortraitStudy(
             name=name, title=title, omegas=tuple(float(x) for x in w), curves=curves, n_periods=n, samples_per_period=sp
         )
     # map
+    if attached(rd, base, spec, path, line) != base:
+        rd.fail(key_path(path, "tmd"), line_of(node, "tmd"), "a map study keeps the scenario's attachment of the TMD")
     param = rd.string(node, "parameter", path, choices=MAP_PARAMETERS)
     vnode, vpath, vline = node["values"], key_path(path, "values"), line_of(node, "values")
     values = rd.grid(vnode, vpath, vline)
@@ -303,7 +320,7 @@ def _study(
     return MapStudy(name=name, title=title, parameter=param, values=values, omegas=omegas, tmds=tuple(tmds))
 
 
-def _curves(rd: Reader, node: MarkedList, path: str, line: int | None, spec: TMDSpec) -> tuple[Curve, ...]:
+def _curves(rd: Reader, node: MarkedList, path: str, line: int | None, spec: TMDSpec, base: Any) -> tuple[Curve, ...]:
     rd.sequence(node, path, line)
     out, labels = [], set()
     for i, c in enumerate(node):
@@ -320,7 +337,15 @@ def _curves(rd: Reader, node: MarkedList, path: str, line: int | None, spec: TMD
             )
         s = spec.over(rd, c["tmd"], key_path(p, "tmd"), line_of(c, "tmd")) if "tmd" in c else spec
         tmd = s.build(rd, p, ln)
-        out.append(Curve(label=label, tmd=detached_tmd(tmd) if without else tmd, without_tmd=without))
+        structure = attached(rd, base, s, p, ln)
+        out.append(
+            Curve(
+                label=label,
+                tmd=detached_tmd(tmd) if without else tmd,
+                without_tmd=without,
+                structure=None if structure == base else structure,
+            )
+        )
     return tuple(out)
 
 

@@ -20,7 +20,7 @@ import pandas as pd
 from ..solvers.frequency_response import exact_amplitude
 from .engines import RunSettings, compute_sweep, compute_time_series, uses_exact
 from .executors import run_tasks
-from .schema import FRCStudy, MapStudy, PhasePortraitStudy, Scenario
+from .schema import Curve, FRCStudy, MapStudy, PhasePortraitStudy, Scenario
 from .sweeptable import engine_differences, find_peaks, sweep_diagnostics
 from .tasks import Checkpoint, SweepTask, TaskStats, run_task
 
@@ -135,7 +135,7 @@ class _Cache:
         settings: RunSettings,
         progress: Callable[..., Any] | None,
     ) -> DataFrame:
-        key = (tmd, np.asarray(omegas, float).tobytes())
+        key = (base, tmd, np.asarray(omegas, float).tobytes())
         if key in self.tables:
             if progress is not None:
                 getattr(progress, "skip", progress)(len(omegas) * len(settings.directions()))
@@ -152,30 +152,32 @@ class _Cache:
 
     def sweeps(
         self,
-        base: BaseParams,
+        base: Any,
         tmds: list[TMDParams],
         omegas: ndarray,
         settings: RunSettings,
         progress: Callable[..., Any] | None,
         study_name: str,
     ) -> list[Any]:
-        """Tables of several configurations over the same frequencies, in order."""
+        """Tables of several configurations over the same frequencies, in order; ``base``: the
+        primary structure of every configuration, or a list of one per configuration."""
         omegas = np.asarray(omegas, float)
         out = [None] * len(tmds)
+        bases = list(base) if isinstance(base, list) else [base] * len(tmds)
         todo: dict[tuple, list[int]] = {}  # key -> indices (identical configurations are computed once)
         for i, tmd in enumerate(tmds):
-            key = (tmd, omegas.tobytes())
+            key = (bases[i], tmd, omegas.tobytes())
             if key in self.tables:
                 out[i] = self.tables[key]
                 if progress is not None:  # computed earlier in this run: not in the speed of an ETA
                     getattr(progress, "skip", progress)(len(omegas) * len(settings.directions()))
             elif uses_exact(tmd, settings) or (self.executor is None and self.checkpoint_dir is None):
-                out[i] = self.sweep(base, tmd, omegas, settings, progress)
+                out[i] = self.sweep(bases[i], tmd, omegas, settings, progress)
             else:
                 todo.setdefault(key, []).append(i)
         if todo:
             keys = list(todo)
-            tasks = [SweepTask(base, k[0], omegas, settings) for k in keys]
+            tasks = [SweepTask(k[0], k[1], omegas, settings) for k in keys]
             ckpt = (
                 None
                 if self.checkpoint_dir is None
@@ -193,6 +195,12 @@ class _Cache:
         return out
 
 
+def curve_structure(scn: Scenario, curve: Curve) -> Any:
+    """The primary structure a curve is computed on: its own (a frame with its TMD attached
+    elsewhere) or the scenario's."""
+    return scn.base if curve.structure is None else curve.structure
+
+
 def frc_response(
     scn: Scenario,
     study: FRCStudy,
@@ -204,13 +212,16 @@ def frc_response(
     t0 = time.perf_counter()
     parts: list[pd.DataFrame] = []
     peaks: dict[str, dict[str, dict[str, Any]]] = {}  # curve label -> direction -> peak and diagnostics
-    tables = cache.sweeps(scn.base, [c.tmd for c in study.curves], study.omegas, settings, progress, study.name)
-    for curve, table in zip(study.curves, tables):
+    bases = [curve_structure(scn, c) for c in study.curves]
+    tables = cache.sweeps(bases, [c.tmd for c in study.curves], study.omegas, settings, progress, study.name)
+    for curve, base, table in zip(study.curves, bases, tables):
         table = table.copy()
         table.insert(0, "curve", curve.label)
         parts.append(table)
         refine = (
-            (lambda x, tmd=curve.tmd: exact_amplitude(scn.base, tmd, x)) if uses_exact(curve.tmd, settings) else None
+            (lambda x, tmd=curve.tmd, base=base: exact_amplitude(base, tmd, x))
+            if uses_exact(curve.tmd, settings)
+            else None
         )
         peaks[curve.label] = {}
         for d, td in table.groupby("direction", sort=False):
@@ -247,7 +258,7 @@ def phase_portraits(
     for w in study.omegas:
         for curve in study.curves:
             data.series[(w, curve.label)] = compute_time_series(
-                scn.base, curve.tmd, w, study.n_periods, study.samples_per_period, settings
+                curve_structure(scn, curve), curve.tmd, w, study.n_periods, study.samples_per_period, settings
             )
             if progress is not None:
                 progress(1)

@@ -13,7 +13,7 @@ import numpy as np
 
 from ..errors import InputError
 from ..physics import registry
-from ..physics.params import BaseParams, TMDParams
+from ..physics.params import TMDParams
 from ..solvers.monolithic import SolverSettings
 
 if TYPE_CHECKING:
@@ -160,6 +160,9 @@ class Curve:
     label: str
     tmd: TMDParams
     without_tmd: bool = False  #: the base alone (the TMD detached), the paper's black reference lines
+    #: the primary structure of this curve when it differs from the scenario's (a frame with its
+    #: TMD attached elsewhere); None: the scenario's
+    structure: Any = None
 
 
 @dataclass(frozen=True)
@@ -210,7 +213,7 @@ class Scenario:
     name: str
     description: str
     schema_version: int
-    base: BaseParams
+    base: Any  #: the primary structure: BaseParams (base:) or FrameParams (frame:), its model's class
     tmd: TMDParams
     frequencies: np.ndarray = field(repr=False)
     solver: SolverConfig  #: the monolithic engine's block

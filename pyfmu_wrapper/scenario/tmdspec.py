@@ -14,7 +14,9 @@ if TYPE_CHECKING:
     from .yamlio import MarkedDict
 
 TMD_FIELDS = tuple(field_names(TMDParams))
-TMD_KEYS = ("case", "inertance_ratio") + TMD_FIELDS
+#: keys of a tmd: block that attach the TMD to a frame's storeys, not TMD parameters (.framespec reads them)
+ATTACH_KEYS = ("storey", "inerter_to")
+TMD_KEYS = ("case", "inertance_ratio") + TMD_FIELDS + ATTACH_KEYS
 
 
 class TMDSpec:

@@ -15,16 +15,18 @@ Friction and a gap have no linearisation about rest (a kink or a 1e6 slope) and 
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..physics.jacobians import jacobian
-from ..physics.kernels import NSTATE, rhs_fext
-from ..physics.params import BaseParams, InerterModel, ParameterError, TMDParams, pack
+from ..physics.params import InerterModel, ParameterError, TMDParams
+from ..physics.units import MODELS
 
 
-def linear_system(base: BaseParams, tmd: TMDParams, linearise: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """(A, b): dz/dt = A z + b f for the applied force f [N] on the base (module doc for linearise)."""
+def linear_system(base: Any, tmd: TMDParams, linearise: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(A, b): dz/dt = A z + b f for the applied force f [N] (module doc for linearise); base: the
+    primary structure's parameters (its model unit is read off :data:`~pyfmu_wrapper.physics.units.MODELS`)."""
     gap = tmd.play_gap if tmd.inerter == InerterModel.PLAY else 0.0
     if linearise:
         if tmd.friction_force != 0.0 or gap != 0.0:
@@ -32,39 +34,24 @@ def linear_system(base: BaseParams, tmd: TMDParams, linearise: bool = False) -> 
                 "a linearisation about rest needs a smooth configuration: "
                 f"friction_force = {tmd.friction_force} and play_gap = {gap} must be 0"
             )
-        p = pack(base, tmd)
-        A = np.empty((NSTATE, NSTATE))
-        jacobian(0.0, np.zeros(NSTATE), p, A)  # the coupled system's, by the complex step
-        b = np.empty(NSTATE)
-        rhs_fext(np.zeros(NSTATE), 1.0, p, b)
-        return A, b
-    if not tmd.is_linear:
+    elif not tmd.is_linear:
         raise ParameterError(
             "the exact frequency response needs a linear configuration: "
             f"friction_force = {tmd.friction_force}, play_gap = {gap} and "
             f"cubic_stiffness = {tmd.cubic_stiffness} must be 0 (linearise=True gives the "
             "small-amplitude limit of a smooth configuration)"
         )
-    p = pack(base, tmd)
-    A = np.empty((NSTATE, NSTATE))
-    fp, fm = np.empty(NSTATE), np.empty(NSTATE)
-    for j in range(NSTATE):
-        e = np.zeros(NSTATE)
-        e[j] = 1.0
-        rhs_fext(e, 0.0, p, fp)
-        rhs_fext(-e, 0.0, p, fm)
-        A[:, j] = 0.5 * (fp - fm)
-    b = np.empty(NSTATE)
-    rhs_fext(np.zeros(NSTATE), 1.0, p, b)
-    return A, b
+    return MODELS.of(base).linear_system(base, tmd, linearise)
 
 
-def exact_response(base: BaseParams, tmd: TMDParams, omegas: ArrayLike, linearise: bool = False) -> np.ndarray:
-    """Complex amplitudes Z[k, :] of the state [x, xd, y, yd, d, dd] at each omega [rad/s]."""
+def exact_response(base: Any, tmd: TMDParams, omegas: ArrayLike, linearise: bool = False) -> np.ndarray:
+    """Complex amplitudes Z[k, :] of the state (the paper's [x, xd, y, yd, d, dd]; a model's own
+    layout) at each omega [rad/s]."""
     A, b = linear_system(base, tmd, linearise)
+    n = A.shape[0]
     omegas = np.atleast_1d(np.asarray(omegas, dtype=float))
-    out = np.empty((omegas.size, NSTATE), dtype=complex)
-    eye = np.eye(NSTATE)
+    out = np.empty((omegas.size, n), dtype=complex)
+    eye = np.eye(n)
     for k, w in enumerate(omegas):
         try:
             out[k] = np.linalg.solve(1j * w * eye - A, b * base.force_amplitude)
@@ -75,12 +62,12 @@ def exact_response(base: BaseParams, tmd: TMDParams, omegas: ArrayLike, linearis
     return out
 
 
-def exact_amplitude(base: BaseParams, tmd: TMDParams, omegas: ArrayLike, linearise: bool = False) -> np.ndarray:
-    """Steady-state amplitude of the base, |X| [m], at each omega [rad/s]."""
+def exact_amplitude(base: Any, tmd: TMDParams, omegas: ArrayLike, linearise: bool = False) -> np.ndarray:
+    """Steady-state amplitude |z[0]| [m] (the base; a frame's top storey) at each omega [rad/s]."""
     return np.abs(exact_response(base, tmd, omegas, linearise)[:, 0])
 
 
-def exact_state(base: BaseParams, tmd: TMDParams, omega: float, t: float = 0.0) -> np.ndarray:
+def exact_state(base: Any, tmd: TMDParams, omega: float, t: float = 0.0) -> np.ndarray:
     """The steady-state state vector at time t (phase w t) of a linear configuration."""
     Z = exact_response(base, tmd, [omega])[0]
     return np.real(Z * np.exp(1j * omega * t))

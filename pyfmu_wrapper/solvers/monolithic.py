@@ -45,9 +45,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..physics.kernels import NSTATE, inerter_force, rhs
-from ..physics.models import COUPLED
-from ..physics.params import BaseParams, InerterModel, TMDParams, has_gap, pack
+from ..physics.params import InerterModel, TMDParams
+from ..physics.unit import ModelUnit
+from ..physics.units import MODELS
 from . import settings_table as _table
 from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, make_integrator
 from .settings_table import MONO
@@ -55,8 +55,10 @@ from .shooting import shoot
 from .start import initial_guess, play_atol  # noqa: F401 (shared; re-exported)
 from .steady import SteadySettings, WindowCriterion
 
-#: the compiled integrator of the coupled base + TMD model
-integrate = make_integrator(COUPLED)
+
+def integrator(unit: ModelUnit) -> Any:
+    """The compiled integrator of a model unit (built once per model, see ``make_integrator``)."""
+    return make_integrator(unit.ode)
 
 
 class SolverError(RuntimeError):
@@ -103,25 +105,21 @@ class SteadyState:
     irregular: bool = False  #: settled into irregular motion; ``change`` is then its scatter
 
 
-def _atol(base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettings) -> np.ndarray:
-    xs = abs(base.force_amplitude) / max(base.stiffness, 1e-300)
-    xs = xs if xs > 0 else 1e-3
-    wn = max(omega, base.natural_frequency, 1.0)
-    a = settings.atol_scale * xs
-    atol = np.array([a, a * wn, a, a * wn, a, a * wn])
-    if has_gap(tmd):
-        atol[4] = min(atol[4], play_atol(base, tmd))
-        atol[5] = atol[4] * math.sqrt(tmd.mesh_stiffness / tmd.inertance)
-    return atol
+def _atol(base: Any, tmd: TMDParams, omega: float, settings: SolverSettings) -> np.ndarray:
+    """The absolute tolerance per state of the structure's model (its unit's rule)."""
+    return MODELS.of(base).atol(base, tmd, omega, settings.atol_scale)
 
 
 class _Runner:
     """Holds the packed parameters and work arrays for repeated period integrations."""
 
-    def __init__(self, base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettings) -> None:
-        self.p = pack(base, tmd, omega)
+    def __init__(self, base: Any, tmd: TMDParams, omega: float, settings: SolverSettings) -> None:
+        self.unit = unit = MODELS.of(base)
+        self.integrate = integrator(unit)
+        self.p = unit.pack(base, tmd, omega)
         self.T = 2.0 * math.pi / omega
-        self.atol = _atol(base, tmd, omega, settings)
+        self.atol = unit.atol(base, tmd, omega, settings.atol_scale)
+        self.active = unit.active(base, tmd)
         self.rtol = settings.rtol
         self.max_steps = int(settings.max_steps)
         self.band = 1.0 / tmd.friction_slope
@@ -130,7 +128,7 @@ class _Runner:
         self.h = self.T / 200.0
         self.hmax = self.T / 20.0
         self.no_samples = np.zeros(0)
-        self.no_out = np.zeros((0, NSTATE))
+        self.no_out = np.zeros((0, unit.n_state(base)))
 
     def period(
         self,
@@ -141,7 +139,7 @@ class _Runner:
     ) -> float:
         st = self.no_samples if sample_times is None else sample_times
         sa = self.no_out if samples is None else samples
-        h, xmax, status, t = integrate(
+        h, xmax, status, t = self.integrate(
             z,
             t0,
             t0 + self.T,
@@ -160,7 +158,7 @@ class _Runner:
         if status != OK:
             raise SolverError(
                 f"omega = {2 * math.pi / self.T:.10g} rad/s, period from t0 = {t0:.6g} s: "
-                + failure_message(status, COUPLED, t, z, self.p, self.atol, self.band, self.max_steps)
+                + failure_message(status, self.unit.ode, t, z, self.p, self.atol, self.band, self.max_steps)
             )
         if not np.all(np.isfinite(z)):
             raise SolverError(
@@ -171,7 +169,7 @@ class _Runner:
 
 
 def companion_start(
-    base: BaseParams, tmd: TMDParams, omega: float, settings: SolverSettings, hint: dict[str, Any] | None = None
+    base: Any, tmd: TMDParams, omega: float, settings: SolverSettings, hint: dict[str, Any] | None = None
 ) -> np.ndarray:
     """Start state for the play model: the periodic orbit of its smooth companion (the same
     links with an ideal inerter), with the gear chain at the contact the ideal inerter force
@@ -189,17 +187,15 @@ def companion_start(
     z = ss.state.copy() if ss.converged else initial_guess(base, ideal, omega)
     if sub is not None and ss.converged:
         sub["z"] = ss.state.copy()
-    p = pack(base, ideal, omega)
-    f = np.empty(NSTATE)
-    rhs(0.0, z, p, f)
-    P = inerter_force(z, f[1], p)
+    unit = MODELS.of(base)
+    P = unit.inerter_force(z, unit.pack(base, ideal, omega))
     z[4] = math.copysign(tmd.play_gap + abs(P) / tmd.mesh_stiffness, P)
     z[5] = 0.0
     return z
 
 
 def steady_state(
-    base: BaseParams,
+    base: Any,
     tmd: TMDParams,
     omega: float,
     z0: ArrayLike | None = None,
@@ -208,6 +204,8 @@ def steady_state(
 ) -> SteadyState:
     """Integrate from z0 (default: :func:`initial_guess`) until the steady state (module doc).
 
+    base: the primary structure's parameters (BaseParams, FrameParams, ...: the model is the unit
+    registered for its class, :data:`pyfmu_wrapper.physics.units.MODELS`).
     hint: a dict carried along a sweep (shooting keeps its Jacobian there for the next point).
     """
     if not (omega > 0 and math.isfinite(omega)):
@@ -216,7 +214,7 @@ def steady_state(
     run = _Runner(base, tmd, omega, settings)
     W = settings.window_for(tmd)
     if z0 is not None:
-        z = np.array(z0, dtype=float)
+        z = run.unit.check_state(base, np.array(z0, dtype=float))
     elif W > 1 and settings.play_start == "companion":
         z = companion_start(base, tmd, omega, settings, hint)
     else:
@@ -287,10 +285,6 @@ def steady_state(
     )
 
 
-def _active_states(tmd: TMDParams) -> list[int]:
-    return list(range(6)) if tmd.inerter == InerterModel.PLAY else [0, 1, 2, 3]
-
-
 def _shoot(
     run: _Runner, tmd: TMDParams, z: np.ndarray, settings: SolverSettings, hint: dict[str, Any] | None = None
 ) -> tuple[np.ndarray, float, int, float] | None:
@@ -299,7 +293,7 @@ def _shoot(
 
     The Jacobian is taken from ``hint['J']`` (the previous frequency of a sweep) when given; on
     success ``hint['J']`` holds the last one."""
-    act = _active_states(tmd)
+    act = run.active
     last = {}
 
     def period_map(za: np.ndarray) -> tuple[np.ndarray, float]:
@@ -325,7 +319,7 @@ def _shoot(
 
 
 def simulate(
-    base: BaseParams,
+    base: Any,
     tmd: TMDParams,
     omega: float,
     t_end: float,
@@ -336,15 +330,18 @@ def simulate(
     atol: float | ArrayLike | None = None,
     max_steps: int | None = None,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Transient simulation from z0 (default rest) over [0, t_end]; returns (t, states[len(t), 6]).
+    """Transient simulation from z0 (default rest) over [0, t_end]; returns (t, states[len(t), n])
+    (n: the length of the structure's model state).
 
     max_steps caps the integrator steps (default: DEFAULT_MAX_STEPS per forcing period); a stalled
     run raises :class:`SolverError` naming time, state and mode.
     """
-    p = pack(base, tmd, omega)
-    z = np.zeros(NSTATE) if z0 is None else np.array(z0, dtype=float)
+    unit = MODELS.of(base)
+    n = unit.n_state(base)
+    p = unit.pack(base, tmd, omega)
+    z = np.zeros(n) if z0 is None else unit.check_state(base, np.array(z0, dtype=float))
     t = np.linspace(0.0, t_end, n_samples) if sample_times is None else np.asarray(sample_times, dtype=float)
-    out = np.zeros((t.size, NSTATE))
+    out = np.zeros((t.size, n))
     if atol is None:
         atol = _atol(base, tmd, omega, SolverSettings(atol_scale=1e-7))
     stats = np.zeros(4, dtype=np.int64)
@@ -352,7 +349,7 @@ def simulate(
     atol = np.asarray(atol, dtype=float)
     if max_steps is None:  # the per-period cap, for every period of the run
         max_steps = DEFAULT_MAX_STEPS * max(1, math.ceil(t_end / T))
-    _, _, status, tf = integrate(
+    _, _, status, tf = integrator(unit)(
         z,
         0.0,
         float(t_end),
@@ -369,12 +366,12 @@ def simulate(
         int(max_steps),
     )
     if status != OK:
-        raise SolverError(failure_message(status, COUPLED, tf, z, p, atol, 1.0 / tmd.friction_slope, max_steps))
+        raise SolverError(failure_message(status, unit.ode, tf, z, p, atol, 1.0 / tmd.friction_slope, max_steps))
     return t, out
 
 
 def periodic_time_series(
-    base: BaseParams,
+    base: Any,
     tmd: TMDParams,
     omega: float,
     n_periods: int = 1,
@@ -390,7 +387,7 @@ def periodic_time_series(
     ts, zs = [], []
     for k in range(n_periods):
         st = np.linspace(0.0, run.T, n, endpoint=False)
-        out = np.zeros((n, NSTATE))
+        out = np.zeros((n, z.shape[0]))
         run.period(z, 0.0, st, out)
         ts.append(st + k * run.T)
         zs.append(out)

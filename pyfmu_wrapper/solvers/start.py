@@ -10,20 +10,21 @@ lives there (the co-simulation imports it from the monolithic engine).
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from ..physics.base_tmd import chain_atol
 from ..physics.params import BaseParams, TMDParams
 
 
 def play_atol(base: BaseParams, tmd: TMDParams) -> float:
     """Absolute tolerance [m] on the gear-chain deflection d of the play model, shared by both
-    engines (the monolithic integrator and the TMD FMU): the gear penetration is ~ F / ki, so
-    resolve it, not just the gap: 1e-3 of the larger of gap and penetration, plus the penetration."""
-    pen = max(abs(base.force_amplitude) / tmd.mesh_stiffness, 1e-12)
-    return 1e-3 * max(tmd.play_gap, pen) + pen
+    engines (the monolithic integrator and the TMD FMU): :func:`~pyfmu_wrapper.physics.base_tmd.chain_atol`."""
+    return chain_atol(base.force_amplitude, tmd)
 
 
-def initial_guess(base: BaseParams, tmd: TMDParams, omega: float) -> np.ndarray:
+def initial_guess(base: Any, tmd: TMDParams, omega: float) -> np.ndarray:
     """A starting state: the exact steady state of the nearest linear configuration (friction and
     gap removed), which is the right answer in the linear case and a close one otherwise."""
     from dataclasses import replace

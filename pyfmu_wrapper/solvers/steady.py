@@ -20,7 +20,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError
-from ..physics.params import BaseParams, TMDParams, has_gap
+from ..physics.params import TMDParams, has_gap
 from . import settings_table as _table
 from .settings_table import MONO
 
@@ -193,7 +193,7 @@ class WindowCriterion:
 
     @classmethod
     def from_settings(
-        cls, settings: SteadySettings, window: int, base: BaseParams, omega: float | None = None
+        cls, settings: SteadySettings, window: int, base: Any, omega: float | None = None
     ) -> WindowCriterion:
         """From an engine's settings (:class:`SteadySettings`; ``max_periods_window``, which only
         the monolithic engine has, bounds the windowed run when present)."""

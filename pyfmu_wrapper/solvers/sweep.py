@@ -26,7 +26,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from ..physics.params import BaseParams, TMDParams
+from ..physics.params import TMDParams
 from .monolithic import SolverSettings, steady_state
 
 
@@ -47,7 +47,7 @@ class ProgressQueue(Protocol):
 
 
 def _sweep_piece(
-    base: BaseParams,
+    base: Any,
     tmd: TMDParams,
     seq: Sequence[float] | NDArray[np.float64],
     d: str,
@@ -83,7 +83,7 @@ def _sweep_piece(
 
 
 def sweep(
-    base: BaseParams,
+    base: Any,
     tmd: TMDParams,
     omegas: ArrayLike,
     direction: str = "up",
@@ -105,7 +105,7 @@ def sweep(
 
 def run_sweep_pieces(
     piece: Callable[..., tuple[list[dict[str, Any]], Any]],
-    base: BaseParams,
+    base: Any,
     tmd: TMDParams,
     omegas: ArrayLike,
     direction: str,

@@ -1,0 +1,150 @@
+"""A model as one unit, and the registry of the units.
+
+A :class:`ModelUnit` gathers everything the engines need of one model: its equations as an
+:class:`~pyfmu_wrapper.physics.models.OdeModel` (right-hand side, Jacobian, switching functions),
+the parameter class of its primary structure (the unit is found by the structure's type), its
+declared parameters (:class:`~pyfmu_wrapper.physics.registry.Parameter` rows: names, units, ranges,
+docs), the packing of its parameters for the compiled functions, its state layout (length, names,
+the states the shooting iterates), its absolute tolerances and the inerter force at a state (the
+start of a windowed solve). The registry (:data:`pyfmu_wrapper.physics.units.MODELS`) holds the
+units, one registration line each; the monolithic solver and ``run-scenario`` take the unit of a
+structure from there and know no model by name.
+
+Conventions every unit keeps (the solvers rely on them): the reported amplitude is max |z[0]| (the
+displacement the unit's curves show: the base, the top storey), the TMD's states are z[2:6] =
+[y, yd, d, dd] (d: the play chain), the packed array holds the TMD's parameters and the
+excitation F cos(w t) at the indices of :mod:`pyfmu_wrapper.physics.params` (``P_*``), so the
+TMD equations of :mod:`.kernels` run unchanged on it.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..errors import InputError
+from .models import OdeModel
+from .params import P_F, P_W, TMDParams
+from .registry import Parameter
+
+
+class ModelError(InputError):
+    """A structure no registered model takes, or a state that does not fit its model."""
+
+
+@dataclass(frozen=True)
+class ModelUnit:
+    """One model (module doc). Every function takes the structure's parameters first."""
+
+    name: str  #: unique, a Python identifier
+    ode: OdeModel  #: equations, Jacobian, switching functions, for the integrator
+    structure: type  #: the parameter class of the primary structure (BaseParams, FrameParams, ...)
+    parameters: tuple[Parameter, ...]  #: the structure's declared parameters
+    #: pack(structure, tmd, omega) -> the float array of the compiled functions
+    pack: Callable[[Any, TMDParams, float], NDArray[np.float64]]
+    #: n_state(structure) -> the length of the state
+    n_state: Callable[[Any], int]
+    #: atol(structure, tmd, omega, atol_scale) -> absolute tolerance per state
+    atol: Callable[[Any, TMDParams, float, float], NDArray[np.float64]]
+    #: active(structure, tmd) -> the states the period map's Newton iteration moves
+    active: Callable[[Any, TMDParams], list[int]]
+    #: inerter_force(z, p) -> the inerter link's force P [N] at state z (packed parameters p)
+    inerter_force: Callable[[NDArray[np.float64], NDArray[np.float64]], float]
+    description: str = ""
+    #: example() -> a structure of this model (the tests run every registered model on it)
+    example: Callable[[], Any] | None = None
+    #: the unit has FMUs and a co-simulation system (the co-simulation engine can run it)
+    cosim: bool = False
+
+    def check_state(self, structure: Any, z: NDArray[Any], what: str = "start state") -> NDArray[np.float64]:
+        """z as a float array, refused with a one-line :class:`ModelError` unless it has the
+        model's length and finite entries."""
+        arr = np.asarray(z, dtype=float)
+        n = self.n_state(structure)
+        if arr.ndim != 1 or arr.shape[0] != n:
+            raise ModelError(
+                f"{what} of model {self.name!r} must have {n} entries ({', '.join(self.names(structure))}), "
+                f"got shape {arr.shape}"
+            )
+        if not np.all(np.isfinite(arr)):
+            raise ModelError(f"{what} of model {self.name!r} must be finite, got {arr.tolist()}")
+        return arr
+
+    def names(self, structure: Any) -> tuple[str, ...]:
+        """The state's names (the ode's when their number fits, else z0, z1, ...)."""
+        n = self.n_state(structure)
+        names = tuple(self.ode.state_names)
+        return names if len(names) == n else tuple(f"z{i}" for i in range(n))
+
+    def linear_system(
+        self, structure: Any, tmd: TMDParams, linearise: bool = False
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """(A, b): dz/dt = A z + b f for the excitation's force f [N], read off the unit's right-hand
+        side (exact to rounding for a linear configuration: the rhs is affine in z and in F;
+        ``linearise``: A is the complex-step Jacobian at rest, the small-amplitude limit)."""
+        n = self.n_state(structure)
+        p = self.pack(structure, tmd, 0.0)
+        p[P_W] = 0.0
+        u = np.zeros(1)
+        A = np.empty((n, n))
+        if linearise:
+            zc, oc = np.zeros(n, dtype=complex), np.empty(n, dtype=complex)
+            for j in range(n):
+                zc[:] = 0.0
+                zc[j] = 1e-30j
+                self.ode.rhs(0.0, zc, p, u, oc)
+                A[:, j] = oc.imag / 1e-30
+        else:
+            p[P_F] = 0.0
+            fp, fm = np.empty(n), np.empty(n)
+            for j in range(n):
+                e = np.zeros(n)
+                e[j] = 1.0
+                self.ode.rhs(0.0, e, p, u, fp)
+                self.ode.rhs(0.0, -e, p, u, fm)
+                A[:, j] = 0.5 * (fp - fm)
+        p[P_F] = 1.0
+        b = np.empty(n)
+        self.ode.rhs(0.0, np.zeros(n), p, u, b)
+        return A, b
+
+
+class Registry:
+    """The registered model units, by name and by structure class."""
+
+    def __init__(self) -> None:
+        self._units: dict[str, ModelUnit] = {}
+
+    def register(self, unit: ModelUnit) -> ModelUnit:
+        if not unit.name.isidentifier():
+            raise ValueError(f"a model's name must be a Python identifier, got {unit.name!r}")
+        if unit.name in self._units:
+            raise ValueError(f"a model named {unit.name!r} is registered already")
+        if any(u.structure is unit.structure for u in self._units.values()):
+            raise ValueError(f"the structure {unit.structure.__name__} has a model already")
+        self._units[unit.name] = unit
+        return unit
+
+    def names(self) -> tuple[str, ...]:
+        return tuple(self._units)
+
+    def units(self) -> tuple[ModelUnit, ...]:
+        return tuple(self._units.values())
+
+    def get(self, name: str) -> ModelUnit:
+        try:
+            return self._units[name]
+        except KeyError:
+            raise ModelError(f"no model named {name!r}; registered: {', '.join(self._units)}") from None
+
+    def of(self, structure: Any) -> ModelUnit:
+        """The unit whose structure class ``structure`` is an instance of."""
+        for unit in self._units.values():
+            if isinstance(structure, unit.structure):
+                return unit
+        known = ", ".join(u.structure.__name__ for u in self._units.values())
+        raise ModelError(f"no registered model takes a {type(structure).__name__} (models take: {known})")

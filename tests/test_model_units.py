@@ -1,0 +1,80 @@
+"""Every registered model unit (physics/units.py) tested alike, on its example structure: the
+Jacobian against the complex-step derivative of its own right-hand side, the linear system read off
+the right-hand side against the right-hand side itself, the exact steady state against the
+integrated one, the start state's length checked, its declared parameters documented."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from pyfmu_wrapper.physics.params import paper_case
+from pyfmu_wrapper.physics.unit import ModelError
+from pyfmu_wrapper.physics.units import MODELS
+from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
+from pyfmu_wrapper.solvers.monolithic import steady_state
+
+UNITS = MODELS.units()
+TMDS = {
+    "ideal": paper_case(1, damping=10.0),
+    "play": paper_case(1, inerter="play", play_gap=1e-4, damping=10.0),
+    "friction": paper_case(1, friction_force=10.0),
+    "cubic": paper_case(2, cubic_stiffness=2e6, damping=5.0),
+}
+
+
+@pytest.mark.parametrize("unit", UNITS, ids=lambda u: u.name)
+@pytest.mark.parametrize("tmd", sorted(TMDS))
+def test_jacobian_is_the_complex_step_of_the_rhs(unit, tmd):
+    s = unit.example()
+    n = unit.n_state(s)
+    p = unit.pack(s, TMDS[tmd], 19.0)
+    u = np.zeros(1)
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        z = rng.normal(size=n) * 1e-3
+        t = float(rng.uniform())
+        J, ft = np.empty((n, n)), np.empty(n)
+        unit.ode.jacobian(t, z, p, u, J, ft, np.empty(n, complex), np.empty(n, complex))
+        Jc = np.empty((n, n))
+        for j in range(n):  # the complex step, column by column, of the unit's own rhs
+            zc = z.astype(complex)
+            zc[j] += 1e-30j
+            out = np.empty(n, complex)
+            unit.ode.rhs(t, zc, p, u, out)
+            Jc[:, j] = out.imag / 1e-30
+        assert np.max(np.abs(J - Jc)) <= 1e-9 * np.max(np.abs(Jc))
+
+
+@pytest.mark.parametrize("unit", UNITS, ids=lambda u: u.name)
+def test_linear_system_reproduces_the_rhs(unit):
+    s = unit.example()
+    n = unit.n_state(s)
+    tmd = TMDS["ideal"]
+    A, b = unit.linear_system(s, tmd)
+    p = unit.pack(s, tmd, 19.0)
+    z = np.random.default_rng(4).normal(size=n) * 1e-3
+    t = 0.3
+    out = np.empty(n)
+    unit.ode.rhs(t, z, p, np.zeros(1), out)
+    expected = A @ z + b * s.force_amplitude * np.cos(19.0 * t)
+    assert np.max(np.abs(out - expected)) <= 1e-12 * np.max(np.abs(out))
+
+
+@pytest.mark.parametrize("unit", UNITS, ids=lambda u: u.name)
+def test_integrated_steady_state_is_the_exact_one_and_the_start_is_checked(unit):
+    s = unit.example()
+    tmd = TMDS["ideal"]
+    for w in (15.0, 21.0):
+        ss = steady_state(s, tmd, w)
+        assert ss.converged and abs(ss.amplitude / exact_amplitude(s, tmd, [w])[0] - 1) < 1e-5
+    with pytest.raises(ModelError, match=f"start state of model '{unit.name}' must have {unit.n_state(s)} entries"):
+        steady_state(s, tmd, 20.0, z0=np.zeros(unit.n_state(s) + 1))
+
+
+@pytest.mark.parametrize("unit", UNITS, ids=lambda u: u.name)
+def test_declared_parameters_have_units_ranges_and_docs(unit):
+    assert MODELS.of(unit.example()) is unit
+    for par in unit.parameters:
+        assert par.unit and par.description and par.symbol
+        assert par.minimum is None or par.default >= par.minimum
