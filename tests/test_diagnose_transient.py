@@ -1,5 +1,5 @@
 """diagnose on transient records (issue 31): swept sines, random force, free decays, hammer impulses,
-simulated by an integrator independent of the project's (solve_ivp on transient_truth's own
+simulated by an integrator independent of the project's (odeint on transient_truth's own
 right-hand side) and measured as a rig does (declared anti-alias filters, white ADC noise)."""
 
 from __future__ import annotations
