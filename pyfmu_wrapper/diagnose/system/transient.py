@@ -32,6 +32,7 @@ import numpy as np
 from .transient_effects import LABELS as T_LABELS
 from .transient_effects import TEFFECTS, apply, meaningless, scales
 from .transient_fit import TFit, chi2_of, fit, start_update, z_of
+from .transient_screen import screen
 from .transient_sim import CHANNELS, input_noise_response, make_view, start_responses
 from .transient_where import SEGMENTS, where
 
@@ -135,7 +136,12 @@ class TransientDiagnosis:
         singles = []
         import time
 
-        for e in self.candidates():
+        keep, screened = screen(self, self.candidates(), tr)
+        for e, red in screened.items():
+            res["candidates"].append(
+                {"effects": [e], "ok": False, "reason": f"screened out: linearised train chi-square drop {red:.4g}"}
+            )
+        for e in keep:
             t0 = time.perf_counter()
             f = self._fit((e,), tr, te)
             row = self._row(f, ex0)
