@@ -177,3 +177,19 @@ def test_score_reports_transient_and_steady_apart():
     assert s["by_record_kind"]["steady"]["singles_top1"] == 1.0
     out = tables(s)
     assert "### steady records" in out and "### transient records" in out
+
+
+@pytest.mark.parametrize(("fs", "used"), [(256.0, False), (2000.0, True)])
+def test_hammer_force_sampled_too_slowly_is_not_used(tmp_path, fs, used):
+    """A 4 ms hammer impulse sampled at 256 Hz without an anti-alias filter on the load cell spans one
+    sample: its area is not in the record (the half-sine's spectrum reaches 375 Hz, its first zero,
+    far above Nyquist), so the record is set aside with a stated reason; at 2 kHz (8 samples per
+    impulse, < 0.1 % of the power above 0.8 x Nyquist) it is used."""
+    from pyfmu_wrapper.diagnose.system.transient import TransientDiagnosis
+
+    make(tmp_path, {}, [SWEEP_UP, ("hammer", {"n_hits": 5, "amp": 500.0})], fs=fs, T=10.0)
+    d = TransientDiagnosis(load_dataset(tmp_path))
+    assert [v.name for v in d.views] == (["r0.csv", "r1.csv"] if used else ["r0.csv"])
+    assert bool(d.skipped) is not used
+    if not used:
+        assert d.skipped[0].startswith("r1.csv: not used") and "anti-alias" in d.skipped[0]

@@ -119,6 +119,7 @@ class TView:
     chains: dict  #: channel -> acquisition.Chain
     sigma: ndarray = field(default_factory=lambda: np.ones(4))  #: noise std per channel of a fit sample
     free_decay: bool = False
+    aliased: float = 0.0  #: share of the force's power above 0.8 x Nyquist without an anti-alias filter
     z0: ndarray = field(default_factory=lambda: np.zeros(6))  #: start state of the simulation
     phi: ndarray | None = None  #: (n_out, 4, 4) response to unit start states (x, xd, y, yd)
     fcache: dict = field(default_factory=dict)  #: the force on the last simulation grid
@@ -145,12 +146,14 @@ def make_view(rec: Record, chains: dict, f_mode: float) -> TView:
             f"{rec.name}, column 't': a transient record must be uniformly sampled (spacing varies by more "
             f"than 1 % of dt = {dt:.6g} s)"
         )
-    f_top, f99 = f_mode, 0.0
+    f_top, f99, aliased = f_mode, 0.0, 0.0
     if "force" in c:
         P = np.abs(np.fft.rfft(np.asarray(c["force"], float) - np.mean(c["force"]))) ** 2
         fr = np.fft.rfftfreq(n, dt)
         cum = np.cumsum(P) / max(P.sum(), 1e-300)
         f99 = float(fr[min(int(np.searchsorted(cum, 0.99)), fr.size - 1)])
+        if chains.get("force") is None or chains["force"].type is None:  # no anti-alias filter on the force
+            aliased = float(P[fr > 0.8 * fr[-1]].sum() / max(P.sum(), 1e-300))
         f_top = min(max(f_mode, f99), 4 * f_mode)
     q = max(1, int(1.0 / (dt * FIT_RATE * f_top)), math.ceil(n / FIT_MAX))
     n_out = n // q
@@ -184,6 +187,7 @@ def make_view(rec: Record, chains: dict, f_mode: float) -> TView:
         skip=skip,
         chains=chains,
         free_decay="force" not in c,
+        aliased=aliased,
     )
 
 
