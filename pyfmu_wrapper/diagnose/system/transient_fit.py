@@ -176,14 +176,14 @@ def fit(
 
     for i in dec:
         views[i].phi = None  # a decay's start state is a fitted unknown, not projected
-    if starts and starts[0].size:
-        _rest_or_estimate(views, apply(p_nom, effects, starts[0] * scale), train, dec)
     try:
         if starts is None:
             starts = [
                 np.clip(np.where(np.isfinite(lb[:npar]), 1.0, 0.0), lb[:npar], ub[:npar])
             ]  # bounded: at its scale
         starts = [np.concatenate([u0, np.zeros(4 * len(dec))]) for u0 in starts]
+        if npar:
+            _rest_or_estimate(views, apply(p_nom, effects, starts[0][:npar] * scale), train, dec)
         best = None
         if not starts[0].size:
             mdl = apply(p_nom, (), np.zeros(0))
