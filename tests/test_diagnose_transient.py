@@ -222,3 +222,23 @@ def test_forced_record_at_rest_is_simulated_from_rest_under_a_nonlinear_candidat
     assert np.all(v.z0 == 0.0)
     after = chi2n()
     assert after < 1.5 < before, (before, after)
+
+
+def test_transient_suite_parts_are_the_whole_run(tmp_path):
+    """make_transient_benchmark(part=(k, K)) writes the datasets i with i % K == k, the same ones the
+    whole run writes (same draws, same files), and its manifest is complete after the last one."""
+    from pyfmu_wrapper.diagnose.system.transient_suite import make_transient_benchmark
+
+    kw = {"n": 3, "seed": 5, "n_clean": 1, "n_pair": 0, "n_oov": 1, "seconds": 2.0}
+    whole = make_transient_benchmark(tmp_path / "all", **kw)
+    parts = [make_transient_benchmark(tmp_path / f"p{k}", part=(k, 2), **kw) for k in (0, 1)]
+    assert [r["dataset"] for r in parts[0]] == ["tr000", "tr002"] and [r["dataset"] for r in parts[1]] == ["tr001"]
+    strip = [{k: v for k, v in r.items() if k != "seconds"} for r in whole]
+    assert sorted(({k: v for k, v in r.items() if k != "seconds"} for p in parts for r in p), key=str) == sorted(
+        strip, key=str
+    )
+    for name, k in (("tr001", 1), ("tr002", 0)):
+        for f in sorted((tmp_path / "all" / name).iterdir()):
+            assert f.read_bytes() == (tmp_path / f"p{k}" / name / f.name).read_bytes()
+    man = json.loads((tmp_path / "p0" / "manifest.json").read_text())
+    assert man["complete"] and [r["dataset"] for r in man["datasets"]] == ["tr000", "tr002"]
