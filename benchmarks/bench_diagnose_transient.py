@@ -1,14 +1,20 @@
 """Speed and memory of ``diagnose`` on transient records (issue 31):
 
     nice python benchmarks/bench_diagnose_transient.py [--out /tmp/bench_transient] [--seconds 120] [--fs 4000]
+        [--compare OLD_SOURCE_TREE]
+
+With ``--compare`` (a checkout of the code to compare with, e.g. ``git archive main | tar -x -C OLD``)
+every dataset is also diagnosed by that code (PYTHONPATH=OLD, same interpreter and packages), side
+by side. Each row gives wall time and the child's CPU time (user + sys: less sensitive to the load
+of a shared machine; with threads it can exceed the wall time).
 
 Four datasets of 4 transient records each (an up-sweep, a log down-sweep, band-limited random force,
 a free decay), ``--seconds`` long at ``--fs`` Hz, measured with a declared 4th-order Butterworth on
 the accelerometers and 1 % noise, truths: clean, extra damping 10 N s/m, dry friction 5 N, OOV
-quadratic damping c2 = 20 N s^2/m^2 (simulated by transient_truth's own solve_ivp integrator, on the
+quadratic damping c2 = 20 N s^2/m^2 (simulated by transient_truth's own odeint integrator, on the
 record's own grid). Each ``diagnose`` runs as a separate process (``python -m pyfmu_wrapper.cli``
-is not needed: the console script), timed by wall clock, its peak memory from ``getrusage`` of the
-child. The baseline measured in the same run: one steady-state FRC sweep (21 points, Case 1), as in
+is not needed: the console script), timed by wall clock, its peak memory and CPU time from ``os.wait4`` of
+the child. The baseline measured in the same run: one steady-state FRC sweep (21 points, Case 1), as in
 bench_diagnose.py, so that the ratio carries over between machines and loads.
 Targets: median <= 30 s, worst <= 90 s, peak memory <= 1 GB (2-core machine, low load).
 """
@@ -18,7 +24,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import resource
 import statistics
 import subprocess
 import sys
@@ -80,6 +85,7 @@ def main() -> None:
     ap.add_argument("--out", default="/tmp/bench_transient")
     ap.add_argument("--seconds", type=float, default=120.0)
     ap.add_argument("--fs", type=float, default=4000.0)
+    ap.add_argument("--compare", default=None, help="source tree of the code to compare with (PYTHONPATH)")
     a = ap.parse_args()
     out = Path(a.out)
     rows = []
@@ -91,32 +97,44 @@ def main() -> None:
             t0 = time.perf_counter()
             make(ds, ch, a.seconds, a.fs, seed=k)
             print(f"{name}: generated in {time.perf_counter() - t0:.0f} s", flush=True)
-        res_dir = out / f"{name}.out"
-        t0 = time.perf_counter()
-        before = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-        p = subprocess.run([str(exe), str(ds), "--out", str(res_dir)], capture_output=True, text=True)
-        wall = time.perf_counter() - t0
-        peak = resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss
-        verdict = p.stdout.strip().splitlines()[0] if p.stdout.strip() else p.stderr.strip()[-300:]
-        row = {
-            "dataset": name,
-            "seconds": round(wall, 1),
-            "ratio_to_sweep": round(wall / base, 1),
-            "peak_rss_mb_max_so_far": round(max(peak, before) / 1024, 0),
-            "exit": p.returncode,
-            "verdict": verdict,
-            "load": os.getloadavg()[0],
-        }
-        rows.append(row)
-        print(json.dumps(row), flush=True)
-    walls = [r["seconds"] for r in rows]
-    summary = {
-        "records": f"4 x {a.seconds:g} s at {a.fs:g} Hz",
-        "median_s": statistics.median(walls),
-        "worst_s": max(walls),
-        "peak_rss_mb": max(r["peak_rss_mb_max_so_far"] for r in rows),
-        "sweep_baseline_s": round(base, 2),
-    }
+        for code, tree in (("new", None), ("old", a.compare)):
+            if code == "old" and not tree:
+                continue
+            res_dir = out / f"{name}.{code}.out"
+            env = dict(os.environ, **({"PYTHONPATH": str(tree)} if tree else {}))
+            t0 = time.perf_counter()
+            log = out / f"{name}.{code}.log"
+            with log.open("w") as fo:  # wait4: this child's own CPU time and peak memory
+                p = subprocess.Popen([str(exe), str(ds), "--out", str(res_dir)], stdout=fo, stderr=fo, env=env)
+                _, status, ru = os.wait4(p.pid, 0)
+            wall = time.perf_counter() - t0
+            cpu = ru.ru_utime + ru.ru_stime
+            text = log.read_text().strip()
+            verdict = text.splitlines()[-3] if os.waitstatus_to_exitcode(status) == 0 else text[-300:]
+            row = {
+                "dataset": name,
+                "code": code,
+                "seconds": round(wall, 1),
+                "cpu_seconds": round(cpu, 1),
+                "ratio_to_sweep": round(wall / base, 1),
+                "peak_rss_mb": round(ru.ru_maxrss / 1024, 0),
+                "exit": os.waitstatus_to_exitcode(status),
+                "verdict": verdict,
+                "load": os.getloadavg()[0],
+            }
+            rows.append(row)
+            print(json.dumps(row), flush=True)
+    summary: dict = {"records": f"4 x {a.seconds:g} s at {a.fs:g} Hz", "sweep_baseline_s": round(base, 2)}
+    for code in ("new", "old"):
+        rs = [r for r in rows if r["code"] == code]
+        if rs:
+            summary[code] = {
+                "median_s": statistics.median(r["seconds"] for r in rs),
+                "worst_s": max(r["seconds"] for r in rs),
+                "median_cpu_s": statistics.median(r["cpu_seconds"] for r in rs),
+                "worst_cpu_s": max(r["cpu_seconds"] for r in rs),
+                "peak_rss_mb": max(r["peak_rss_mb"] for r in rs),
+            }
     print(json.dumps(summary))
     (out / "bench_transient.json").write_text(json.dumps({"rows": rows, "summary": summary}, indent=1))
 

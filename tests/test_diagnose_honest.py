@@ -260,3 +260,32 @@ def test_frc_noise_is_estimated_per_record(tmp_path):
         assert np.allclose(est, est[0], rtol=1e-12) and 0.6 * noise < est[0] < 1.5 * noise
     res = run_diagnosis(tmp_path)
     assert res["verdict"]["effects"] == [] and not res["verdict"]["unexplained"]
+
+
+def test_meaningful_gate_on_numbers():
+    """A second effect must be physically something: the issue's 0.56 N s/m of base damping (0.56 % of
+    C = 100 N s/m) is calibration scatter, 10 N s/m is a cause; a 0.2 % forcing gain is not, 3 % is."""
+    from pyfmu_wrapper.physics.params import BaseParams, paper_case
+
+    base, tmd = BaseParams(damping=100.0), paper_case(2)
+    assert "too small" in gates.meaningful_gate("base_damping", 0.56, base, tmd, 1e-3)
+    assert gates.meaningful_gate("base_damping", -10.0, base, tmd, 1e-3) == ""
+    assert "too small" in gates.meaningful_gate("force_error", 0.002, base, tmd, 1e-3)
+    assert gates.meaningful_gate("force_error", 0.03, base, tmd, 1e-3) == ""
+    # cubic: k3 d^2 against k over the measured stroke d
+    k3 = 0.004 * tmd.stiffness / 0.01**2
+    assert "too small" in gates.meaningful_gate("cubic", k3, base, tmd, 0.01)
+    assert gates.meaningful_gate("cubic", 2 * k3, base, tmd, 0.01) == ""
+
+
+@pytest.mark.slow
+def test_play_with_a_calibration_sized_base_damping_error_names_play_alone(root):
+    """Issue 31, set 1: play (gap 0.2 mm) with the stated base damping 0.56 % below the truth was
+    answered "play + base damping C off by 0.56 N s/m" (7.6 std, but physically nothing): play alone."""
+    d = root / "play_dC"
+    make_system_dataset(d, {"play": 2e-4}, seed=106, case=2)
+    delta = _restate(d, "base", "damping", 1.0056)
+    assert 0.5 < delta < 0.6
+    v = run_diagnosis(d)["verdict"]
+    assert v["effects"] == ["play"], v["text"]
+    assert abs(v["parameters"]["play.play_gap"]["value"] / 2e-4 - 1) < 0.25

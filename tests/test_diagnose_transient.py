@@ -1,5 +1,5 @@
 """diagnose on transient records (issue 31): swept sines, random force, free decays, hammer impulses,
-simulated by an integrator independent of the project's (solve_ivp on transient_truth's own
+simulated by an integrator independent of the project's (odeint on transient_truth's own
 right-hand side) and measured as a rig does (declared anti-alias filters, white ADC noise)."""
 
 from __future__ import annotations
@@ -177,3 +177,68 @@ def test_score_reports_transient_and_steady_apart():
     assert s["by_record_kind"]["steady"]["singles_top1"] == 1.0
     out = tables(s)
     assert "### steady records" in out and "### transient records" in out
+
+
+@pytest.mark.parametrize(("fs", "used"), [(256.0, False), (2000.0, True)])
+def test_hammer_force_sampled_too_slowly_is_not_used(tmp_path, fs, used):
+    """A 4 ms hammer impulse sampled at 256 Hz without an anti-alias filter on the load cell spans one
+    sample: its area is not in the record (the half-sine's spectrum reaches 375 Hz, its first zero,
+    far above Nyquist), so the record is set aside with a stated reason; at 2 kHz (8 samples per
+    impulse, < 0.1 % of the power above 0.8 x Nyquist) it is used."""
+    from pyfmu_wrapper.diagnose.system.transient import TransientDiagnosis
+
+    make(tmp_path, {}, [SWEEP_UP, ("hammer", {"n_hits": 5, "amp": 500.0})], fs=fs, T=10.0)
+    d = TransientDiagnosis(load_dataset(tmp_path))
+    assert [v.name for v in d.views] == (["r0.csv", "r1.csv"] if used else ["r0.csv"])
+    assert bool(d.skipped) is not used
+    if not used:
+        assert d.skipped[0].startswith("r1.csv: not used") and "anti-alias" in d.skipped[0]
+
+
+def test_forced_record_at_rest_is_simulated_from_rest_under_a_nonlinear_candidate(tmp_path):
+    """Start rule (issue 31): a random-force record starting at rest under a dry-friction truth. The
+    nominal's start-state estimate absorbs what the linear nominal misses (it is far from rest); the
+    friction candidate at the true parameters is simulated from rest, which fits its training
+    samples better, and its residual is then at the noise (chi2/n < 1.5, from > 10 from the estimate)."""
+    from pyfmu_wrapper.diagnose.system.transient import TransientDiagnosis
+    from pyfmu_wrapper.diagnose.system.transient_effects import apply
+    from pyfmu_wrapper.diagnose.system.transient_fit import _rest_or_estimate, residual
+
+    make(tmp_path, {"df": 5.0}, [RANDOM], fs=512.0, T=20.0, acq={})
+    d = TransientDiagnosis(load_dataset(tmp_path))
+    d.prepare()
+    v, m = d.views[0], d._masks(None)[0]
+    mdl = apply(d.p_nom, ("friction",), np.array([5.0, 2000.0]))
+    assert not isinstance(mdl, str)
+
+    def chi2n() -> float:
+        e = residual(v, mdl, m)
+        assert e is not None
+        return float(np.mean(e[m][:, v.has] ** 2))
+
+    assert np.abs(v.z0[:4]).max() > 1e-4  # the nominal's estimate: far from rest (m, m/s)
+    before = chi2n()
+    _rest_or_estimate([v], mdl, [m], [])
+    assert np.all(v.z0 == 0.0)
+    after = chi2n()
+    assert after < 1.5 < before, (before, after)
+
+
+def test_transient_suite_parts_are_the_whole_run(tmp_path):
+    """make_transient_benchmark(part=(k, K)) writes the datasets i with i % K == k, the same ones the
+    whole run writes (same draws, same files), and its manifest is complete after the last one."""
+    from pyfmu_wrapper.diagnose.system.transient_suite import make_transient_benchmark
+
+    kw = {"n": 3, "seed": 5, "n_clean": 1, "n_pair": 0, "n_oov": 1, "seconds": 2.0}
+    whole = make_transient_benchmark(tmp_path / "all", **kw)
+    parts = [make_transient_benchmark(tmp_path / f"p{k}", part=(k, 2), **kw) for k in (0, 1)]
+    assert [r["dataset"] for r in parts[0]] == ["tr000", "tr002"] and [r["dataset"] for r in parts[1]] == ["tr001"]
+    strip = [{k: v for k, v in r.items() if k != "seconds"} for r in whole]
+    assert sorted(({k: v for k, v in r.items() if k != "seconds"} for p in parts for r in p), key=str) == sorted(
+        strip, key=str
+    )
+    for name, k in (("tr001", 1), ("tr002", 0)):
+        for f in sorted((tmp_path / "all" / name).iterdir()):
+            assert f.read_bytes() == (tmp_path / f"p{k}" / name / f.name).read_bytes()
+    man = json.loads((tmp_path / "p0" / "manifest.json").read_text())
+    assert man["complete"] and [r["dataset"] for r in man["datasets"]] == ["tr000", "tr002"]

@@ -11,6 +11,7 @@ gate                question                                                    
 ``pair_gate``       does a second effect close a real part of what the first leaves?       >= 25 %
 ``relevance_gate``  does a second effect change the link force measurably?                 > 0.1 % rms
 ``significance_gate`` is a second effect's parameter away from zero?                       > 3 std
+``meaningful_gate`` is a second effect's parameter physically something (not calibration)?  MEANINGFUL
 ``share_gate``      do the named effects explain a real share of the held-out gap?         >= 50 %
 ``remaining_gate``  is the gap the named effects leave still structural?                   z > 5 and > 5 %
 ``plausibility``    is the fitted parameter physical (signs, bounds, stroke)?              see code
@@ -179,3 +180,43 @@ def plausibility(params: dict, std: dict, tmd: TMDParams, motion: dict, base: Ba
                 f"the nominal {base.damping:.3g} N s/m"
             )
     return out
+
+
+#: the smallest physically meaningful size of a second effect, as a share of the nominal value it
+#: changes: a 0.5 % forcing gain or 0.56 N s/m (0.56 %) of base damping beside a named effect is
+#: calibration scatter, not a cause, however many std it is from zero (issue 31). The same numbers
+#: gate the transient diagnosis's second effects (system/transient_effects.py).
+MEANINGFUL = {
+    "base_mass": 0.005,  # of M
+    "base_stiffness": 0.005,  # of K
+    "base_damping": 0.05,  # of C
+    "tmd_stiffness": 0.005,  # of k
+    "tmd_mass": 0.005,  # of m
+    "viscous": 0.02,  # of c (at least 1 N s/m)
+    "force_error": 0.005,  # a
+    "mass_split": 0.005,  # of m + I
+    "inertance": 0.005,  # of m + I
+}
+CUBIC_MEANINGFUL = 0.005  #: a cubic term must change the spring by this share of k over the stroke
+
+
+def meaningful_gate(effect: str, value: float, base: BaseParams, tmd: TMDParams, stroke: float) -> str:
+    """Why a second effect's (first) parameter ``value`` is too small to mean anything physically
+    ('' when it is not): below MEANINGFUL of the nominal value it changes; a cubic term whose
+    k3 d^2 over the stroke d is under CUBIC_MEANINGFUL of k."""
+    ref = {
+        "base_mass": base.mass,
+        "base_stiffness": base.stiffness,
+        "base_damping": base.damping,
+        "tmd_stiffness": tmd.stiffness,
+        "tmd_mass": tmd.mass,
+        "viscous": max(tmd.damping, 1.0),
+        "force_error": 1.0,
+        "mass_split": tmd.mass + tmd.inertance,
+        "inertance": tmd.mass + tmd.inertance,
+    }
+    if effect in MEANINGFUL and abs(value) < MEANINGFUL[effect] * ref[effect]:
+        return f"|{value:.3g}| < {MEANINGFUL[effect]:g} x {ref[effect]:.4g}: too small to be a physical cause"
+    if effect == "cubic" and abs(value) * stroke**2 < CUBIC_MEANINGFUL * tmd.stiffness:
+        return f"k3 d^2 = {abs(value) * stroke**2:.3g} N/m < {100 * CUBIC_MEANINGFUL:g} % of k: too small to be a cause"
+    return ""

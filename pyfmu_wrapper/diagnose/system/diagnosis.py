@@ -158,6 +158,16 @@ class SystemDiagnosis(PlayMixin):
                         ("not added", c.effects, [f"{e}'s parameter is within {gates.Z_SIGNIF:.0f} std of 0"])
                     )
                     continue
+                small = (
+                    gates.meaningful_gate(
+                        e, c.params.get(f"{e}.{EFFECT_PARAMS[e][0]}", 1e300), m.base, m.tmd, self.motion["d"]
+                    )
+                    if chosen
+                    else ""
+                )
+                if small:
+                    self.log.append(("not added", c.effects, [f"{e}: {small}"]))
+                    continue
                 if chosen and not relevance_gate(*self._effect_rms(c.fit, e)):
                     er, lr = self._effect_rms(c.fit, e)
                     self.log.append(

@@ -32,6 +32,7 @@ import numpy as np
 from .transient_effects import LABELS as T_LABELS
 from .transient_effects import TEFFECTS, apply, meaningless, scales
 from .transient_fit import TFit, chi2_of, fit, start_update, z_of
+from .transient_screen import screen
 from .transient_sim import CHANNELS, input_noise_response, make_view, start_responses
 from .transient_where import SEGMENTS, where
 
@@ -43,6 +44,7 @@ if TYPE_CHECKING:
 EXPLAINS_Z = 5.0  #: held-out chi-square within this many std of its dof: explained to the noise
 PAIR_TRIES = 5  #: second effects tried next to the best single
 PAIR_SHARE = 0.5  #: a second effect must close at least this share of what the first leaves
+ALIASED_MAX = 1e-3  #: a record's force may hold at most this share of its power above 0.8 x Nyquist
 AGREE_P = 1e-3  #: per-record parameters disagree when the agreement chi-square's p-value is below this
 #: model-error floor of a per-record parameter in the agreement test, as a share of max(|mean|, its
 #: scale): the measured force is the simulation's input with its own noise (errors in variables), which
@@ -66,7 +68,23 @@ class TransientDiagnosis:
         recs = [r for r in ds.records if r.kind == "transient"]
         self.p_nom = pack(BaseParams(**ds.nominal["base"]), TMDParams(**ds.nominal["tmd"]))
         f_mode = fastest_rate(self.p_nom) / (2 * math.pi)
-        self.views = [make_view(r, ds.acquisition, f_mode) for r in recs]
+        views = [make_view(r, ds.acquisition, f_mode) for r in recs]
+        # start of the stated rules: a force sampled without an anti-alias filter and with power up to
+        # Nyquist (a 4 ms hammer impulse at 256-500 Hz spans 1-2 samples) does not determine its
+        # impulse: the record is not used, and the verdict says so
+        self.skipped = [
+            f"{v.name}: not used, the force has {100 * v.aliased:.2g} % of its power above 0.8 x Nyquist and no "
+            f"declared anti-alias filter (an impulse spans too few samples to know its area)"
+            for v in views
+            if v.aliased > ALIASED_MAX
+        ]
+        self.views = [v for v in views if v.aliased <= ALIASED_MAX]
+        if not self.views:
+            self.views = views
+            self.skipped = [
+                "every record's force has power up to Nyquist and no anti-alias filter: all used, but "
+                "the force does not determine its impulses; treat the verdict with care"
+            ]
         self.log: list[str] = []
         self.nominal_resid: list[ndarray] = []
 
@@ -135,7 +153,12 @@ class TransientDiagnosis:
         singles = []
         import time
 
-        for e in self.candidates():
+        keep, screened = screen(self, self.candidates(), tr)
+        for e, red in screened.items():
+            res["candidates"].append(
+                {"effects": [e], "ok": False, "reason": f"screened out: linearised train chi-square drop {red:.4g}"}
+            )
+        for e in keep:
             t0 = time.perf_counter()
             f = self._fit((e,), tr, te)
             row = self._row(f, ex0)
@@ -255,7 +278,7 @@ class TransientDiagnosis:
 
     def _result(self, res: dict[str, Any], nom: TFit, best: TFit | None, alts: list[TFit], how: str) -> dict[str, Any]:
         named: tuple[str, ...] = () if how in ("none", "unexplained") or best is None else best.effects
-        notes: list[str] = []
+        notes: list[str] = list(self.skipped)
         final = None
         agree: dict[str, Any] = {}
         if named:
@@ -289,6 +312,8 @@ class TransientDiagnosis:
         params = self._params(final) if (final is not None and named) else {}
         alternatives = [list(a.effects) for a in alts]
         text = _text(named, params, res, alternatives, unexplained, best, notes)
+        if self.skipped and not unexplained:
+            text += " " + " ".join(self.skipped)
         res["verdict"] = {
             "structural": how != "none",
             "effects": list(named),

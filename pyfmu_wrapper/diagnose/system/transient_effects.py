@@ -139,20 +139,6 @@ def apply(p_nom: ndarray, effects: tuple[str, ...], theta: ndarray) -> Model | s
     return mdl
 
 
-#: the smallest physically meaningful size of a second effect (SI or share of the nominal value)
-MEANINGFUL = {
-    "base_mass": 0.005,  # of M
-    "base_stiffness": 0.005,  # of K
-    "base_damping": 0.05,  # of C
-    "tmd_stiffness": 0.005,  # of k
-    "tmd_mass": 0.005,  # of m
-    "viscous": 0.02,  # of c
-    "force_error": 0.005,  # a
-    "mass_split": 0.005,  # of m + I
-    "inertance": 0.005,  # of m + I
-}
-
-
 def meaningless(effect: str, theta: ndarray, p: ndarray, stroke: float) -> str:
     """Why a second effect's parameter is too small to mean anything physically ('' when it is not):
     below MEANINGFUL of the nominal value it changes (a 0.2 % forcing gain or 0.3 % of K beside a
@@ -170,8 +156,10 @@ def meaningless(effect: str, theta: ndarray, p: ndarray, stroke: float) -> str:
         "mass_split": p[P_m] + p[P_I],
         "inertance": p[P_m] + p[P_I],
     }
+    from ..gates import CUBIC_MEANINGFUL, MEANINGFUL  # the steady pipeline's gate: one set of sizes
+
     if effect in MEANINGFUL and abs(theta[0]) < MEANINGFUL[effect] * ref[effect]:
         return f"|{theta[0]:.3g}| < {MEANINGFUL[effect]:g} x {ref[effect]:.4g}"
-    if effect == "cubic" and abs(theta[0]) * stroke**2 < 0.005 * p[P_k]:
+    if effect == "cubic" and abs(theta[0]) * stroke**2 < CUBIC_MEANINGFUL * p[P_k]:
         return f"k3 d^2 = {abs(theta[0]) * stroke**2:.3g} N/m < 0.5 % of k"
     return ""

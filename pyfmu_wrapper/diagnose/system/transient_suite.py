@@ -1,6 +1,6 @@
 """``make-benchmark --suite transient``: system-level datasets of transient records under field
 conditions (docs/diagnose.md, "Check 3"), their truths simulated by :mod:`.transient_truth` (its own
-right-hand side and ``solve_ivp``, not the project's kernels) and measured as a rig does.
+right-hand side and ``odeint``, not the project's kernels) and measured as a rig does.
 
 Per dataset (drawn with the seed): nominal paper Case 1/2/3 (c = 10 or 15 N s/m); sampling rate
 256-5000 Hz; 3 records of ``seconds`` (default 60 s) of kinds drawn from linear/log sweeps up or
@@ -176,8 +176,11 @@ def make_transient_benchmark(
     n_oov: int | None = None,
     seconds: float = 60.0,
     progress: Callable[..., Any] | None = None,
+    part: tuple[int, int] | None = None,
 ) -> list[Any]:
-    """Write the transient suite to ``out`` (one folder per dataset + manifest.json)."""
+    """Write the transient suite to ``out`` (one folder per dataset + manifest.json). ``part = (k, K)``
+    writes only the datasets i with i % K == k (the same datasets as the whole run: K processes
+    share the work, each folder scored on its own)."""
     n = 60 if n is None else int(n)
     nc = round(0.17 * n) if n_clean is None else n_clean
     npair = round(0.13 * n) if n_pair is None else n_pair
@@ -190,6 +193,8 @@ def make_transient_benchmark(
         t0 = time.perf_counter()
         name = f"tr{i:03d}"
         sub = np.random.default_rng(int(rng.integers(1 << 31)))
+        if part is not None and i % part[1] != part[0]:
+            continue
         spec = write_dataset(out / name, sub, hidden, oov, seconds)
         row = {
             "dataset": name,
@@ -204,8 +209,12 @@ def make_transient_benchmark(
             "seconds": round(time.perf_counter() - t0, 2),
         }
         man.append(row)
+        # the manifest is rewritten after every dataset: a run stopped early leaves a scorable part
+        doc = {"suite": "system", "generator": "transient", "seed": seed, "seconds": seconds, "datasets": man}
+        doc["complete"] = i >= n - (part[1] if part else 1)
+        tmp = out / ".manifest.json.partial"
+        tmp.write_text(json.dumps(doc, indent=1))
+        tmp.replace(out / "manifest.json")
         if progress:
             progress({"dataset": name, "seconds": row["seconds"]})
-    doc = {"suite": "system", "generator": "transient", "seed": seed, "seconds": seconds, "datasets": man}
-    (out / "manifest.json").write_text(json.dumps(doc, indent=1))
     return man

@@ -1,6 +1,6 @@
 """Truth for transient records (tests and ``make-benchmark``): the coupled base + TMD driven by a
 swept sine, random or burst force, hammer impulses, or released from a displaced start, simulated
-by an integrator of its own (``scipy.integrate.solve_ivp``, right-hand side written here, not the
+by an integrator of its own (``scipy.integrate.odeint``, right-hand side written here, not the
 project's kernels) and measured as a rig does (anti-alias filter, delay, sensor gain and offset,
 white ADC noise, sampling).
 
@@ -70,7 +70,12 @@ def force_signal(kind: str, rng: np.random.Generator, T: float, amp: float, **kw
         times = np.sort(rng.uniform(0.05 * T, 0.85 * T, n_hits))
         peaks = amp * rng.uniform(0.5, 1.0, n_hits)
 
+        hits = [(float(t0), float(p)) for t0, p in zip(times, peaks)]
+
         def H(t: Any) -> Any:
+            if np.ndim(t) == 0:  # the integrator's scalar calls: plain floats (numpy per hit cost 60 % of a run)
+                tf = float(t)
+                return sum(p * math.sin(math.pi * (tf - t0) / width) for t0, p in hits if 0.0 <= tf - t0 <= width)
             t = np.asarray(t, float)
             tt = np.atleast_1d(t)
             s = np.zeros_like(tt)
@@ -129,27 +134,29 @@ class Truth:
     def simulate(
         self, F: Callable[[Any], Any], t: ndarray, z0: ndarray | None = None, max_step: float = 2e-3
     ) -> dict[str, ndarray]:
-        """x, y, xdd, ydd, force on the grid t (solve_ivp, DOP853, rtol 1e-9)."""
-        from scipy.integrate import solve_ivp
+        """x, y, xdd, ydd, force on the grid t (``scipy.integrate.odeint``: LSODA, rtol 1e-10; it
+        agrees with solve_ivp's DOP853 at rtol 1e-9 to 1e-7 of the amplitude and is 5-17 times faster)."""
+        from scipy.integrate import odeint
 
         n = 6 if self.kb > 0 else 4
         z = np.zeros(n) if z0 is None else np.concatenate([z0, np.zeros(n - len(z0))])
         if self.kb > 0:
             z[4], z[5] = z[0], z[1]
-        sol = solve_ivp(
-            lambda tt, zz: self.deriv(tt, zz, F),
-            (t[0], t[-1]),
+        y, info = odeint(
+            lambda zz, tt: self.deriv(tt, zz, F),
             z,
-            method="DOP853",
-            t_eval=t,
-            rtol=1e-9,
-            atol=1e-12,
-            max_step=max_step,
+            t,
+            rtol=1e-10,
+            atol=1e-13,
+            hmax=max_step,
+            mxstep=10**6,
+            full_output=True,
         )
-        if not sol.success:
-            raise RuntimeError(sol.message)
-        d = self.deriv(t, sol.y, F)
-        return {"x": sol.y[0], "y": sol.y[2], "xdd": d[1], "ydd": d[3], "force": np.asarray(F(t), float)}
+        if info["message"] != "Integration successful.":
+            raise RuntimeError(f"truth integration failed: {info['message']}")
+        sol_y = y.T
+        d = self.deriv(t, sol_y, F)
+        return {"x": sol_y[0], "y": sol_y[2], "xdd": d[1], "ydd": d[3], "force": np.asarray(F(t), float)}
 
 
 def measure(
