@@ -23,19 +23,7 @@ PACKAGE = "pyfmu_wrapper"
 # is the set of modules of one cycle (a strongly connected component of the import graph). THE LEAD
 # EMPTIES THIS LIST as the branches merge: an entry whose cycle is gone fails the test as stale, so the
 # list cannot outlive the cycles it excuses. A new cycle is never excused here: break it.
-KNOWN_CYCLES: list[frozenset[str]] = [
-    frozenset({"diagnose.acquisition", "diagnose.data", "diagnose.system.model"}),
-    frozenset(
-        {
-            "diagnose.plotting",
-            "diagnose.system.diagnosis",
-            "diagnose.system.frc",
-            "diagnose.system.frc_report",
-            "diagnose.system.outcome",
-            "diagnose.verdict",
-        }
-    ),
-]
+KNOWN_CYCLES: list[frozenset[str]] = []
 
 # Imports that break a rule of docs/architecture.md today and are being removed in parallel, as
 # (importing module, imported module). Emptied by the lead like KNOWN_CYCLES; a stale entry fails.
@@ -320,17 +308,7 @@ def test_layer_rules_stated_in_words():
 
 #: imports of a private name across modules that exist on main today and are being removed as the
 #: branches merge (module, imported module, name); emptied by the lead like KNOWN_CYCLES (a stale entry fails)
-KNOWN_PRIVATE_IMPORTS: set[tuple[str, str, str]] = {
-    ("diagnose.data", "diagnose.records", "_err"),
-    ("diagnose.data", "diagnose.records", "_stderr"),
-    ("diagnose.run", "diagnose.records", "_stderr"),
-    ("diagnose.system.bench", "solvers.monolithic", "_atol"),
-    *{("solvers.rodas", "solvers.hermite", n) for n in ("_hermite_absmax", "_hermite_state")},
-    *{
-        ("solvers.rodas", "solvers.rodas_method", n)
-        for n in ("_A", "_ALPHA", "_C", "_E", "_GAMMA", "_GAMMAI", "_M", "_lu", "_lu_solve")
-    },
-}
+KNOWN_PRIVATE_IMPORTS: set[tuple[str, str, str]] = set()
 
 
 def private_imports() -> set[tuple[str, str, str]]:

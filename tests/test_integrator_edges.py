@@ -40,7 +40,7 @@ Z_GRAZE = np.array(
         5.204494799144315e-10,
     ]
 )
-#: the monolithic solver's absolute tolerances at this point (solvers.monolithic._atol)
+#: the monolithic solver's absolute tolerances at this point (solvers.monolithic.integrator_atol)
 ATOL = np.array([5e-09, 1e-07, 5e-09, 1e-07, 5e-09, 7.453559924999298e-06])
 BAND = 1.0 / TMD3.friction_slope
 

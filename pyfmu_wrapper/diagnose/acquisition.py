@@ -46,6 +46,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
     from pathlib import Path
     from typing import Any
 
@@ -55,7 +56,6 @@ if TYPE_CHECKING:
     from .errors import DataError
     from .harmonic import Series
     from .records import Record
-    from .system.model import RecView
 
 CHANNELS = ("force", "x", "y", "xdd", "ydd")
 FILTER_TYPES = ("butterworth", "bessel")
@@ -280,7 +280,7 @@ def correct_frc(records: list[Record], chains: dict) -> list[Record]:
     return records
 
 
-def unobservable(views: list[RecView]) -> list:
+def unobservable(views: Sequence[object]) -> list:
     """What the time records cannot see: ``displacement DC`` when some record has no displacement
     channel pair (x, y) -- its mean displacement, a static preload -- and ``sensor_offset`` when no
     record has one."""

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 import yaml
 
 from .errors import DataError
-from .records import REQUIRED, _err, _stderr, read_record
+from .records import REQUIRED, data_error, read_record, say
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -82,11 +82,11 @@ def _number(
             raise TypeError
         x = float(v)
     except (TypeError, ValueError):
-        raise _err(file, f"'{key}' must be a number, got {v!r}", line=line) from None
+        raise data_error(file, f"'{key}' must be a number, got {v!r}", line=line) from None
     if not math.isfinite(x):
-        raise _err(file, f"'{key}' must be finite, got {v!r}", line=line)
+        raise data_error(file, f"'{key}' must be finite, got {v!r}", line=line)
     if minimum is not None and (x <= minimum if strict else x < minimum):
-        raise _err(
+        raise data_error(
             file,
             f"'{key}' must be {'>' if strict else '>='} {minimum:g}{' ' + unit if unit else ''} "
             f"(a physical value), got {v!r}",
@@ -104,7 +104,7 @@ def _unknown_keys(
     unknown = [k for k in node if k not in allowed]
     if unknown:
         k = unknown[0]
-        raise _err(
+        raise data_error(
             file,
             f"{where}: unknown key(s) {[str(u) for u in unknown]}; allowed keys: {list(allowed)}",
             line=_line(node, k),
@@ -121,7 +121,7 @@ def _plain_data(x: Any) -> Any:
 
 
 def load_dataset(
-    path: Path | str, model_override: dict | None = None, log: Callable = _stderr, model_source: str | None = None
+    path: Path | str, model_override: dict | None = None, log: Callable = say, model_source: str | None = None
 ) -> Dataset:
     """Load and validate ``path/dataset.yaml`` and its records (``model_override``: a nominal model
     read from the file ``model_source``). Progress of long records goes to ``log``."""
@@ -132,31 +132,33 @@ def load_dataset(
     yml = path if path.suffix in (".yaml", ".yml") else path / "dataset.yaml"
     path = yml.parent
     if not yml.is_file():
-        raise _err(yml, "file not found (a dataset is a folder with dataset.yaml and CSV files)")
+        raise data_error(yml, "file not found (a dataset is a folder with dataset.yaml and CSV files)")
     text = read_utf8(yml, error=DataError)
     try:
         raw = load_marked(text, name=str(yml))
     except yaml.YAMLError as e:
         mark = getattr(e, "problem_mark", None) or getattr(e, "context_mark", None)
-        raise _err(
+        raise data_error(
             yml, f"invalid YAML: {' '.join(str(e).split())}", line=None if mark is None else mark.line + 1
         ) from None
     raw = {} if raw is None else raw
     if not isinstance(raw, dict):
-        raise _err(yml, "must be a mapping with keys level, nominal, records")
+        raise data_error(yml, "must be a mapping with keys level, nominal, records")
     _unknown_keys(raw, ALLOWED_KEYS["dataset"], yml, "dataset.yaml")
     level = raw.get("level", "system")
     if level not in ("link", "system"):
-        raise _err(yml, f"'level' must be 'link' or 'system', got {level!r}", line=_line(raw, "level"))
+        raise data_error(yml, f"'level' must be 'link' or 'system', got {level!r}", line=_line(raw, "level"))
     if "x_max_noise" in raw:
         raw["x_max_noise"] = _number(raw["x_max_noise"], yml, "x_max_noise", _line(raw, "x_max_noise"), 0.0, unit="m")
     nominal = model_override if model_override is not None else raw.get("nominal")
     if not isinstance(nominal, dict):
-        raise _err(yml, "'nominal' (the model parameters) is missing or not a mapping", line=_line(raw, "nominal"))
+        raise data_error(
+            yml, "'nominal' (the model parameters) is missing or not a mapping", line=_line(raw, "nominal")
+        )
     nominal = normalise_nominal(nominal, level, yml if model_override is None else (model_source or "--model"))
     entries = raw.get("records")
     if not isinstance(entries, list) or not entries:
-        raise _err(yml, "'records' must be a non-empty list of {file: ..., ...}", line=_line(raw, "records"))
+        raise data_error(yml, "'records' must be a non-empty list of {file: ..., ...}", line=_line(raw, "records"))
     records = []
     seen: dict[Path, int] = {}
     for i, entry in enumerate(entries):
@@ -164,10 +166,10 @@ def load_dataset(
         if isinstance(entry, str):
             entry = {"file": entry}
         if not isinstance(entry, dict) or "file" not in entry:
-            raise _err(yml, f"records[{i}] needs a 'file' key (a CSV file name)", line=ln)
+            raise data_error(yml, f"records[{i}] needs a 'file' key (a CSV file name)", line=ln)
         _unknown_keys(entry, ALLOWED_KEYS["record"], yml, f"records[{i}] ({entry.get('file')})")
         if not isinstance(entry["file"], str) or not entry["file"].strip():
-            raise _err(
+            raise data_error(
                 yml, f"records[{i}].file must be a file name, got {entry['file']!r}", line=_line(entry, "file") or ln
             )
         for key in ("omega", "force_amplitude", "amplitude", "frequency_hz"):
@@ -182,20 +184,20 @@ def load_dataset(
                     unit={"omega": "rad/s", "frequency_hz": "Hz"}.get(key, ""),
                 )
         if entry.get("role") not in (None, "train", "test"):
-            raise _err(
+            raise data_error(
                 yml,
                 f"records[{i}].role must be 'train' or 'test', got {entry['role']!r}",
                 line=_line(entry, "role") or ln,
             )
         if entry.get("kind") not in (None, *REQUIRED):
-            raise _err(
+            raise data_error(
                 yml,
                 f"records[{i}].kind must be one of {list(REQUIRED)}, got {entry['kind']!r}",
                 line=_line(entry, "kind") or ln,
             )
         real = (path / entry["file"]).resolve()
         if real in seen:
-            raise _err(
+            raise data_error(
                 yml,
                 f"records[{i}] ({entry['file']}) is the same file as records[{seen[real]}]: a record listed "
                 "twice could be both fitted and held out; list each record once",
@@ -205,14 +207,14 @@ def load_dataset(
         records.append(read_record(path / entry["file"], level, _plain_data(entry), log=log))
     roles = [r.role for r in records if r.kind != "frc"]
     if any(roles) and "test" not in roles:
-        raise _err(
+        raise data_error(
             yml,
             "every record has role 'train': mark at least one record 'role: test' (held out), or give "
             "no roles (records are then held out automatically)",
             line=_line(raw, "records"),
         )
     if roles and all(r == "test" for r in roles):
-        raise _err(
+        raise data_error(
             yml, "every record has role 'test': at least one record must be for training", line=_line(raw, "records")
         )
     from .acquisition import check_records, correct_frc, parse_acquisition
@@ -244,7 +246,7 @@ def normalise_nominal(nom: dict, level: str, file: Path | str) -> dict:
     if level == "link":
         if "link" in nom and set(nom) - {"link", "base", "tmd"}:
             extra = sorted(map(str, set(nom) - {"link", "base", "tmd"}))
-            raise _err(
+            raise data_error(
                 file,
                 f"nominal: unknown key(s) {extra} beside 'link'; allowed keys: ['link'] (or the link "
                 f"parameters {list(LINK_NOMINAL)} directly)",
@@ -255,7 +257,7 @@ def normalise_nominal(nom: dict, level: str, file: Path | str) -> dict:
             try:
                 t = TMDParams(**nom["tmd"], source=str(file))
             except (ParameterError, TypeError) as e:
-                raise _err(file, f"nominal model: {e}", line=_line(nom, "tmd")) from None
+                raise data_error(file, f"nominal model: {e}", line=_line(nom, "tmd")) from None
             src = {
                 "stiffness": t.stiffness,
                 "damping": t.damping,
@@ -264,10 +266,10 @@ def normalise_nominal(nom: dict, level: str, file: Path | str) -> dict:
                 "inertance": t.inertance,
             }
         if not isinstance(src, dict):
-            raise _err(file, "nominal.link must be a mapping of the link parameters", line=_line(nom, "link"))
+            raise data_error(file, "nominal.link must be a mapping of the link parameters", line=_line(nom, "link"))
         unknown = set(src) - set(LINK_NOMINAL)
         if unknown:
-            raise _err(
+            raise data_error(
                 file,
                 f"unknown nominal link parameter(s) {sorted(map(str, unknown))}; known: {list(LINK_NOMINAL)}",
                 line=ln(src, sorted(map(str, unknown))[0]),
@@ -287,9 +289,9 @@ def normalise_nominal(nom: dict, level: str, file: Path | str) -> dict:
         return out
     extra = [k for k in nom if k not in ("base", "tmd")]
     if "base" not in nom or "tmd" not in nom:
-        raise _err(file, "a system-level nominal model needs 'base' and 'tmd' mappings", line=_line(nom, "base"))
+        raise data_error(file, "a system-level nominal model needs 'base' and 'tmd' mappings", line=_line(nom, "base"))
     if extra:
-        raise _err(
+        raise data_error(
             file,
             f"nominal: unknown key(s) {[str(k) for k in extra]}; allowed keys: ['base', 'tmd']",
             line=_line(nom, extra[0]),
@@ -297,11 +299,11 @@ def normalise_nominal(nom: dict, level: str, file: Path | str) -> dict:
     for part, cls in (("base", BaseParams), ("tmd", TMDParams)):
         node = nom[part]
         if not isinstance(node, dict):
-            raise _err(file, f"nominal.{part} must be a mapping, got {node!r}", line=_line(nom, part))
+            raise data_error(file, f"nominal.{part} must be a mapping, got {node!r}", line=_line(nom, part))
         allowed = [f for f in field_names(cls) if f != "source"]
         bad = [k for k in node if k not in allowed]
         if bad:
-            raise _err(
+            raise data_error(
                 file,
                 f"nominal.{part}: unknown key(s) {[str(k) for k in bad]}; allowed keys: {allowed}",
                 line=ln(node, bad[0]),
@@ -310,5 +312,5 @@ def normalise_nominal(nom: dict, level: str, file: Path | str) -> dict:
             cls(**node, source=str(file))
         except (ParameterError, TypeError) as e:
             msg = str(e).replace(f" (from {file})", "")
-            raise _err(file, f"nominal model: {part}: {msg}", line=_line(nom, part)) from None
+            raise data_error(file, f"nominal model: {part}: {msg}", line=_line(nom, part)) from None
     return {"base": _plain_data(nom["base"]), "tmd": _plain_data(nom["tmd"])}

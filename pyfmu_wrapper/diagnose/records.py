@@ -63,7 +63,7 @@ class Record:
         return k in self.columns
 
 
-def _err(
+def data_error(
     file: str | Path, msg: str, row: int | None = None, column: str | None = None, line: int | None = None
 ) -> DataError:
     where = str(file) if line is None else f"{file}:{line}"
@@ -96,7 +96,7 @@ MAX_SAMPLES = 100_000  #: samples kept per record; a longer record is block-aver
 CHUNK_ROWS = 500_000  #: rows parsed at a time from a long CSV (bounded memory)
 
 
-def _stderr(msg: str) -> None:
+def say(msg: str) -> None:
     import sys
 
     print(msg, file=sys.stderr, flush=True)
@@ -116,7 +116,7 @@ def _columns(df: DataFrame, file: Path, kind: str, row0: int = 0, t_prev: float6
             vals = df[c].astype(str).str.strip().str.lower().to_numpy()
             bad = np.nonzero(~np.isin(vals, ["up", "down"]))[0]
             if bad.size:
-                raise _err(
+                raise data_error(
                     file,
                     f"direction must be 'up' or 'down', got {df[c].iloc[bad[0]]!r}",
                     row=row0 + int(bad[0]) + 1,
@@ -129,7 +129,7 @@ def _columns(df: DataFrame, file: Path, kind: str, row0: int = 0, t_prev: float6
         if bad.size:
             raw = df[c].iloc[bad[0]]
             raw = raw.item() if hasattr(raw, "item") else raw
-            raise _err(
+            raise data_error(
                 file,
                 f"value {raw!r} is not a finite number ({bad.size} bad value(s) in this column"
                 + (")" if row0 == 0 and t_prev is None else " in this block of rows)"),
@@ -142,7 +142,7 @@ def _columns(df: DataFrame, file: Path, kind: str, row0: int = 0, t_prev: float6
         bad = np.nonzero(np.diff(t) <= 0)[0]
         if bad.size:
             i = int(bad[0])
-            raise _err(
+            raise data_error(
                 file,
                 f"time must be strictly increasing: t = {_plainf(t[i + 1])} after {_plainf(t[i])}",
                 row=row0 + i + (2 if t_prev is None else 1),
@@ -151,7 +151,7 @@ def _columns(df: DataFrame, file: Path, kind: str, row0: int = 0, t_prev: float6
     if kind == "frc":
         bad = np.nonzero(cols["omega"] <= 0)[0]
         if bad.size:
-            raise _err(file, "omega must be > 0 rad/s", row=row0 + int(bad[0]) + 1, column="omega")
+            raise data_error(file, "omega must be > 0 rad/s", row=row0 + int(bad[0]) + 1, column="omega")
     return cols
 
 
@@ -161,7 +161,7 @@ def _check_header(df: DataFrame, file: Path, level: str, entry: dict[str, Any]) 
     names = header_names(file)
     dup = sorted({c for c in names if names.count(c) > 1})
     if dup:
-        raise _err(
+        raise data_error(
             file,
             f"column(s) {dup} appear more than once in the header {names}: which one is the measured "
             "channel is ambiguous; keep one (rename or drop the other)",
@@ -170,21 +170,21 @@ def _check_header(df: DataFrame, file: Path, level: str, entry: dict[str, Any]) 
     df.columns = [str(c).strip() for c in df.columns]
     kind = entry.get("kind") or _kind_of(df.columns, level, file)
     if kind not in REQUIRED:
-        raise _err(file, f"unknown record kind {kind!r} (link, time, frc or transient)")
+        raise data_error(file, f"unknown record kind {kind!r} (link, time, frc or transient)")
     if level == "link" and kind == "transient":  # a link record without a drive frequency
         kind = "link"
     if level == "link" and kind != "link":
-        raise _err(file, f"a link-level dataset needs columns {REQUIRED['link']}, got {list(df.columns)}")
+        raise data_error(file, f"a link-level dataset needs columns {REQUIRED['link']}, got {list(df.columns)}")
     missing = [c for c in REQUIRED[kind] if c not in df.columns]
     if missing:
-        raise _err(
+        raise data_error(
             file,
             f"missing column(s) {missing} for a {kind} record (needs {REQUIRED[kind]}, "
             f"optional {OPTIONAL[kind]}); found {list(df.columns)}",
             column=missing[0],
         )
     if kind == "transient" and not any(c in df.columns for c in ("x", "y", "xdd", "ydd")):
-        raise _err(
+        raise data_error(
             file,
             "a transient record needs at least one response channel of x, y, xdd, ydd (and 'force', "
             f"unless it is a free decay); found {list(df.columns)}",
@@ -194,7 +194,7 @@ def _check_header(df: DataFrame, file: Path, level: str, entry: dict[str, Any]) 
         opts = [[c for c in pair if c not in df.columns] for pair in (("x", "y"), ("xdd", "ydd"))]
         if all(opts):
             miss = min(opts, key=len)
-            raise _err(
+            raise data_error(
                 file,
                 f"missing column(s) {miss} for a time record (needs {REQUIRED[kind]} and the "
                 f"displacements ['x', 'y'] or the accelerations ['xdd', 'ydd'], or both); "
@@ -208,9 +208,9 @@ def _read_csv(file: Path, **kw: Any) -> Any:
     try:
         return pd.read_csv(file, comment="#", skipinitialspace=True, **kw)
     except UnicodeDecodeError as e:  # pragma: no cover - caught by the byte scan first
-        raise _err(file, f"not UTF-8 text: {e}") from None
+        raise data_error(file, f"not UTF-8 text: {e}") from None
     except Exception as e:  # pandas parser errors (message names the line)
-        raise _err(file, f"cannot be read as CSV: {' '.join(str(e).split())}") from None
+        raise data_error(file, f"cannot be read as CSV: {' '.join(str(e).split())}") from None
 
 
 def _read_long(
@@ -240,7 +240,7 @@ def _read_long(
             if kind is None:
                 kind = _check_header(df, file, level, entry)
                 if kind == "frc":
-                    raise _err(
+                    raise data_error(
                         file,
                         f"an FRC record (one line per frequency) with {n_rows:,} rows: at most "
                         f"{MAX_SAMPLES:,} are read",
@@ -267,9 +267,9 @@ def _read_long(
     except DataError:
         raise
     except Exception as e:  # pandas parser errors in a later block
-        raise _err(file, f"cannot be read as CSV: {' '.join(str(e).split())}") from None
+        raise data_error(file, f"cannot be read as CSV: {' '.join(str(e).split())}") from None
     if kind is None:
-        raise _err(file, "has no data rows")
+        raise data_error(file, "has no data rows")
     cols = {c: np.concatenate(v) for c, v in parts.items()}
     info = {
         "rows": row0,
@@ -285,7 +285,7 @@ def _read_long(
     return kind, cols, (lo, hi), info
 
 
-def read_record(file: Path, level: str, entry: dict | None = None, log: Callable = _stderr) -> Record:
+def read_record(file: Path, level: str, entry: dict | None = None, log: Callable = say) -> Record:
     """Read and validate one CSV record (records longer than MAX_SAMPLES rows: see :func:`_read_long`)."""
     from ..errors import scan_utf8_lines
     from .record_checks import check_line_length, check_record_size
@@ -293,7 +293,7 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
     entry = entry or {}
     file = Path(file)
     if not file.is_file():
-        raise _err(file, "file not found")
+        raise data_error(file, "file not found")
     size = check_record_size(file)
     n_rows = max(scan_utf8_lines(file, error=DataError) - 1, 0)  # header excluded (comments counted)
     check_line_length(file, size, n_rows)
@@ -302,7 +302,7 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
         df = _read_csv(file)
         kind = _check_header(df, file, level, entry)
         if len(df) < 3:
-            raise _err(file, f"needs at least 3 data rows, has {len(df)}")
+            raise data_error(file, f"needs at least 3 data rows, has {len(df)}")
         cols = _columns(df, file, kind)
         span = (
             {c: float(np.min(v)) for c, v in cols.items() if c != "direction"},
@@ -311,10 +311,10 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
     else:
         kind, cols, span, reduced = _read_long(file, level, entry, n_rows, log)
         if len(cols["t"]) < 3:
-            raise _err(file, f"needs at least 3 data rows, has {len(cols['t'])}")
+            raise data_error(file, f"needs at least 3 data rows, has {len(cols['t'])}")
     for c in LIVE_CHANNELS.get(kind, ()):
         if c in cols and span[0][c] == span[1][c]:
-            raise _err(
+            raise data_error(
                 file,
                 f"the channel is constant (every value = {span[0][c]:g}): a dead channel (sensor not "
                 "connected or not recorded?); the diagnosis needs it measured",
@@ -326,7 +326,7 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
     elif omega is not None and entry.get("frequency_hz") is not None:
         w_hz = 2 * math.pi * float(entry["frequency_hz"])
         if abs(w_hz - float(omega)) > 1e-6 * max(abs(w_hz), abs(float(omega))):
-            raise _err(
+            raise data_error(
                 file,
                 f"dataset.yaml gives omega = {_plainf(float(omega))} rad/s and frequency_hz = "
                 f"{_plainf(float(entry['frequency_hz']))} Hz (= {w_hz:.6g} rad/s): they disagree; give one of them",
@@ -345,7 +345,7 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
         rec.meta["reduced"] = reduced
     if entry.get("kind") == "transient":  # no steady state, no drive frequency
         if rec.omega is not None:
-            raise _err(
+            raise data_error(
                 file,
                 "a transient record has no drive frequency: leave omega / frequency_hz out (or give kind: time)",
             )
@@ -356,11 +356,11 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
         if rec.omega is None:
             rec.meta["periodic"] = False
     if rec.omega is not None and not rec.omega > 0:
-        raise _err(file, f"omega must be > 0 rad/s, got {_plainf(rec.omega)}")
+        raise data_error(file, f"omega must be > 0 rad/s, got {_plainf(rec.omega)}")
     if kind == "time" and rec.omega is not None:
         span_s, period = float(cols["t"][-1] - cols["t"][0]), 2 * math.pi / rec.omega
         if span_s < period:
-            raise _err(
+            raise data_error(
                 file,
                 f"the record spans {span_s:.4g} s, less than one period of w = {rec.omega:.4g} rad/s "
                 f"({period:.4g} s): the harmonic analysis of a system time record needs whole periods "
@@ -371,7 +371,7 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
 
         bad = declared_omega_problem(cols["t"], cols["displacement"] if kind == "link" else cols["force"], rec.omega)
         if bad:
-            raise _err(file, bad[0], column=bad[1])
+            raise data_error(file, bad[0], column=bad[1])
     if kind == "link" and rec.amplitude is None:
         d = cols["displacement"]
         rec.amplitude = 0.5 * float(np.percentile(d, 99.5) - np.percentile(d, 0.5))

@@ -81,9 +81,9 @@ def run_diagnosis(
 ) -> dict:
     """Diagnose a dataset folder; write report.md, diagnosis.json and PNGs to ``out`` if given
     (``out`` is written as given: the CLI passes a fresh folder, see :class:`ResultFolder`)."""
-    from .records import _stderr
+    from .records import say
 
-    ds = load_dataset(dataset, _load_model(model), log=log or _stderr, model_source=model)
+    ds = load_dataset(dataset, _load_model(model), log=log or say, model_source=model)
     red = _reduced(ds)
     res = _run(ds, None if out is None else Path(out), red)
     if red:

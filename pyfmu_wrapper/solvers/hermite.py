@@ -14,7 +14,7 @@ from .._jit import njit
 
 
 @njit(cache=True)
-def _hermite_absmax(x0: float, v0: float, x1: float, v1: float, h: float) -> float:
+def hermite_absmax(x0: float, v0: float, x1: float, v1: float, h: float) -> float:
     """max |p(s)| over s in [0, h] of the cubic Hermite p with p(0)=x0, p'(0)=v0, p(h)=x1, p'(h)=v1."""
     m = max(abs(x0), abs(x1))
     # p(theta) = h00 x0 + h10 h v0 + h01 x1 + h11 h v1; derivative in theta is quadratic.
@@ -45,17 +45,17 @@ def _hermite_absmax(x0: float, v0: float, x1: float, v1: float, h: float) -> flo
 def hermite_absmax_series(x: NDArray[np.float64], v: NDArray[np.float64], h: float) -> float:
     """max |p| over all intervals of the cubic Hermite interpolant of samples x, v = dx/dt at
     spacing h (the one Hermite maximum of both engines: the monolithic solver applies
-    :func:`_hermite_absmax` step by step, the co-simulation to its communication points)."""
+    :func:`hermite_absmax` step by step, the co-simulation to its communication points)."""
     m = 0.0
     for i in range(x.shape[0] - 1):
-        m = max(m, _hermite_absmax(x[i], v[i], x[i + 1], v[i + 1], h))
+        m = max(m, hermite_absmax(x[i], v[i], x[i + 1], v[i + 1], h))
     if x.shape[0] == 1:
         m = abs(x[0])
     return m
 
 
 @njit(cache=True)
-def _hermite_state(
+def hermite_state(
     z0: NDArray[np.float64],
     f0: NDArray[np.float64],
     z1: NDArray[np.float64],

@@ -105,7 +105,7 @@ class SteadyState:
     irregular: bool = False  #: settled into irregular motion; ``change`` is then its scatter
 
 
-def _atol(base: Any, tmd: TMDParams, omega: float, settings: SolverSettings) -> np.ndarray:
+def integrator_atol(base: Any, tmd: TMDParams, omega: float, settings: SolverSettings) -> np.ndarray:
     """The absolute tolerance per state of the structure's model (its unit's rule)."""
     return MODELS.of(base).atol(base, tmd, omega, settings.atol_scale)
 
@@ -343,7 +343,7 @@ def simulate(
     t = np.linspace(0.0, t_end, n_samples) if sample_times is None else np.asarray(sample_times, dtype=float)
     out = np.zeros((t.size, n))
     if atol is None:
-        atol = _atol(base, tmd, omega, SolverSettings(atol_scale=1e-7))
+        atol = integrator_atol(base, tmd, omega, SolverSettings(atol_scale=1e-7))
     stats = np.zeros(4, dtype=np.int64)
     T = 2 * math.pi / omega
     atol = np.asarray(atol, dtype=float)

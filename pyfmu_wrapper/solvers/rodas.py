@@ -48,8 +48,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .._jit import njit
-from .hermite import _hermite_absmax, _hermite_state  # noqa: F401 (globals of the template)
-from .rodas_method import _A, _ALPHA, _C, _E, _GAMMA, _GAMMAI, _M, _lu, _lu_solve  # noqa: F401 (globals of the template)
+from .hermite import hermite_absmax, hermite_state  # noqa: F401 (names the template's code uses: its globals)
+from .rodas_method import ALPHA, COEF_A, COEF_C, COEF_E, COEF_M, GAMMA, GAMMAI, lu_factor, lu_solve  # noqa: F401 (names the template's code uses: its globals)
 
 FloatArray = NDArray[np.float64]
 FloatSeq = Sequence[float] | NDArray[np.float64]
@@ -180,8 +180,8 @@ def _integrate_template(
             for i in range(n):
                 for j in range(n):
                     G[i, j] = -J[i, j]
-                G[i, i] += 1.0 / (hs * _GAMMA)
-            if not _lu(G, piv):
+                G[i, i] += 1.0 / (hs * GAMMA)
+            if not lu_factor(G, piv):
                 hs *= 0.5
                 stats[STAT_REJECTED] += 1
                 final = False
@@ -194,24 +194,24 @@ def _integrate_template(
                     for i in range(n):
                         acc = z[i]
                         for j in range(st):
-                            acc += _A[st, j] * K[j, i]
+                            acc += COEF_A[st, j] * K[j, i]
                         ys[i] = acc
-                    _model_rhs(t + _ALPHA[st] * hs, ys, p, u, fs)
+                    _model_rhs(t + ALPHA[st] * hs, ys, p, u, fs)
                 for i in range(n):
-                    acc = fs[i] + _GAMMAI[st] * hs * ft[i]
+                    acc = fs[i] + GAMMAI[st] * hs * ft[i]
                     for j in range(st):
-                        acc += _C[st, j] / hs * K[j, i]
+                        acc += COEF_C[st, j] / hs * K[j, i]
                     K[st, i] = acc
                 krow = K[st]
-                _lu_solve(G, piv, krow)
+                lu_solve(G, piv, krow)
             enorm = 0.0
             finite = True
             for i in range(n):
                 acc = z[i]
                 e = 0.0
                 for j in range(6):
-                    acc += _M[j] * K[j, i]
-                    e += _E[j] * K[j, i]
+                    acc += COEF_M[j] * K[j, i]
+                    e += COEF_E[j] * K[j, i]
                 ynew[i] = acc
                 sc = atol[i] + rtol * max(abs(z[i]), abs(acc))
                 r = e / sc
@@ -251,10 +251,10 @@ def _integrate_template(
             break
         # accepted
         _model_rhs(t + hs, ynew, p, u, f1)
-        xmax = max(xmax, _hermite_absmax(z[0], f0[0], ynew[0], f1[0], hs))
+        xmax = max(xmax, hermite_absmax(z[0], f0[0], ynew[0], f1[0], hs))
         while isample < nsample and sample_times[isample] <= t + hs:
             theta_s = (sample_times[isample] - t) / hs
-            _hermite_state(z, f0, ynew, f1, hs, theta_s, samples[isample])
+            hermite_state(z, f0, ynew, f1, hs, theta_s, samples[isample])
             isample += 1
         t = t1 if final else t + hs
         for i in range(n):

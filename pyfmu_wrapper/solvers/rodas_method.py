@@ -14,11 +14,11 @@ from .._jit import njit
 FloatArray = NDArray[np.float64]
 
 # RODAS4 coefficients (Hairer & Wanner 1996), lower-triangular A and C stored as full matrices.
-_GAMMA = 0.25
-_ALPHA = np.array([0.0, 0.386, 0.21, 0.63, 1.0, 1.0])
-_GAMMAI = np.array([0.25, -0.1043, 0.1035, -0.3620000000000023e-01, 0.0, 0.0])
-_A = np.zeros((6, 6))
-_C = np.zeros((6, 6))
+GAMMA = 0.25
+ALPHA = np.array([0.0, 0.386, 0.21, 0.63, 1.0, 1.0])
+GAMMAI = np.array([0.25, -0.1043, 0.1035, -0.3620000000000023e-01, 0.0, 0.0])
+COEF_A = np.zeros((6, 6))
+COEF_C = np.zeros((6, 6))
 _a = [
     0.1544000000000000e01,
     0.9466785280815826,
@@ -56,15 +56,15 @@ _c = [
 _k = 0
 for _i in range(1, 6):
     for _j in range(_i):
-        _A[_i, _j] = _a[_k]
-        _C[_i, _j] = _c[_k]
+        COEF_A[_i, _j] = _a[_k]
+        COEF_C[_i, _j] = _c[_k]
         _k += 1
-_M = np.array([_a[6], _a[7], _a[8], _a[9], 1.0, 1.0])
-_E = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
+COEF_M = np.array([_a[6], _a[7], _a[8], _a[9], 1.0, 1.0])
+COEF_E = np.array([0.0, 0.0, 0.0, 0.0, 0.0, 1.0])
 
 
 @njit(cache=True)
-def _lu(a: FloatArray, piv: NDArray[np.int64]) -> bool:
+def lu_factor(a: FloatArray, piv: NDArray[np.int64]) -> bool:
     n = a.shape[0]
     for k in range(n):
         imax = k
@@ -92,7 +92,7 @@ def _lu(a: FloatArray, piv: NDArray[np.int64]) -> bool:
 
 
 @njit(cache=True)
-def _lu_solve(a: FloatArray, piv: NDArray[np.int64], b: FloatArray) -> None:
+def lu_solve(a: FloatArray, piv: NDArray[np.int64], b: FloatArray) -> None:
     n = a.shape[0]
     for k in range(n):
         if piv[k] != k:

@@ -145,9 +145,9 @@ def steady_record(
     t = np.arange(0.0, n_periods * T, 1.0 / fs)
     atol = None
     if rtol > 1e-9:
-        from ...solvers.monolithic import _atol
+        from ...solvers.monolithic import integrator_atol
 
-        atol = _atol(base, tmd, omega, SolverSettings())
+        atol = integrator_atol(base, tmd, omega, SolverSettings())
     _, z = simulate(base, tmd, omega, t0 + n_periods * T, z0=z0, sample_times=t + t0, rtol=rtol, atol=atol)
     p = pack(base, tmd, omega)
     dz = np.empty(6)

@@ -21,13 +21,14 @@ from .transient_fit import pool, residual
 if TYPE_CHECKING:
     from numpy import ndarray
 
-    from .transient import TransientDiagnosis
+    from ..shapes import TransientDiagnosisShape
+
 
 SCREEN_KEEP = 4  #: linear candidates fully fitted after the screen
 NONLINEAR = ("friction", "play", "cubic")  #: always fitted
 
 
-def screen(d: TransientDiagnosis, cands: list[str], train: list[ndarray]) -> tuple[list[str], dict[str, float]]:
+def screen(d: TransientDiagnosisShape, cands: list[str], train: list[ndarray]) -> tuple[list[str], dict[str, float]]:
     """The candidates to fit: the nonlinear ones (always) and the SCREEN_KEEP linear ones whose
     one Gauss-Newton step from the nominal lowers the training chi-square most (each parameter's
     column: one simulation per record); returns (kept, {screened out: its linearised drop})."""
