@@ -19,7 +19,7 @@ gate                question                                                    
 
 Why these numbers. The share gate: an effect that explains less than half of the held-out gap is
 not *the* explanation, whatever its significance -- with chi-squares of 1e5-1e7 any candidate that
-shaves a few per cent passes a significance test (issue 19: "forcing error, closes 3 %"). The
+shaves a few per cent passes a significance test (a forcing error that closed 3 % was once named). The
 remaining gate: every in-vocabulary effect is modelled exactly (the equation error is linear in its
 parameters, or simulated through the project's solver), so after the right effects the held-out gap
 falls to the noise up to the fit's own scatter: < 1 % of the gap on the benchmark except play (its
@@ -184,7 +184,7 @@ def plausibility(params: dict, std: dict, tmd: TMDParams, motion: dict, base: Ba
 
 #: the smallest physically meaningful size of a second effect, as a share of the nominal value it
 #: changes: a 0.5 % forcing gain or 0.56 N s/m (0.56 %) of base damping beside a named effect is
-#: calibration scatter, not a cause, however many std it is from zero (issue 31). The same numbers
+#: calibration scatter, not a cause, however many std it is from zero. The same numbers
 #: gate the transient diagnosis's second effects (system/transient_effects.py).
 MEANINGFUL = {
     "base_mass": 0.005,  # of M

@@ -243,7 +243,7 @@ class SystemDiagnosis(PlayMixin):
     def _frc_prior(self, base: tuple[str, ...], e: str, f_time: EqFit) -> dict[int, Any] | None:
         """The FRC's own fit of effect ``e`` (fitted on two thirds of its frequencies) as a prior on
         its time-record parameter, so one informative record held out is predicted from the other
-        records **and** the FRC (issue 19: a single informative record vetoed a cubic). Used only
+        records **and** the FRC (alone, a single informative record could veto a cubic). Used only
         when it agrees with the fit on all time records (within 3 combined std)."""
         if self.frc is None or e not in FRC_PRIOR or not hasattr(self.frc, "fits"):
             return None

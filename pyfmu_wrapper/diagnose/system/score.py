@@ -36,7 +36,7 @@ TEXT_UNEXPLAINED = re.compile(
     r"structural gap remains",
     re.I,
 )
-TARGETS: dict[str, tuple[str, float]] = {  # issue 19, "Must show"
+TARGETS: dict[str, tuple[str, float]] = {  # what a field benchmark must reach (docs/diagnose.md)
     "singles_top1": (">=", 0.95),
     "clean_false_positive_rate": ("<=", 0.10),
     "pairs_both_named": (">=", 0.80),
