@@ -41,13 +41,15 @@ from numpy.typing import NDArray
 
 from .._jit import njit
 from .params import P_C, P_F, P_I, P_K, P_M, P_MODEL, P_W, P_c, P_ci, P_df, P_eps, P_k, P_k3, P_ki, P_m, P_s
+from .registry import InerterModel
 
 #: a value of the equations: real, or complex in the complex-step derivatives
 Num = float | complex
 #: an array of the equations (state, parameters, inputs, outputs; float64, or complex128 for the complex step)
 Vec = NDArray[Any]
 
-MODEL_NONE, MODEL_IDEAL, MODEL_PLAY = 0, 1, 2
+#: the inerter model codes as plain ints for the compiled code (registry.InerterModel)
+MODEL_NONE, MODEL_IDEAL, MODEL_PLAY = (int(m) for m in InerterModel)
 NSTATE = 6
 TWO_OVER_PI = 2.0 / math.pi
 

@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, field, fields, make_dataclass
-from enum import IntEnum
 from typing import TYPE_CHECKING, Any, ClassVar
 
 import numpy as np
@@ -21,20 +20,11 @@ import numpy as np
 from .._jit import njit
 from ..errors import InputError
 from . import registry
+from .registry import InerterModel
 
 
 class ParameterError(InputError):
     """A non-physical or malformed parameter value."""
-
-
-class InerterModel(IntEnum):
-    """How the inerter link between base and TMD is modelled (paper Table 1)."""
-
-    NONE = 0  #: no inerter (I must be 0)
-    IDEAL = 1  #: ideal inerter, force I (xdd - ydd)
-    PLAY = 2  #: Scheibe-Smith chain: inerter I - mesh spring ki || damper ci - gap +-eps
-    # eps = 0 with finite ki is the linear inerter-in-series-with-spring (no clamping); the
-    # kernels treat it through the same PLAY chain with a zero gap.
 
 
 def _check(

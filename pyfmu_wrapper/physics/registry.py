@@ -21,11 +21,25 @@ The tests hold every derived artefact against this table. To add a parameter, se
 from __future__ import annotations
 
 from dataclasses import dataclass
+from enum import IntEnum
 from typing import Any
 
-#: inerter models (values of :class:`~pyfmu_wrapper.physics.params.InerterModel`)
-NONE, IDEAL, PLAY = 0, 1, 2
-ALL_MODELS = (NONE, IDEAL, PLAY)
+
+class InerterModel(IntEnum):
+    """How the inerter link between base and TMD is modelled (paper Table 1): the one definition of
+    the codes, which the parameter classes, the compiled kernels (``kernels.MODEL_*``) and the FMUs'
+    ``inerter`` variable use."""
+
+    NONE = 0  #: no inerter (I must be 0)
+    IDEAL = 1  #: ideal inerter, force I (xdd - ydd)
+    PLAY = 2  #: Scheibe-Smith chain: inerter I - mesh spring ki || damper ci - gap +-eps
+    # eps = 0 with finite ki is the linear inerter-in-series-with-spring (no clamping); the
+    # kernels treat it through the same PLAY chain with a zero gap.
+
+
+#: inerter models, as the table below lists which apply to a parameter
+NONE, IDEAL, PLAY = InerterModel.NONE, InerterModel.IDEAL, InerterModel.PLAY
+ALL_MODELS = tuple(InerterModel)
 
 
 @dataclass(frozen=True)
@@ -333,14 +347,13 @@ def markdown_table(subsystem: str) -> str:
         "| name | symbol | unit | default | bounds | FMU variable (vr) | Modelica | applies to | description |",
         "|---|---|---|---|---|---|---|---|---|",
     ]
-    names = {NONE: "none", IDEAL: "ideal", PLAY: "play"}
     for p in of(subsystem):
         bound = "any" if p.minimum is None else (f"> {p.minimum:g}" if p.strict else f">= {p.minimum:g}")
         if p.maximum is not None:
             bound = f"<= {p.maximum:g}" if p.minimum is None else f"{bound}, <= {p.maximum:g}"
         if p.kind == "enum":
-            bound = "0, 1, 2"
-        applies = "all" if p.models == ALL_MODELS else ", ".join(names[m] for m in p.models)
+            bound = ", ".join(str(int(m)) for m in InerterModel)
+        applies = "all" if p.models == ALL_MODELS else ", ".join(InerterModel(m).name.lower() for m in p.models)
         name = p.name if p.field else f"{p.name} (not a field)"
         rows.append(
             f"| `{name}` | {p.symbol} | {p.unit} | {p.default:g} | {bound} | `{p.fmu_name}` ({p.fmu_vr}) "

@@ -35,9 +35,7 @@ from ..records import write_record
 DENSE_HZ = 20000.0
 PREROLL_PERIODS = 2
 CHANNELS = ("force", "x", "y", "xdd", "ydd")
-BESSEL_NORM = (
-    "mag"  #: a Bessel cutoff_hz is the -3 dB point (the acquisition key, as diagnose.acquisition reads it)
-)
+BESSEL_NORM = "mag"  #: a Bessel cutoff_hz is the -3 dB point (the acquisition key, as diagnose.acquisition reads it)
 PLAY_PERIODS = 40  #: play (rattling): settle at most 40 periods; x_max = max over the last 20-period window
 
 
