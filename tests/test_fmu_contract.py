@@ -104,3 +104,26 @@ def test_log_categories_are_the_tables(trivial):
     arr = (ctypes.c_char_p * 1)(b"logEverything")
     assert f(s.component, 1, 1, arr) == 3
     assert "unknown log category logEverything" in log[-1]
+
+
+@pytest.mark.parametrize(
+    "field, value",
+    [
+        ("causality", "inptu"),
+        ("variability", "continous"),
+        ("initial", "exactly"),
+        ("dependencies_kind", ("dependant",)),
+    ],
+)
+def test_a_misspelt_declaration_is_refused_where_it_is_written(field, value):
+    """Causality, variability, initial and dependency kinds are FMI's words: a misspelt one would write
+    a model description every importer rejects, so the declaration itself refuses it, naming the variable."""
+    from pyfmu_wrapper.fmi.varspec import Variable
+
+    kw = dict(name="v", vr=1, type="Real", causality="input", variability="continuous", description="d", start=0.0)
+    if field == "dependencies_kind":
+        kw.update(causality="output", start=None, depends_on=("x",), dependencies_kind=value)
+    else:
+        kw[field] = value
+    with pytest.raises(ValueError, match=rf"^v: .*{value if isinstance(value, str) else value[0]}"):
+        Variable(**kw)

@@ -26,6 +26,13 @@ from typing import Any
 REAL, INTEGER, BOOLEAN = "Real", "Integer", "Boolean"
 
 
+#: what FMI 2.0 allows (the FMI 3.0 writer maps them): checked when a variable is declared
+CAUSALITIES = ("parameter", "calculatedParameter", "input", "output", "local", "independent")
+VARIABILITIES = ("constant", "fixed", "tunable", "discrete", "continuous")
+INITIALS = ("exact", "approx", "calculated")
+DEPENDENCY_KINDS = ("dependent", "constant", "fixed", "tunable", "discrete")
+
+
 @dataclass(frozen=True)
 class Variable:
     """One FMI scalar variable."""
@@ -49,6 +56,18 @@ class Variable:
     def __post_init__(self) -> None:
         if self.type not in (REAL, INTEGER, BOOLEAN):
             raise ValueError(f"{self.name}: unsupported type {self.type!r}")
+        for field_, value, allowed in (
+            ("causality", self.causality, CAUSALITIES),
+            ("variability", self.variability, VARIABILITIES),
+            ("initial", self.initial, (None, *INITIALS)),
+        ):
+            if value not in allowed:
+                raise ValueError(f"{self.name}: {field_} must be one of {list(allowed)}, got {value!r}")
+        for kind in self.dependencies_kind:
+            if kind not in DEPENDENCY_KINDS:
+                raise ValueError(
+                    f"{self.name}: a dependency kind must be one of {list(DEPENDENCY_KINDS)}, got {kind!r}"
+                )
         if self.causality in ("parameter", "input") and self.start is None:
             raise ValueError(f"{self.name}: a {self.causality} needs a start value")
         if self.causality == "output" and self.start is not None and self.initial != "approx":
