@@ -20,7 +20,18 @@ VR_MASS, VR_STIFFNESS, VR_DAMPING, VR_X0, VR_XD0 = 200, 300, 400, 500, 600
 
 def _par(name: str, vr: int, start: float | int, unit: str | None, doc: str, **kw: object) -> Variable:
     type_ = INTEGER if isinstance(start, int) else REAL
-    return Variable(name, vr, type_, "parameter", "fixed", doc, unit, start, "exact", **kw)  # type: ignore[arg-type]
+    return Variable(
+        name=name,
+        vr=vr,
+        type=type_,
+        causality="parameter",
+        variability="fixed",
+        description=doc,
+        unit=unit,
+        start=start,
+        initial="exact",
+        **kw,  # type: ignore[arg-type]
+    )
 
 
 def _per_storey(prefix: str, base: int, start: float, unit: str, doc: str, **kw: object) -> tuple[Variable, ...]:
@@ -41,13 +52,13 @@ _STARTS = tuple(f"x0_{i}" for i in range(1, 21)) + tuple(f"xd0_{i}" for i in ran
 
 def _out(name: str, vr: int, unit: str, doc: str, feedthrough: bool) -> Variable:
     return Variable(
-        name,
-        vr,
-        REAL,
-        "output",
-        "continuous",
-        doc,
-        unit,
+        name=name,
+        vr=vr,
+        type=REAL,
+        causality="output",
+        variability="continuous",
+        description=doc,
+        unit=unit,
         initial="calculated",
         depends_on=("f_link", "f_inerter") if feedthrough else (),
         dependencies_kind=("fixed", "fixed") if feedthrough else (),
@@ -81,24 +92,24 @@ SHEAR_FRAME = FmuSpec(
         *_per_storey("x0_", VR_X0, 0.0, "m", "initial displacement"),
         *_per_storey("xd0_", VR_XD0, 0.0, "m/s", "initial velocity"),
         Variable(
-            "f_link",
-            10,
-            REAL,
-            "input",
-            "continuous",
-            "the TMD's total force on the structure (TMDInerter.force)",
-            "N",
-            0.0,
+            name="f_link",
+            vr=10,
+            type=REAL,
+            causality="input",
+            variability="continuous",
+            description="the TMD's total force on the structure (TMDInerter.force)",
+            unit="N",
+            start=0.0,
         ),
         Variable(
-            "f_inerter",
-            11,
-            REAL,
-            "input",
-            "continuous",
-            "the inerter's share of it (TMDInerter.inerter_force)",
-            "N",
-            0.0,
+            name="f_inerter",
+            vr=11,
+            type=REAL,
+            causality="input",
+            variability="continuous",
+            description="the inerter's share of it (TMDInerter.inerter_force)",
+            unit="N",
+            start=0.0,
         ),
         _out("x_top", 20, "m", "displacement of the top storey", False),
         _out("xd_top", 21, "m/s", "velocity of the top storey", False),

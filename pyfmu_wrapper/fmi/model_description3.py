@@ -70,16 +70,16 @@ def input_derivatives(spec: FmuSpec) -> list[tuple[Variable, int, str | None]]:
                 name = f"der({u.name})" if k == 1 else f"der({u.name},{k})"
                 what = "first" if k == 1 else "second"
                 v = Variable(
-                    name,
-                    derivative_vr(spec, u.vr, k),
-                    REAL,
-                    "input",
-                    "continuous",
-                    f"{what} time derivative of the input {u.name} at the start of the step: the FMU "
+                    name=name,
+                    vr=derivative_vr(spec, u.vr, k),
+                    type=REAL,
+                    causality="input",
+                    variability="continuous",
+                    description=f"{what} time derivative of the input {u.name} at the start of the step: the FMU "
                     f"integrates with the input's Taylor polynomial over the step (FMI 2.0: "
                     f"fmi2SetRealInputDerivatives order {k}); applies to the next doStep only (reset to 0 after it)",
-                    None,
-                    0.0,
+                    unit=None,
+                    start=0.0,
                 )
                 out.append((v, k, _derived_unit(u.unit, k)))
     return out

@@ -33,7 +33,7 @@ INITIALS = ("exact", "approx", "calculated")
 DEPENDENCY_KINDS = ("dependent", "constant", "fixed", "tunable", "discrete")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class Variable:
     """One FMI scalar variable."""
 

@@ -37,7 +37,7 @@ from .jacobians import coupled_jacobian, system_dfdt_work, system_jacobian_work,
 from .kernels import SYS_BASE, SYS_COUPLED, SYS_TMD, Vec, system_rhs, system_switching
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, kw_only=True)
 class OdeModel:
     """A first-order system z' = rhs(t, z) with switching functions (see the module doc)."""
 
@@ -149,38 +149,38 @@ def tmd_switching(z: Vec, p: Vec, g: Vec) -> None:
 
 
 COUPLED = OdeModel(
-    "coupled",
-    coupled_rhs,
-    coupled_jac,
-    coupled_switching,
-    contact_mode_index,
-    3,
-    3,
-    (-1, 4, 4),
-    ("x", "xd", "y", "yd", "d", "dd"),
-    bind_describe(mode_describer(True, 4), coupled_switching),
+    name="coupled",
+    rhs=coupled_rhs,
+    jacobian=coupled_jac,
+    switching=coupled_switching,
+    mode=contact_mode_index,
+    n_switches=3,
+    n_modes=3,
+    switch_tolerance=(-1, 4, 4),
+    state_names=("x", "xd", "y", "yd", "d", "dd"),
+    describe=bind_describe(mode_describer(True, 4), coupled_switching),
 )
 BASE = OdeModel(
-    "base",
-    base_rhs_u,
-    base_jac,
-    base_switching,
-    contact_mode_index,
-    3,
-    3,
-    (-1, 2, 2),
-    ("x", "xd"),
-    bind_describe(mode_describer(False, 2), base_switching),
+    name="base",
+    rhs=base_rhs_u,
+    jacobian=base_jac,
+    switching=base_switching,
+    mode=contact_mode_index,
+    n_switches=3,
+    n_modes=3,
+    switch_tolerance=(-1, 2, 2),
+    state_names=("x", "xd"),
+    describe=bind_describe(mode_describer(False, 2), base_switching),
 )
 TMD = OdeModel(
-    "tmd",
-    tmd_rhs_u,
-    tmd_jac,
-    tmd_switching,
-    contact_mode_index,
-    3,
-    3,
-    (-1, 2, 2),
-    ("y", "yd", "d", "dd"),
-    bind_describe(mode_describer(False, 2), tmd_switching),
+    name="tmd",
+    rhs=tmd_rhs_u,
+    jacobian=tmd_jac,
+    switching=tmd_switching,
+    mode=contact_mode_index,
+    n_switches=3,
+    n_modes=3,
+    switch_tolerance=(-1, 2, 2),
+    state_names=("y", "yd", "d", "dd"),
+    describe=bind_describe(mode_describer(False, 2), tmd_switching),
 )
