@@ -144,7 +144,7 @@ class Slave:
                 self.r[v.vr] = float(v.start)
         self.du[:] = 0.0
 
-    def _registry_values(self, subsystem: str) -> dict[str, float]:
+    def _registry_values(self, subsystem: str) -> dict[str, Any]:
         """Field name -> value of the subsystem's registry parameters, read from the FMU buffers."""
         return {p.name: self.val(p.fmu_name) for p in registry.fields(subsystem)}
 

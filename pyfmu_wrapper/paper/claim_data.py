@@ -90,7 +90,7 @@ def minmax_opt(
     base: BaseParams, tmd: TMDParams, param: str, lo: float, hi: float, omegas: Floats
 ) -> tuple[float, float]:
     """The value of ``param`` (exact, linear) minimising the peak amplitude over ``omegas``: (value, peak)."""
-    f = lambda v: float(exact_amplitude(base, replace(tmd, **{param: float(v)}), omegas).max())  # noqa: E731
+    f = lambda v: float(exact_amplitude(base, replace(tmd, **{param: float(v)}), omegas).max())  # type: ignore[arg-type]  # noqa: E731
     grid = np.linspace(lo, hi, 201)
     vals = [f(v) for v in grid]
     k = int(np.argmin(vals))

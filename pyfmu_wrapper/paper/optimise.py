@@ -75,8 +75,8 @@ def split_parameter(parameter: str) -> tuple[str, str]:
 def with_parameter(base: BaseParams, tmd: TMDParams, parameter: str, value: float) -> tuple[BaseParams, TMDParams]:
     owner, name = split_parameter(parameter)
     if owner == "tmd":
-        return base, replace(tmd, **{name: float(value)})
-    return replace(base, **{name: float(value)}), tmd
+        return base, replace(tmd, **{name: float(value)})  # type: ignore[arg-type]
+    return replace(base, **{name: float(value)}), tmd  # type: ignore[arg-type]
 
 
 # --- evaluation ---------------------------------------------------------------------------------

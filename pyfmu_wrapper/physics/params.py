@@ -12,8 +12,8 @@ kernels of :mod:`pyfmu_wrapper.physics.kernels`.
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, field, fields, make_dataclass
-from typing import TYPE_CHECKING, Any, ClassVar
+from dataclasses import asdict, dataclass, field, fields
+from typing import Any
 
 import numpy as np
 
@@ -52,16 +52,28 @@ def _check(
     return v
 
 
-class _BaseMixin:
-    """Methods of :class:`BaseParams` (its fields come from the registry)."""
+def _default(subsystem: str, name: str) -> Any:
+    """The field's default, as the registry declares it (one source)."""
+    par = registry.get(subsystem, name)
+    return field(default=InerterModel(int(par.default)) if par.kind == "enum" else float(par.default))
 
-    # the fields' types, for the type checker only (annotations without values make no dataclass field
-    # of the generated class; tests/test_registry.py checks these names against the registry)
-    mass: float
-    stiffness: float
-    damping: float
-    force_amplitude: float
-    source: str | None
+
+def _source() -> Any:
+    return field(default=None, compare=False, repr=False)
+
+
+@dataclass(frozen=True, kw_only=True)
+class BaseParams:
+    """Base oscillator: M xdd + C xd + K x = F cos(w t) - (force of the TMD links). The excitation
+    frequency w [rad/s] is passed to the solvers, not stored here. The fields, their units, defaults
+    and ranges are the registry's (:mod:`pyfmu_wrapper.physics.registry`; tests/test_registry.py holds
+    the two equal, name by name and in order)."""
+
+    mass: float = _default("base", "mass")  #: M [kg]
+    stiffness: float = _default("base", "stiffness")  #: K [N/m]
+    damping: float = _default("base", "damping")  #: C [N.s/m]
+    force_amplitude: float = _default("base", "force_amplitude")  #: F [N]
+    source: str | None = _source()  #: where the values come from (named in errors)
 
     def __post_init__(self) -> None:
         _validate_fields(self, "base")
@@ -72,22 +84,25 @@ class _BaseMixin:
         return math.sqrt(self.stiffness / self.mass)
 
 
-class _TMDMixin:
-    """Methods and cross-field checks of :class:`TMDParams` (its fields come from the registry)."""
+@dataclass(frozen=True, kw_only=True)
+class TMDParams:
+    """TMD mass m and its links to the base (paper Table 1): spring k + k3 (x-y)^3, damper c, dry
+    friction df, inerter I (none / ideal / with play ki, ci, eps). Link forces are counted positive
+    when they push the base in -x and the TMD in +y: Fs = k (x - y) + k3 (x - y)^3 + c (xd - yd) +
+    df (2/pi) atan(s (xd - yd)), and the inerter force P. Fields as the registry declares them."""
 
-    # the fields' types, for the type checker only (see _BaseMixin)
-    mass: float
-    stiffness: float
-    damping: float
-    friction_force: float
-    friction_slope: float
-    inertance: float
-    mesh_stiffness: float
-    mesh_damping: float
-    play_gap: float
-    inerter: InerterModel
-    cubic_stiffness: float
-    source: str | None
+    mass: float = _default("tmd", "mass")  #: m [kg]
+    stiffness: float = _default("tmd", "stiffness")  #: k [N/m]
+    damping: float = _default("tmd", "damping")  #: c [N.s/m]
+    friction_force: float = _default("tmd", "friction_force")  #: df [N]
+    friction_slope: float = _default("tmd", "friction_slope")  #: s [s/m]
+    inertance: float = _default("tmd", "inertance")  #: I [kg]
+    mesh_stiffness: float = _default("tmd", "mesh_stiffness")  #: ki [N/m]
+    mesh_damping: float = _default("tmd", "mesh_damping")  #: ci [N.s/m]
+    play_gap: float = _default("tmd", "play_gap")  #: eps [m]
+    inerter: InerterModel = _default("tmd", "inerter")  #: none / ideal / play
+    cubic_stiffness: float = _default("tmd", "cubic_stiffness")  #: k3 [N/m^3]
+    source: str | None = _source()  #: where the values come from (named in errors)
 
     def __post_init__(self) -> None:
         s = self.source
@@ -136,62 +151,6 @@ def _validate_fields(obj: Any, subsystem: str) -> None:
             f"{par.name} ({par.symbol})", getattr(obj, par.name), source=s, minimum=par.minimum, strict=par.strict
         )
         object.__setattr__(obj, par.name, value)
-
-
-def _class_doc(title: str, subsystem: str) -> str:
-    lines = [title, "", "Fields (SI units; generated from :mod:`pyfmu_wrapper.physics.registry`)::", ""]
-    for par in registry.fields(subsystem):
-        lines.append(f"    {par.name}: {par.symbol} [{par.unit}] {par.description} (default {par.default!r})")
-    return "\n".join(lines)
-
-
-def _make_class(name: str, subsystem: str, mixin: type, title: str) -> type:
-    specs: list[tuple[str, Any, Any]] = []
-    for par in registry.fields(subsystem):
-        default = InerterModel(int(par.default)) if par.kind == "enum" else float(par.default)
-        specs.append((par.name, InerterModel if par.kind == "enum" else float, field(default=default)))
-    specs.append(("source", "str | None", field(default=None, compare=False, repr=False)))
-    cls = make_dataclass(
-        name,
-        specs,
-        bases=(mixin,),
-        frozen=True,
-        kw_only=True,
-        namespace={"__doc__": _class_doc(title, subsystem), "__module__": __name__},
-    )
-    return cls
-
-
-if TYPE_CHECKING:
-    # what the type checker sees: the generated classes, frozen dataclasses with the mixins' field types
-    # and keyword-only constructors (the registry decides the fields at run time)
-    from dataclasses import Field
-
-    class BaseParams(_BaseMixin):
-        __dataclass_fields__: ClassVar[dict[str, Field[Any]]]
-
-        def __init__(self, **fields: Any) -> None: ...
-
-    class TMDParams(_TMDMixin):
-        __dataclass_fields__: ClassVar[dict[str, Field[Any]]]
-
-        def __init__(self, **fields: Any) -> None: ...
-else:
-    #: Base oscillator: M xdd + C xd + K x = F cos(omega t) - (force of the TMD links). The
-    #: excitation frequency omega [rad/s] is passed to the solvers, not stored here.
-    BaseParams = _make_class(
-        "BaseParams", "base", _BaseMixin, "Base oscillator: M xdd + C xd + K x = F cos(w t) - (force of the TMD links)."
-    )
-    #: TMD mass m and its links to the base (paper Table 1). Link forces are counted positive when
-    #: they push the base in -x and the TMD in +y:
-    #: Fs = k (x - y) + k3 (x - y)^3 + c (xd - yd) + df (2/pi) atan(s (xd - yd)), and the inerter force P.
-    TMDParams = _make_class(
-        "TMDParams",
-        "tmd",
-        _TMDMixin,
-        "TMD mass m and its links to the base (paper Table 1): spring k + k3 (x-y)^3, "
-        "damper c, dry friction df, inerter I (none / ideal / with play ki, ci, eps).",
-    )
 
 
 def as_dict(obj: Any) -> dict[str, Any]:
@@ -282,7 +241,7 @@ def paper_case(case: int, **overrides: Any) -> TMDParams:
     """TMD parameters of the paper's Case 1, 2 or 3 (ideal inerter, no damping unless overridden)."""
     if case not in CASES:
         raise ParameterError(f"case must be 1, 2 or 3, got {case!r}")
-    kw = dict(CASES[case])
+    kw: dict[str, Any] = dict(CASES[case])
     kw.update(overrides)
     return TMDParams(**kw)
 

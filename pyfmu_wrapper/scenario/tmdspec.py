@@ -108,6 +108,6 @@ def detached_tmd(tmd: TMDParams) -> TMDParams:
         damping=0.0,
         friction_force=0.0,
         inertance=0.0,
-        inerter="none",
+        inerter=InerterModel.NONE,
         play_gap=0.0,
     )
