@@ -184,7 +184,7 @@ def test_window_criterion_is_relative_and_flags_irregular_responses():
     rng = np.random.default_rng(1)
 
     def feed(levels, W=20):
-        c = WindowCriterion(W, 1e-4, 0.0, 3, 2000)
+        c = WindowCriterion(W, 1e-4, min_periods=3, max_periods=2000)
         k = 0
         for lev in levels:
             for _ in range(W):
@@ -201,7 +201,7 @@ def test_window_criterion_is_relative_and_flags_irregular_responses():
     c, k = feed(irregular)
     amp, conv, change = c.result()
     assert not conv and c.irregular and change > 0.05 and amp == pytest.approx(max(c.wins[1:]))
-    c = WindowCriterion(2, 1e-4, 0.0, 3, 2000)
+    c = WindowCriterion(2, 1e-4, min_periods=3, max_periods=2000)
     for a in [1.0, 1.1, 1.05, 1.0501, 1.05, 1.05]:
         if c.add(a):
             break

@@ -49,7 +49,6 @@ def test_window_scatter_flags_an_irregular_response():
     [
         ("tol", -1e-6),
         ("tol_window", float("nan")),
-        ("amp_atol", -1.0),
         ("window", 0),
         ("min_periods", 0),
         ("max_periods", 2),

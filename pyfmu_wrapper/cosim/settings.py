@@ -20,7 +20,7 @@ from .timescales import choose_steps
 class CosimSettings(SteadySettings):
     """Co-simulation steady-state settings.
 
-    The steady-state fields (tol, tol_window, amp_atol, window, min_periods, max_periods,
+    The steady-state fields (tol, tol_window, window, min_periods, max_periods,
     scatter_tol, play_start, shooting, max_newton) are those of
     :class:`~pyfmu_wrapper.solvers.steady.SteadySettings` (the definition shared with the
     monolithic solver, validated there), with max_periods 240 and max_newton 12 here. Own fields:

@@ -70,7 +70,7 @@ class SolverError(RuntimeError):
 class SolverSettings(SteadySettings):
     """Accuracy and steady-state settings of the monolithic solver.
 
-    The steady-state fields (tol, tol_window, amp_atol, window, min_periods, max_periods,
+    The steady-state fields (tol, tol_window, window, min_periods, max_periods,
     scatter_tol, play_start, shooting, max_newton) are those of
     :class:`~pyfmu_wrapper.solvers.steady.SteadySettings`, with its defaults. Own fields:
     rtol: relative tolerance of the integrator; atol_scale: absolute tolerance as a fraction of

@@ -130,16 +130,6 @@ SETTINGS: tuple[Setting, ...] = (
         maximum=0.5,
     ),
     _s(
-        "amp_atol",
-        "number",
-        {MONO: None, COSIM: None},
-        "m",
-        "absolute amplitude tolerance kept for old settings (null: 0)",
-        minimum=0.0,
-        optional=True,
-        scenario=(),
-    ),
-    _s(
         "window",
         "integer",
         {MONO: None, COSIM: None},

@@ -89,8 +89,7 @@ class SteadySettings:
     """Steady-state settings shared by both engines (validated on construction).
 
     tol: steady-state tolerance of a periodic response (window 1: Newton correction or distance
-    to the orbit, relative); tol_window: agreement of two window maxima (window > 1);
-    amp_atol [m]: default None = 0, an absolute tolerance kept for old settings; window: periods
+    to the orbit, relative); tol_window: agreement of two window maxima (window > 1); window: periods
     per window (None: :func:`default_window`); min_periods / max_periods: bounds per frequency;
     scatter_tol: the largest scatter of the window maxima an irregular response may have and
     still count as converged; play_start: where a windowed solve starts, "companion" (the
@@ -101,7 +100,6 @@ class SteadySettings:
 
     tol: float = _table.default("tol", MONO)
     tol_window: float = _table.default("tol_window", MONO)
-    amp_atol: float | None = _table.default("amp_atol", MONO)
     window: int | None = _table.default("window", MONO)
     min_periods: int = _table.default("min_periods", MONO)
     max_periods: int = _table.default("max_periods", MONO)
@@ -163,20 +161,20 @@ class WindowCriterion:
       scatter (max - min) / max of those windows. The point counts as converged when the
       scatter is within ``scatter_tol`` (an amplitude known to that fraction), else it is
       flagged irregular and not converged. There is no absolute tolerance: a tiny amplitude
-      must settle relative to itself. ``amp_atol`` (default 0) is kept for old settings.
+      must settle relative to itself.
     """
 
     def __init__(
         self,
         window: int,
         tol: float,
-        amp_atol: float = 0.0,
+        *,
         min_periods: int = 3,
         max_periods: int = 3000,
         scatter_tol: float = 5e-3,
         omega: float | None = None,
     ) -> None:
-        self.W, self.tol, self.amp_atol = int(window), float(tol), float(amp_atol)
+        self.W, self.tol = int(window), float(tol)
         self.min_periods, self.max_periods = int(min_periods), int(max_periods)
         self.scatter_tol, self.omega = float(scatter_tol), omega
         self.period_max: list[float] = []
@@ -198,14 +196,20 @@ class WindowCriterion:
         """From an engine's settings (:class:`SteadySettings`; ``max_periods_window``, which only
         the monolithic engine has, bounds the windowed run when present)."""
         if window == 1:
-            c = cls(1, settings.tol, 0.0, settings.min_periods, settings.max_periods, omega=omega)
+            c = cls(1, settings.tol, min_periods=settings.min_periods, max_periods=settings.max_periods, omega=omega)
             # resolution floor of the W = 1 residual: 1e-9 of the static deflection F/K (an orbit
             # with a zero amplitude, an undamped antiresonance, has only round-off to settle)
             c.floor = 1e-9 * abs(base.force_amplitude) / max(base.stiffness, 1e-300)
             return c
-        amp_atol = settings.amp_atol or 0.0
         mp = min(settings.max_periods, getattr(settings, "max_periods_window", settings.max_periods))
-        return cls(window, settings.tol_window, amp_atol, settings.min_periods, mp, settings.scatter_tol, omega=omega)
+        return cls(
+            window,
+            settings.tol_window,
+            min_periods=settings.min_periods,
+            max_periods=mp,
+            scatter_tol=settings.scatter_tol,
+            omega=omega,
+        )
 
     def _contraction(self, r: float, scale: float) -> float:
         self.res.append(r)
@@ -249,14 +253,14 @@ class WindowCriterion:
         d = wins[-1] - wins[-2]
         self.diffs.append(d)
         scale = max(abs(wins[-1]), 1e-300)
-        self.change = max(abs(d) - self.amp_atol, 0.0) / scale
+        self.change = abs(d) / scale
         if k >= self.min_periods and self.change <= self.tol:
             self.converged = True
             return True
         tail = wins[1:]
         if len(tail) >= 3:
             grew = max(tail) - max(tail[:-1])
-            self._stable = self._stable + 1 if grew <= self.tol * max(tail) + self.amp_atol else 0
+            self._stable = self._stable + 1 if grew <= self.tol * max(tail) else 0
             if self._stable >= 2 and k >= self.min_periods:
                 scatter = (max(tail) - min(tail)) / max(max(tail), 1e-300)
                 self.converged = scatter <= self.scatter_tol

@@ -77,10 +77,6 @@ def has_cubic() -> bool:
     return "cubic_stiffness" in {f.name for f in dataclasses.fields(TMDParams)}
 
 
-def system_effects() -> list:
-    return [e for e in RANGES if e != "cubic" or has_cubic()]
-
-
 def nominal(case: int, damping: float = 15.0) -> dict:
     """Paper Case 1, 2 or 3 (m, I) = (9, 1), (5, 5), (1, 9) kg with an ideal inerter and TMD damping c."""
     m, I = {1: (9.0, 1.0), 2: (5.0, 5.0), 3: (1.0, 9.0)}[case]

@@ -6,7 +6,6 @@ come from the system model (:mod:`.model`).
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -144,7 +143,3 @@ def folds_for(views: list[RecView]) -> list[tuple[list[int], list[int]]]:
             "(one is held out while the others are fitted)"
         )
     return [([j for j in range(n) if j != i], [i]) for i in range(n)]
-
-
-def n_components(views: Sequence[RecView], ids: Iterable[int]) -> int:
-    return sum(views[i].r.size for i in ids)

@@ -230,26 +230,6 @@ def plan(
     return [items[i] for i in rng.permutation(len(items))]
 
 
-def out_problem(out: Path) -> str | None:
-    """Why ``out`` must not be written (it holds files this generator did not write), or None."""
-    out = Path(out)
-    if out.exists() and not out.is_dir():
-        return f"{out}: exists and is not a folder"
-    if not out.is_dir() or not any(out.iterdir()):
-        return None
-    man = out / "manifest.json"
-    try:
-        ours = json.loads(man.read_text()).get("generator") == "field"
-    except (OSError, ValueError, AttributeError):
-        ours = False
-    if not ours:
-        return (
-            f"{out}: folder is not empty and has no manifest.json of make-benchmark's system suite; "
-            "give a new or empty folder (nothing was written)"
-        )
-    return None
-
-
 def make_field_benchmark(
     out: Path,
     n: int | None = None,
