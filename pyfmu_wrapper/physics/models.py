@@ -63,7 +63,7 @@ def contact_mode_index(g: Vec) -> int:
     return (1 if g[1] > 0.0 else 0) - (1 if g[2] < 0.0 else 0) + 1
 
 
-_SURFACE_TOL = 1e-3  # the integrator's default surface_tol (solvers.rodas.SURFACE_TOL), for messages
+_SURFACE_TOL = 1e-3  # the integrator's surface tolerance (solvers.rodas.SURFACE_TOL), for messages
 
 
 def mode_describer(friction: bool, contact_index: int) -> Callable[..., str]:

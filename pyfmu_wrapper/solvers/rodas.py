@@ -90,7 +90,6 @@ def _integrate_template(
     friction_band: float,
     stats: NDArray[np.int64],
     max_steps: int = DEFAULT_MAX_STEPS,
-    surface_tol: float = SURFACE_TOL,
 ) -> tuple[float, float, int, float]:
     """Integrate the model from t0 to t1 in place on z; return (next step size, max |z[0]|, status, t).
 
@@ -106,13 +105,11 @@ def _integrate_template(
 
     Surfaces. A step whose end point has a switching function of the other sign than its start is
     retaken, shortened to end just past the estimated crossing, unless the start or the end lies
-    on the surface: within surface_tol * atol of the state the function depends on (the model's
+    on the surface: within SURFACE_TOL * atol of the state the function depends on (the model's
     ``switch_tolerance``; friction: within friction_band = 1/s [m/s]). A state on a surface is in that surface's mode (a gear
     chain resting on its contact, a grazing contact, a TMD stuck to the base): it is integrated
     with the ordinary error control and never retaken to land on the surface again. Retakes shorter
     than 100 hmin are not made (the step is then judged by its error estimate alone).
-    (surface_tol = 0 restores the former rule, under which a chain resting on its contact at
-    d + eps ~ -1e-20 was retaken onto the surface for ever: kept for the tests.)
 
     sample_times (sorted, inside [t0, t1]) are filled into rows of samples by dense output.
     stats accumulates [steps, rejected, event retakes, failed].
@@ -156,7 +153,7 @@ def _integrate_template(
         if di < 0:
             gtol[k] = friction_band
         else:
-            gtol[k] = surface_tol * atol[di] if n > di else 0.0
+            gtol[k] = SURFACE_TOL * atol[di] if n > di else 0.0
     ncalls = 0
     _model_switching(z, p, g0)
     mode_prev = _model_mode(g0)
@@ -284,7 +281,7 @@ def make_integrator(model: Any, cache: bool | None = None) -> Any:
     (numba-compiled functions), ``n_switches``, ``n_modes`` and ``switch_tolerance`` (see
     :mod:`pyfmu_wrapper.physics.models`). The result is called as
     ``integrate(z, t0, t1, p, u, rtol, atol, h, hmax, sample_times, samples, friction_band, stats,
-    max_steps=DEFAULT_MAX_STEPS, surface_tol=SURFACE_TOL)`` and returns (next step size,
+    max_steps=DEFAULT_MAX_STEPS)`` and returns (next step size,
     max |z[0]|, status, t) (see the template's doc).
 
     Each model's integrator is the template's code with the model's functions as its globals and a
