@@ -60,6 +60,9 @@ def test_cosimulated_frame_is_the_structures_exact_response(n, storey, to, omega
     w = np.array(omegas)
     table = sweep(frame, TMD, w, settings=CosimSettings())
     assert table["converged"].all()
+    # the steps per period of the coupling actually used: impulse on the TMD's own storey, else force
+    coupling = "impulse" if frame.terminal == frame.tmd_at else "force"
+    assert set(table["steps_per_period"]) == {CosimSettings(accuracy=1e-4, coupling=coupling).steps_for(TMD)}
     err = np.abs(table["amplitude"].to_numpy() / ref.top_amplitude(structure, lin, w) - 1)
     assert np.max(err) < 1e-4, err
 
