@@ -138,3 +138,14 @@ def test_a_failing_point_is_reported_and_the_sweep_goes_on(monkeypatch):
         [22.0],
     )[0]
     assert second["converged"] and abs(second["amplitude"] / exact - 1) < 1e-4
+
+
+def test_frame_parameters_name_their_fmu_variables():
+    """The frame's declared parameters (docs/parameters.md) name the ShearFrame FMU's variables and
+    value references (fmi/frame_variables.py)."""
+    from pyfmu_wrapper.fmi.frame_variables import SHEAR_FRAME
+    from pyfmu_wrapper.physics import registry
+
+    for p in registry.of("frame"):
+        first = p.fmu_name.split("..")[0]
+        assert SHEAR_FRAME.by_name(first).vr == p.fmu_vr, p.name
