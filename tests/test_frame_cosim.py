@@ -60,6 +60,9 @@ def test_cosimulated_frame_is_the_structures_exact_response(n, storey, to, omega
     w = np.array(omegas)
     table = sweep(frame, TMD, w, settings=CosimSettings())
     assert table["converged"].all()
+    # the steps per period of the coupling actually used: impulse on the TMD's own storey, else force
+    coupling = "impulse" if frame.terminal == frame.tmd_at else "force"
+    assert set(table["steps_per_period"]) == {CosimSettings(accuracy=1e-4, coupling=coupling).steps_for(TMD)}
     err = np.abs(table["amplitude"].to_numpy() / ref.top_amplitude(structure, lin, w) - 1)
     assert np.max(err) < 1e-4, err
 
@@ -135,3 +138,14 @@ def test_a_failing_point_is_reported_and_the_sweep_goes_on(monkeypatch):
         [22.0],
     )[0]
     assert second["converged"] and abs(second["amplitude"] / exact - 1) < 1e-4
+
+
+def test_frame_parameters_name_their_fmu_variables():
+    """The frame's declared parameters (docs/parameters.md) name the ShearFrame FMU's variables and
+    value references (fmi/frame_variables.py)."""
+    from pyfmu_wrapper.fmi.frame_variables import SHEAR_FRAME
+    from pyfmu_wrapper.physics import registry
+
+    for p in registry.of("frame"):
+        first = p.fmu_name.split("..")[0]
+        assert SHEAR_FRAME.by_name(first).vr == p.fmu_vr, p.name

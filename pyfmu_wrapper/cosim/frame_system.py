@@ -249,5 +249,7 @@ def sweep(
     starts from the monolithic engine's start state (no continuation)."""
     accuracy = FRAME_ACCURACY if settings.accuracy is None else settings.accuracy
     settings = replace(settings, accuracy=accuracy)
+    if frame.terminal != frame.tmd_at:  # the TMDI: force coupling, its steps from the force coupling's error model
+        settings = replace(settings, coupling="force")
     rows, _ = run_sweep_pieces(_sweep_piece, frame, tmd, omegas, direction, settings, progress, None, workers)
     return pd.DataFrame(rows)

@@ -39,7 +39,25 @@ def parameters_text() -> str:
         + registry.markdown_table("base")
         + "\n## TMD-inerter subsystem (`TMDParams`, FMU `TMDInerter`)\n\n"
         + registry.markdown_table("tmd")
+        + "".join(_unit_tables())
     )
+
+
+def _unit_tables() -> list[str]:
+    """The tables of the subsystems the model units declare beyond base and tmd (the frame: its
+    structure, with the TMD's attachment), from :data:`pyfmu_wrapper.physics.units.MODELS`."""
+    from ..physics.units import MODELS
+
+    out = []
+    for unit in MODELS.units():
+        subsystems = dict.fromkeys(p.subsystem for p in unit.parameters if p.subsystem not in ("base", "tmd"))
+        for sub in subsystems:
+            out.append(
+                f"\n## {unit.description[0].upper() + unit.description[1:]} "
+                f"(`{unit.structure.__name__}`, model `{unit.name}`; with the TMD's `TMDParams`)\n\n"
+                + registry.markdown_table(sub)
+            )
+    return out
 
 
 def variables_text() -> str:

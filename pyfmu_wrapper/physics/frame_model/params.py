@@ -21,6 +21,19 @@ from ..registry import Parameter, declare
 MAX_STOREYS = 20
 
 
+#: the ShearFrame FMU's variable (value reference) of each parameter (fmi/frame_variables.py)
+_FMU = {
+    "storeys": ("storeys", 0),
+    "mass": ("m1..m20", 200),
+    "stiffness": ("k1..k20", 300),
+    "damping": ("c1..c20", 400),
+    "force_amplitude": ("F", 1),
+    "force_storey": ("force_storey", 3),
+    "tmd_storey": ("tmd_storey", 4),
+    "inerter_to": ("inerter_to", 5),
+}
+
+
 def _row(name: str, symbol: str, unit: str, default: float, minimum: float | None, strict: bool, doc: str) -> Parameter:
     return Parameter(
         name=name,
@@ -31,8 +44,8 @@ def _row(name: str, symbol: str, unit: str, default: float, minimum: float | Non
         minimum=minimum,
         strict=strict,
         description=doc,
-        fmu_name=name,
-        fmu_vr=-1,
+        fmu_name=_FMU[name][0],
+        fmu_vr=_FMU[name][1],
         modelica_name=None,
         modelica_type=None,
         mappable=False,
