@@ -11,32 +11,19 @@ The frame's physics is :mod:`pyfmu_wrapper.physics.frame_model`.
 
 from __future__ import annotations
 
+from typing import Any
+
 from ..physics.frame_model.params import MAX_STOREYS
-from .varspec import INTEGER, REAL, FmuSpec, Variable
+from .varspec import REAL, FmuSpec, Variable, parameter
 
 #: value references: per-storey blocks of 20 from these bases (storey i at base + i - 1)
 VR_MASS, VR_STIFFNESS, VR_DAMPING, VR_X0, VR_XD0 = 200, 300, 400, 500, 600
 
 
-def _par(name: str, vr: int, start: float | int, unit: str | None, doc: str, **kw: object) -> Variable:
-    type_ = INTEGER if isinstance(start, int) else REAL
-    return Variable(
-        name=name,
-        vr=vr,
-        type=type_,
-        causality="parameter",
-        variability="fixed",
-        description=doc,
-        unit=unit,
-        start=start,
-        initial="exact",
-        **kw,  # type: ignore[arg-type]
-    )
-
-
-def _per_storey(prefix: str, base: int, start: float, unit: str, doc: str, **kw: object) -> tuple[Variable, ...]:
+def _per_storey(prefix: str, base: int, start: float, unit: str, doc: str, **kw: Any) -> tuple[Variable, ...]:
     return tuple(
-        _par(f"{prefix}{i}", base + i - 1, start, unit, f"{doc} of storey {i}", **kw) for i in range(1, MAX_STOREYS + 1)
+        parameter(f"{prefix}{i}", base + i - 1, start, unit, f"{doc} of storey {i}", **kw)
+        for i in range(1, MAX_STOREYS + 1)
     )
 
 
@@ -72,12 +59,12 @@ SHEAR_FRAME = FmuSpec(
     description="Shear frame of 1-20 storeys under F cos(w t) on one storey, driven by a TMD's forces on two storeys",
     slave="pyfmu_wrapper.fmi.frame_slave:ShearFrameSlave",
     variables=(
-        _par("storeys", 0, 1, None, "number of storeys n (structural)", min=1, max=MAX_STOREYS),
-        _par("F", 1, 200.0, "N", "F: amplitude of the excitation F cos(w t)"),
-        _par("w", 2, 20.0, "rad/s", "w: excitation angular frequency", min=0.0, min_exclusive=True),
-        _par("force_storey", 3, 0, None, "the storey the force acts on (0: the top)", min=0, max=MAX_STOREYS),
-        _par("tmd_storey", 4, 0, None, "the storey the TMD hangs on (0: the top)", min=0, max=MAX_STOREYS),
-        _par(
+        parameter("storeys", 0, 1, None, "number of storeys n (structural)", min=1, max=MAX_STOREYS),
+        parameter("F", 1, 200.0, "N", "F: amplitude of the excitation F cos(w t)"),
+        parameter("w", 2, 20.0, "rad/s", "w: excitation angular frequency", min=0.0, min_exclusive=True),
+        parameter("force_storey", 3, 0, None, "the storey the force acts on (0: the top)", min=0, max=MAX_STOREYS),
+        parameter("tmd_storey", 4, 0, None, "the storey the TMD hangs on (0: the top)", min=0, max=MAX_STOREYS),
+        parameter(
             "inerter_to",
             5,
             -1,
@@ -124,7 +111,7 @@ SHEAR_FRAME = FmuSpec(
             "base_compliance = 1/M of that storey (when the terminal is the TMD's storey)",
             False,
         ),
-        _par(
+        parameter(
             "rtol",
             90,
             1e-8,
@@ -134,7 +121,7 @@ SHEAR_FRAME = FmuSpec(
             max=1.0,
             min_exclusive=True,
         ),
-        _par(
+        parameter(
             "atol",
             91,
             1e-10,

@@ -13,34 +13,7 @@ from __future__ import annotations
 
 from ..physics import registry
 from .frame_variables import SHEAR_FRAME
-from .varspec import INTEGER, REAL, FmuSpec, Variable
-
-
-def _par(
-    name: str,
-    vr: int,
-    start: float | int,
-    unit: str | None,
-    description: str,
-    type_: str = REAL,
-    lo: float | None = None,
-    hi: float | None = None,
-    exclusive: bool = False,
-) -> Variable:
-    return Variable(
-        name=name,
-        vr=vr,
-        type=type_,
-        causality="parameter",
-        variability="fixed",
-        description=description,
-        unit=unit,
-        start=start,
-        initial="exact",
-        min=lo,
-        max=hi,
-        min_exclusive=exclusive,
-    )
+from .varspec import INTEGER, REAL, FmuSpec, Variable, parameter
 
 
 def _registry_parameters(subsystem: str) -> tuple[Variable, ...]:
@@ -49,29 +22,28 @@ def _registry_parameters(subsystem: str) -> tuple[Variable, ...]:
     for p in registry.of(subsystem):
         if p.kind == "enum":
             out.append(
-                _par(
+                parameter(
                     p.fmu_name,
                     p.fmu_vr,
                     int(p.default),
                     None,
                     p.description,
-                    INTEGER,
-                    None if p.minimum is None else int(p.minimum),
-                    None if p.maximum is None else int(p.maximum),
+                    min=None if p.minimum is None else int(p.minimum),
+                    max=None if p.maximum is None else int(p.maximum),
                 )
             )
         else:
             unit = None if p.unit == "1" else p.unit
             out.append(
-                _par(
+                parameter(
                     p.fmu_name,
                     p.fmu_vr,
                     float(p.default),
                     unit,
                     f"{p.symbol}: {p.description}",
-                    lo=p.minimum,
-                    hi=p.maximum,
-                    exclusive=p.strict and p.minimum is not None,
+                    min=p.minimum,
+                    max=p.maximum,
+                    min_exclusive=p.strict and p.minimum is not None,
                 )
             )
     return tuple(out)
@@ -87,25 +59,25 @@ def _integrator(exact: bool) -> tuple[Variable, ...]:
     (the linear base: its tolerances are accepted and range-checked, and not used)."""
     unused = " (not used: BaseOscillator steps exactly, by the matrix exponential of the linear base)" if exact else ""
     return (
-        _par(
+        parameter(
             "rtol",
             90,
             1e-8,
             None,
             "relative tolerance of the RODAS4 integrator inside doStep (> 0, <= 1)" + unused,
-            lo=0.0,
-            hi=1.0,
-            exclusive=True,
+            min=0.0,
+            max=1.0,
+            min_exclusive=True,
         ),
-        _par(
+        parameter(
             "atol",
             91,
             1e-10,
             None,
             "absolute tolerance of the integrator (all states, SI units; the play chain's rate dd: atol x sqrt(ki/I); > 0)"
             + unused,
-            lo=0.0,
-            exclusive=True,
+            min=0.0,
+            min_exclusive=True,
         ),
         Variable(
             name="debug_raise",
@@ -131,8 +103,8 @@ BASE_OSCILLATOR = FmuSpec(
     slave="pyfmu_wrapper.fmi.slaves:BaseOscillatorSlave",
     variables=(
         *_registry_parameters("base"),
-        _par("x0", 5, 0.0, "m", "initial base displacement"),
-        _par("xd0", 6, 0.0, "m/s", "initial base velocity"),
+        parameter("x0", 5, 0.0, "m", "initial base displacement"),
+        parameter("xd0", 6, 0.0, "m/s", "initial base velocity"),
         Variable(
             name="f_link",
             vr=10,
@@ -212,11 +184,11 @@ TMD_INERTER = FmuSpec(
     slave="pyfmu_wrapper.fmi.slaves:TMDInerterSlave",
     variables=(
         *_registry_parameters("tmd"),
-        _par("y0", 11, 0.0, "m", "initial TMD displacement"),
-        _par("yd0", 12, 0.0, "m/s", "initial TMD velocity"),
-        _par("d0", 13, 0.0, "m", "initial play-chain deflection d = r - y (play model)"),
-        _par("dd0", 14, 0.0, "m/s", "initial play-chain deflection rate (play model)"),
-        _par(
+        parameter("y0", 11, 0.0, "m", "initial TMD displacement"),
+        parameter("yd0", 12, 0.0, "m/s", "initial TMD velocity"),
+        parameter("d0", 13, 0.0, "m", "initial play-chain deflection d = r - y (play model)"),
+        parameter("dd0", 14, 0.0, "m/s", "initial play-chain deflection rate (play model)"),
+        parameter(
             "base_compliance",
             15,
             0.0,
@@ -224,7 +196,7 @@ TMD_INERTER = FmuSpec(
             "interface Jacobian -d xdd/d force = 1/M of the body the TMD is mounted on. 0 (default): "
             "xdd is the base acceleration. > 0: xdd is the base acceleration without this TMD's force "
             "(BaseOscillator.xdd_free) and the TMD adds the base's reaction -force/M within each step",
-            lo=0.0,
+            min=0.0,
         ),
         Variable(
             name="x",
@@ -326,7 +298,7 @@ TRIVIAL = FmuSpec(
     description="y = gain * u; doStep only advances time (stub overhead benchmark)",
     slave="pyfmu_wrapper.fmi.slaves:TrivialSlave",
     variables=(
-        _par("gain", 0, 2.0, None, "gain"),
+        parameter("gain", 0, 2.0, None, "gain"),
         Variable(
             name="u",
             vr=1,

@@ -140,3 +140,31 @@ class FmuSpec:
     def index(self, name: str) -> int:
         """1-based index in ModelVariables (as ModelStructure refers to it)."""
         return [v.name for v in self.variables].index(name) + 1
+
+
+def parameter(
+    name: str,
+    vr: int,
+    start: float | int,
+    unit: str | None,
+    description: str,
+    *,
+    min: float | None = None,  # noqa: A002 - FMI's attribute name, as in Variable
+    max: float | None = None,  # noqa: A002
+    min_exclusive: bool = False,
+) -> Variable:
+    """A fixed parameter with an exact start value: Integer when ``start`` is an int, else Real."""
+    return Variable(
+        name=name,
+        vr=vr,
+        type=INTEGER if isinstance(start, int) and not isinstance(start, bool) else REAL,
+        causality="parameter",
+        variability="fixed",
+        description=description,
+        unit=unit,
+        start=start,
+        initial="exact",
+        min=min,
+        max=max,
+        min_exclusive=min_exclusive,
+    )
