@@ -213,22 +213,9 @@ def _sweep_piece(
                 why = f"the FMUs failed at {n} steps per period: {str(exc).splitlines()[0][:300]}"
                 ss = CosimSteadyState(float(w), math.nan, np.zeros(0), 0, False, math.inf, 0, 0.0, reason=why)
                 ss.wall_time = time.perf_counter() - t0
-            rows.append(
-                dict(
-                    direction=direction,
-                    omega=float(w),
-                    amplitude=ss.amplitude,
-                    periods=ss.periods,
-                    converged=ss.converged,
-                    irregular=ss.irregular,
-                    change=ss.change,
-                    steps=ss.steps,
-                    rejected=0,
-                    wall_time=ss.wall_time,
-                    reason=ss.reason,
-                    steps_per_period=ss.steps_per_period,
-                )
-            )
+            row = ss.row(direction)
+            del row["coupling_error"]  # the frame's co-simulation has no step-doubling estimate
+            rows.append(row)
             if queue is not None:
                 queue.put(1)
     finally:

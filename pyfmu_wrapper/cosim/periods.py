@@ -41,6 +41,24 @@ class CosimSteadyState:
     coupling_error: float = math.nan  #: estimated relative amplitude error of the coupling (step doubling)
     steps_per_period: int = 0  #: communication steps per forcing period of the reported amplitude
 
+    def row(self, direction: str) -> dict[str, Any]:
+        """The point's row of a sweep table (scenario.sweeptable's columns)."""
+        return dict(
+            direction=direction,
+            omega=float(self.omega),
+            amplitude=self.amplitude,
+            periods=self.periods,
+            converged=self.converged,
+            irregular=self.irregular,
+            change=self.change,
+            steps=self.steps,
+            rejected=0,
+            wall_time=self.wall_time,
+            reason=self.reason,
+            coupling_error=self.coupling_error,
+            steps_per_period=self.steps_per_period,
+        )
+
 
 class Periods:
     """Runs whole periods on an initialised master and returns x, xd at the communication points.

@@ -209,24 +209,7 @@ def _sweep_piece(
             before = master.timing()
             ss = steady_state(master, base, tmd, float(w), start, settings, hint, restart=False)
             z, w_prev = ss.state, float(w)
-            rows.append(
-                dict(
-                    direction=direction,
-                    omega=float(w),
-                    amplitude=ss.amplitude,
-                    periods=ss.periods,
-                    converged=ss.converged,
-                    irregular=ss.irregular,
-                    change=ss.change,
-                    steps=ss.steps,
-                    rejected=0,
-                    wall_time=ss.wall_time,
-                    reason=ss.reason,
-                    coupling_error=ss.coupling_error,
-                    steps_per_period=ss.steps_per_period,
-                    **_time_split(before, master.timing()),
-                )
-            )
+            rows.append(ss.row(direction) | _time_split(before, master.timing()))
             if queue is not None:
                 queue.put(1)
     finally:
