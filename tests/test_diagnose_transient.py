@@ -242,3 +242,26 @@ def test_transient_suite_parts_are_the_whole_run(tmp_path):
             assert f.read_bytes() == (tmp_path / f"p{k}" / name / f.name).read_bytes()
     man = json.loads((tmp_path / "p0" / "manifest.json").read_text())
     assert man["complete"] and [r["dataset"] for r in man["datasets"]] == ["tr000", "tr002"]
+
+
+def test_long_record_keeps_its_anti_alias_cutoff_after_averaging_on_reading(tmp_path):
+    """A 60 s record at 2 kHz (120 000 rows) is averaged in pairs on reading (1 kHz, Nyquist 500 Hz);
+    its declared anti-alias filter at 785 Hz acted before the ADC, below the rig's 1 kHz Nyquist: the
+    dataset is valid (it was refused: 'cutoff above the Nyquist frequency fs/2 = 500 Hz'); a cut-off
+    above the rig's own Nyquist is still refused."""
+    t = np.arange(120_000) / 2000.0
+    write_record(tmp_path / "r.csv", {"t": t, "force": np.sin(10 * t), "xdd": np.cos(10 * t), "ydd": np.cos(9 * t)})
+    for cut, ok in ((785.0, True), (1100.0, False)):
+        doc = {
+            "level": "system",
+            "nominal": {"base": {"mass": 100.0, "stiffness": 4e4, "damping": 100.0, "force_amplitude": 200.0}},
+            "records": [{"file": "r.csv", "kind": "transient"}],
+            "acquisition": {"xdd": {"filter": {"type": "butterworth", "order": 4, "cutoff_hz": cut}}},
+        }
+        doc["nominal"]["tmd"] = {"mass": 9.0, "stiffness": 4e3, "damping": 15.0, "inertance": 1.0}
+        (tmp_path / "dataset.yaml").write_text(yaml.safe_dump(doc))
+        if ok:
+            assert load_dataset(tmp_path).records[0].meta["reduced"]["block"] == 2
+        else:
+            with pytest.raises(DataError, match=r"above the Nyquist frequency fs/2 = 1000 Hz"):
+                load_dataset(tmp_path)

@@ -242,7 +242,9 @@ def check_records(chains: dict, records: list[Record], file: Path) -> None:
             if r.kind not in ("time", "transient") or ch not in r.columns:
                 continue
             t = r.columns["t"]
-            fs = (t.size - 1) / (t[-1] - t[0])
+            # the rate the rig sampled at: a long record averaged on reading (blocks of q rows) keeps
+            # its anti-alias filter, which acted before the ADC at q times the averaged rate
+            fs = (t.size - 1) / (t[-1] - t[0]) * int((r.meta.get("reduced") or {}).get("block", 1))
             if c.cutoff_hz > 0.5 * fs * (1 + 1e-9):
                 raise _err(
                     file,

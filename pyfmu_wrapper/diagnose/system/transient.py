@@ -32,7 +32,7 @@ import numpy as np
 from .transient_effects import LABELS as T_LABELS
 from .transient_effects import TEFFECTS, apply, meaningless, scales
 from .transient_fit import TFit, chi2_of, fit, start_update, z_of
-from .transient_screen import screen
+from .transient_screen import NONLINEAR, screen
 from .transient_sim import CHANNELS, input_noise_response, make_view, start_responses
 from .transient_where import SEGMENTS, where
 
@@ -174,8 +174,15 @@ class TransientDiagnosis:
         if singles:
             first = singles[0]
             ex1 = first.chi2["test"] - first.chi2["dof_test"]
-            for s in singles[1 : 1 + PAIR_TRIES]:
-                f = self._fit((first.effects[0], s.effects[0]), tr, te)
+            # second effects: the nonlinear singles and the linear candidates whose Gauss-Newton step
+            # from the first's fitted model lowers the chi-square most (a screened-out single may
+            # be what the first leaves)
+            nl = [g.effects[0] for g in singles[1:] if g.effects[0] in NONLINEAR]
+            lin, _ = screen(
+                self, [e for e in self.candidates() if e not in NONLINEAR], tr, (first.effects, first.theta)
+            )
+            for second in (nl + lin[: max(PAIR_TRIES - len(nl), 2)])[: PAIR_TRIES + 1]:
+                f = self._fit((first.effects[0], second), tr, te)
                 row = self._row(f, ex0)
                 res["candidates"].append(row)
                 if not f.ok:
@@ -183,7 +190,7 @@ class TransientDiagnosis:
                 ex2 = f.chi2["test"] - f.chi2["dof_test"]
                 j = len(TEFFECTS[first.effects[0]][0])
                 signif = bool(np.all(np.abs(f.theta[j:]) > 3 * f.std[j:]))
-                small = meaningless(s.effects[0], f.theta[j:], self.p_nom, self.stroke)
+                small = meaningless(second, f.theta[j:], self.p_nom, self.stroke)
                 if small:
                     row["second_not_meaningful"] = small
                     signif = False

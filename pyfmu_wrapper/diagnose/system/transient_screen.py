@@ -28,11 +28,19 @@ SCREEN_KEEP = 4  #: linear candidates fully fitted after the screen
 NONLINEAR = ("friction", "play", "cubic")  #: always fitted
 
 
-def screen(d: TransientDiagnosisShape, cands: list[str], train: list[ndarray]) -> tuple[list[str], dict[str, float]]:
+def screen(
+    d: TransientDiagnosisShape,
+    cands: list[str],
+    train: list[ndarray],
+    base: tuple[tuple[str, ...], ndarray] | None = None,
+) -> tuple[list[str], dict[str, float]]:
     """The candidates to fit: the nonlinear ones (always) and the SCREEN_KEEP linear ones whose
     one Gauss-Newton step from the nominal lowers the training chi-square most (each parameter's
-    column: one simulation per record); returns (kept, {screened out: its linearised drop})."""
-    nom = apply(d.p_nom, (), np.zeros(0))
+    column: one simulation per record); returns (kept, {screened out: its linearised drop}). With
+    ``base`` (effects, fitted parameters) the step starts from that model instead: what a second
+    effect would add to the first."""
+    b_eff, b_th = base if base is not None else ((), np.zeros(0))
+    nom = apply(d.p_nom, b_eff, b_th)
     assert not isinstance(nom, str)
 
     def stack(mdl: Any) -> ndarray | None:
@@ -43,13 +51,13 @@ def screen(d: TransientDiagnosisShape, cands: list[str], train: list[ndarray]) -
     r0 = stack(nom)
     drops: dict[str, float] = {}
     for e in cands:
-        if e in NONLINEAR or r0 is None:
+        if e in NONLINEAR or e in b_eff or r0 is None:
             continue
         cols = []
         for j, s in enumerate(d.sc[e]):
             th = np.zeros(len(d.sc[e]))
             th[j] = 0.1 * s
-            mdl = apply(d.p_nom, (e,), th)
+            mdl = apply(d.p_nom, (*b_eff, e), np.concatenate([b_th, th]))
             r = None if isinstance(mdl, str) else stack(mdl)
             if r is not None:
                 cols.append((r - r0) / th[j])
@@ -58,6 +66,7 @@ def screen(d: TransientDiagnosisShape, cands: list[str], train: list[ndarray]) -
             g = J.T @ r0
             drops[e] = float(g @ np.linalg.lstsq(J.T @ J, g, rcond=None)[0])
     ranked = sorted(drops, key=lambda e: -drops[e])
-    keep = [e for e in cands if e in NONLINEAR or e in ranked[:SCREEN_KEEP] or e not in drops]
+    other = [e for e in cands if e not in b_eff and e not in drops]  # nonlinear, or no column
+    keep = ranked[:SCREEN_KEEP] + other  # the linear ones by their drop, largest first
     d.log.append(f"screened: {', '.join(f'{e} {drops[e]:.4g}' for e in ranked)}")
     return keep, {e: drops[e] for e in ranked[SCREEN_KEEP:]}
