@@ -25,6 +25,7 @@ dampings (:data:`FRAME_AT` onwards).
 from __future__ import annotations
 
 from ..._jit import njit
+from ..jacobians import CSTEP
 from ..kernels import Num, Vec, excitation, input_value, static_link_force, switching_functions, tmd_link
 from ..params import N_PARAMS, P_df
 
@@ -32,7 +33,6 @@ from ..params import N_PARAMS, P_df
 #: then masses, stiffnesses, dampings (n each)
 FRAME_AT = N_PARAMS
 F_N, F_LOAD, F_TMD, F_TO, F_VALUES = FRAME_AT, FRAME_AT + 1, FRAME_AT + 2, FRAME_AT + 3, FRAME_AT + 4
-_CSTEP = 1e-30
 
 
 @njit(cache=True, inline="always")
@@ -106,15 +106,15 @@ def frame_jacobian(t: float, z: Vec, p: Vec, u: Vec, J: Vec, ft: Vec, zc: Vec, o
     for j in range(n):
         for i in range(n):
             zc[i] = z[i]
-        zc[j] = z[j] + 1j * _CSTEP
+        zc[j] = z[j] + 1j * CSTEP
         frame_rhs(t, zc, p, u, oc)
         for i in range(n):
-            J[i, j] = oc[i].imag / _CSTEP
+            J[i, j] = oc[i].imag / CSTEP
     for i in range(n):
         zc[i] = z[i]
-    frame_rhs(t + 1j * _CSTEP, zc, p, u, oc)
+    frame_rhs(t + 1j * CSTEP, zc, p, u, oc)
     for i in range(n):
-        ft[i] = oc[i].imag / _CSTEP
+        ft[i] = oc[i].imag / CSTEP
 
 
 @njit(cache=True)
@@ -124,15 +124,15 @@ def storeys_jacobian(t: float, z: Vec, p: Vec, u: Vec, J: Vec, ft: Vec, zc: Vec,
     for j in range(n):
         for i in range(n):
             zc[i] = z[i]
-        zc[j] = z[j] + 1j * _CSTEP
+        zc[j] = z[j] + 1j * CSTEP
         storeys_rhs(t, zc, p, u, oc)
         for i in range(n):
-            J[i, j] = oc[i].imag / _CSTEP
+            J[i, j] = oc[i].imag / CSTEP
     for i in range(n):
         zc[i] = z[i]
-    storeys_rhs(t + 1j * _CSTEP, zc, p, u, oc)
+    storeys_rhs(t + 1j * CSTEP, zc, p, u, oc)
     for i in range(n):
-        ft[i] = oc[i].imag / _CSTEP
+        ft[i] = oc[i].imag / CSTEP
 
 
 @njit(cache=True)
