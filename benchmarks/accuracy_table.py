@@ -121,7 +121,7 @@ def run_this(label, cfg, h, periods):
 
 
 def _fmu_copies(tmp):
-    from pyfmu_wrapper.fmi.build import ensure_fmus
+    from pyfmu_wrapper.fmubuild.build import ensure_fmus
 
     p = ensure_fmus()
     return {n: Path(shutil.copy(p[n], Path(tmp) / p[n].name)) for n in ("BaseOscillator", "TMDInerter")}

@@ -25,7 +25,7 @@ from pathlib import Path
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
-from pyfmu_wrapper.fmi.build import build_fmus, fmi_headers_dir, fmi_out_dir  # noqa: E402
+from pyfmu_wrapper.fmubuild.build import build_fmus, fmi_headers_dir, fmi_out_dir  # noqa: E402
 
 #: model -> (input vr, output vr, parameters {vr: value}) as in benchmarks/bench_fmu.py
 CASES = {"Trivial": (1, 2, {}), "BaseOscillator": (10, 20, {}), "TMDInerter": (30, 40, {2: 10.0})}

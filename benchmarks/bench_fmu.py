@@ -31,8 +31,8 @@ sys.path.insert(0, str(REPO / "tests"))
 
 from _fmu_support import compile_c_host, extract, guid  # noqa: E402
 
-from pyfmu_wrapper.fmi.build import build_fmus  # noqa: E402
-from pyfmu_wrapper.fmi.standalone import libpython_path  # noqa: E402
+from pyfmu_wrapper.fmubuild.build import build_fmus  # noqa: E402
+from pyfmu_wrapper.fmubuild.standalone import libpython_path  # noqa: E402
 
 PYTHONFMU_SLAVE = textwrap.dedent('''
     from pythonfmu import Fmi2Causality, Fmi2Variability, Fmi2Slave, Real

@@ -57,8 +57,8 @@ sys.path.insert(0, str(REPO / "tests"))
 from _fmu_support import extract  # noqa: E402
 from bench_native_step import CASES, case_args, compile_fmu_timer, time_fmu  # noqa: E402
 
-from pyfmu_wrapper.fmi.build import ensure_fmus  # noqa: E402
-from pyfmu_wrapper.fmi.native_build import build_native_fmus  # noqa: E402
+from pyfmu_wrapper.fmubuild.build import ensure_fmus  # noqa: E402
+from pyfmu_wrapper.fmubuild.native_build import build_native_fmus  # noqa: E402
 
 W, H = 25.0, 1e-3
 #: a path opened that belongs to Python (interpreter, library, packages, bytecode, the project's venvs)

@@ -3,7 +3,7 @@ in one run, at h = 1 ms: base, TMD with an ideal inerter, TMD with play (eps = 1
 
     python benchmarks/bench_native_step.py [--steps 200000] [--rounds 3]
 
-"object" = the step emitted by llvmlite from the numba source (pyfmu_wrapper/fmi/native_obj.py),
+"object" = the step emitted by llvmlite from the numba source (pyfmu_wrapper/fmubuild/native_obj.py),
 linked with fmu/src/native/native_rt.c and a C timing loop: per step, write the inputs and their
 derivatives into the value buffers (what fmi2SetReal and fmi2SetRealInputDerivatives do), take the
 step, read one output; no FMI stub around it (a native FMU adds the stub's argument checks, some
@@ -31,10 +31,10 @@ sys.path.insert(0, str(REPO / "tests"))
 from _fmu_support import extract, guid  # noqa: E402
 from test_native_objects import CASES, _blob_and_reference  # noqa: E402
 
-from pyfmu_wrapper.fmi.build import ensure_fmus, fmi_headers_dir  # noqa: E402
-from pyfmu_wrapper.fmi.native_build import build_native_fmus  # noqa: E402
-from pyfmu_wrapper.fmi.native_obj import RUNTIME_C, STEP_SYMBOL, write_objects  # noqa: E402
 from pyfmu_wrapper.fmi.variables import SPECS  # noqa: E402
+from pyfmu_wrapper.fmubuild.build import ensure_fmus, fmi_headers_dir  # noqa: E402
+from pyfmu_wrapper.fmubuild.native_build import build_native_fmus  # noqa: E402
+from pyfmu_wrapper.fmubuild.native_obj import RUNTIME_C, STEP_SYMBOL, write_objects  # noqa: E402
 
 TIMER = r"""
 #define _POSIX_C_SOURCE 199309L

@@ -95,7 +95,7 @@ def main(argv=None) -> int:
         return 2
 
     from pyfmu_wrapper.cosim.system import export_tmd_system
-    from pyfmu_wrapper.fmi.build import ensure_fmus
+    from pyfmu_wrapper.fmubuild.build import ensure_fmus
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
     from pyfmu_wrapper.solvers import monolithic as mono
 

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import numpy as np
 
-from pyfmu_wrapper.fmi.build import DEFAULT_OUT, ensure_fmus, fmi_headers_dir
+from pyfmu_wrapper.fmubuild.build import DEFAULT_OUT, ensure_fmus, fmi_headers_dir
 
 C_HOST_SOURCE = Path(__file__).parent / "c_host" / "fmu_host.c"
 

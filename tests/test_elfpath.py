@@ -1,4 +1,4 @@
-"""Run paths of bundled ELF files (pyfmu_wrapper/fmi/elfpath.py), checked against ``readelf -d`` and the
+"""Run paths of bundled ELF files (pyfmu_wrapper/fmubuild/elfpath.py), checked against ``readelf -d`` and the
 dynamic loader: a shared object linked with a RUNPATH into a build folder gets an ``$ORIGIN``-relative
 one and still loads and runs."""
 
@@ -10,7 +10,7 @@ import subprocess
 
 import pytest
 
-from pyfmu_wrapper.fmi.elfpath import run_paths, set_run_path
+from pyfmu_wrapper.fmubuild.elfpath import run_paths, set_run_path
 
 pytestmark = pytest.mark.skipif(shutil.which("gcc") is None or shutil.which("readelf") is None, reason="needs gcc")
 

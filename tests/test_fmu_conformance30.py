@@ -23,7 +23,7 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi3 import FMU3Slave, fmi3LogMessageCallback
 from test_fmu_ranges import Logged
 
-from pyfmu_wrapper.fmi.build import ensure_fmus, fmi_headers_dir
+from pyfmu_wrapper.fmubuild.build import ensure_fmus, fmi_headers_dir
 
 FMI3_ERROR = 3
 

@@ -19,9 +19,9 @@ from _fmu_support import built_fmus, damped_forced_response
 from fmpy.fmi3 import FMU3Slave
 from fmpy.validation import validate_fmu
 
-from pyfmu_wrapper.fmi.build import ensure_fmus
-from pyfmu_wrapper.fmi.model_description3 import derivative_vr, time_vr
 from pyfmu_wrapper.fmi.variables import SPECS
+from pyfmu_wrapper.fmubuild.build import ensure_fmus
+from pyfmu_wrapper.fmubuild.model_description3 import derivative_vr, time_vr
 
 NAMES = ("BaseOscillator", "TMDInerter", "Trivial")
 FMI3_ERROR = 3

@@ -43,7 +43,7 @@ def run_fuzz3(root, sequences: int, calls: int, seed: int) -> dict:
 
     from _fmu_support import extract, guid
 
-    from pyfmu_wrapper.fmi.build import ensure_fmus
+    from pyfmu_wrapper.fmubuild.build import ensure_fmus
 
     fmus = ensure_fmus(names=("BaseOscillator", "TMDInerter"), fmi_version=3)
     args = []

@@ -367,7 +367,7 @@ def test_an_overflowed_output_is_an_error_never_ok(tmp_path):
     from fmpy.fmi2 import FMU2Slave
     from fmpy.fmi3 import FMU3Slave
 
-    from pyfmu_wrapper.fmi.build import ensure_fmus
+    from pyfmu_wrapper.fmubuild.build import ensure_fmus
 
     for version in (2, 3):
         fmu = ensure_fmus(names=("BaseOscillator",), fmi_version=version)["BaseOscillator"]

@@ -181,7 +181,7 @@ def test_two_builds_in_one_process_never_mix(tmp_path):
     every run matches the exact response. (Slow the first time: build B's numba cache is cold.)"""
     import shutil
 
-    from pyfmu_wrapper.fmi.build import PACKAGE_DIR, REPO_ROOT, fmu_source_hash
+    from pyfmu_wrapper.fmubuild.build import PACKAGE_DIR, REPO_ROOT, fmu_source_hash
 
     src = tmp_path / "src"
     shutil.copytree(PACKAGE_DIR, src / PACKAGE_DIR.name, ignore=shutil.ignore_patterns("__pycache__"))

@@ -24,9 +24,9 @@ import numpy as np
 import pytest
 from _fmu_support import damped_forced_response, guid
 
-from pyfmu_wrapper.fmi.build import REPO_ROOT, build_fmus, fmi_headers_dir
-from pyfmu_wrapper.fmi.elfpath import run_paths
-from pyfmu_wrapper.fmi.standalone import runtime_config, runtime_files
+from pyfmu_wrapper.fmubuild.build import REPO_ROOT, build_fmus, fmi_headers_dir
+from pyfmu_wrapper.fmubuild.elfpath import run_paths
+from pyfmu_wrapper.fmubuild.standalone import runtime_config, runtime_files
 
 PAIR_SOURCE = Path(__file__).parent / "c_host" / "fmu_pair.c"
 BASE = dict(M=100.0, K=4.0e4, C=100.0, F=200.0, w=18.0, x0=0.01, xd0=0.0)

@@ -14,7 +14,7 @@ import pytest
 from pyfmu_wrapper.cli.run_scenario import main
 from pyfmu_wrapper.cosim.frame_system import FRAME_FMUS, connections, sweep
 from pyfmu_wrapper.cosim.settings import CosimSettings
-from pyfmu_wrapper.fmi.build import ensure_fmus
+from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.physics import frame as ref
 from pyfmu_wrapper.physics.frame_model import FrameParams
 from pyfmu_wrapper.physics.params import TMDParams

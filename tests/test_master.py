@@ -19,7 +19,7 @@ import pytest
 from pyfmu_wrapper.cosim.settings import CosimSettings, steps_for_accuracy
 from pyfmu_wrapper.cosim.steady import steady_state
 from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters, impulse_connections, make_master
-from pyfmu_wrapper.fmi.build import ensure_fmus
+from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.master import Master, build_graph
 from pyfmu_wrapper.master.graph import Connection, GraphError
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams

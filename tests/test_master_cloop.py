@@ -17,7 +17,7 @@ import pytest
 from pyfmu_wrapper.cosim.settings import CosimSettings
 from pyfmu_wrapper.cosim.steady import steady_state
 from pyfmu_wrapper.cosim.system import fmu_parameters, make_master
-from pyfmu_wrapper.fmi.build import ensure_fmus
+from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.master import Master, MasterError, cloop
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
 from pyfmu_wrapper.solvers.monolithic import initial_guess

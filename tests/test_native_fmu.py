@@ -1,4 +1,4 @@
-"""Native FMUs (issue 30, pyfmu_wrapper/fmi/native_build.py): the model's compiled functions linked into the
+"""Native FMUs (issue 30, pyfmu_wrapper/fmubuild/native_build.py): the model's compiled functions linked into the
 stub, no Python on the target.
 
 - The Case 1 pair (base + TMD, ideal inerter and with play), co-simulated by a C host
@@ -25,8 +25,8 @@ from fmpy.fmi1 import FMICallException
 from fmpy.fmi2 import FMU2Slave
 from test_fmu_ranges import Logged
 
-from pyfmu_wrapper.fmi.build import REPO_ROOT, fmi_headers_dir
-from pyfmu_wrapper.fmi.native_build import build_native_fmus
+from pyfmu_wrapper.fmubuild.build import REPO_ROOT, fmi_headers_dir
+from pyfmu_wrapper.fmubuild.native_build import build_native_fmus
 
 PAIR = Path(__file__).parent / "c_host" / "fmu_pair.c"
 CASE1 = dict(m=9.0, I=1.0, k=4.0e3, c=10.0)
@@ -171,7 +171,7 @@ def test_fmi3_native_equals_the_python_hosted_fmi3(tmp_path):
     from fmpy.fmi3 import FMU3Slave
     from fmpy.validation import validate_fmu
 
-    from pyfmu_wrapper.fmi.build import ensure_fmus
+    from pyfmu_wrapper.fmubuild.build import ensure_fmus
 
     nat = {p.stem: p for p in build_native_fmus(["TMDInerter"], tmp_path / "n3", fmi_version=3)}
     hosted3 = ensure_fmus(names=("TMDInerter",), fmi_version=3)

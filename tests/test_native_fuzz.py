@@ -17,7 +17,7 @@ import pytest
 from _fmu_support import compile_fuzz, extract, guid
 from test_fmu_fuzz import check, check3
 
-from pyfmu_wrapper.fmi.native_build import build_native_fmus
+from pyfmu_wrapper.fmubuild.native_build import build_native_fmus
 
 
 def _dirs(root: Path, fmi_version: int) -> list[str]:

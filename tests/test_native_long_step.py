@@ -16,7 +16,7 @@ import pytest
 from _fmu_support import built_fmus
 from test_fmu_ranges import Logged
 
-from pyfmu_wrapper.fmi.native_build import build_native_fmus
+from pyfmu_wrapper.fmubuild.native_build import build_native_fmus
 
 OUTPUTS = ("force", "y", "yd", "inerter_force")
 

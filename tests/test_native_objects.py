@@ -1,4 +1,4 @@
-"""The compiled model step as object code (pyfmu_wrapper/fmi/native_obj.py, issue 30): emitted by llvmlite
+"""The compiled model step as object code (pyfmu_wrapper/fmubuild/native_obj.py, issue 30): emitted by llvmlite
 from the numba source for x86_64 Linux and x86_64 Windows and linked with C that holds no model code
 (fmu/src/native/native_rt.c and the C driver below), it computes the same bits as the JIT-compiled step
 the Python-hosted FMUs call, on a driven run of the base, the TMD with an ideal inerter and the TMD with
@@ -22,9 +22,9 @@ import numpy as np
 import pytest
 
 from pyfmu_wrapper.fmi.contract import NATIVE_OK
-from pyfmu_wrapper.fmi.native_obj import RUNTIME_C, STEP_SYMBOL, mingw_gcc, write_objects
 from pyfmu_wrapper.fmi.slaves import BaseOscillatorSlave, TMDInerterSlave
 from pyfmu_wrapper.fmi.variables import SPECS
+from pyfmu_wrapper.fmubuild.native_obj import RUNTIME_C, STEP_SYMBOL, mingw_gcc, write_objects
 
 DRIVER = r"""
 #include <stdint.h>

@@ -24,7 +24,7 @@ from fmpy.fmi1 import FMICallException
 from test_fmu_ranges import Logged
 
 from pyfmu_wrapper.fmi.contract import NATIVE_MAX_STEP
-from pyfmu_wrapper.fmi.native_build import build_native_fmus
+from pyfmu_wrapper.fmubuild.native_build import build_native_fmus
 
 PLAY = dict(m=9.0, I=1.0, k=4.0e3, c=10.0, df=10.0, inerter=2, eps=1e-4, ki=2e7)
 

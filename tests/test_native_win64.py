@@ -22,9 +22,9 @@ import fmpy
 import numpy as np
 import pytest
 
-from pyfmu_wrapper.fmi.build import fmi_headers_dir
-from pyfmu_wrapper.fmi.native_build import build_native_fmus
-from pyfmu_wrapper.fmi.native_obj import mingw_gcc
+from pyfmu_wrapper.fmubuild.build import fmi_headers_dir
+from pyfmu_wrapper.fmubuild.native_build import build_native_fmus
+from pyfmu_wrapper.fmubuild.native_obj import mingw_gcc
 
 HOST = r"""
 #include <stdarg.h>

@@ -238,7 +238,7 @@ def test_cubic_spring_in_the_fmus_matches_the_monolithic_solver():
     import math
 
     from pyfmu_wrapper.cosim.system import make_master
-    from pyfmu_wrapper.fmi.build import ensure_fmus
+    from pyfmu_wrapper.fmubuild.build import ensure_fmus
     from pyfmu_wrapper.solvers import monolithic as mono
 
     paths = ensure_fmus()
@@ -265,7 +265,7 @@ def test_cubic_spring_in_the_fmus_matches_the_monolithic_solver():
 
 
 def test_every_registry_unit_has_its_si_exponents_in_the_model_description():
-    from pyfmu_wrapper.fmi.model_description import UNITS
+    from pyfmu_wrapper.fmubuild.model_description import UNITS
 
     for par in registry.PARAMETERS:
         if par.unit != "1":

@@ -3,13 +3,13 @@
  * argument and range checks, the embedded slave, doStep; fmi_state.c: FMU states). Every fmi3
  * function maps its arguments onto the core's call and its answer back; nothing of the core is
  * repeated here. The binary of an FMI 3.0 FMU exports only the fmi3* symbols (a linker version
- * script written by pyfmu_wrapper/fmi/build.py), the FMI 2.0 one only the fmi2* symbols.
+ * script written by pyfmu_wrapper/fmubuild/build.py), the FMI 2.0 one only the fmi2* symbols.
  *
  * What FMI 3.0 has that FMI 2.0 had differently, and how this layer maps it:
  *  - the resource *path* (FMI 2.0: a file URI) becomes a file URI for the core;
  *  - fmi3EnterInitializationMode carries the experiment (FMI 2.0: fmi2SetupExperiment);
  *  - input derivatives (FMI 2.0: fmi2SetRealInputDerivatives) are input variables of their own,
- *    declared in modelDescription.xml (fmi/model_description3.py): the derivative of order k
+ *    declared in modelDescription.xml (fmubuild/model_description3.py): the derivative of order k
  *    (1, 2) of the Real input with value reference v has the value reference N + 1 + 2 v + k - 1,
  *    where N = (largest value reference of the FMI 2.0 table) + 1; they apply to the
  *    next doStep only (the core resets them after each step, as in FMI 2.0); setting the input

@@ -2,7 +2,7 @@
  * Starting the bundled runtime of a standalone FMU, isolated, with the PyConfig API (PEP 587).
  *
  * Compiled with -DPYFMU_PYCONFIG and the build interpreter's include folder only into the stub of
- * a standalone FMU (pyfmu_wrapper/fmi/standalone.py): PyConfig and PyStatus are structs whose
+ * a standalone FMU (pyfmu_wrapper/fmubuild/standalone.py): PyConfig and PyStatus are structs whose
  * layout belongs to one Python minor version, and the bundled runtime is the build interpreter's.
  * The runtime's version is checked against the headers before anything is touched. As everywhere
  * in the stub, Python is not linked: the functions are looked up with dlsym in the runtime's

@@ -10,7 +10,7 @@
  *   fmi_state.c  FMU state get/set/free/serialize (overflow-safe, ownership-checked)
  *   log.c        messages to the host's logger
  * Only the fmi2* (FMI 2.0 FMU) or the fmi3* (FMI 3.0 FMU) functions are exported (compiled with
- * -fvisibility=hidden and a linker version script, pyfmu_wrapper/fmi/build.py).
+ * -fvisibility=hidden and a linker version script, pyfmu_wrapper/fmubuild/build.py).
  */
 #ifndef PYFMU_H
 #define PYFMU_H

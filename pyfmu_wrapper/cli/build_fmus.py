@@ -1,6 +1,6 @@
 """``build-fmus``: build the FMUs (FMI 2.0, FMI 3.0 or both) into a folder.
 
-The console entry point; the building is :mod:`pyfmu_wrapper.fmi.build`.
+The console entry point; the building is :mod:`pyfmu_wrapper.fmubuild.build`.
 """
 
 from __future__ import annotations
@@ -9,7 +9,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..fmi.build import (
+from ..fmi.variables import PROJECT_FMUS, SPECS
+from ..fmubuild.build import (
     DEFAULT_OUT,
     BuildError,
     OutputError,
@@ -17,8 +18,7 @@ from ..fmi.build import (
     ensure_fmus,
     fmi_out_dir,
 )
-from ..fmi.build import __doc__ as BUILD_DOC
-from ..fmi.variables import PROJECT_FMUS, SPECS
+from ..fmubuild.build import __doc__ as BUILD_DOC
 from .errors import cli_main
 
 
@@ -62,7 +62,7 @@ def main(argv: list[str] | None = None) -> int:
         paths = []
         for v in versions:
             if args.native:
-                from ..fmi.native_build import NATIVE_SUBDIR, build_native_fmus, ensure_native_fmus
+                from ..fmubuild.native_build import NATIVE_SUBDIR, build_native_fmus, ensure_native_fmus
 
                 out = DEFAULT_OUT / NATIVE_SUBDIR if args.out == str(DEFAULT_OUT) else args.out
                 if args.force:

@@ -132,7 +132,7 @@ def fmu_parameters(frame: FrameParams, tmd: TMDParams, omega: float, z0: ArrayLi
 def make_master(frame: FrameParams, tmd: TMDParams | None = None, order: int = 2, fmi_version: int = 2) -> Master:
     """A master for the frame and its TMD (the Python-hosted FMUs, built if missing or stale);
     ``tmd``: the impulse coupling where it applies (:func:`connections`)."""
-    from ..fmi.build import ensure_fmus
+    from ..fmubuild.build import ensure_fmus
 
     paths = ensure_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
     fmus: dict[str, str | Path] = {"frame": paths["ShearFrame"], "tmd": paths["TMDInerter"]}

@@ -111,11 +111,11 @@ def make_master(
     FMUs, the reference)."""
     if fmus is None:
         if fmu_build == "native":
-            from ..fmi.native_build import ensure_native_fmus
+            from ..fmubuild.native_build import ensure_native_fmus
 
             paths = ensure_native_fmus(fmi_version=fmi_version)
         else:
-            from ..fmi.build import ensure_fmus
+            from ..fmubuild.build import ensure_fmus
 
             paths = ensure_fmus(fmi_version=fmi_version)
         fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
@@ -144,7 +144,7 @@ def export_tmd_system(
     """SSP of the base + TMD pair of this project at excitation omega [rad/s] (start state z0,
     default the linear steady state of :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`;
     step_size: OMSimulator's master step, see :func:`pyfmu_wrapper.master.ssp.ssd_xml`)."""
-    from ..fmi.build import ensure_fmus
+    from ..fmubuild.build import ensure_fmus
 
     paths = ensure_fmus()
     fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}

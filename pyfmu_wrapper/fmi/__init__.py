@@ -1,1 +1,1 @@
-"""The FMUs: their declaration, what runs inside them (Python-hosted or native) and how the host builds them."""
+"""The FMUs: their declaration and what runs inside them (the Python slaves, the native step); the host-side build is :mod:`pyfmu_wrapper.fmubuild`."""

@@ -5,7 +5,7 @@ fmi2Functions.c is: it refuses a step that is not finite, not positive, longer t
 :data:`MAX_STEP`, below the resolution of the time, or off the FMU's time by more than
 :data:`TIME_SLACK` of the step, before Python is entered. Its constants are not written in C:
 :func:`c_header` turns this table into ``pyfmu_contract.h``, which the build writes next to the
-sources it compiles (:func:`pyfmu_wrapper.fmi.build.compile_stub`); the Python slave and the native
+sources it compiles (:func:`pyfmu_wrapper.fmubuild.build.compile_stub`); the Python slave and the native
 step read the same names from here. The log categories (:data:`LOG_CATEGORIES`) are declared here too:
 the model descriptions list them and the stub's fmi2SetDebugLogging accepts exactly them.
 ``tests/test_fmu_contract.py`` ties the compiled FMU to the table.

@@ -40,7 +40,7 @@ def cache_root() -> str | None:
 
 def files_hash(folder: str, files: list[str]) -> str:
     """SHA-256 over the package-relative ``files`` under ``folder`` (names and contents): the bundle
-    hash (the build computes the same over the source package, :func:`pyfmu_wrapper.fmi.bundle.bundle_hash`)."""
+    hash (the build computes the same over the source package, :func:`pyfmu_wrapper.fmubuild.bundle.bundle_hash`)."""
     h = hashlib.sha256()
     for rel in files:
         with open(os.path.join(folder, rel), "rb") as f:

@@ -1,6 +1,6 @@
 /*
  * The run-time symbols that the object code of the compiled model functions needs (native FMUs, issue 30;
- * pyfmu_wrapper/fmi/native_obj.py emits that object code from the numba source and lists these symbols).
+ * pyfmu_wrapper/fmubuild/native_obj.py emits that object code from the numba source and lists these symbols).
  * No model code is here: only what numba's generated code calls outside itself.
  *
  *  - NRT allocation (np.empty / np.zeros inside the compiled functions): a MemInfo with numba's layout

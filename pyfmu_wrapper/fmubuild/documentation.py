@@ -11,8 +11,8 @@ from __future__ import annotations
 from collections.abc import Iterable
 from html import escape
 
+from ..fmi.varspec import FmuSpec, Variable
 from .model_description import declared_range
-from .varspec import FmuSpec, Variable
 
 
 def install_command(requires: Iterable[str], python: str = "python") -> str:

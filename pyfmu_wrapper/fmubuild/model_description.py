@@ -12,8 +12,8 @@ import uuid
 from collections.abc import Sequence
 from xml.sax.saxutils import quoteattr
 
-from .contract import LOG_CATEGORIES
-from .varspec import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
+from ..fmi.contract import LOG_CATEGORIES
+from ..fmi.varspec import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
 
 #: SI base-unit exponents of the units the tables use (FMI 2.0 UnitDefinitions).
 UNITS = {

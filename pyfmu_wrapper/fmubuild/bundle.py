@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from .varspec import FmuSpec
+    from ..fmi.varspec import FmuSpec
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1]  # pyfmu_wrapper/
 
@@ -74,7 +74,7 @@ def bundled_files() -> list[str]:
 
 
 def _closure() -> list[str]:
-    from .variables import SPECS
+    from ..fmi.variables import SPECS
 
     roots = {SLAVE_MODULE, LOADER_MODULE}
     roots |= {spec.slave.split(":")[0].split(".", 1)[1].replace(".", "/") + ".py" for spec in SPECS.values()}

@@ -21,9 +21,9 @@ from __future__ import annotations
 from collections.abc import Sequence
 from xml.sax.saxutils import quoteattr
 
-from .contract import LOG_CATEGORIES
+from ..fmi.contract import LOG_CATEGORIES
+from ..fmi.varspec import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
 from .model_description import UNITS, declared_range, xml_value
-from .varspec import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
 
 TYPE3 = {REAL: "Float64", INTEGER: "Int32", BOOLEAN: "Boolean"}
 #: orders of the input derivatives an FMI 3.0 variant declares (FMI 2.0: canInterpolateInputs, order <= 2)

@@ -45,15 +45,15 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from ..fmi.contract import c_header
+from ..fmi.variables import PROJECT_FMUS, SPECS
+from ..fmi.varspec import FmuSpec
 from ..safeio.files import replace_checked
 from .buildinfo import BuildError, version_of
 from .bundle import PACKAGE_DIR, bundle_hash, bundle_package, bundled_files, model_py
-from .contract import c_header
 from .documentation import documentation_html
 from .model_description import guid_of, model_description_xml, variable_table_tsv
 from .model_description3 import model_description3_xml
-from .variables import PROJECT_FMUS, SPECS
-from .varspec import FmuSpec
 
 REPO_ROOT = PACKAGE_DIR.parent
 STUB_DIR = REPO_ROOT / "fmu" / "src"
@@ -134,14 +134,14 @@ def source_hash() -> str:
         h.update(f.read_bytes())
     h.update(bundle_hash().encode())
     for writer in (
-        "build.py",
-        "bundle.py",
-        "contract.py",
-        "model_description.py",
-        "model_description3.py",
-        "documentation.py",
+        "fmubuild/build.py",
+        "fmubuild/bundle.py",
+        "fmi/contract.py",
+        "fmubuild/model_description.py",
+        "fmubuild/model_description3.py",
+        "fmubuild/documentation.py",
     ):  # what writes the archive
-        h.update((PACKAGE_DIR / "fmi" / writer).read_bytes())
+        h.update((PACKAGE_DIR / writer).read_bytes())
     h.update(build_python().encode())
     h.update(sys.version.encode())
     return h.hexdigest()[:24]
