@@ -82,12 +82,19 @@ def compile_fuzz(out: Path) -> Path:
     return exe
 
 
-def run_fuzz(root: Path, sequences: int, calls: int, seed: int = 1, timeout: float = 3600) -> dict[str, int]:
-    """Run the C fuzz harness (one forked subprocess per sequence) on copies of both FMUs."""
+def run_fuzz(
+    root: Path,
+    sequences: int,
+    calls: int,
+    seed: int = 1,
+    timeout: float = 3600,
+    names: tuple[str, str] = ("BaseOscillator", "TMDInerter"),
+) -> dict[str, int]:
+    """Run the C fuzz harness (one forked subprocess per sequence) on copies of two FMUs."""
     import os
 
-    fmus = built_fmus()
-    dirs = [extract(fmus[n], root) for n in ("BaseOscillator", "TMDInerter")]
+    fmus = ensure_fmus(out_dir=DEFAULT_OUT, names=names)
+    dirs = [extract(fmus[n], root) for n in names]
     exe = compile_fuzz(root)
     env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "LD_PRELOAD", "VIRTUAL_ENV"))}
     r = subprocess.run(

@@ -1,5 +1,5 @@
 """The FMI 3.0 variants of the FMUs (issue 21): built from the same declaration as the FMI 2.0 ones,
-valid in fmpy, equal to them bit for bit (one core, two API layers), exact where a solution is
+equal to them bit for bit (validation and the declaration: tests/test_fmu_every_spec.py) (one core, two API layers), exact where a solution is
 known, refusing what FMI 3.0 says they must refuse, and run by the master to the FMI 2.0 numbers.
 """
 
@@ -17,11 +17,8 @@ import numpy as np
 import pytest
 from _fmu_support import built_fmus, damped_forced_response
 from fmpy.fmi3 import FMU3Slave
-from fmpy.validation import validate_fmu
 
-from pyfmu_wrapper.fmi.variables import SPECS
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
-from pyfmu_wrapper.fmubuild.model_description3 import derivative_vr, time_vr
 
 NAMES = ("BaseOscillator", "TMDInerter", "Trivial")
 FMI3_ERROR = 3
@@ -58,39 +55,6 @@ def raw(s, name, restype, *argtypes):
     f = getattr(s.dll, name)
     f.restype, f.argtypes = restype, [ctypes.c_void_p, *argtypes]
     return lambda *a: f(s.component, *a)
-
-
-@pytest.mark.parametrize("name", ["BaseOscillator", "TMDInerter"])
-def test_fmpy_validates_fmi3(fmus3, name):
-    assert validate_fmu(str(fmus3[name])) == []
-    md = fmpy.read_model_description(str(fmus3[name]))
-    assert md.fmiVersion == "3.0" and md.coSimulation is not None and md.modelExchange is None
-
-
-def test_same_declaration_as_fmi2(fmus2, fmus3):
-    """Every FMI 2.0 variable is in the FMI 3.0 description with the same value reference, causality,
-    variability, unit, start and range; the FMI 3.0 extras are time and the input derivatives."""
-    for name in ("BaseOscillator", "TMDInerter"):
-        v2 = {v.name: v for v in fmpy.read_model_description(str(fmus2[name])).modelVariables}
-        v3 = {v.name: v for v in fmpy.read_model_description(str(fmus3[name])).modelVariables}
-        spec = SPECS[name]
-        inputs = [v for v in spec.variables if v.causality == "input"]
-        assert set(v3) - set(v2) == {"time"} | {f"der({u.name})" for u in inputs} | {f"der({u.name},2)" for u in inputs}
-        for n, a in v2.items():
-            b = v3[n]
-            assert (a.valueReference, a.causality, a.variability, a.unit, a.min, a.max) == (
-                b.valueReference,
-                b.causality,
-                b.variability,
-                b.unit,
-                b.min,
-                b.max,
-            ), n
-            assert (a.start is None) == (b.start is None) and (a.start is None or float(a.start) == float(b.start))
-        assert v3["time"].valueReference == time_vr(spec) and v3["time"].causality == "independent"
-        for u in inputs:
-            assert v3[f"der({u.name})"].valueReference == derivative_vr(spec, u.vr, 1)
-            assert v3[f"der({u.name},2)"].valueReference == derivative_vr(spec, u.vr, 2)
 
 
 def test_binaries_export_their_own_api_only(fmus2, fmus3, tmp_path):

@@ -30,6 +30,8 @@
 
 #include "fmi2Functions.h"
 
+#define MAX_VR 1024 /* value references read from variables.tsv (the ShearFrame FMU's reach 619) */
+
 typedef struct {
     void *h;
     fmi2InstantiateTYPE *instantiate;
@@ -53,7 +55,7 @@ typedef struct {
     fmi2SetRealInputDerivativesTYPE *set_der;
     /* variable table */
     int nvr, nin, nout;
-    char type[256], caus[256];
+    char type[MAX_VR], caus[MAX_VR];
     unsigned in[16], out[16];
     char dir[2048], guid[256], res[2100];
 } Fmu;
@@ -118,7 +120,7 @@ static void load(Fmu *f, const char *dir, const char *guid) {
     char line[512], ty[16], ca[64], va[64];
     int vr;
     while (fgets(line, sizeof line, t))
-        if (sscanf(line, "%d %15s %63s %63s", &vr, ty, ca, va) == 4 && vr >= 0 && vr < 256) {
+        if (sscanf(line, "%d %15s %63s %63s", &vr, ty, ca, va) == 4 && vr >= 0 && vr < MAX_VR) {
             f->type[vr] = ty[0];
             f->caus[vr] = ca[0] == 'i' ? 'i' : ca[0] == 'o' ? 'o' : 'p';
             if (vr + 1 > f->nvr) f->nvr = vr + 1;
