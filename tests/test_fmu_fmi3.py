@@ -1,6 +1,6 @@
-"""The FMI 3.0 variants of the FMUs (issue 21): built from the same declaration as the FMI 2.0 ones,
-equal to them bit for bit (validation and the declaration: tests/test_fmu_every_spec.py) (one core, two API layers), exact where a solution is
-known, refusing what FMI 3.0 says they must refuse, and run by the master to the FMI 2.0 numbers.
+"""The FMI 3.0 variants of the FMUs: built from the same declaration as the FMI 2.0 ones (validated and
+compared variable by variable in tests/test_fmu_every_spec.py), equal to them bit for bit (one core, two
+API layers), exact where a solution is known, refusing what FMI 3.0 says they must refuse, and run by the master to the FMI 2.0 numbers.
 """
 
 from __future__ import annotations
