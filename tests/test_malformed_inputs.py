@@ -436,6 +436,16 @@ CASES = [
         r"--clean-fraction 2\.0: must be in \[0, 1\]",
     ),
     (
+        "make-benchmark-part-system",
+        lambda tmp: ["make-benchmark", "--part", "1/2", "--out", str(tmp / OUT)],
+        r"--part 1/2: only for --suite transient, written K/N with 1 <= K <= N",
+    ),
+    (
+        "make-benchmark-part-out-of-range",
+        lambda tmp: ["make-benchmark", "--suite", "transient", "--part", "3/2", "--out", str(tmp / OUT)],
+        r"--part 3/2: only for --suite transient, written K/N with 1 <= K <= N",
+    ),
+    (
         "make-benchmark-out-file",
         lambda tmp: ["make-benchmark", "-n", "1", "--out", a_file(tmp)],
         r"existing\.txt exists and is not a folder",

@@ -92,6 +92,13 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--seconds", type=float, default=None, help="transient suite only: length of each record [s] (default 60)"
     )
+    ap.add_argument(
+        "--part",
+        default=None,
+        metavar="K/N",
+        help="transient suite only: write part K of N (the datasets i with i %% N == K - 1, the same ones a "
+        "whole run writes), so N processes or machines share a long generation; score each folder on its own",
+    )
     ap.add_argument("-n", type=int, default=None, help="number of datasets (default: system 52, link 40)")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument(
@@ -128,6 +135,12 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
         raise InputError(f"--noise {a.noise}: must be a finite force noise std >= 0 N")
     if a.seconds is not None and (a.suite != "transient" or not 1.0 <= a.seconds <= 3600.0):
         raise InputError(f"--seconds {a.seconds}: only for --suite transient, from 1 to 3600 s")
+    part = None
+    if a.part is not None:
+        k, _, n_parts = a.part.partition("/")
+        if a.suite != "transient" or not (k.isdigit() and n_parts.isdigit() and 1 <= int(k) <= int(n_parts)):
+            raise InputError(f"--part {a.part}: only for --suite transient, written K/N with 1 <= K <= N (e.g. 1/2)")
+        part = (int(k) - 1, int(n_parts))
     if a.suite != "link" and a.noise is not None:
         raise InputError(
             f"--noise {a.noise}: the system suite draws its sensor noise per channel and record (0.3-3 % of "
@@ -180,6 +193,7 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
                 n_pair=npair,
                 n_oov=noov,
                 seconds=60.0 if a.seconds is None else a.seconds,
+                part=part,
                 progress=lambda r: print(f"{r['dataset']}: written ({r['seconds']:.1f} s)", flush=True),
             )
         else:
@@ -193,7 +207,7 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
             )
     print(
         f"wrote {len(man)} {a.suite if a.suite != 'system' else 'system-level'} datasets and manifest.json "
-        f"(the hidden labels) to {out}"
+        f"(the hidden labels) to {out}" + (f" (part {a.part})" if part else "")
     )
     return 0
 
