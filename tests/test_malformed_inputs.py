@@ -446,6 +446,11 @@ CASES = [
         r"--part 3/2: only for --suite transient, written K/N with 1 <= K <= N",
     ),
     (
+        "make-benchmark-held-out-link",
+        lambda tmp: ["make-benchmark", "--suite", "link", "--held-out-oov", "--out", str(tmp / OUT)],
+        r"--held-out-oov: only for --suite system \(the link suite has its own kinds\)",
+    ),
+    (
         "make-benchmark-out-file",
         lambda tmp: ["make-benchmark", "-n", "1", "--out", a_file(tmp)],
         r"existing\.txt exists and is not a folder",

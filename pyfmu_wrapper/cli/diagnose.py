@@ -118,6 +118,12 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
         "--pair-fraction given, at most what they leave)",
     )
     ap.add_argument("--noise", type=float, default=None, help="link suite only: force noise std [N] (default 0.5)")
+    ap.add_argument(
+        "--held-out-oov",
+        action="store_true",
+        help="system suite: draw the out-of-vocabulary datasets from the kinds diagnose was never tuned on "
+        "(asymmetric TMD spring, quadratic base drag; docs/diagnose.md)",
+    )
     a = ap.parse_args(argv)
     if a.n is not None and a.n < 1:
         raise InputError(f"-n {a.n}: the number of datasets must be >= 1")
@@ -146,6 +152,8 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
             f"--noise {a.noise}: the system suite draws its sensor noise per channel and record (0.3-3 % of "
             "the rms, docs/diagnose.md); --noise is the link suite's force noise: leave it out or use --suite link"
         )
+    if a.held_out_oov and a.suite != "system":
+        raise InputError(f"--held-out-oov: only for --suite system (the {a.suite} suite has its own kinds)")
     if a.suite == "link" and a.oov_fraction is not None:
         raise InputError("--oov-fraction: the link suite has no out-of-vocabulary class; use --suite system")
     composition = None
@@ -176,6 +184,7 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
                 n_clean=nc,
                 n_pair=npair,
                 n_oov=noov,
+                held_out_oov=a.held_out_oov,
                 progress=lambda r: print(
                     f"{r['dataset']}: written" + (f" ({r['seconds']:.1f} s)" if "seconds" in r else ""), flush=True
                 ),

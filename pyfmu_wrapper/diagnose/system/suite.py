@@ -52,6 +52,10 @@ OOV_RANGES = {
     "base_hardening": (5e4, 5e5),
     "x_gain": (0.03, 0.10),
     "accel_gain": (0.03, 0.10),
+    # held out (oov.HELD_OUT): k2 |u| is 2.5-25 % of k = 4e3 N/m at a 1 cm deflection; C2 |xd| is
+    # 3-30 % of C = 100 N s/m at a base velocity of 0.1 m/s
+    "asymmetric_spring": (1e4, 1e5),
+    "base_drag": (30.0, 300.0),
 }
 OOV_SIGNED = {"x_gain", "accel_gain"}
 FS_CHOICES = (256.0, 500.0, 512.0, 1000.0, 1024.0, 2000.0, 2048.0, 2500.0, 2560.0, 5000.0)
@@ -204,9 +208,13 @@ def plan(
     n_clean: int | None = None,
     n_pair: int | None = None,
     n_oov: int | None = None,
+    held_out_oov: bool = False,
 ) -> list[Any]:
-    """[(class, hidden, oov)] in a shuffled order."""
-    from .oov import OOV_EFFECTS
+    """[(class, hidden, oov)] in a shuffled order; the OOV kinds are the tuned ones (``oov.OOV_EFFECTS``)
+    or, with ``held_out_oov``, the held-out ones (``oov.HELD_OUT``)."""
+    from .oov import HELD_OUT, OOV_EFFECTS
+
+    kinds = HELD_OUT if held_out_oov else OOV_EFFECTS
 
     nc, ns, npair, no = composition(n, n_clean, n_pair, n_oov)
     eff = in_vocab()
@@ -220,9 +228,9 @@ def plan(
         items.append(
             ("pair", {e: draw_value(rng, RANGES[e], e in SIGNED, rng.uniform(0.3, 1.0)) for e in (e1, e2)}, {})
         )
-    start = int(rng.integers(len(OOV_EFFECTS)))
+    start = int(rng.integers(len(kinds)))
     for j in range(no):
-        e = OOV_EFFECTS[(start + j) % len(OOV_EFFECTS)]
+        e = kinds[(start + j) % len(kinds)]
         o: dict[str, float | str] = {e: draw_value(rng, OOV_RANGES[e], e in OOV_SIGNED)}
         if e == "accel_gain":
             o["accel_gain_channel"] = str(rng.choice(["xdd", "ydd"]))
@@ -238,9 +246,11 @@ def make_field_benchmark(
     n_pair: int | None = None,
     n_oov: int | None = None,
     progress: Callable[..., Any] | None = None,
+    held_out_oov: bool = False,
 ) -> list[Any]:
     """Write the suite to ``out`` (one folder per dataset + manifest.json); ``progress(row)`` is
-    called with the public part of each row (name, seconds) -- never the labels."""
+    called with the public part of each row (name, seconds) -- never the labels. ``held_out_oov``:
+    the out-of-vocabulary datasets take the held-out kinds (``oov.HELD_OUT``)."""
     import time
 
     from .field import write_dataset
@@ -249,7 +259,7 @@ def make_field_benchmark(
     out.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
     man = []
-    for i, (cls, hidden, oov) in enumerate(plan(rng, n, n_clean, n_pair, n_oov)):
+    for i, (cls, hidden, oov) in enumerate(plan(rng, n, n_clean, n_pair, n_oov, held_out_oov)):
         t0 = time.perf_counter()
         name = f"sys{i:03d}"
         sub = np.random.default_rng(int(rng.integers(1 << 31)))
@@ -284,7 +294,14 @@ def make_field_benchmark(
             progress({"dataset": name, "seconds": row["seconds"]})
     (out / "manifest.json").write_text(
         json.dumps(
-            {"suite": "system", "generator": "field", "seed": seed, "visible_chi2": VISIBLE_CHI2, "datasets": man},
+            {
+                "suite": "system",
+                "generator": "field",
+                "seed": seed,
+                "held_out_oov": held_out_oov,
+                "visible_chi2": VISIBLE_CHI2,
+                "datasets": man,
+            },
             indent=1,
         )
     )
