@@ -213,7 +213,7 @@ def test_summary_records_the_engine_settings(linear_run):
     assert "cosim" not in s["settings"] and len(s["code_version"]) == 16
 
 
-# --- progress, closing lines, the parallelism switch (issue 17) -------------------------------------
+# --- progress, closing lines, the parallelism switch ----------------------------------------------
 
 PLAY = """\
 schema_version: 2

@@ -1,4 +1,4 @@
-"""Both engines against each other on the paper's configurations (issue 13, item 2).
+"""Both engines against each other on the paper's configurations.
 
 The slow test sweeps 41 frequencies (15..25 rad/s) up with both engines, with continuation as
 ``run-scenario`` does, and holds the co-simulated amplitude within 0.5 % of the monolithic one at

@@ -1,4 +1,4 @@
-"""The co-simulation is right or says it is not (issue 28, item 3).
+"""The co-simulation is right or says it is not.
 
 Before: the communication step followed the forcing period only (96 steps per period) and nothing
 estimated the coupling error, so a light base (0.1 kg: 4 % off; 0.001 kg: 292 % off) and an

@@ -1,4 +1,4 @@
-"""Nothing lost while a tool runs, and bounded input (issue 28: items 1, 2, 4, 5, 6, 7).
+"""Nothing lost while a tool runs, and bounded input.
 
 Each test is a case that lost data, crashed or ran out of memory on the code before this issue:
 files added to a results folder during a run (a real concurrent writer), an edited result file, a

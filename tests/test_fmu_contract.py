@@ -2,7 +2,7 @@
 
 The C sources define none of its constants (they include the header the build generates from the
 table), and the built FMU accepts and refuses steps exactly at the table's limits: the longest
-step MAX_STEP and the time slack TIME_SLACK h (issue 18: "a test ties C and Python").
+step MAX_STEP and the time slack TIME_SLACK h (a test ties C and Python).
 """
 
 from __future__ import annotations

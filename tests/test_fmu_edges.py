@@ -1,4 +1,4 @@
-"""Standard-conforming edges of the FMUs, one targeted case per test (issue 11, item 5).
+"""Standard-conforming edges of the FMUs, one targeted case per test.
 
 Every refused call must return fmi2Error (3) *and* log a message naming the function; every
 accepted call must give the right numbers (held against exact solutions where it integrates).

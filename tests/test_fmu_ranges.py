@@ -1,4 +1,4 @@
-"""FMUs refuse what they cannot do (issue 17):
+"""FMUs refuse what they cannot do:
 
 * every parameter's range is declared in modelDescription.xml (min/max from the parameter
   registry; ``inerter`` a bounded Integer 0..2; ``atol``/``rtol`` > 0) and enforced when set: an

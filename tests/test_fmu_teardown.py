@@ -1,6 +1,6 @@
 """Process exit with the FMUs loaded: with and without fmi2FreeInstance, in three hosts.
 
-A host that crashes on teardown can lose its results (issue 17: Ecos died with SIGSEGV at exit in
+A host that crashes on teardown can lose its results (Ecos died with SIGSEGV at exit in
 about 1 of 10 runs on a loaded machine). Each check runs a short coupled run of both FMUs in a
 subprocess, several times and two at a time (the crash was timing-dependent), and requires every
 process to print its full result and exit with status 0 (never killed by a signal):

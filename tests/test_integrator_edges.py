@@ -1,6 +1,6 @@
 """Edges of the RODAS4 integrator: a grazing gear contact, the step cap, the stuck pair.
 
-The grazing state is the one where the monolithic solver used to stall (issue 13, item 1):
+The grazing state is the one where the monolithic solver used to stall:
 ``run-scenario scenarios/full_case3.yaml --engine monolithic`` at 15.5 rad/s, curve 5 (Case 3,
 c = 5, df = 5, eps = 1e-4): the TMD moves with the base (xd - yd = -1.4e-6 m/s) and the play chain
 rests on its contact, d + eps = -1.4e-20 (below the float resolution of d ~ 1e-4). With the step

@@ -1,4 +1,4 @@
-"""One bad-input policy for all seven console scripts (issue 17), table-driven.
+"""One bad-input policy for all seven console scripts, table-driven.
 
 Every case runs a malformed input through a CLI's ``main(argv)`` (the function the console script
 calls, wrapped by :func:`pyfmu_wrapper.cli.errors.cli_main`) and asserts: exit status 2, one line

@@ -1,4 +1,4 @@
-"""What the results' plots say matches the data (issue 28, item 9)."""
+"""What the results' plots say matches the data."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""run-scenario never deletes or overwrites what it did not write (issue 17, "Data loss").
+"""run-scenario never deletes or overwrites what it did not write.
 
 One test per case of the issue: --out an existing file, a folder of user files, '.', a parent of
 the current folder; SIGTERM/SIGHUP (and SIGKILL) leave no partial folder and no orphan worker; a

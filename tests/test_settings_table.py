@@ -1,4 +1,4 @@
-"""Settings declared once (issue 18): solvers/settings_table.py is the one rule of every setting.
+"""Settings declared once: solvers/settings_table.py is the one rule of every setting.
 
 The engines' settings classes take their defaults and ranges from it, the scenario loader refuses
 exactly what the classes refuse (one rule, not the two that disagreed on steps_per_period and tol),

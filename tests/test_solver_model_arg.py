@@ -1,4 +1,4 @@
-"""The integrator takes the model as an argument (issue 18).
+"""The integrator takes the model as an argument.
 
 * ``solvers/`` names no physics system by id: the imports and identifiers of every solver module
   are scanned, without exemption (the FMUs build their integrators with make_integrator too);
