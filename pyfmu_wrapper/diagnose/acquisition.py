@@ -45,6 +45,8 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from .._jit import njit
+
 if TYPE_CHECKING:
     from collections.abc import Sequence
     from pathlib import Path
@@ -86,6 +88,37 @@ class Chain:
             return signal.butter(self.order, wc, btype="low", analog=True)
         return signal.bessel(self.order, wc, btype="low", analog=True, norm="mag")
 
+    def state_space(self) -> tuple[ndarray, ndarray, ndarray] | None:
+        """(A, B, C) of the analog low-pass as a cascade of its second-order (and one first-order)
+        sections, each with unit gain at DC (None without filter). Well conditioned at any order,
+        unlike the companion form of the whole polynomial (order 12 overflows there)."""
+        if self.type is None:
+            return None
+        from scipy import signal
+
+        wc = 2 * math.pi * self.cutoff_hz
+        if self.type == "butterworth":
+            _, p, _ = signal.butter(self.order, wc, btype="low", analog=True, output="zpk")
+        else:
+            _, p, _ = signal.bessel(self.order, wc, btype="low", analog=True, norm="mag", output="zpk")
+        secs = [np.array([[0.0, 1.0], [-(abs(q) ** 2), 2 * q.real]]) for q in p if q.imag > 1e-9 * abs(q)]
+        secs += [np.array([[q.real]]) for q in p if abs(q.imag) <= 1e-9 * abs(q)]
+        n = sum(a.shape[0] for a in secs)
+        A, B, C = np.zeros((n, n)), np.zeros(n), np.zeros(n)
+        i, prev = 0, None  # section k is driven by the output of section k - 1 (gain: its DC gain 1)
+        for a in secs:
+            m = a.shape[0]
+            A[i : i + m, i : i + m] = a
+            gain = -a[-1, 0] if m == 2 else -a[0, 0]  # b so that the section's DC gain is one
+            if prev is None:
+                B[i + m - 1] = gain
+            else:
+                A[i + m - 1, prev] = gain
+            prev = i
+            i += m
+        C[prev] = 1.0
+        return A, B, C
+
     def response(self, omega: float | ndarray) -> complex128 | ndarray:
         """G(i omega) = H(i omega) exp(-i omega delay_s) at angular frequencies omega [rad/s]."""
         w = np.asarray(omega, dtype=float)
@@ -108,27 +141,61 @@ class Chain:
 
 def rig_samples(chains: dict, t: ndarray, channels: dict, step: int = 1) -> dict:
     """What the rig's acquisition makes of densely sampled true signals: each channel of ``channels``
-    (uniformly sampled at times ``t``) run through its analog filter in the time domain
-    (``scipy.signal.lsim``, started at the filter's DC equilibrium for the first value) and delayed
-    (linear interpolation), then every ``step``-th sample kept (the ADC). Channels without a chain
-    are only decimated. The filter's transient lasts ~ order / (2 pi cutoff_hz) s: simulate a
-    settling stretch and discard it. For simulated records that must look like the measured ones
-    (e.g. the play candidate's rattle statistic, which is taken on the measured, filtered samples)."""
-    from scipy import signal
-
+    (uniformly sampled at times ``t``) run through its analog filter in the time domain (exact for
+    an input linear between samples, :func:`filter_foh`; started at the filter's DC equilibrium for
+    the first value) and delayed (linear interpolation), then every ``step``-th sample kept (the
+    ADC). Channels without a chain are only decimated. The filter's transient lasts ~ order / (2 pi
+    cutoff_hz) s: simulate a settling stretch and discard it. For simulated records that must look
+    like the measured ones (the play candidate's rattle statistic is taken on the measured, filtered
+    samples)."""
     t = np.asarray(t, float)
     out = {}
     for ch, u in channels.items():
         u = np.asarray(u, float)
         c = chains.get(ch)
         if c is not None and c.type is not None:
-            A, B, C, D = signal.tf2ss(*c.ba())
-            x0 = -np.linalg.solve(A, B[:, 0]) * u[0]
-            _, u, _ = signal.lsim((A, B, C, D), u, t, X0=x0)
+            u = filter_foh(c, u, float(t[1] - t[0]))
         if c is not None and c.delay_s:
             u = np.interp(t - c.delay_s, t, u)
         out[ch] = u[::step]
     return out
+
+
+def filter_foh(chain: Chain, u: ndarray, dt: float) -> ndarray:
+    """The chain's analog low-pass applied to ``u`` sampled every ``dt``, exact when ``u`` is linear
+    between samples (first-order hold: the augmented matrix exponential of the cascade's state space,
+    :meth:`Chain.state_space`), from the DC equilibrium of ``u[0]``; the recursion is compiled."""
+    from scipy.linalg import expm
+
+    ss = chain.state_space()
+    if ss is None:
+        return np.asarray(u, float).copy()
+    A, B, C = ss
+    n = A.shape[0]
+    M = np.zeros((n + 2, n + 2))
+    M[:n, :n], M[:n, n], M[n, n + 1] = A * dt, B * dt, 1.0
+    E = expm(M)
+    Phi, G1, G2 = E[:n, :n], E[:n, n], E[:n, n + 1]  # x+ = Phi x + G1 u_k + G2 (u_k+1 - u_k)
+    x0 = -np.linalg.solve(A, B) * float(u[0])
+    return _foh_run(Phi, G1 - G2, G2, C, np.asarray(u, float), x0)
+
+
+@njit(cache=True)
+def _foh_run(Phi: ndarray, P: ndarray, Q: ndarray, C: ndarray, u: ndarray, x0: ndarray) -> ndarray:
+    n = x0.size
+    x = x0.copy()
+    xn = np.empty(n)
+    y = np.empty(u.size)
+    for k in range(u.size):
+        y[k] = C @ x
+        if k + 1 < u.size:
+            for i in range(n):
+                acc = P[i] * u[k] + Q[i] * u[k + 1]
+                for j in range(n):
+                    acc += Phi[i, j] * x[j]
+                xn[i] = acc
+            x[:] = xn
+    return y
 
 
 def _err(file: Path, msg: str) -> DataError:

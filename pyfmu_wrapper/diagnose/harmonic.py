@@ -104,6 +104,7 @@ def whole_periods(t: ndarray, omega: float) -> tuple[slice, int]:
 
 
 _BASIS: dict = {}
+BASIS_CACHE_BYTES = 128 * 2**20  #: the cached bases' total size; older ones are dropped beyond it
 
 
 def _basis(tt: ndarray, omega: float, H: int) -> tuple[ndarray, ndarray, ndarray]:
@@ -121,10 +122,10 @@ def _basis(tt: ndarray, omega: float, H: int) -> tuple[ndarray, ndarray, ndarray
         # this is well conditioned and much cheaper than a QR of the n x (2H+1) matrix
         Li = np.linalg.inv(np.linalg.cholesky(B.T @ B))
         Ginv = Li.T @ Li
-        if key is None:
+        if key is None or B.nbytes > BASIS_CACHE_BYTES // 4:  # a long record's basis is not kept
             return B, Ginv, np.diag(Ginv).copy()
-        if len(_BASIS) > 16:
-            _BASIS.clear()
+        while _BASIS and sum(b[0].nbytes for b in _BASIS.values()) + B.nbytes > BASIS_CACHE_BYTES:
+            del _BASIS[next(iter(_BASIS))]  # the oldest first
         _BASIS[key] = (B, Ginv, np.diag(Ginv).copy())
     return _BASIS[key]
 

@@ -13,8 +13,9 @@ is zero without rattle (its noise std is M m s_x s_y / sqrt(n)) and grows with t
 
 Fit. The same statistic is computed on records simulated by the project's solver
 (``solvers.monolithic``, inerter = play, ki and ci of the nominal TMD, steady state from the
-companion orbit) at the measured frequency, force amplitude, sampling rate and length, for a short
-geometric ladder of gaps; the gap is where the measured S of the training records falls on the
+companion orbit) at the measured frequency, force amplitude, sampling rate and length, read through
+the accelerometers' declared anti-alias filters when there are any, for a short geometric ladder of
+gaps; the gap is where the measured S of the training records falls on the
 simulated S(eps) curves (log-log interpolation). Held out: the S of each record predicted from the
 gap fitted on the others.
 """
@@ -43,6 +44,7 @@ EPS_LADDER = (1e-5, 1e-4, 1e-3)  #: gaps [m] of the first simulations
 SIGNATURE_PERIODS = 8  #: the play signature is taken over this many times the record's periods
 RTOL = 1e-6  #: integrator tolerance of the fitting simulations (the rattle statistic needs no more)
 SETTLE = 4  #: periods simulated from the companion orbit before the record starts
+DENSE_HZ = 20000.0  #: rate [Hz] at which a record is simulated before a declared filter reads it
 
 
 def rattle_stat(s: Series, M: float, m: float) -> tuple[float, float]:
@@ -56,16 +58,47 @@ def rattle_stat(s: Series, M: float, m: float) -> tuple[float, float]:
     return -M * m * c, (-c / sd if sd > 0 else 0.0)
 
 
+def filtered(chains: dict | None) -> bool:
+    """Whether an accelerometer of the chain has a declared analog filter (which shapes the spikes)."""
+    return any(getattr((chains or {}).get(ch), "type", None) is not None for ch in ("xdd", "ydd"))
+
+
 def simulated_stat(
-    base: BaseParams, tmd: TMDParams, omega: float, force: float, eps: float, dt: float, n_periods: int
+    base: BaseParams,
+    tmd: TMDParams,
+    omega: float,
+    force: float,
+    eps: float,
+    dt: float,
+    n_periods: int,
+    chains: dict | None = None,
+    H: int | None = None,
 ) -> tuple[float, Series]:
+    """(S, Series) of a record simulated with the gap ``eps``, sampled every ``dt``. With ``chains``
+    declaring a filter on an accelerometer, the record is read as the rig reads it: simulated at a
+    dense rate (>= DENSE_HZ), passed through the declared chains (:func:`acquisition.rig_samples`) and
+    decimated to ``dt``, one period more than asked, whose start (the filter's transient) is dropped:
+    the rattle statistic of filtered contact spikes is far smaller than of the spikes sampled raw.
+    ``H``: fit only the harmonics up to H (the signature needs no more; a long record's full basis
+    takes hundreds of MB)."""
     from ...physics.params import InerterModel
+    from ..acquisition import rig_samples
     from .bench import steady_record
 
     b = replace(base, force_amplitude=force)
     t = replace(tmd, inerter=InerterModel.PLAY, play_gap=float(eps))
-    tt, z, acc, _ = steady_record(b, t, omega, n_periods, fs=1.0 / dt, settle_periods=SETTLE, rtol=RTOL)
-    s = fit_series(tt, {"x": z[:, 0], "y": z[:, 2], "xdd": acc[:, 0], "ydd": acc[:, 1]}, omega)
+    if not filtered(chains):
+        tt, z, acc, _ = steady_record(b, t, omega, n_periods, fs=1.0 / dt, settle_periods=SETTLE, rtol=RTOL)
+        sig = {"x": z[:, 0], "y": z[:, 2], "xdd": acc[:, 0], "ydd": acc[:, 1]}
+    else:
+        k = max(1, math.ceil(DENSE_HZ * dt))
+        td, z, acc, _ = steady_record(b, t, omega, n_periods + 1, fs=k / dt, settle_periods=SETTLE, rtol=RTOL)
+        dense = {"x": z[:, 0], "y": z[:, 2], "xdd": acc[:, 0], "ydd": acc[:, 1]}
+        sig = rig_samples(chains or {}, td, dense, step=k)
+        tt = td[::k]
+        drop = math.ceil(2 * math.pi / omega / dt)
+        tt, sig = tt[drop:], {ch: u[drop:] for ch, u in sig.items()}
+    s = fit_series(tt, sig, omega, H)
     return max(rattle_stat(s, base.mass, tmd.mass)[0], 1e-30), s
 
 
@@ -94,7 +127,9 @@ class PlayFit:
         if eps not in c:
             v = self.views[i]
             nper = max(2, int(round(v.series.n * v.dt * v.omega / (2 * math.pi))))
-            c[eps], self.sims[i][eps] = simulated_stat(self.base, self.tmd, v.omega, v.amplitude, eps, v.dt, nper)
+            c[eps], self.sims[i][eps] = simulated_stat(
+                self.base, self.tmd, v.omega, v.amplitude, eps, v.dt, nper, chains=v.acq
+            )
             self.n_sim += 1
         return c[eps]
 
@@ -150,11 +185,11 @@ class PlayFit:
         for v in self.views:
             # a longer run than the record: the periodic part of a chaotic rattle scatters less
             nper = SIGNATURE_PERIODS * max(2, int(round(v.series.n * v.dt * v.omega / (2 * math.pi))))
+            H = v.X.size - 1
             _, s = simulated_stat(
-                self.base, self.tmd, v.omega, v.amplitude, self.eps if eps is None else eps, v.dt, nper
+                self.base, self.tmd, v.omega, v.amplitude, self.eps if eps is None else eps, v.dt, nper, H=H
             )
             self.n_sim += 1
-            H = v.X.size - 1
             X, _ = fuse(s, "x", None, H)
             Y, _ = fuse(s, "y", None, H)
             F = np.zeros(H + 1, complex)
