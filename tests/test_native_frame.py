@@ -5,7 +5,10 @@
   f_link and f_inerter (whose static deflection, K x = the forces on storeys s and j, superposes),
   stays on it to 1e-10 of the amplitude over two periods of 40 steps.
 - The Python-hosted FMU's compiled step (the stub calls the cfunc of pyfmu_wrapper/fmi/native.py) and
-  its Python path (PYFMU_NATIVE=0) give the same outputs bit for bit, input derivatives included.
+  its Python path (PYFMU_NATIVE=0) give the same outputs bit for bit, input derivatives included; so
+  does the native ShearFrame FMU (no Python: configure, outputs and step compiled into its binary,
+  fmubuild/native_build.py), FMI 2.0 and 3.0 alike, and both validate.
+- The native FMU refuses a frame FrameParams refuses, naming the check and the values it read.
 """
 
 from __future__ import annotations
@@ -19,7 +22,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pyfmu_wrapper.fmubuild.build import ensure_fmus
+from pyfmu_wrapper.fmubuild.build import ensure_fmus, fmi_out_dir
+from pyfmu_wrapper.fmubuild.native_build import build_native_fmus
 from pyfmu_wrapper.physics import frame as ref
 
 #: a 3-storey frame (the frame3 scenarios' storeys), its TMD forces on storey 3 (links) and 2 (inerter)
@@ -115,3 +119,45 @@ def test_compiled_and_python_steps_bit_identical(hosted):
     assert compiled.shape == (60, 6)
     assert np.array_equal(compiled, python)
     assert np.all(np.isfinite(compiled)) and np.ptp(compiled[:, 0]) > 1e-4
+
+
+@pytest.fixture(scope="module")
+def native(tmp_path_factory) -> dict[int, Path]:
+    out = tmp_path_factory.mktemp("native")
+    return {v: build_native_fmus(("ShearFrame",), fmi_out_dir(out, v), fmi_version=v)[0] for v in (2, 3)}
+
+
+def test_native_fmu_is_the_python_hosted_fmu_bit_for_bit(hosted, native):
+    rng = np.random.default_rng(30)
+    steps = [[2e-3, *(rng.normal(size=5) * [30.0, 300.0, 3e3, 10.0, 100.0])] for _ in range(40)]
+    steps[20][0] = 2.5  # a long step: three pieces
+    start = _start(np.array([2e-3, 1e-3, -3e-3]), np.array([0.01, 0.0, 0.02]))
+    assert np.array_equal(_run(native[2], start, steps, "1"), _run(hosted, start, steps, "1"))
+
+
+def test_native_fmi3_fmu_validates_and_runs_as_fmi2(native):
+    import fmpy
+    from fmpy.validation import validate_fmu
+
+    for v in (2, 3):
+        assert validate_fmu(str(native[v])) == []
+    start = _start(np.array([2e-3, 1e-3, -3e-3]), np.array([0.01, 0.0, 0.02]))
+    runs = [
+        fmpy.simulate_fmu(str(native[v]), start_values=start, stop_time=0.4, output_interval=2e-3, output=["x_top"])
+        for v in (2, 3)
+    ]
+    assert np.array_equal(runs[0]["x_top"], runs[1]["x_top"]) and np.ptp(runs[0]["x_top"]) > 1e-3
+
+
+def test_native_fmu_refuses_a_frame_with_a_storey_it_lacks(native, tmp_path):
+    from fmpy.fmi1 import FMICallException
+    from test_fmu_ranges import Logged
+
+    f = Logged(native[2], tmp_path, "bad")
+    try:
+        with pytest.raises(FMICallException):
+            f.start(dict(storeys=3, force_storey=5))
+        text = f.text()
+    finally:
+        f.s.freeInstance()
+    assert "force_storey must be an integer storey 0..storeys (0: the top), got storeys = 3, force_storey = 5" in text

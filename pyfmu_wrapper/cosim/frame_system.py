@@ -1,5 +1,6 @@
 """The shear frame with its TMD as two co-simulated FMUs: ShearFrame (``frame``) and TMDInerter
-(``tmd``), coupled by forces at two storeys (Python-hosted FMUs), and their steady states.
+(``tmd``), coupled by forces at two storeys (native or Python-hosted FMUs, ``CosimSettings.fmu_build``), and their
+steady states.
 
 Connections (:func:`connections`)::
 
@@ -129,12 +130,20 @@ def fmu_parameters(frame: FrameParams, tmd: TMDParams, omega: float, z0: ArrayLi
     return out
 
 
-def make_master(frame: FrameParams, tmd: TMDParams | None = None, order: int = 2, fmi_version: int = 2) -> Master:
-    """A master for the frame and its TMD (the Python-hosted FMUs, built if missing or stale);
-    ``tmd``: the impulse coupling where it applies (:func:`connections`)."""
-    from ..fmubuild.build import ensure_fmus
+def make_master(
+    frame: FrameParams, tmd: TMDParams | None = None, order: int = 2, fmi_version: int = 2, fmu_build: str = "native"
+) -> Master:
+    """A master for the frame and its TMD (the FMUs built if missing or stale); ``tmd``: the impulse
+    coupling where it applies (:func:`connections`); fmu_build: "native" (the models compiled into the
+    FMUs' binaries, no Python) or "python" (the Python-hosted FMUs, the reference: the same bits)."""
+    if fmu_build == "native":
+        from ..fmubuild.native_build import ensure_native_fmus
 
-    paths = ensure_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
+        paths = ensure_native_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
+    else:
+        from ..fmubuild.build import ensure_fmus
+
+        paths = ensure_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
     fmus: dict[str, str | Path] = {"frame": paths["ShearFrame"], "tmd": paths["TMDInerter"]}
     conns = connections(frame, tmd)
     impulse = any(not isinstance(c, str) for c in conns)
@@ -199,7 +208,7 @@ def _sweep_piece(
     z0: ArrayLike | None,
     queue: Any = None,
 ) -> tuple[list[dict[str, Any]], None]:
-    master = make_master(frame, _impulse_tmd(tmd, settings), settings.order, settings.fmi_version)
+    master = make_master(frame, _impulse_tmd(tmd, settings), settings.order, settings.fmi_version, settings.fmu_build)
     rows = []
     try:
         for w in seq:
@@ -209,7 +218,9 @@ def _sweep_piece(
                 ss = steady_state(master, frame, tmd, float(w), settings, n)
             except MasterError as exc:  # this point is not converged, the sweep goes on with new FMUs
                 master.close()
-                master = make_master(frame, _impulse_tmd(tmd, settings), settings.order, settings.fmi_version)
+                master = make_master(
+                    frame, _impulse_tmd(tmd, settings), settings.order, settings.fmi_version, settings.fmu_build
+                )
                 why = f"the FMUs failed at {n} steps per period: {str(exc).splitlines()[0][:300]}"
                 ss = CosimSteadyState(float(w), math.nan, np.zeros(0), 0, False, math.inf, 0, 0.0, reason=why)
                 ss.wall_time = time.perf_counter() - t0
