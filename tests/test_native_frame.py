@@ -161,3 +161,59 @@ def test_native_fmu_refuses_a_frame_with_a_storey_it_lacks(native, tmp_path):
     finally:
         f.s.freeInstance()
     assert "force_storey must be an integer storey 0..storeys (0: the top), got storeys = 3, force_storey = 5" in text
+
+
+def _slave(fmu: Path, tmp_path: Path, name: str, start: dict):
+    import fmpy
+    from fmpy.fmi2 import FMU2Slave
+
+    md = fmpy.read_model_description(str(fmu))
+    s = FMU2Slave(
+        guid=md.guid,
+        unzipDirectory=fmpy.extract(str(fmu), str(tmp_path / name)),
+        modelIdentifier="ShearFrame",
+        instanceName=name,
+    )
+    s.instantiate()
+    s.setupExperiment(startTime=0.0)
+    s.enterInitializationMode()
+    for k, v in start.items():
+        (s.setInteger if isinstance(v, int) else s.setReal)([md_vr(md)[k]], [v])
+    s.exitInitializationMode()
+    return s, md_vr(md)
+
+
+def md_vr(md) -> dict:
+    return {v.name: v.valueReference for v in md.modelVariables}
+
+
+def test_native_derivatives_and_states_are_the_python_hosted_fmus(hosted, native, tmp_path):
+    """d xdd / d f_inerter = -1 / m_j (the inerter's share acts on its terminal j = 2 alone) and
+    d xdd / d f_link = 0, the same bits from both FMUs; a state taken, stepped from and set back
+    steps again to the same outputs."""
+    start = _start(np.array([1e-3, -2e-3, 3e-3]), np.array([0.0, 0.01, -0.02]))
+    got = {}
+    for tag, fmu in (("hosted", hosted), ("native", native[2])):
+        s, vr = _slave(fmu, tmp_path, tag, start)
+        try:
+            s.doStep(0.0, 1e-3)
+            outs = [vr["xdd"], vr["x_top"]]
+            d_p = s.getDirectionalDerivative(outs, [vr["f_inerter"]], [1.0])
+            d_f = s.getDirectionalDerivative(outs, [vr["f_link"]], [1.0])
+            state = s.getFMUstate()
+            s.setReal([vr["f_link"]], [50.0])
+            s.doStep(1e-3, 1e-3)
+            first = s.getReal([vr["x_top"], vr["xdd"]])
+            s.setFMUstate(state)
+            s.setReal([vr["f_link"]], [50.0])
+            s.doStep(1e-3, 1e-3)
+            again = s.getReal([vr["x_top"], vr["xdd"]])
+            s.freeFMUstate(state)
+            got[tag] = (d_p, d_f, first, again)
+        finally:
+            s.terminate()
+            s.freeInstance()
+    d_p, d_f, first, again = got["native"]
+    assert d_p[0] == pytest.approx(-1.0 / PER["m"][1], rel=1e-14) and d_p[1] == 0.0 and d_f == [0.0, 0.0]
+    assert first == again
+    assert got["native"] == got["hosted"]
