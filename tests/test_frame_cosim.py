@@ -149,3 +149,45 @@ def test_frame_parameters_name_their_fmu_variables():
     for p in registry.of("frame"):
         first = p.fmu_name.split("..")[0]
         assert SHEAR_FRAME.by_name(first).vr == p.fmu_vr, p.name
+
+
+def test_a_coupling_error_above_the_tolerance_is_never_reported_as_converged():
+    """Step doubling (frame_system.checked_steady_state): at 24 steps per period, refinement capped at
+    32, the TMD-inerter at 17 rad/s is 7.8e-3 off the exact response, above coupling_tol (5e-3): it is
+    reported not converged with its estimate (before: converged, 7.8e-3 off). Every converged point's
+    estimate bounds its actual error; uncapped, the steps are doubled until the estimate passes."""
+    frame = FrameParams.uniform(3, 100.0, 1.2e5, 100.0, force_amplitude=200.0, tmd_storey=3)
+    w = np.array([17.0, 22.0])
+    structure = ref.ShearFrame.uniform(3, 100.0, 1.2e5, 100.0, force_amplitude=200.0)
+    exact = ref.top_amplitude(structure, ref.LinearTMD(3, 10.0, 3500.0, 20.0, 5.0), w)
+    capped = sweep(frame, TMD, w, settings=CosimSettings(steps_per_period=24, max_steps_per_period=32))
+    err = np.abs(capped["amplitude"].to_numpy() / exact - 1)
+    assert err[0] > 5e-3 and not capped["converged"].iloc[0]
+    assert "coupling error estimate" in capped["reason"].iloc[0] and capped["coupling_error"].iloc[0] > 5e-3
+    assert capped["converged"].iloc[1] and err[1] <= capped["coupling_error"].iloc[1] <= 5e-3
+    refined = sweep(frame, TMD, w[:1], settings=CosimSettings(steps_per_period=24))
+    row = refined.iloc[0]
+    assert row["converged"] and row["steps_per_period"] > 24
+    assert abs(row["amplitude"] / exact[0] - 1) <= row["coupling_error"] <= 5e-3
+
+
+def test_the_cosimulation_system_is_the_one_the_unit_names(monkeypatch):
+    """scenario/engines runs the sweep of the module a unit names (ModelUnit.cosim), for every
+    registered unit with FMUs; it names no model itself, so a unit naming another system gets that one."""
+    import importlib
+    import inspect
+    from dataclasses import replace
+
+    from pyfmu_wrapper.cosim import steady
+    from pyfmu_wrapper.physics.units import MODELS
+    from pyfmu_wrapper.scenario import engines
+
+    with_fmus = [u for u in MODELS.units() if u.cosim]
+    assert {u.name for u in with_fmus} >= {"base_tmd", "frame"}
+    for unit in with_fmus:
+        assert unit.example is not None
+        assert engines._cosim_system(unit.example()) is importlib.import_module(unit.cosim).sweep
+    source = inspect.getsource(engines._cosim_system)
+    assert not [u.name for u in MODELS.units() if f'"{u.name}"' in source]
+    monkeypatch.setitem(MODELS._units, "frame", replace(MODELS.get("frame"), cosim="pyfmu_wrapper.cosim.steady"))
+    assert engines._cosim_system(FrameParams.uniform(2, 100.0, 1e5, 50.0)) is steady.sweep

@@ -1,5 +1,6 @@
 """The shear frame with its TMD as two co-simulated FMUs: ShearFrame (``frame``) and TMDInerter
-(``tmd``), coupled by forces at two storeys (Python-hosted FMUs), and their steady states.
+(``tmd``), coupled by forces at two storeys (native or Python-hosted FMUs, ``CosimSettings.fmu_build``), and their
+steady states.
 
 Connections (:func:`connections`)::
 
@@ -20,7 +21,10 @@ force coupling left 1-7 % and irregular windows). The steady state is the defini
 (:class:`~pyfmu_wrapper.solvers.steady.WindowCriterion` on max |x| of the top storey per period),
 started from the monolithic engine's start (the exact response of the linear companion, or the play
 model's companion orbit); the amplitude is the cubic Hermite maximum of the top storey between the
-communication points.
+communication points. Every point's coupling error is estimated by step doubling (the amplitude at N
+and at N/2 steps per period; with a gear gap, its smooth companion's) and held to the settings'
+``coupling_tol``: the steps are doubled while it is above, and a point still above is reported not
+converged (:func:`checked_steady_state`).
 """
 
 from __future__ import annotations
@@ -47,6 +51,7 @@ from ..solvers.monolithic import SolverSettings, companion_start
 from ..solvers.start import initial_guess, play_atol
 from ..solvers.steady import WindowCriterion
 from ..solvers.sweep import run_sweep_pieces
+from .checked import AMPLITUDE_FLOOR, companion
 from .periods import CosimSteadyState
 from .settings import CosimSettings
 
@@ -58,6 +63,9 @@ RECORD = ("frame.x_top", "frame.xd_top")
 #: fewer periods: the orbit starts closer to the exact linear start)
 FRAME_ACCURACY = 1e-4
 ATOL_FLOOR = 1e-14
+#: a point's steps per period are doubled at most this many times when its coupling-error estimate
+#: is above the tolerance (:func:`checked_steady_state`)
+MAX_REFINEMENTS = 3
 
 
 def connections(frame: FrameParams, tmd: TMDParams | None = None) -> list[Any]:
@@ -129,12 +137,20 @@ def fmu_parameters(frame: FrameParams, tmd: TMDParams, omega: float, z0: ArrayLi
     return out
 
 
-def make_master(frame: FrameParams, tmd: TMDParams | None = None, order: int = 2, fmi_version: int = 2) -> Master:
-    """A master for the frame and its TMD (the Python-hosted FMUs, built if missing or stale);
-    ``tmd``: the impulse coupling where it applies (:func:`connections`)."""
-    from ..fmubuild.build import ensure_fmus
+def make_master(
+    frame: FrameParams, tmd: TMDParams | None = None, order: int = 2, fmi_version: int = 2, fmu_build: str = "native"
+) -> Master:
+    """A master for the frame and its TMD (the FMUs built if missing or stale); ``tmd``: the impulse
+    coupling where it applies (:func:`connections`); fmu_build: "native" (the models compiled into the
+    FMUs' binaries, no Python) or "python" (the Python-hosted FMUs, the reference: the same bits)."""
+    if fmu_build == "native":
+        from ..fmubuild.native_build import ensure_native_fmus
 
-    paths = ensure_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
+        paths = ensure_native_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
+    else:
+        from ..fmubuild.build import ensure_fmus
+
+        paths = ensure_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
     fmus: dict[str, str | Path] = {"frame": paths["ShearFrame"], "tmd": paths["TMDInerter"]}
     conns = connections(frame, tmd)
     impulse = any(not isinstance(c, str) for c in conns)
@@ -185,6 +201,55 @@ def steady_state(
     )
 
 
+def coupling_gap(
+    master: Master, frame: FrameParams, tmd: TMDParams, omega: float, settings: CosimSettings, ss: CosimSteadyState
+) -> float:
+    """Step-doubling estimate of the coupling error of ``ss`` (found with N steps per period): the gap
+    between the steady-state amplitudes at N and N/2 steps per period, relative to max(|ss.amplitude|,
+    :data:`~.checked.AMPLITUDE_FLOOR` |F|/K of the frame). The gap over-estimates the error of the N run
+    for any order of the coupling >= 1. With a gear gap (window > 1: the rattle, whose error the play
+    model's error model covers, :mod:`.checked`) the gap is that of the linear companion (the same
+    spring, damper and inertance with an ideal inerter, no friction, no cubic term: from the exact
+    linear start it settles in a few periods, where the friction's companion did not within 240) at
+    the same N and N/2. inf when a run does not settle."""
+    n = ss.steps_per_period
+    smooth = tmd if settings.window_for(tmd) == 1 else replace(companion(tmd), friction_force=0.0, cubic_stiffness=0.0)
+    fine = ss if smooth is tmd else steady_state(master, frame, smooth, omega, settings, n)
+    coarse = steady_state(master, frame, smooth, omega, settings, max(n // 2, 8))
+    if not (fine.converged and coarse.converged):
+        return math.inf
+    scale = max(abs(ss.amplitude), AMPLITUDE_FLOOR * abs(frame.force_amplitude) / frame.stiffness)
+    return abs(fine.amplitude - coarse.amplitude) / scale if scale > 0 else math.inf
+
+
+def checked_steady_state(
+    master: Master, frame: FrameParams, tmd: TMDParams, omega: float, settings: CosimSettings, n: int
+) -> CosimSteadyState:
+    """The steady state at omega with n steps per period, its coupling error estimated by step
+    doubling (:func:`coupling_gap`) and held to ``settings.coupling_tolerance``: above it the steps are
+    doubled (at most :data:`MAX_REFINEMENTS` times, within ``max_steps_per_period``); a point whose
+    estimate stays above is reported not converged, with the estimate, never as a converged answer."""
+    tol = settings.coupling_tolerance(tmd)
+    t0 = time.perf_counter()
+    for k in range(MAX_REFINEMENTS + 1):
+        ss = steady_state(master, frame, tmd, omega, settings, n)
+        if not ss.converged:
+            break
+        ss.coupling_error = coupling_gap(master, frame, tmd, omega, settings, ss)
+        if ss.coupling_error <= tol:
+            break
+        if k == MAX_REFINEMENTS or 2 * n > settings.max_steps_per_period:
+            ss.converged = False
+            ss.reason = (
+                f"coupling error estimate {ss.coupling_error:.3g} above coupling_tol {tol:g} at {n} steps per "
+                "period (step doubling)"
+            )
+            break
+        n *= 2
+    ss.wall_time = time.perf_counter() - t0
+    return ss
+
+
 def _impulse_tmd(tmd: TMDParams, settings: CosimSettings) -> TMDParams | None:
     """The TMD for :func:`make_master` when the settings ask for the impulse coupling, else None."""
     return tmd if settings.coupling == "impulse" else None
@@ -199,23 +264,23 @@ def _sweep_piece(
     z0: ArrayLike | None,
     queue: Any = None,
 ) -> tuple[list[dict[str, Any]], None]:
-    master = make_master(frame, _impulse_tmd(tmd, settings), settings.order, settings.fmi_version)
+    master = make_master(frame, _impulse_tmd(tmd, settings), settings.order, settings.fmi_version, settings.fmu_build)
     rows = []
     try:
         for w in seq:
             n = max(settings.steps_for(tmd), int(settings.steps_per_period or 0))
             t0 = time.perf_counter()
             try:
-                ss = steady_state(master, frame, tmd, float(w), settings, n)
+                ss = checked_steady_state(master, frame, tmd, float(w), settings, n)
             except MasterError as exc:  # this point is not converged, the sweep goes on with new FMUs
                 master.close()
-                master = make_master(frame, _impulse_tmd(tmd, settings), settings.order, settings.fmi_version)
+                master = make_master(
+                    frame, _impulse_tmd(tmd, settings), settings.order, settings.fmi_version, settings.fmu_build
+                )
                 why = f"the FMUs failed at {n} steps per period: {str(exc).splitlines()[0][:300]}"
                 ss = CosimSteadyState(float(w), math.nan, np.zeros(0), 0, False, math.inf, 0, 0.0, reason=why)
                 ss.wall_time = time.perf_counter() - t0
-            row = ss.row(direction)
-            del row["coupling_error"]  # the frame's co-simulation has no step-doubling estimate
-            rows.append(row)
+            rows.append(ss.row(direction))
             if queue is not None:
                 queue.put(1)
     finally:

@@ -6,7 +6,7 @@ Inputs: ``f_link``, the TMD's total force on the structure (TMDInerter.force), a
 inerter's share (TMDInerter.inerter_force): f_link - f_inerter acts on the TMD's storey, f_inerter on
 the inerter's terminal (nothing when it is the ground). Outputs: the top storey's motion (the reported
 amplitude), the TMD storey's motion and the terminal's acceleration (the TMDInerter's inputs).
-The frame's physics is :mod:`pyfmu_wrapper.physics.frame_model`.
+The frame's physics is :mod:`pyfmu_wrapper.physics.frame_model`; its step is exact (:mod:`.frame_step`).
 """
 
 from __future__ import annotations
@@ -116,7 +116,8 @@ SHEAR_FRAME = FmuSpec(
             90,
             1e-8,
             None,
-            "relative tolerance of the RODAS4 integrator inside doStep",
+            "relative tolerance of an integrator inside doStep (not used: ShearFrame steps exactly, by the matrix "
+            "exponential of the linear frame with its drives)",
             min=0.0,
             max=1.0,
             min_exclusive=True,
@@ -126,7 +127,7 @@ SHEAR_FRAME = FmuSpec(
             91,
             1e-10,
             None,
-            "absolute tolerance of the integrator (all states, SI units)",
+            "absolute tolerance of an integrator (all states, SI units; not used: ShearFrame steps exactly)",
             min=0.0,
             min_exclusive=True,
         ),

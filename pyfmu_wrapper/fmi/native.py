@@ -49,6 +49,8 @@ from ..physics import kernels as kn
 from ..physics.params import N_PARAMS, P_s
 from ..solvers.rodas import STAT_STEPS
 from .contract import FAIL_BUDGET, FAIL_NOT_FINITE, MAX_INTEGRATOR_STEPS, NATIVE_MAX_STEP, NATIVE_OK, backup_size
+from .frame_step import FRAME_OUT_INT, FRAME_OUT_VR, FRAME_U_SIZE, NP_FRAME, NS_MAX, advance_frame, frame_outputs
+from .frame_variables import SHEAR_FRAME
 from .integrators import BASE_U_SIZE, advance_base, fill_atol, integrate_tmd
 from .outputs import BASE_OUT_INT, BASE_OUT_VR, TMD_OUT_INT, TMD_OUT_VR, base_outputs, tmd_outputs
 from .variables import BASE_OSCILLATOR, TMD_INERTER
@@ -83,6 +85,9 @@ SYS_BASE, SYS_TMD, U_KAPPA = kn.SYS_BASE, kn.SYS_TMD, kn.U_KAPPA
 MAX_STEPS = MAX_INTEGRATOR_STEPS
 CHUNK = NATIVE_MAX_STEP
 B_BACKUP, T_BACKUP = backup_size(2), backup_size(4)
+F_NVR = max(v.vr for v in SHEAR_FRAME.variables) + 1
+F_FLINK, F_FINER = SHEAR_FRAME.vr("f_link"), SHEAR_FRAME.vr("f_inerter")
+F_NOUT, F_BACKUP = FRAME_OUT_VR.size, backup_size(NS_MAX)
 
 
 @njit(cache=True)
@@ -247,6 +252,64 @@ def tmd_step() -> Any:
         tmd_outputs(z, x, xd, xdd, u[U_KAPPA], p, out)
         write_outputs(out, TMD_OUT_VR, TMD_OUT_INT, reals, ints)
         for vr in (T_X, T_XD, T_XDD):
+            derivs[2 * vr] = 0.0
+            derivs[2 * vr + 1] = 0.0
+        return NATIVE_OK
+
+    return step
+
+
+@functools.cache
+def frame_step() -> Any:
+    """The ShearFrame step (compiled on first use, cached on disk): exact (:func:`.frame_step.advance_frame`)."""
+
+    @cfunc(SIGNATURE, cache=True)
+    def step(  # the pointers' types: SIGNATURE
+        reals_p: Any,
+        ints_p: Any,
+        derivs_p: Any,
+        z_p: Any,
+        p_p: Any,
+        stats_p: Any,
+        th_p: Any,
+        u_p: Any,
+        atol_p: Any,
+        backup_p: Any,
+        t: float,
+        h: float,
+    ) -> int:
+        reals = carray(reals_p, (F_NVR,))
+        ints = carray(ints_p, (F_NVR,))
+        derivs = carray(derivs_p, (2 * F_NVR,))
+        z = carray(z_p, (NS_MAX,))
+        p = carray(p_p, (NP_FRAME,))
+        stats = carray(stats_p, (4,))
+        th = carray(th_p, (2,))
+        u = carray(u_p, (FRAME_U_SIZE,))  # the input polynomials, then the exact step's cache
+        backup = carray(backup_p, (F_BACKUP,))
+        backup[NS_MAX + 4] = 0.0
+        for i in range(NS_MAX):
+            backup[i] = z[i]
+        for i in range(4):
+            backup[NS_MAX + i] = stats[i]
+        u[0] = t
+        u[1] = reals[F_FLINK]
+        u[2] = derivs[2 * F_FLINK]
+        u[3] = derivs[2 * F_FLINK + 1]
+        u[4] = reals[F_FINER]
+        u[5] = derivs[2 * F_FINER]
+        u[6] = derivs[2 * F_FINER + 1]
+        if advance_frame(z, t, h, p, u, stats) != 0:  # not finite: z is at the start of the step
+            backup[NS_MAX + 4] = FAIL_NOT_FINITE
+            backup[NS_MAX + 5] = t + h
+            return 1
+        th[1] = h
+        t1 = t + h
+        th[0] = t1
+        out = np.empty(F_NOUT)
+        frame_outputs(z, t1, kn.input_value(u, 0, t1), kn.input_value(u, 1, t1), p, out)
+        write_outputs(out, FRAME_OUT_VR, FRAME_OUT_INT, reals, ints)
+        for vr in (F_FLINK, F_FINER):
             derivs[2 * vr] = 0.0
             derivs[2 * vr + 1] = 0.0
         return NATIVE_OK

@@ -32,7 +32,7 @@ TRIPLES = {"linux64": "x86_64-unknown-linux-gnu", "win64": "x86_64-w64-windows-g
 #: FMI 3.0 platform tuple of each FMI 2.0 platform folder
 PLATFORM3 = {"linux64": "x86_64-linux", "win64": "x86_64-windows"}
 #: the models with native functions: their step (:mod:`.native`) and the others (:mod:`.native_model`)
-MODELS = {"BaseOscillator": "base_step", "TMDInerter": "tmd_step"}
+MODELS = {"BaseOscillator": "base_step", "TMDInerter": "tmd_step", "ShearFrame": "frame_step"}
 #: the name the step has in the object file (the C side calls it by this name)
 STEP_SYMBOL = "pyfmu_model_step"
 #: the C names of the functions of :mod:`.native_model`

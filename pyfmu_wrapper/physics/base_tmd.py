@@ -80,6 +80,6 @@ UNIT = ModelUnit(
     active=lambda base, tmd: active_states(tmd, NSTATE),
     inerter_force=_inerter_force,
     description="the paper's base oscillator with the TMD-inerter (one storey, one TMD)",
-    cosim=True,
+    cosim="pyfmu_wrapper.cosim.steady",
     example=BaseParams,
 )

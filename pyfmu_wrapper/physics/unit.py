@@ -57,8 +57,10 @@ class ModelUnit:
     description: str = ""
     #: example() -> a structure of this model (the tests run every registered model on it)
     example: Callable[[], Any] | None = None
-    #: the unit has FMUs and a co-simulation system (the co-simulation engine can run it)
-    cosim: bool = False
+    #: the dotted name of the module of the unit's co-simulation system (FMUs, master, steady states),
+    #: whose ``sweep(structure, tmd, omegas, direction=, settings=, progress=, workers=)`` the
+    #: co-simulation engine runs (resolved there: physics imports no co-simulation); "": none
+    cosim: str = ""
 
     def check_state(self, structure: Any, z: NDArray[Any], what: str = "start state") -> NDArray[np.float64]:
         """z as a float array, refused with a one-line :class:`ModelError` unless it has the

@@ -16,6 +16,7 @@ portraits). An engine is a pair of functions registered in :data:`ENGINES`:
 
 from __future__ import annotations
 
+import importlib
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -234,11 +235,12 @@ def _cosim_settings(settings: RunSettings) -> Any:
 
 
 def _cosim_system(base: Any) -> Callable[..., pd.DataFrame]:
-    """The co-simulation sweep of a structure's model: the paper's pair (:mod:`pyfmu_wrapper.cosim.steady`)
-    or the frame with its TMD (:mod:`pyfmu_wrapper.cosim.frame_system`, force coupling at two storeys)."""
-    from ..cosim import frame_system, steady
-
-    return steady.sweep if MODELS.of(base).name == "base_tmd" else frame_system.sweep
+    """The co-simulation sweep of a structure's model: the ``sweep`` of the module its unit names
+    (:attr:`~pyfmu_wrapper.physics.unit.ModelUnit.cosim`, e.g. :mod:`pyfmu_wrapper.cosim.steady` for the
+    paper's pair, :mod:`pyfmu_wrapper.cosim.frame_system` for a frame); no model is named here."""
+    unit = MODELS.of(base)
+    sweep: Callable[..., pd.DataFrame] = importlib.import_module(unit.cosim).sweep
+    return sweep
 
 
 def _cosim_sweep(

@@ -121,10 +121,19 @@ static long configure(Slave *s) {
     else if (rc == NM_KAPPA_CODE)
         snprintf(why, sizeof why, "ParameterError: base_compliance = %.17g 1/kg: must be finite and >= 0 (1/M of "
                  "the body the TMD is mounted on, 0: off)", s->reals[NM_VR_KAPPA]);
-    else
-        snprintf(why, sizeof why, "ParameterError: %s, got m = %.17g, I = %.17g, inerter = %d",
-                 rc >= 1 && rc <= NM_NCHECKS ? NM_CHECKS[rc - 1] : "a check of the compiled configure failed",
-                 s->reals[NM_VR_MASS], s->reals[NM_VR_INERTANCE], (int)s->ints[NM_VR_MODEL]);
+    else { /* a cross-field check: its words, then the variables it reads (the model's NM_CHECKVARS) */
+        size_t n = (size_t)snprintf(why, sizeof why, "ParameterError: %s, got",
+                                    rc >= 1 && rc <= NM_NCHECKS ? NM_CHECKS[rc - 1]
+                                                                : "a check of the compiled configure failed");
+        for (int i = 0; i < NM_NCHECKVARS && n < sizeof why; i++) {
+            if (NM_CHECKVARS[i].type == 'R')
+                n += (size_t)snprintf(why + n, sizeof why - n, "%s %s = %.17g", i ? "," : "", NM_CHECKVARS[i].name,
+                                      s->reals[NM_CHECKVARS[i].vr]);
+            else
+                n += (size_t)snprintf(why + n, sizeof why - n, "%s %s = %d", i ? "," : "", NM_CHECKVARS[i].name,
+                                      (int)s->ints[NM_CHECKVARS[i].vr]);
+        }
+    }
     return fail(s, why);
 }
 
