@@ -54,7 +54,8 @@ def _unit_tables() -> list[str]:
         for sub in subsystems:
             out.append(
                 f"\n## {unit.description[0].upper() + unit.description[1:]} "
-                f"(`{unit.structure.__name__}`, model `{unit.name}`; with the TMD's `TMDParams`)\n\n"
+                f"(`{unit.structure.__name__}`, model `{unit.name}`"
+                + ("; with the TMD's `TMDParams`)\n\n" if unit.takes_tmd else "; its own absorber, no `TMDParams`)\n\n")
                 + registry.markdown_table(sub)
             )
     return out

@@ -391,8 +391,9 @@ def markdown_table(subsystem: str) -> str:
             bound = ", ".join(str(int(m)) for m in InerterModel)
         applies = "all" if p.models == ALL_MODELS else ", ".join(InerterModel(m).name.lower() for m in p.models)
         name = p.name if p.field else f"{p.name} (not a field)"
+        fmu = f"`{p.fmu_name}` ({p.fmu_vr})" if p.fmu_name else "- (no FMU)"
         rows.append(
-            f"| `{name}` | {p.symbol} | {p.unit} | {p.default:g} | {bound} | `{p.fmu_name}` ({p.fmu_vr}) "
+            f"| `{name}` | {p.symbol} | {p.unit} | {p.default:g} | {bound} | {fmu} "
             f"| {p.modelica_name or '-'} | {applies} | {p.description.replace('|', chr(92) + '|')} |"
         )
     return "\n".join(rows) + "\n"

@@ -59,6 +59,10 @@ class ModelUnit:
     example: Callable[[], Any] | None = None
     #: the unit has FMUs and a co-simulation system (the co-simulation engine can run it)
     cosim: bool = False
+    #: the model takes the paper's TMD (``TMDParams``, a scenario's ``tmd:`` block); False: the
+    #: structure carries its own absorber, scenario files give no ``tmd:`` block and the engines pass
+    #: a detached TMD that the unit does not read
+    takes_tmd: bool = True
 
     def check_state(self, structure: Any, z: NDArray[Any], what: str = "start state") -> NDArray[np.float64]:
         """z as a float array, refused with a one-line :class:`ModelError` unless it has the
