@@ -123,4 +123,9 @@ package Cases "One model per case of the paper (Brzeski & Perlikowski 2017) and 
     extends TMDInerter.Frames.FrameIdealInerter(n = 1, Ms = {100.0}, Ks = {40000.0}, Cs = {100.0}, F = 200.0, force_storey = 1, tmd_storey = 1, inerter_to = 1, m = 9.0, k = 4000.0, c = 10.0, df = 0.0, slope = 1000000.0, I = 1.0, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end Frame1Case1;
+
+  model LinearTMDDenHartog "main mass with a Den Hartog-tuned linear TMD, mu = 0.05 (model linear_tmd)"
+    extends TMDInerter.LinearTMD.BaseWithTMD(M = 10.0, K = 4000.0, C = 2.0, F = 10.0, m = 0.5, k = 181.40589569160997, c = 2.4241382486387697, w = 19.0);
+    annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
+  end LinearTMDDenHartog;
 end Cases;

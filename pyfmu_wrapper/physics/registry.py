@@ -340,6 +340,11 @@ def declare(subsystem: str, parameters: tuple[Parameter, ...]) -> tuple[Paramete
     return _DECLARED[subsystem]
 
 
+def declared() -> tuple[str, ...]:
+    """The subsystems the model units declared (beyond base and tmd), in declaration order."""
+    return tuple(_DECLARED)
+
+
 def of(subsystem: str) -> tuple[Parameter, ...]:
     """The parameters of one subsystem (``base``, ``tmd`` or one a unit declared), in registry order."""
     if subsystem in _DECLARED:

@@ -1,4 +1,5 @@
-"""The shear frame's part of the Modelica package: its classes (``modelica/TMDInerter/Frames.mo``:
+"""The shear frame's part of the Modelica package: its classes (``Frames.mo`` beside this module,
+written into ``modelica/TMDInerter/`` by :mod:`pyfmu_wrapper.generate.modelica`:
 ``ShearFrame``, and the frame with the paper's TMD on storey ``tmd_storey`` and its inerter to
 ``inerter_to``, per inerter model), the Modelica modifiers of a :class:`~.params.FrameParams`, its
 cases (the frame scenarios' TMD curves, and one storey = the paper's base oscillator) and the Modelica
@@ -7,6 +8,7 @@ state variables' places in the unit's state."""
 from __future__ import annotations
 
 from dataclasses import replace
+from pathlib import Path
 
 from ..modelica_source import ModelicaCase, ModelicaSource
 from ..params import BaseParams, InerterModel, TMDParams, paper_case
@@ -93,7 +95,7 @@ def cases() -> tuple[ModelicaCase, ...]:
 
 
 MODELICA = ModelicaSource(
-    file="Frames.mo",
+    source=Path(__file__).with_name("Frames.mo"),
     system=lambda tmd: FRAME_CLASS[tmd.inerter],
     modifiers=modifiers,
     cases=cases,

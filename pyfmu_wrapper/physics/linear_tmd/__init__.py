@@ -15,6 +15,7 @@ from ..models import OdeModel
 from ..params import P_F, P_W, TMDParams
 from ..unit import ModelUnit
 from .equations import L_AT, N_PACKED, linear_tmd_jacobian, linear_tmd_rhs, no_switching, one_mode
+from .modelica import MODELICA
 from .params import PARAMETERS, SUBSYSTEM, LinearTMDParams
 
 __all__ = ["LINEAR_TMD", "UNIT", "LinearTMDParams", "linear_tmd_pack"]
@@ -70,4 +71,5 @@ UNIT = ModelUnit(
     example=LinearTMDParams,
     description="a base oscillator with a plain linear TMD (mass, spring, viscous damper; no inerter)",
     takes_tmd=False,
+    modelica=MODELICA,
 )

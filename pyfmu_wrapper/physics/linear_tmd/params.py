@@ -20,6 +20,15 @@ from ..registry import Parameter, declare
 SUBSYSTEM = "linear_tmd"
 
 
+#: the Modelica type (``TMDInerter.Units``) of each unit
+_MODELICA_TYPE = {
+    "kg": "Mass",
+    "N/m": "TranslationalSpringConstant",
+    "N.s/m": "TranslationalDampingConstant",
+    "N": "Force",
+}
+
+
 def _row(name: str, symbol: str, unit: str, default: float, minimum: float | None, strict: bool, doc: str) -> Parameter:
     return Parameter(
         name=name,
@@ -32,8 +41,8 @@ def _row(name: str, symbol: str, unit: str, default: float, minimum: float | Non
         description=doc,
         fmu_name="",  # no FMU yet
         fmu_vr=-1,
-        modelica_name=None,
-        modelica_type=None,
+        modelica_name=symbol,  # the parameter of LinearTMD.mo
+        modelica_type=_MODELICA_TYPE[unit],
         mappable=False,
     )
 
