@@ -132,14 +132,14 @@ def test_attachment_keys_need_a_frame():
 
 
 def test_a_model_without_fmus_is_refused_by_the_cosim_engine_before_any_work(tmp_path, capsys, monkeypatch):
-    """A registered model whose unit says it has no FMUs (cosim=False) cannot run --engine cosim or
+    """A registered model whose unit says it has no FMUs (cosim="") cannot run --engine cosim or
     both: one line naming the model, exit status 2, nothing written (the frame has FMUs: tests of its
     co-simulation in tests/test_frame_cosim.py)."""
     from dataclasses import replace
 
     from pyfmu_wrapper.physics.units import MODELS
 
-    monkeypatch.setitem(MODELS._units, "frame", replace(MODELS.get("frame"), cosim=False))
+    monkeypatch.setitem(MODELS._units, "frame", replace(MODELS.get("frame"), cosim=""))
     path = tmp_path / "f.yaml"
     path.write_text(textwrap.dedent(FRAME_DOC))
     assert main([str(path), "--out", str(tmp_path / "out"), "--engine", "both"]) == 2

@@ -78,3 +78,47 @@ def test_declared_parameters_have_units_ranges_and_docs(unit):
     for par in unit.parameters:
         assert par.unit and par.description and par.symbol
         assert par.minimum is None or par.default >= par.minimum
+
+
+def _scenario_text(block: str, values: dict, takes_tmd: bool) -> str:
+    import yaml
+
+    doc = {"schema_version": 2, "name": "t", block: values, "frequencies": [10.0]}
+    if takes_tmd:
+        doc["tmd"] = {"case": 1}
+    doc["studies"] = [{"kind": "frc", "name": "f", "curves": [{"label": "a"}]}]
+    return yaml.safe_dump(doc, sort_keys=False)
+
+
+@pytest.mark.parametrize("unit", [u for u in UNITS if u.name not in ("base_tmd", "frame")], ids=lambda u: u.name)
+def test_a_units_scenario_block_is_read_from_its_declared_parameters(unit):
+    """A scenario's block of the unit (named after it, its keys the declared parameters) reads back
+    the unit's example structure (the units with readers of their own, base: and frame:, aside)."""
+    from pyfmu_wrapper.scenario.loader import parse_scenario
+
+    s = unit.example()
+    scn = parse_scenario(
+        _scenario_text(unit.name, {p.name: getattr(s, p.name) for p in unit.parameters}, unit.takes_tmd)
+    )
+    assert scn.base == s and MODELS.of(scn.base) is unit
+
+
+def test_a_model_registered_later_needs_no_edit_of_the_scenario_reader(monkeypatch):
+    """A unit registered at run time (no edit anywhere but the registry) gets its scenario block, its
+    located refusals and its curves' overrides."""
+    from dataclasses import dataclass, replace
+
+    from pyfmu_wrapper.physics.linear_tmd import UNIT, LinearTMDParams
+    from pyfmu_wrapper.scenario.loader import parse_scenario
+    from pyfmu_wrapper.scenario.schema import ScenarioError
+
+    @dataclass(frozen=True)
+    class Toy(LinearTMDParams):
+        pass
+
+    monkeypatch.setitem(MODELS._units, "toy", replace(UNIT, name="toy", structure=Toy))
+    values = {p.name: 1.0 for p in UNIT.parameters}
+    scn = parse_scenario(_scenario_text("toy", values, False))
+    assert type(scn.base) is Toy and scn.base.absorber_mass == 1.0
+    with pytest.raises(ScenarioError, match=r"bad.yaml:\d+: toy.absorber_mass: must be > 0 \(got -1.0\)"):
+        parse_scenario(_scenario_text("toy", values | {"absorber_mass": -1.0}, False), "bad.yaml")

@@ -15,6 +15,12 @@ Bounds, with the values measured with rumoca 0.10.2 (docs/modelica.md):
   within 1e-6 (measured <= 2e-9); d within 1e-4 and dd within 1e-3 (measured 3e-6 and 6e-5): the
   chain's mesh mode sqrt(ki/I) = 4.5e3 rad/s has a damping ratio of ~1e-6, is excited from rest and
   runs ~1,400 cycles in 2 s, so both integrators accumulate phase error on it.
+* the model units' cases (every registered unit with a Modelica source, :func:`gen.unit_cases`: the
+  shear frame's ``Frames.mo`` with the TMD-inerter, the TMDI to a storey and to the ground, 10
+  storeys, the full model, one storey) against the same solver on the unit: the smooth ones within
+  1e-6 on every state (measured <= 7.1e-9), the full model as the play cases below; the one-storey
+  frame also against the paper's base oscillator (BaseParams) within 1e-6, and the frame cases hold
+  the frame scenario files' values.
 * inerter with play, eps = 1e-4 (play and full model cases): the gear rattles (tens of almost
   elastic impacts per period) and the contact sequence depends sensitively on the state, so two
   correct integrations separate after ~0.5 s: the Python solver against itself at rtol 1e-11 vs
@@ -152,9 +158,11 @@ def test_paper_values_of_the_studies():
 # --- time series against the Python solver -----------------------------------------------------
 
 
-def test_base_oscillator_closed_form(session):
-    """BaseOscillator alone (flange free) against the exact forced response from rest."""
-    model = load(session, "Systems.BaseOscillator")
+@pytest.mark.parametrize(("cls", "node"), [("Systems.BaseOscillator", "mass"), ("Frames.ShearFrame", "storey[1]")])
+def test_base_oscillator_closed_form(session, cls, node):
+    """BaseOscillator alone (flange free), and the shear frame of its default one storey, against the
+    exact forced response from rest."""
+    model = load(session, cls)
     r = model.simulate(t=(0.0, T_END), config=rumoca.SimConfig(solver="bdf", rtol=RTOL, atol=1e-15, dt=DT))
     t = np.asarray(r.time)
     b = BaseParams()
@@ -169,7 +177,7 @@ def test_base_oscillator_closed_form(session):
     xd = (1j * w * X * np.exp(1j * w * t)).real + e * (
         (-sig * c1 + wd * c2) * np.cos(wd * t) + (-sig * c2 - wd * c1) * np.sin(wd * t)
     )
-    err = rel_err(np.column_stack([r["mass.s"], r["mass.v"]]), np.column_stack([x, xd]))
+    err = rel_err(np.column_stack([r[f"{node}.s"], r[f"{node}.v"]]), np.column_stack([x, xd]))
     assert np.all(err <= 1e-6), err
 
 
@@ -192,6 +200,97 @@ def test_smooth_case_matches_python(name):
             Pref[i] = kernels.inerter_force(zz, dz[1], p)
         # (Iratio = 1: the massless node moves with the base and P is identically 0)
         assert np.max(np.abs(P - Pref)) <= 1e-6 * max(np.max(np.abs(Pref)), 1.0)
+
+
+# --- the model units' cases (Frames.mo) -----------------------------------------------------------
+
+UNIT_CASES = {c.name: (u, c) for u, c in gen.unit_cases()}
+
+
+@functools.cache
+def _unit_case_result(name: str):
+    unit, case = UNIT_CASES[name]
+    s = rumoca.Session(roots=[str(PKG_DIR.parent)])
+    model = load(s, f"Cases.{name}")
+    play = case.tmd.inerter == InerterModel.PLAY
+    cfg = rumoca.SimConfig(solver="rk-like" if play else "bdf", rtol=RTOL, atol=RTOL * 1e-3, dt=DT)
+    r = model.simulate(t=(0.0, T_END), config=cfg)
+    t = np.asarray(r.time, dtype=float)
+    places = {v: i for v, i in unit.modelica.states(case.structure).items() if v in r}
+    n = unit.n_state(case.structure)
+    _, ref = simulate(case.structure, case.tmd, OMEGA, T_END, sample_times=t, rtol=RTOL, atol=np.full(n, 1e-14))
+    z = np.column_stack([np.asarray(r[v], dtype=float) for v in places])
+    return t, z, ref[:, list(places.values())], list(places)
+
+
+def test_the_units_with_modelica_sources_have_cases():
+    assert "frame" in {u.name for u in gen.modelica_units()}
+    assert {"Frame3TMDInerter", "Frame3TMDI", "Frame1Case1"} <= set(UNIT_CASES)
+
+
+@pytest.mark.parametrize("name", sorted(UNIT_CASES))
+def test_unit_case_parameters_equal_python(session, name):
+    """Each compiled unit case carries the Python values (its scalar parameters, as compiled)."""
+    unit, case = UNIT_CASES[name]
+    model = load(session, f"Cases.{name}")
+    for n, literal in gen.unit_case_parameters(unit, case).items():
+        if literal.startswith("{"):
+            continue  # per-storey arrays: rumoca reports no value; the time series hold them
+        assert model.parameters[n].value == float(literal), n
+
+
+@pytest.mark.parametrize("name", sorted(UNIT_CASES))
+def test_unit_case_matches_python(name):
+    """Every state of the unit's case against the monolithic solver on the unit (module doc)."""
+    unit, case = UNIT_CASES[name]
+    t, z, ref, names = _unit_case_result(name)
+    if case.tmd.inerter != InerterModel.PLAY:
+        err = rel_err(z, ref)
+        assert np.all(err <= 1e-6), dict(zip(names, err))
+        return
+    early = rel_err(z, ref, t <= 0.25)
+    assert np.all(early <= 1e-6), dict(zip(names, early))
+    whole = dict(zip(names, rel_err(z, ref)))
+    xs = [v for v in names if v.startswith("x[")]
+    assert max(whole[v] for v in xs) <= 2e-3 and whole["y"] <= 1e-2, whole
+
+
+def test_one_storey_frame_is_the_papers_base_oscillator():
+    """Frame1Case1 (Frames.mo, one storey) against the monolithic solver on the paper's own model
+    (BaseParams + TMDParams, the hand-derived kernels): x, xd, y, yd within 1e-6."""
+    unit, case = UNIT_CASES["Frame1Case1"]
+    t, z, _, names = _unit_case_result("Frame1Case1")
+    b = case.structure
+    base = BaseParams(
+        mass=b.masses[0], stiffness=b.stiffnesses[0], damping=b.dampings[0], force_amplitude=b.force_amplitude
+    )
+    ref = reference(base, case.tmd, t)
+    cols = [names.index(v) for v in ("x[1]", "xd[1]", "y", "yd")]
+    err = rel_err(z[:, cols], ref[:, :4])
+    assert np.all(err <= 1e-6), err
+
+
+def test_frame_cases_hold_the_frame_scenarios():
+    """The frame cases are the TMD curves of scenarios/frame3_tmdi.yaml, frame10_tmd.yaml and
+    frame3_full.yaml (structure with its attachment, and TMD)."""
+    from pathlib import Path
+
+    from pyfmu_wrapper.scenario.loader import load_scenario
+    from pyfmu_wrapper.scenario.runner import curve_structure
+
+    root = Path(__file__).resolve().parents[1] / "scenarios"
+    want = {
+        "Frame3TMDInerter": ("frame3_tmdi", "TMD-inerter"),
+        "Frame3TMDI": ("frame3_tmdi", "TMDI"),
+        "Frame10TMDInerter": ("frame10_tmd", "TMD-inerter"),
+        "Frame3Full": ("frame3_full", "full TMD-inerter (c = 10, df = 10, eps = 1e-4)"),
+    }
+    for name, (file, label) in want.items():
+        scn = load_scenario(root / f"{file}.yaml")
+        curves = [c for c in scn.studies[0].curves if c.label == label]
+        unit, case = UNIT_CASES[name]
+        mods = unit.modelica.modifiers  # the frame as Modelica sees it (the inerter's storey: -1 or the TMD's)
+        assert (mods(curve_structure(scn, curves[0])), curves[0].tmd) == (mods(case.structure), case.tmd), name
 
 
 @pytest.mark.parametrize("name", PLAY)

@@ -340,6 +340,11 @@ def declare(subsystem: str, parameters: tuple[Parameter, ...]) -> tuple[Paramete
     return _DECLARED[subsystem]
 
 
+def declared() -> tuple[str, ...]:
+    """The subsystems the model units declared (beyond base and tmd), in declaration order."""
+    return tuple(_DECLARED)
+
+
 def of(subsystem: str) -> tuple[Parameter, ...]:
     """The parameters of one subsystem (``base``, ``tmd`` or one a unit declared), in registry order."""
     if subsystem in _DECLARED:
@@ -391,8 +396,9 @@ def markdown_table(subsystem: str) -> str:
             bound = ", ".join(str(int(m)) for m in InerterModel)
         applies = "all" if p.models == ALL_MODELS else ", ".join(InerterModel(m).name.lower() for m in p.models)
         name = p.name if p.field else f"{p.name} (not a field)"
+        fmu = f"`{p.fmu_name}` ({p.fmu_vr})" if p.fmu_name else "- (no FMU)"
         rows.append(
-            f"| `{name}` | {p.symbol} | {p.unit} | {p.default:g} | {bound} | `{p.fmu_name}` ({p.fmu_vr}) "
+            f"| `{name}` | {p.symbol} | {p.unit} | {p.default:g} | {bound} | {fmu} "
             f"| {p.modelica_name or '-'} | {applies} | {p.description.replace('|', chr(92) + '|')} |"
         )
     return "\n".join(rows) + "\n"

@@ -27,6 +27,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError
+from .modelica_source import ModelicaSource
 from .models import OdeModel
 from .params import P_F, P_W, TMDParams
 from .registry import Parameter
@@ -61,6 +62,12 @@ class ModelUnit:
     #: whose ``sweep(structure, tmd, omegas, direction=, settings=, progress=, workers=)`` the
     #: co-simulation engine runs (resolved there: physics imports no co-simulation); "": none
     cosim: str = ""
+    #: the model takes the paper's TMD (``TMDParams``, a scenario's ``tmd:`` block); False: the
+    #: structure carries its own absorber, scenario files give no ``tmd:`` block and the engines pass
+    #: a detached TMD that the unit does not read
+    takes_tmd: bool = True
+    #: its classes and cases in the Modelica package (None: it has no Modelica source)
+    modelica: ModelicaSource | None = None
 
     def check_state(self, structure: Any, z: NDArray[Any], what: str = "start state") -> NDArray[np.float64]:
         """z as a float array, refused with a one-line :class:`ModelError` unless it has the

@@ -17,7 +17,8 @@ from typing import TYPE_CHECKING, Any
 
 import yaml
 
-from ..physics.params import BaseParams, ParameterError, field_names
+from ..physics.params import BaseParams, ParameterError, TMDParams, field_names
+from ..physics.unit import ModelUnit
 from ..solvers import settings_table as _settings
 from ..solvers.steady import SettingsError
 from .framespec import attached, read_frame
@@ -40,6 +41,7 @@ from .schema import (
     SolverConfig,
     SweepConfig,
 )
+from .structspec import block_units, over_block, read_block
 from .tmdspec import TMDSpec, detached_tmd
 from .yamlio import load_marked
 
@@ -98,16 +100,20 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
         doc,
         "",
         1,
-        required=("schema_version", "name", "tmd", "frequencies", "studies"),
-        optional=("description", "sweep", "solver", "cosim", "base", "frame"),
+        required=("schema_version", "name", "frequencies", "studies"),
+        optional=("description", "sweep", "solver", "cosim", "tmd", *block_units()),
     )
-    if ("base" in doc) == ("frame" in doc):
+    blocks = [k for k in block_units() if k in doc]
+    if len(blocks) != 1:
         rd.fail(
             "",
             1,
-            "needs exactly one primary structure: a base: block (the paper's base oscillator) or a frame: block",
+            "needs exactly one primary structure, the block of a registered model: "
+            + ", ".join(f"{k}: ({u.description})" for k, u in block_units().items()),
             show_value=False,
         )
+    block = blocks[0]
+    unit = block_units()[block]
     version = doc["schema_version"]
     if isinstance(version, bool) or version not in READ_VERSIONS:
         rd.fail(
@@ -131,12 +137,15 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
     name = rd.string(doc, "name", "", pattern=_NAME_RE)
     description = rd.string(doc, "description", "", default="")
 
-    if "frame" in doc:
+    if block == "frame":
         base: Any = read_frame(rd, doc["frame"], line_of(doc, "frame"))
-    else:
+    elif block == "base":
         base = _base(rd, doc)
-    top = TMDSpec().over(rd, doc["tmd"], "tmd", line_of(doc, "tmd"))
-    tmd = top.build(rd, "tmd", line_of(doc, "tmd"))
+    else:
+        base = read_block(rd, unit, doc[block], block, line_of(doc, block))
+    _check_tmd_block(rd, doc, "", 1, unit, block, top_level=True)
+    top = TMDSpec().over(rd, doc["tmd"], "tmd", line_of(doc, "tmd")) if unit.takes_tmd else TMDSpec()
+    tmd = top.build(rd, "tmd", line_of(doc, "tmd")) if unit.takes_tmd else detached_tmd(TMDParams())
     base = attached(rd, base, top, "tmd", line_of(doc, "tmd"))
     omegas = rd.grid(doc["frequencies"], "frequencies", line_of(doc, "frequencies"), positive=True)
     sweep = _sweep(rd, doc.get("sweep", {}), line_of(doc, "sweep"))
@@ -146,7 +155,7 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
     studies_node = rd.sequence(doc["studies"], "studies", line_of(doc, "studies"))
     studies, names = [], set()
     for i, st in enumerate(studies_node):
-        s = _study(rd, st, f"studies[{i}]", line_of(studies_node, i), top, omegas, base)
+        s = _study(rd, st, f"studies[{i}]", line_of(studies_node, i), top, omegas, base, (block, unit))
         if s.name in names:
             rd.fail(f"studies[{i}].name", line_of(st, "name"), "duplicate study name", s.name)
         names.add(s.name)
@@ -165,6 +174,24 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
         cosim=cosim,
         raw=plain_data(doc),
     )
+
+
+def _check_tmd_block(
+    rd: Reader, node: MarkedDict, path: str, line: int | None, unit: ModelUnit, block: str, top_level: bool = False
+) -> None:
+    """A model that takes the paper's TMD needs the scenario's tmd: block; one that carries its own
+    absorber (``takes_tmd=False``) refuses tmd: anywhere (it would be ignored)."""
+    if unit.takes_tmd:
+        if top_level and "tmd" not in node:
+            rd.fail("tmd", line, f"missing required key (the TMD of model {unit.name!r})", show_value=False)
+    elif "tmd" in node:
+        rd.fail(
+            key_path(path, "tmd"),
+            line_of(node, "tmd"),
+            f"model {unit.name!r} carries its own absorber and takes no tmd: block; set its parameters in a "
+            f"{block}: block",
+            node["tmd"],
+        )
 
 
 def _base(rd: Reader, doc: MarkedDict) -> BaseParams:
@@ -263,7 +290,14 @@ _KIND_KEYS = {
 
 
 def _study(
-    rd: Reader, node: MarkedDict, path: str, line: int | None, top: TMDSpec, omegas: ndarray, base: Any
+    rd: Reader,
+    node: MarkedDict,
+    path: str,
+    line: int | None,
+    top: TMDSpec,
+    omegas: ndarray,
+    base: Any,
+    model: tuple[str, ModelUnit],
 ) -> FRCStudy | PhasePortraitStudy | MapStudy:
     if not isinstance(node, dict):
         rd.fail(path, line, "must be a mapping (a study)", node)
@@ -279,24 +313,32 @@ def _study(
     rd.mapping(node, path, line, required=("kind", "name") + req, optional=_COMMON[2:] + opt)
     name = rd.string(node, "name", path, pattern=_NAME_RE)
     title = rd.string(node, "title", path, default=name)
+    _check_tmd_block(rd, node, path, line, model[1], model[0])
     spec = top.over(rd, node["tmd"], key_path(path, "tmd"), line_of(node, "tmd")) if "tmd" in node else top
     if "frequencies" in node:
         omegas = rd.grid(
             node["frequencies"], key_path(path, "frequencies"), line_of(node, "frequencies"), positive=True
         )
     if kind == "frc":
-        curves = _curves(rd, node["curves"], key_path(path, "curves"), line_of(node, "curves"), spec, base)
+        curves = _curves(rd, node["curves"], key_path(path, "curves"), line_of(node, "curves"), spec, base, model)
         return FRCStudy(name=name, title=title, omegas=omegas, curves=curves)
     if kind == "phase_portrait":
         wp = key_path(path, "omegas")
         w = rd.grid(node["omegas"], wp, line_of(node, "omegas"), positive=True)
-        curves = _curves(rd, node["curves"], key_path(path, "curves"), line_of(node, "curves"), spec, base)
+        curves = _curves(rd, node["curves"], key_path(path, "curves"), line_of(node, "curves"), spec, base, model)
         n = rd.integer(node, "n_periods", path, minimum=1, maximum=1000, default=1)
         sp = rd.integer(node, "samples_per_period", path, minimum=8, maximum=100_000, default=400)
         return PhasePortraitStudy(
             name=name, title=title, omegas=tuple(float(x) for x in w), curves=curves, n_periods=n, samples_per_period=sp
         )
     # map
+    if not model[1].takes_tmd:
+        rd.fail(
+            key_path(path, "kind"),
+            line_of(node, "kind"),
+            f"a map sweeps a TMD parameter; model {model[1].name!r} takes no TMD",
+            kind,
+        )
     if attached(rd, base, spec, path, line) != base:
         rd.fail(key_path(path, "tmd"), line_of(node, "tmd"), "a map study keeps the scenario's attachment of the TMD")
     param = rd.string(node, "parameter", path, choices=MAP_PARAMETERS)
@@ -320,11 +362,36 @@ def _study(
     return MapStudy(name=name, title=title, parameter=param, values=values, omegas=omegas, tmds=tuple(tmds))
 
 
-def _curves(rd: Reader, node: MarkedList, path: str, line: int | None, spec: TMDSpec, base: Any) -> tuple[Curve, ...]:
+def _curves(
+    rd: Reader, node: MarkedList, path: str, line: int | None, spec: TMDSpec, base: Any, model: tuple[str, ModelUnit]
+) -> tuple[Curve, ...]:
     rd.sequence(node, path, line)
     out, labels = [], set()
+    block, unit = model
     for i, c in enumerate(node):
         p, ln = key_path(path, i), line_of(node, i)
+        if not unit.takes_tmd:  # the curve varies the structure's own block (its absorber)
+            _check_tmd_block(rd, c, p, ln, unit, block)
+            rd.mapping(
+                c,
+                p,
+                ln,
+                required=("label",),
+                optional=(block,),
+                hints={
+                    "without_tmd": f"model {unit.name!r} carries its own absorber: detach it in the curve's {block}: block"
+                },
+            )
+            label = rd.string(c, "label", p)
+            if label in labels:
+                rd.fail(key_path(p, "label"), line_of(c, "label"), "duplicate curve label", label)
+            labels.add(label)
+            structure = (
+                over_block(rd, unit, base, c[block], key_path(p, block), line_of(c, block)) if block in c else base
+            )
+            tmd = detached_tmd(TMDParams())  # not read by the unit
+            out.append(Curve(label=label, tmd=tmd, structure=None if structure == base else structure))
+            continue
         rd.mapping(c, p, ln, required=("label",), optional=("tmd", "without_tmd"))
         label = rd.string(c, "label", p)
         if label in labels:
