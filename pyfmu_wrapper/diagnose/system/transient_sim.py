@@ -9,9 +9,12 @@ reduced for the fit by averaging every ``q`` consecutive samples: FIT_RATE fit s
 the highest frequency that matters (the nominal's highest mode, or the frequency below which 99 % of
 the force's power lies, at most 4 times that mode), and FIT_MAX fit samples at most;
 the simulation is averaged over **the same sample instants**, so the reduction is matched exactly
-(no anti-alias approximation). The declared acquisition chain of each channel (analog low-pass,
-delay) is applied to the simulated channel as ``G(i w)`` in the frequency domain (linear and time
-invariant, so it commutes with the averaging); the fit skips the first ``settle`` seconds where
+(no anti-alias approximation). The declared analog low-pass of each channel runs **on the
+integration grid, before the block means** (its state space stepped exactly for an input linear
+between grid points): it acts on the continuous signal, as on the rig, so content above the fit rate
+(stick-slip, impulses) is filtered before the averaging folds it down, not after. The pure delay is
+applied at the fit rate as ``exp(-i w delay)`` in the frequency domain (linear and time invariant,
+so it commutes with the averaging); the fit skips the first ``settle`` seconds where
 the chain's own start-up (and the wrap of the discrete transform) lives: ``10 order / (2 pi
 cutoff) + delay``, at least one fit sample (the stated start rule).
 
@@ -32,6 +35,7 @@ import numpy as np
 
 from ..._jit import njit
 from ...physics.kernels import rhs_fext
+from ..acquisition import Chain
 
 if TYPE_CHECKING:
     from numpy import ndarray
@@ -49,11 +53,28 @@ STEPS_FORCE = 32.0
 
 @njit(cache=True, nogil=True)
 def _integrate(
-    p: ndarray, f: ndarray, h: float, n_sub: int, n_out: int, z0: ndarray, out: ndarray, cx: float, cy: float
+    p: ndarray,
+    f: ndarray,
+    h: float,
+    n_sub: int,
+    n_out: int,
+    z0: ndarray,
+    out: ndarray,
+    cx: float,
+    cy: float,
+    nord: ndarray,
+    phi: ndarray,
+    g1: ndarray,
+    g2: ndarray,
+    cc: ndarray,
+    dd: ndarray,
+    ee: ndarray,
 ) -> bool:
     """RK4 on the grid t_j = j h (force f[2 j] at every grid point, f[2 j + 1] at its midpoint); out[i] = the Simpson mean over
-    grid points i n_sub .. (i + 1) n_sub of (x, y, xdd - cx f, ydd - cy f): the mean over one fit block of the
-    positions and of the accelerations without the force's direct feed-through (cx, cy: :func:`feedthrough`).
+    grid points i n_sub .. (i + 1) n_sub of the channels u = (x, y, xdd - cx f, ydd - cy f) -- the positions and the
+    accelerations without the force's direct feed-through (cx, cy: :func:`feedthrough`) -- each run first through its
+    analog filter on the same grid (channel k of order nord[k] > 0, :func:`filter_grid`: s_{j+1} = phi s_j + g1 u_j +
+    g2 u_{j+1}, the exact first-order-hold step; output cc . s + dd u; started at rest for u_0, s_0 = ee u_0).
     Returns False when the state blows up (a candidate far outside its stable range)."""
     z = z0.copy()
     k1 = np.empty(6)
@@ -61,6 +82,12 @@ def _integrate(
     k3 = np.empty(6)
     k4 = np.empty(6)
     zt = np.empty(6)
+    u = np.empty(4)
+    u_prev = np.empty(4)
+    yv = np.empty(4)
+    nmax = phi.shape[1]
+    sf = np.zeros((4, nmax))
+    st = np.empty(nmax)
     out[:, :] = 0.0
     n_grid = n_out * n_sub
     inv = 1.0 / n_sub
@@ -69,20 +96,40 @@ def _integrate(
         rhs_fext(z, f0, p, k1)
         i = j // n_sub
         kk = j % n_sub
+        u[0] = z[0]
+        u[1] = z[2]
+        u[2] = k1[1] - cx * f0
+        u[3] = k1[3] - cy * f0
+        for c in range(4):
+            n = nord[c]
+            if n == 0:
+                yv[c] = u[c]
+                continue
+            if j == 0:
+                for a in range(n):
+                    sf[c, a] = ee[c, a] * u[c]
+            else:
+                for a in range(n):
+                    acc = g1[c, a] * u_prev[c] + g2[c, a] * u[c]
+                    for b in range(n):
+                        acc += phi[c, a, b] * sf[c, b]
+                    st[a] = acc
+                for a in range(n):
+                    sf[c, a] = st[a]
+            acc = dd[c] * u[c]
+            for a in range(n):
+                acc += cc[c, a] * sf[c, a]
+            yv[c] = acc
+        for c in range(4):
+            u_prev[c] = u[c]
         w = (1.0 if kk == 0 else (4.0 if kk % 2 else 2.0)) * inv / 3.0  # Simpson (n_sub even)
-        ax = k1[1] - cx * f0
-        ay = k1[3] - cy * f0
         if i < n_out:
-            out[i, 0] += w * z[0]
-            out[i, 1] += w * z[2]
-            out[i, 2] += w * ax
-            out[i, 3] += w * ay
+            for c in range(4):
+                out[i, c] += w * yv[c]
         if kk == 0 and i > 0:  # the block's closing end point
             w = inv / 3.0
-            out[i - 1, 0] += w * z[0]
-            out[i - 1, 1] += w * z[2]
-            out[i - 1, 2] += w * ax
-            out[i - 1, 3] += w * ay
+            for c in range(4):
+                out[i - 1, c] += w * yv[c]
         if j == n_grid:
             break
         f1 = f[2 * j + 2]
@@ -101,6 +148,56 @@ def _integrate(
         if not (abs(z[0]) < 1e6 and abs(z[2]) < 1e6):
             return False
     return True
+
+
+def filter_grid(chains: dict, h: float) -> tuple[ndarray, ...]:
+    """The analog filters of the channels x, y, xdd, ydd discretised exactly for an input linear
+    between grid points h apart (first-order hold): (nord, phi, g1, g2, cc, dd, ee) for
+    :func:`_integrate` (nord[k] = 0: no filter on channel k). The state space is the one of the
+    normalised prototype (cut-off 1 rad/s) scaled by w_c, so it is well conditioned at any cut-off;
+    phi = exp(A h), g1 + g2 = the step's input integral, g2 its ramp part, ee = -A^-1 B (at rest)."""
+    from scipy import signal
+    from scipy.linalg import expm
+
+    nmax = 1
+    specs: list[tuple[ndarray, ndarray, ndarray, float] | None] = []
+    for ch in CHANNELS:
+        c = chains.get(ch)
+        if c is None or c.type is None:
+            specs.append(None)
+            continue
+        proto = (
+            signal.butter(c.order, 1.0, btype="low", analog=True)
+            if c.type == "butterworth"
+            else signal.bessel(c.order, 1.0, btype="low", analog=True, norm="mag")
+        )
+        A, B, C, D = signal.tf2ss(*proto)
+        wc = 2 * math.pi * c.cutoff_hz
+        specs.append((wc * A, wc * B[:, 0], C[0], float(D[0, 0])))
+        nmax = max(nmax, A.shape[0])
+    nord = np.zeros(4, np.int64)
+    phi = np.zeros((4, nmax, nmax))
+    g1, g2, cc, ee = (np.zeros((4, nmax)) for _ in range(4))
+    dd = np.zeros(4)
+    for k, sp in enumerate(specs):
+        if sp is None:
+            continue
+        A, B, C, D = sp
+        n = A.shape[0]
+        big = np.zeros((n + 2, n + 2))
+        big[:n, :n] = A * h
+        big[:n, n] = B * h
+        big[n, n + 1] = 1.0
+        ex = expm(big)
+        gam0, gam1 = ex[:n, n], ex[:n, n + 1]  # int_0^h e^{A s} B ds, int_0^h e^{A (h - s)} B (s / h) ds
+        nord[k] = n
+        phi[k, :n, :n] = ex[:n, :n]
+        g1[k, :n] = gam0 - gam1
+        g2[k, :n] = gam1
+        cc[k, :n] = C
+        dd[k] = D
+        ee[k, :n] = -np.linalg.solve(A, B)
+    return nord, phi, g1, g2, cc, dd, ee
 
 
 @dataclass
@@ -235,15 +332,18 @@ def refinement(v: TView, p: ndarray) -> int:
     return n + (n % 2)
 
 
-def apply_chain(y: ndarray, fs: float, chains: dict, dt: float | None = None, cache: dict | None = None) -> ndarray:
+def apply_chain(
+    y: ndarray, fs: float, chains: dict, dt: float | None = None, cache: dict | None = None, filters: bool = True
+) -> ndarray:
     """Each simulated channel (columns of y: block means at the fit rate fs) through its declared chain
-    G(i w); with ``dt`` (the record's sample spacing, when blocks hold several samples) also from the
+    G(i w) (with ``filters`` False only its pure delay: the filter already ran on the integration
+    grid); with ``dt`` (the record's sample spacing, when blocks hold several samples) also from the
     continuous block mean to the mean of the block's samples: (w dt / 2) / sin(w dt / 2)."""
     out = y.copy()
     n = y.shape[0]
     lead = min(n, 256)  # the record's first value held before it (the chain at rest there, as on the rig)
     nf = 1 << int(math.ceil(math.log2(2 * n + 2 * lead)))
-    key = (nf, fs, dt)
+    key = (nf, fs, dt, filters)
     if cache is not None and cache.get("key") == key:
         gs = cache["g"]
     else:
@@ -255,6 +355,8 @@ def apply_chain(y: ndarray, fs: float, chains: dict, dt: float | None = None, ca
         gs = []
         for ch in CHANNELS:
             c = chains.get(ch)
+            if c is not None and not filters:
+                c = Chain(ch, delay_s=c.delay_s)
             g = None if c is None or (c.type is None and not c.delay_s) else c.response(w)
             if disc is not None:
                 g = disc if g is None else g * disc
@@ -336,17 +438,20 @@ def simulate(v: TView, p: ndarray, z0: ndarray | None = None, force_gain: float 
     force (times force_gain), through the declared chains; None when the simulation blows up."""
     n_sub = refinement(v, p)
     fc = v.fcache
+    h = v.dt * v.q / n_sub
     if fc.get("key") != n_sub:
         fc.update(key=n_sub, f=grid_force(v, n_sub))
+    if fc.get("filter_h") != h:
+        fc.update(filter_h=h, filt=filter_grid(v.chains, h))
     if "direct" not in fc:
         fc["direct"] = direct_force(v)
     f = fc["f"] if force_gain == 1.0 else force_gain * fc["f"]  # the force enters linearly
     cx, cy = feedthrough(p)
     out = np.empty((v.n_out, 4))
-    ok = _integrate(p, f, v.dt * v.q / n_sub, n_sub, v.n_out, v.z0 if z0 is None else z0, out, cx, cy)
+    ok = _integrate(p, f, h, n_sub, v.n_out, v.z0 if z0 is None else z0, out, cx, cy, *fc["filt"])
     if not ok or not np.all(np.isfinite(out)):
         return None
-    y = apply_chain(out, v.fs, v.chains, v.dt if v.q > 1 else None, v.gcache)
+    y = apply_chain(out, v.fs, v.chains, v.dt if v.q > 1 else None, v.gcache, filters=False)
     y[:, 2] += force_gain * cx * fc["direct"][:, 0]
     y[:, 3] += force_gain * cy * fc["direct"][:, 1]
     return y
