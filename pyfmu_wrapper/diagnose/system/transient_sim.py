@@ -222,6 +222,7 @@ class TView:
     fcache: dict = field(default_factory=dict)  #: the force on the last simulation grid
     gcache: dict = field(default_factory=dict)  #: the chains' responses on the fit-rate FFT grid
     raw_noise: dict = field(default_factory=dict)  #: channel -> noise std of one record sample
+    chi2_var: float = 1.0  #: var(chi2) / (2 n) of its whitened residual under the noise (:func:`chi2_variance_factor`)
     h_max: float = np.inf  #: longest RK4 step that resolves the force (STEPS_FORCE per period of its 99 % frequency)
 
     @property
@@ -484,20 +485,48 @@ def robust_noise(r: ndarray) -> float:
     return float(1.4826 * np.median(np.abs(d4 - np.median(d4))) / math.sqrt(70.0)) or float(np.std(d4)) or 1e-300
 
 
-def input_noise_response(v: TView, p: ndarray, seed: int = 0) -> ndarray:
-    """Std per channel (x, y, xdd, ydd) of the fit-block means of the nominal's response to white
-    noise of the force channel's measured std (the measured force is the simulation's input, so its
-    noise reaches every simulated channel: directly in the accelerations, through the structure in
-    all of them). Simulated once per record (zero start; the first 10 % discarded)."""
+def input_noise_series(v: TView, p: ndarray, seed: int = 0) -> ndarray | None:
+    """(n, 4) fit-block means of x, y, xdd, ydd of the nominal's response to white noise of the force
+    channel's measured std (the measured force is the simulation's input, so its noise reaches every
+    simulated channel: directly in the accelerations, through the structure in all of them), the
+    first 10 % discarded (zero start); None for a free decay or a noiseless force."""
     sf = v.raw_noise.get("force", 0.0)
     if v.free_decay or sf <= 0:
-        return np.zeros(4)
+        return None
     g, fc, z0 = v.force, v.fcache, v.z0
     v.force, v.fcache, v.z0 = np.random.default_rng(seed).normal(0.0, sf, g.size), {}, np.zeros(6)
     try:
         y = simulate(v, p)
     finally:
         v.force, v.fcache, v.z0 = g, fc, z0
-    if y is None:
-        return np.zeros(4)
-    return np.std(y[y.shape[0] // 10 :], axis=0)
+    return None if y is None else y[y.shape[0] // 10 :]
+
+
+def chi2_variance_factor(white: ndarray, y_in: ndarray | None) -> float:
+    """var(chi2) / (2 n) of the whitened residual of one record when it is pure noise: the white
+    sensor noise (std ``white[k]`` per channel of a fit sample; only the recorded channels) plus the
+    response ``y_in`` (n, channels) to the force's noise, which is correlated in time (it passes the
+    structure's resonances) and across channels. For a Gaussian vector of covariance S (unit
+    diagonal once whitened) var(chi2) = 2 tr(S^2); with S = diag(a) + B (a_k = white share, B the
+    input response's covariance) tr(S^2) / n = sum_k (a_k^2 + 2 a_k b_k) + sum_tau sum_kl
+    C_kl(tau)^2, the last by Parseval from Welch cross-spectra of y_in (segments of at most 4096
+    samples: they resolve a TMD resonance at the fit rates used; the squared estimate's bias 1 / n_seg
+    divided out). 1 when the noise is white."""
+    from scipy.signal import csd
+
+    k = white.size
+    if y_in is None or y_in.shape[0] < 64:
+        return 1.0
+    var_in = np.var(y_in, axis=0)
+    sig2 = white**2 + var_in
+    a, b = white**2 / sig2, var_in / sig2
+    u = (y_in - y_in.mean(axis=0)) / np.sqrt(sig2)
+    nper = min(u.shape[0], 4096)
+    tot = float(np.sum(a**2 + 2 * a * b))
+    n_seg = 1 + max(0, (u.shape[0] - nper) // (nper // 2))  # Welch's averages: E|S^|^2 = |S|^2 (1 + 1 / n_seg)
+    for i in range(k):
+        for j in range(k):
+            _, s = csd(u[:, i], u[:, j], fs=1.0, nperseg=nper, scaling="density", detrend=False)
+            # one-sided density (2 x the two-sided away from 0 and 1/2): sum_tau C^2 = int_-1/2^1/2 |S2|^2 df
+            tot += float(0.5 * np.sum(np.abs(s) ** 2) / nper) / (1.0 + 1.0 / n_seg)
+    return max(1.0, tot / k)
