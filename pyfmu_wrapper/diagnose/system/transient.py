@@ -69,12 +69,14 @@ class TransientDiagnosis:
         self.p_nom = pack(BaseParams(**ds.nominal["base"]), TMDParams(**ds.nominal["tmd"]))
         f_mode = fastest_rate(self.p_nom) / (2 * math.pi)
         views = [make_view(r, ds.acquisition, f_mode) for r in recs]
-        # start of the stated rules: a force sampled without an anti-alias filter and with power up to
-        # Nyquist (a 4 ms hammer impulse at 256-500 Hz spans 1-2 samples) does not determine its
-        # impulse: the record is not used, and the verdict says so
+        # start of the stated rules: a force whose sampling aliased it (power up to Nyquist that no
+        # declared anti-alias filter removed: a 4 ms hammer impulse at 256-500 Hz spans 1-2 samples)
+        # does not determine its impulse: the record is not used, and the verdict says so
+        filt = ds.acquisition.get("force") is not None and ds.acquisition["force"].type is not None
         self.skipped = [
-            f"{v.name}: not used, the force has {100 * v.aliased:.2g} % of its power above 0.8 x Nyquist and no "
-            f"declared anti-alias filter (an impulse spans too few samples to know its area)"
+            f"{v.name}: not used, about {100 * v.aliased:.2g} % of the force's power is aliased (its power above "
+            f"0.8 x Nyquist, {'through the declared anti-alias filter at the mirror frequencies' if filt else 'no declared anti-alias filter'})"
+            ": an impulse spans too few samples to know its area"
             for v in views
             if v.aliased > ALIASED_MAX
         ]

@@ -216,7 +216,10 @@ class TView:
     chains: dict  #: channel -> acquisition.Chain
     sigma: ndarray = field(default_factory=lambda: np.ones(4))  #: noise std per channel of a fit sample
     free_decay: bool = False
-    aliased: float = 0.0  #: share of the force's power above 0.8 x Nyquist without an anti-alias filter
+    #: share of the force's power aliased by the sampling, estimated from the measured power above
+    #: 0.8 x Nyquist: the true force there (the declared filter's gain divided out) assumed no weaker
+    #: at the mirror frequencies fs - f, through the filter's gain there (1 without a filter)
+    aliased: float = 0.0
     z0: ndarray = field(default_factory=lambda: np.zeros(6))  #: start state of the simulation
     phi: ndarray | None = None  #: (n_out, 4, 4) response to unit start states (x, xd, y, yd)
     fcache: dict = field(default_factory=dict)  #: the force on the last simulation grid
@@ -250,8 +253,14 @@ def make_view(rec: Record, chains: dict, f_mode: float) -> TView:
         fr = np.fft.rfftfreq(n, dt)
         cum = np.cumsum(P) / max(P.sum(), 1e-300)
         f99 = float(fr[min(int(np.searchsorted(cum, 0.99)), fr.size - 1)])
-        if chains.get("force") is None or chains["force"].type is None:  # no anti-alias filter on the force
-            aliased = float(P[fr > 0.8 * fr[-1]].sum() / max(P.sum(), 1e-300))
+        hi = fr > 0.8 * fr[-1]
+        cf = chains.get("force")
+        mirror = np.ones(int(hi.sum()))
+        if cf is not None and cf.type is not None:  # the filter's gain at the mirror frequencies fs - f
+            mirror = np.abs(cf.response(2 * math.pi * (1.0 / dt - fr[hi]))) / np.maximum(
+                np.abs(cf.response(2 * math.pi * fr[hi])), 1e-12
+            )
+        aliased = float((P[hi] * mirror**2).sum() / max(P.sum(), 1e-300))
         f_top = min(max(f_mode, f99), 4 * f_mode)
     q = max(1, int(1.0 / (dt * FIT_RATE * f_top)), math.ceil(n / FIT_MAX))
     n_out = n // q
@@ -398,22 +407,46 @@ def true_force(v: TView) -> ndarray:
     return f
 
 
+def _same_filter(a: Chain | None, b: Chain | None) -> bool:
+    """The two chains hold the same analog low-pass (or neither has one)."""
+    fa = None if a is None or a.type is None else (a.type, a.order, a.cutoff_hz)
+    fb = None if b is None or b.type is None else (b.type, b.order, b.cutoff_hz)
+    return fa == fb
+
+
 def direct_force(v: TView) -> ndarray:
-    """(n_out, 2): the true force through the xdd and the ydd channel's chains **at the record's own
-    rate**, averaged over each fit block's samples: the accelerations' direct feed-through term
-    exactly as the record measured it. A hammer impulse (4 ms) lives far above the fit rate, where
-    the fit-rate chain would alias it; the rest of the accelerations is smooth."""
-    f = true_force(v)[: v.n_out * v.q]
-    lead = min(f.size, 256)  # the first value held before the record (the chain at rest), as apply_chain
-    nf = 1 << int(math.ceil(math.log2(2 * f.size + 2 * lead)))
+    """(n_out, 2): the force's direct feed-through into the xdd and the ydd channel (per unit of
+    d acc / dF) **at the record's own rate**, averaged over each fit block's samples: the measured
+    force through G_acc / G_force. Where the acceleration and the force channel hold the same
+    analog filter (``all``), the filters cancel exactly and only the delays' difference is applied:
+    the accelerometer sampled that very filtered force, aliasing and averaging on reading included,
+    so the term is exact however short the impulse. Otherwise the true force (the force's chain
+    divided out in its pass band, :func:`true_force`) runs through the acceleration's chain. A hammer
+    impulse (4 ms) lives far above the fit rate, where the fit-rate chain would alias it; the rest of
+    the accelerations is smooth."""
+    cf = v.chains.get("force")
+    n = v.n_out * v.q
+    lead = min(n, 256)  # the first value held before the record (the chain at rest), as apply_chain
+    nf = 1 << int(math.ceil(math.log2(2 * n + 2 * lead)))
     w = 2 * math.pi * np.fft.rfftfreq(nf, v.dt)
-    spec = np.fft.rfft(np.concatenate([np.full(lead, f[0]), f, np.full(nf - f.size - lead, f[-1])]))
+    specs: dict[bool, ndarray] = {}
+
+    def spec(measured: bool) -> ndarray:
+        if measured not in specs:
+            f = (v.force if measured else true_force(v))[:n]
+            specs[measured] = np.fft.rfft(np.concatenate([np.full(lead, f[0]), f, np.full(nf - n - lead, f[-1])]))
+        return specs[measured]
+
     out = np.empty((v.n_out, 2))
     for k, ch in enumerate(("xdd", "ydd")):
         c = v.chains.get(ch)
-        u = f
-        if c is not None and (c.type is not None or c.delay_s):
-            u = np.fft.irfft(spec * c.response(w), nf)[lead : lead + f.size]
+        if cf is not None and cf.type is not None and _same_filter(c, cf):
+            d = (c.delay_s if c is not None else 0.0) - cf.delay_s
+            u = np.fft.irfft(spec(True) * np.exp(-1j * w * d), nf)[lead : lead + n] if d else v.force[:n]
+        elif c is not None and (c.type is not None or c.delay_s):
+            u = np.fft.irfft(spec(False) * c.response(w), nf)[lead : lead + n]
+        else:
+            u = true_force(v)[:n]
         out[:, k] = u.reshape(v.n_out, v.q).mean(axis=1)
     return out
 
