@@ -29,8 +29,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .transient_effects import BOUNDS, TEFFECTS, apply, meaningless, scales
 from .transient_effects import LABELS as T_LABELS
-from .transient_effects import TEFFECTS, apply, meaningless, scales
 from .transient_fit import TFit, chi2_of, fit, start_update, z_test
 from .transient_screen import NONLINEAR, screen
 from .transient_sim import CHANNELS, chi2_variance_factor, input_noise_series, make_view, start_responses
@@ -130,9 +130,15 @@ class TransientDiagnosis:
             out.remove("force_error")  # no force: nothing to scale
         return out
 
-    def _fit(self, effects: tuple[str, ...], train: list[ndarray], test: list[ndarray] | None) -> TFit:
+    def _fit(
+        self, effects: tuple[str, ...], train: list[ndarray], test: list[ndarray] | None, init: ndarray | None = None
+    ) -> TFit:
+        """Fit ``effects``; ``init``: a start (SI, every parameter) to begin from instead of the default."""
         starts = None
-        if "play" in effects:
+        if init is not None and "play" not in effects:
+            scale = np.array([s for e in effects for s in self.sc[e]], float)
+            starts = [init / scale]
+        elif "play" in effects:
             k = list(effects).index("play")
             starts = []
             for g in (0.1, 1.0, 10.0):  # gap 1e-5, 1e-4, 1e-3 m
@@ -183,8 +189,20 @@ class TransientDiagnosis:
             lin, _ = screen(
                 self, [e for e in self.candidates() if e not in NONLINEAR], tr, (first.effects, first.theta)
             )
+            alone = {g.effects[0]: g.theta for g in singles}
             for second in (nl + lin[: max(PAIR_TRIES - len(nl), 2)])[: PAIR_TRIES + 1]:
-                f = self._fit((first.effects[0], second), tr, te)
+                # started from the first's fitted parameters and the second's own fit (else its default
+                # start): from the defaults a pair with friction stopped in a local minimum (field tr042,
+                # friction + tmd_stiffness left z 12539; from the singles' values z -0.9)
+                th2 = alone.get(second)
+                if th2 is None:
+                    th2 = np.array(
+                        [
+                            self.sc[second][j] if np.isfinite(BOUNDS.get(f"{second}.{n}", (-np.inf,))[0]) else 0.0
+                            for j, n in enumerate(TEFFECTS[second][0])
+                        ]
+                    )
+                f = self._fit((first.effects[0], second), tr, te, init=np.concatenate([first.theta, th2]))
                 row = self._row(f, ex0)
                 res["candidates"].append(row)
                 if not f.ok:
