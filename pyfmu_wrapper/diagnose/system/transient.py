@@ -29,11 +29,11 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .transient_effects import BOUNDS, TEFFECTS, apply, meaningless, scales
 from .transient_effects import LABELS as T_LABELS
-from .transient_effects import TEFFECTS, apply, meaningless, scales
-from .transient_fit import TFit, chi2_of, fit, start_update, z_of
+from .transient_fit import TFit, chi2_of, fit, start_update, z_test
 from .transient_screen import NONLINEAR, screen
-from .transient_sim import CHANNELS, input_noise_response, make_view, start_responses
+from .transient_sim import CHANNELS, chi2_variance_factor, input_noise_series, make_view, start_responses
 from .transient_where import SEGMENTS, where
 
 if TYPE_CHECKING:
@@ -69,12 +69,14 @@ class TransientDiagnosis:
         self.p_nom = pack(BaseParams(**ds.nominal["base"]), TMDParams(**ds.nominal["tmd"]))
         f_mode = fastest_rate(self.p_nom) / (2 * math.pi)
         views = [make_view(r, ds.acquisition, f_mode) for r in recs]
-        # start of the stated rules: a force sampled without an anti-alias filter and with power up to
-        # Nyquist (a 4 ms hammer impulse at 256-500 Hz spans 1-2 samples) does not determine its
-        # impulse: the record is not used, and the verdict says so
+        # start of the stated rules: a force whose sampling aliased it (power up to Nyquist that no
+        # declared anti-alias filter removed: a 4 ms hammer impulse at 256-500 Hz spans 1-2 samples)
+        # does not determine its impulse: the record is not used, and the verdict says so
+        filt = ds.acquisition.get("force") is not None and ds.acquisition["force"].type is not None
         self.skipped = [
-            f"{v.name}: not used, the force has {100 * v.aliased:.2g} % of its power above 0.8 x Nyquist and no "
-            f"declared anti-alias filter (an impulse spans too few samples to know its area)"
+            f"{v.name}: not used, about {100 * v.aliased:.2g} % of the force's power is aliased (its power above "
+            f"0.8 x Nyquist, {'through the declared anti-alias filter at the mirror frequencies' if filt else 'no declared anti-alias filter'})"
+            ": an impulse spans too few samples to know its area"
             for v in views
             if v.aliased > ALIASED_MAX
         ]
@@ -101,7 +103,8 @@ class TransientDiagnosis:
     def prepare(self) -> None:
         """Start states under the nominal, and the noise of every channel of every fit sample: the
         sensor's own (raw noise / sqrt(q)) and the response of the nominal to the force channel's
-        noise, which drives the simulation (errors in the input: :func:`input_noise_response`)."""
+        noise, which drives the simulation (errors in the input: :func:`input_noise_series`; its correlation in time widens the
+        chi-square's spread: :func:`chi2_variance_factor`)."""
         allm = self._masks(None)
         nom = apply(self.p_nom, (), np.zeros(0))
         assert not isinstance(nom, str)
@@ -109,12 +112,11 @@ class TransientDiagnosis:
             v.phi = start_responses(v, self.p_nom)
             for _ in range(2):
                 start_update(v, nom, m)
-            v.sigma = np.array(
-                [
-                    math.hypot(v.raw_noise[c] / math.sqrt(v.q), s_in) if v.has[k] else 1.0
-                    for k, (c, s_in) in enumerate(zip(CHANNELS, input_noise_response(v, self.p_nom)))
-                ]
-            )
+            y_in = input_noise_series(v, self.p_nom)
+            s_in = np.zeros(4) if y_in is None else np.std(y_in, axis=0)
+            white = np.array([v.raw_noise[c] / math.sqrt(v.q) if v.has[k] else 1.0 for k, c in enumerate(CHANNELS)])
+            v.sigma = np.where(v.has, np.hypot(white, s_in), 1.0)
+            v.chi2_var = chi2_variance_factor(white[v.has], None if y_in is None else y_in[:, v.has])
         xs = [np.nanstd(v.meas[:, 0]) for v in self.views if v.has[0]]
         self.xscale = float(np.mean(xs)) if xs else 1e-3
         strokes = [np.nanstd(v.meas[:, 0] - v.meas[:, 1]) * 2 for v in self.views if v.has[0] and v.has[1]]
@@ -128,9 +130,15 @@ class TransientDiagnosis:
             out.remove("force_error")  # no force: nothing to scale
         return out
 
-    def _fit(self, effects: tuple[str, ...], train: list[ndarray], test: list[ndarray] | None) -> TFit:
+    def _fit(
+        self, effects: tuple[str, ...], train: list[ndarray], test: list[ndarray] | None, init: ndarray | None = None
+    ) -> TFit:
+        """Fit ``effects``; ``init``: a start (SI, every parameter) to begin from instead of the default."""
         starts = None
-        if "play" in effects:
+        if init is not None and "play" not in effects:
+            scale = np.array([s for e in effects for s in self.sc[e]], float)
+            starts = [init / scale]
+        elif "play" in effects:
             k = list(effects).index("play")
             starts = []
             for g in (0.1, 1.0, 10.0):  # gap 1e-5, 1e-4, 1e-3 m
@@ -145,7 +153,7 @@ class TransientDiagnosis:
         tr, te = self._masks(False), self._masks(True)
         nom = self._fit((), tr, te)
         self.nominal_resid = nom.resid
-        z0 = z_of(nom.chi2["test"], nom.chi2["dof_test"])
+        z0 = z_test(nom)
         ex0 = nom.chi2["test"] - nom.chi2["dof_test"]
         res: dict[str, Any] = {"nominal": {"z": z0, **nom.chi2}, "candidates": []}
         if z0 <= EXPLAINS_Z:
@@ -167,7 +175,7 @@ class TransientDiagnosis:
             if f.ok:
                 singles.append(f)
         singles.sort(key=lambda f: f.chi2["test"])
-        passing = [f for f in singles if z_of(f.chi2["test"], f.chi2["dof_test"]) <= EXPLAINS_Z]
+        passing = [f for f in singles if z_test(f) <= EXPLAINS_Z]
         if passing:
             return self._result(res, nom, passing[0], passing[1:], "single")
         pairs = []
@@ -181,8 +189,20 @@ class TransientDiagnosis:
             lin, _ = screen(
                 self, [e for e in self.candidates() if e not in NONLINEAR], tr, (first.effects, first.theta)
             )
+            alone = {g.effects[0]: g.theta for g in singles}
             for second in (nl + lin[: max(PAIR_TRIES - len(nl), 2)])[: PAIR_TRIES + 1]:
-                f = self._fit((first.effects[0], second), tr, te)
+                # started from the first's fitted parameters and the second's own fit (else its default
+                # start): from the defaults a pair with friction stopped in a local minimum (field tr042,
+                # friction + tmd_stiffness left z 12539; from the singles' values z -0.9)
+                th2 = alone.get(second)
+                if th2 is None:
+                    th2 = np.array(
+                        [
+                            self.sc[second][j] if np.isfinite(BOUNDS.get(f"{second}.{n}", (-np.inf,))[0]) else 0.0
+                            for j, n in enumerate(TEFFECTS[second][0])
+                        ]
+                    )
+                f = self._fit((first.effects[0], second), tr, te, init=np.concatenate([first.theta, th2]))
                 row = self._row(f, ex0)
                 res["candidates"].append(row)
                 if not f.ok:
@@ -196,7 +216,7 @@ class TransientDiagnosis:
                     signif = False
                 closes = 1 - ex2 / ex1 if ex1 > 0 else 0.0
                 row.update(second_closes=closes, second_significant=signif)
-                if z_of(f.chi2["test"], f.chi2["dof_test"]) <= EXPLAINS_Z and closes >= PAIR_SHARE and signif:
+                if z_test(f) <= EXPLAINS_Z and closes >= PAIR_SHARE and signif:
                     pairs.append(f)
             pairs.sort(key=lambda f: f.chi2["test"])
         if pairs:
@@ -208,7 +228,7 @@ class TransientDiagnosis:
         if f.ok:
             ex = f.chi2["test"] - f.chi2["dof_test"]
             row.update(
-                z=z_of(f.chi2["test"], f.chi2["dof_test"]),
+                z=z_test(f),
                 gap_closed=1 - ex / ex0 if ex0 > 0 else None,
                 params=self._params(f),
             )
@@ -300,13 +320,13 @@ class TransientDiagnosis:
         n_ex = nom.chi2["test"] - nom.chi2["dof_test"]
         ref = best if best is not None else nom
         ex = ref.chi2["test"] - ref.chi2["dof_test"]
-        z_after = z_of(ref.chi2["test"], ref.chi2["dof_test"])
+        z_after = z_test(ref)
         res["held_out"] = {
             "by_segment": {
                 "chi2_before": nom.chi2["test"],
                 "chi2_after": ref.chi2["test"],
                 "dof": nom.chi2["dof_test"],
-                "z_before": z_of(nom.chi2["test"], nom.chi2["dof_test"]),
+                "z_before": z_test(nom),
                 "z_after": z_after,
                 "gap_closed": 1 - ex / n_ex if n_ex > 0 else None,
             },

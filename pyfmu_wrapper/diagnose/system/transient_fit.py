@@ -97,6 +97,12 @@ def chi2_of(views: list[TView], full: list[ndarray], masks: list[ndarray]) -> tu
     return s, n
 
 
+def chi2_var_of(views: list[TView], masks: list[ndarray]) -> float:
+    """var of the chi-square on the masked samples when the residual is pure noise: 2 n per record
+    times its factor for the noise's correlation (:func:`.transient_sim.chi2_variance_factor`)."""
+    return float(sum(2.0 * int(v.has.sum()) * int(m.sum()) * v.chi2_var for v, m in zip(views, masks)))
+
+
 def fit(
     views: list[TView],
     p_nom: ndarray,
@@ -282,10 +288,17 @@ def _finish(
     f = TFit(effects, theta, std, chi2={"train": c_tr, "dof_train": n_tr}, resid=full)
     if test is not None:
         c_te, n_te = chi2_of(views, full, test)
-        f.chi2.update(test=c_te, dof_test=n_te)
+        f.chi2.update(test=c_te, dof_test=n_te, var_test=chi2_var_of(views, test))
     return f
 
 
-def z_of(chi2: float, dof: int) -> float:
-    """(chi2 - dof) / sqrt(2 dof): the chi-square's distance from the noise in std."""
-    return (chi2 - dof) / math.sqrt(2.0 * max(dof, 1))
+def z_of(chi2: float, dof: int, var: float | None = None) -> float:
+    """(chi2 - dof) / std: the chi-square's distance from the noise in std (std = sqrt(var), by
+    default sqrt(2 dof), the one of independent samples)."""
+    return (chi2 - dof) / math.sqrt(max(2.0 * dof if var is None else var, 1.0))
+
+
+def z_test(f: TFit) -> float:
+    """The held-out z of a fit: its test chi-square against the noise, the noise's correlation
+    accounted for (``var_test``)."""
+    return z_of(f.chi2["test"], f.chi2["dof_test"], f.chi2.get("var_test"))

@@ -9,9 +9,12 @@ reduced for the fit by averaging every ``q`` consecutive samples: FIT_RATE fit s
 the highest frequency that matters (the nominal's highest mode, or the frequency below which 99 % of
 the force's power lies, at most 4 times that mode), and FIT_MAX fit samples at most;
 the simulation is averaged over **the same sample instants**, so the reduction is matched exactly
-(no anti-alias approximation). The declared acquisition chain of each channel (analog low-pass,
-delay) is applied to the simulated channel as ``G(i w)`` in the frequency domain (linear and time
-invariant, so it commutes with the averaging); the fit skips the first ``settle`` seconds where
+(no anti-alias approximation). The declared analog low-pass of each channel runs **on the
+integration grid, before the block means** (its state space stepped exactly for an input linear
+between grid points): it acts on the continuous signal, as on the rig, so content above the fit rate
+(stick-slip, impulses) is filtered before the averaging folds it down, not after. The pure delay is
+applied at the fit rate as ``exp(-i w delay)`` in the frequency domain (linear and time invariant,
+so it commutes with the averaging); the fit skips the first ``settle`` seconds where
 the chain's own start-up (and the wrap of the discrete transform) lives: ``10 order / (2 pi
 cutoff) + delay``, at least one fit sample (the stated start rule).
 
@@ -32,6 +35,7 @@ import numpy as np
 
 from ..._jit import njit
 from ...physics.kernels import rhs_fext
+from ..acquisition import Chain
 
 if TYPE_CHECKING:
     from numpy import ndarray
@@ -49,11 +53,28 @@ STEPS_FORCE = 32.0
 
 @njit(cache=True, nogil=True)
 def _integrate(
-    p: ndarray, f: ndarray, h: float, n_sub: int, n_out: int, z0: ndarray, out: ndarray, cx: float, cy: float
+    p: ndarray,
+    f: ndarray,
+    h: float,
+    n_sub: int,
+    n_out: int,
+    z0: ndarray,
+    out: ndarray,
+    cx: float,
+    cy: float,
+    nord: ndarray,
+    phi: ndarray,
+    g1: ndarray,
+    g2: ndarray,
+    cc: ndarray,
+    dd: ndarray,
+    ee: ndarray,
 ) -> bool:
     """RK4 on the grid t_j = j h (force f[2 j] at every grid point, f[2 j + 1] at its midpoint); out[i] = the Simpson mean over
-    grid points i n_sub .. (i + 1) n_sub of (x, y, xdd - cx f, ydd - cy f): the mean over one fit block of the
-    positions and of the accelerations without the force's direct feed-through (cx, cy: :func:`feedthrough`).
+    grid points i n_sub .. (i + 1) n_sub of the channels u = (x, y, xdd - cx f, ydd - cy f) -- the positions and the
+    accelerations without the force's direct feed-through (cx, cy: :func:`feedthrough`) -- each run first through its
+    analog filter on the same grid (channel k of order nord[k] > 0, :func:`filter_grid`: s_{j+1} = phi s_j + g1 u_j +
+    g2 u_{j+1}, the exact first-order-hold step; output cc . s + dd u; started at rest for u_0, s_0 = ee u_0).
     Returns False when the state blows up (a candidate far outside its stable range)."""
     z = z0.copy()
     k1 = np.empty(6)
@@ -61,6 +82,12 @@ def _integrate(
     k3 = np.empty(6)
     k4 = np.empty(6)
     zt = np.empty(6)
+    u = np.empty(4)
+    u_prev = np.empty(4)
+    yv = np.empty(4)
+    nmax = phi.shape[1]
+    sf = np.zeros((4, nmax))
+    st = np.empty(nmax)
     out[:, :] = 0.0
     n_grid = n_out * n_sub
     inv = 1.0 / n_sub
@@ -69,20 +96,40 @@ def _integrate(
         rhs_fext(z, f0, p, k1)
         i = j // n_sub
         kk = j % n_sub
+        u[0] = z[0]
+        u[1] = z[2]
+        u[2] = k1[1] - cx * f0
+        u[3] = k1[3] - cy * f0
+        for c in range(4):
+            n = nord[c]
+            if n == 0:
+                yv[c] = u[c]
+                continue
+            if j == 0:
+                for a in range(n):
+                    sf[c, a] = ee[c, a] * u[c]
+            else:
+                for a in range(n):
+                    acc = g1[c, a] * u_prev[c] + g2[c, a] * u[c]
+                    for b in range(n):
+                        acc += phi[c, a, b] * sf[c, b]
+                    st[a] = acc
+                for a in range(n):
+                    sf[c, a] = st[a]
+            acc = dd[c] * u[c]
+            for a in range(n):
+                acc += cc[c, a] * sf[c, a]
+            yv[c] = acc
+        for c in range(4):
+            u_prev[c] = u[c]
         w = (1.0 if kk == 0 else (4.0 if kk % 2 else 2.0)) * inv / 3.0  # Simpson (n_sub even)
-        ax = k1[1] - cx * f0
-        ay = k1[3] - cy * f0
         if i < n_out:
-            out[i, 0] += w * z[0]
-            out[i, 1] += w * z[2]
-            out[i, 2] += w * ax
-            out[i, 3] += w * ay
+            for c in range(4):
+                out[i, c] += w * yv[c]
         if kk == 0 and i > 0:  # the block's closing end point
             w = inv / 3.0
-            out[i - 1, 0] += w * z[0]
-            out[i - 1, 1] += w * z[2]
-            out[i - 1, 2] += w * ax
-            out[i - 1, 3] += w * ay
+            for c in range(4):
+                out[i - 1, c] += w * yv[c]
         if j == n_grid:
             break
         f1 = f[2 * j + 2]
@@ -103,6 +150,56 @@ def _integrate(
     return True
 
 
+def filter_grid(chains: dict, h: float) -> tuple[ndarray, ...]:
+    """The analog filters of the channels x, y, xdd, ydd discretised exactly for an input linear
+    between grid points h apart (first-order hold): (nord, phi, g1, g2, cc, dd, ee) for
+    :func:`_integrate` (nord[k] = 0: no filter on channel k). The state space is the one of the
+    normalised prototype (cut-off 1 rad/s) scaled by w_c, so it is well conditioned at any cut-off;
+    phi = exp(A h), g1 + g2 = the step's input integral, g2 its ramp part, ee = -A^-1 B (at rest)."""
+    from scipy import signal
+    from scipy.linalg import expm
+
+    nmax = 1
+    specs: list[tuple[ndarray, ndarray, ndarray, float] | None] = []
+    for ch in CHANNELS:
+        c = chains.get(ch)
+        if c is None or c.type is None:
+            specs.append(None)
+            continue
+        proto = (
+            signal.butter(c.order, 1.0, btype="low", analog=True)
+            if c.type == "butterworth"
+            else signal.bessel(c.order, 1.0, btype="low", analog=True, norm="mag")
+        )
+        A, B, C, D = signal.tf2ss(*proto)
+        wc = 2 * math.pi * c.cutoff_hz
+        specs.append((wc * A, wc * B[:, 0], C[0], float(D[0, 0])))
+        nmax = max(nmax, A.shape[0])
+    nord = np.zeros(4, np.int64)
+    phi = np.zeros((4, nmax, nmax))
+    g1, g2, cc, ee = (np.zeros((4, nmax)) for _ in range(4))
+    dd = np.zeros(4)
+    for k, sp in enumerate(specs):
+        if sp is None:
+            continue
+        A, B, C, D = sp
+        n = A.shape[0]
+        big = np.zeros((n + 2, n + 2))
+        big[:n, :n] = A * h
+        big[:n, n] = B * h
+        big[n, n + 1] = 1.0
+        ex = expm(big)
+        gam0, gam1 = ex[:n, n], ex[:n, n + 1]  # int_0^h e^{A s} B ds, int_0^h e^{A (h - s)} B (s / h) ds
+        nord[k] = n
+        phi[k, :n, :n] = ex[:n, :n]
+        g1[k, :n] = gam0 - gam1
+        g2[k, :n] = gam1
+        cc[k, :n] = C
+        dd[k] = D
+        ee[k, :n] = -np.linalg.solve(A, B)
+    return nord, phi, g1, g2, cc, dd, ee
+
+
 @dataclass
 class TView:
     """One transient record prepared for the fit."""
@@ -119,12 +216,16 @@ class TView:
     chains: dict  #: channel -> acquisition.Chain
     sigma: ndarray = field(default_factory=lambda: np.ones(4))  #: noise std per channel of a fit sample
     free_decay: bool = False
-    aliased: float = 0.0  #: share of the force's power above 0.8 x Nyquist without an anti-alias filter
+    #: share of the force's power aliased by the sampling, estimated from the measured power above
+    #: 0.8 x Nyquist: the true force there (the declared filter's gain divided out) assumed no weaker
+    #: at the mirror frequencies fs - f, through the filter's gain there (1 without a filter)
+    aliased: float = 0.0
     z0: ndarray = field(default_factory=lambda: np.zeros(6))  #: start state of the simulation
     phi: ndarray | None = None  #: (n_out, 4, 4) response to unit start states (x, xd, y, yd)
     fcache: dict = field(default_factory=dict)  #: the force on the last simulation grid
     gcache: dict = field(default_factory=dict)  #: the chains' responses on the fit-rate FFT grid
     raw_noise: dict = field(default_factory=dict)  #: channel -> noise std of one record sample
+    chi2_var: float = 1.0  #: var(chi2) / (2 n) of its whitened residual under the noise (:func:`chi2_variance_factor`)
     h_max: float = np.inf  #: longest RK4 step that resolves the force (STEPS_FORCE per period of its 99 % frequency)
 
     @property
@@ -152,8 +253,14 @@ def make_view(rec: Record, chains: dict, f_mode: float) -> TView:
         fr = np.fft.rfftfreq(n, dt)
         cum = np.cumsum(P) / max(P.sum(), 1e-300)
         f99 = float(fr[min(int(np.searchsorted(cum, 0.99)), fr.size - 1)])
-        if chains.get("force") is None or chains["force"].type is None:  # no anti-alias filter on the force
-            aliased = float(P[fr > 0.8 * fr[-1]].sum() / max(P.sum(), 1e-300))
+        hi = fr > 0.8 * fr[-1]
+        cf = chains.get("force")
+        mirror = np.ones(int(hi.sum()))
+        if cf is not None and cf.type is not None:  # the filter's gain at the mirror frequencies fs - f
+            mirror = np.abs(cf.response(2 * math.pi * (1.0 / dt - fr[hi]))) / np.maximum(
+                np.abs(cf.response(2 * math.pi * fr[hi])), 1e-12
+            )
+        aliased = float((P[hi] * mirror**2).sum() / max(P.sum(), 1e-300))
         f_top = min(max(f_mode, f99), 4 * f_mode)
     q = max(1, int(1.0 / (dt * FIT_RATE * f_top)), math.ceil(n / FIT_MAX))
     n_out = n // q
@@ -235,15 +342,18 @@ def refinement(v: TView, p: ndarray) -> int:
     return n + (n % 2)
 
 
-def apply_chain(y: ndarray, fs: float, chains: dict, dt: float | None = None, cache: dict | None = None) -> ndarray:
+def apply_chain(
+    y: ndarray, fs: float, chains: dict, dt: float | None = None, cache: dict | None = None, filters: bool = True
+) -> ndarray:
     """Each simulated channel (columns of y: block means at the fit rate fs) through its declared chain
-    G(i w); with ``dt`` (the record's sample spacing, when blocks hold several samples) also from the
+    G(i w) (with ``filters`` False only its pure delay: the filter already ran on the integration
+    grid); with ``dt`` (the record's sample spacing, when blocks hold several samples) also from the
     continuous block mean to the mean of the block's samples: (w dt / 2) / sin(w dt / 2)."""
     out = y.copy()
     n = y.shape[0]
     lead = min(n, 256)  # the record's first value held before it (the chain at rest there, as on the rig)
     nf = 1 << int(math.ceil(math.log2(2 * n + 2 * lead)))
-    key = (nf, fs, dt)
+    key = (nf, fs, dt, filters)
     if cache is not None and cache.get("key") == key:
         gs = cache["g"]
     else:
@@ -255,6 +365,8 @@ def apply_chain(y: ndarray, fs: float, chains: dict, dt: float | None = None, ca
         gs = []
         for ch in CHANNELS:
             c = chains.get(ch)
+            if c is not None and not filters:
+                c = Chain(ch, delay_s=c.delay_s)
             g = None if c is None or (c.type is None and not c.delay_s) else c.response(w)
             if disc is not None:
                 g = disc if g is None else g * disc
@@ -295,22 +407,46 @@ def true_force(v: TView) -> ndarray:
     return f
 
 
+def _same_filter(a: Chain | None, b: Chain | None) -> bool:
+    """The two chains hold the same analog low-pass (or neither has one)."""
+    fa = None if a is None or a.type is None else (a.type, a.order, a.cutoff_hz)
+    fb = None if b is None or b.type is None else (b.type, b.order, b.cutoff_hz)
+    return fa == fb
+
+
 def direct_force(v: TView) -> ndarray:
-    """(n_out, 2): the true force through the xdd and the ydd channel's chains **at the record's own
-    rate**, averaged over each fit block's samples: the accelerations' direct feed-through term
-    exactly as the record measured it. A hammer impulse (4 ms) lives far above the fit rate, where
-    the fit-rate chain would alias it; the rest of the accelerations is smooth."""
-    f = true_force(v)[: v.n_out * v.q]
-    lead = min(f.size, 256)  # the first value held before the record (the chain at rest), as apply_chain
-    nf = 1 << int(math.ceil(math.log2(2 * f.size + 2 * lead)))
+    """(n_out, 2): the force's direct feed-through into the xdd and the ydd channel (per unit of
+    d acc / dF) **at the record's own rate**, averaged over each fit block's samples: the measured
+    force through G_acc / G_force. Where the acceleration and the force channel hold the same
+    analog filter (``all``), the filters cancel exactly and only the delays' difference is applied:
+    the accelerometer sampled that very filtered force, aliasing and averaging on reading included,
+    so the term is exact however short the impulse. Otherwise the true force (the force's chain
+    divided out in its pass band, :func:`true_force`) runs through the acceleration's chain. A hammer
+    impulse (4 ms) lives far above the fit rate, where the fit-rate chain would alias it; the rest of
+    the accelerations is smooth."""
+    cf = v.chains.get("force")
+    n = v.n_out * v.q
+    lead = min(n, 256)  # the first value held before the record (the chain at rest), as apply_chain
+    nf = 1 << int(math.ceil(math.log2(2 * n + 2 * lead)))
     w = 2 * math.pi * np.fft.rfftfreq(nf, v.dt)
-    spec = np.fft.rfft(np.concatenate([np.full(lead, f[0]), f, np.full(nf - f.size - lead, f[-1])]))
+    specs: dict[bool, ndarray] = {}
+
+    def spec(measured: bool) -> ndarray:
+        if measured not in specs:
+            f = (v.force if measured else true_force(v))[:n]
+            specs[measured] = np.fft.rfft(np.concatenate([np.full(lead, f[0]), f, np.full(nf - n - lead, f[-1])]))
+        return specs[measured]
+
     out = np.empty((v.n_out, 2))
     for k, ch in enumerate(("xdd", "ydd")):
         c = v.chains.get(ch)
-        u = f
-        if c is not None and (c.type is not None or c.delay_s):
-            u = np.fft.irfft(spec * c.response(w), nf)[lead : lead + f.size]
+        if cf is not None and cf.type is not None and _same_filter(c, cf):
+            d = (c.delay_s if c is not None else 0.0) - cf.delay_s
+            u = np.fft.irfft(spec(True) * np.exp(-1j * w * d), nf)[lead : lead + n] if d else v.force[:n]
+        elif c is not None and (c.type is not None or c.delay_s):
+            u = np.fft.irfft(spec(False) * c.response(w), nf)[lead : lead + n]
+        else:
+            u = true_force(v)[:n]
         out[:, k] = u.reshape(v.n_out, v.q).mean(axis=1)
     return out
 
@@ -336,17 +472,20 @@ def simulate(v: TView, p: ndarray, z0: ndarray | None = None, force_gain: float 
     force (times force_gain), through the declared chains; None when the simulation blows up."""
     n_sub = refinement(v, p)
     fc = v.fcache
+    h = v.dt * v.q / n_sub
     if fc.get("key") != n_sub:
         fc.update(key=n_sub, f=grid_force(v, n_sub))
+    if fc.get("filter_h") != h:
+        fc.update(filter_h=h, filt=filter_grid(v.chains, h))
     if "direct" not in fc:
         fc["direct"] = direct_force(v)
     f = fc["f"] if force_gain == 1.0 else force_gain * fc["f"]  # the force enters linearly
     cx, cy = feedthrough(p)
     out = np.empty((v.n_out, 4))
-    ok = _integrate(p, f, v.dt * v.q / n_sub, n_sub, v.n_out, v.z0 if z0 is None else z0, out, cx, cy)
+    ok = _integrate(p, f, h, n_sub, v.n_out, v.z0 if z0 is None else z0, out, cx, cy, *fc["filt"])
     if not ok or not np.all(np.isfinite(out)):
         return None
-    y = apply_chain(out, v.fs, v.chains, v.dt if v.q > 1 else None, v.gcache)
+    y = apply_chain(out, v.fs, v.chains, v.dt if v.q > 1 else None, v.gcache, filters=False)
     y[:, 2] += force_gain * cx * fc["direct"][:, 0]
     y[:, 3] += force_gain * cy * fc["direct"][:, 1]
     return y
@@ -379,20 +518,48 @@ def robust_noise(r: ndarray) -> float:
     return float(1.4826 * np.median(np.abs(d4 - np.median(d4))) / math.sqrt(70.0)) or float(np.std(d4)) or 1e-300
 
 
-def input_noise_response(v: TView, p: ndarray, seed: int = 0) -> ndarray:
-    """Std per channel (x, y, xdd, ydd) of the fit-block means of the nominal's response to white
-    noise of the force channel's measured std (the measured force is the simulation's input, so its
-    noise reaches every simulated channel: directly in the accelerations, through the structure in
-    all of them). Simulated once per record (zero start; the first 10 % discarded)."""
+def input_noise_series(v: TView, p: ndarray, seed: int = 0) -> ndarray | None:
+    """(n, 4) fit-block means of x, y, xdd, ydd of the nominal's response to white noise of the force
+    channel's measured std (the measured force is the simulation's input, so its noise reaches every
+    simulated channel: directly in the accelerations, through the structure in all of them), the
+    first 10 % discarded (zero start); None for a free decay or a noiseless force."""
     sf = v.raw_noise.get("force", 0.0)
     if v.free_decay or sf <= 0:
-        return np.zeros(4)
+        return None
     g, fc, z0 = v.force, v.fcache, v.z0
     v.force, v.fcache, v.z0 = np.random.default_rng(seed).normal(0.0, sf, g.size), {}, np.zeros(6)
     try:
         y = simulate(v, p)
     finally:
         v.force, v.fcache, v.z0 = g, fc, z0
-    if y is None:
-        return np.zeros(4)
-    return np.std(y[y.shape[0] // 10 :], axis=0)
+    return None if y is None else y[y.shape[0] // 10 :]
+
+
+def chi2_variance_factor(white: ndarray, y_in: ndarray | None) -> float:
+    """var(chi2) / (2 n) of the whitened residual of one record when it is pure noise: the white
+    sensor noise (std ``white[k]`` per channel of a fit sample; only the recorded channels) plus the
+    response ``y_in`` (n, channels) to the force's noise, which is correlated in time (it passes the
+    structure's resonances) and across channels. For a Gaussian vector of covariance S (unit
+    diagonal once whitened) var(chi2) = 2 tr(S^2); with S = diag(a) + B (a_k = white share, B the
+    input response's covariance) tr(S^2) / n = sum_k (a_k^2 + 2 a_k b_k) + sum_tau sum_kl
+    C_kl(tau)^2, the last by Parseval from Welch cross-spectra of y_in (segments of at most 4096
+    samples: they resolve a TMD resonance at the fit rates used; the squared estimate's bias 1 / n_seg
+    divided out). 1 when the noise is white."""
+    from scipy.signal import csd
+
+    k = white.size
+    if y_in is None or y_in.shape[0] < 64:
+        return 1.0
+    var_in = np.var(y_in, axis=0)
+    sig2 = white**2 + var_in
+    a, b = white**2 / sig2, var_in / sig2
+    u = (y_in - y_in.mean(axis=0)) / np.sqrt(sig2)
+    nper = min(u.shape[0], 4096)
+    tot = float(np.sum(a**2 + 2 * a * b))
+    n_seg = 1 + max(0, (u.shape[0] - nper) // (nper // 2))  # Welch's averages: E|S^|^2 = |S|^2 (1 + 1 / n_seg)
+    for i in range(k):
+        for j in range(k):
+            _, s = csd(u[:, i], u[:, j], fs=1.0, nperseg=nper, scaling="density", detrend=False)
+            # one-sided density (2 x the two-sided away from 0 and 1/2): sum_tau C^2 = int_-1/2^1/2 |S2|^2 df
+            tot += float(0.5 * np.sum(np.abs(s) ** 2) / nper) / (1.0 + 1.0 / n_seg)
+    return max(1.0, tot / k)
