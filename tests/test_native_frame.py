@@ -8,7 +8,9 @@
   its Python path (PYFMU_NATIVE=0) give the same outputs bit for bit, input derivatives included; so
   does the native ShearFrame FMU (no Python: configure, outputs and step compiled into its binary,
   fmubuild/native_build.py), FMI 2.0 and 3.0 alike, and both validate.
-- The native FMU refuses a frame FrameParams refuses, naming the check and the values it read.
+- The native FMU refuses a frame FrameParams refuses, naming the check and the values it read; its
+  directional derivatives and FMU states are the Python-hosted FMU's.
+- (slow) Its win64 DLL under wine steps as its linux64 library, within 1e-12 of each output's range.
 """
 
 from __future__ import annotations
@@ -217,3 +219,83 @@ def test_native_derivatives_and_states_are_the_python_hosted_fmus(hosted, native
     assert d_p[0] == pytest.approx(-1.0 / PER["m"][1], rel=1e-14) and d_p[1] == 0.0 and d_f == [0.0, 0.0]
     assert first == again
     assert got["native"] == got["hosted"]
+
+
+#: one ShearFrame FMU stepped alone (3 storeys, F cos(w t) on the top, no TMD forces), compiled for Linux
+#: (gcc) and Windows (mingw-w64): argv = binary, resources URI, guid; prints t, x_top, xdd per step
+FRAME_HOST = r"""
+#include <stdio.h>
+#include <stdlib.h>
+#include "fmi2Functions.h"
+#if defined(_WIN32)
+#include <windows.h>
+#define OPEN(p) (void *)LoadLibraryA(p)
+#define SYM(h, n) (void *)GetProcAddress((HMODULE)(h), n)
+#else
+#include <dlfcn.h>
+#define OPEN(p) dlopen(p, RTLD_NOW | RTLD_LOCAL)
+#define SYM(h, n) dlsym(h, n)
+#endif
+static void logger(fmi2ComponentEnvironment e, fmi2String n, fmi2Status s, fmi2String c, fmi2String m, ...) {
+    (void)e; (void)c;
+    if (s > fmi2Warning) fprintf(stderr, "[%s] %s\n", n, m);
+}
+static fmi2CallbackFunctions cb = {logger, calloc, free, NULL, NULL};
+int main(int argc, char **argv) {
+    if (argc < 4) return 2;
+    void *h = OPEN(argv[1]);
+    if (!h) return 3;
+    fmi2Component c = ((fmi2InstantiateTYPE *)SYM(h, "fmi2Instantiate"))("f", fmi2CoSimulation, argv[3], argv[2],
+                                                                          &cb, fmi2False, fmi2False);
+    fmi2DoStepTYPE *step = (fmi2DoStepTYPE *)SYM(h, "fmi2DoStep");
+    fmi2GetRealTYPE *get = (fmi2GetRealTYPE *)SYM(h, "fmi2GetReal");
+    fmi2ValueReference n_vr = 0, out[2] = {20, 24};
+    fmi2Integer n = 3;
+    if (!c || ((fmi2SetupExperimentTYPE *)SYM(h, "fmi2SetupExperiment"))(c, 0, 0, 0.0, 0, 0)) return 4;
+    if (((fmi2EnterInitializationModeTYPE *)SYM(h, "fmi2EnterInitializationMode"))(c)) return 4;
+    if (((fmi2SetIntegerTYPE *)SYM(h, "fmi2SetInteger"))(c, &n_vr, 1, &n)) return 4;
+    if (((fmi2ExitInitializationModeTYPE *)SYM(h, "fmi2ExitInitializationMode"))(c)) return 4;
+    double dt = 2e-3, y[2];
+    for (int k = 1; k <= 300; k++) {
+        if (step(c, (k - 1) * dt, dt, fmi2True) || get(c, out, 2, y)) return 5;
+        printf("%.17g %.17g %.17g\n", k * dt, y[0], y[1]);
+    }
+    return 0;
+}
+"""
+
+
+@pytest.mark.slow  # a fresh wine prefix: about 70 s on the shared machine
+def test_win64_frame_under_wine_agrees_with_linux64(native, tmp_path):
+    """The native ShearFrame's win64 DLL under wine steps as its linux64 library: within 1e-12 of each
+    output's range (msvcrt's cos and sin may round the harmonic drive differently in the last bit)."""
+    import shutil
+    import zipfile
+
+    import fmpy
+
+    from pyfmu_wrapper.fmubuild.build import fmi_headers_dir
+    from pyfmu_wrapper.fmubuild.native_obj import mingw_gcc
+
+    if mingw_gcc() is None or shutil.which("wine") is None:
+        pytest.skip("mingw-w64 or wine is missing (.ci/run installs gcc-mingw-w64-x86-64 and wine64)")
+    d = tmp_path / "ShearFrame"
+    with zipfile.ZipFile(native[2]) as z:
+        z.extractall(d)
+    (tmp_path / "host.c").write_text(FRAME_HOST)
+    inc = f"-I{fmi_headers_dir()}"
+    subprocess.run(["gcc", "-O2", inc, str(tmp_path / "host.c"), "-o", str(tmp_path / "host"), "-ldl"], check=True)
+    subprocess.run([mingw_gcc(), "-O2", inc, str(tmp_path / "host.c"), "-o", str(tmp_path / "host.exe")], check=True)
+    guid = fmpy.read_model_description(str(native[2])).guid
+    env = {"PATH": "/usr/bin:/bin", "HOME": str(tmp_path), "WINEDEBUG": "-all", "WINEPREFIX": str(tmp_path / "wp")}
+    runs = []
+    for win in (False, True):
+        binary = d / "binaries" / ("win64/ShearFrame.dll" if win else "linux64/ShearFrame.so")
+        uri = ("file:///Z:" + str(d / "resources")) if win else (d / "resources").as_uri()
+        cmd = ["wine", str(tmp_path / "host.exe"), "Z:" + str(binary)] if win else [str(tmp_path / "host"), str(binary)]
+        r = subprocess.run([*cmd, uri, guid], capture_output=True, text=True, env=env, cwd=tmp_path, timeout=900)
+        assert r.returncode == 0, r.stderr[-3000:]
+        runs.append(np.array([[float(x) for x in line.split()] for line in r.stdout.splitlines() if line.strip()]))
+    lin, win = runs
+    assert lin.shape == (300, 3) and (lin[:, 0] == win[:, 0]).all() and np.ptp(lin[:, 1]) > 1e-3
+    assert (np.abs(win[:, 1:] - lin[:, 1:]) / np.ptp(lin[:, 1:], axis=0)).max() <= 1e-12

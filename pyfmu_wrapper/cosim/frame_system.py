@@ -22,7 +22,7 @@ force coupling left 1-7 % and irregular windows). The steady state is the defini
 started from the monolithic engine's start (the exact response of the linear companion, or the play
 model's companion orbit); the amplitude is the cubic Hermite maximum of the top storey between the
 communication points. Every point's coupling error is estimated by step doubling (the amplitude at N
-and at N/2 steps per period; with a gear gap, its smooth companion's) and held to the settings'
+and at N/2 steps per period; with a gear gap, its linear companion's) and held to the settings'
 ``coupling_tol``: the steps are doubled while it is above, and a point still above is reported not
 converged (:func:`checked_steady_state`).
 """
