@@ -9,7 +9,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..fmi.variables import PROJECT_FMUS, SPECS
+from ..fmi.variables import BUILD_FMUS, SPECS
 from ..fmubuild.build import (
     DEFAULT_OUT,
     BuildError,
@@ -25,7 +25,12 @@ from .errors import cli_main
 @cli_main("build-fmus")
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(prog="build-fmus", description=(BUILD_DOC or "").split("\n\n")[0])
-    ap.add_argument("names", nargs="*", default=list(PROJECT_FMUS), help=f"FMUs to build, of {sorted(SPECS)}")
+    ap.add_argument(
+        "names",
+        nargs="*",
+        default=list(BUILD_FMUS),
+        help=f"FMUs to build, of {sorted(SPECS)} (default: {', '.join(BUILD_FMUS)})",
+    )
     ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory (default fmu/build)")
     ap.add_argument("--force", action="store_true", help="rebuild even when up to date")
     ap.add_argument(
@@ -37,7 +42,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--native",
         action="store_true",
-        help="the model compiled into the binary: no Python on the target (BaseOscillator, TMDInerter; "
+        help="the model compiled into the binary: no Python on the target (every FMU but Trivial; "
         "default --out fmu/build/native)",
     )
     ap.add_argument(
@@ -55,7 +60,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.native and args.standalone:
         ap.error("--native and --standalone exclude each other (a native FMU needs no Python to bundle)")
     if args.native and "Trivial" in args.names:
-        ap.error("--native: Trivial has no native variant (BaseOscillator, TMDInerter)")
+        ap.error(f"--native: Trivial has no native variant ({', '.join(BUILD_FMUS)})")
     if Path(args.out).exists() and not Path(args.out).is_dir():  # before compiling anything
         ap.error(f"--out {args.out}: is a file, not a folder (build-fmus writes the FMUs into a folder)")
     try:

@@ -327,5 +327,7 @@ TRIVIAL = FmuSpec(
 )
 
 SPECS = {s.model_identifier: s for s in (BASE_OSCILLATOR, TMD_INERTER, TRIVIAL, SHEAR_FRAME)}
-#: The FMUs of the project (the trivial one is built only on request).
+#: The paper's pair, which the library's builders make when no FMU is named (its co-simulation).
 PROJECT_FMUS = ("BaseOscillator", "TMDInerter")
+#: What ``build-fmus`` builds when no FMU is named: every model's FMU (the trivial one only on request).
+BUILD_FMUS = tuple(n for n in SPECS if n != "Trivial")
