@@ -209,13 +209,20 @@ def quadratic(root):
 def test_quadratic_damping_leaves_an_unexplained_gap(quadratic, monkeypatch):
     """The nearest candidate (viscous damping) takes the fundamental of c2 |v| v; the 3rd harmonic
     and its amplitude dependence remain: unexplained is raised and said in the printed verdict.
-    Without the remaining-gap check (REMAIN_SHARE = 1) the verdict would claim to explain it."""
+    Without the remaining-gap check (REMAIN_SHARE = 1) the records' disagreement on the damping
+    still refuses it (the fundamental's share of c2 |v| v grows with the amplitude); without both
+    the verdict would claim to explain it."""
+    from pyfmu_wrapper.diagnose.system import agreement
+
     v = run_diagnosis(quadratic)["verdict"]
     assert v["unexplained"] is True, v["text"]
     assert "structural gap remains" in v["text"]
     assert v["unexplained_share"] > gates.REMAIN_SHARE
     monkeypatch.setattr(gates, "REMAIN_SHARE", 1.0)
     monkeypatch.setattr(gates, "MIN_SHARE", 0.0)
+    v = run_diagnosis(quadratic)["verdict"]
+    assert v["unexplained"] is True and "records disagree" in v["text"], v["text"]
+    monkeypatch.setattr(agreement, "LEVEL", 0.0)
     assert run_diagnosis(quadratic)["verdict"]["unexplained"] is False
 
 

@@ -130,6 +130,19 @@ def _param_text(sd: SystemDiagnosisShape, e: str, p: dict[str, float], s: dict[s
     )
 
 
+def _disagreement(a: dict[str, Any], labels: dict[str, str], units: dict[str, str]) -> str:
+    """The verdict's sentence on records that disagree on a parameter (:mod:`.system.agreement`)."""
+    w = a["worst"]
+    e, pn = w["param"].split(".", 1)
+    vals = ", ".join(f"{v:.4g}" for v in w["values"])
+    return (
+        f" The records disagree on {labels.get(e, e)} ({pn} = {vals} {units.get(pn, '')} record by record; "
+        f"chi2 {w['chi2']:.1f} for {w['dof']} dof, p = {w['p_value']:.1g}): a parameter that drifts between "
+        "records, or a pair of effects standing in for a cause outside the vocabulary; no cause is named "
+        "with confidence and the gap is left unexplained."
+    )
+
+
 def verdict_text(sd: SystemDiagnosisShape, labels: dict[str, str], units: dict[str, str]) -> str:
     """The printed verdict: the named causes and what they close, then -- when a structural gap
     remains -- one sentence on it and where it lives, with the best candidate as a hint."""
@@ -158,9 +171,12 @@ def verdict_text(sd: SystemDiagnosisShape, labels: dict[str, str], units: dict[s
         + " + ".join(parts)
         + (f"; closes {100 * gc:.0f} % of the held-out gap." if gc is not None else ".")
     )
-    if sd.unexplained:
+    a = sd.agreement
+    if sd.gap_left:
         txt += (
             f" A structural gap remains that these effects do not explain ({100 * sd.unexplained_share:.0f} % "
             f"of the held-out gap); it lives in {loc['text']}."
         )
+    if a is not None and not a["agree"]:
+        txt += _disagreement(a, labels, units)
     return txt

@@ -47,6 +47,7 @@ from ..gates import (  # noqa: F401
     share_gate,
 )
 from . import outcome
+from .agreement import record_agreement
 from .effects import EQ_EFFECTS, FRC_PRIOR, LABELS, MAX_EFFECTS, TMD_EFFECTS, UNITS
 from .eqfit import fit_eq, folds_for
 from .model import EFFECT_PARAMS, SIGN, SystemModel, record_views, steady_signature
@@ -235,6 +236,14 @@ class SystemDiagnosis(PlayMixin):
         g0, g1 = self.gaps()
         self.unexplained = bool(self.noise_ok and (not self.chosen or remaining_gate(self.dof + g1, self.dof, g0)))
         self.unexplained_share = (max(g1, 0.0) / g0 if g0 > 0 else 0.0) if self.noise_ok else 0.0
+        # one value of the named effects' parameters for every record, or no confident cause
+        self.agreement = None
+        self.gap_left = self.unexplained  # a structural gap the named effects leave (before the agreement)
+        if self.chosen and self.final is not None:
+            self.agreement = record_agreement(m, tuple(self.chosen), self.final.theta)
+            if self.agreement is not None and not self.agreement["agree"]:
+                self.unexplained = True
+                self.log.append(("records disagree", tuple(self.chosen), [self.agreement["worst"]["param"]]))
         from ..verdict import localise
 
         self.localisation = localise(self)

@@ -121,6 +121,7 @@ def build_system_result(ds: Dataset, sd: SystemDiagnosis, frc: FRCDiagnosis | No
         "unexplained": bool(sd.unexplained),
         "unexplained_share": _f(sd.unexplained_share),
         "localisation": sd.localisation,
+        "record_agreement": sd.agreement,
         "hint": ({"effects": list(sd.hint[0]), "gap_closed": _f(sd.hint[1])} if sd.hint is not None else None),
         "held_out": {
             "gap_before": ho["excess_before"],
