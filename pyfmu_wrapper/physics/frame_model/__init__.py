@@ -25,15 +25,12 @@ from .equations import (
     frame_jacobian,
     frame_rhs,
     frame_switching,
-    no_switching,
     storey_index,
-    storeys_jacobian,
-    storeys_rhs,
 )
 from .modelica import MODELICA
 from .params import PARAMETERS, FrameParams
 
-__all__ = ["STOREYS", "UNIT", "FrameParams", "frame_pack", "storey_index"]
+__all__ = ["UNIT", "FrameParams", "frame_pack", "storey_index"]
 
 
 def frame_pack(frame: FrameParams, tmd: TMDParams, omega: float = 0.0) -> NDArray[np.float64]:
@@ -95,20 +92,6 @@ FRAME = OdeModel(
     switch_tolerance=(-1, 4, 4),
     state_names=("x_top", "xd_top", "y", "yd", "d", "dd"),
     describe=bind_describe(mode_describer(True, 4), frame_switching),
-)
-
-#: the frame alone, driven by the TMD's forces as input polynomials (the ShearFrame FMU's step)
-STOREYS = OdeModel(
-    name="frame_storeys",
-    rhs=storeys_rhs,
-    jacobian=storeys_jacobian,
-    switching=no_switching,
-    mode=contact_mode_index,
-    n_switches=3,
-    n_modes=3,
-    switch_tolerance=(1000, 1000, 1000),
-    state_names=("x_top", "xd_top", "y", "yd", "d", "dd"),
-    describe=lambda z, p, atol, band: "smooth",
 )
 
 UNIT = ModelUnit(

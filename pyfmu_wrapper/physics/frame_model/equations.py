@@ -118,24 +118,6 @@ def frame_jacobian(t: float, z: Vec, p: Vec, u: Vec, J: Vec, ft: Vec, zc: Vec, o
 
 
 @njit(cache=True)
-def storeys_jacobian(t: float, z: Vec, p: Vec, u: Vec, J: Vec, ft: Vec, zc: Vec, oc: Vec) -> None:
-    """The complex-step J and ft of :func:`storeys_rhs`."""
-    n = z.shape[0]
-    for j in range(n):
-        for i in range(n):
-            zc[i] = z[i]
-        zc[j] = z[j] + 1j * CSTEP
-        storeys_rhs(t, zc, p, u, oc)
-        for i in range(n):
-            J[i, j] = oc[i].imag / CSTEP
-    for i in range(n):
-        zc[i] = z[i]
-    storeys_rhs(t + 1j * CSTEP, zc, p, u, oc)
-    for i in range(n):
-        ft[i] = oc[i].imag / CSTEP
-
-
-@njit(cache=True)
 def frame_switching(z: Vec, p: Vec, g: Vec) -> None:
     """The paper's switching functions (:func:`~pyfmu_wrapper.physics.kernels.switching_functions`)
     with the friction's relative velocity taken at the TMD's storey."""
@@ -143,11 +125,3 @@ def frame_switching(z: Vec, p: Vec, g: Vec) -> None:
     if p[P_df] > 0.0:
         sx = storey_index(int(p[F_TMD]), int(p[F_N]))
         g[0] = z[sx + 1] - z[3]
-
-
-@njit(cache=True)
-def no_switching(z: Vec, p: Vec, g: Vec) -> None:
-    """The frame alone is smooth: no switching function is active."""
-    g[0] = 1.0
-    g[1] = 1.0
-    g[2] = 1.0
