@@ -1,4 +1,4 @@
-"""diagnose that knows what it does not know (issue 19): the share and remaining-gap gates, each on
+"""diagnose that knows what it does not know: the share and remaining-gap gates, each on
 its own; the nominal's own parameters (M, K, C, k) as candidates; an effect visible only in the
 FRC; an effect outside the vocabulary answered "unexplained".
 

@@ -1,4 +1,4 @@
-"""diagnose on transient records (issue 31): swept sines, random force, free decays, hammer impulses,
+"""diagnose on transient records: swept sines, random force, free decays, hammer impulses,
 simulated by an integrator independent of the project's (odeint on transient_truth's own
 right-hand side) and measured as a rig does (declared anti-alias filters, white ADC noise)."""
 
@@ -197,7 +197,7 @@ def test_hammer_force_sampled_too_slowly_is_not_used(tmp_path, fs, used):
 
 
 def test_forced_record_at_rest_is_simulated_from_rest_under_a_nonlinear_candidate(tmp_path):
-    """Start rule (issue 31): a random-force record starting at rest under a dry-friction truth. The
+    """Start rule: a random-force record starting at rest under a dry-friction truth. The
     nominal's start-state estimate absorbs what the linear nominal misses (it is far from rest); the
     friction candidate at the true parameters is simulated from rest, which fits its training
     samples better, and its residual is then at the noise (chi2/n < 1.5, from > 10 from the estimate)."""

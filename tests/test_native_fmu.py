@@ -1,4 +1,4 @@
-"""Native FMUs (issue 30, pyfmu_wrapper/fmubuild/native_build.py): the model's compiled functions linked into the
+"""Native FMUs (pyfmu_wrapper/fmubuild/native_build.py): the model's compiled functions linked into the
 stub, no Python on the target.
 
 - The Case 1 pair (base + TMD, ideal inerter and with play), co-simulated by a C host
@@ -184,7 +184,7 @@ def test_fmi3_native_equals_the_python_hosted_fmi3(tmp_path):
         s = FMU3Slave(guid=md.guid, unzipDirectory=str(d), modelIdentifier="TMDInerter", instanceName=tag)
         s.instantiate()
         vr = {v.name: v.valueReference for v in md.modelVariables}
-        start = s.getFloat64([vr["m"], vr["k"]])  # readable in Instantiated (issue 30)
+        start = s.getFloat64([vr["m"], vr["k"]])  # readable in Instantiated
         s.enterInitializationMode(startTime=0.0)
         s.setFloat64([vr[k] for k in ("m", "I", "c", "eps", "ki")], [9.0, 1.0, 10.0, 1e-4, 2e7])
         s.setInt32([vr["inerter"]], [2])

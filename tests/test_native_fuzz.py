@@ -1,4 +1,4 @@
-"""Fuzz of the native FMUs (issue 30): the C harness of tests/test_fmu_fuzz.py (FMI 2.0: random call
+"""Fuzz of the native FMUs: the C harness of tests/test_fmu_fuzz.py (FMI 2.0: random call
 sequences with wrong states, bad value references, NaN/Inf, bad steps, FMU states across instances,
 garbage and corrupt states) and tests/fmi3_fuzz.py (FMI 3.0), on the native FMUs instead of the
 Python-hosted ones: no crash, no hang, every invalid call refused and logged, no non-finite value

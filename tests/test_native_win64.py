@@ -1,4 +1,4 @@
-"""The win64 binaries of the native FMUs (issue 30) under wine: one small C host, compiled from this file
+"""The win64 binaries of the native FMUs under wine: one small C host, compiled from this file
 for Linux (gcc) and for Windows (mingw-w64), co-simulates the Case 1 pair (base + TMD, Gauss-Seidel,
 h = 1 ms, 0.5 s) from the same extracted archives: binaries/linux64/*.so on Linux, binaries/win64/*.dll
 under wine. Skipped, saying why, only when mingw-w64 or wine is missing (.ci/run installs both).
