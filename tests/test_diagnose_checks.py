@@ -43,7 +43,7 @@ def _random_link(tmp_path, n_rec=3, fs=500.0, seconds=20.0, seed=0):
 
 
 def test_link_transient_records_without_frequency_get_a_report(tmp_path, capsys):
-    """Issue 31: the report writer formatted r['omega'] = None (TypeError, exit 1, nothing written)."""
+    """The report writer formatted r['omega'] = None (TypeError, exit 1, nothing written)."""
     ds = _random_link(tmp_path / "ds")
     out = tmp_path / "out"
     assert main_diagnose([str(ds), "--out", str(out)]) == 0
@@ -62,7 +62,7 @@ def _link_ds(tmp_path, **kw):
 
 
 def test_time_in_milliseconds_without_velocity_is_a_located_error(tmp_path, capsys):
-    """Issue 28 item 7: t in ms and no velocity column gave a LinAlgError traceback."""
+    """T in ms and no velocity column gave a LinAlgError traceback."""
     y = _link_ds(tmp_path)
     for r in y["records"]:
         f = tmp_path / r["file"]
@@ -76,7 +76,7 @@ def test_time_in_milliseconds_without_velocity_is_a_located_error(tmp_path, caps
 
 
 def test_declared_omega_ten_times_the_data_is_refused(tmp_path, capsys):
-    """Issue 28 item 8: a declared omega 10x the record's frequency was accepted silently."""
+    """A declared omega 10x the record's frequency was accepted silently."""
     y = _link_ds(tmp_path)
     y["records"][4]["omega"] *= 10.0  # w20_A20mm: 200 rad/s declared, 20 rad/s in the data
     (tmp_path / "dataset.yaml").write_text(yaml.safe_dump(y))
@@ -122,13 +122,13 @@ def test_duplicated_force_column(tmp_path):
 
 
 def test_make_benchmark_system_honours_fractions_and_refuses_noise(tmp_path, capsys, monkeypatch):
-    """Issue 28 item 8: --clean-fraction/--pair-fraction/--noise were ignored by the system suite."""
+    """--clean-fraction/--pair-fraction/--noise/--held-out-oov reach the system suite (they were ignored)."""
     from pyfmu_wrapper.diagnose.system import suite
 
     seen = {}
 
-    def fake(out, n, seed, n_clean=None, n_pair=None, n_oov=None, progress=None):
-        seen.update(n=n, counts=suite.composition(n, n_clean, n_pair, n_oov))
+    def fake(out, n, seed, n_clean=None, n_pair=None, n_oov=None, progress=None, held_out_oov=False):
+        seen.update(n=n, counts=suite.composition(n, n_clean, n_pair, n_oov), held_out=held_out_oov)
         (out / "manifest.json").write_text(json.dumps({"datasets": []}))
         return []
 
@@ -138,7 +138,9 @@ def test_make_benchmark_system_honours_fractions_and_refuses_noise(tmp_path, cap
     assert main_make_benchmark(["--out", str(tmp_path / "c"), "-n", "10", "--pair-fraction", "0.5"]) == 0
     assert seen["counts"][2] == 5 and sum(seen["counts"]) == 10
     assert main_make_benchmark(["--out", str(tmp_path / "d")]) == 0
-    assert seen["counts"] == (10, 22, 8, 12)  # the default suite unchanged
+    assert seen["counts"] == (10, 22, 8, 12) and seen["held_out"] is False  # the default suite unchanged
+    assert main_make_benchmark(["--out", str(tmp_path / "h"), "--held-out-oov"]) == 0
+    assert seen["held_out"] is True
     capsys.readouterr()
     assert main_make_benchmark(["--out", str(tmp_path / "e"), "--noise", "0.3"]) == 2
     assert "--noise 0.3" in capsys.readouterr().err and not (tmp_path / "e").exists()
@@ -147,7 +149,7 @@ def test_make_benchmark_system_honours_fractions_and_refuses_noise(tmp_path, cap
 
 
 def test_score_out_in_a_missing_folder_is_refused_before_scoring(tmp_path, capsys, monkeypatch):
-    """Issue 28 item 7: score --out nodir/sub/score.json failed only after all the scoring."""
+    """Score --out nodir/sub/score.json is refused before any scoring (it failed only after it)."""
     from pyfmu_wrapper.diagnose.link import benchmark
 
     (tmp_path / "b" / "ds000").mkdir(parents=True)
@@ -173,7 +175,7 @@ def test_score_out_in_a_missing_folder_is_refused_before_scoring(tmp_path, capsy
 
 
 def test_result_folders_follow_the_umask(tmp_path):
-    """Issue 28 item 9: diagnose and make-benchmark folders were created mode 700 (mkdtemp)."""
+    """Diagnose and make-benchmark folders were created mode 700 (mkdtemp)."""
     ds = tmp_path / "ds"
     ds.mkdir()
     t = np.arange(600) * (2 * math.pi / 20.0) / 200
@@ -195,7 +197,7 @@ def test_result_folders_follow_the_umask(tmp_path):
 
 
 def test_where_png_colour_bars_carry_units(tmp_path, monkeypatch):
-    """Issue 28 item 9: where.png's colour bar said 'amplitude' with no unit."""
+    """The where.png colour bar said 'amplitude' with no unit."""
     import matplotlib.figure
 
     from pyfmu_wrapper.diagnose.run import run_diagnosis

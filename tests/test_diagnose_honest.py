@@ -287,7 +287,7 @@ def test_meaningful_gate_on_numbers():
 
 @pytest.mark.slow
 def test_play_with_a_calibration_sized_base_damping_error_names_play_alone(root):
-    """Issue 31, set 1: play (gap 0.2 mm) with the stated base damping 0.56 % below the truth was
+    """Play (gap 0.2 mm) with the stated base damping 0.56 % below the truth was
     answered "play + base damping C off by 0.56 N s/m" (7.6 std, but physically nothing): play alone."""
     d = root / "play_dC"
     make_system_dataset(d, {"play": 2e-4}, seed=106, case=2)
