@@ -119,6 +119,24 @@ class Chain:
         C[prev] = 1.0
         return A, B, C
 
+    def foh_step(self, h: float) -> tuple[ndarray, ndarray, ndarray, ndarray, ndarray] | None:
+        """The filter discretised exactly for an input linear between samples h apart (first-order
+        hold) on :meth:`state_space`: (phi, g1, g2, C, ee) with s+ = phi s + g1 u_k + g2 u_k+1,
+        output C s (no direct term: all-pole low-passes), ee = -A^-1 B the state at rest per unit
+        input (None without filter). The one discretisation of the declared filters."""
+        from scipy.linalg import expm
+
+        ss = self.state_space()
+        if ss is None:
+            return None
+        A, B, C = ss
+        n = A.shape[0]
+        M = np.zeros((n + 2, n + 2))
+        M[:n, :n], M[:n, n], M[n, n + 1] = A * h, B * h, 1.0
+        E = expm(M)
+        gam0, gam1 = E[:n, n], E[:n, n + 1]  # int_0^h e^{A s} B ds, its ramp part
+        return E[:n, :n], gam0 - gam1, gam1, C, -np.linalg.solve(A, B)
+
     def response(self, omega: float | ndarray) -> complex128 | ndarray:
         """G(i omega) = H(i omega) exp(-i omega delay_s) at angular frequencies omega [rad/s]."""
         w = np.asarray(omega, dtype=float)
@@ -163,25 +181,17 @@ def rig_samples(chains: dict, t: ndarray, channels: dict, step: int = 1) -> dict
 
 def filter_foh(chain: Chain, u: ndarray, dt: float) -> ndarray:
     """The chain's analog low-pass applied to ``u`` sampled every ``dt``, exact when ``u`` is linear
-    between samples (first-order hold: the augmented matrix exponential of the cascade's state space,
-    :meth:`Chain.state_space`), from the DC equilibrium of ``u[0]``; the recursion is compiled."""
-    from scipy.linalg import expm
-
-    ss = chain.state_space()
-    if ss is None:
+    between samples (:meth:`Chain.foh_step`), from the DC equilibrium of ``u[0]``; compiled recursion."""
+    step = chain.foh_step(dt)
+    if step is None:
         return np.asarray(u, float).copy()
-    A, B, C = ss
-    n = A.shape[0]
-    M = np.zeros((n + 2, n + 2))
-    M[:n, :n], M[:n, n], M[n, n + 1] = A * dt, B * dt, 1.0
-    E = expm(M)
-    Phi, G1, G2 = E[:n, :n], E[:n, n], E[:n, n + 1]  # x+ = Phi x + G1 u_k + G2 (u_k+1 - u_k)
-    x0 = -np.linalg.solve(A, B) * float(u[0])
-    return _foh_run(Phi, G1 - G2, G2, C, np.asarray(u, float), x0)
+    phi, g1, g2, C, ee = step
+    return _foh_run(phi, g1, g2, C, np.asarray(u, float), ee * float(u[0]))
 
 
 @njit(cache=True)
 def _foh_run(Phi: ndarray, P: ndarray, Q: ndarray, C: ndarray, u: ndarray, x0: ndarray) -> ndarray:
+    """y_k = C s_k, s_k+1 = Phi s_k + P u_k + Q u_k+1 from s_0 = x0."""
     n = x0.size
     x = x0.copy()
     xn = np.empty(n)

@@ -153,50 +153,20 @@ def _integrate(
 def filter_grid(chains: dict, h: float) -> tuple[ndarray, ...]:
     """The analog filters of the channels x, y, xdd, ydd discretised exactly for an input linear
     between grid points h apart (first-order hold): (nord, phi, g1, g2, cc, dd, ee) for
-    :func:`_integrate` (nord[k] = 0: no filter on channel k). The state space is the one of the
-    normalised prototype (cut-off 1 rad/s) scaled by w_c, so it is well conditioned at any cut-off;
-    phi = exp(A h), g1 + g2 = the step's input integral, g2 its ramp part, ee = -A^-1 B (at rest)."""
-    from scipy import signal
-    from scipy.linalg import expm
-
-    nmax = 1
-    specs: list[tuple[ndarray, ndarray, ndarray, float] | None] = []
-    for ch in CHANNELS:
-        c = chains.get(ch)
-        if c is None or c.type is None:
-            specs.append(None)
-            continue
-        proto = (
-            signal.butter(c.order, 1.0, btype="low", analog=True)
-            if c.type == "butterworth"
-            else signal.bessel(c.order, 1.0, btype="low", analog=True, norm="mag")
-        )
-        A, B, C, D = signal.tf2ss(*proto)
-        wc = 2 * math.pi * c.cutoff_hz
-        specs.append((wc * A, wc * B[:, 0], C[0], float(D[0, 0])))
-        nmax = max(nmax, A.shape[0])
+    :func:`_integrate` (nord[k] = 0: no filter on channel k), from :meth:`Chain.foh_step` (the cascade
+    of the filter's sections: well conditioned at any order and cut-off); dd = 0 (all-pole)."""
+    steps = [None if chains.get(ch) is None else chains[ch].foh_step(h) for ch in CHANNELS]
+    nmax = max([1] + [st[0].shape[0] for st in steps if st is not None])
     nord = np.zeros(4, np.int64)
     phi = np.zeros((4, nmax, nmax))
     g1, g2, cc, ee = (np.zeros((4, nmax)) for _ in range(4))
-    dd = np.zeros(4)
-    for k, sp in enumerate(specs):
-        if sp is None:
+    dd = np.zeros(4)  # the declared low-passes are all-pole: no direct term
+    for k, st in enumerate(steps):
+        if st is None:
             continue
-        A, B, C, D = sp
-        n = A.shape[0]
-        big = np.zeros((n + 2, n + 2))
-        big[:n, :n] = A * h
-        big[:n, n] = B * h
-        big[n, n + 1] = 1.0
-        ex = expm(big)
-        gam0, gam1 = ex[:n, n], ex[:n, n + 1]  # int_0^h e^{A s} B ds, int_0^h e^{A (h - s)} B (s / h) ds
+        n = st[0].shape[0]
         nord[k] = n
-        phi[k, :n, :n] = ex[:n, :n]
-        g1[k, :n] = gam0 - gam1
-        g2[k, :n] = gam1
-        cc[k, :n] = C
-        dd[k] = D
-        ee[k, :n] = -np.linalg.solve(A, B)
+        phi[k, :n, :n], g1[k, :n], g2[k, :n], cc[k, :n], ee[k, :n] = st
     return nord, phi, g1, g2, cc, dd, ee
 
 
