@@ -24,8 +24,8 @@ import time
 import numpy as np
 
 from pyfmu_wrapper.paper.objectives import OBJECTIVES, Objective, get_objective
-from pyfmu_wrapper.paper.optimise import PAPER_C_OPT, PAPER_DF_OPT, Evaluator, OptimiseConfig, optimise
-from pyfmu_wrapper.physics.params import BaseParams, paper_case
+from pyfmu_wrapper.paper.optimise import Evaluator, OptimiseConfig, optimise
+from pyfmu_wrapper.physics.params import PAPER_C_OPT, PAPER_DF_OPT, BaseParams, paper_case
 
 BASE = BaseParams()
 CASES = (1, 2, 3)

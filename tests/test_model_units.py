@@ -122,3 +122,31 @@ def test_a_model_registered_later_needs_no_edit_of_the_scenario_reader(monkeypat
     assert type(scn.base) is Toy and scn.base.absorber_mass == 1.0
     with pytest.raises(ScenarioError, match=r"bad.yaml:\d+: toy.absorber_mass: must be > 0 \(got -1.0\)"):
         parse_scenario(_scenario_text("toy", values | {"absorber_mass": -1.0}, False), "bad.yaml")
+
+
+@pytest.mark.parametrize("unit", UNITS, ids=lambda u: u.name)
+@pytest.mark.parametrize("tmd", sorted(TMDS))
+def test_the_unit_decides_whether_the_exact_path_applies(unit, tmd):
+    """The exact frequency response is taken when the unit says its model is linear at these
+    parameters (ModelUnit.is_linear), not when the paper's TMD alone is: a model with its own
+    absorber is linear whatever TMD the engines pass it. Where the unit says linear, the exact
+    amplitude is the integrated steady state's (1e-6); where not, the exact path is refused."""
+    from pyfmu_wrapper.physics.params import ParameterError
+    from pyfmu_wrapper.scenario.engines import RunSettings, uses_exact
+
+    s, t = unit.example(), TMDS[tmd]
+    linear = unit.is_linear(s, t)
+    assert linear == (t.is_linear if unit.takes_tmd else True)
+    assert uses_exact(s, t, RunSettings(engine="monolithic")) == linear
+    if not linear:
+        with pytest.raises(ParameterError, match="linear configuration"):
+            exact_amplitude(s, t, 19.0)
+        return
+    if not unit.takes_tmd:  # the scenario loader's TMD for a model with its own absorber
+        from pyfmu_wrapper.physics.params import TMDParams
+        from pyfmu_wrapper.scenario.tmdspec import detached_tmd
+
+        assert exact_amplitude(s, t, 19.0) == exact_amplitude(s, detached_tmd(TMDParams()), 19.0)
+        t = detached_tmd(TMDParams())
+    ss = steady_state(s, t, 19.0)
+    assert exact_amplitude(s, t, 19.0) == pytest.approx(ss.amplitude, rel=1e-6)

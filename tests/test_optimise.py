@@ -14,8 +14,8 @@ import pytest
 
 from pyfmu_wrapper.cli.optimise import main
 from pyfmu_wrapper.paper.objectives import OBJECTIVES, Objective, OptimisationError, h2_exact, linear_response
-from pyfmu_wrapper.paper.optimise import PAPER_C_OPT, PAPER_DF_OPT, OptimiseConfig, optimise, split_parameter
-from pyfmu_wrapper.physics.params import BaseParams, paper_case
+from pyfmu_wrapper.paper.optimise import OptimiseConfig, optimise, split_parameter
+from pyfmu_wrapper.physics.params import PAPER_C_OPT, PAPER_DF_OPT, BaseParams, paper_case
 from pyfmu_wrapper.solvers.frequency_response import exact_response
 
 BASE = BaseParams()

@@ -4,92 +4,92 @@ package Cases "One model per case of the paper (Brzeski & Perlikowski 2017) and 
   // Do not edit: run `python -m pyfmu_wrapper.generate.modelica` instead.
   extends TMDInerter.Icons.Package;
 
-  model IratioMap0 "Iratio map endpoint Iratio = 0: classical TMD, m = 10, no inerter"
+  model IratioMap0 "Iratio map endpoint Iratio = 0: classical TMD, m = 10, no inerter (model base_tmd)"
     extends TMDInerter.Systems.CoupledNoInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 10.0, k = 4000.0, c = 0.0, df = 0.0, slope = 1000000.0, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end IratioMap0;
 
-  model IratioMap1 "Iratio map endpoint Iratio = 1: massless TMD node, ideal inerter I = 10"
+  model IratioMap1 "Iratio map endpoint Iratio = 1: massless TMD node, ideal inerter I = 10 (model base_tmd)"
     extends TMDInerter.Systems.CoupledIdealInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 0.0, k = 4000.0, c = 0.0, df = 0.0, slope = 1000000.0, I = 10.0, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end IratioMap1;
 
-  model IdealCase1 "Sect. 3, Case 1: ideal inerter, no damping"
+  model IdealCase1 "Sect. 3, Case 1: ideal inerter, no damping (model base_tmd)"
     extends TMDInerter.Systems.CoupledIdealInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 9.0, k = 4000.0, c = 0.0, df = 0.0, slope = 1000000.0, I = 1.0, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end IdealCase1;
 
-  model IdealCase2 "Sect. 3, Case 2: ideal inerter, no damping"
+  model IdealCase2 "Sect. 3, Case 2: ideal inerter, no damping (model base_tmd)"
     extends TMDInerter.Systems.CoupledIdealInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 5.0, k = 4000.0, c = 0.0, df = 0.0, slope = 1000000.0, I = 5.0, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end IdealCase2;
 
-  model IdealCase3 "Sect. 3, Case 3: ideal inerter, no damping"
+  model IdealCase3 "Sect. 3, Case 3: ideal inerter, no damping (model base_tmd)"
     extends TMDInerter.Systems.CoupledIdealInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 1.0, k = 4000.0, c = 0.0, df = 0.0, slope = 1000000.0, I = 9.0, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end IdealCase3;
 
-  model ViscousCase1 "Sect. 4, Case 1: ideal inerter, optimised viscous damping c"
+  model ViscousCase1 "Sect. 4, Case 1: ideal inerter, optimised viscous damping c (model base_tmd)"
     extends TMDInerter.Systems.CoupledIdealInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 9.0, k = 4000.0, c = 56.38, df = 0.0, slope = 1000000.0, I = 1.0, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end ViscousCase1;
 
-  model ViscousCase2 "Sect. 4, Case 2: ideal inerter, optimised viscous damping c"
+  model ViscousCase2 "Sect. 4, Case 2: ideal inerter, optimised viscous damping c (model base_tmd)"
     extends TMDInerter.Systems.CoupledIdealInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 5.0, k = 4000.0, c = 31.73, df = 0.0, slope = 1000000.0, I = 5.0, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end ViscousCase2;
 
-  model ViscousCase3 "Sect. 4, Case 3: ideal inerter, optimised viscous damping c"
+  model ViscousCase3 "Sect. 4, Case 3: ideal inerter, optimised viscous damping c (model base_tmd)"
     extends TMDInerter.Systems.CoupledIdealInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 1.0, k = 4000.0, c = 6.45, df = 0.0, slope = 1000000.0, I = 9.0, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end ViscousCase3;
 
-  model DryFrictionCase1 "Sect. 5, Case 1: ideal inerter, optimised dry friction df"
+  model DryFrictionCase1 "Sect. 5, Case 1: ideal inerter, optimised dry friction df (model base_tmd)"
     extends TMDInerter.Systems.CoupledIdealInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 9.0, k = 4000.0, c = 0.0, df = 45.78, slope = 1000000.0, I = 1.0, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end DryFrictionCase1;
 
-  model DryFrictionCase2 "Sect. 5, Case 2: ideal inerter, optimised dry friction df"
+  model DryFrictionCase2 "Sect. 5, Case 2: ideal inerter, optimised dry friction df (model base_tmd)"
     extends TMDInerter.Systems.CoupledIdealInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 5.0, k = 4000.0, c = 0.0, df = 37.65, slope = 1000000.0, I = 5.0, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end DryFrictionCase2;
 
-  model DryFrictionCase3 "Sect. 5, Case 3: ideal inerter, optimised dry friction df"
+  model DryFrictionCase3 "Sect. 5, Case 3: ideal inerter, optimised dry friction df (model base_tmd)"
     extends TMDInerter.Systems.CoupledIdealInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 1.0, k = 4000.0, c = 0.0, df = 15.44, slope = 1000000.0, I = 9.0, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end DryFrictionCase3;
 
-  model PlayCase1 "Sect. 6, Case 1: inerter with play, standard gap eps"
+  model PlayCase1 "Sect. 6, Case 1: inerter with play, standard gap eps (model base_tmd)"
     extends TMDInerter.Systems.CoupledPlayInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 9.0, k = 4000.0, c = 0.0, df = 0.0, slope = 1000000.0, I = 1.0, ki = 20000000.0, ci = 0.01, eps = 0.0001, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end PlayCase1;
 
-  model PlayCase2 "Sect. 6, Case 2: inerter with play, standard gap eps"
+  model PlayCase2 "Sect. 6, Case 2: inerter with play, standard gap eps (model base_tmd)"
     extends TMDInerter.Systems.CoupledPlayInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 5.0, k = 4000.0, c = 0.0, df = 0.0, slope = 1000000.0, I = 5.0, ki = 20000000.0, ci = 0.01, eps = 0.0001, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end PlayCase2;
 
-  model PlayCase3 "Sect. 6, Case 3: inerter with play, standard gap eps"
+  model PlayCase3 "Sect. 6, Case 3: inerter with play, standard gap eps (model base_tmd)"
     extends TMDInerter.Systems.CoupledPlayInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 1.0, k = 4000.0, c = 0.0, df = 0.0, slope = 1000000.0, I = 9.0, ki = 20000000.0, ci = 0.01, eps = 0.0001, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end PlayCase3;
 
-  model FullCase1 "Sect. 7, Case 1: full model (viscous damping, dry friction, play)"
+  model FullCase1 "Sect. 7, Case 1: full model (viscous damping, dry friction, play) (model base_tmd)"
     extends TMDInerter.Systems.CoupledPlayInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 9.0, k = 4000.0, c = 10.0, df = 10.0, slope = 1000000.0, I = 1.0, ki = 20000000.0, ci = 0.01, eps = 0.0001, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end FullCase1;
 
-  model FullCase2 "Sect. 7, Case 2: full model (viscous damping, dry friction, play)"
+  model FullCase2 "Sect. 7, Case 2: full model (viscous damping, dry friction, play) (model base_tmd)"
     extends TMDInerter.Systems.CoupledPlayInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 5.0, k = 4000.0, c = 10.0, df = 10.0, slope = 1000000.0, I = 5.0, ki = 20000000.0, ci = 0.01, eps = 0.0001, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end FullCase2;
 
-  model FullCase3 "Sect. 7, Case 3: full model (viscous damping, dry friction, play)"
+  model FullCase3 "Sect. 7, Case 3: full model (viscous damping, dry friction, play) (model base_tmd)"
     extends TMDInerter.Systems.CoupledPlayInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 1.0, k = 4000.0, c = 5.0, df = 5.0, slope = 1000000.0, I = 9.0, ki = 20000000.0, ci = 0.01, eps = 0.0001, k3 = 0.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end FullCase3;
 
-  model CubicSpringCase1 "Not in the paper: Case 1, c = 10, hardening cubic TMD spring k3"
+  model CubicSpringCase1 "Not in the paper: Case 1, c = 10, hardening cubic TMD spring k3 (model base_tmd)"
     extends TMDInerter.Systems.CoupledIdealInerter(M = 100.0, K = 40000.0, C = 100.0, F = 200.0, m = 9.0, k = 4000.0, c = 10.0, df = 0.0, slope = 1000000.0, I = 1.0, k3 = 1000000.0, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end CubicSpringCase1;

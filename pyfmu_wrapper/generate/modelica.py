@@ -1,18 +1,17 @@
-"""Generate the parameter parts of the Modelica package ``modelica/TMDInerter`` from Python.
+"""Generate the Modelica package ``modelica/TMDInerter`` from the model units and the parameter registry.
 
 The Modelica package restates the physics of :mod:`pyfmu_wrapper.physics.kernels` in plain
-Modelica (no Modelica Standard Library). Its parameter values have one source, the Python
-parameter definitions: :class:`~pyfmu_wrapper.physics.params.BaseParams` and
-:class:`~pyfmu_wrapper.physics.params.TMDParams` defaults and
-:func:`~pyfmu_wrapper.physics.params.paper_case`. This module writes
+Modelica (no Modelica Standard Library). Its shared classes (Icons, Units, Interfaces, Components)
+are written by hand in the package; every registered model unit with a Modelica source
+(:attr:`~pyfmu_wrapper.physics.unit.ModelUnit.modelica`) brings its subpackage and its cases from its
+own folder (the paper's ``Systems.mo`` and cases from ``physics/base_tmd``, the frame's ``Frames.mo``,
+...). Parameter values have one source, the Python parameter definitions. This module writes
 
-* ``Defaults.mo``: the dataclass defaults, used as the default values of every component;
-* ``Cases.mo``: one model per case of the paper (Cases 1-3 of each study, and the two endpoints
-  of the Iratio map), each extending a coupled system with every parameter written out, then the
-  cases of every registered model unit that has a Modelica source
-  (:attr:`~pyfmu_wrapper.physics.unit.ModelUnit.modelica`: the frame's ``Frames.mo``), each extending
-  the unit's class with the structure's modifiers and the TMD's;
-* the generated parameter blocks of ``Systems.mo`` and of every unit's file (``Frames.mo``).
+* ``Defaults.mo``: the registry defaults (the dataclass defaults), the default values of every component;
+* every unit's subpackage, its source with the generated parameter blocks filled from the registry;
+* ``Cases.mo``: every unit's cases (the paper's first: Cases 1-3 of each study and the Iratio map's
+  endpoints), each extending the unit's class with the structure's modifiers and the TMD's;
+* ``package.order``.
 
 Run ``python -m pyfmu_wrapper.generate.modelica`` to rewrite the files, ``--check`` to fail when the
 committed files differ from the generated text (the test suite does the same check).
@@ -23,12 +22,11 @@ from __future__ import annotations
 import argparse
 import re
 import sys
-from dataclasses import dataclass
 from pathlib import Path
 
 from ..physics import registry
 from ..physics.modelica_source import ModelicaCase
-from ..physics.params import BaseParams, InerterModel, TMDParams, paper_case
+from ..physics.params import InerterModel
 from ..physics.unit import ModelUnit
 from ..physics.units import MODELS
 
@@ -46,12 +44,6 @@ EXPERIMENT_TOLERANCE = 1e-8
 #: Modelica parameter name of each dataclass field, from the parameter registry
 BASE_NAMES = {p.name: p.modelica_name for p in registry.fields("base") if p.modelica_name}
 TMD_NAMES = {p.name: p.modelica_name for p in registry.fields("tmd") if p.modelica_name}
-#: the coupled system class of each inerter model
-SYSTEM_CLASS = {
-    InerterModel.NONE: "CoupledNoInerter",
-    InerterModel.IDEAL: "CoupledIdealInerter",
-    InerterModel.PLAY: "CoupledPlayInerter",
-}
 #: the TMD subsystem class of each inerter model
 TMD_CLASS = {
     InerterModel.NONE: "TMDNoInerter",
@@ -63,109 +55,6 @@ TMD_CLASS = {
 def system_parameters(model: InerterModel) -> tuple[str, ...]:
     """Modelica names of the TMD parameters a coupled system of this inerter model has."""
     return tuple(p.modelica_name for p in registry.fields("tmd") if p.modelica_name and int(model) in p.models)
-
-
-#: the coupled system class and its TMD parameters, per inerter model
-SYSTEM_PARAMS = {m: (SYSTEM_CLASS[m], system_parameters(m)) for m in InerterModel}
-
-# Paper values per study (Sects. 4-7 of Brzeski & Perlikowski 2017).
-C_OPT = {1: 56.38, 2: 31.73, 3: 6.45}  #: optimised viscous damping c [N s/m] (Sect. 4, Fig. 3)
-DF_OPT = {1: 45.78, 2: 37.65, 3: 15.44}  #: optimised dry friction df [N] (Sect. 5, Fig. 4)
-STANDARD_GAP = 1e-4  #: standardised play gap eps [m] (Sect. 6)
-#: full model (Sect. 7, line "5" of Fig. 6): c and df; Case 3 uses half the values
-FULL_C_DF = {1: (10.0, 10.0), 2: (10.0, 10.0), 3: (5.0, 5.0)}
-#: cubic TMD spring check case (not in the paper): Case 1, c = 10, hardening k3 [N/m^3]
-CUBIC_K3 = 1.0e6
-
-
-@dataclass(frozen=True)
-class CaseSpec:
-    """One Modelica case model and the Python parameters it stands for."""
-
-    name: str  #: Modelica class name inside ``TMDInerter.Cases``
-    description: str
-    base: BaseParams
-    tmd: TMDParams
-
-    @property
-    def system(self) -> str:
-        return SYSTEM_PARAMS[self.tmd.inerter][0]
-
-    def modelica_parameters(self) -> dict[str, float]:
-        """Modelica parameter name -> value, for the parameters the system has."""
-        out = {BASE_NAMES[n]: getattr(self.base, n) for n in BASE_NAMES}
-        keep = system_parameters(self.tmd.inerter)
-        for f, n in TMD_NAMES.items():
-            if n in keep:
-                out[n] = getattr(self.tmd, f)
-        return out
-
-
-def cases() -> list[CaseSpec]:
-    """Every case of the paper, in the order they are written to ``Cases.mo``."""
-    base = BaseParams()
-    out = [
-        CaseSpec(
-            "IratioMap0",
-            "Iratio map endpoint Iratio = 0: classical TMD, m = 10, no inerter",
-            base,
-            TMDParams(mass=10.0, inertance=0.0, inerter=InerterModel.NONE),
-        ),
-        CaseSpec(
-            "IratioMap1",
-            "Iratio map endpoint Iratio = 1: massless TMD node, ideal inerter I = 10",
-            base,
-            TMDParams(mass=0.0, inertance=10.0, inerter=InerterModel.IDEAL),
-        ),
-    ]
-    for n in (1, 2, 3):
-        out.append(CaseSpec(f"IdealCase{n}", f"Sect. 3, Case {n}: ideal inerter, no damping", base, paper_case(n)))
-    for n in (1, 2, 3):
-        out.append(
-            CaseSpec(
-                f"ViscousCase{n}",
-                f"Sect. 4, Case {n}: ideal inerter, optimised viscous damping c",
-                base,
-                paper_case(n, damping=C_OPT[n]),
-            )
-        )
-    for n in (1, 2, 3):
-        out.append(
-            CaseSpec(
-                f"DryFrictionCase{n}",
-                f"Sect. 5, Case {n}: ideal inerter, optimised dry friction df",
-                base,
-                paper_case(n, friction_force=DF_OPT[n]),
-            )
-        )
-    for n in (1, 2, 3):
-        out.append(
-            CaseSpec(
-                f"PlayCase{n}",
-                f"Sect. 6, Case {n}: inerter with play, standard gap eps",
-                base,
-                paper_case(n, inerter=InerterModel.PLAY, play_gap=STANDARD_GAP),
-            )
-        )
-    for n in (1, 2, 3):
-        c, df = FULL_C_DF[n]
-        out.append(
-            CaseSpec(
-                f"FullCase{n}",
-                f"Sect. 7, Case {n}: full model (viscous damping, dry friction, play)",
-                base,
-                paper_case(n, damping=c, friction_force=df, inerter=InerterModel.PLAY, play_gap=STANDARD_GAP),
-            )
-        )
-    out.append(
-        CaseSpec(
-            "CubicSpringCase1",
-            "Not in the paper: Case 1, c = 10, hardening cubic TMD spring k3",
-            base,
-            paper_case(1, damping=10.0, cubic_stiffness=CUBIC_K3),
-        )
-    )
-    return out
 
 
 def fmt(value: float) -> str:
@@ -204,9 +93,9 @@ def defaults_text() -> str:
     return "\n".join(lines) + "\n"
 
 
-# --- generated blocks of Systems.mo -------------------------------------------------------------
-# Systems.mo is written by hand (the structure: components and connections); the parameter
-# declarations and the TMD instance modifiers are generated between marker comments
+# --- generated blocks of a unit's subpackage ------------------------------------------------------
+# A unit's source (e.g. Systems.mo) is written by hand (the structure: components and connections);
+# the parameter declarations and the TMD instance modifiers are generated between marker comments
 #   // <generated KIND ARG>   ...   // </generated>
 # KIND = params (ARG: base | tmd-all | tmd-ideal | tmd-play) or instance (ARG: ideal | play | none).
 _MARK_OPEN = re.compile(r"^(?P<indent>\s*)// <generated (?P<kind>\w+) (?P<arg>[\w-]+)>\s*$")
@@ -266,25 +155,14 @@ def systems_text(text: str) -> str:
     return "\n".join(out) + "\n"
 
 
-def case_text(spec: CaseSpec) -> str:
-    params = spec.modelica_parameters()
-    mods = ", ".join(f"{n} = {fmt(v)}" for n, v in params.items())
-    return (
-        f'  model {spec.name} "{spec.description}"\n'
-        f"    extends {PACKAGE}.Systems.{spec.system}({mods}, w = {fmt(DEFAULT_OMEGA)});\n"
-        f"    annotation(experiment(StartTime = 0, StopTime = {fmt(EXPERIMENT_STOP_TIME)}, "
-        f"Tolerance = {fmt(EXPERIMENT_TOLERANCE)}));\n"
-        f"  end {spec.name};\n"
-    )
-
-
 def modelica_units() -> tuple[ModelUnit, ...]:
     """The registered model units that have a Modelica source."""
     return tuple(u for u in MODELS.units() if u.modelica is not None)
 
 
 def unit_cases() -> list[tuple[ModelUnit, ModelicaCase]]:
-    """Every unit's cases, in the order they are written to ``Cases.mo`` (after the paper's)."""
+    """Every unit's cases, in the order they are written to ``Cases.mo`` (the units' order: the
+    paper's model first)."""
     return [(u, c) for u in modelica_units() if u.modelica is not None for c in u.modelica.cases()]
 
 
@@ -316,7 +194,7 @@ def unit_case_text(unit: ModelUnit, case: ModelicaCase) -> str:
 
 def cases_text() -> str:
     """``Cases.mo``: one model per case of the paper, then the cases of the model units."""
-    body = "\n".join([case_text(s) for s in cases()] + [unit_case_text(u, c) for u, c in unit_cases()])
+    body = "\n".join(unit_case_text(u, c) for u, c in unit_cases())
     return (
         f"within {PACKAGE};\n"
         f'package Cases "One model per case of the paper (Brzeski & Perlikowski 2017) and of the model units"\n'
@@ -326,7 +204,7 @@ def cases_text() -> str:
 
 #: the package's own classes, in load order (package.order: these, the units' subpackages, then
 #: Defaults and Cases)
-PACKAGE_ORDER = ("Icons", "Units", "pi", "Interfaces", "Components", "Systems")
+PACKAGE_ORDER = ("Icons", "Units", "pi", "Interfaces", "Components")
 
 
 def order_text() -> str:
@@ -353,10 +231,9 @@ def unit_file_text(source: Path) -> str:
 
 def generated_files(directory: Path = PACKAGE_DIR) -> dict[str, str]:
     """File name (inside the package directory) -> generated text: Defaults.mo, Cases.mo,
-    package.order, Systems.mo (its own structure, read from ``directory``, with the generated blocks
-    rewritten) and every unit's subpackage (its source in the unit's folder, blocks filled)."""
+    package.order and every unit's subpackage (its source in the unit's folder, blocks filled: the
+    paper's ``Systems.mo``, the frame's ``Frames.mo``, ...)."""
     out = {"Defaults.mo": defaults_text(), "Cases.mo": cases_text(), "package.order": order_text()}
-    out["Systems.mo"] = systems_text((Path(directory) / "Systems.mo").read_text(encoding="utf-8"))
     for u in modelica_units():
         if u.modelica is not None:
             out[u.modelica.file] = unit_file_text(u.modelica.source)
@@ -390,8 +267,8 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--dir", type=Path, default=PACKAGE_DIR, help="package directory (default: %(default)s)")
     ap.add_argument("--check", action="store_true", help="only check that the files are up to date")
     a = ap.parse_args(argv)
-    if not (a.dir / "Systems.mo").is_file():
-        print(f"{a.dir}: not a TMDInerter package directory (no Systems.mo)", file=sys.stderr)
+    if not (a.dir / "package.mo").is_file():
+        print(f"{a.dir}: not a TMDInerter package directory (no package.mo)", file=sys.stderr)
         return 2
     if a.check:
         bad = stale_files(a.dir)

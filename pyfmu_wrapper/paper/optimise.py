@@ -46,10 +46,6 @@ from ..physics.params import BaseParams, ParameterError, TMDParams, field_names
 from ..solvers.monolithic import SolverSettings
 from .objectives import Objective, OptimisationError, get_objective, linear_response
 
-#: the paper's optimised values (Sects. 4 and 5), Case -> value
-PAPER_C_OPT = {1: 56.38, 2: 31.73, 3: 6.45}
-PAPER_DF_OPT = {1: 45.78, 2: 37.65, 3: 15.44}
-
 #: default search bounds per parameter (the ranges of the paper's maps, Figs. 3-4)
 DEFAULT_BOUNDS = {"damping": (0.0, 100.0), "friction_force": (0.0, 100.0)}
 

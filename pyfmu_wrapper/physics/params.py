@@ -230,6 +230,14 @@ def tmd_check(mass: float, inertance: float, model: int) -> int:
 
 # Paper cases (Sect. 3): m + I = 10 kg.
 CASES = {1: dict(mass=9.0, inertance=1.0), 2: dict(mass=5.0, inertance=5.0), 3: dict(mass=1.0, inertance=9.0)}
+#: the paper's optimised viscous damping c [N s/m] per case (Sect. 4, Fig. 3)
+PAPER_C_OPT = {1: 56.38, 2: 31.73, 3: 6.45}
+#: the paper's optimised dry friction df [N] per case (Sect. 5, Fig. 4)
+PAPER_DF_OPT = {1: 45.78, 2: 37.65, 3: 15.44}
+#: the paper's standardised play gap eps [m] (Sect. 6)
+PAPER_GAP = 1e-4
+#: the paper's full model (Sect. 7, line "5" of Fig. 6): (c [N s/m], df [N]) per case; Case 3 half
+PAPER_FULL_C_DF = {1: (10.0, 10.0), 2: (10.0, 10.0), 3: (5.0, 5.0)}
 
 
 def has_gap(tmd: TMDParams) -> bool:

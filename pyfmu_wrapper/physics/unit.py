@@ -33,6 +33,12 @@ from .params import P_F, P_W, TMDParams
 from .registry import Parameter
 
 
+def tmd_is_linear(structure: Any, tmd: TMDParams) -> bool:
+    """A linear structure with the paper's TMD: linear when the TMD is (no friction, play or cubic
+    spring): the default of :attr:`ModelUnit.is_linear`."""
+    return tmd.is_linear
+
+
 class ModelError(InputError):
     """A structure no registered model takes, or a state that does not fit its model."""
 
@@ -68,6 +74,9 @@ class ModelUnit:
     takes_tmd: bool = True
     #: its classes and cases in the Modelica package (None: it has no Modelica source)
     modelica: ModelicaSource | None = None
+    #: is_linear(structure, tmd) -> the equations are linear in the state (the exact frequency
+    #: response applies); default: the structure is linear and the TMD decides (:func:`tmd_is_linear`)
+    is_linear: Callable[[Any, TMDParams], bool] = tmd_is_linear
 
     def check_state(self, structure: Any, z: NDArray[Any], what: str = "start state") -> NDArray[np.float64]:
         """z as a float array, refused with a one-line :class:`ModelError` unless it has the

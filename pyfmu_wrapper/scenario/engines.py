@@ -120,13 +120,14 @@ class Engine:
     description: str = ""
 
 
-def uses_exact(tmd: TMDParams, settings: RunSettings) -> bool:
+def uses_exact(base: Any, tmd: TMDParams, settings: RunSettings) -> bool:
     """Whether a configuration is computed from the exact frequency response (monolithic engine only)."""
-    return settings.engine == "monolithic" and _mono_exact(tmd, settings)
+    return settings.engine == "monolithic" and _mono_exact(base, tmd, settings)
 
 
-def _mono_exact(tmd: TMDParams, settings: RunSettings) -> bool:
-    return tmd.is_linear and settings.solver.linear == "exact"
+def _mono_exact(base: Any, tmd: TMDParams, settings: RunSettings) -> bool:
+    """The model unit says the configuration is linear and the settings ask for the exact path."""
+    return settings.solver.linear == "exact" and MODELS.of(base).is_linear(base, tmd)
 
 
 def _exact_table(
@@ -176,7 +177,7 @@ def _monolithic_sweep(
     settings: RunSettings,
     progress: Callable[..., Any] | None = None,
 ) -> pd.DataFrame:
-    if _mono_exact(tmd, settings):
+    if _mono_exact(base, tmd, settings):
         return _exact_table(base, tmd, omegas, settings, progress, "monolithic")
     res = sweep(
         base,
@@ -200,7 +201,7 @@ def _monolithic_sweep(
 def _monolithic_time_series(
     base: Any, tmd: TMDParams, omega: float, n_periods: int, samples_per_period: int, settings: RunSettings
 ) -> TimeSeries:
-    if _mono_exact(tmd, settings):
+    if _mono_exact(base, tmd, settings):
         T = 2.0 * np.pi / omega
         t = np.arange(n_periods * samples_per_period) * (T / samples_per_period)
         Z = exact_response(base, tmd, [omega])[0]

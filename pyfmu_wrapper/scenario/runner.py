@@ -93,14 +93,14 @@ def instant_units(scn: Scenario, settings: RunSettings) -> int:
     seen, n = set(), 0
     for st in scn.studies:
         if isinstance(st, FRCStudy):
-            tmds = [c.tmd for c in st.curves]
+            pairs = [(curve_structure(scn, c), c.tmd) for c in st.curves]
         elif isinstance(st, MapStudy):
-            tmds = list(st.tmds)
+            pairs = [(scn.base, tmd) for tmd in st.tmds]
         else:
             continue
-        for tmd in tmds:
-            key = (tmd, np.asarray(st.omegas, float).tobytes())
-            if key in seen or uses_exact(tmd, settings):
+        for base, tmd in pairs:
+            key = (base, tmd, np.asarray(st.omegas, float).tobytes())
+            if key in seen or uses_exact(base, tmd, settings):
                 n += len(st.omegas) * nd
             seen.add(key)
     return n
@@ -140,7 +140,7 @@ class _Cache:
             if progress is not None:
                 getattr(progress, "skip", progress)(len(omegas) * len(settings.directions()))
             return self.tables[key]
-        if settings.sweep.continuation or uses_exact(tmd, settings):
+        if settings.sweep.continuation or uses_exact(base, tmd, settings):
             table = compute_sweep(base, tmd, omegas, settings, progress)
         else:  # independent points from the linear guess: same task function as the executors
             task = SweepTask(base, tmd, np.asarray(omegas, float), settings)
@@ -171,7 +171,7 @@ class _Cache:
                 out[i] = self.tables[key]
                 if progress is not None:  # computed earlier in this run: not in the speed of an ETA
                     getattr(progress, "skip", progress)(len(omegas) * len(settings.directions()))
-            elif uses_exact(tmd, settings) or (self.executor is None and self.checkpoint_dir is None):
+            elif uses_exact(bases[i], tmd, settings) or (self.executor is None and self.checkpoint_dir is None):
                 out[i] = self.sweep(bases[i], tmd, omegas, settings, progress)
             else:
                 todo.setdefault(key, []).append(i)
@@ -220,7 +220,7 @@ def frc_response(
         parts.append(table)
         refine = (
             (lambda x, tmd=curve.tmd, base=base: exact_amplitude(base, tmd, x))
-            if uses_exact(curve.tmd, settings)
+            if uses_exact(base, curve.tmd, settings)
             else None
         )
         peaks[curve.label] = {}

@@ -27,21 +27,26 @@ from ..physics.units import MODELS
 def linear_system(base: Any, tmd: TMDParams, linearise: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(A, b): dz/dt = A z + b f for the applied force f [N] (module doc for linearise); base: the
     primary structure's parameters (its model unit is read off :data:`~pyfmu_wrapper.physics.units.MODELS`)."""
+    unit = MODELS.of(base)
     gap = tmd.play_gap if tmd.inerter == InerterModel.PLAY else 0.0
     if linearise:
-        if tmd.friction_force != 0.0 or gap != 0.0:
+        if unit.takes_tmd and (tmd.friction_force != 0.0 or gap != 0.0):
             raise ParameterError(
                 "a linearisation about rest needs a smooth configuration: "
                 f"friction_force = {tmd.friction_force} and play_gap = {gap} must be 0"
             )
-    elif not tmd.is_linear:
+    elif not unit.is_linear(base, tmd):
         raise ParameterError(
             "the exact frequency response needs a linear configuration: "
-            f"friction_force = {tmd.friction_force}, play_gap = {gap} and "
-            f"cubic_stiffness = {tmd.cubic_stiffness} must be 0 (linearise=True gives the "
-            "small-amplitude limit of a smooth configuration)"
+            + (
+                f"friction_force = {tmd.friction_force}, play_gap = {gap} and "
+                f"cubic_stiffness = {tmd.cubic_stiffness} must be 0 (linearise=True gives the "
+                "small-amplitude limit of a smooth configuration)"
+                if unit.takes_tmd
+                else f"model {unit.name!r} is not linear at these parameters"
+            )
         )
-    return MODELS.of(base).linear_system(base, tmd, linearise)
+    return unit.linear_system(base, tmd, linearise)
 
 
 def exact_response(base: Any, tmd: TMDParams, omegas: ArrayLike, linearise: bool = False) -> np.ndarray:

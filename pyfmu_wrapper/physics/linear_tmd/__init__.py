@@ -72,4 +72,5 @@ UNIT = ModelUnit(
     description="a base oscillator with a plain linear TMD (mass, spring, viscous damper; no inerter)",
     takes_tmd=False,
     modelica=MODELICA,
+    is_linear=lambda s, tmd: True,  # every parameter enters linearly
 )

@@ -1,7 +1,9 @@
 """The paper's model as a unit: the base oscillator with the TMD-inerter (Brzeski & Perlikowski 2017).
 
-State z = [x, xd, y, yd, d, dd] (:mod:`.kernels`), parameters :class:`~.params.BaseParams` and
-:class:`~.params.TMDParams`, equations :data:`.models.COUPLED`. Registered in :mod:`.units`.
+State z = [x, xd, y, yd, d, dd] (:mod:`~pyfmu_wrapper.physics.kernels`), parameters
+:class:`~pyfmu_wrapper.physics.params.BaseParams` and :class:`~pyfmu_wrapper.physics.params.TMDParams`,
+equations :data:`~pyfmu_wrapper.physics.models.COUPLED`, Modelica source and the paper's cases in
+:mod:`.modelica`. Registered in :mod:`pyfmu_wrapper.physics.units`.
 """
 
 from __future__ import annotations
@@ -11,11 +13,12 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from . import registry
-from .kernels import NSTATE, inerter_force, rhs
-from .models import COUPLED
-from .params import BaseParams, InerterModel, TMDParams, has_gap, pack
-from .unit import ModelUnit
+from .. import registry
+from ..kernels import NSTATE, inerter_force, rhs
+from ..models import COUPLED
+from ..params import BaseParams, InerterModel, TMDParams, has_gap, pack
+from ..unit import ModelUnit
+from .modelica import MODELICA
 
 
 def chain_atol(force_amplitude: float, tmd: TMDParams) -> float:
@@ -82,4 +85,5 @@ UNIT = ModelUnit(
     description="the paper's base oscillator with the TMD-inerter (one storey, one TMD)",
     cosim="pyfmu_wrapper.cosim.steady",
     example=BaseParams,
+    modelica=MODELICA,
 )
