@@ -52,7 +52,7 @@ from . import settings_table as _table
 from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, make_integrator
 from .settings_table import MONO
 from .shooting import shoot
-from .start import initial_guess, play_atol  # noqa: F401 (shared; re-exported)
+from .start import initial_guess
 from .steady import SteadySettings, WindowCriterion
 
 

@@ -29,15 +29,7 @@ import numpy as np
 from ...solvers.monolithic import SolverError
 from .. import gates
 from ..acquisition import unobservable
-from ..gates import (  # noqa: F401
-    BOUNDS,
-    EVIDENCE,
-    MIN_SHARE,
-    PAIR_SHARE,
-    RELEVANCE,
-    REMAIN_SHARE,
-    Z_NOISE,
-    Z_REMAIN,
+from ..gates import (
     evidence_gate,
     noise_gate,
     pair_gate,
