@@ -143,8 +143,8 @@ def test_a_failing_point_is_reported_and_the_sweep_goes_on(monkeypatch):
 def test_frame_parameters_name_their_fmu_variables():
     """The frame's declared parameters (docs/parameters.md) name the ShearFrame FMU's variables and
     value references (fmi/frame_variables.py)."""
-    from pyfmu_wrapper.fmi.frame_variables import SHEAR_FRAME
     from pyfmu_wrapper.physics import registry
+    from pyfmu_wrapper.physics.frame_model.fmus.variables import SHEAR_FRAME
 
     for p in registry.of("frame"):
         first = p.fmu_name.split("..")[0]

@@ -9,7 +9,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..fmi.variables import BUILD_FMUS, SPECS
+from ..fmi.catalog import BUILD_FMUS, NATIVE_FMUS, SPECS
 from ..fmubuild.build import (
     DEFAULT_OUT,
     BuildError,
@@ -42,7 +42,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--native",
         action="store_true",
-        help="the model compiled into the binary: no Python on the target (every FMU but Trivial; "
+        help="the model compiled into the binary: no Python on the target (every model's FMU, not Trivial; "
         "default --out fmu/build/native)",
     )
     ap.add_argument(
@@ -59,8 +59,9 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"unknown FMU(s) {unknown}; choose from {sorted(SPECS)}")
     if args.native and args.standalone:
         ap.error("--native and --standalone exclude each other (a native FMU needs no Python to bundle)")
-    if args.native and "Trivial" in args.names:
-        ap.error(f"--native: Trivial has no native variant ({', '.join(BUILD_FMUS)})")
+    no_native = [n for n in args.names if n not in NATIVE_FMUS]
+    if args.native and no_native:
+        ap.error(f"--native: {', '.join(no_native)} has no native variant ({', '.join(NATIVE_FMUS)})")
     if Path(args.out).exists() and not Path(args.out).is_dir():  # before compiling anything
         ap.error(f"--out {args.out}: is a file, not a folder (build-fmus writes the FMUs into a folder)")
     try:

@@ -64,7 +64,7 @@ def _unit_tables() -> list[str]:
 def variables_text() -> str:
     """The "Variables" section of ``docs/fmus.md``: one table per FMU spec (every entry of
     :data:`pyfmu_wrapper.fmi.variables.SPECS`, in its order), from the spec's variables."""
-    from ..fmi.variables import BUILD_FMUS, SPECS
+    from ..fmi.catalog import BUILD_FMUS, SPECS
 
     out = [
         VARIABLES_HEADING,
