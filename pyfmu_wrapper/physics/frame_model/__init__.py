@@ -104,7 +104,7 @@ UNIT = ModelUnit(
     atol=_atol,
     active=lambda frame, tmd: active_states(tmd, _n_state(frame)),
     inerter_force=_inerter_force,
-    cosim="pyfmu_wrapper.cosim.frame_system",
+    cosim="pyfmu_wrapper.physics.frame_model.cosim",
     fmus=("pyfmu_wrapper.physics.frame_model.fmus.shear_frame",),
     modelica=MODELICA,
     example=lambda: FrameParams.uniform(3, 100.0, 1.2e5, 100.0, tmd_storey=3, inerter_to=2),
