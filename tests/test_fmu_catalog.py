@@ -52,7 +52,8 @@ def test_each_model_fmu_lives_in_its_units_folder(name):
     slave_module, _, cls = fmu.spec.slave.partition(":")
     assert slave_module.startswith(folder + ".")
     assert resolve(fmu.spec.slave).spec is fmu.spec
-    assert fmu.native is not None
+    if fmu.native is None:  # Python-hosted only
+        return
     for dotted in (fmu.native.step, fmu.native.functions, fmu.native.table):
         assert dotted.startswith(folder + "."), dotted
         assert callable(resolve(dotted))

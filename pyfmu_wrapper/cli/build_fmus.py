@@ -28,8 +28,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "names",
         nargs="*",
-        default=list(BUILD_FMUS),
-        help=f"FMUs to build, of {sorted(SPECS)} (default: {', '.join(BUILD_FMUS)})",
+        default=[],
+        help=f"FMUs to build, of {sorted(SPECS)} (default: {', '.join(BUILD_FMUS)}; with --native, those with a "
+        f"native variant: {', '.join(NATIVE_FMUS)})",
     )
     ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory (default fmu/build)")
     ap.add_argument("--force", action="store_true", help="rebuild even when up to date")
@@ -42,7 +43,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--native",
         action="store_true",
-        help="the model compiled into the binary: no Python on the target (every model's FMU, not Trivial; "
+        help="the model compiled into the binary: no Python on the target (the FMUs whose declaration has native functions; "
         "default --out fmu/build/native)",
     )
     ap.add_argument(
@@ -54,6 +55,8 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     versions = [2, 3] if args.fmi_version in ("2,3", "both") else [int(args.fmi_version)]
+    if not args.names:  # every model's FMU (with --native: every one with a native variant)
+        args.names = list(NATIVE_FMUS if args.native else BUILD_FMUS)
     unknown = [n for n in args.names if n not in SPECS]
     if unknown:
         ap.error(f"unknown FMU(s) {unknown}; choose from {sorted(SPECS)}")
