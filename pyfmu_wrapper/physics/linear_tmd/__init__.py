@@ -72,4 +72,5 @@ UNIT = ModelUnit(
     description="a base oscillator with a plain linear TMD (mass, spring, viscous damper; no inerter)",
     takes_tmd=False,
     modelica=MODELICA,
+    fmus=("pyfmu_wrapper.physics.linear_tmd.fmus.linear_tmd_fmu",),
 )
