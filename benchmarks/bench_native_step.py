@@ -31,7 +31,7 @@ sys.path.insert(0, str(REPO / "tests"))
 from _fmu_support import extract, guid  # noqa: E402
 from test_native_objects import CASES, _blob_and_reference  # noqa: E402
 
-from pyfmu_wrapper.fmi.variables import SPECS  # noqa: E402
+from pyfmu_wrapper.fmi.catalog import SPECS  # noqa: E402
 from pyfmu_wrapper.fmubuild.build import ensure_fmus, fmi_headers_dir  # noqa: E402
 from pyfmu_wrapper.fmubuild.native_build import build_native_fmus  # noqa: E402
 from pyfmu_wrapper.fmubuild.native_obj import RUNTIME_C, STEP_SYMBOL, write_objects  # noqa: E402

@@ -18,6 +18,13 @@ def built_fmus() -> dict[str, Path]:
     return ensure_fmus(out_dir=DEFAULT_OUT, names=("BaseOscillator", "TMDInerter", "Trivial"))
 
 
+def every_fmu() -> dict[str, Path]:
+    """Every declared FMU (every registered unit's, and Trivial), Python-hosted, FMI 2.0."""
+    from pyfmu_wrapper.fmi.catalog import SPECS
+
+    return ensure_fmus(out_dir=DEFAULT_OUT, names=tuple(SPECS))
+
+
 def extract(fmu: Path, root: Path) -> Path:
     """Unzip an FMU into root/<modelIdentifier> (the C host derives the binary name from it)."""
     d = root / fmu.stem

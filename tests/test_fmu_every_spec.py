@@ -1,4 +1,4 @@
-"""Every FMU the project declares (``fmi.variables.SPECS``), tested alike: no FMU is named here.
+"""Every FMU the project declares (``fmi.catalog.SPECS``, gathered from the registered units), tested alike: no FMU is named here.
 
 For each declared FMU, Python-hosted, FMI 2.0 and 3.0:
 
@@ -24,7 +24,7 @@ from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 from test_fmu_fuzz import check
 
-from pyfmu_wrapper.fmi.variables import SPECS
+from pyfmu_wrapper.fmi.catalog import SPECS
 from pyfmu_wrapper.fmi.varspec import REAL, FmuSpec
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.fmubuild.model_description3 import derivative_vr, time_vr

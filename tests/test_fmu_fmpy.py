@@ -5,14 +5,16 @@ from __future__ import annotations
 import fmpy
 import numpy as np
 import pytest
-from _fmu_support import built_fmus, damped_forced_response
+from _fmu_support import damped_forced_response, every_fmu
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
+
+from pyfmu_wrapper.fmi.catalog import BUILD_FMUS
 
 
 @pytest.fixture(scope="module")
 def fmus():
-    return built_fmus()
+    return every_fmu()
 
 
 def open_slave(fmu, tmp_path, name="inst", start=None):
@@ -35,7 +37,7 @@ def open_slave(fmu, tmp_path, name="inst", start=None):
     return s, vr
 
 
-@pytest.mark.parametrize("name", ["BaseOscillator", "TMDInerter"])
+@pytest.mark.parametrize("name", BUILD_FMUS)  # every model's FMU
 def test_fmpy_validate(fmus, name):
     assert validate_fmu(str(fmus[name])) == []
 

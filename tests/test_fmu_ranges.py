@@ -37,7 +37,7 @@ from fmpy.fmi2 import (
     free,
 )
 
-from pyfmu_wrapper.fmi.variables import SPECS
+from pyfmu_wrapper.fmi.catalog import SPECS
 from pyfmu_wrapper.physics import registry
 
 TMD = dict(m=9.0, k=4.0e3, c=10.0, df=5.0, I=1.0, y0=0.01)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import re
 
-from pyfmu_wrapper.fmi.variables import SPECS
+from pyfmu_wrapper.fmi.catalog import SPECS
 from pyfmu_wrapper.generate import docs as gen
 from pyfmu_wrapper.physics.units import MODELS
 

@@ -21,10 +21,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from pyfmu_wrapper.fmi.catalog import SPECS
 from pyfmu_wrapper.fmi.contract import NATIVE_OK
-from pyfmu_wrapper.fmi.slaves import BaseOscillatorSlave, TMDInerterSlave
-from pyfmu_wrapper.fmi.variables import SPECS
 from pyfmu_wrapper.fmubuild.native_obj import RUNTIME_C, STEP_SYMBOL, mingw_gcc, write_objects
+from pyfmu_wrapper.physics.base_tmd_fmus.slaves import BaseOscillatorSlave, TMDInerterSlave
 
 DRIVER = r"""
 #include <stdint.h>

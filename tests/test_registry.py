@@ -22,13 +22,13 @@ import pytest
 from scipy.optimize import brentq, minimize_scalar
 
 from pyfmu_wrapper.cosim.system import fmu_parameters
-from pyfmu_wrapper.fmi.variables import BASE_OSCILLATOR, TMD_INERTER
 from pyfmu_wrapper.fmi.varspec import INTEGER
 from pyfmu_wrapper.generate import docs as docs_gen
 from pyfmu_wrapper.physics import jacobians as Jac
 from pyfmu_wrapper.physics import kernels as K
 from pyfmu_wrapper.physics import params as P
 from pyfmu_wrapper.physics import registry
+from pyfmu_wrapper.physics.base_tmd_fmus.variables import BASE_OSCILLATOR, TMD_INERTER
 from pyfmu_wrapper.physics.params import BaseParams, ParameterError, TMDParams, pack, paper_case
 from pyfmu_wrapper.scenario.schema import MAP_PARAMETERS
 from pyfmu_wrapper.solvers.monolithic import steady_state

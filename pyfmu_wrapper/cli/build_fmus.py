@@ -9,7 +9,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..fmi.variables import BUILD_FMUS, SPECS
+from ..fmi.catalog import BUILD_FMUS, NATIVE_FMUS, SPECS
 from ..fmubuild.build import (
     DEFAULT_OUT,
     BuildError,
@@ -28,8 +28,9 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "names",
         nargs="*",
-        default=list(BUILD_FMUS),
-        help=f"FMUs to build, of {sorted(SPECS)} (default: {', '.join(BUILD_FMUS)})",
+        default=[],
+        help=f"FMUs to build, of {sorted(SPECS)} (default: {', '.join(BUILD_FMUS)}; with --native, those with a "
+        f"native variant: {', '.join(NATIVE_FMUS)})",
     )
     ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory (default fmu/build)")
     ap.add_argument("--force", action="store_true", help="rebuild even when up to date")
@@ -42,7 +43,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--native",
         action="store_true",
-        help="the model compiled into the binary: no Python on the target (every FMU but Trivial; "
+        help="the model compiled into the binary: no Python on the target (the FMUs whose declaration has native functions; "
         "default --out fmu/build/native)",
     )
     ap.add_argument(
@@ -54,13 +55,16 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     versions = [2, 3] if args.fmi_version in ("2,3", "both") else [int(args.fmi_version)]
+    if not args.names:  # every model's FMU (with --native: every one with a native variant)
+        args.names = list(NATIVE_FMUS if args.native else BUILD_FMUS)
     unknown = [n for n in args.names if n not in SPECS]
     if unknown:
         ap.error(f"unknown FMU(s) {unknown}; choose from {sorted(SPECS)}")
     if args.native and args.standalone:
         ap.error("--native and --standalone exclude each other (a native FMU needs no Python to bundle)")
-    if args.native and "Trivial" in args.names:
-        ap.error(f"--native: Trivial has no native variant ({', '.join(BUILD_FMUS)})")
+    no_native = [n for n in args.names if n not in NATIVE_FMUS]
+    if args.native and no_native:
+        ap.error(f"--native: {', '.join(no_native)} has no native variant ({', '.join(NATIVE_FMUS)})")
     if Path(args.out).exists() and not Path(args.out).is_dir():  # before compiling anything
         ap.error(f"--out {args.out}: is a file, not a folder (build-fmus writes the FMUs into a folder)")
     try:

@@ -14,7 +14,7 @@ An FMU is self-contained: it contains ``modelDescription.xml``, ``binaries/linux
 stub, compiled with the system gcc against the FMI 2.0 headers that fmpy ships) and
 ``resources/``:
 
-- ``_pyfmu_<hash>/``: the modules of this package the model runs (``fmi/slaves.py`` and
+- ``_pyfmu_<hash>/``: the modules of this package the model runs (``fmi/slave.py``, the slaves the FMUs declare and
   everything it imports from the package, transitively), copied verbatim under a package name
   that carries their hash, so no checkout or install of this project is needed to run it;
 - ``model.py``: checks the bundle against its recorded hash, keys numba's on-disk cache of the
@@ -45,8 +45,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from ..fmi.catalog import PROJECT_FMUS, SPECS
 from ..fmi.contract import c_header
-from ..fmi.variables import PROJECT_FMUS, SPECS
 from ..fmi.varspec import FmuSpec
 from ..safeio.files import replace_checked
 from .buildinfo import BuildError, version_of
@@ -218,7 +218,7 @@ def build_fmu(
     runtime: list | None = None,
     fmi_version: int = 2,
 ) -> Path:
-    """Build one FMU (name: a key of :data:`~.variables.SPECS`); return the path of the .fmu.
+    """Build one FMU (name: a key of :data:`~pyfmu_wrapper.fmi.catalog.SPECS`); return the path of the .fmu.
 
     standalone: also bundle the Python runtime and numpy/numba/llvmlite (``resources/python/``);
     runtime: the (source, archive name) pairs of that runtime, if already collected

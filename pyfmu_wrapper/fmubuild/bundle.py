@@ -18,7 +18,7 @@ if TYPE_CHECKING:
 PACKAGE_DIR = Path(__file__).resolve().parents[1]  # pyfmu_wrapper/
 
 #: The module the slaves live in (the root of the bundled import closure).
-SLAVE_MODULE = "fmi/slaves.py"
+SLAVE_MODULE = "fmi/slave.py"
 #: the bundled loader of the model code (loaded by the FMU's model.py)
 LOADER_MODULE = "fmi/fmu_loader.py"
 
@@ -63,8 +63,8 @@ _CLOSURE: dict[tuple, list[str]] = {}
 
 
 def bundled_files() -> list[str]:
-    """Package-relative files the slaves need: the modules of every FMU's slave (fmi/slaves.py and
-    those :data:`~.variables.SPECS` name) and their package imports, transitively, with the
+    """Package-relative files the slaves need: the slave machinery (fmi/slave.py), the modules of every FMU's slave (those
+    :data:`~pyfmu_wrapper.fmi.catalog.SPECS` name) and their package imports, transitively, with the
     ``__init__.py`` of every package on the way."""
     key = tuple((str(f), st.st_size, st.st_mtime_ns) for f in sorted(PACKAGE_DIR.rglob("*.py")) if (st := f.stat()))
     if key not in _CLOSURE:
@@ -74,7 +74,7 @@ def bundled_files() -> list[str]:
 
 
 def _closure() -> list[str]:
-    from ..fmi.variables import SPECS
+    from ..fmi.catalog import SPECS
 
     roots = {SLAVE_MODULE, LOADER_MODULE}
     roots |= {spec.slave.split(":")[0].split(".", 1)[1].replace(".", "/") + ".py" for spec in SPECS.values()}

@@ -4,8 +4,8 @@
 ``py_embed.c`` and ``py_config.c``) is compiled with ``fmu/src/native/native_embed.c`` in their
 place, which serves the core's calls into its slave with the compiled functions, and
 ``fmu/src/native/native_rt.c``, the run time those need; the functions themselves are object code
-emitted from the numba source (:mod:`.native_obj`: the step of :mod:`.native`, configure, outputs
-and derivative of :mod:`.native_model`). The model's table (sizes, value references, start values,
+emitted from the numba source (:mod:`.native_obj`: the step, configure, outputs, derivative and sensitivity each FMU's
+declaration names). The model's table (sizes, value references, start values,
 the messages of its checks) is generated here from the FMU's declaration into
 ``pyfmu_native_model.h``. The archive holds what a Python-hosted FMU holds but the bundled Python
 code: ``modelDescription.xml``, ``documentation/``, ``resources/pyfmu.cfg`` and
@@ -26,19 +26,18 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
+from ..fmi.catalog import FMUS, NATIVE_FMUS, PROJECT_FMUS, SPECS
 from ..fmi.contract import MAX_INTEGRATOR_STEPS, c_header
-from ..fmi.integrators import BASE_U_SIZE
-from ..fmi.native_model import FIELD_CODE, KAPPA_CODE, field_messages
-from ..fmi.variables import PROJECT_FMUS, SPECS
+from ..fmi.fmumodel import resolve
+from ..fmi.native_model import FIELD_CODE, KAPPA_CODE
 from ..fmi.varspec import FmuSpec
-from ..physics.frame_model.params import MAX_STOREYS
 from ..safeio.files import replace_checked
 from .build import DEFAULT_OUT, STUB_DIR, check_output, fmi_headers_dir, fmi_out_dir, fmu_source_hash, source_hash
 from .buildinfo import BuildError
 from .documentation import documentation_html
 from .model_description import guid_of, model_description_xml, variable_table_tsv
 from .model_description3 import model_description3_xml
-from .native_obj import MODELS, PLATFORM3, RUNTIME_C, mingw_gcc, write_objects
+from .native_obj import PLATFORM3, RUNTIME_C, mingw_gcc, write_objects
 
 NATIVE_DIR = STUB_DIR / "native"
 #: where the native FMUs go, below the build folder (FMI 3.0 ones in its fmi3/)
@@ -65,33 +64,17 @@ def failure_reasons() -> tuple[str, ...]:
 
 
 def model_table(spec: FmuSpec) -> dict[str, Any]:
-    """The sizes and words of one native model: its state length, packed parameters and input array
-    (the slave's ``z``, ``p`` and ``u``), its states' names, the messages of its cross-field checks and
-    of its field checks (:mod:`~pyfmu_wrapper.fmi.native_model`), the variables a failed check reports."""
-    from ..fmi import native_model as nm
-    from ..fmi.frame_step import FRAME_U_SIZE, NP_FRAME, NS_MAX
-    from ..physics import kernels as kn
-    from ..physics import models
-    from ..physics.params import N_PARAMS, TMD_CHECKS
-
-    name = spec.model_identifier
-    if name == "ShearFrame":
-        storeys = [f"{x}{i}" for i in range(MAX_STOREYS, 0, -1) for x in ("x", "xd")]
-        states = storeys[:2] + ["y", "yd", "d", "dd"] + storeys[2:]
-        return dict(
-            nstate=NS_MAX, np=NP_FRAME, nu=FRAME_U_SIZE, states=states, checks=nm.FRAME_CHECKS,
-            fields=nm.frame_field_messages(), check_vars=nm.CHECK_VARIABLES[name],
-        )  # fmt: skip
-    tmd = name == "TMDInerter"
-    return dict(
-        nstate=4 if tmd else 2,
-        np=N_PARAMS,
-        nu=kn.U_KAPPA + 1 if tmd else BASE_U_SIZE,
-        states=(models.TMD if tmd else models.BASE).state_names,
-        checks=TMD_CHECKS if tmd else (),  # physics.params: the checks TMDParams makes
-        fields=field_messages("tmd" if tmd else "base"),
-        check_vars=nm.CHECK_VARIABLES[name],
-    )
+    """The sizes and words of one native model, from its declaration (:class:`~pyfmu_wrapper.fmi.fmumodel.NativeFmu`'s
+    ``table``): its state length, packed parameters and input array (the slave's ``z``, ``p`` and ``u``), its
+    states' names, the messages of its cross-field checks and of its field checks, the variables a failed
+    check reports."""
+    fmu = FMUS[spec.model_identifier]
+    if fmu.native is None:
+        raise BuildError(
+            f"{spec.model_identifier} has no native variant: native FMUs are built for {list(NATIVE_FMUS)}"
+        )
+    table: dict[str, Any] = resolve(fmu.native.table)()
+    return table
 
 
 def model_header(spec: FmuSpec) -> str:
@@ -167,8 +150,17 @@ def native_hash() -> str:
     """Hash of what a native FMU is built from (the Python-hosted FMU's hash and the native sources)."""
     h = hashlib.sha256(source_hash().encode())
     pkg = Path(__file__).resolve().parents[1]
+    declared = {p for f in FMUS.values() if f.native for p in (f.native.step, f.native.functions, f.native.table)}
+    modules = sorted({d.partition(":")[0].split(".", 1)[1].replace(".", "/") + ".py" for d in declared})
     for f in native_sources() + [
-        pkg / n for n in ("fmubuild/native_build.py", "fmubuild/native_obj.py", "fmi/native.py", "fmi/native_model.py")
+        pkg / n
+        for n in (
+            "fmubuild/native_build.py",
+            "fmubuild/native_obj.py",
+            "fmi/native.py",
+            "fmi/native_model.py",
+            *modules,
+        )
     ]:
         h.update(f.name.encode() + f.read_bytes())
     return h.hexdigest()[:24]
@@ -241,13 +233,13 @@ def build_native_fmus(
 ) -> list[Path]:
     """Build native FMUs of one FMI version into ``out_dir`` (FMI 3.0: pass :func:`.build.fmi_out_dir`'s),
     with the win64 binary beside the linux64 one (``win64`` None: when mingw-w64 is installed); by
-    default the paper's pair, any of :data:`~.native_obj.MODELS` (the ShearFrame too) on request."""
+    default the paper's pair, any FMU with a native variant (:data:`~pyfmu_wrapper.fmi.catalog.NATIVE_FMUS`) on request."""
     if win64 is None:
         win64 = mingw_gcc() is not None
     names = list(names)
-    missing = [n for n in names if n not in MODELS]
+    missing = [n for n in names if n not in NATIVE_FMUS]
     if missing:
-        raise BuildError(f"no native variant of {missing}: native FMUs are built for {sorted(MODELS)}")
+        raise BuildError(f"no native variant of {missing}: native FMUs are built for {sorted(NATIVE_FMUS)}")
     out = Path(out_dir)
     check_output(out, names)
     nhash = native_hash()

@@ -1,6 +1,6 @@
 """Object code of the compiled model functions, per target (the native FMUs).
 
-The numba source of truth (:mod:`.native`: the step cfuncs, which call the same compiled integrators
+The numba source of truth (each FMU's declared :class:`~pyfmu_wrapper.fmi.fmumodel.NativeFmu`: the step cfuncs, which call the same compiled integrators
 and outputs as the Python slaves) is compiled by numba to LLVM IR; llvmlite turns that IR into an
 object file for each target triple (:data:`TRIPLES`: x86_64 Linux and x86_64 Windows, the FMI
 platforms linux64 / win64 and x86_64-linux / x86_64-windows). The object is linked with C: what numba's
@@ -31,11 +31,9 @@ from .buildinfo import BuildError
 TRIPLES = {"linux64": "x86_64-unknown-linux-gnu", "win64": "x86_64-w64-windows-gnu"}
 #: FMI 3.0 platform tuple of each FMI 2.0 platform folder
 PLATFORM3 = {"linux64": "x86_64-linux", "win64": "x86_64-windows"}
-#: the models with native functions: their step (:mod:`.native`) and the others (:mod:`.native_model`)
-MODELS = {"BaseOscillator": "base_step", "TMDInerter": "tmd_step", "ShearFrame": "frame_step"}
 #: the name the step has in the object file (the C side calls it by this name)
 STEP_SYMBOL = "pyfmu_model_step"
-#: the C names of the functions of :mod:`.native_model`
+#: the C names of a model's other functions (:mod:`pyfmu_wrapper.fmi.native_model`)
 ENTRIES = {
     "configure": "pyfmu_model_configure",
     "outputs": "pyfmu_model_outputs",
@@ -69,37 +67,46 @@ RUNTIME_SYMBOLS = frozenset(
 LIBM = frozenset({"atan", "sqrt", "log2", "log", "exp", "sin", "cos", "pow", "exp2", "ceil", "floor", "fabs", "atan2"})
 RUNTIME_C = Path(__file__).resolve().parents[2] / "fmu" / "src" / "native" / "native_rt.c"
 
-# Run in a fresh interpreter: numba's cache off (it keeps no IR), each factory's cfunc compiled, its
-# IR and symbol written as JSON to argv[1].
+# Run in a fresh interpreter: numba's cache off (it keeps no IR), each model's declared factories (argv[2]:
+# model -> [step, functions], "module:function") compiled, their IR and symbols written as JSON to argv[1].
 _IR_SCRIPT = """
 import json, sys
 from numba.core import caching
 caching.Cache.load_overload = lambda self, *a, **k: None
 caching.Cache.save_overload = lambda self, *a, **k: None
-from pyfmu_wrapper.fmi import native, native_model
+from pyfmu_wrapper.fmi.fmumodel import resolve
 entries = json.loads(sys.argv[3])
 out = {}
-for model, factory in json.loads(sys.argv[2]).items():
-    f = getattr(native, factory)()
+for model, (step, functions) in json.loads(sys.argv[2]).items():
+    f = resolve(step)()
     out[model] = {sys.argv[4]: [f.native_name, f._library.get_llvm_str()]}
-    for key, fn in native_model.FUNCTIONS[model]().items():
+    for key, fn in resolve(functions)().items():
         out[model][entries[key]] = [fn.native_name, fn._library.get_llvm_str()]
 with open(sys.argv[1], "w") as fh:
     json.dump(out, fh)
 """
 
 
+def native_models() -> dict[str, tuple[str, str]]:
+    """FMU -> (its step factory, its functions factory), from the declarations of the FMUs with a native variant."""
+    from ..fmi.catalog import FMUS
+
+    return {n: (f.native.step, f.native.functions) for n, f in FMUS.items() if f.native is not None}
+
+
 @functools.cache
-def model_ir(models: tuple[str, ...] = tuple(MODELS)) -> dict[str, dict[str, tuple[str, str]]]:
+def model_ir(models: tuple[str, ...] | None = None) -> dict[str, dict[str, tuple[str, str]]]:
     """model -> {C name: (symbol of the cfunc, the LLVM IR of its library)}, compiled afresh (once per
-    process and set of models: the sources do not change under a running build)."""
-    unknown = [m for m in models if m not in MODELS]
+    process and set of models: the sources do not change under a running build); None: every native FMU."""
+    known = native_models()
+    models = tuple(known) if models is None else models
+    unknown = [m for m in models if m not in known]
     if unknown:
-        raise BuildError(f"no compiled step for {unknown}: native FMUs exist for {sorted(MODELS)}")
+        raise BuildError(f"no compiled step for {unknown}: native FMUs exist for {sorted(known)}")
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "ir.json"
         env = dict(os.environ, NUMBA_CACHE_DIR=tmp)
-        args = [str(out), json.dumps({m: MODELS[m] for m in models}), json.dumps(ENTRIES), STEP_SYMBOL]
+        args = [str(out), json.dumps({m: known[m] for m in models}), json.dumps(ENTRIES), STEP_SYMBOL]
         r = subprocess.run([sys.executable, "-c", _IR_SCRIPT, *args], capture_output=True, text=True, env=env)
         if r.returncode != 0:
             raise BuildError(f"compiling the model functions to LLVM IR failed:\n{r.stderr[-4000:]}")
@@ -150,7 +157,7 @@ def emit_object(ir: str, symbol: str, platform: str, alias: str = STEP_SYMBOL) -
     return bytes(tm.emit_object(m))
 
 
-def write_objects(out_dir: Path, models: tuple[str, ...] = tuple(MODELS)) -> dict[tuple[str, str], list[Path]]:
+def write_objects(out_dir: Path, models: tuple[str, ...] | None = None) -> dict[tuple[str, str], list[Path]]:
     """(model, platform) -> the object files of its functions (step first), written into out_dir."""
     out_dir.mkdir(parents=True, exist_ok=True)
     paths: dict[tuple[str, str], list[Path]] = {}

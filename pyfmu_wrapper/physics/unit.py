@@ -68,6 +68,10 @@ class ModelUnit:
     #: whose ``sweep(structure, tmd, omegas, direction=, settings=, progress=, workers=)`` the
     #: co-simulation engine runs (resolved there: physics imports no co-simulation); "": none
     cosim: str = ""
+    #: the dotted names of the modules declaring the unit's FMUs, each defining ``FMU`` (a
+    #: ``pyfmu_wrapper.fmi.fmumodel.FmuModel``: variable table, slave, native functions), resolved in
+    #: ``fmi/catalog.py`` (physics imports no FMU runtime); (): the unit has no FMU
+    fmus: tuple[str, ...] = ()
     #: the model takes the paper's TMD (``TMDParams``, a scenario's ``tmd:`` block); False: the
     #: structure carries its own absorber, scenario files give no ``tmd:`` block and the engines pass
     #: a detached TMD that the unit does not read

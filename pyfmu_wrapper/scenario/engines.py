@@ -238,7 +238,7 @@ def _cosim_settings(settings: RunSettings) -> Any:
 def _cosim_system(base: Any) -> Callable[..., pd.DataFrame]:
     """The co-simulation sweep of a structure's model: the ``sweep`` of the module its unit names
     (:attr:`~pyfmu_wrapper.physics.unit.ModelUnit.cosim`, e.g. :mod:`pyfmu_wrapper.cosim.steady` for the
-    paper's pair, :mod:`pyfmu_wrapper.cosim.frame_system` for a frame); no model is named here."""
+    paper's pair, :mod:`pyfmu_wrapper.physics.frame_model.cosim` for a frame); no model is named here."""
     unit = MODELS.of(base)
     sweep: Callable[..., pd.DataFrame] = importlib.import_module(unit.cosim).sweep
     return sweep

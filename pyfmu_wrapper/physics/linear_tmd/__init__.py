@@ -73,4 +73,5 @@ UNIT = ModelUnit(
     takes_tmd=False,
     modelica=MODELICA,
     is_linear=lambda s, tmd: True,  # every parameter enters linearly
+    fmus=("pyfmu_wrapper.physics.linear_tmd.fmus.linear_tmd_fmu",),
 )

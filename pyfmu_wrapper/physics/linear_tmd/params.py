@@ -29,6 +29,18 @@ _MODELICA_TYPE = {
 }
 
 
+#: the fields in the order of the LinearTMD FMU's value references 0, 1, ... (fmus/variables.py)
+_FMU_ORDER = (
+    "mass",
+    "stiffness",
+    "damping",
+    "force_amplitude",
+    "absorber_mass",
+    "absorber_stiffness",
+    "absorber_damping",
+)
+
+
 def _row(name: str, symbol: str, unit: str, default: float, minimum: float | None, strict: bool, doc: str) -> Parameter:
     return Parameter(
         name=name,
@@ -39,8 +51,8 @@ def _row(name: str, symbol: str, unit: str, default: float, minimum: float | Non
         minimum=minimum,
         strict=strict,
         description=doc,
-        fmu_name="",  # no FMU yet
-        fmu_vr=-1,
+        fmu_name=symbol,  # the LinearTMD FMU's parameter (fmus/variables.py)
+        fmu_vr=_FMU_ORDER.index(name),
         modelica_name=symbol,  # the parameter of LinearTMD.mo
         modelica_type=_MODELICA_TYPE[unit],
         mappable=False,

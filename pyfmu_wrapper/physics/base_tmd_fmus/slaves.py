@@ -1,4 +1,4 @@
-"""The Python co-simulation slaves of the FMUs (the machinery they share: :mod:`.slave`).
+"""The Python co-simulation slaves of the paper's two FMUs (the machinery they share: :mod:`pyfmu_wrapper.fmi.slave`).
 
 Each slave configures its subsystem from the FMU's parameters, gives its outputs and takes a step;
 the physics is not restated here: parameters go through :func:`~pyfmu_wrapper.physics.params.pack`,
@@ -15,15 +15,15 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..physics import kernels as kn
-from ..physics import registry
-from ..physics.params import BaseParams, P_s, ParameterError, TMDParams, pack
-from ..solvers.rodas import STAT_STEPS, failure_message
-from .contract import MAX_INTEGRATOR_STEPS
+from ...fmi.contract import MAX_INTEGRATOR_STEPS
+from ...fmi.slave import CHUNK, FloatArray, FmuStepError, Slave
+from ...solvers.rodas import STAT_STEPS, failure_message
+from .. import kernels as kn
+from .. import registry
+from ..params import BaseParams, P_s, ParameterError, TMDParams, pack
 from .integrators import BASE_U_SIZE, TMD_MODEL, advance_base, fill_atol, integrate_tmd
 from .outputs import base_outputs, tmd_outputs
-from .slave import CHUNK, FloatArray, FmuStepError, Slave, guarded
-from .variables import BASE_OSCILLATOR, TMD_INERTER, TRIVIAL
+from .variables import BASE_OSCILLATOR, TMD_INERTER
 
 
 class BaseOscillatorSlave(Slave):
@@ -133,18 +133,3 @@ class TMDInerterSlave(Slave):
         from .native import tmd_step
 
         return tmd_step()
-
-
-class TrivialSlave(Slave):
-    """y = gain * u; a step only advances time (measures the stub's own overhead)."""
-
-    spec = TRIVIAL
-    n_state = 0
-
-    def outputs(self, inputs: NDArray[Any]) -> list[Any]:
-        return [self.r[0] * inputs[0]]
-
-    @guarded
-    def do_step(self, t: float, h: float, no_set_prior: int) -> None:
-        self.t = t + h
-        self.r[2] = self.r[0] * self.r[1]

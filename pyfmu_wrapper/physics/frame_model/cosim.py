@@ -40,20 +40,20 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike
 
-from ..master.graph import Connection
-from ..master.instance import MasterError
-from ..master.master import Master
-from ..physics import registry
-from ..physics.frame_model import FrameParams, storey_index
-from ..physics.params import BaseParams, TMDParams, has_gap
-from ..solvers.hermite import hermite_absmax_series
-from ..solvers.monolithic import SolverSettings, companion_start
-from ..solvers.start import initial_guess, play_atol
-from ..solvers.steady import WindowCriterion
-from ..solvers.sweep import run_sweep_pieces
-from .checked import AMPLITUDE_FLOOR, companion
-from .periods import CosimSteadyState
-from .settings import CosimSettings
+from ...cosim.checked import AMPLITUDE_FLOOR, companion
+from ...cosim.periods import CosimSteadyState
+from ...cosim.settings import CosimSettings
+from ...master.graph import Connection
+from ...master.instance import MasterError
+from ...master.master import Master
+from ...solvers.hermite import hermite_absmax_series
+from ...solvers.monolithic import SolverSettings, companion_start
+from ...solvers.start import initial_guess, play_atol
+from ...solvers.steady import WindowCriterion
+from ...solvers.sweep import run_sweep_pieces
+from .. import registry
+from ..params import BaseParams, TMDParams, has_gap
+from . import FrameParams, storey_index
 
 #: the FMUs of the frame's co-simulation
 FRAME_FMUS = ("ShearFrame", "TMDInerter")
@@ -144,11 +144,11 @@ def make_master(
     coupling where it applies (:func:`connections`); fmu_build: "native" (the models compiled into the
     FMUs' binaries, no Python) or "python" (the Python-hosted FMUs, the reference: the same bits)."""
     if fmu_build == "native":
-        from ..fmubuild.native_build import ensure_native_fmus
+        from ...fmubuild.native_build import ensure_native_fmus
 
         paths = ensure_native_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
     else:
-        from ..fmubuild.build import ensure_fmus
+        from ...fmubuild.build import ensure_fmus
 
         paths = ensure_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
     fmus: dict[str, str | Path] = {"frame": paths["ShearFrame"], "tmd": paths["TMDInerter"]}

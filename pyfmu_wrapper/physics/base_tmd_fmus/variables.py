@@ -1,19 +1,18 @@
-"""Declarative variable tables of the FMUs: the single source of truth for the interfaces.
+"""The variable tables of the paper's two FMUs, BaseOscillator and TMDInerter: their one declaration.
 
-Every variable is declared once here with an explicit value reference, type, causality,
-variability, unit, start value and description. ``modelDescription.xml`` is generated from these
-tables (:mod:`.model_description`), the C stub reads the type/causality table written from them
-into ``resources/variables.tsv``, and the Python slaves (:mod:`.slaves`) address the shared value
-buffers through :meth:`FmuSpec.vr`.
-
-What a declaration holds (value references, dependencies, ranges) is :mod:`.varspec`.
+Every variable is declared once here with an explicit value reference, type, causality, variability,
+unit, start value and description; the model parameters come from the parameter registry
+(:mod:`pyfmu_wrapper.physics.registry`). ``modelDescription.xml`` is generated from these tables
+(:mod:`pyfmu_wrapper.fmubuild.model_description`), the C stub reads the type/causality table written
+from them into ``resources/variables.tsv``, and the Python slaves (:mod:`.slaves`) address the shared
+value buffers through :meth:`~pyfmu_wrapper.fmi.varspec.FmuSpec.vr`. What a declaration holds is
+:mod:`pyfmu_wrapper.fmi.varspec`; the FMUs are declared by :mod:`.base_oscillator` and :mod:`.tmd_inerter`.
 """
 
 from __future__ import annotations
 
-from ..physics import registry
-from .frame_variables import SHEAR_FRAME
-from .varspec import INTEGER, REAL, FmuSpec, Variable, parameter
+from ...fmi.varspec import INTEGER, REAL, FmuSpec, Variable, parameter
+from .. import registry
 
 
 def _registry_parameters(subsystem: str) -> tuple[Variable, ...]:
@@ -100,7 +99,7 @@ BASE_OSCILLATOR = FmuSpec(
     model_name="BaseOscillator",
     model_identifier="BaseOscillator",
     description="Base oscillator of Brzeski & Perlikowski (2017): M xdd + C xd + K x = F cos(w t) - f_link",
-    slave="pyfmu_wrapper.fmi.slaves:BaseOscillatorSlave",
+    slave="pyfmu_wrapper.physics.base_tmd_fmus.slaves:BaseOscillatorSlave",
     variables=(
         *_registry_parameters("base"),
         parameter("x0", 5, 0.0, "m", "initial base displacement"),
@@ -181,7 +180,7 @@ TMD_INERTER = FmuSpec(
     model_name="TMDInerter",
     model_identifier="TMDInerter",
     description="TMD with spring, damper, dry friction and an inerter (none/ideal/with play) driven by the base motion",
-    slave="pyfmu_wrapper.fmi.slaves:TMDInerterSlave",
+    slave="pyfmu_wrapper.physics.base_tmd_fmus.slaves:TMDInerterSlave",
     variables=(
         *_registry_parameters("tmd"),
         parameter("y0", 11, 0.0, "m", "initial TMD displacement"),
@@ -290,44 +289,3 @@ TMD_INERTER = FmuSpec(
     )
     + _integrator(exact=False),
 )
-
-# A do-nothing model used only to measure the per-call overhead of the stub (benchmarks).
-TRIVIAL = FmuSpec(
-    model_name="Trivial",
-    model_identifier="Trivial",
-    description="y = gain * u; doStep only advances time (stub overhead benchmark)",
-    slave="pyfmu_wrapper.fmi.slaves:TrivialSlave",
-    variables=(
-        parameter("gain", 0, 2.0, None, "gain"),
-        Variable(
-            name="u",
-            vr=1,
-            type=REAL,
-            causality="input",
-            variability="continuous",
-            description="input",
-            unit=None,
-            start=0.0,
-        ),
-        Variable(
-            name="y",
-            vr=2,
-            type=REAL,
-            causality="output",
-            variability="continuous",
-            description="gain * u",
-            unit=None,
-            initial="calculated",
-            depends_on=("u",),
-            dependencies_kind=("fixed",),
-            initial_depends_on=("gain", "u"),
-        ),
-    ),
-    provides_directional_derivative=True,
-)
-
-SPECS = {s.model_identifier: s for s in (BASE_OSCILLATOR, TMD_INERTER, TRIVIAL, SHEAR_FRAME)}
-#: The paper's pair, which the library's builders make when no FMU is named (its co-simulation).
-PROJECT_FMUS = ("BaseOscillator", "TMDInerter")
-#: What ``build-fmus`` builds when no FMU is named: every model's FMU (the trivial one only on request).
-BUILD_FMUS = tuple(n for n in SPECS if n != "Trivial")

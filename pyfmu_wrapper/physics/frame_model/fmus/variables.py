@@ -6,15 +6,15 @@ Inputs: ``f_link``, the TMD's total force on the structure (TMDInerter.force), a
 inerter's share (TMDInerter.inerter_force): f_link - f_inerter acts on the TMD's storey, f_inerter on
 the inerter's terminal (nothing when it is the ground). Outputs: the top storey's motion (the reported
 amplitude), the TMD storey's motion and the terminal's acceleration (the TMDInerter's inputs).
-The frame's physics is :mod:`pyfmu_wrapper.physics.frame_model`; its step is exact (:mod:`.frame_step`).
+The frame's physics is :mod:`pyfmu_wrapper.physics.frame_model`; its step is exact (:mod:`.step`); the FMU is declared by :mod:`.shear_frame`.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-from ..physics.frame_model.params import MAX_STOREYS
-from .varspec import REAL, FmuSpec, Variable, parameter
+from ....fmi.varspec import REAL, FmuSpec, Variable, parameter
+from ..params import MAX_STOREYS
 
 #: value references: per-storey blocks of 20 from these bases (storey i at base + i - 1)
 VR_MASS, VR_STIFFNESS, VR_DAMPING, VR_X0, VR_XD0 = 200, 300, 400, 500, 600
@@ -57,7 +57,7 @@ SHEAR_FRAME = FmuSpec(
     model_name="ShearFrame",
     model_identifier="ShearFrame",
     description="Shear frame of 1-20 storeys under F cos(w t) on one storey, driven by a TMD's forces on two storeys",
-    slave="pyfmu_wrapper.fmi.frame_slave:ShearFrameSlave",
+    slave="pyfmu_wrapper.physics.frame_model.fmus.slave:ShearFrameSlave",
     variables=(
         parameter("storeys", 0, 1, None, "number of storeys n (structural)", min=1, max=MAX_STOREYS),
         parameter("F", 1, 200.0, "N", "F: amplitude of the excitation F cos(w t)"),

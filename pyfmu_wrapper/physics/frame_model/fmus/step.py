@@ -1,5 +1,5 @@
 """The ShearFrame FMU's step and outputs as compiled functions, called by both step paths: the Python
-slave (:mod:`.frame_slave`) and the native step (:mod:`.native`), so the two are bit-identical.
+slave (:mod:`.slave`) and the native step (:mod:`.native`), so the two are bit-identical.
 
 The frame alone (the storeys of :mod:`pyfmu_wrapper.physics.frame_model`, driven by F cos(w t) and by
 the TMD's two forces as input polynomials) is linear and time-invariant once its drives are states,
@@ -25,15 +25,15 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from .._jit import njit
-from ..physics.frame_model.equations import F_N, F_TMD, F_TO, storey_index, storey_rates, storeys_rhs
-from ..physics.frame_model.params import MAX_STOREYS
-from ..physics.params import N_PARAMS, P_F, P_W
-from ..solvers.expm import expm
-from ..solvers.rodas import STAT_STEPS
-from .contract import NATIVE_MAX_STEP
-from .frame_variables import SHEAR_FRAME
-from .outputs import output_layout
+from ...._jit import njit
+from ....fmi.contract import NATIVE_MAX_STEP
+from ....fmi.outputs import output_layout
+from ....solvers.expm import expm
+from ....solvers.rodas import STAT_STEPS
+from ...params import N_PARAMS, P_F, P_W
+from ..equations import F_N, F_TMD, F_TO, storey_index, storey_rates, storeys_rhs
+from ..params import MAX_STOREYS
+from .variables import SHEAR_FRAME
 
 #: the longest state (20 storeys and the TMD's slots) and the drives' states
 NS_MAX = 2 * MAX_STOREYS + 4

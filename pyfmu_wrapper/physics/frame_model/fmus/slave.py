@@ -1,8 +1,8 @@
-"""The Python co-simulation slave of the ShearFrame FMU (its variables: :mod:`.frame_variables`).
+"""The Python co-simulation slave of the ShearFrame FMU (its variables: :mod:`.variables`).
 
 The physics is the frame model's (:mod:`pyfmu_wrapper.physics.frame_model`): the parameters go
 through its packing (:class:`FrameParams` checks them, :func:`frame_pack` packs them), the outputs
-and the step are the compiled functions of :mod:`.frame_step` (the storey accelerations of
+and the step are the compiled functions of :mod:`.step` (the storey accelerations of
 :func:`~pyfmu_wrapper.physics.frame_model.equations.storey_rates`; the exact step of the linear frame
 alone, driven by the TMD's two forces), the same functions the native step (:mod:`.native`) calls, so
 both step paths are bit-identical. The state has the frame model's layout (the TMD's slots at rest),
@@ -16,11 +16,11 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ..physics.frame_model import FrameParams, frame_pack, storey_index
-from ..physics.params import TMDParams
-from .frame_step import FRAME_U_SIZE, NP_FRAME, NS_MAX, advance_frame, frame_outputs
-from .frame_variables import SHEAR_FRAME
-from .slave import FloatArray, FmuStepError, Slave
+from ....fmi.slave import FloatArray, FmuStepError, Slave
+from ...params import TMDParams
+from .. import FrameParams, frame_pack, storey_index
+from .step import FRAME_U_SIZE, NP_FRAME, NS_MAX, advance_frame, frame_outputs
+from .variables import SHEAR_FRAME
 
 
 class ShearFrameSlave(Slave):
@@ -32,7 +32,7 @@ class ShearFrameSlave(Slave):
     def __init__(self, *args: Any, **kwargs: Any) -> None:
         super().__init__(*args, **kwargs)
         self.p = np.zeros(NP_FRAME)
-        # the input polynomials, then the exact step's cache (.frame_step)
+        # the input polynomials, then the exact step's cache (.step)
         self._u = np.zeros(FRAME_U_SIZE)
 
     def configure(self) -> None:
@@ -62,7 +62,7 @@ class ShearFrameSlave(Slave):
         return list(out)
 
     def advance(self, t: float, h: float, u: FloatArray) -> None:
-        """The exact step (:func:`.frame_step.advance_frame`), as the native step takes it."""
+        """The exact step (:func:`.step.advance_frame`), as the native step takes it."""
         if advance_frame(self.z, t, h, self.p, u, self.stats) != 0:
             raise FmuStepError(
                 f"doStep of {h:g} s from t = {t:.16g} s: the frame's state is not finite at its end (from "
