@@ -308,13 +308,13 @@ def test_imports_follow_the_rules_of_the_architecture_map():
         # a model's FMU folder sits above physics/ core and the fmi/ runtime ...
         ("physics.frame_model.fmus.slave", "fmi.slave", True),
         ("physics.frame_model.fmus.step", "physics.frame_model.equations", True),
-        ("physics.frame_model.fmus.native", "physics.base_tmd_fmus.native", True),
+        ("physics.frame_model.fmus.native", "physics.base_tmd.fmus.native", True),
         # ... and nothing below reaches it but by the registry's dotted names
         ("physics.units", "physics.frame_model.fmus.shear_frame", False),
         ("physics.frame_model", "physics.frame_model.fmus.slave", False),
-        ("fmi.catalog", "physics.base_tmd_fmus.variables", False),
+        ("fmi.catalog", "physics.base_tmd.fmus.variables", False),
         ("fmubuild.native_build", "physics.frame_model.fmus.native", False),
-        ("physics.base_tmd_fmus.slaves", "cosim.system", False),
+        ("physics.base_tmd.fmus.slaves", "cosim.system", False),
         # a model's co-simulation wiring sits above cosim/, which reaches it only by the unit's dotted name
         ("physics.frame_model.cosim", "cosim.periods", True),
         ("physics.frame_model.cosim", "physics.frame_model", True),

@@ -28,7 +28,7 @@ from pyfmu_wrapper.physics import jacobians as Jac
 from pyfmu_wrapper.physics import kernels as K
 from pyfmu_wrapper.physics import params as P
 from pyfmu_wrapper.physics import registry
-from pyfmu_wrapper.physics.base_tmd_fmus.variables import BASE_OSCILLATOR, TMD_INERTER
+from pyfmu_wrapper.physics.base_tmd.fmus.variables import BASE_OSCILLATOR, TMD_INERTER
 from pyfmu_wrapper.physics.params import BaseParams, ParameterError, TMDParams, pack, paper_case
 from pyfmu_wrapper.scenario.schema import MAP_PARAMETERS
 from pyfmu_wrapper.solvers.monolithic import steady_state

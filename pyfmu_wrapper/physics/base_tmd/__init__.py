@@ -84,7 +84,7 @@ UNIT = ModelUnit(
     inerter_force=_inerter_force,
     description="the paper's base oscillator with the TMD-inerter (one storey, one TMD)",
     cosim="pyfmu_wrapper.cosim.steady",
-    fmus=("pyfmu_wrapper.physics.base_tmd_fmus.base_oscillator", "pyfmu_wrapper.physics.base_tmd_fmus.tmd_inerter"),
+    fmus=("pyfmu_wrapper.physics.base_tmd.fmus.base_oscillator", "pyfmu_wrapper.physics.base_tmd.fmus.tmd_inerter"),
     example=BaseParams,
     modelica=MODELICA,
 )

@@ -17,10 +17,10 @@ from typing import Any
 import numpy as np
 from numba import carray, cfunc
 
-from ..._jit import njit
-from ...fmi.contract import NATIVE_OK
-from ...fmi.native import write_outputs
-from ...fmi.native_model import (
+from ...._jit import njit
+from ....fmi.contract import NATIVE_OK
+from ....fmi.native import write_outputs
+from ....fmi.native_model import (
     CONFIGURE_SIG,
     DERIVATIVE_SIG,
     KAPPA_CODE,
@@ -33,10 +33,10 @@ from ...fmi.native_model import (
     pack_table,
     parameter_sensitivity,
 )
-from .. import kernels as kn
-from .. import models
-from ..jacobians import CSTEP
-from ..params import N_PARAMS, TMD_CHECKS, tmd_check
+from ... import kernels as kn
+from ... import models
+from ...jacobians import CSTEP
+from ...params import N_PARAMS, TMD_CHECKS, tmd_check
 from .integrators import BASE_U_SIZE
 from .native import B_NVR, T_NVR
 from .outputs import BASE_OUT_INT, BASE_OUT_VR, TMD_OUT_INT, TMD_OUT_VR, base_outputs, tmd_outputs

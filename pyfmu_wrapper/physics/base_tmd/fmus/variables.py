@@ -11,8 +11,8 @@ value buffers through :meth:`~pyfmu_wrapper.fmi.varspec.FmuSpec.vr`. What a decl
 
 from __future__ import annotations
 
-from ...fmi.varspec import INTEGER, REAL, FmuSpec, Variable, parameter
-from .. import registry
+from ....fmi.varspec import INTEGER, REAL, FmuSpec, Variable, parameter
+from ... import registry
 
 
 def _registry_parameters(subsystem: str) -> tuple[Variable, ...]:
@@ -99,7 +99,7 @@ BASE_OSCILLATOR = FmuSpec(
     model_name="BaseOscillator",
     model_identifier="BaseOscillator",
     description="Base oscillator of Brzeski & Perlikowski (2017): M xdd + C xd + K x = F cos(w t) - f_link",
-    slave="pyfmu_wrapper.physics.base_tmd_fmus.slaves:BaseOscillatorSlave",
+    slave="pyfmu_wrapper.physics.base_tmd.fmus.slaves:BaseOscillatorSlave",
     variables=(
         *_registry_parameters("base"),
         parameter("x0", 5, 0.0, "m", "initial base displacement"),
@@ -180,7 +180,7 @@ TMD_INERTER = FmuSpec(
     model_name="TMDInerter",
     model_identifier="TMDInerter",
     description="TMD with spring, damper, dry friction and an inerter (none/ideal/with play) driven by the base motion",
-    slave="pyfmu_wrapper.physics.base_tmd_fmus.slaves:TMDInerterSlave",
+    slave="pyfmu_wrapper.physics.base_tmd.fmus.slaves:TMDInerterSlave",
     variables=(
         *_registry_parameters("tmd"),
         parameter("y0", 11, 0.0, "m", "initial TMD displacement"),

@@ -15,12 +15,12 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ...fmi.contract import MAX_INTEGRATOR_STEPS
-from ...fmi.slave import CHUNK, FloatArray, FmuStepError, Slave
-from ...solvers.rodas import STAT_STEPS, failure_message
-from .. import kernels as kn
-from .. import registry
-from ..params import BaseParams, P_s, ParameterError, TMDParams, pack
+from ....fmi.contract import MAX_INTEGRATOR_STEPS
+from ....fmi.slave import CHUNK, FloatArray, FmuStepError, Slave
+from ....solvers.rodas import STAT_STEPS, failure_message
+from ... import kernels as kn
+from ... import registry
+from ...params import BaseParams, P_s, ParameterError, TMDParams, pack
 from .integrators import BASE_U_SIZE, TMD_MODEL, advance_base, fill_atol, integrate_tmd
 from .outputs import base_outputs, tmd_outputs
 from .variables import BASE_OSCILLATOR, TMD_INERTER

@@ -17,14 +17,14 @@ import math
 import numpy as np
 from numpy.typing import NDArray
 
-from ..._jit import njit
-from ...fmi.contract import NATIVE_MAX_STEP
-from ...solvers.expm import expm
-from ...solvers.rodas import STAT_STEPS, make_integrator
-from .. import kernels as kn
-from .. import models
-from ..linear import N_AUG, base_augmented_matrix, base_augmented_state
-from ..params import P_C, P_I, P_K, P_M, P_MODEL, P_W, P_ki
+from ...._jit import njit
+from ....fmi.contract import NATIVE_MAX_STEP
+from ....solvers.expm import expm
+from ....solvers.rodas import STAT_STEPS, make_integrator
+from ... import kernels as kn
+from ... import models
+from ...linear import N_AUG, base_augmented_matrix, base_augmented_state
+from ...params import P_C, P_I, P_K, P_M, P_MODEL, P_W, P_ki
 
 #: the model, for messages (:func:`~pyfmu_wrapper.solvers.rodas.failure_message`)
 TMD_MODEL = models.TMD

@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from ...fmi.fmumodel import FmuModel, NativeFmu
+from ....fmi.fmumodel import FmuModel, NativeFmu
 from .variables import BASE_OSCILLATOR
 
-_HERE = "pyfmu_wrapper.physics.base_tmd_fmus"
+_HERE = "pyfmu_wrapper.physics.base_tmd.fmus"
 
 FMU = FmuModel(
     spec=BASE_OSCILLATOR,

@@ -13,9 +13,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-from ..._jit import njit
-from ...fmi.outputs import output_layout
-from .. import kernels as kn
+from ...._jit import njit
+from ....fmi.outputs import output_layout
+from ... import kernels as kn
 from .variables import BASE_OSCILLATOR, TMD_INERTER
 
 BASE_OUTPUTS = ("x", "xd", "xdd", "f_exc", "xdd_free")

@@ -16,11 +16,11 @@ from typing import Any
 import numpy as np
 from numba import carray, cfunc
 
-from ...fmi.contract import FAIL_BUDGET, FAIL_NOT_FINITE, MAX_INTEGRATOR_STEPS, NATIVE_MAX_STEP, NATIVE_OK, backup_size
-from ...fmi.native import DEBUG_RAISE_NATIVE, SIGNATURE, record_failure, write_outputs
-from ...solvers.rodas import STAT_STEPS
-from .. import kernels as kn
-from ..params import N_PARAMS, P_s
+from ....fmi.contract import FAIL_BUDGET, FAIL_NOT_FINITE, MAX_INTEGRATOR_STEPS, NATIVE_MAX_STEP, NATIVE_OK, backup_size
+from ....fmi.native import DEBUG_RAISE_NATIVE, SIGNATURE, record_failure, write_outputs
+from ....solvers.rodas import STAT_STEPS
+from ... import kernels as kn
+from ...params import N_PARAMS, P_s
 from .integrators import BASE_U_SIZE, advance_base, fill_atol, integrate_tmd
 from .outputs import BASE_OUT_INT, BASE_OUT_VR, TMD_OUT_INT, TMD_OUT_VR, base_outputs, tmd_outputs
 from .variables import BASE_OSCILLATOR, TMD_INERTER
