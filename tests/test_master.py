@@ -295,7 +295,7 @@ def test_period_maximum_uses_the_hermite_interpolant_between_communication_point
     the communication points (the same function as the monolithic solver's dense output): for
     x = A cos(w t - phi) with the peak between two points it equals A to 1e-6, where the points
     alone miss it by 5e-4 (N = 96)."""
-    from pyfmu_wrapper.cosim.steady import _Periods
+    from pyfmu_wrapper.cosim.periods import Periods
 
     w, A, n = 20.0, 0.0123, 96
     T = 2 * math.pi / w
@@ -316,7 +316,7 @@ def test_period_maximum_uses_the_hermite_interpolant_between_communication_point
                 self.y = np.array([A * math.cos(w * self.t - phi), -A * w * math.sin(w * self.t - phi)])
                 rec_t[k], rec_y[k] = self.t, self.y
 
-    run = _Periods(Clock(), n, T)
+    run = Periods(Clock(), n, T)
     a = run.period()
     assert abs(np.max(np.abs(run.x)) / A - 1) > 4e-4
     assert a == pytest.approx(A, rel=1e-6)

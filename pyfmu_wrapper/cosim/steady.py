@@ -35,13 +35,13 @@ from ..master.master import Master
 from ..physics.params import BaseParams, TMDParams
 from ..solvers.start import initial_guess
 from ..solvers.sweep import run_sweep_pieces
+from . import timescales
 from .checked import check_mode, companion_error, own_error, relative_gap
 from .periods import CosimSteadyState, Periods, run_steady
 from .settings import CosimSettings
 from .system import make_master
 from .timescales import choose_steps, fastest
 
-_Periods = Periods  # the former name (tests/test_master.py)
 __all__ = ["CosimSteadyState", "continuation_start", "periodic_time_series", "steady_state", "sweep"]
 
 
@@ -290,3 +290,9 @@ def periodic_time_series(
     finally:
         if own:
             m.close()
+
+
+def refusal(base: Any, tmd: TMDParams, omegas: object, cap: int) -> str | None:
+    """The frequencies of ``omegas`` the pair's time scales cannot step within ``cap`` steps per
+    period (:func:`.timescales.refusal`): what ``run-scenario`` refuses up front."""
+    return timescales.refusal(base, tmd, omegas, cap)

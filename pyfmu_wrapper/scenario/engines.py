@@ -235,12 +235,19 @@ def _cosim_settings(settings: RunSettings) -> Any:
     return settings.cosim if settings.cosim is not None else CosimSettings()
 
 
-def _cosim_system(base: Any) -> Callable[..., pd.DataFrame]:
-    """The co-simulation sweep of a structure's model: the ``sweep`` of the module its unit names
+def cosim_module(base: Any) -> Any:
+    """The co-simulation module of a structure's model, the one its unit names
     (:attr:`~pyfmu_wrapper.physics.unit.ModelUnit.cosim`, e.g. :mod:`pyfmu_wrapper.cosim.steady` for the
-    paper's pair, :mod:`pyfmu_wrapper.physics.frame_model.cosim` for a frame); no model is named here."""
-    unit = MODELS.of(base)
-    sweep: Callable[..., pd.DataFrame] = importlib.import_module(unit.cosim).sweep
+    paper's pair, :mod:`pyfmu_wrapper.physics.frame_model.cosim` for a frame); no model is named here.
+    It has ``sweep`` and may have ``periodic_time_series`` (phase portraits) and ``refusal`` (the
+    frequencies its time scales cannot step, for an up-front refusal). None: the model has none."""
+    name = MODELS.of(base).cosim
+    return importlib.import_module(name) if name else None
+
+
+def _cosim_system(base: Any) -> Callable[..., pd.DataFrame]:
+    """The co-simulation sweep of a structure's model (:func:`cosim_module`)."""
+    sweep: Callable[..., pd.DataFrame] = cosim_module(base).sweep
     return sweep
 
 
@@ -313,10 +320,9 @@ def _cosim_time_series(
 ) -> TimeSeries:
     from dataclasses import replace as _replace
 
-    from ..cosim.steady import periodic_time_series as cosim_series
-
-    if MODELS.of(base).name != "base_tmd":
-        raise EngineError("the co-simulated phase portrait is written for the paper's base + TMD only")
+    cosim_series = getattr(cosim_module(base), "periodic_time_series", None)  # (getattr of None: None)
+    if cosim_series is None:
+        raise EngineError(f"the co-simulated phase portrait is not written for model {MODELS.of(base).name!r}")
 
     cs = _cosim_settings(settings)
     # record at the communication points: at least the requested samples per period
