@@ -35,10 +35,11 @@ def pool() -> ThreadPoolExecutor:
     return _POOL[0]
 
 
-def residual(v: TView, mdl: Model, mask: ndarray) -> ndarray | None:
-    """Whitened simulation error (n_out, 4) of record v with the start state projected out on the
-    samples of ``mask`` (NaN for channels not recorded); None when the simulation blows up."""
-    y = simulate(v, mdl.p, force_gain=mdl.gain)
+def residual(v: TView, mdl: Model, mask: ndarray, z0: ndarray | None = None) -> ndarray | None:
+    """Whitened simulation error (n_out, 4) of record v (simulated from z0, default ``v.z0``) with
+    the start state projected out on the samples of ``mask`` (NaN for channels not recorded); None
+    when the simulation blows up."""
+    y = simulate(v, mdl.p, z0, force_gain=mdl.gain)
     if y is None:
         return None
     y[:, 0] += mdl.offset[0]
@@ -137,14 +138,18 @@ def fit(
     phis = [v.phi for v in views]
     cache: dict[str, Any] = {}
 
+    def start(i: int, u: ndarray) -> ndarray:
+        """Record i's start state: a decay's from its fitted unknowns in u, the others' as held."""
+        if i not in dec:
+            return views[i].z0
+        k = npar + 4 * dec.index(i)
+        z = saved[i].copy()
+        z[:4] += 1e-3 * u[k : k + 4]
+        return z
+
     def one(i: int, mdl: Model, u: ndarray) -> ndarray | None:
-        v = views[i]
-        if i in dec:
-            k = npar + 4 * dec.index(i)
-            v.z0 = saved[i].copy()
-            v.z0[:4] += 1e-3 * u[k : k + 4]
-        e = residual(v, mdl, train[i])
-        return None if e is None else e[:, v.has][train[i]].ravel()
+        e = residual(views[i], mdl, train[i], start(i, u))
+        return None if e is None else e[:, views[i].has][train[i]].ravel()
 
     def fun(u: ndarray) -> ndarray:
         key = u.tobytes()
@@ -153,7 +158,9 @@ def fit(
         mdl = apply(p_nom, effects, u[:npar] * scale)
         f = np.full(n_res, BAD)
         if not isinstance(mdl, str):
-            # the records in parallel threads (the integrator releases the GIL; each thread its own view)
+            for i in dec:  # the decays' fitted start states stay in the views (for the chi-squares)
+                views[i].z0 = start(i, u)
+            # the records in parallel threads (the integrator releases the GIL)
             rs = list(pool().map(lambda i: one(i, mdl, u), range(len(views))))
             for i, r in enumerate(rs):
                 if r is None:
@@ -164,20 +171,33 @@ def fit(
         return f
 
     def jac(u: ndarray) -> ndarray:
+        """Forward differences, every (column, record) simulation side by side in the threads: a
+        parameter's column takes every record, a decay's start-state column only its own record."""
         f0 = fun(u).copy()
         J = np.zeros((n_res, u.size))
         mdl0 = apply(p_nom, effects, u[:npar] * scale)
+        steps = [1e-3 * max(1.0, abs(x)) for x in u]
+        tasks: list[tuple[int, int, Model | str, ndarray]] = []
         for j in range(u.size):
-            h = 1e-3 * max(1.0, abs(u[j]))
             up = u.copy()
-            up[j] += h
+            up[j] += steps[j]
             if j < npar:
-                J[:, j] = (fun(up) - f0) / h
+                mdl = apply(p_nom, effects, up[:npar] * scale)
+                tasks += [(j, i, mdl, up) for i in range(len(views))]
             elif not isinstance(mdl0, str):
-                i = dec[(j - npar) // 4]
-                r = one(i, mdl0, up)
-                if r is not None:
-                    J[offs[i] : offs[i + 1], j] = (r - f0[offs[i] : offs[i + 1]]) / h
+                tasks.append((j, dec[(j - npar) // 4], mdl0, up))
+
+        def col(t: tuple[int, int, Model | str, ndarray]) -> ndarray | None:
+            _, i, mdl, up = t
+            return None if isinstance(mdl, str) else one(i, mdl, up)
+
+        rs = list(pool().map(col, tasks))
+        bad = {t[0] for t, r in zip(tasks, rs) if r is None and t[0] < npar}
+        for (j, i, _, _), r in zip(tasks, rs):
+            if j in bad:  # a parameter step the model refuses or that blows up: the whole residual BAD
+                J[:, j] = (BAD - f0) / steps[j]
+            elif r is not None:
+                J[offs[i] : offs[i + 1], j] = (r - f0[offs[i] : offs[i + 1]]) / steps[j]
         return J
 
     for i in dec:

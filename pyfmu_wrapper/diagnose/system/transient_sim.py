@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -38,6 +38,8 @@ from ...physics.kernels import rhs_fext
 from ..acquisition import Chain
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from numpy import ndarray
 
     from ..records import Record
@@ -170,6 +172,54 @@ def filter_grid(chains: dict, h: float) -> tuple[ndarray, ...]:
     return nord, phi, g1, g2, cc, dd, ee
 
 
+def hold_response(chain: Chain, h: float, w: ndarray) -> ndarray:
+    """The grid filter's transfer at angular frequencies w: C (e^{i w h} - phi)^-1 (g1 + g2 e^{i w h}) of
+    the exact first-order-hold step (:meth:`Chain.foh_step`) -- the analog filter's response to the grid
+    samples joined by straight lines, the aliases of the lines' corners included."""
+    st = chain.foh_step(h)
+    assert st is not None
+    phi, g1, g2, cc, _ = st
+    z = np.exp(1j * w * h)
+    n = phi.shape[0]
+    A = z[:, None, None] * np.eye(n)[None] - phi[None]
+    b = g1[None, :] + g2[None, :] * z[:, None]
+    return np.linalg.solve(A, b[:, :, None])[:, :, 0] @ cc
+
+
+def hold_correct(y: ndarray, fs: float, chains: dict, h: float, cache: dict) -> ndarray:
+    """Block means (n, 4) of the grid filters' outputs corrected to the analog filters' outputs: each
+    filtered channel times G(i w) / G_hold(i w) at the fit rate fs (:func:`hold_response`), which
+    removes the straight-line hold's error ((w h)^2 / 12 of the signal at w, less where the filter
+    passes the aliases) for the content below the fit's Nyquist frequency."""
+    n = y.shape[0]
+    lead = min(n, 256)
+    nf = 1 << int(math.ceil(math.log2(2 * n + 2 * lead)))
+
+    def make() -> list[ndarray | None]:
+        w = 2 * math.pi * np.fft.rfftfreq(nf, 1.0 / fs)
+        gs: list[ndarray | None] = []
+        for ch in CHANNELS:
+            c = chains.get(ch)
+            if c is None or c.type is None:
+                gs.append(None)
+                continue
+            g = c.response(w) * np.exp(1j * w * c.delay_s)  # the filter alone
+            gs.append(g / hold_response(c, h, w))
+        return gs
+
+    gs = _cached(cache, ("hold", nf, fs, h), make)
+    if all(g is None for g in gs):
+        return y
+    out = y.copy()
+    for k, g in enumerate(gs):
+        if g is None:
+            continue
+        u = y[:, k]
+        pad = np.concatenate([np.full(lead, u[0]), u, np.full(nf - n - lead, u[-1])])
+        out[:, k] = np.fft.irfft(np.fft.rfft(pad) * g, nf)[lead : lead + n]
+    return out
+
+
 @dataclass
 class TView:
     """One transient record prepared for the fit."""
@@ -192,7 +242,7 @@ class TView:
     aliased: float = 0.0
     z0: ndarray = field(default_factory=lambda: np.zeros(6))  #: start state of the simulation
     phi: ndarray | None = None  #: (n_out, 4, 4) response to unit start states (x, xd, y, yd)
-    fcache: dict = field(default_factory=dict)  #: the force on the last simulation grid
+    fcache: dict = field(default_factory=dict)  #: the force and the filters' steps on the last simulation grids
     gcache: dict = field(default_factory=dict)  #: the chains' responses on the fit-rate FFT grid
     raw_noise: dict = field(default_factory=dict)  #: channel -> noise std of one record sample
     chi2_var: float = 1.0  #: var(chi2) / (2 n) of its whitened residual under the noise (:func:`chi2_variance_factor`)
@@ -300,22 +350,39 @@ def fastest_rate(p: ndarray) -> float:
 #: stick-slip transitions need accuracy: a 5 N friction truth fitted with its true parameters left
 #: chi2/n = 4.6 in ydd with 2.0, 0.84 with 0.5, on unfiltered records)
 STEP_LIMITS = (STEP_OMEGA, 1.0, 0.5)
-#: grid intervals per fit block at least when a declared filter runs on the grid: its input is taken
-#: as linear between grid points, an error of (w h)^2 / 8 of the signal at w; with 4 (w h = 0.13 at
-#: the fit's top frequency) a viscous truth at its true parameters left chi2/n 1.13-1.19 in xdd on
-#: records behind a 400 Hz Butterworth (held-out z 5.0: `unexplained`), with 16 0.98-1.02 (z -2.1)
+#: grid intervals per fit block at least when a declared filter runs on the grid and the model is not
+#: smooth (friction, play: stick-slip and contact put content above the fit rate, which the grid filter
+#: has to see): its input is linear between grid points, an error of (w h)^2 / 8 of the signal at w;
+#: with 4 (w h = 0.13 at the fit's top frequency) a viscous truth at its true parameters left chi2/n
+#: 1.13-1.19 in xdd on records behind a 400 Hz Butterworth (held-out z 5.0: `unexplained`), with 16
+#: 0.98-1.02 (z -2.1). With a friction truth, the hold's correction below the fit's Nyquist frequency
+#: (:func:`hold_correct`) leaves 0.5 noise std rms in ydd with 8 (0.1 with 16): the stick-slip's
+#: content above it is what the grid has to resolve.
 FILTER_SUB = 16
+#: the same for a smooth model (every content below the fit's Nyquist frequency), where the hold's error
+#: is corrected (:func:`hold_correct`): on the bench's viscous records (400 Hz Butterworth, fit blocks of
+#: 13 samples at 800 Hz) the block means differ from a 64-interval grid by 0.024 noise std rms with 8
+#: (the RK4 steps' own error: 0.11 with 4), 0.028 uncorrected with 16
+FILTER_SUB_SMOOTH = 8
+
+
+def smooth(p: ndarray) -> bool:
+    """The model p has no dry friction and no play (its response holds no stick-slip or contact)."""
+    from ...physics.params import P_MODEL, P_df
+
+    return not (p[P_df] > 0 or int(p[P_MODEL]) == 2)
 
 
 def refinement(v: TView, p: ndarray) -> int:
     """Grid intervals per fit block (even, >= 2): RK4 step h within STEP_LIMITS of every rate, and
-    short enough for the force (``h_max``, at most two grid intervals per record sample)."""
+    short enough for the force (``h_max``, at most two grid intervals per record sample); with a
+    declared filter at least FILTER_SUB (FILTER_SUB_SMOOTH for a :func:`smooth` model)."""
     T = v.dt * v.q
     n = max(2, *(math.ceil(r * T / lim) for r, lim in zip(rates(p), STEP_LIMITS)))
     if math.isfinite(v.h_max):  # the force's own content (a hammer impulse reaches the accelerations directly)
         n = max(n, min(math.ceil(T / v.h_max), 2 * v.q))
     if any(c is not None and c.type is not None for c in v.chains.values()):
-        n = max(n, FILTER_SUB)  # the filters' input is linear between grid points: (w h)^2 / 8 of the signal
+        n = max(n, FILTER_SUB_SMOOTH if smooth(p) else FILTER_SUB)  # the filters' input is linear between grid points
     return n + (n % 2)
 
 
@@ -444,27 +511,40 @@ def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
     return np.asarray(CubicSpline(edges, cum)(np.clip(tg, edges[0], edges[-1]), 1))
 
 
+def _cached(cache: dict, key: tuple, make: Callable[[], Any], keep: int = 4) -> Any:
+    """cache[key], made by ``make`` if absent; at most ``keep`` entries of the same kind (key[0]) kept.
+    Safe when threads share the cache (records' Jacobian columns side by side): every entry is
+    complete when it is stored, and a reader holds its own reference."""
+    val = cache.get(key)
+    if val is None:
+        val = make()
+        same = [k for k in list(cache) if isinstance(k, tuple) and k[0] == key[0] and k != key]
+        for k in same[: max(0, len(same) - keep + 1)]:
+            cache.pop(k, None)
+        cache[key] = val
+    return val
+
+
 def simulate(v: TView, p: ndarray, z0: ndarray | None = None, force_gain: float = 1.0) -> ndarray | None:
     """(n_out, 4) fit-block means of x, y, xdd, ydd of the model p driven by the record's measured
-    force (times force_gain), through the declared chains; None when the simulation blows up."""
+    force (times force_gain), through the declared chains, from the start state z0 (default
+    ``v.z0``); None when the simulation blows up."""
     n_sub = refinement(v, p)
     fc = v.fcache
     h = v.dt * v.q / n_sub
-    if fc.get("key") != n_sub:
-        fc.update(key=n_sub, f=grid_force(v, n_sub))
-    if fc.get("filter_h") != h:
-        fc.update(filter_h=h, filt=filter_grid(v.chains, h))
-    if "direct" not in fc:
-        fc["direct"] = direct_force(v)
-    f = fc["f"] if force_gain == 1.0 else force_gain * fc["f"]  # the force enters linearly
+    fg = _cached(fc, ("f", n_sub), lambda: grid_force(v, n_sub))
+    filt = _cached(fc, ("filt", h), lambda: filter_grid(v.chains, h))
+    direct = _cached(fc, ("direct",), lambda: direct_force(v))
+    f = fg if force_gain == 1.0 else force_gain * fg  # the force enters linearly
     cx, cy = feedthrough(p)
     out = np.empty((v.n_out, 4))
-    ok = _integrate(p, f, h, n_sub, v.n_out, v.z0 if z0 is None else z0, out, cx, cy, *fc["filt"])
+    ok = _integrate(p, f, h, n_sub, v.n_out, v.z0 if z0 is None else z0, out, cx, cy, *filt)
     if not ok or not np.all(np.isfinite(out)):
         return None
+    out = hold_correct(out, v.fs, v.chains, h, fc)
     y = apply_chain(out, v.fs, v.chains, v.dt if v.q > 1 else None, v.gcache, filters=False)
-    y[:, 2] += force_gain * cx * fc["direct"][:, 0]
-    y[:, 3] += force_gain * cy * fc["direct"][:, 1]
+    y[:, 2] += force_gain * cx * direct[:, 0]
+    y[:, 3] += force_gain * cy * direct[:, 1]
     return y
 
 
