@@ -71,12 +71,16 @@ def _integrate(
     cc: ndarray,
     dd: ndarray,
     ee: ndarray,
+    lin: ndarray,
 ) -> bool:
     """RK4 on the grid t_j = j h (force f[2 j] at every grid point, f[2 j + 1] at its midpoint); out[i] = the Simpson mean over
     grid points i n_sub .. (i + 1) n_sub of the channels u = (x, y, xdd - cx f, ydd - cy f) -- the positions and the
     accelerations without the force's direct feed-through (cx, cy: :func:`feedthrough`) -- each run first through its
     analog filter on the same grid (channel k of order nord[k] > 0, :func:`filter_grid`: s_{j+1} = phi s_j + g1 u_j +
     g2 u_{j+1}, the exact first-order-hold step; output cc . s + dd u; started at rest for u_0, s_0 = ee u_0).
+    A linear model's RK4 step comes as matrices, ``lin`` (8, 10) of :func:`rk4_affine` (rows 0-5: z_{j+1} =
+    lin[:6, :6] z_j + lin[:6, 6:9] (f_j, f_mid, f_j+1); rows 6-7: xdd, ydd = lin[6:, :6] z + lin[6:, 9] f),
+    the same step as the four right-hand sides; an empty ``lin``: the right-hand side itself.
     Returns False when the state blows up (a candidate far outside its stable range)."""
     z = z0.copy()
     k1 = np.empty(6)
@@ -93,9 +97,19 @@ def _integrate(
     out[:, :] = 0.0
     n_grid = n_out * n_sub
     inv = 1.0 / n_sub
+    linear = lin.shape[0] == 8
     for j in range(n_grid + 1):
         f0 = f[2 * j]
-        rhs_fext(z, f0, p, k1)
+        if linear:
+            a1 = lin[6, 9] * f0
+            a3 = lin[7, 9] * f0
+            for s in range(6):
+                a1 += lin[6, s] * z[s]
+                a3 += lin[7, s] * z[s]
+            k1[1] = a1
+            k1[3] = a3
+        else:
+            rhs_fext(z, f0, p, k1)
         i = j // n_sub
         kk = j % n_sub
         u[0] = z[0]
@@ -136,6 +150,17 @@ def _integrate(
             break
         f1 = f[2 * j + 2]
         fm = f[2 * j + 1]
+        if linear:
+            for a in range(6):
+                acc = lin[a, 6] * f0 + lin[a, 7] * fm + lin[a, 8] * f1
+                for b in range(6):
+                    acc += lin[a, b] * z[b]
+                zt[a] = acc
+            for a in range(6):
+                z[a] = zt[a]
+            if not (abs(z[0]) < 1e6 and abs(z[2]) < 1e6):
+                return False
+            continue
         for s in range(6):
             zt[s] = z[s] + 0.5 * h * k1[s]
         rhs_fext(zt, fm, p, k2)
@@ -150,6 +175,49 @@ def _integrate(
         if not (abs(z[0]) < 1e6 and abs(z[2]) < 1e6):
             return False
     return True
+
+
+def _rk4_step(z: ndarray, f0: float, fm: float, f1: float, p: ndarray, h: float) -> ndarray:
+    """One classical RK4 step of the kernels' right-hand side (the one of :func:`_integrate`)."""
+    k = [np.empty(6) for _ in range(4)]
+    rhs_fext(z, f0, p, k[0])
+    rhs_fext(z + 0.5 * h * k[0], fm, p, k[1])
+    rhs_fext(z + 0.5 * h * k[1], fm, p, k[2])
+    rhs_fext(z + h * k[2], f1, p, k[3])
+    return z + h / 6.0 * (k[0] + 2.0 * k[1] + 2.0 * k[2] + k[3])
+
+
+def rk4_affine(p: ndarray, h: float) -> ndarray:
+    """The RK4 step of step h of the model p as matrices when p is linear (no friction, play or cubic
+    stiffness: the right-hand side is linear in the state and the force, so the step is too): (8, 10)
+    rows 0-5 [step of the unit states | of a unit force at the step's start, midpoint, end], rows 6-7
+    the accelerations xdd, ydd [per unit state | per unit force]; built from the right-hand side itself
+    (the step of each unit vector) and checked on a random state; (0, 10) when p is not linear."""
+    from ...physics.params import P_k3
+
+    out = np.zeros((0, 10))
+    if not smooth(p) or p[P_k3] != 0.0:
+        return out
+    lin = np.zeros((8, 10))
+    eye = np.eye(6)
+    zero = np.zeros(6)
+    acc = np.empty(6)
+    for c in range(6):
+        lin[:6, c] = _rk4_step(eye[c], 0.0, 0.0, 0.0, p, h)
+        rhs_fext(eye[c], 0.0, p, acc)
+        lin[6:, c] = acc[[1, 3]]
+    for c in range(3):
+        fs = [0.0, 0.0, 0.0]
+        fs[c] = 1.0
+        lin[:6, 6 + c] = _rk4_step(zero, fs[0], fs[1], fs[2], p, h)
+    rhs_fext(zero, 1.0, p, acc)
+    lin[6:, 9] = acc[[1, 3]]
+    z = np.random.default_rng(0).normal(size=6)
+    got = _rk4_step(z, 0.3, -0.7, 1.1, p, h)
+    want = lin[:6, :6] @ z + lin[:6, 6:9] @ np.array([0.3, -0.7, 1.1])
+    if not np.allclose(got, want, rtol=1e-9, atol=1e-12 * np.max(np.abs(got))):
+        return out
+    return lin
 
 
 def filter_grid(chains: dict, h: float) -> tuple[ndarray, ...]:
@@ -366,6 +434,9 @@ FILTER_SUB = 16
 FILTER_SUB_SMOOTH = 8
 
 
+LINEAR_STEP = True  #: a linear model's RK4 step as matrices (:func:`rk4_affine`); False: its right-hand side
+
+
 def smooth(p: ndarray) -> bool:
     """The model p has no dry friction and no play (its response holds no stick-slip or contact)."""
     from ...physics.params import P_MODEL, P_df
@@ -538,7 +609,8 @@ def simulate(v: TView, p: ndarray, z0: ndarray | None = None, force_gain: float 
     f = fg if force_gain == 1.0 else force_gain * fg  # the force enters linearly
     cx, cy = feedthrough(p)
     out = np.empty((v.n_out, 4))
-    ok = _integrate(p, f, h, n_sub, v.n_out, v.z0 if z0 is None else z0, out, cx, cy, *filt)
+    lin = rk4_affine(p, h) if LINEAR_STEP else np.zeros((0, 10))
+    ok = _integrate(p, f, h, n_sub, v.n_out, v.z0 if z0 is None else z0, out, cx, cy, *filt, lin)
     if not ok or not np.all(np.isfinite(out)):
         return None
     out = hold_correct(out, v.fs, v.chains, h, fc)
