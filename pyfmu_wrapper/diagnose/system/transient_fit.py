@@ -12,7 +12,7 @@ import math
 import os
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
 
@@ -20,12 +20,16 @@ from .transient_effects import BOUNDS, TEFFECTS, Model, apply
 from .transient_sim import simulate
 
 if TYPE_CHECKING:
+    from collections.abc import Callable, Sequence
+
     from numpy import ndarray
 
     from .transient_sim import TView
 
 TOL = {"ftol": 1e-7, "xtol": 1e-6, "gtol": 1e-8}  #: least_squares stopping (relative change of the cost / step)
 _POOL: list[ThreadPoolExecutor] = []
+T = TypeVar("T")
+R = TypeVar("R")
 
 
 def pool() -> ThreadPoolExecutor:
@@ -33,6 +37,14 @@ def pool() -> ThreadPoolExecutor:
     if not _POOL:
         _POOL.append(ThreadPoolExecutor(max_workers=max(1, min(4, os.cpu_count() or 1))))
     return _POOL[0]
+
+
+def pmap(fn: Callable[[T], R], items: Sequence[T], sizes: Sequence[float]) -> list[R]:
+    """[fn(x) for x in items], run in :func:`pool`'s threads, the largest first (``sizes``: the work of
+    each; the longest jobs started first end the batch sooner than in the given order)."""
+    order = sorted(range(len(items)), key=lambda k: -sizes[k])
+    futs = {k: pool().submit(fn, items[k]) for k in order}
+    return [futs[k].result() for k in range(len(items))]
 
 
 def residual(v: TView, mdl: Model, mask: ndarray, z0: ndarray | None = None) -> ndarray | None:
@@ -161,7 +173,7 @@ def fit(
             for i in dec:  # the decays' fitted start states stay in the views (for the chi-squares)
                 views[i].z0 = start(i, u)
             # the records in parallel threads (the integrator releases the GIL)
-            rs = list(pool().map(lambda i: one(i, mdl, u), range(len(views))))
+            rs = pmap(lambda i: one(i, mdl, u), range(len(views)), [v.n_out for v in views])
             for i, r in enumerate(rs):
                 if r is None:
                     f[:] = BAD
@@ -191,7 +203,7 @@ def fit(
             _, i, mdl, up = t
             return None if isinstance(mdl, str) else one(i, mdl, up)
 
-        rs = list(pool().map(col, tasks))
+        rs = pmap(col, tasks, [views[t[1]].n_out for t in tasks])
         bad = {t[0] for t, r in zip(tasks, rs) if r is None and t[0] < npar}
         for (j, i, _, _), r in zip(tasks, rs):
             if j in bad:  # a parameter step the model refuses or that blows up: the whole residual BAD
