@@ -88,7 +88,7 @@ class TransientDiagnosis:
                 "the force does not determine its impulses; treat the verdict with care"
             ]
         self.log: list[str] = []
-        self.warm: dict[tuple[str, ...], list[ndarray] | None] = {}  #: effects -> start of the per-record fits
+        self.warm: dict[tuple[str, ...], dict[str, Any]] = {}  #: effects -> start of the per-record fits
         self.nominal_resid: list[ndarray] = []
 
     # --- masks -----------------------------------------------------------------------------
@@ -253,7 +253,7 @@ class TransientDiagnosis:
         allm = self._masks(None)
         rows, vals, stds = [], [], []
         for v, m in zip(self.views, allm):
-            f = fit([v], self.p_nom, effects, [m], None, self.sc, starts=self.warm.get(effects))
+            f = fit([v], self.p_nom, effects, [m], None, self.sc, **self.warm.get(effects, {}))
             if not f.ok:
                 continue
             rows.append({"record": v.name, "params": self._params(f)})
@@ -282,7 +282,7 @@ class TransientDiagnosis:
         for i, v in enumerate(self.views):
             others = [u for j, u in enumerate(self.views) if j != i]
             om = [m for j, m in enumerate(allm) if j != i]
-            f = fit(others, self.p_nom, effects, om, None, self.sc, starts=self.warm.get(effects))
+            f = fit(others, self.p_nom, effects, om, None, self.sc, **self.warm.get(effects, {}))
             if not f.ok:
                 continue
             mdl = apply(self.p_nom, effects, f.theta)
