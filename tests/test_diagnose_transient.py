@@ -376,9 +376,10 @@ def test_grid_filter_transfer_is_the_sampled_straight_line_hold():
 
 def test_smooth_model_on_the_coarse_filter_grid_matches_a_fine_grid(tmp_path, monkeypatch):
     """A viscous model behind a 400 Hz Butterworth on every channel, simulated on FILTER_SUB_SMOOTH grid
-    intervals per fit block with the hold corrected and the linear model's exact step: its block means
-    are those of RK4 on a 64-interval grid within 0.01 noise std rms on every channel (0.003; without the
-    hold's correction 0.01-0.06, more the fewer the intervals)."""
+    intervals per fit block with the hold corrected: its block means are those of a 64-interval grid
+    within 0.01 noise std rms on every channel (0.003; without the hold's correction 0.01-0.06, more
+    the fewer the intervals). The linear model's RK4 step as matrices gives the numbers of its
+    right-hand side to rounding."""
     import pyfmu_wrapper.diagnose.system.transient_sim as S
     from pyfmu_wrapper.diagnose.system.transient import TransientDiagnosis
     from pyfmu_wrapper.diagnose.system.transient_effects import apply
@@ -391,8 +392,11 @@ def test_smooth_model_on_the_coarse_filter_grid_matches_a_fine_grid(tmp_path, mo
     assert not isinstance(mdl, str)
     assert S.refinement(v, mdl.p) == S.FILTER_SUB_SMOOTH == 12
     y = S.simulate(v, mdl.p)
+    monkeypatch.setattr(S, "LINEAR_STEP", False)  # the right-hand side itself: the same numbers
+    y_rhs = S.simulate(v, mdl.p)
+    assert y is not None and y_rhs is not None
+    assert np.max(np.abs(y - y_rhs) / np.max(np.abs(y_rhs), axis=0)) < 1e-11
     monkeypatch.setattr(S, "FILTER_SUB_SMOOTH", 64)
-    monkeypatch.setattr(S, "LINEAR_STEP", False)  # the reference: RK4 of the right-hand side
     ref = S.simulate(v, mdl.p)
     assert y is not None and ref is not None
     sig = np.array([v.raw_noise[c] / math.sqrt(v.q) for c in S.CHANNELS])
@@ -400,17 +404,14 @@ def test_smooth_model_on_the_coarse_filter_grid_matches_a_fine_grid(tmp_path, mo
     assert np.all(rms < 0.01), rms
 
 
-def test_linear_model_step_is_exact_for_the_mass_stiffness_damping_matrices():
-    """A linear model's step as matrices (:func:`linear_step`): its state block is exp(h A), A built
-    from the inerter's mass matrix [[M + I, -I], [-I, m + I]] and the stiffness and damping matrices
-    (not from the kernels); its force columns applied to a force quadratic over the step give the
-    forced response int_0^h exp(A (h - t)) b F(t) dt (adaptive quadrature); its accelerations row is
-    A's and b's. Friction, play and cubic stiffness get no matrices (RK4 of their right-hand side)."""
-    from scipy.integrate import quad_vec
-    from scipy.linalg import expm
-
+def test_linear_model_step_is_rk4_of_the_mass_stiffness_damping_matrices():
+    """A linear model's RK4 step as matrices (:func:`rk4_affine`): its state block is the degree-4
+    Taylor polynomial of exp(h A), A built from the inerter's mass matrix [[M + I, -I], [-I, m + I]]
+    and the stiffness and damping matrices (not from the kernels), and the force's midpoint and end
+    columns and the accelerations row follow from the same A and the base's unit force. Friction, play and
+    cubic stiffness get no matrices (their right-hand side runs)."""
     from pyfmu_wrapper.diagnose.system.transient_effects import apply
-    from pyfmu_wrapper.diagnose.system.transient_sim import linear_step
+    from pyfmu_wrapper.diagnose.system.transient_sim import rk4_affine
     from pyfmu_wrapper.physics.params import P_C, P_I, P_K, P_M, BaseParams, P_c, P_k, P_m, TMDParams, pack
 
     p0 = pack(BaseParams(**BASE), TMDParams(**TMD))
@@ -418,7 +419,8 @@ def test_linear_model_step_is_exact_for_the_mass_stiffness_damping_matrices():
     assert not isinstance(mdl, str)
     p, h = mdl.p, 2e-3
     M, K, C, m, k, c, I = (p[i] for i in (P_M, P_K, P_C, P_m, P_k, P_c, P_I))
-    Mi = np.linalg.inv(np.array([[M + I, -I], [-I, m + I]]))
+    Mt = np.array([[M + I, -I], [-I, m + I]])
+    Mi = np.linalg.inv(Mt)
     A = np.block(
         [
             [np.zeros((2, 2)), np.eye(2)],
@@ -426,20 +428,20 @@ def test_linear_model_step_is_exact_for_the_mass_stiffness_damping_matrices():
         ]
     )
     b = np.concatenate([[0.0, 0.0], Mi @ [1.0, 0.0]])  # unit force on the base
-    lin = linear_step(p, h)
+    ha = h * A
+    taylor = np.eye(4) + ha + ha @ ha / 2 + ha @ ha @ ha / 6 + ha @ ha @ ha @ ha / 24
+    lin = rk4_affine(p, h)
     idx = [0, 2, 1, 3]  # the kernels' states x, xd, y, yd in the order x, y, xd, yd of A
-    assert np.allclose(lin[np.ix_(idx, idx)], expm(h * A), rtol=1e-12, atol=1e-15)
-
-    def force(t: float) -> float:
-        s = t / h
-        return 1.0 + 2.0 * s - 3.0 * s * s
-
-    want = quad_vec(lambda t: expm(A * (h - t)) @ b * force(t), 0.0, h, epsabs=1e-16, epsrel=1e-12)[0]
-    got = lin[idx, 6:9] @ np.array([force(0.0), force(h / 2), force(h)])
-    assert np.allclose(got, want, rtol=1e-9, atol=1e-16)
+    assert np.allclose(lin[np.ix_(idx, idx)], taylor, rtol=1e-10, atol=1e-12)
+    # RK4's force weights: k1 at the step's start, k2 and k3 at its midpoint, k4 at its end
+    start = h * (np.eye(4) / 6 + ha / 6 + ha @ ha / 12 + ha @ ha @ ha / 24) @ b
+    mid = h * (2 / 3 * np.eye(4) + ha / 3 + ha @ ha / 12) @ b
+    end = h * (np.eye(4) / 6) @ b
+    for col, want in ((6, start), (7, mid), (8, end)):
+        assert np.allclose(lin[idx, col], want, rtol=1e-10, atol=1e-14)
     acc = np.concatenate([A[[2, 3]], b[[2, 3]][:, None]], axis=1)
     assert np.allclose(lin[6:, [*idx, 9]], acc, rtol=1e-12)
     for eff, th in (("friction", [5.0, 1000.0]), ("cubic", [3e5]), ("play", [1e-4])):
         m2 = apply(p0, (eff,), np.array(th))
         assert not isinstance(m2, str)
-        assert linear_step(m2.p, h).shape[0] == 0
+        assert rk4_affine(m2.p, h).shape[0] == 0

@@ -78,9 +78,9 @@ def _integrate(
     accelerations without the force's direct feed-through (cx, cy: :func:`feedthrough`) -- each run first through its
     analog filter on the same grid (channel k of order nord[k] > 0, :func:`filter_grid`: s_{j+1} = phi s_j + g1 u_j +
     g2 u_{j+1}, the exact first-order-hold step; output cc . s + dd u; started at rest for u_0, s_0 = ee u_0).
-    A linear model's step comes as matrices, ``lin`` (8, 10) of :func:`linear_step` (rows 0-5: z_{j+1} =
-    lin[:6, :6] z_j + lin[:6, 6:9] (f_j, f_mid, f_j+1), exact for a force quadratic over the step;
-    rows 6-7: xdd, ydd = lin[6:, :6] z + lin[6:, 9] f); an empty ``lin``: RK4 of the right-hand side.
+    A linear model's RK4 step comes as matrices, ``lin`` (8, 10) of :func:`rk4_affine` (rows 0-5: z_{j+1} =
+    lin[:6, :6] z_j + lin[:6, 6:9] (f_j, f_mid, f_j+1); rows 6-7: xdd, ydd = lin[6:, :6] z + lin[6:, 9] f),
+    the same step as the four right-hand sides; an empty ``lin``: the right-hand side itself.
     Returns False when the state blows up (a candidate far outside its stable range)."""
     z = z0.copy()
     k1 = np.empty(6)
@@ -177,53 +177,46 @@ def _integrate(
     return True
 
 
-def linear_step(p: ndarray, h: float) -> ndarray:
-    """The exact step of h of the model p when p is linear (no friction, play or cubic stiffness: the
-    right-hand side z' = A z + b F): (8, 10), rows 0-5 [exp(A h) | the responses to a force quadratic
-    through its values at the step's start, midpoint and end (the ones RK4 samples)], rows 6-7 the
-    accelerations xdd, ydd [A's rows | b's]. A and b come from the right-hand side itself (its value
-    at each unit state and at a unit force), checked on a random state; the force's integrals
-    int_0^h exp(A (h - t)) b (t / h)^k dt from the exponential of the system augmented by the
-    polynomial's states. (0, 10) when p is not linear. RK4 on the same grid erred by 0.024 noise std
-    rms at 8 grid intervals per fit block on the speed bench's viscous records (h^4), this by the
-    force's interpolation only."""
-    from scipy.linalg import expm
+def _rk4_step(z: ndarray, f0: float, fm: float, f1: float, p: ndarray, h: float) -> ndarray:
+    """One classical RK4 step of the kernels' right-hand side (the one of :func:`_integrate`)."""
+    k = [np.empty(6) for _ in range(4)]
+    rhs_fext(z, f0, p, k[0])
+    rhs_fext(z + 0.5 * h * k[0], fm, p, k[1])
+    rhs_fext(z + 0.5 * h * k[1], fm, p, k[2])
+    rhs_fext(z + h * k[2], f1, p, k[3])
+    return z + h / 6.0 * (k[0] + 2.0 * k[1] + 2.0 * k[2] + k[3])
 
+
+def rk4_affine(p: ndarray, h: float) -> ndarray:
+    """The RK4 step of step h of the model p as matrices when p is linear (no friction, play or cubic
+    stiffness: the right-hand side is linear in the state and the force, so the step is too): (8, 10)
+    rows 0-5 [step of the unit states | of a unit force at the step's start, midpoint, end], rows 6-7
+    the accelerations xdd, ydd [per unit state | per unit force]; built from the right-hand side itself
+    (the step of each unit vector) and checked on a random state; (0, 10) when p is not linear."""
     from ...physics.params import P_k3
 
     out = np.zeros((0, 10))
     if not smooth(p) or p[P_k3] != 0.0:
         return out
-    A = np.zeros((6, 6))
+    lin = np.zeros((8, 10))
+    eye = np.eye(6)
+    zero = np.zeros(6)
     acc = np.empty(6)
     for c in range(6):
-        e = np.zeros(6)
-        e[c] = 1.0
-        rhs_fext(e, 0.0, p, acc)
-        A[:, c] = acc
-    bf = np.empty(6)
-    rhs_fext(np.zeros(6), 1.0, p, bf)
+        lin[:6, c] = _rk4_step(eye[c], 0.0, 0.0, 0.0, p, h)
+        rhs_fext(eye[c], 0.0, p, acc)
+        lin[6:, c] = acc[[1, 3]]
+    for c in range(3):
+        fs = [0.0, 0.0, 0.0]
+        fs[c] = 1.0
+        lin[:6, 6 + c] = _rk4_step(zero, fs[0], fs[1], fs[2], p, h)
+    rhs_fext(zero, 1.0, p, acc)
+    lin[6:, 9] = acc[[1, 3]]
     z = np.random.default_rng(0).normal(size=6)
-    rhs_fext(z, 0.7, p, acc)
-    if not np.allclose(acc, A @ z + 0.7 * bf, rtol=1e-9, atol=1e-12 * np.max(np.abs(acc))):
+    got = _rk4_step(z, 0.3, -0.7, 1.1, p, h)
+    want = lin[:6, :6] @ z + lin[:6, 6:9] @ np.array([0.3, -0.7, 1.1])
+    if not np.allclose(got, want, rtol=1e-9, atol=1e-12 * np.max(np.abs(got))):
         return out
-    gam = []
-    for k in range(3):  # z' = A z + b q_k, q0' = 0, q1' = q0 / h, q2' = 2 q1 / h, q(0) = (1, 0, 0)
-        M = np.zeros((9, 9))
-        M[:6, :6] = A
-        M[:6, 6 + k] = bf
-        M[7, 6], M[8, 7] = 1.0 / h, 2.0 / h
-        E = expm(M * h)
-        gam.append(E[:6, 6])
-    g0, g1, g2 = gam
-    lin = np.zeros((8, 10))
-    lin[:6, :6] = E[:6, :6]
-    # Lagrange basis on s = t / h through 0, 1/2, 1: (1 - s)(1 - 2 s), 4 s (1 - s), s (2 s - 1)
-    lin[:6, 6] = g0 - 3 * g1 + 2 * g2
-    lin[:6, 7] = 4 * g1 - 4 * g2
-    lin[:6, 8] = -g1 + 2 * g2
-    lin[6:, :6] = A[[1, 3]]
-    lin[6:, 9] = bf[[1, 3]]
     return lin
 
 
@@ -435,16 +428,16 @@ STEP_LIMITS = (STEP_OMEGA, 1.0, 0.5)
 #: content above it is what the grid has to resolve.
 FILTER_SUB = 16
 #: the same for a smooth model (every content below the fit's Nyquist frequency), where the hold's error
-#: is corrected (:func:`hold_correct`) and a linear model's step is exact (:func:`linear_step`): what is
-#: left is the force's content between grid points (its spline through the record's samples, taken as
-#: quadratic over each step). On the bench's viscous records (400 Hz Butterworth, fit blocks of 13
-#: samples at 800 Hz) the block means differ from a 64-interval RK4 grid by at most 0.0014 noise std rms
-#: with 12 (0.0018 with 16; 0.007 with 10, 0.024 with 8, where a step spans more than a record sample;
-#: the code before the correction: 0.028 in the accelerations with 16)
+#: is corrected (:func:`hold_correct`): what is left is the force's content between grid points (its
+#: spline through the record's samples, sampled at the RK4 step's ends and midpoint). On the bench's
+#: viscous records (400 Hz Butterworth, fit blocks of 13 samples at 800 Hz) the block means differ from
+#: a 64-interval grid by at most 0.0014 noise std rms with 12 (0.0018 with 16; 0.007 with 10, 0.024 with
+#: 8, where a step spans more than a record sample -- the same with an exact linear step: the force, not
+#: RK4; the code before the correction: 0.028 in the accelerations with 16)
 FILTER_SUB_SMOOTH = 12
 
 
-LINEAR_STEP = True  #: a linear model's exact step (:func:`linear_step`); False: RK4 of its right-hand side
+LINEAR_STEP = True  #: a linear model's RK4 step as matrices (:func:`rk4_affine`); False: its right-hand side
 
 
 def smooth(p: ndarray) -> bool:
@@ -619,7 +612,7 @@ def simulate(v: TView, p: ndarray, z0: ndarray | None = None, force_gain: float 
     f = fg if force_gain == 1.0 else force_gain * fg  # the force enters linearly
     cx, cy = feedthrough(p)
     out = np.empty((v.n_out, 4))
-    lin = linear_step(p, h) if LINEAR_STEP else np.zeros((0, 10))
+    lin = rk4_affine(p, h) if LINEAR_STEP else np.zeros((0, 10))
     ok = _integrate(p, f, h, n_sub, v.n_out, v.z0 if z0 is None else z0, out, cx, cy, *filt, lin)
     if not ok or not np.all(np.isfinite(out)):
         return None
