@@ -29,6 +29,7 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import yaml
@@ -110,8 +111,10 @@ def main() -> None:
             wall = time.perf_counter() - t0
             cpu = ru.ru_utime + ru.ru_stime
             text = log.read_text().strip()
-            verdict = text.splitlines()[-3] if os.waitstatus_to_exitcode(status) == 0 else text[-300:]
-            row = {
+            verdict = text[-300:]  # the failure's message; on success the verdict's first sentence
+            if os.waitstatus_to_exitcode(status) == 0 and (res_dir / "diagnosis.json").is_file():
+                verdict = json.loads((res_dir / "diagnosis.json").read_text())["verdict"]["text"].split("; it ")[0]
+            row: dict[str, Any] = {
                 "dataset": name,
                 "code": code,
                 "seconds": round(wall, 1),

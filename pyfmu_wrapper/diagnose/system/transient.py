@@ -31,7 +31,7 @@ import numpy as np
 
 from .transient_effects import BOUNDS, TEFFECTS, apply, meaningless, scales
 from .transient_effects import LABELS as T_LABELS
-from .transient_fit import TFit, chi2_of, fit, start_update, z_test
+from .transient_fit import TFit, chi2_of, fit, start_update, warm_start, z_test
 from .transient_screen import NONLINEAR, screen
 from .transient_sim import CHANNELS, chi2_variance_factor, input_noise_series, make_view, start_responses
 from .transient_where import SEGMENTS, where
@@ -88,6 +88,7 @@ class TransientDiagnosis:
                 "the force does not determine its impulses; treat the verdict with care"
             ]
         self.log: list[str] = []
+        self.warm: dict[tuple[str, ...], dict[str, Any]] = {}  #: effects -> start of the per-record fits
         self.nominal_resid: list[ndarray] = []
 
     # --- masks -----------------------------------------------------------------------------
@@ -252,7 +253,7 @@ class TransientDiagnosis:
         allm = self._masks(None)
         rows, vals, stds = [], [], []
         for v, m in zip(self.views, allm):
-            f = fit([v], self.p_nom, effects, [m], None, self.sc)
+            f = fit([v], self.p_nom, effects, [m], None, self.sc, **self.warm.get(effects, {}))
             if not f.ok:
                 continue
             rows.append({"record": v.name, "params": self._params(f)})
@@ -281,7 +282,7 @@ class TransientDiagnosis:
         for i, v in enumerate(self.views):
             others = [u for j, u in enumerate(self.views) if j != i]
             om = [m for j, m in enumerate(allm) if j != i]
-            f = fit(others, self.p_nom, effects, om, None, self.sc)
+            f = fit(others, self.p_nom, effects, om, None, self.sc, **self.warm.get(effects, {}))
             if not f.ok:
                 continue
             mdl = apply(self.p_nom, effects, f.theta)
@@ -310,6 +311,7 @@ class TransientDiagnosis:
         agree: dict[str, Any] = {}
         if named:
             final = self._fit(named, self._masks(None), None)
+            self.warm[named] = warm_start(final, self.sc)
             agree = self.agreement(named)
             if not agree["agree"]:
                 notes.append(

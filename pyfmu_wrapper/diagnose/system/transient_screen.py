@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .transient_effects import apply
-from .transient_fit import pool, residual
+from .transient_fit import pmap, residual
 
 if TYPE_CHECKING:
     from numpy import ndarray
@@ -44,7 +44,7 @@ def screen(
     assert not isinstance(nom, str)
 
     def stack(mdl: Any) -> ndarray | None:
-        rs = list(pool().map(lambda i: residual(d.views[i], mdl, train[i]), range(len(d.views))))
+        rs = pmap(lambda i: residual(d.views[i], mdl, train[i]), range(len(d.views)), [v.n_out for v in d.views])
         out = [r[:, v.has][m].ravel() for r, v, m in zip(rs, d.views, train) if r is not None]
         return np.concatenate(out) if len(out) == len(rs) else None
 
