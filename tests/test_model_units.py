@@ -150,3 +150,18 @@ def test_the_unit_decides_whether_the_exact_path_applies(unit, tmd):
         t = detached_tmd(TMDParams())
     ss = steady_state(s, t, 19.0)
     assert exact_amplitude(s, t, 19.0) == pytest.approx(ss.amplitude, rel=1e-6)
+
+
+@pytest.mark.parametrize("unit", UNITS, ids=lambda u: u.name)
+def test_the_scenario_block_of_every_unit_is_the_units(unit):
+    """A scenario's primary-structure block is found by the key the unit gives (its scenario_block,
+    else its name), and a reader the unit names resolves to a function: the loader lists no model."""
+    import importlib
+
+    from pyfmu_wrapper.scenario.structspec import block_units
+
+    assert block_units()[unit.scenario_block or unit.name] is unit
+    assert len(block_units()) == len(UNITS)
+    if unit.scenario_reader:
+        module, _, function = unit.scenario_reader.partition(":")
+        assert callable(getattr(importlib.import_module(module), function))

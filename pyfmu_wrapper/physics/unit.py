@@ -78,6 +78,12 @@ class ModelUnit:
     takes_tmd: bool = True
     #: its classes and cases in the Modelica package (None: it has no Modelica source)
     modelica: ModelicaSource | None = None
+    #: the key of the structure's block in a scenario file ("": the unit's name, e.g. ``linear_tmd:``)
+    scenario_block: str = ""
+    #: "module:function" of a reader of its own for that block, ``reader(rd, node, line) -> structure``
+    #: (resolved by the scenario loader: physics imports no scenario code); "": the block's keys are the
+    #: unit's declared parameters (:mod:`pyfmu_wrapper.scenario.structspec`)
+    scenario_reader: str = ""
     #: is_linear(structure, tmd) -> the equations are linear in the state (the exact frequency
     #: response applies); default: the structure is linear and the TMD decides (:func:`tmd_is_linear`)
     is_linear: Callable[[Any, TMDParams], bool] = tmd_is_linear

@@ -21,7 +21,7 @@ from ..physics.params import BaseParams, ParameterError, TMDParams, field_names
 from ..physics.unit import ModelUnit
 from ..solvers import settings_table as _settings
 from ..solvers.steady import SettingsError
-from .framespec import attached, read_frame
+from .framespec import attached
 from .reader import Reader, key_path, line_of
 from .schema import (
     COSIM_KEYS,
@@ -41,7 +41,7 @@ from .schema import (
     SolverConfig,
     SweepConfig,
 )
-from .structspec import block_units, over_block, read_block
+from .structspec import block_units, over_block, read_structure
 from .tmdspec import TMDSpec, detached_tmd
 from .yamlio import load_marked
 
@@ -137,12 +137,7 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
     name = rd.string(doc, "name", "", pattern=_NAME_RE)
     description = rd.string(doc, "description", "", default="")
 
-    if block == "frame":
-        base: Any = read_frame(rd, doc["frame"], line_of(doc, "frame"))
-    elif block == "base":
-        base = _base(rd, doc)
-    else:
-        base = read_block(rd, unit, doc[block], block, line_of(doc, block))
+    base: Any = read_structure(rd, unit, doc[block], block, line_of(doc, block))
     _check_tmd_block(rd, doc, "", 1, unit, block, top_level=True)
     top = TMDSpec().over(rd, doc["tmd"], "tmd", line_of(doc, "tmd")) if unit.takes_tmd else TMDSpec()
     tmd = top.build(rd, "tmd", line_of(doc, "tmd")) if unit.takes_tmd else detached_tmd(TMDParams())
@@ -194,8 +189,10 @@ def _check_tmd_block(
         )
 
 
-def _base(rd: Reader, doc: MarkedDict) -> BaseParams:
-    b = rd.mapping(doc["base"], "base", line_of(doc, "base"), required=BASE_FIELDS)
+def read_base(rd: Reader, node: MarkedDict, line: int | None) -> BaseParams:
+    """The paper's ``base:`` block as BaseParams (the base_tmd unit's reader: its declared rows hold
+    omega, which a scenario gives as ``frequencies``)."""
+    b = rd.mapping(node, "base", line, required=BASE_FIELDS)
     for key in BASE_FIELDS:
         rd.number(b, key, "base")
     try:

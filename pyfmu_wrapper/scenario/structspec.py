@@ -3,13 +3,14 @@ named after the unit (``linear_tmd:``), its keys are the unit's declared paramet
 (:attr:`~pyfmu_wrapper.physics.unit.ModelUnit.parameters`: name, unit, bounds), its value is the
 unit's structure class built from them, with located errors (file, line, key path, value).
 
-A new model needs no edit here: the units with a reader of their own (``base:``, the loader's;
-``frame:``, :mod:`.framespec`, whose per-storey lists the declared rows cannot state) are the
-exceptions :data:`OWN_READERS` names.
+A new model needs no edit here: a unit may name its block (``scenario_block``: the paper's ``base:``)
+and a reader of its own (``scenario_reader``: the frame's per-storey lists, which the declared rows
+cannot state, :mod:`.framespec`; the paper's ``base:``, the loader's), resolved here by name.
 """
 
 from __future__ import annotations
 
+import importlib
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
@@ -21,16 +22,20 @@ from .reader import Reader, key_path, line_of
 if TYPE_CHECKING:
     from .yamlio import MarkedDict
 
-#: units whose block another reader reads (block key -> model name): the two models that came
-#: before the units (the paper's base oscillator, the frame's per-storey lists)
-OWN_READERS = {"base": "base_tmd", "frame": "frame"}
-
 
 def block_units() -> dict[str, ModelUnit]:
-    """Every primary-structure block a scenario may have, by key: the own readers' and one per
-    other registered unit (its name)."""
-    own = {model: key for key, model in OWN_READERS.items()}
-    return {own.get(u.name, u.name): u for u in MODELS.units()}
+    """Every primary-structure block a scenario may have, by key (the unit's ``scenario_block``, else
+    its name): one per registered unit."""
+    return {u.scenario_block or u.name: u for u in MODELS.units()}
+
+
+def read_structure(rd: Reader, unit: ModelUnit, node: MarkedDict, path: str, line: int | None) -> Any:
+    """The scenario's block as the unit's structure: by the unit's own reader if it names one
+    (``"module:function"``), else from its declared parameters (:func:`read_block`)."""
+    if not unit.scenario_reader:
+        return read_block(rd, unit, node, path, line)
+    module, _, function = unit.scenario_reader.partition(":")
+    return getattr(importlib.import_module(module), function)(rd, node, line)
 
 
 def read_block(rd: Reader, unit: ModelUnit, node: MarkedDict, path: str, line: int | None) -> Any:

@@ -87,4 +87,6 @@ UNIT = ModelUnit(
     fmus=("pyfmu_wrapper.physics.base_tmd.fmus.base_oscillator", "pyfmu_wrapper.physics.base_tmd.fmus.tmd_inerter"),
     example=BaseParams,
     modelica=MODELICA,
+    scenario_block="base",
+    scenario_reader="pyfmu_wrapper.scenario.loader:read_base",
 )

@@ -107,6 +107,7 @@ UNIT = ModelUnit(
     cosim="pyfmu_wrapper.physics.frame_model.cosim",
     fmus=("pyfmu_wrapper.physics.frame_model.fmus.shear_frame",),
     modelica=MODELICA,
+    scenario_reader="pyfmu_wrapper.scenario.framespec:read_frame",  # per-storey lists
     example=lambda: FrameParams.uniform(3, 100.0, 1.2e5, 100.0, tmd_storey=3, inerter_to=2),
     description="a shear frame of 1-20 storeys with the TMD-inerter on any storey (TMDI: inerter to another storey or the ground)",
 )
