@@ -540,3 +540,43 @@ def chi2_variance_factor(white: ndarray, y_in: ndarray | None) -> float:
             # one-sided density (2 x the two-sided away from 0 and 1/2): sum_tau C^2 = int_-1/2^1/2 |S2|^2 df
             tot += float(0.5 * np.sum(np.abs(s) ** 2) / nper) / (1.0 + 1.0 / n_seg)
     return max(1.0, tot / k)
+
+
+def param_variance_factor(J: ndarray, white: ndarray, y_in: ndarray | None) -> ndarray:
+    """Per parameter: var of its least-squares estimate under the record's noise / the var that
+    ``(J^T J)^-1`` states (white noise of unit variance), from the sandwich
+    ``A^-1 J^T S J A^-1`` with ``A = J^T J``. ``J``: (n, channels, parameters), the whitened
+    residual's derivatives on the fitted samples (0 on the others); ``white``: the white share of
+    each channel's noise std (its std once whitened); ``y_in`` (m, channels): the whitened response to
+    the force's noise (:func:`input_noise_series` / sigma), correlated in time and across channels, as
+    in :func:`chi2_variance_factor`: ``J^T S J = sum_k a_k J_k^T J_k + sum_f conj(J_k(f)) P_kl(f)
+    J_l(f) / n`` with P the two-sided Welch cross-spectra (per sample: fs = 1) of y_in interpolated on
+    the transform's frequencies. 1 per parameter when the noise is white."""
+    from scipy.signal import csd
+
+    n, k, npar = J.shape
+    A = np.einsum("tkp,tkq->pq", J, J)
+    M = np.einsum("k,tkp,tkq->pq", white**2, J, J)
+    if y_in is not None and y_in.shape[0] >= 64:
+        u = y_in - y_in.mean(axis=0)
+        nper = min(u.shape[0], 4096)
+        nfft = 1 << int(math.ceil(math.log2(2 * n)))  # zero padded: the transform's products are linear
+        fr = np.fft.rfftfreq(nfft)
+        Jf = np.fft.rfft(J, nfft, axis=0)  # (f, k, p)
+        wgt = np.full(fr.size, 2.0)  # the one-sided sum stands for both signs of f
+        wgt[0] = 1.0
+        if nfft % 2 == 0:
+            wgt[-1] = 1.0
+        for a in range(k):
+            for b in range(k):
+                f0, s = csd(u[:, a], u[:, b], fs=1.0, nperseg=nper, scaling="density", detrend=False)
+                half = 0.5 * s  # one-sided density -> two-sided
+                p = np.interp(fr, f0, half.real) + 1j * np.interp(fr, f0, half.imag)
+                M += np.real(np.einsum("f,fp,fq->pq", wgt * p, np.conj(Jf[:, a, :]), Jf[:, b, :])) / nfft
+    try:
+        Ai = np.linalg.inv(A)
+    except np.linalg.LinAlgError:
+        return np.ones(npar)
+    sand = np.diag(Ai @ M @ Ai)
+    base = np.diag(Ai)
+    return np.asarray(np.where(base > 0, sand / np.maximum(base, 1e-300), 1.0), float)
