@@ -196,6 +196,12 @@ class TransientDiagnosis:
                 singles.append(f)
         singles.sort(key=lambda f: f.chi2["test"])
         passing = [f for f in singles if z_test(f) <= EXPLAINS_Z]
+        if not passing:  # before pairs: friction from a large start (its default start's local minimum)
+            singles = [
+                self._friction_restart(g, tr, te, res, ex0) if g.effects == ("friction",) else g for g in singles
+            ]
+            singles.sort(key=lambda f: f.chi2["test"])
+            passing = [f for f in singles if z_test(f) <= EXPLAINS_Z]
         if passing:
             return self._result(res, nom, passing[0], passing[1:], "single")
         pairs = self._pairs(singles, res, ex0, tr, te)
@@ -208,19 +214,14 @@ class TransientDiagnosis:
     ) -> list[TFit]:
         """Pairs that explain the data, best first. First effects: the FIRST_TRIES best singles (by
         held-out chi-square; the best alone missed pairs whose best single is a third effect: field
-        base_mass + friction got base_damping first), friction refitted from a large start when it is
-        among them. Second effects: see :meth:`_seconds`. A pair that holds mass_split beside
+        base_mass + friction got base_damping first; the friction single was refitted from a large
+        start before, :meth:`_friction_restart`). Second effects: see :meth:`_seconds`. A pair that holds mass_split beside
         inertance or tmd_mass is the model of inertance + tmd_mass: it is refitted in those, the
         nominal's own parameters, and judged there (its size test too)."""
         pairs: list[TFit] = []
         seen: set[frozenset[str]] = set()
         firsts = singles[:FIRST_TRIES]
-        for i, first in enumerate(firsts):
-            if first.effects[0] == "friction":
-                firsts[i] = self._friction_restart(first, tr, te, res, ex0)
-        firsts.sort(key=lambda f: f.chi2["test"])
         alone = {g.effects[0]: g.theta for g in singles}
-        alone.update({g.effects[0]: g.theta for g in firsts})
         for first in firsts:
             ex1 = first.chi2["test"] - first.chi2["dof_test"]
             for second in self._seconds(first, singles, tr):
