@@ -4,18 +4,23 @@ Steps (docs/diagnose.md, "Transient records"):
 
 1. Views (:mod:`.transient_sim`): each record averaged to at most FIT_MAX fit samples; its start
    state estimated under the nominal (two passes); the noise std of every channel of every record
-   measured from the raw samples (fourth differences: the white part).
+   measured from the raw samples (fourth differences: the white part). A record whose force does not
+   determine its impulses (aliased power, or impulses spanning so few samples that their area is
+   unknown to the response's noise: FOLD_MAX) is set aside, and the verdict says so.
 2. Held out by **time segment**: every record is cut into SEGMENTS equal segments; parameters are
    fitted on the even ones and the odd ones are predicted (the simulation runs through them, their
    samples never enter the fit). The nominal, every single candidate and pairs are scored by the
    held-out chi-square ``z = (chi2 - dof) / sqrt(2 dof)``.
 3. A set of effects **explains the data** when its held-out z <= EXPLAINS_Z. The nominal explaining
    it: no structural effect. Else the best single candidate that explains it is named; every other
-   single that also does is listed as equally good. No single explains it: pairs of the best single
-   with the next PAIR_TRIES singles; the second effect is needed only if the pair explains the data,
-   closes >= PAIR_SHARE of the excess the first leaves, and its parameter is > 3 std from 0.
+   single that also does is listed as equally good. No single explains it: the friction single
+   refitted from a large start, then pairs of each of the FIRST_TRIES best singles with up to
+   PAIR_TRIES + 1 second effects (mass_split beside I or m refitted as inertance + tmd_mass); the
+   second effect is needed only if the pair explains the data, closes >= PAIR_SHARE of the excess the
+   first leaves, and its size is > 3 std from 0 and physically meaningful.
 4. The named set is refitted on all samples, and on each record alone: the per-record values must
-   agree within their errors (chi-square test at AGREE_P); a disagreement is reported and nothing is
+   agree within their errors (chi-square test at AGREE_P; each record's std the sandwich one under the
+   force's correlated noise); a disagreement is reported and nothing is
    named (a drift between records, or a pair of effects mimicking the truth). Held out **by record**:
    each record predicted from the others (only its start state fitted on itself).
 5. Nothing explains the data: ``unexplained``, with the best candidate as a hint and where the
