@@ -36,7 +36,7 @@ import numpy as np
 
 from .transient_effects import BOUNDS, TEFFECTS, apply, meaningless, scales
 from .transient_effects import LABELS as T_LABELS
-from .transient_fit import TFit, chi2_of, fit, start_update, z_test
+from .transient_fit import TFit, chi2_of, fit, residual, start_update, z_test
 from .transient_screen import NONLINEAR, screen
 from .transient_sim import (
     CHANNELS,
@@ -70,6 +70,7 @@ MASS_PAIRS = ({"mass_split", "inertance"}, {"mass_split", "tmd_mass"})
 #: chi2/n <= 1 (the estimate errs high at 12.8 kHz: 2.5e-4 folded against 1e-4 for a half-sine); field
 #: hammer records at 0.31-4.3 std left chi2/n 1.2-2.8 in some channel at the truth
 FOLD_MAX = 0.25
+START_PASSES = 3  #: start-state passes under a fitted candidate before its held-out chi-square
 AGREE_P = 1e-3  #: per-record parameters disagree when the agreement chi-square's p-value is below this
 #: model-error floor of a per-record parameter in the agreement test, as a share of max(|mean|, its
 #: scale): the measured force is the simulation's input with its own noise (errors in variables), which
@@ -190,7 +191,42 @@ class TransientDiagnosis:
                 u = np.zeros(sum(len(TEFFECTS[e][0]) for e in effects))
                 u[sum(len(TEFFECTS[e][0]) for e in effects[:k])] = g
                 starts.append(u)
-        return fit(self.views, self.p_nom, effects, train, test, self.sc, starts=starts)
+        f = fit(self.views, self.p_nom, effects, train, test, self.sc, starts=starts)
+        return self._polish(f, train, test) if effects and test is not None else f
+
+    def _polish(self, f: TFit, train: list[ndarray], test: list[ndarray]) -> TFit:
+        """The held-out chi-squares of a fitted candidate with each forced record's start state
+        converged under the candidate's own model: START_PASSES more passes of :func:`start_update` on
+        the training samples (the fit makes one; its projection uses the nominal's start responses, so
+        one pass leaves the start transient of a changed model partly unfitted: fresh tr000, base
+        stiffness +3 %, kept 82 % of its excess in the first 7.5 s of a random record, z 17). Free
+        decays keep the fit's own residual (their start state is a fitted unknown). The parameters are
+        not refitted."""
+        if not f.ok:
+            return f
+        mdl = apply(self.p_nom, f.effects, f.theta)
+        if isinstance(mdl, str):
+            return f
+        resid = list(f.resid)
+        for i, v in enumerate(self.views):
+            if v.free_decay or v.phi is None:
+                continue
+            saved = v.z0.copy()
+            try:
+                for _ in range(START_PASSES):
+                    start_update(v, mdl, train[i])
+                e = residual(v, mdl, train[i])
+            finally:
+                v.z0 = saved
+            if e is not None:
+                resid[i] = e
+        c_tr, n_tr = chi2_of(self.views, resid, train)
+        c_te, n_te = chi2_of(self.views, resid, test)
+        if c_tr >= f.chi2["train"]:
+            return f  # no better start found: the fit's own
+        g = TFit(f.effects, f.theta, f.std, ok=True, reason=f.reason, resid=resid)
+        g.chi2 = {**f.chi2, "train": c_tr, "dof_train": n_tr, "test": c_te, "dof_test": n_te}
+        return g
 
     # --- the decision ------------------------------------------------------------------------
     def run(self) -> dict[str, Any]:
@@ -225,6 +261,19 @@ class TransientDiagnosis:
             singles = [
                 self._friction_restart(g, tr, te, res, ex0) if g.effects == ("friction",) else g for g in singles
             ]
+            singles.sort(key=lambda f: f.chi2["test"])
+            # the best singles refitted from their own values: the fit's start-state pass then runs under
+            # a model near the optimum (fresh tr000, base stiffness: z 9.5 from the default start, its
+            # pairs with a null second effect -0.9); kept when the training chi-square drops
+            for i, g in enumerate(singles[:FIRST_TRIES]):
+                if "play" in g.effects:
+                    continue  # its fit has its own three starts
+                h = self._fit(g.effects, tr, te, init=g.theta)
+                if h.ok and h.chi2["train"] < g.chi2["train"]:
+                    row = self._row(h, ex0)
+                    row["restart"] = "refitted from its own fitted values"
+                    res["candidates"].append(row)
+                    singles[i] = h
             singles.sort(key=lambda f: f.chi2["test"])
             passing = [f for f in singles if z_test(f) <= EXPLAINS_Z]
         if passing:
@@ -398,7 +447,6 @@ class TransientDiagnosis:
         white, y_w = self.noise_parts.get(v.name, (None, None))
         if white is None or y_w is None:
             return np.ones(theta.size)
-        from .transient_fit import residual
 
         mdl0 = apply(self.p_nom, effects, theta)
         e0 = None if isinstance(mdl0, str) else residual(v, mdl0, m)
@@ -434,7 +482,6 @@ class TransientDiagnosis:
             mdl = apply(self.p_nom, effects, f.theta)
             if isinstance(mdl, str):
                 continue
-            from .transient_fit import residual
 
             z_saved = v.z0.copy()
             for _ in range(2):  # the held-out record's start state under the fitted model (not a parameter)
