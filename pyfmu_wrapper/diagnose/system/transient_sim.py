@@ -308,6 +308,9 @@ class TView:
     #: 0.8 x Nyquist: the true force there (the declared filter's gain divided out) assumed no weaker
     #: at the mirror frequencies fs - f, through the filter's gain there (1 without a filter)
     aliased: float = 0.0
+    #: amplitude of the force's spectrum folded onto its low band by the sampling, relative to that band
+    #: (:func:`folded_share`): an impulse sampled by a few samples has an area known only to about this
+    fold: float = 0.0
     z0: ndarray = field(default_factory=lambda: np.zeros(6))  #: start state of the simulation
     phi: ndarray | None = None  #: (n_out, 4, 4) response to unit start states (x, xd, y, yd)
     fcache: dict = field(default_factory=dict)  #: the force and the filters' steps on the last simulation grids
@@ -335,7 +338,7 @@ def make_view(rec: Record, chains: dict, f_mode: float) -> TView:
             f"{rec.name}, column 't': a transient record must be uniformly sampled (spacing varies by more "
             f"than 1 % of dt = {dt:.6g} s)"
         )
-    f_top, f99, aliased = f_mode, 0.0, 0.0
+    f_top, f99, aliased, fold = f_mode, 0.0, 0.0, 0.0
     if "force" in c:
         P = np.abs(np.fft.rfft(np.asarray(c["force"], float) - np.mean(c["force"]))) ** 2
         fr = np.fft.rfftfreq(n, dt)
@@ -350,6 +353,7 @@ def make_view(rec: Record, chains: dict, f_mode: float) -> TView:
             )
         aliased = float((P[hi] * mirror**2).sum() / max(P.sum(), 1e-300))
         f_top = min(max(f_mode, f99), 4 * f_mode)
+        fold = folded_share(P, fr, dt, f_top, robust_noise(np.asarray(c["force"], float)), cf)
     q = max(1, int(1.0 / (dt * FIT_RATE * f_top)), math.ceil(n / FIT_MAX))
     n_out = n // q
     meas = np.full((n_out, 4), np.nan)
@@ -383,6 +387,7 @@ def make_view(rec: Record, chains: dict, f_mode: float) -> TView:
         chains=chains,
         free_decay="force" not in c,
         aliased=aliased,
+        fold=fold,
     )
 
 
@@ -415,6 +420,37 @@ def fastest_rate(p: ndarray) -> float:
 
 #: RK4 step limits, h x rate: the modes (accuracy), the play contact (an oscillation that only has to
 #: stay stable and short), the friction's relaxation (real and stiff: stability of RK4 is 2.78, but its
+def folded_share(P: ndarray, fr: ndarray, dt: float, f_top: float, noise: float, chain: Chain | None) -> float:
+    """Amplitude of the force's spectrum at the sampling rate fs relative to its mean amplitude below
+    f_top (the band the structure answers in): what the sampling folds onto that band, unknowable from
+    the samples. A 4 ms half-sine impulse sampled at 2 kHz (8 samples) has its area known only to
+    about +-1 %, by the phase of the samples against the impulse (|F(fs)| / |F(0)| = 0.4 %).
+    Estimated from the measured amplitude over FOLD_BAND x Nyquist above the force's white noise
+    (``P``: |rfft|^2 at ``fr``, ``noise``: one sample's std), the declared filter's gain divided out,
+    extrapolated to fs as an impulse's tail with a kink, 1 / f^2 (a smoother impulse falls faster:
+    the estimate errs high), times the filter's gain at fs. 0 for a force without content there."""
+    n = 2 * (P.size - 1)
+    f_n = 0.5 / dt
+    lo_b, hi_b = FOLD_BAND
+    band, lo = (fr >= lo_b * f_n) & (fr <= hi_b * f_n), (fr > 0) & (fr <= f_top)
+    if not band.any() or not lo.any():
+        return 0.0
+    g_band, g_fs = np.ones(int(band.sum())), 1.0
+    if chain is not None and chain.type is not None:
+        g_band = np.maximum(np.abs(chain.response(2 * math.pi * fr[band])), 1e-6)
+        g_fs = float(np.abs(chain.response(2 * math.pi * 2 * f_n)))
+    excess = np.maximum(P[band] - n * noise**2, 0.0) / g_band**2
+    # amplitude at fs of a 1 / f^2 tail through the band: sqrt(mean((f / fs)^4 |F(f)|^2))
+    a_fs = math.sqrt(float(np.mean(excess * (fr[band] / (2 * f_n)) ** 4)))
+    a_lo = math.sqrt(max(float(np.mean(P[lo])), 1e-300))
+    return a_fs * g_fs / a_lo
+
+
+#: band of the force's spectrum (share of Nyquist) from which its content at fs is extrapolated: above
+#: the structure's modes, below the top where the noise floor and the filter's roll-off dominate
+FOLD_BAND = (0.3, 0.7)
+
+
 #: stick-slip transitions need accuracy: a 5 N friction truth fitted with its true parameters left
 #: chi2/n = 4.6 in ydd with 2.0, 0.84 with 0.5, on unfiltered records)
 STEP_LIMITS = (STEP_OMEGA, 1.0, 0.5)
@@ -698,3 +734,43 @@ def chi2_variance_factor(white: ndarray, y_in: ndarray | None) -> float:
             # one-sided density (2 x the two-sided away from 0 and 1/2): sum_tau C^2 = int_-1/2^1/2 |S2|^2 df
             tot += float(0.5 * np.sum(np.abs(s) ** 2) / nper) / (1.0 + 1.0 / n_seg)
     return max(1.0, tot / k)
+
+
+def param_variance_factor(J: ndarray, white: ndarray, y_in: ndarray | None) -> ndarray:
+    """Per parameter: var of its least-squares estimate under the record's noise / the var that
+    ``(J^T J)^-1`` states (white noise of unit variance), from the sandwich
+    ``A^-1 J^T S J A^-1`` with ``A = J^T J``. ``J``: (n, channels, parameters), the whitened
+    residual's derivatives on the fitted samples (0 on the others); ``white``: the white share of
+    each channel's noise std (its std once whitened); ``y_in`` (m, channels): the whitened response to
+    the force's noise (:func:`input_noise_series` / sigma), correlated in time and across channels, as
+    in :func:`chi2_variance_factor`: ``J^T S J = sum_k a_k J_k^T J_k + sum_f conj(J_k(f)) P_kl(f)
+    J_l(f) / n`` with P the two-sided Welch cross-spectra (per sample: fs = 1) of y_in interpolated on
+    the transform's frequencies. 1 per parameter when the noise is white."""
+    from scipy.signal import csd
+
+    n, k, npar = J.shape
+    A = np.einsum("tkp,tkq->pq", J, J)
+    M = np.einsum("k,tkp,tkq->pq", white**2, J, J)
+    if y_in is not None and y_in.shape[0] >= 64:
+        u = y_in - y_in.mean(axis=0)
+        nper = min(u.shape[0], 4096)
+        nfft = 1 << int(math.ceil(math.log2(2 * n)))  # zero padded: the transform's products are linear
+        fr = np.fft.rfftfreq(nfft)
+        Jf = np.fft.rfft(J, nfft, axis=0)  # (f, k, p)
+        wgt = np.full(fr.size, 2.0)  # the one-sided sum stands for both signs of f
+        wgt[0] = 1.0
+        if nfft % 2 == 0:
+            wgt[-1] = 1.0
+        for a in range(k):
+            for b in range(k):
+                f0, s = csd(u[:, a], u[:, b], fs=1.0, nperseg=nper, scaling="density", detrend=False)
+                half = 0.5 * s  # one-sided density -> two-sided
+                p = np.interp(fr, f0, half.real) + 1j * np.interp(fr, f0, half.imag)
+                M += np.real(np.einsum("f,fp,fq->pq", wgt * p, np.conj(Jf[:, a, :]), Jf[:, b, :])) / nfft
+    try:
+        Ai = np.linalg.inv(A)
+    except np.linalg.LinAlgError:
+        return np.ones(npar)
+    sand = np.diag(Ai @ M @ Ai)
+    base = np.diag(Ai)
+    return np.asarray(np.where(base > 0, sand / np.maximum(base, 1e-300), 1.0), float)
