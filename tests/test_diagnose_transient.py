@@ -450,3 +450,31 @@ def test_linear_model_step_is_rk4_of_the_mass_stiffness_damping_matrices():
         m2 = apply(p0, (eff,), np.array(th))
         assert not isinstance(m2, str)
         assert rk4_affine(m2.p, h).shape[0] == 0
+
+
+def test_a_candidate_needing_an_unbounded_grid_is_not_simulated(tmp_path):
+    """A fitted TMD mass near 0 (1e-9 kg, no inertance) makes its mode's rate sqrt(k / m) ~ 2e6 1/s, and the RK4
+    grid with it: the simulation would need ~1e7 grid points (a fit on a withheld dataset grew to 23 GB
+    this way). Beyond MAX_GRID points the candidate is not simulated (None, as for a blow-up), without
+    allocating the grid; the nominal still simulates."""
+    import tracemalloc
+
+    from pyfmu_wrapper.diagnose.system.transient import TransientDiagnosis
+    from pyfmu_wrapper.diagnose.system.transient_sim import MAX_GRID, refinement, simulate
+    from pyfmu_wrapper.physics.params import P_I, P_m
+
+    make(tmp_path, {}, [RANDOM], fs=512.0, T=20.0, acq={})
+    d = TransientDiagnosis(load_dataset(tmp_path))
+    d.prepare()
+    v = d.views[0]
+    assert simulate(v, d.p_nom) is not None
+    p = d.p_nom.copy()
+    p[P_m], p[P_I] = 1e-9, 0.0
+    assert refinement(v, p) * v.n_out > MAX_GRID
+    tracemalloc.start()
+    try:
+        assert simulate(v, p) is None
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 20e6, peak

@@ -46,6 +46,11 @@ if TYPE_CHECKING:
 
 CHANNELS = ("x", "y", "xdd", "ydd")  #: response channels, in this order in every array
 FIT_MAX = 20000  #: fit samples per record at most (every q consecutive samples averaged)
+#: integration grid points per record and simulation at most: a candidate whose parameters would need a
+#: finer grid (a fitted mass near 0 makes its mode's rate, and the grid, unbounded) is not simulated
+#: (:func:`simulate` answers None, as for a blow-up); 4e6 points keep one grid force at 32 MB, and
+#: allow 200 intervals per fit block at FIT_MAX blocks, 10x the finest grid a nominal model needs
+MAX_GRID = 4_000_000
 FIT_RATE = 12.0  #: fit samples per period of the highest frequency that matters (see :func:`make_view`)
 STEP_OMEGA = 0.25  #: RK4 step: h * (fastest rate of the model) at most this
 #: RK4 steps per period of the force's 99 % frequency: a 4 ms hammer impulse on a clean record left
@@ -641,8 +646,10 @@ def _cached(cache: dict, key: tuple, make: Callable[[], Any], keep: int = 4) -> 
 def simulate(v: TView, p: ndarray, z0: ndarray | None = None, force_gain: float = 1.0) -> ndarray | None:
     """(n_out, 4) fit-block means of x, y, xdd, ydd of the model p driven by the record's measured
     force (times force_gain), through the declared chains, from the start state z0 (default
-    ``v.z0``); None when the simulation blows up."""
+    ``v.z0``); None when the simulation blows up or would need more than MAX_GRID grid points."""
     n_sub = refinement(v, p)
+    if n_sub * v.n_out > MAX_GRID:
+        return None
     fc = v.fcache
     h = v.dt * v.q / n_sub
     fg = _cached(fc, ("f", n_sub), lambda: grid_force(v, n_sub))
