@@ -454,8 +454,8 @@ def test_linear_model_step_is_rk4_of_the_mass_stiffness_damping_matrices():
 
 def test_a_candidate_needing_an_unbounded_grid_is_not_simulated(tmp_path):
     """A fitted TMD mass near 0 (1e-9 kg, no inertance) makes its mode's rate sqrt(k / m) ~ 2e6 1/s, and the RK4
-    grid with it: the simulation would need ~1e7 grid points (a fit on a withheld dataset grew to 23 GB
-    this way). Beyond MAX_GRID points the candidate is not simulated (None, as for a blow-up), without
+    grid with it: the simulation would need ~1e7 grid points, gigabytes of grid force per record and
+    thread. Beyond MAX_GRID points the candidate is not simulated (None, as for a blow-up), without
     allocating the grid; the nominal still simulates."""
     import tracemalloc
 
