@@ -25,6 +25,8 @@ if TYPE_CHECKING:
     from collections.abc import Callable
     from pathlib import Path
 
+    from .transient_truth import Truth
+
 #: in-vocabulary truths: effect -> (Truth keyword, range, signed, manifest key of the parameter)
 IN_VOCAB: dict[str, tuple[str, tuple[float, float], bool, str]] = {
     "viscous": ("dc", (2.0, 30.0), False, "viscous.delta_damping"),
@@ -52,6 +54,9 @@ OOV: dict[str, tuple[str, tuple[float, float], bool]] = {
     "quadratic_damping": ("c2", (5.0, 30.0), False),
 }
 RATES = (256.0, 500.0, 1000.0, 1024.0, 2000.0, 2560.0, 4000.0, 5000.0)
+#: a truth that escapes (:class:`.transient_truth.TruthEscaped`) is drawn again this many times at
+#: most, every change times ESCAPE_SCALE, the records' force and noise draws the same
+ESCAPE_TRIES, ESCAPE_SCALE = 6, 0.5
 KINDS = ("sweep_lin", "sweep_log", "random", "burst", "hammer", "decay")
 
 
@@ -108,8 +113,7 @@ def _record(rng: np.random.Generator, kind: str, T: float) -> tuple[dict[str, An
 
 def write_dataset(path: Path, rng: np.random.Generator, hidden: dict, oov: dict, T: float) -> dict[str, Any]:
     from ...physics.params import paper_case
-    from ..records import write_record
-    from .transient_truth import Truth, force_signal, measure
+    from .transient_truth import Truth, TruthEscaped
 
     case = int(rng.integers(1, 4))
     t = paper_case(case)
@@ -132,11 +136,60 @@ def write_dataset(path: Path, rng: np.random.Generator, hidden: dict, oov: dict,
     if "dI_split" in ch:  # keep m and I positive
         ch["dI_split"] = float(np.clip(ch["dI_split"], -0.45 * tmd["inertance"], 0.45 * tmd["mass"]))
         hidden["mass_split"] = ch["dI_split"]
-    truth = Truth(base, tmd, T, **ch)
     step = max(1, int(math.ceil(4000.0 / fs)))
     kinds = [str(k) for k in rng.choice(KINDS, 3, replace=False)]
-    recs, meta = [], []
-    path.mkdir(parents=True, exist_ok=True)
+    state = rng.bit_generator.state  # the records' draws: the same again for a weaker truth
+    note = None
+    for attempt in range(ESCAPE_TRIES + 1):
+        try:
+            truth = Truth(base, tmd, T, **ch)
+            written = _records(path, rng, truth, kinds, T, fs, step, gain, x_off, x_gain, acq, accel_only)
+            break
+        except TruthEscaped as e:
+            if attempt == ESCAPE_TRIES:
+                raise
+            note = f"drawn {attempt + 1} time(s) weaker by {ESCAPE_SCALE:g}: {e}"
+            rng.bit_generator.state = state
+            for key in ch:  # every change of the dynamics weaker; the manifest's truth with it
+                ch[key] *= ESCAPE_SCALE
+            for d, table in ((hidden, IN_VOCAB), (oov, OOV)):
+                for e in d:
+                    if table[e][0] in ch:
+                        d[e] = ch[table[e][0]]
+    recs, meta = written
+    doc: dict[str, Any] = {
+        "level": "system",
+        "description": "transient records (make-benchmark --suite transient)",
+        "nominal": {"base": base, "tmd": tmd},
+        "records": recs,
+    }
+    if acq:
+        doc["acquisition"] = acq
+    (path / "dataset.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
+    out = {"case": case, "fs": fs, "accel_only": bool(accel_only), "acquisition": acq, "records": meta}
+    return out if note is None else {**out, "truth_redrawn": note}
+
+
+def _records(
+    path: Path,
+    rng: np.random.Generator,
+    truth: Truth,
+    kinds: list[str],
+    T: float,
+    fs: float,
+    step: int,
+    gain: float,
+    x_off: float,
+    x_gain: float,
+    acq: dict[str, Any] | None,
+    accel_only: bool,
+) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """Simulate and write the dataset's records under ``truth``; nothing is written when a record's
+    truth escapes (:class:`.transient_truth.TruthEscaped` raised before any file)."""
+    from ..records import write_record
+    from .transient_truth import force_signal, measure
+
+    recs, meta, out = [], [], []
     for i, kind in enumerate(kinds):
         kw, amp = _record(rng, kind, T)
         tt = np.arange(0.0, T, 1.0 / (fs * step))
@@ -152,19 +205,13 @@ def write_dataset(path: Path, rng: np.random.Generator, hidden: dict, oov: dict,
         m = measure(sig, tt, step, rng, noise, acq, gains={"x": x_gain}, offsets={"x": x_off})
         if accel_only:
             m.pop("x"), m.pop("y")
-        write_record(path / f"{kind}_{i}.csv", m)
+        out.append((f"{kind}_{i}.csv", m))
         recs.append({"file": f"{kind}_{i}.csv", "kind": "transient"})
         meta.append({"kind": kind, **kw, "amp": amp, "noise": noise})
-    doc: dict[str, Any] = {
-        "level": "system",
-        "description": "transient records (make-benchmark --suite transient)",
-        "nominal": {"base": base, "tmd": tmd},
-        "records": recs,
-    }
-    if acq:
-        doc["acquisition"] = acq
-    (path / "dataset.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
-    return {"case": case, "fs": fs, "accel_only": bool(accel_only), "acquisition": acq, "records": meta}
+    path.mkdir(parents=True, exist_ok=True)
+    for name, m in out:
+        write_record(path / name, m)
+    return recs, meta
 
 
 def make_transient_benchmark(

@@ -26,8 +26,17 @@ if TYPE_CHECKING:
 
     from numpy import ndarray
 
+#: a truth is refused (:class:`TruthEscaped`) when its TMD spring's tangent stiffness k + 2 k2 |u| falls
+#: below this share of k anywhere on the trajectory: a softening ``k2`` past its force maximum escapes
+#: to infinity (seed 5252: two asymmetric-spring truths wrote NaN records), no rig's spring
+MIN_TANGENT = 0.1
 FRICTION_SLOPE = 2.0e3  #: regularisation of the truth's dry friction [s/m] (transition at ~1 mm/s)
 V0 = 1e-3  #: base friction regularisation [m/s]
+
+
+class TruthEscaped(RuntimeError):
+    """The truth's simulation left the physical range (non-finite, or a softening spring past its
+    force maximum): the caller draws a weaker truth instead of writing the record."""
 
 
 def force_signal(kind: str, rng: np.random.Generator, T: float, amp: float, **kw: Any) -> Callable[[Any], Any]:
@@ -142,19 +151,30 @@ class Truth:
         z = np.zeros(n) if z0 is None else np.concatenate([z0, np.zeros(n - len(z0))])
         if self.kb > 0:
             z[4], z[5] = z[0], z[1]
-        y, info = odeint(
-            lambda zz, tt: self.deriv(tt, zz, F),
-            z,
-            t,
-            rtol=1e-10,
-            atol=1e-13,
-            hmax=max_step,
-            mxstep=10**6,
-            full_output=True,
-        )
+        with np.errstate(over="ignore", invalid="ignore"):  # an escaping truth: refused below
+            y, info = odeint(
+                lambda zz, tt: self.deriv(tt, zz, F),
+                z,
+                t,
+                rtol=1e-10,
+                atol=1e-13,
+                hmax=max_step,
+                mxstep=10**6,
+                full_output=True,
+            )
         if info["message"] != "Integration successful.":
-            raise RuntimeError(f"truth integration failed: {info['message']}")
+            raise TruthEscaped(f"truth integration failed: {info['message']}")
+        bad = ~np.all(np.isfinite(y), axis=1)
+        if bad.any():
+            raise TruthEscaped(f"the truth's state is not finite from t = {t[int(np.argmax(bad))]:.4g} s on: it escapes")
         sol_y = y.T
+        if self.k2 < 0:
+            u_max = float(np.max(np.abs(sol_y[0] - sol_y[2])))
+            if self.k + 2 * self.k2 * u_max < MIN_TANGENT * self.k:
+                raise TruthEscaped(
+                    f"the TMD spring softens past {MIN_TANGENT:g} k (k2 = {self.k2:.4g} N/m^2 at a stroke of "
+                    f"{1e3 * u_max:.3g} mm): it escapes"
+                )
         d = self.deriv(t, sol_y, F)
         return {"x": sol_y[0], "y": sol_y[2], "xdd": d[1], "ydd": d[3], "force": np.asarray(F(t), float)}
 
