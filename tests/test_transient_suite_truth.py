@@ -4,8 +4,6 @@ asymmetric-spring datasets whose x held NaN)."""
 
 from __future__ import annotations
 
-import json
-
 import numpy as np
 import pytest
 import yaml

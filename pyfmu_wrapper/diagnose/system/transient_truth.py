@@ -166,7 +166,9 @@ class Truth:
             raise TruthEscaped(f"truth integration failed: {info['message']}")
         bad = ~np.all(np.isfinite(y), axis=1)
         if bad.any():
-            raise TruthEscaped(f"the truth's state is not finite from t = {t[int(np.argmax(bad))]:.4g} s on: it escapes")
+            raise TruthEscaped(
+                f"the truth's state is not finite from t = {t[int(np.argmax(bad))]:.4g} s on: it escapes"
+            )
         sol_y = y.T
         if self.k2 < 0:
             u_max = float(np.max(np.abs(sol_y[0] - sol_y[2])))
