@@ -175,3 +175,18 @@ def test_non_periodic_record_flagged_rest_still_runs(data, tmp_path):
     res = run_diagnosis(d)
     assert [f["record"] for f in res["time_records"]["flagged"]] == ["quake.csv"]
     assert res["verdict"]["effects"] == ["viscous"]
+
+
+def test_second_frc_at_half_the_force_is_half_the_amplitude_for_a_linear_truth(tmp_path):
+    """make_system_dataset(n_frc=2) (the issue's speed shape: 6 steady records + 2 FRCs): the second
+    FRC is taken at FRC_FORCE / 2, and for the linear clean truth (ideal inerter, no friction) its
+    amplitudes are half the first's at every frequency (linearity), to the FRCs' 0.5 % noise."""
+    import yaml
+
+    make_system_dataset(tmp_path / "ds", {}, seed=7, case=1, n_records=1, frc=True, n_frc=2)
+    files = [r["file"] for r in yaml.safe_load((tmp_path / "ds" / "dataset.yaml").read_text())["records"]]
+    assert files[1:] == ["frc.csv", "frc_100N.csv"]
+    a, b = (np.genfromtxt(tmp_path / "ds" / f, delimiter=",", names=True, comments="#") for f in files[1:])
+    assert np.all(b["force_amplitude"] == 0.5 * a["force_amplitude"])
+    assert np.allclose(b["x_max"] / a["x_max"], 0.5, rtol=0.03)
+    assert np.std(b["x_max"] / a["x_max"] / 0.5 - 1) < 0.015

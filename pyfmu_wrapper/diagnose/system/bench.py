@@ -162,8 +162,11 @@ def make_system_dataset(
     n_records: int = 4,
     frc: bool = True,
     n_periods: int = N_PERIODS,
+    n_frc: int = 1,
 ) -> None:
-    """Write one system-level dataset (time records + FRC) with the hidden effects ``hidden``."""
+    """Write one system-level dataset (time records + FRC) with the hidden effects ``hidden``;
+    ``n_frc`` FRCs (with ``frc``): the first at FRC_FORCE, the others at FRC_FORCE / 2, / 3, ...
+    (two force levels, as a lab takes them to see amplitude dependence)."""
     from ...physics.params import BaseParams
 
     folder = Path(folder)
@@ -189,21 +192,22 @@ def make_system_dataset(
     if frc:
         from ...solvers.monolithic import SolverSettings, steady_state
 
-        base = BaseParams(**{**nom["base"], "force_amplitude": FRC_FORCE * (1 + alpha)})
-        xm = (
-            np.array(
-                [
-                    steady_state(base, tmd, float(w), settings=SolverSettings(max_periods_window=80)).amplitude
-                    for w in FRC_OMEGAS
-                ]
+        for j in range(n_frc):
+            amp = FRC_FORCE / (j + 1)
+            base = BaseParams(**{**nom["base"], "force_amplitude": amp * (1 + alpha)})
+            xm = (
+                np.array(
+                    [
+                        steady_state(base, tmd, float(w), settings=SolverSettings(max_periods_window=80)).amplitude
+                        for w in FRC_OMEGAS
+                    ]
+                )
+                + b
             )
-            + b
-        )
-        xm = xm * (1 + rng.normal(0.0, FRC_NOISE, xm.size))
-        write_record(
-            folder / "frc.csv", {"omega": FRC_OMEGAS, "force_amplitude": np.full(xm.size, FRC_FORCE), "x_max": xm}
-        )
-        recs.append({"file": "frc.csv"})
+            xm = xm * (1 + rng.normal(0.0, FRC_NOISE, xm.size))
+            name = "frc.csv" if j == 0 else f"frc_{amp:g}N.csv"
+            write_record(folder / name, {"omega": FRC_OMEGAS, "force_amplitude": np.full(xm.size, amp), "x_max": xm})
+            recs.append({"file": name})
     meta = {
         "level": "system",
         "description": "withheld-effect benchmark dataset (system level, simulated rig)",
