@@ -569,7 +569,7 @@ def true_force(v: TView) -> ndarray:
     return f
 
 
-def _same_filter(a: Chain | None, b: Chain | None) -> bool:
+def same_filter(a: Chain | None, b: Chain | None) -> bool:
     """The two chains hold the same analog low-pass (or neither has one)."""
     fa = None if a is None or a.type is None else (a.type, a.order, a.cutoff_hz)
     fb = None if b is None or b.type is None else (b.type, b.order, b.cutoff_hz)
@@ -602,7 +602,7 @@ def direct_force(v: TView) -> ndarray:
     out = np.empty((v.n_out, 2))
     for k, ch in enumerate(("xdd", "ydd")):
         c = v.chains.get(ch)
-        if cf is not None and cf.type is not None and _same_filter(c, cf):
+        if cf is not None and cf.type is not None and same_filter(c, cf):
             d = (c.delay_s if c is not None else 0.0) - cf.delay_s
             u = np.fft.irfft(spec(True) * np.exp(-1j * w * d), nf)[lead : lead + n] if d else v.force[:n]
         elif c is not None and (c.type is not None or c.delay_s):
