@@ -126,7 +126,7 @@ class TransientDiagnosis:
             snr, dd = _direct_snr(v, self.p_nom)
             if snr > FOLD_MAX:
                 self.skipped.append(
-                    f"{v.name}: not used, about {100 * v.aliased:.2g} % of the force's power is aliased and the "
+                    f"{v.name}: not used, about {100 * v.aliased_excess:.2g} % of the force's power is aliased and the "
                     f"load cell's delay differs from the accelerometers' by {1e3 * abs(dd):.3g} ms: the force's "
                     f"direct term in the accelerations is unknown to {snr:.2g} noise std of a fit sample"
                 )
@@ -600,15 +600,16 @@ def _direct_snr(v: TView, p: ndarray) -> tuple[float, float]:
     none) but different delays. The direct term is the measured force shifted by the delay difference
     d (:func:`.transient_sim.direct_force`); an aliased component (true frequency fs - f, seen at f)
     gets the shift of f, so its error is |e^{-i w d} - e^{i (ws - w) d}| = 2 |sin(pi fs d)| of its
-    amplitude, whatever f: the error's power is 4 sin^2(pi fs d) x the aliased share (``v.aliased``) x
-    the direct term's power. Measured on a 256 Hz hammer record behind a 76 Hz Butterworth with a
+    amplitude, whatever f: the error's power is 4 sin^2(pi fs d) x the aliased share of the force's
+    transient content (``v.aliased_excess``: impulses; the load cell's stationary noise floor is not
+    aliased force, and shifted it is still the noise the chi-square holds) x the direct term's power. Measured on a 256 Hz hammer record behind a 76 Hz Butterworth with a
     0.74 ms load-cell delay: predicted excess chi2/n 0.97 in xdd and 0.14 in ydd at the truth, found
     0.89 and 0.14 (residuals alternating +-40 std around each hit). 0 for a free decay, for no delay
     difference and for different filters."""
     from .transient_sim import direct_force, feedthrough, same_filter
 
     cf = v.chains.get("force")
-    if v.free_decay or v.aliased <= 0:
+    if v.free_decay or v.aliased_excess <= 0:
         return 0.0, 0.0
     out, dd_out = 0.0, 0.0
     direct: ndarray | None = None
@@ -624,7 +625,7 @@ def _direct_snr(v: TView, p: ndarray) -> tuple[float, float]:
         snr = (
             2
             * abs(math.sin(math.pi * dd / v.dt))
-            * math.sqrt(v.aliased)
+            * math.sqrt(v.aliased_excess)
             * rms
             / (v.raw_noise[CHANNELS[k]] / math.sqrt(v.q))
         )

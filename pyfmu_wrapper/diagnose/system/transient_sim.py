@@ -313,6 +313,9 @@ class TView:
     #: 0.8 x Nyquist: the true force there (the declared filter's gain divided out) assumed no weaker
     #: at the mirror frequencies fs - f, through the filter's gain there (1 without a filter)
     aliased: float = 0.0
+    #: the same for the force's transient content only (:func:`transient_share`: impulses, not the load
+    #: cell's stationary noise floor): what a delay shift of the samples gets wrong (``transient._direct_snr``)
+    aliased_excess: float = 0.0
     #: amplitude of the force's spectrum folded onto its low band by the sampling, relative to that band
     #: (:func:`folded_share`): an impulse sampled by a few samples has an area known only to about this
     fold: float = 0.0
@@ -343,7 +346,7 @@ def make_view(rec: Record, chains: dict, f_mode: float) -> TView:
             f"{rec.name}, column 't': a transient record must be uniformly sampled (spacing varies by more "
             f"than 1 % of dt = {dt:.6g} s)"
         )
-    f_top, f99, aliased, fold = f_mode, 0.0, 0.0, 0.0
+    f_top, f99, aliased, fold, aliased_excess = f_mode, 0.0, 0.0, 0.0, 0.0
     if "force" in c:
         P = np.abs(np.fft.rfft(np.asarray(c["force"], float) - np.mean(c["force"]))) ** 2
         fr = np.fft.rfftfreq(n, dt)
@@ -375,6 +378,8 @@ def make_view(rec: Record, chains: dict, f_mode: float) -> TView:
             s_c = 10 * ch_c.order / (2 * math.pi * ch_c.cutoff_hz) if ch_c.type is not None else 0.0
             settle = max(settle, s_c + ch_c.delay_s)
     skip = max(1, math.ceil(settle / (dt * q)))
+    if "force" in c and aliased > 0:  # after the chain's start-up (its ringing is skipped by the fit too)
+        aliased_excess = aliased * transient_share(np.asarray(c["force"], float), hi, mirror, skip * q)
     force = np.asarray(c["force"], float).copy() if "force" in c else np.zeros(n)
     raw = {ch: robust_noise(np.asarray(c[ch], float)) for ch in ("force", *CHANNELS) if ch in c}
     return TView(
@@ -392,8 +397,27 @@ def make_view(rec: Record, chains: dict, f_mode: float) -> TView:
         chains=chains,
         free_decay="force" not in c,
         aliased=aliased,
+        aliased_excess=aliased_excess,
         fold=fold,
     )
+
+
+def transient_share(f: ndarray, band: ndarray, gain: ndarray, start: int = 0) -> float:
+    """The share of the force's power in ``band`` (bool over its rfft bins, weighted by ``gain``) that
+    is transient -- impulses -- rather than a stationary floor: the band's signal in time, its floor
+    the median of its square over the record (a stationary Gaussian's median square is 0.455 of its
+    mean), the excess over it. A hammer's hits fill a few % of the time: the median is the floor and
+    the hits are the excess; a sweep or a random force has only the load cell's noise floor there
+    (measured at 1.5-2 x the white noise of its fourth differences: not white), and a share near 0.
+    Samples before ``start`` (the chain's start-up, where a filter started at rest rings) are left out."""
+    X = np.fft.rfft(f - np.mean(f))
+    Y = np.zeros_like(X)
+    Y[band] = X[band] * gain
+    u2 = np.fft.irfft(Y, f.size)[start:] ** 2
+    tot = float(u2.sum())
+    if tot <= 0.0:
+        return 0.0
+    return max(0.0, 1.0 - u2.size * float(np.median(u2)) / 0.4549 / tot)
 
 
 def rates(p: ndarray) -> tuple[float, float, float]:
