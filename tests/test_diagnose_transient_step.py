@@ -198,3 +198,24 @@ def test_table_integrator_gives_the_right_hand_side_integrators_numbers(tmp_path
             dev = np.max(np.abs(y - ref)[:, v.has] / sig[v.has])
             assert dev < 1e-9, (v.name, kind, dev)
             assert np.max(np.abs(ref[:, v.has]) / sig[v.has]) > 10.0  # the response stands above the noise
+
+
+@pytest.mark.parametrize("ftype", ["butterworth", "bessel"])
+def test_hold_response_in_modal_form_is_the_solve(ftype):
+    """:func:`hold_response` in the grid step's eigenvectors gives C (z - phi)^-1 (g1 + g2 z) solved at
+    every frequency to 1e-11 of the response's size, for filters of order 1-8 and grid steps from
+    1/20 to 1/2 of the cut-off's period."""
+    from pyfmu_wrapper.diagnose.acquisition import Chain
+    from pyfmu_wrapper.diagnose.system.transient_sim import hold_response
+
+    for order in range(1, 9):
+        c = Chain("xdd", type=ftype, order=order, cutoff_hz=400.0)
+        for h in (1.0 / 8000.0, 1.0 / 1600.0, 1.0 / 800.0):
+            w = 2 * math.pi * np.linspace(0.0, 0.5 / h, 301)
+            got = hold_response(c, h, w)
+            phi, g1, g2, cc, _ = c.foh_step(h)
+            z = np.exp(1j * w * h)
+            A = z[:, None, None] * np.eye(order)[None] - phi[None]
+            b = g1[None, :] + g2[None, :] * z[:, None]
+            want = np.linalg.solve(A, b[:, :, None])[:, :, 0] @ cc
+            assert np.max(np.abs(got - want)) < 1e-11 * np.max(np.abs(want)), (order, h)

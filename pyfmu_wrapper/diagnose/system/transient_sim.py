@@ -495,6 +495,12 @@ def hold_response(chain: Chain, h: float, w: ndarray) -> ndarray:
     phi, g1, g2, cc, _ = st
     z = np.exp(1j * w * h)
     n = phi.shape[0]
+    # in phi's eigenvectors (the declared low-passes have distinct poles): sum_k a_k (b1_k + b2_k z) / (z - lam_k),
+    # O(n) per frequency instead of a solve; a near-defective phi takes the solve
+    lam, V = np.linalg.eig(phi)
+    if np.linalg.cond(V) < 1e4:
+        a, b1, b2 = cc @ V, np.linalg.solve(V, g1), np.linalg.solve(V, g2)
+        return np.real_if_close(((b1[None, :] + b2[None, :] * z[:, None]) / (z[:, None] - lam[None, :])) @ a, tol=0)
     A = z[:, None, None] * np.eye(n)[None] - phi[None]
     b = g1[None, :] + g2[None, :] * z[:, None]
     return np.linalg.solve(A, b[:, :, None])[:, :, 0] @ cc
@@ -865,12 +871,16 @@ def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
     force channel's declared chain is divided out first (the true force drives the model)."""
     from scipy.interpolate import CubicSpline
 
-    f = true_force(v) * gain
+    def spline() -> CubicSpline:  # the same for every grid: made once per view and force
+        f = true_force(v)
+        edges = v.dt * (np.arange(f.size + 1) - 0.5)
+        return CubicSpline(edges, np.concatenate([[0.0], np.cumsum(f) * v.dt]))
+
+    sp = _cached(v.fcache, ("spline",), spline)
     h = v.dt * v.q / n_sub
     tg = -0.5 * v.dt + 0.5 * h * np.arange(2 * v.n_out * n_sub + 1)  # time from the first sample
-    edges = v.dt * (np.arange(f.size + 1) - 0.5)
-    cum = np.concatenate([[0.0], np.cumsum(f) * v.dt])
-    return np.asarray(CubicSpline(edges, cum)(np.clip(tg, edges[0], edges[-1]), 1))
+    out = np.asarray(sp(np.clip(tg, sp.x[0], sp.x[-1]), 1))
+    return out if gain == 1.0 else out * gain
 
 
 def _cached(cache: dict, key: tuple, make: Callable[[], Any], keep: int = 4) -> Any:
