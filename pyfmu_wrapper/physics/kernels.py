@@ -125,6 +125,19 @@ def chain_force(d: Num, dd: Num, p: Vec) -> Num:
 
 
 @njit(cache=True)
+def link_nonlinear(u: Num, v: Num, d: Num, dd: Num, p: Vec) -> tuple[Num, Num]:
+    """The link forces' parts that are not linear in the state: (the spring's cubic term plus the dry
+    friction [N], entering as :func:`static_link_force` does; the play chain's force P [N], 0 for the
+    other models), at u = x - y, v = xd - yd and the chain's d, dd. Whatever is left of
+    :func:`rhs_fext` with these two forces removed (k3 = df = 0, ki = ci = eps = 0) is linear in the
+    state and the applied force: the split the transient simulation's affine RK4 step is built on."""
+    fs = p[P_k3] * (u * u * u) + friction_force(v, p[P_df], p[P_s])
+    if int(p[P_MODEL]) == MODEL_PLAY:
+        return fs, chain_force(d, dd, p)
+    return fs, 0.0 * d
+
+
+@njit(cache=True)
 def tmd_link(x: Num, xd: Num, y: Num, yd: Num, d: Num, dd: Num, p: Vec) -> tuple[Num, Num, Num, Num, Num, Num, Num]:
     """TMD side as affine functions of the base acceleration xdd.
 

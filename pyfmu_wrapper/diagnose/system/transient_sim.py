@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from ..._jit import njit
-from ...physics.kernels import rhs_fext
+from ...physics.kernels import link_nonlinear, rhs_fext
 from ..acquisition import Chain
 
 if TYPE_CHECKING:
@@ -225,6 +225,247 @@ def rk4_affine(p: ndarray, h: float) -> ndarray:
     return lin
 
 
+#: the state's projections the nonlinear link forces read (:func:`physics.kernels.link_nonlinear`):
+#: u = x - y, v = xd - yd (spring's cubic term, dry friction), the play chain's d and dd
+_PROJ = np.array([[1.0, 0, -1, 0, 0, 0], [0, 1, 0, -1, 0, 0], [0, 0, 0, 0, 1, 0], [0, 0, 0, 0, 0, 1]])
+
+
+def linear_split(p: ndarray) -> tuple[ndarray, ndarray, ndarray]:
+    """The kernels' right-hand side as ``rhs_fext(z, f, p) = A z + b f + E g`` with g the nonlinear
+    link forces of :func:`physics.kernels.link_nonlinear` (g[0]: cubic spring + dry friction, g[1]: the
+    play chain's force): A (6, 6), b (6,) of the model with both removed (k3 = df = 0; for play
+    ki = ci = eps = 0, the chain free), E (6, 2) the right-hand side's answer to a unit of each force
+    (a unit more viscous damping at a unit relative velocity; a unit chain stiffness at a unit d),
+    all read off :func:`rhs_fext` itself."""
+    from ...physics.params import P_MODEL, P_c, P_ci, P_df, P_eps, P_k3, P_ki
+
+    def rhs(z: ndarray, fx: float, q: ndarray) -> ndarray:
+        o = np.empty(6)
+        rhs_fext(z, fx, q, o)
+        return o
+
+    pl = p.copy()
+    pl[P_df] = 0.0
+    pl[P_k3] = 0.0
+    play = int(p[P_MODEL]) == 2
+    if play:
+        pl[P_ki] = pl[P_ci] = pl[P_eps] = 0.0
+    eye = np.eye(6)
+    A = np.stack([rhs(eye[c], 0.0, pl) for c in range(6)], axis=1)
+    b = rhs(np.zeros(6), 1.0, pl)
+    E = np.zeros((6, 2))
+    pc = pl.copy()
+    pc[P_c] += 1.0
+    E[:, 0] = rhs(eye[1], 0.0, pc) - A[:, 1]
+    if play:
+        pk = pl.copy()
+        pk[P_ki] = 1.0
+        E[:, 1] = rhs(eye[4], 0.0, pk) - A[:, 4]
+    return A, b, E
+
+
+def step_tables(p: ndarray, h: float) -> tuple[ndarray, ndarray, ndarray, int, int] | None:
+    """The RK4 step of :func:`_integrate` as tables for :func:`_integrate_tables`, from
+    :func:`linear_split`: RK4 is affine in the state, the force and the nonlinear forces g_i of its four
+    stages taken as inputs, x = (z[:ns], f_j, f_mid, f_j+1, g_1, .., g_4) (ns = 6 with play, else 4:
+    the play chain's d, dd act on nothing else; ng = 0, 1 or 2 forces per stage: linear, cubic and / or
+    friction, play). Returns (stp (ns, nx): z_{j+1} = stp x; prj (4, nq, nx): the projections
+    (u, v[, d, dd]) of stage i's state (column block of g_k, k >= i, zero); acc (2, ns + 1 + ng): xdd,
+    ydd at the grid point from (z, f_j, g_1); nq; ng). None when the split does not give the
+    right-hand side on a random state to 1e-12 (then :func:`_integrate` steps the right-hand side)."""
+    from ...physics.params import P_MODEL, P_df, P_k3
+
+    A, b, E = linear_split(p)
+    play = int(p[P_MODEL]) == 2
+    ng = 2 if play else (1 if (p[P_df] > 0 or p[P_k3] != 0.0) else 0)
+    ns = 6 if play else 4
+    nq = (4 if play else 2) if ng else 0
+    z = np.random.default_rng(1).normal(size=6) * np.array([1e-3, 1e-2, 1e-3, 1e-2, 1e-4, 1e-2])
+    want = np.empty(6)
+    rhs_fext(z, 0.7, p, want)
+    g = np.array(link_nonlinear(*(_PROJ @ z), p), float)
+    got = A @ z + b * 0.7 + E @ g
+    if not np.allclose(got, want, rtol=1e-12, atol=1e-12 * np.max(np.abs(want))) or np.any(A[:ns, ns:] != 0.0):
+        return None
+    A, b, E, Q = A[:ns, :ns], b[:ns], E[:ns, :ng], _PROJ[:nq, :ns]
+    nx = ns + 3 + 4 * ng
+    X = np.eye(nx)
+    z0, fs = X[:ns], X[ns : ns + 3]
+    gs = [X[ns + 3 + i * ng : ns + 3 + (i + 1) * ng] for i in range(4)]
+
+    def k(zs: ndarray, fx: ndarray, gx: ndarray) -> ndarray:
+        return A @ zs + np.outer(b, fx) + E @ gx
+
+    k1 = k(z0, fs[0], gs[0])
+    z2 = z0 + 0.5 * h * k1
+    k2 = k(z2, fs[1], gs[1])
+    z3 = z0 + 0.5 * h * k2
+    k3 = k(z3, fs[1], gs[2])
+    z4 = z0 + h * k3
+    k4 = k(z4, fs[2], gs[3])
+    stp = z0 + h / 6.0 * (k1 + 2.0 * k2 + 2.0 * k3 + k4)
+    prj = np.stack([Q @ zi for zi in (z0, z2, z3, z4)])
+    cols = [*range(ns + 1), *range(ns + 3, ns + 3 + ng)]
+    acc = k1[[1, 3]][:, cols]
+    return stp, prj, acc, nq, ng
+
+
+def filter_blocks(filt: tuple[ndarray, ...], n_sub: int) -> tuple[ndarray, ...]:
+    """The grid filters of :func:`filter_grid` over one fit block of n_sub intervals, for
+    :func:`_integrate_tables`: the block's Simpson mean of channel c's output is r[c] . s + sum_l rho[c, l]
+    u_l and its end state Phi[c] s + sum_l M[c, l] u_l (s: the state at the block's start, u_l: the
+    input at its grid points l = 0 .. n_sub), read off the grid step itself (unit start states and unit
+    inputs run through it); an unfiltered channel has rho = the Simpson weights. Returns (nord, Phi
+    (4, nmax, nmax), M (4, n_sub + 1, nmax), r (4, nmax), rho (4, n_sub + 1), ee)."""
+    nord, phi, g1, g2, cc, dd, ee = filt
+    nmax = phi.shape[1]
+    n = n_sub
+    w = np.where(np.arange(n + 1) % 2 == 1, 4.0, 2.0) / (3.0 * n)
+    w[0] = w[n] = 1.0 / (3.0 * n)
+    Phi = np.zeros((4, nmax, nmax))
+    M = np.zeros((4, n + 1, nmax))
+    r = np.zeros((4, nmax))
+    rho = np.zeros((4, n + 1))
+    for c in range(4):
+        m = int(nord[c])
+        if m == 0:
+            rho[c] = w
+            continue
+        P, G1, G2, C = phi[c, :m, :m], g1[c, :m], g2[c, :m], cc[c, :m]
+        S = np.zeros((m, m + n + 1))
+        S[:, :m] = np.eye(m)
+        U = np.zeros((n + 1, m + n + 1))
+        U[np.arange(n + 1), m + np.arange(n + 1)] = 1.0
+        mean = w[0] * (C @ S + dd[c] * U[0])
+        for kk in range(1, n + 1):
+            S = P @ S + np.outer(G1, U[kk - 1]) + np.outer(G2, U[kk])
+            mean += w[kk] * (C @ S + dd[c] * U[kk])
+        Phi[c, :m, :m] = S[:, :m]
+        M[c, :, :m] = S[:, m:].T
+        r[c, :m] = mean[:m]
+        rho[c] = mean[m:]
+    return nord, Phi, M, r, rho, ee
+
+
+@njit(cache=True, nogil=True, fastmath={"reassoc", "contract", "nsz", "arcp"})
+def _integrate_tables(
+    p: ndarray,
+    f: ndarray,
+    n_sub: int,
+    n_out: int,
+    z0: ndarray,
+    out: ndarray,
+    cx: float,
+    cy: float,
+    stp: ndarray,
+    prj: ndarray,
+    acc: ndarray,
+    nq: int,
+    ng: int,
+    nord: ndarray,
+    fphi: ndarray,
+    fm: ndarray,
+    fr: ndarray,
+    frho: ndarray,
+    ee: ndarray,
+) -> bool:
+    """:func:`_integrate` (the same grid, RK4 step, channels, filters and Simpson block means) with the
+    step as tables (:func:`step_tables`: the nonlinear link forces of :func:`physics.kernels.link_nonlinear`
+    at each stage's projections, the rest matrices) and the filters per block (:func:`filter_blocks`:
+    nord + 1 products per grid point and channel instead of nord^2 + 3 nord)."""
+    ns = stp.shape[0]
+    nx = stp.shape[1]
+    z = np.empty(ns)
+    for a in range(ns):
+        z[a] = z0[a]
+    xv = np.zeros(nx)
+    pv = np.zeros(4)
+    zt = np.empty(ns)
+    u = np.empty(4)
+    nmax = fphi.shape[1]
+    S = np.zeros((4, nmax))
+    acs = np.zeros((4, nmax))
+    st = np.empty(nmax)
+    out[:, :] = 0.0
+    n_grid = n_out * n_sub
+    g0 = ns + 3
+    for j in range(n_grid + 1):
+        f0 = f[2 * j]
+        for a in range(ns):
+            xv[a] = z[a]
+        xv[ns] = f0
+        last = j == n_grid
+        if not last:
+            xv[ns + 1] = f[2 * j + 1]
+            xv[ns + 2] = f[2 * j + 2]
+        n_st = 0 if ng == 0 else (1 if last else 4)
+        for i in range(n_st):
+            lim = g0 + i * ng
+            for q in range(nq):
+                acc_q = 0.0
+                for c in range(lim):
+                    acc_q += prj[i, q, c] * xv[c]
+                pv[q] = acc_q
+            g_s, g_p = link_nonlinear(pv[0], pv[1], pv[2], pv[3], p)
+            xv[lim] = g_s
+            if ng == 2:
+                xv[lim + 1] = g_p
+        a1 = 0.0
+        a3 = 0.0
+        for c in range(ns + 1):
+            a1 += acc[0, c] * xv[c]
+            a3 += acc[1, c] * xv[c]
+        for g in range(ng):
+            a1 += acc[0, ns + 1 + g] * xv[g0 + g]
+            a3 += acc[1, ns + 1 + g] * xv[g0 + g]
+        u[0] = z[0]
+        u[1] = z[2]
+        u[2] = a1 - cx * f0
+        u[3] = a3 - cy * f0
+        i = j // n_sub
+        kk = j % n_sub
+        if j == 0:
+            for c in range(4):
+                for a in range(nord[c]):
+                    S[c, a] = ee[c, a] * u[c]
+        elif kk == 0:  # the previous block's closing end point, and its end state
+            for c in range(4):
+                m = nord[c]
+                out[i - 1, c] += frho[c, n_sub] * u[c]
+                for a in range(m):
+                    acs[c, a] += fm[c, n_sub, a] * u[c]
+                for a in range(m):
+                    acc_a = acs[c, a]
+                    for b in range(m):
+                        acc_a += fphi[c, a, b] * S[c, b]
+                    st[a] = acc_a
+                for a in range(m):
+                    S[c, a] = st[a]
+                    acs[c, a] = 0.0
+        if i < n_out:
+            for c in range(4):
+                m = nord[c]
+                acc_o = frho[c, kk] * u[c]
+                if kk == 0:
+                    for a in range(m):
+                        acc_o += fr[c, a] * S[c, a]
+                out[i, c] += acc_o
+                for a in range(m):
+                    acs[c, a] += fm[c, kk, a] * u[c]
+        if last:
+            break
+        for a in range(ns):
+            acc_z = 0.0
+            for c in range(nx):
+                acc_z += stp[a, c] * xv[c]
+            zt[a] = acc_z
+        for a in range(ns):
+            z[a] = zt[a]
+        if not (abs(z[0]) < 1e6 and abs(z[2]) < 1e6):
+            return False
+    return True
+
+
 def filter_grid(chains: dict, h: float) -> tuple[ndarray, ...]:
     """The analog filters of the channels x, y, xdd, ydd discretised exactly for an input linear
     between grid points h apart (first-order hold): (nord, phi, g1, g2, cc, dd, ee) for
@@ -254,6 +495,12 @@ def hold_response(chain: Chain, h: float, w: ndarray) -> ndarray:
     phi, g1, g2, cc, _ = st
     z = np.exp(1j * w * h)
     n = phi.shape[0]
+    # in phi's eigenvectors (the declared low-passes have distinct poles): sum_k a_k (b1_k + b2_k z) / (z - lam_k),
+    # O(n) per frequency instead of a solve; a near-defective phi takes the solve
+    lam, V = np.linalg.eig(phi)
+    if np.linalg.cond(V) < 1e4:
+        a, b1, b2 = cc @ V, np.linalg.solve(V, g1), np.linalg.solve(V, g2)
+        return np.real_if_close(((b1[None, :] + b2[None, :] * z[:, None]) / (z[:, None] - lam[None, :])) @ a, tol=0)
     A = z[:, None, None] * np.eye(n)[None] - phi[None]
     b = g1[None, :] + g2[None, :] * z[:, None]
     return np.linalg.solve(A, b[:, :, None])[:, :, 0] @ cc
@@ -506,6 +753,9 @@ FILTER_SUB_SMOOTH = 16
 
 
 LINEAR_STEP = True  #: a linear model's RK4 step as matrices (:func:`rk4_affine`); False: its right-hand side
+#: the step as tables and the filters per block (:func:`_integrate_tables`, every model kind); False
+#: (or LINEAR_STEP False: the right-hand side itself for every model): :func:`_integrate`
+STEP_TABLES = True
 
 
 def smooth(p: ndarray) -> bool:
@@ -645,12 +895,16 @@ def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
     force channel's declared chain is divided out first (the true force drives the model)."""
     from scipy.interpolate import CubicSpline
 
-    f = true_force(v) * gain
+    def spline() -> CubicSpline:  # the same for every grid: made once per view and force
+        f = true_force(v)
+        edges = v.dt * (np.arange(f.size + 1) - 0.5)
+        return CubicSpline(edges, np.concatenate([[0.0], np.cumsum(f) * v.dt]))
+
+    sp = _cached(v.fcache, ("spline",), spline)
     h = v.dt * v.q / n_sub
     tg = -0.5 * v.dt + 0.5 * h * np.arange(2 * v.n_out * n_sub + 1)  # time from the first sample
-    edges = v.dt * (np.arange(f.size + 1) - 0.5)
-    cum = np.concatenate([[0.0], np.cumsum(f) * v.dt])
-    return np.asarray(CubicSpline(edges, cum)(np.clip(tg, edges[0], edges[-1]), 1))
+    out = np.asarray(sp(np.clip(tg, sp.x[0], sp.x[-1]), 1))
+    return out if gain == 1.0 else out * gain
 
 
 def _cached(cache: dict, key: tuple, make: Callable[[], Any], keep: int = 4) -> Any:
@@ -682,8 +936,14 @@ def simulate(v: TView, p: ndarray, z0: ndarray | None = None, force_gain: float 
     f = fg if force_gain == 1.0 else force_gain * fg  # the force enters linearly
     cx, cy = feedthrough(p)
     out = np.empty((v.n_out, 4))
-    lin = rk4_affine(p, h) if LINEAR_STEP else np.zeros((0, 10))
-    ok = _integrate(p, f, h, n_sub, v.n_out, v.z0 if z0 is None else z0, out, cx, cy, *filt, lin)
+    start = v.z0 if z0 is None else z0
+    tabs = step_tables(p, h) if STEP_TABLES and LINEAR_STEP else None
+    if tabs is not None:
+        blk = _cached(fc, ("blk", h, n_sub), lambda: filter_blocks(filt, n_sub))
+        ok = _integrate_tables(p, f, n_sub, v.n_out, start, out, cx, cy, *tabs, *blk)
+    else:
+        lin = rk4_affine(p, h) if LINEAR_STEP else np.zeros((0, 10))
+        ok = _integrate(p, f, h, n_sub, v.n_out, start, out, cx, cy, *filt, lin)
     if not ok or not np.all(np.isfinite(out)):
         return None
     out = hold_correct(out, v.fs, v.chains, h, fc)
