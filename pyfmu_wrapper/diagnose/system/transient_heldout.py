@@ -1,8 +1,21 @@
 """Transient records: the named effects' held-out stage, each record fitted alone (the agreement of
 their parameters) and each record predicted from the others (held out by record).
 
-The named set's fit on all records (``final``) is the start; the per-record and leave-one-out fits
-start from it (:func:`.transient_fit.warm_start`).
+Both at the cost of about one Jacobian of each record: at the named set's fit on all records
+(``final``, parameters theta) each record's whitened residual r_i and Jacobian J_i are simulated once
+(:func:`.transient_fit.fit` with ``linearise``: one simulation per parameter per record, side by side
+in the threads). The fit of a set S of records (one record alone; all records but one) is then the
+Gauss-Newton step ``theta_S = theta - (sum_S N_j)^-1 sum_S h_j``, with ``N_j = A_j^T P_j A_j`` and
+``h_j = A_j^T P_j r_j``: A_j the parameters' columns of J_j, P_j the projection off a free decay's own
+four start-state columns (its start state is a nuisance of its own record, fitted with the parameters
+as in the full fit). Its std is ``sqrt(diag((sum_S N_j)^-1))``; a record alone's is widened by the
+sandwich factor of the same J_i (:func:`.transient_sim.param_variance_factor`). The step is checked:
+the residuals of S are simulated at theta_S (one simulation per record of S) and the step from there
+with the same Jacobians (a chord Gauss-Newton step) must be below STEP_TOL of the std; else it is
+taken and checked again, up to MAX_CHORD times, and a set that still moves (the model nonlinear over
+the step: a drift between records, a friction that sticks) gets the full trust-region fit from
+``final`` (:func:`.transient_fit.warm_start`), as before. In a linear-in-parameters model the first
+step is the exact least-squares answer.
 """
 
 from __future__ import annotations
@@ -25,6 +38,8 @@ AGREE_P = 1e-3  #: per-record parameters disagree when the agreement chi-square'
 #: scale): the measured force is the simulation's input with its own noise (errors in variables), which
 #: the statistical std does not cover (measured: viscous dc = 10 N s/m on four records scatters by 0.3 %)
 AGREE_FLOOR = 0.01
+STEP_TOL = 0.1  #: a linearised fit of a set of records is converged when its chord step is below this share of its std
+MAX_CHORD = 3  #: chord steps (one simulation per record of the set each) before the full fit
 
 
 def params_of(effects: tuple[str, ...], theta: ndarray, std: ndarray) -> dict[str, dict[str, Any]]:
@@ -62,6 +77,20 @@ class HeldOut:
     ) -> None:
         self.views, self.p_nom, self.sc, self.effects = views, p_nom, sc, effects
         self.masks, self.final, self.warm, self.noise_parts = masks, final, warm, noise_parts
+        self.scale = np.array([s for e in effects for s in sc[e]], float)
+        self.refitted: list[str] = []  #: the sets that needed the full fit (names)
+        self._lin: _Lin | None = None
+        self._lin_tried = False
+
+    def _linear(self) -> _Lin | None:
+        """The records' residuals and Jacobians at ``final`` (computed once; None: not available)."""
+        if not self._lin_tried:
+            self._lin_tried = True
+            if self.final.ok and self.warm and self.scale.size:
+                f = fit(self.views, self.p_nom, self.effects, self.masks, None, self.sc, **self.warm, linearise=True)
+                if f.ok and f.lin:
+                    self._lin = _Lin(self, f)
+        return self._lin
 
     def agreement(self) -> dict[str, Any]:
         """Each record alone: its parameters, and the chi-square of their agreement."""
@@ -71,13 +100,20 @@ class HeldOut:
 
         effects = self.effects
         rows, vals, stds = [], [], []
-        for v, m in zip(self.views, self.masks):
-            f = fit([v], self.p_nom, effects, [m], None, self.sc, **self.warm)
-            if not f.ok:
-                continue
-            std = f.std * np.sqrt(self._std_widening(v, m, f.theta))
-            rows.append({"record": v.name, "params": params_of(effects, f.theta, std)})
-            vals.append(f.theta)
+        lin = self._linear()
+        for i, (v, m) in enumerate(zip(self.views, self.masks)):
+            got = None if lin is None else lin.solve([i])
+            if lin is not None and got is not None:
+                theta, std = got
+                std = std * np.sqrt(lin.widening(i))
+            else:
+                f = fit([v], self.p_nom, effects, [m], None, self.sc, **self.warm)
+                if not f.ok:
+                    continue
+                self.refitted.append(v.name)
+                theta, std = f.theta, f.std * np.sqrt(self._std_widening(v, m, f.theta))
+            rows.append({"record": v.name, "params": params_of(effects, theta, std)})
+            vals.append(theta)
             stds.append(std)
         if len(vals) < 2:
             return {"records": rows, "p_value": None, "agree": True}
@@ -120,20 +156,61 @@ class HeldOut:
                     break
         return np.maximum(param_variance_factor(J, white, y_w), 1.0)
 
+    def _nominal_chi2(self) -> list[float]:
+        """Each record's chi-square under the nominal on its fit samples (a decay's start state fitted):
+        the decays' start states by one Gauss-Newton step (their residual is linear in it when the
+        nominal is linear), checked by simulating there; the nominal's full fit when that does not
+        give the linear prediction (a nonlinear nominal) or the step fails."""
+        views, allm = self.views, self.masks
+        dec = [i for i, v in enumerate(views) if v.free_decay]
+        if dec:
+            f = fit(views, self.p_nom, (), allm, None, self.sc, linearise=True)
+            mdl = apply(self.p_nom, (), np.zeros(0))
+            if f.ok and f.lin and not isinstance(mdl, str):
+                r, J, offs = f.lin
+                out = [float(np.sum(r[int(offs[i]) : int(offs[i + 1])] ** 2)) for i in range(len(views))]
+                for k, i in enumerate(dec):
+                    v, rows = views[i], slice(int(offs[i]), int(offs[i + 1]))
+                    B = J[rows, 4 * k : 4 * k + 4]
+                    dz = -np.linalg.lstsq(B, r[rows], rcond=None)[0]
+                    pred = float(np.sum((r[rows] + B @ dz) ** 2))
+                    z = f.z0[v.name].copy()
+                    z[:4] += 1e-3 * dz
+                    phi, v.phi = v.phi, None
+                    try:
+                        e = residual(v, mdl, allm[i], z)
+                    finally:
+                        v.phi = phi
+                    c = None if e is None else float(np.sum(e[:, v.has][allm[i]] ** 2))
+                    if c is None or abs(c - pred) > 1e-6 * pred + 1e-3:
+                        break
+                    out[i] = c
+                else:
+                    return out
+        nom = fit(views, self.p_nom, (), allm, None, self.sc)
+        return [chi2_of([v], [e], [m])[0] for v, e, m in zip(views, nom.resid, allm)]
+
     def by_record(self) -> list[dict[str, Any]]:
         """Each record predicted from the others (its start state fitted on itself)."""
         if len(self.views) < 2:
             return []
         effects, allm = self.effects, self.masks
-        nom = fit(self.views, self.p_nom, (), allm, None, self.sc)
+        c_nom = self._nominal_chi2()
         out = []
+        lin = self._linear()
         for i, v in enumerate(self.views):
-            others = [u for j, u in enumerate(self.views) if j != i]
-            om = [m for j, m in enumerate(allm) if j != i]
-            f = fit(others, self.p_nom, effects, om, None, self.sc, **self.warm)
-            if not f.ok:
-                continue
-            mdl = apply(self.p_nom, effects, f.theta)
+            got = None if lin is None else lin.solve([j for j in range(len(self.views)) if j != i])
+            if got is not None:
+                theta = got[0]
+            else:
+                others = [u for j, u in enumerate(self.views) if j != i]
+                om = [m for j, m in enumerate(allm) if j != i]
+                f = fit(others, self.p_nom, effects, om, None, self.sc, **self.warm)
+                if not f.ok:
+                    continue
+                self.refitted.append(f"all but {v.name}")
+                theta = f.theta
+            mdl = apply(self.p_nom, effects, theta)
             if isinstance(mdl, str):
                 continue
 
@@ -145,8 +222,121 @@ class HeldOut:
             if e is None:
                 continue
             c1, n1 = chi2_of([v], [e], [allm[i]])
-            c0, _ = chi2_of([v], [nom.resid[i]], [allm[i]])
+            c0 = c_nom[i]
             out.append(
                 {"record": v.name, "chi2_before": c0, "chi2_after": c1, "dof": n1, "gap_closed": closed(c0, c1, n1)}
             )
         return out
+
+
+class _Lin:
+    """The linearised fits of sets of records at ``final`` (:class:`HeldOut`)."""
+
+    def __init__(self, h: HeldOut, f: TFit) -> None:
+        from .transient_effects import BOUNDS
+
+        self.h = h
+        r, J, offs = f.lin
+        self.z0: dict[str, ndarray] = f.z0
+        npar = h.scale.size
+        self.u0 = h.final.theta / h.scale
+        eff = h.effects
+        self.lb = (
+            np.array([BOUNDS.get(f"{e}.{n}", (-np.inf, np.inf))[0] for e in eff for n in TEFFECTS[e][0]]) / h.scale
+        )
+        self.ub = (
+            np.array([BOUNDS.get(f"{e}.{n}", (-np.inf, np.inf))[1] for e in eff for n in TEFFECTS[e][0]]) / h.scale
+        )
+        dec = [i for i, v in enumerate(h.views) if v.free_decay]
+        #: per record: residual at final, its parameters' columns, its own start-state columns (a decay) or None
+        self.r: list[ndarray] = []
+        self.A: list[ndarray] = []
+        self.B: list[ndarray | None] = []
+        self.N: list[ndarray] = []
+        for i in range(len(h.views)):
+            rows = slice(int(offs[i]), int(offs[i + 1]))
+            self.r.append(r[rows])
+            self.A.append(np.ascontiguousarray(J[rows, :npar]))
+            if i in dec:
+                k = npar + 4 * dec.index(i)
+                self.B.append(np.ascontiguousarray(J[rows, k : k + 4]))
+            else:
+                self.B.append(None)
+            self.N.append(self._reduce(i, self.A[i]))
+
+    def _reduce(self, i: int, x: ndarray) -> ndarray:
+        """A_i^T P_i x: P_i projects off record i's own start-state columns (a decay's)."""
+        B = self.B[i]
+        if B is None:
+            return np.asarray(self.A[i].T @ x)
+        w = np.linalg.lstsq(B, x, rcond=None)[0]
+        return np.asarray(self.A[i].T @ (x - B @ w))
+
+    def widening(self, i: int) -> ndarray:
+        """Record i's sandwich factor per parameter (:meth:`HeldOut._std_widening`) from its Jacobian."""
+        h = self.h
+        v, m = h.views[i], h.masks[i]
+        white, y_w = h.noise_parts.get(v.name, (None, None))
+        if white is None or y_w is None:
+            return np.ones(h.scale.size)
+        J = self.A[i].reshape(int(m.sum()), int(v.has.sum()), h.scale.size)
+        return np.maximum(param_variance_factor(J, white, y_w), 1.0)
+
+    def _resid(self, t: tuple[int, ndarray, ndarray | None]) -> ndarray | None:
+        """Record i's stacked whitened residual at the scaled parameters u (a decay's start state moved
+        by dz, units of 1 mm, 1 mm/s, as in the fit); t = (i, u, dz)."""
+        i, u, dz = t
+        h = self.h
+        v, m = h.views[i], h.masks[i]
+        mdl = apply(h.p_nom, h.effects, u * h.scale)
+        if isinstance(mdl, str):
+            return None
+        z = self.z0[v.name].copy()
+        phi = v.phi
+        if self.B[i] is not None:
+            if dz is not None:
+                z[:4] += 1e-3 * dz
+            v.phi = None  # a decay's start state is fitted, not projected (as in the fit)
+        try:
+            e = residual(v, mdl, m, z)
+        finally:
+            v.phi = phi
+        return None if e is None else e[:, v.has][m].ravel()
+
+    def solve(self, S: list[int]) -> tuple[ndarray, ndarray] | None:
+        """The fit of the records S: (parameters, std), SI; None when it does not converge (then the
+        full fit)."""
+        from .transient_fit import pmap
+
+        h = self.h
+        Ns = sum(self.N[j] for j in S)
+        try:
+            Ni = np.linalg.inv(Ns)
+        except np.linalg.LinAlgError:
+            return None
+        sd = np.sqrt(np.clip(np.diag(Ni), 0, None))
+        if not np.all(sd > 0):
+            return None
+        u = self.u0.copy()
+        r = {j: self.r[j] for j in S}
+        dz: dict[int, ndarray | None] = {j: None for j in S}
+        for k in range(MAX_CHORD + 1):
+            g = sum(self._reduce(j, r[j]) for j in S)
+            step = -Ni @ g
+            new = np.clip(u + step, self.lb, self.ub)
+            if k > 0 and np.all(np.abs(new - u) <= STEP_TOL * sd):
+                return new * h.scale, sd * h.scale
+            if k == MAX_CHORD:
+                return None
+            # a decay's start state follows: its least-squares move given the parameters' step
+            for j in S:
+                B = self.B[j]
+                if B is not None:
+                    w = np.linalg.lstsq(B, r[j] + self.A[j] @ (new - u), rcond=None)[0]
+                    dz[j] = (0 if dz[j] is None else dz[j]) - w
+            u = new
+            rs = pmap(self._resid, [(j, u, dz[j]) for j in S], [h.views[j].n_out for j in S])
+            if any(x is None for x in rs):
+                return None
+            r = {j: x for j, x in zip(S, rs) if x is not None}
+        return None
