@@ -20,6 +20,7 @@ step is the exact least-squares answer.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -39,7 +40,8 @@ AGREE_P = 1e-3  #: per-record parameters disagree when the agreement chi-square'
 #: the statistical std does not cover (measured: viscous dc = 10 N s/m on four records scatters by 0.3 %)
 AGREE_FLOOR = 0.01
 STEP_TOL = 0.1  #: a linearised fit of a set of records is converged when its chord step is below this share of its std
-MAX_CHORD = 3  #: chord steps (one simulation per record of the set each) before the full fit
+MAX_CHORD = 4  #: checked steps of a linearised fit (one simulation per record of the set each) before the full fit
+MAX_FRESH = 1  #: of which with the set's Jacobians afresh (one simulation per parameter per record)
 
 
 def params_of(effects: tuple[str, ...], theta: ndarray, std: ndarray) -> dict[str, dict[str, Any]]:
@@ -104,8 +106,7 @@ class HeldOut:
         for i, (v, m) in enumerate(zip(self.views, self.masks)):
             got = None if lin is None else lin.solve([i])
             if lin is not None and got is not None:
-                theta, std = got
-                std = std * np.sqrt(lin.widening(i))
+                theta, std = got[0], got[1] * np.sqrt(lin.widening(i, got[2][i]))
             else:
                 f = fit([v], self.p_nom, effects, [m], None, self.sc, **self.warm)
                 if not f.ok:
@@ -229,6 +230,25 @@ class HeldOut:
         return out
 
 
+@dataclass
+class _Rec:
+    """One record linearised at a point: its stacked whitened residual, the parameters' columns of its
+    Jacobian (scaled), a decay's own four start-state columns (None: a forced record, its start state
+    projected out) and its start state."""
+
+    r: ndarray
+    A: ndarray
+    B: ndarray | None
+    z: ndarray
+
+    def reduce(self, x: ndarray) -> ndarray:
+        """A^T P x: P projects off the record's own start-state columns (a decay's)."""
+        if self.B is None:
+            return np.asarray(self.A.T @ x)
+        w = np.linalg.lstsq(self.B, x, rcond=None)[0]
+        return np.asarray(self.A.T @ (x - self.B @ w))
+
+
 class _Lin:
     """The linearised fits of sets of records at ``final`` (:class:`HeldOut`)."""
 
@@ -236,107 +256,113 @@ class _Lin:
         from .transient_effects import BOUNDS
 
         self.h = h
-        r, J, offs = f.lin
-        self.z0: dict[str, ndarray] = f.z0
-        npar = h.scale.size
         self.u0 = h.final.theta / h.scale
         eff = h.effects
-        self.lb = (
-            np.array([BOUNDS.get(f"{e}.{n}", (-np.inf, np.inf))[0] for e in eff for n in TEFFECTS[e][0]]) / h.scale
-        )
-        self.ub = (
-            np.array([BOUNDS.get(f"{e}.{n}", (-np.inf, np.inf))[1] for e in eff for n in TEFFECTS[e][0]]) / h.scale
-        )
-        dec = [i for i, v in enumerate(h.views) if v.free_decay]
-        #: per record: residual at final, its parameters' columns, its own start-state columns (a decay) or None
-        self.r: list[ndarray] = []
-        self.A: list[ndarray] = []
-        self.B: list[ndarray | None] = []
-        self.N: list[ndarray] = []
-        for i in range(len(h.views)):
-            rows = slice(int(offs[i]), int(offs[i + 1]))
-            self.r.append(r[rows])
-            self.A.append(np.ascontiguousarray(J[rows, :npar]))
+        bounds = [BOUNDS.get(f"{e}.{n}", (-np.inf, np.inf)) for e in eff for n in TEFFECTS[e][0]]
+        self.lb = np.array([b[0] for b in bounds]) / h.scale
+        self.ub = np.array([b[1] for b in bounds]) / h.scale
+        self.recs = self._records(list(range(len(h.views))), f)
+
+    def _records(self, S: list[int], f: TFit) -> dict[int, _Rec]:
+        """The records S (in the order of f's views) from a linearised fit f."""
+        h = self.h
+        r, J, offs = f.lin
+        npar = h.scale.size
+        dec = [i for i in S if h.views[i].free_decay]
+        out = {}
+        for k, i in enumerate(S):
+            rows = slice(int(offs[k]), int(offs[k + 1]))
+            B = None
             if i in dec:
-                k = npar + 4 * dec.index(i)
-                self.B.append(np.ascontiguousarray(J[rows, k : k + 4]))
-            else:
-                self.B.append(None)
-            self.N.append(self._reduce(i, self.A[i]))
+                c = npar + 4 * dec.index(i)
+                B = np.ascontiguousarray(J[rows, c : c + 4])
+            out[i] = _Rec(r[rows], np.ascontiguousarray(J[rows, :npar]), B, f.z0[h.views[i].name].copy())
+        return out
 
-    def _reduce(self, i: int, x: ndarray) -> ndarray:
-        """A_i^T P_i x: P_i projects off record i's own start-state columns (a decay's)."""
-        B = self.B[i]
-        if B is None:
-            return np.asarray(self.A[i].T @ x)
-        w = np.linalg.lstsq(B, x, rcond=None)[0]
-        return np.asarray(self.A[i].T @ (x - B @ w))
+    def _fresh(self, S: list[int], u: ndarray, recs: dict[int, _Rec]) -> dict[int, _Rec] | None:
+        """The records S linearised afresh at u (their decays' start states as in recs)."""
+        h = self.h
+        f = fit(
+            [h.views[j] for j in S],
+            h.p_nom,
+            h.effects,
+            [h.masks[j] for j in S],
+            None,
+            h.sc,
+            starts=[u],
+            z_start={h.views[j].name: recs[j].z for j in S if recs[j].B is not None},
+            linearise=True,
+        )
+        return self._records(S, f) if f.ok and f.lin else None
 
-    def widening(self, i: int) -> ndarray:
-        """Record i's sandwich factor per parameter (:meth:`HeldOut._std_widening`) from its Jacobian."""
+    def widening(self, i: int, A: ndarray) -> ndarray:
+        """Record i's sandwich factor per parameter (:meth:`HeldOut._std_widening`) from its Jacobian A."""
         h = self.h
         v, m = h.views[i], h.masks[i]
         white, y_w = h.noise_parts.get(v.name, (None, None))
         if white is None or y_w is None:
             return np.ones(h.scale.size)
-        J = self.A[i].reshape(int(m.sum()), int(v.has.sum()), h.scale.size)
+        J = A.reshape(int(m.sum()), int(v.has.sum()), h.scale.size)
         return np.maximum(param_variance_factor(J, white, y_w), 1.0)
 
-    def _resid(self, t: tuple[int, ndarray, ndarray | None]) -> ndarray | None:
-        """Record i's stacked whitened residual at the scaled parameters u (a decay's start state moved
-        by dz, units of 1 mm, 1 mm/s, as in the fit); t = (i, u, dz)."""
-        i, u, dz = t
+    def _resid(self, t: tuple[int, ndarray, ndarray]) -> ndarray | None:
+        """Record i's stacked whitened residual at the scaled parameters u from start state z (a decay's
+        fitted, not projected, as in the fit); t = (i, u, z)."""
+        i, u, z = t
         h = self.h
         v, m = h.views[i], h.masks[i]
         mdl = apply(h.p_nom, h.effects, u * h.scale)
         if isinstance(mdl, str):
             return None
-        z = self.z0[v.name].copy()
         phi = v.phi
-        if self.B[i] is not None:
-            if dz is not None:
-                z[:4] += 1e-3 * dz
-            v.phi = None  # a decay's start state is fitted, not projected (as in the fit)
+        if v.free_decay:
+            v.phi = None
         try:
             e = residual(v, mdl, m, z)
         finally:
             v.phi = phi
         return None if e is None else e[:, v.has][m].ravel()
 
-    def solve(self, S: list[int]) -> tuple[ndarray, ndarray] | None:
-        """The fit of the records S: (parameters, std), SI; None when it does not converge (then the
+    def solve(self, S: list[int]) -> tuple[ndarray, ndarray, dict[int, ndarray]] | None:
+        """The fit of the records S: (parameters, std, SI; each record's parameter columns at the
+        end), by Gauss-Newton steps from ``final`` (chord steps: the Jacobians kept; once a check
+        does not converge, the Jacobians of S afresh); None when it does not converge (then the
         full fit)."""
         from .transient_fit import pmap
 
         h = self.h
-        Ns = sum(self.N[j] for j in S)
-        try:
-            Ni = np.linalg.inv(Ns)
-        except np.linalg.LinAlgError:
-            return None
-        sd = np.sqrt(np.clip(np.diag(Ni), 0, None))
-        if not np.all(sd > 0):
-            return None
         u = self.u0.copy()
-        r = {j: self.r[j] for j in S}
-        dz: dict[int, ndarray | None] = {j: None for j in S}
+        recs = {j: self.recs[j] for j in S}
+        fresh = 0
         for k in range(MAX_CHORD + 1):
-            g = sum(self._reduce(j, r[j]) for j in S)
-            step = -Ni @ g
-            new = np.clip(u + step, self.lb, self.ub)
+            try:
+                Ni = np.linalg.inv(sum(recs[j].reduce(recs[j].A) for j in S))
+            except np.linalg.LinAlgError:
+                return None
+            sd = np.sqrt(np.clip(np.diag(Ni), 0, None))
+            if not np.all(sd > 0):
+                return None
+            new = np.clip(u - Ni @ sum(recs[j].reduce(recs[j].r) for j in S), self.lb, self.ub)
             if k > 0 and np.all(np.abs(new - u) <= STEP_TOL * sd):
-                return new * h.scale, sd * h.scale
+                return new * h.scale, sd * h.scale, {j: recs[j].A for j in S}
             if k == MAX_CHORD:
                 return None
-            # a decay's start state follows: its least-squares move given the parameters' step
-            for j in S:
-                B = self.B[j]
-                if B is not None:
-                    w = np.linalg.lstsq(B, r[j] + self.A[j] @ (new - u), rcond=None)[0]
-                    dz[j] = (0 if dz[j] is None else dz[j]) - w
+            for j in S:  # a decay's start state follows: its least-squares move given the parameters' step
+                rec = recs[j]
+                if rec.B is not None:
+                    w = np.linalg.lstsq(rec.B, rec.r + rec.A @ (new - u), rcond=None)[0]
+                    rec = recs[j] = _Rec(rec.r, rec.A, rec.B, rec.z.copy())
+                    rec.z[:4] -= 1e-3 * w
             u = new
-            rs = pmap(self._resid, [(j, u, dz[j]) for j in S], [h.views[j].n_out for j in S])
-            if any(x is None for x in rs):
-                return None
-            r = {j: x for j, x in zip(S, rs) if x is not None}
+            if k > 0 and fresh < MAX_FRESH:  # the kept Jacobians did not converge: afresh at u
+                got = self._fresh(S, u, recs)
+                if got is None:
+                    return None
+                recs, fresh = got, fresh + 1
+                continue
+            rs = pmap(self._resid, [(j, u, recs[j].z) for j in S], [h.views[j].n_out for j in S])
+            for j, x in zip(S, rs):
+                if x is None:
+                    return None
+                recs[j] = _Rec(x, recs[j].A, recs[j].B, recs[j].z)
         return None
