@@ -126,6 +126,7 @@ def test_agreement_and_held_out_records_equal_the_full_fits_on_a_viscous_truth(t
     d, h = held(path, ("viscous",))
     a, b = h.agreement(), h.by_record()
     assert h.refitted == [] and len(a["records"]) == 3 and len(b) == 3
+    assert not any(r["full_fit"] for r in a["records"] + b)
     old = HeldOut(d.views, d.p_nom, d.sc, h.effects, h.masks, h.final, h.warm, d.noise_parts)
     old._lin_tried = True  # no linearisation: the full fits, as before
     a0, b0 = old.agreement(), old.by_record()

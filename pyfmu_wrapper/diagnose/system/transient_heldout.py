@@ -95,7 +95,8 @@ class HeldOut:
         return self._lin
 
     def agreement(self) -> dict[str, Any]:
-        """Each record alone: its parameters, and the chi-square of their agreement."""
+        """Each record alone: its parameters (``full_fit``: by the full fit, the linearised one not
+        converging), and the chi-square of their agreement."""
         if len(self.views) < 2:
             return {"records": [], "p_value": None, "agree": True}
         from scipy.stats import chi2 as chi2dist
@@ -113,7 +114,7 @@ class HeldOut:
                     continue
                 self.refitted.append(v.name)
                 theta, std = f.theta, f.std * np.sqrt(self._std_widening(v, m, f.theta))
-            rows.append({"record": v.name, "params": params_of(effects, theta, std)})
+            rows.append({"record": v.name, "params": params_of(effects, theta, std), "full_fit": got is None})
             vals.append(theta)
             stds.append(std)
         if len(vals) < 2:
@@ -225,7 +226,14 @@ class HeldOut:
             c1, n1 = chi2_of([v], [e], [allm[i]])
             c0 = c_nom[i]
             out.append(
-                {"record": v.name, "chi2_before": c0, "chi2_after": c1, "dof": n1, "gap_closed": closed(c0, c1, n1)}
+                {
+                    "record": v.name,
+                    "chi2_before": c0,
+                    "chi2_after": c1,
+                    "dof": n1,
+                    "gap_closed": closed(c0, c1, n1),
+                    "full_fit": got is None,  #: the others' parameters by the full fit (not converged linearised)
+                }
             )
         return out
 
