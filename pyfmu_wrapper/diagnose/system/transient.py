@@ -19,7 +19,7 @@ Steps (docs/diagnose.md, "Transient records"):
    second effect is needed only if the pair explains the data, closes >= PAIR_SHARE of the excess the
    first leaves, and its size is > 3 std from 0 and physically meaningful.
 4. The named set is refitted on all samples, and on each record alone: the per-record values must
-   agree within their errors (chi-square test at AGREE_P; each record's std the sandwich one under the
+   agree within their errors (:mod:`.transient_heldout`: chi-square test at AGREE_P; each record's std the sandwich one under the
    force's correlated noise); a disagreement is reported and nothing is
    named (a drift between records, or a pair of effects mimicking the truth). Held out **by record**:
    each record predicted from the others (only its start state fitted on itself).
@@ -37,13 +37,13 @@ import numpy as np
 from .transient_effects import BOUNDS, TEFFECTS, apply, meaningless, scales
 from .transient_effects import LABELS as T_LABELS
 from .transient_fit import TFit, chi2_of, fit, residual, start_update, warm_start, z_test
+from .transient_heldout import HeldOut
 from .transient_screen import NONLINEAR, screen
 from .transient_sim import (
     CHANNELS,
     chi2_variance_factor,
     input_noise_series,
     make_view,
-    param_variance_factor,
     start_responses,
 )
 from .transient_where import SEGMENTS, where
@@ -71,11 +71,6 @@ MASS_PAIRS = ({"mass_split", "inertance"}, {"mass_split", "tmd_mass"})
 #: hammer records at 0.31-4.3 std left chi2/n 1.2-2.8 in some channel at the truth
 FOLD_MAX = 0.25
 START_PASSES = 3  #: start-state passes under a fitted candidate before its held-out chi-square
-AGREE_P = 1e-3  #: per-record parameters disagree when the agreement chi-square's p-value is below this
-#: model-error floor of a per-record parameter in the agreement test, as a share of max(|mean|, its
-#: scale): the measured force is the simulation's input with its own noise (errors in variables), which
-#: the statistical std does not cover (measured: viscous dc = 10 N s/m on four records scatters by 0.3 %)
-AGREE_FLOOR = 0.01
 
 
 def _label(e: str) -> str:
@@ -423,94 +418,6 @@ class TransientDiagnosis:
                 i += 1
         return out
 
-    def agreement(self, effects: tuple[str, ...]) -> dict[str, Any]:
-        """Each record alone: its parameters, and the chi-square of their agreement."""
-        if len(self.views) < 2:
-            return {"records": [], "p_value": None, "agree": True}
-        from scipy.stats import chi2 as chi2dist
-
-        allm = self._masks(None)
-        rows, vals, stds = [], [], []
-        for v, m in zip(self.views, allm):
-            f = fit([v], self.p_nom, effects, [m], None, self.sc, **self.warm.get(effects, {}))
-            if not f.ok:
-                continue
-            std = f.std * np.sqrt(self._std_widening(v, m, effects, f.theta))
-            rows.append({"record": v.name, "params": self._params(TFit(effects, f.theta, std))})
-            vals.append(f.theta)
-            stds.append(std)
-        if len(vals) < 2:
-            return {"records": rows, "p_value": None, "agree": True}
-        V, S = np.array(vals), np.maximum(np.array(stds), 1e-300)
-        scale = np.array([s for e in effects for s in self.sc[e]], float)
-        mean = (V / S**2).sum(0) / (1 / S**2).sum(0)
-        S = np.sqrt(S**2 + (AGREE_FLOOR * np.maximum(np.abs(mean), scale)) ** 2)
-        w = 1 / S**2
-        mean = (V * w).sum(0) / w.sum(0)
-        c2 = float(((V - mean) ** 2 * w).sum())
-        dof = V.size - V.shape[1]
-        p = float(chi2dist.sf(c2, dof))
-        return {"records": rows, "chi2": c2, "dof": dof, "p_value": p, "agree": p >= AGREE_P}
-
-    def _std_widening(self, v: TView, m: ndarray, effects: tuple[str, ...], theta: ndarray) -> ndarray:
-        """Per parameter of a fit of record v alone: how much its variance exceeds the one
-        ``(J^T J)^-1`` states, which assumes white noise; the force's noise drives the simulation and
-        reaches the residual correlated in time and across channels (the sandwich covariance with the
-        Welch spectra of the chi-square's spread, :func:`param_variance_factor`; its Jacobian by
-        forward differences, one simulation per parameter). At least 1; 1 for a free decay."""
-        white, y_w = self.noise_parts.get(v.name, (None, None))
-        if white is None or y_w is None:
-            return np.ones(theta.size)
-
-        mdl0 = apply(self.p_nom, effects, theta)
-        e0 = None if isinstance(mdl0, str) else residual(v, mdl0, m)
-        if e0 is None:
-            return np.ones(theta.size)
-        scale = np.array([s for e in effects for s in self.sc[e]], float)
-        J = np.zeros((int(m.sum()), int(v.has.sum()), theta.size))
-        for j in range(theta.size):
-            for sgn in (1.0, -1.0):
-                h = sgn * 1e-3 * max(abs(float(theta[j])), float(scale[j]))
-                th = theta.copy()
-                th[j] += h
-                mdl = apply(self.p_nom, effects, th)
-                e1 = None if isinstance(mdl, str) else residual(v, mdl, m)
-                if e1 is not None:
-                    J[:, :, j] = ((e1 - e0) / h)[m][:, v.has]
-                    break
-        return np.maximum(param_variance_factor(J, white, y_w), 1.0)
-
-    def by_record(self, effects: tuple[str, ...]) -> list[dict[str, Any]]:
-        """Each record predicted from the others (its start state fitted on itself)."""
-        if len(self.views) < 2:
-            return []
-        allm = self._masks(None)
-        nom = self._fit((), allm, None)
-        out = []
-        for i, v in enumerate(self.views):
-            others = [u for j, u in enumerate(self.views) if j != i]
-            om = [m for j, m in enumerate(allm) if j != i]
-            f = fit(others, self.p_nom, effects, om, None, self.sc, **self.warm.get(effects, {}))
-            if not f.ok:
-                continue
-            mdl = apply(self.p_nom, effects, f.theta)
-            if isinstance(mdl, str):
-                continue
-
-            z_saved = v.z0.copy()
-            for _ in range(2):  # the held-out record's start state under the fitted model (not a parameter)
-                start_update(v, mdl, allm[i])
-            e = residual(v, mdl, allm[i])
-            v.z0 = z_saved
-            if e is None:
-                continue
-            c1, n1 = chi2_of([v], [e], [allm[i]])
-            c0, _ = chi2_of([v], [nom.resid[i]], [allm[i]])
-            out.append(
-                {"record": v.name, "chi2_before": c0, "chi2_after": c1, "dof": n1, "gap_closed": _closed(c0, c1, n1)}
-            )
-        return out
-
     def _result(self, res: dict[str, Any], nom: TFit, best: TFit | None, alts: list[TFit], how: str) -> dict[str, Any]:
         named: tuple[str, ...] = () if how in ("none", "unexplained") or best is None else best.effects
         notes: list[str] = list(self.skipped)
@@ -519,7 +426,10 @@ class TransientDiagnosis:
         if named:
             final = self._fit(named, self._masks(None), None)
             self.warm[named] = warm_start(final, self.sc)
-            agree = self.agreement(named)
+            held = HeldOut(
+                self.views, self.p_nom, self.sc, named, self._masks(None), final, self.warm[named], self.noise_parts
+            )
+            agree = held.agreement()
             if not agree["agree"]:
                 notes.append(
                     f"the records disagree on the parameters of {' + '.join(named)} (p = {agree['p_value']:.2g}): "
@@ -539,7 +449,7 @@ class TransientDiagnosis:
                 "z_after": z_after,
                 "gap_closed": 1 - ex / n_ex if n_ex > 0 else None,
             },
-            "by_record": self.by_record(named) if named else [],
+            "by_record": held.by_record() if named else [],
             "level": f"explained when the held-out z <= {EXPLAINS_Z:g}",
         }
         res["agreement"] = agree
@@ -641,10 +551,6 @@ def _significant(effect: str, theta: ndarray, std: ndarray) -> bool:
     if effect == "sensor_offset":
         return bool(np.any(np.abs(theta) > 3 * std))
     return bool(abs(theta[0]) > 3 * std[0])
-
-
-def _closed(c0: float, c1: float, n: int) -> float | None:
-    return 1 - (c1 - n) / (c0 - n) if c0 > n else None
 
 
 def _text(

@@ -88,6 +88,8 @@ class TFit:
     chi2: dict = field(default_factory=dict)  #: "train" / "test" -> float; "dof_*"
     resid: list = field(default_factory=list)  #: whitened residual per record (n_out, 4)
     z0: dict = field(default_factory=dict)  #: record name -> fitted start state of a free decay
+    #: ``fit(linearise=True)``: (stacked whitened residual, its Jacobian in the scaled unknowns, row offsets)
+    lin: tuple = ()
 
 
 def _stack(views: list[TView], mdl: Model, masks: list[ndarray]) -> tuple[ndarray, list[ndarray]] | None:
@@ -127,13 +129,17 @@ def fit(
     starts: list[ndarray] | None = None,
     max_nfev: int = 40,
     z_start: dict[str, ndarray] | None = None,
+    linearise: bool = False,
 ) -> TFit:
     """Fit the effects' parameters on the ``train`` samples; chi-squares on train and test.
 
     The start state of a free-decay record (its whole response) is fitted with the parameters, as
     four more unknowns (units of 1 mm, 1 mm/s); other records' start states are projected out
     linearly and refreshed under the fitted model before a second pass. ``z_start``: record name ->
-    start state a decay's fitted one begins from (:func:`warm_start`), else the view's."""
+    start state a decay's fitted one begins from (:func:`warm_start`), else the view's.
+    ``linearise``: no fit; at ``starts[0]`` (the forced records' start states chosen and refreshed
+    under its model as a fit does) the residual and its Jacobian (``lin``: columns the parameters over
+    their scales, then each decay's four start-state unknowns) and every record's start state (``z0``)."""
     from scipy.optimize import least_squares
 
     scale = np.array([s for e in effects for s in sc[e]], float)
@@ -227,6 +233,8 @@ def fit(
         starts = [np.concatenate([np.clip(u0, lb[:npar], ub[:npar]), np.zeros(4 * len(dec))]) for u0 in starts]
         if npar:
             _rest_or_estimate(views, apply(p_nom, effects, starts[0][:npar] * scale), train, dec)
+        if linearise:
+            return _linearised(views, p_nom, effects, train, starts[0], scale, fun, jac, start, offs, BAD)
         best = None
         if not starts[0].size:
             mdl = apply(p_nom, (), np.zeros(0))
@@ -263,6 +271,36 @@ def fit(
     finally:
         for v, z, ph in zip(views, saved, phis):
             v.z0, v.phi = z, ph
+
+
+def _linearised(
+    views: list[TView],
+    p_nom: ndarray,
+    effects: tuple[str, ...],
+    train: list[ndarray],
+    u: ndarray,
+    scale: ndarray,
+    fun: Callable[[ndarray], ndarray],
+    jac: Callable[[ndarray], ndarray],
+    start: Callable[[int, ndarray], ndarray],
+    offs: ndarray,
+    BAD: float,
+) -> TFit:
+    """:func:`fit`'s residual and Jacobian at u (``linearise``)."""
+    npar = scale.size
+    theta = u[:npar] * scale
+    mdl = apply(p_nom, effects, theta)
+    if isinstance(mdl, str):
+        return TFit(effects, theta, np.full(npar, np.inf), ok=False, reason=mdl)
+    for v, m in zip(views, train):
+        if v.phi is not None:  # a forced record (a decay's phi is None during the fit)
+            start_update(v, mdl, m)
+    f0 = fun(u).copy()
+    if np.any(f0 == BAD):
+        return TFit(effects, theta, np.full(npar, np.inf), ok=False, reason="the simulation blows up")
+    J = jac(u)
+    z0 = {v.name: start(i, u).copy() for i, v in enumerate(views)}
+    return TFit(effects, theta, np.full(npar, np.nan), z0=z0, lin=(f0, J, offs))
 
 
 def _rest_or_estimate(views: list[TView], mdl: Model | str, train: list[ndarray], dec: list[int]) -> None:
