@@ -47,6 +47,7 @@ from .transient_sim import (
     start_responses,
 )
 from .transient_where import SEGMENTS, where
+from .transient_window import PRUNE_Z, WINDOW_SHARE, guarded, window_unusable, window_views
 
 if TYPE_CHECKING:
     from numpy import ndarray
@@ -142,9 +143,11 @@ class TransientDiagnosis:
         self.nominal_resid: list[ndarray] = []
 
     # --- masks -----------------------------------------------------------------------------
-    def _masks(self, odd: bool | None) -> list[ndarray]:
+    def _masks(self, odd: bool | None, views: list[TView] | None = None) -> list[ndarray]:
+        """Per view (default: the records'): its held-out samples (odd segments), its training ones
+        (even), or all (None); the chain's start-up never."""
         out = []
-        for v in self.views:
+        for v in self.views if views is None else views:
             seg = np.minimum((np.arange(v.n_out) * SEGMENTS) // v.n_out, SEGMENTS - 1)
             m = np.ones(v.n_out, bool) if odd is None else (seg % 2 == (1 if odd else 0))
             m[: v.skip] = False
@@ -186,38 +189,64 @@ class TransientDiagnosis:
         return out
 
     def _fit(
-        self, effects: tuple[str, ...], train: list[ndarray], test: list[ndarray] | None, init: ndarray | None = None
+        self,
+        effects: tuple[str, ...],
+        train: list[ndarray],
+        test: list[ndarray] | None,
+        init: ndarray | None = None,
+        starts: list[ndarray] | None = None,
+        views: list[TView] | None = None,
+        z_start: dict[str, ndarray] | None = None,
     ) -> TFit:
-        """Fit ``effects``; ``init``: a start (SI, every parameter) to begin from instead of the default."""
-        starts = None
-        if init is not None and "play" not in effects:
-            scale = np.array([s for e in effects for s in self.sc[e]], float)
-            starts = [init / scale]
+        """Fit ``effects``; ``init``: a start (SI, every parameter) to begin from instead of the default
+        (a fit with play ignores it: its three gaps); ``starts``: the starts (SI) to begin from, all
+        effects alike; ``views``: the records' windows instead of the records (:mod:`.transient_window`);
+        ``z_start``: the free decays' start states to begin from (a window fit's). A fit on all
+        samples (``test`` None) with no start given begins from the same effects' best held-out fit
+        on the records (lowest training chi-square), when there is one."""
+        scale = np.array([s for e in effects for s in self.sc[e]], float)
+        us = None
+        if starts is not None:
+            us = [np.asarray(u, float) / scale for u in starts]
+        elif init is not None and "play" not in effects:
+            us = [init / scale]
         elif "play" in effects:
             k = list(effects).index("play")
-            starts = []
+            us = []
             for g in (0.1, 1.0, 10.0):  # gap 1e-5, 1e-4, 1e-3 m
                 u = np.zeros(sum(len(TEFFECTS[e][0]) for e in effects))
                 u[sum(len(TEFFECTS[e][0]) for e in effects[:k])] = g
-                starts.append(u)
-        f = fit(self.views, self.p_nom, effects, train, test, self.sc, starts=starts)
-        return self._polish(f, train, test) if effects and test is not None else f
+                us.append(u)
+        vs = self.views if views is None else views
+        held = getattr(self, "held_fits", {}).get(effects)
+        if views is None and test is None and us is None and held is not None:
+            # a fit on all samples (the named set's final fit) from its held-out fit: a few steps from
+            # near its optimum instead of the whole way from the default start (friction: 14 -> 3)
+            us, z_start = [held.theta / scale], held.z0
+        f = fit(vs, self.p_nom, effects, train, test, self.sc, starts=us, z_start=z_start)
+        if views is None and test is not None and effects and f.ok:  # the best held-out fit of these effects
+            self.held_fits: dict[tuple[str, ...], TFit] = getattr(self, "held_fits", {})
+            old = self.held_fits.get(effects)
+            if old is None or f.chi2["train"] < old.chi2["train"]:
+                self.held_fits[effects] = f
+        return self._polish(f, train, test, vs) if effects and test is not None else f
 
-    def _polish(self, f: TFit, train: list[ndarray], test: list[ndarray]) -> TFit:
+    def _polish(self, f: TFit, train: list[ndarray], test: list[ndarray], views: list[TView] | None = None) -> TFit:
         """The held-out chi-squares of a fitted candidate with each forced record's start state
         converged under the candidate's own model: START_PASSES more passes of :func:`start_update` on
         the training samples (the fit makes one; its projection uses the nominal's start responses, so
         one pass leaves the start transient of a changed model partly unfitted: fresh tr000, base
         stiffness +3 %, kept 82 % of its excess in the first 7.5 s of a random record, z 17). Free
         decays keep the fit's own residual (their start state is a fitted unknown). The parameters are
-        not refitted."""
+        not refitted. ``views``: the records' windows instead of the records."""
         if not f.ok:
             return f
         mdl = apply(self.p_nom, f.effects, f.theta)
         if isinstance(mdl, str):
             return f
+        vs = self.views if views is None else views
         resid = list(f.resid)
-        for i, v in enumerate(self.views):
+        for i, v in enumerate(vs):
             if v.free_decay or v.phi is None:
                 continue
             saved = v.z0.copy()
@@ -229,11 +258,11 @@ class TransientDiagnosis:
                 v.z0 = saved
             if e is not None:
                 resid[i] = e
-        c_tr, n_tr = chi2_of(self.views, resid, train)
-        c_te, n_te = chi2_of(self.views, resid, test)
+        c_tr, n_tr = chi2_of(vs, resid, train)
+        c_te, n_te = chi2_of(vs, resid, test)
         if c_tr >= f.chi2["train"]:
             return f  # no better start found: the fit's own
-        g = TFit(f.effects, f.theta, f.std, ok=True, reason=f.reason, resid=resid)
+        g = TFit(f.effects, f.theta, f.std, ok=True, reason=f.reason, resid=resid, z0=f.z0)
         g.chi2 = {**f.chi2, "train": c_tr, "dof_train": n_tr, "test": c_te, "dof_test": n_te}
         return g
 
@@ -256,10 +285,21 @@ class TransientDiagnosis:
             res["candidates"].append(
                 {"effects": [e], "ok": False, "reason": f"screened out: linearised train chi-square drop {red:.4g}"}
             )
+        self._window_setup(res)
+        ruled: dict[str, TFit] = {}  #: singles ruled out on their window fit -> that fit
         for e in keep:
             t0 = time.perf_counter()
-            f = self._fit((e,), tr, te)
+            w = self._window_fit((e,))
+            if e == "friction" and w is not None and z_test(w) > PRUNE_Z:
+                w = self._window_friction_restart(w)
+            if w is not None and z_test(w) > PRUNE_Z:
+                ruled[e] = w
+                res["candidates"].append(self._ruled_row(w, t0))
+                continue
+            f = self._fit((e,), tr, te, **self._warm(w))
             row = self._row(f, ex0)
+            if w is not None:
+                row["window_z"] = z_test(w)
             row["seconds"] = round(time.perf_counter() - t0, 2)
             res["candidates"].append(row)
             if f.ok:
@@ -287,28 +327,115 @@ class TransientDiagnosis:
             passing = [f for f in singles if z_test(f) <= EXPLAINS_Z]
         if passing:
             return self._result(res, nom, passing[0], passing[1:], "single")
-        pairs = self._pairs(singles, res, ex0, tr, te)
+        pairs = self._pairs(singles, res, ex0, tr, te, ruled)
         if pairs:
             return self._result(res, nom, pairs[0], pairs[1:], "pair")
-        return self._result(res, nom, singles[0] if singles else None, [], "unexplained")
+        best = singles[0] if singles else None
+        if best is None and ruled:  # the hint: the single closest on the windows, fitted on everything
+            w = min(ruled.values(), key=lambda w: w.chi2["test"])
+            g = self._fit(w.effects, tr, te, **self._warm(w))
+            if g.ok:
+                row = self._row(g, ex0)
+                row["restart"] = "fitted on everything as the hint (the closest single on the windows)"
+                res["candidates"].append(row)
+                best = g
+        return self._result(res, nom, best, [], "unexplained")
+
+    # --- the window fits (:mod:`.transient_window`) ------------------------------------------------
+    def _window_setup(self, res: dict[str, Any]) -> None:
+        """The records' windows, when they can rule a candidate out: each long enough, and the nominal
+        not explaining them to PRUNE_Z (else a candidate's window z says nothing)."""
+        self.win: tuple[list[TView], list[ndarray], list[ndarray]] | None = None
+        why = window_unusable(self.views, self.p_nom)
+        zw = None
+        if why is None:
+            wv = window_views(self.views)
+            wtr, wte = guarded(self._masks(False, wv)), guarded(self._masks(True, wv))
+            wn = self._fit((), wtr, wte, views=wv)
+            zw = z_test(wn) if wn.ok else None
+            if zw is not None and zw > PRUNE_Z:
+                self.win = (wv, wtr, wte)
+            else:
+                why = f"the nominal explains the records' windows to PRUNE_Z (z {zw})"
+        res["window"] = {
+            "share": WINDOW_SHARE,
+            "prune_z": PRUNE_Z,
+            "nominal_z": zw,
+            "used": self.win is not None,
+            "not_used": why,
+        }
+
+    def _window_fit(
+        self, effects: tuple[str, ...], init: ndarray | None = None, starts: list[ndarray] | None = None
+    ) -> TFit | None:
+        """``effects`` fitted on the records' windows (None: no window in use, or the fit failed)."""
+        win = getattr(self, "win", None)
+        if win is None:
+            return None
+        wv, wtr, wte = win
+        f = self._fit(effects, wtr, wte, init=init, starts=starts, views=wv)
+        return f if f.ok else None
+
+    def _window_friction_restart(self, w: TFit) -> TFit:
+        """The friction single's window fit again from FRICTION_RESTART of the force's std (as
+        :meth:`_friction_restart`: the default start's local minimum): the fit of lower training
+        chi-square of the two."""
+        sf = [float(np.std(v.force)) for v in self.views if not v.free_decay]
+        th = np.array([FRICTION_RESTART * float(np.median(sf)) if sf else 0.0, self._default_theta("friction")[1]])
+        if th[0] <= 2 * w.theta[0]:
+            return w
+        g = self._window_fit(("friction",), starts=[th])
+        return g if g is not None and g.chi2["train"] < w.chi2["train"] else w
+
+    @staticmethod
+    def _warm(w: TFit | None) -> dict[str, Any]:
+        """A full fit's start from a window fit: its parameters and its free decays' start states."""
+        return {} if w is None else {"starts": [w.theta], "z_start": w.z0}
+
+    @staticmethod
+    def _ruled_row(w: TFit, t0: float | None = None) -> dict[str, Any]:
+        import time
+
+        z = z_test(w)
+        row: dict[str, Any] = {
+            "effects": list(w.effects),
+            "ok": False,
+            "reason": f"ruled out on a window fit (z {z:.4g} > {PRUNE_Z:g}): cannot explain the data",
+            "window_z": z,
+        }
+        if t0 is not None:
+            row["seconds"] = round(time.perf_counter() - t0, 2)
+        return row
 
     def _pairs(
-        self, singles: list[TFit], res: dict[str, Any], ex0: float, tr: list[ndarray], te: list[ndarray]
+        self,
+        singles: list[TFit],
+        res: dict[str, Any],
+        ex0: float,
+        tr: list[ndarray],
+        te: list[ndarray],
+        ruled: dict[str, TFit] | None = None,
     ) -> list[TFit]:
         """Pairs that explain the data, best first. First effects: the FIRST_TRIES best singles (by
         held-out chi-square; the best alone missed pairs whose best single is a third effect: field
         base_mass + friction got base_damping first; the friction single was refitted from a large
-        start before, :meth:`_friction_restart`). Second effects: see :meth:`_seconds`. A pair that holds mass_split beside
+        start before, :meth:`_friction_restart`), then the singles ruled out on their window fit (by
+        their window chi-square; ``ruled``). Second effects: see :meth:`_seconds`. A pair that holds mass_split beside
         inertance or tmd_mass is the model of inertance + tmd_mass: it is refitted in those, the
-        nominal's own parameters, and judged there (its size test too)."""
+        nominal's own parameters, and judged there (its size test too). Every pair is first fitted on
+        the windows: ruled out there, it is not fitted on everything (nor is a ruled-out first)."""
         pairs: list[TFit] = []
         seen: set[frozenset[str]] = set()
-        firsts = singles[:FIRST_TRIES]
-        alone = {g.effects[0]: g.theta for g in singles}
-        for first in firsts:
-            ex1 = first.chi2["test"] - first.chi2["dof_test"]
-            for second in self._seconds(first, singles, tr):
-                key = frozenset((first.effects[0], second))
+        ruled = ruled or {}
+        order = [*singles, *sorted(ruled.values(), key=lambda w: w.chi2["test"])]
+        firsts = order[:FIRST_TRIES]
+        alone = {g.effects[0]: g.theta for g in order}
+        full = {g.effects[0]: g for g in singles}
+        for first0 in firsts:
+            e1 = first0.effects[0]
+            first = full.get(e1)  # None: ruled out alone; fitted on everything once a pair with it passes its window
+            for second in self._seconds(first or first0, order, tr):
+                key = frozenset((e1, second))
                 if key in seen:
                     continue
                 seen.add(key)
@@ -318,11 +445,28 @@ class TransientDiagnosis:
                 th2 = alone.get(second)
                 if th2 is None:
                     th2 = self._default_theta(second)
-                f = self._fit((first.effects[0], second), tr, te, init=np.concatenate([first.theta, th2]))
+                init = np.concatenate([(first or first0).theta, th2])
+                w = self._window_fit((e1, second), init=init)
+                if w is not None and z_test(w) > PRUNE_Z:
+                    res["candidates"].append(self._ruled_row(w))
+                    if set(w.effects) in MASS_PAIRS:
+                        seen.add(frozenset(MASS_PAIR))  # the same model: ruled out too
+                    continue
+                if first is None:
+                    first = full[e1] = self._fit((e1,), tr, te, **self._warm(first0))
+                    row = self._row(first, ex0)
+                    row["restart"] = "fitted on everything: a pair with it passed the window fit"
+                    res["candidates"].append(row)
+                if not first.ok:
+                    break
+                ex1 = first.chi2["test"] - first.chi2["dof_test"]
+                f = self._fit((e1, second), tr, te, **(self._warm(w) if w is not None else {"init": init}))
                 if f.ok and set(f.effects) in MASS_PAIRS:
                     f = self._as_mass_pair(f, tr, te)
                     seen.add(frozenset(f.effects))
                 row = self._row(f, ex0)
+                if w is not None:
+                    row["window_z"] = z_test(w)
                 res["candidates"].append(row)
                 if not f.ok:
                     continue
