@@ -6,47 +6,16 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-import yaml
+
+# the datasets of test_diagnose_transient (the same truth, chain, noise and record kinds)
+from test_diagnose_transient import DECAY, RANDOM, SWEEP_DOWN, SWEEP_UP, make
 
 from pyfmu_wrapper.diagnose.data import load_dataset
-from pyfmu_wrapper.diagnose.records import write_record
 from pyfmu_wrapper.diagnose.system import transient, transient_window
 from pyfmu_wrapper.diagnose.system.transient import TransientDiagnosis
 from pyfmu_wrapper.diagnose.system.transient_effects import apply
 from pyfmu_wrapper.diagnose.system.transient_sim import simulate
-from pyfmu_wrapper.diagnose.system.transient_truth import Truth, force_signal, measure
 from pyfmu_wrapper.diagnose.system.transient_window import window_unusable, window_views
-
-BASE = {"mass": 100.0, "stiffness": 4.0e4, "damping": 100.0, "force_amplitude": 200.0}
-TMD = {"mass": 9.0, "stiffness": 4.0e3, "damping": 15.0, "inertance": 1.0, "inerter": "ideal"}
-FILT = {"filter": {"type": "butterworth", "order": 4, "cutoff_hz": 100.0}}
-NOISE = {"x": 0.01, "y": 0.01, "xdd": 0.01, "ydd": 0.01, "force": 0.005}
-SWEEP_UP = ("sweep_lin", {"f0": 1.5, "f1": 5.0})
-SWEEP_DOWN = ("sweep_log", {"f0": 5.0, "f1": 1.5})
-RANDOM = ("random", {"f_lo": 1.0, "f_hi": 8.0, "amp": 60.0})
-DECAY = ("decay", {})
-
-
-def make(path, changes, kinds, fs=256.0, T=40.0, seed=0):
-    """A transient dataset: one record per (kind, kwargs); the truth simulated at 8 fs, filtered as
-    declared, sampled at fs, 1 % noise (0.5 % on the force)."""
-    path.mkdir(parents=True, exist_ok=True)
-    rng = np.random.default_rng(seed)
-    acq = {"xdd": FILT, "ydd": FILT}
-    recs = []
-    for i, (kind, kw) in enumerate(kinds):
-        kw = dict(kw)
-        t = np.arange(0.0, T, 1.0 / (8 * fs))
-        F = force_signal(kind, rng, T, kw.pop("amp", 150.0), **kw)
-        z0 = np.array([0.005, 0.0, 0.01, 0.0]) if kind == "decay" else None
-        sig = Truth(BASE, TMD, T, **changes).simulate(F, t, z0)
-        if kind == "decay":
-            sig.pop("force")
-        write_record(path / f"r{i}.csv", measure(sig, t, 8, rng, NOISE, acq))
-        recs.append({"file": f"r{i}.csv", "kind": "transient"})
-    doc = {"level": "system", "nominal": {"base": BASE, "tmd": TMD}, "records": recs, "acquisition": acq}
-    (path / "dataset.yaml").write_text(yaml.safe_dump(doc))
-    return path
 
 
 def _prepared(path):
