@@ -1,6 +1,6 @@
-"""Every script of benchmarks/ loads: the project names it imports exist (bench_diagnose.py imported
-``make_system_benchmark`` from a module it had left two refactors earlier, and nothing ran it until a
-benchmark was wanted). Loading runs no benchmark: each script's work sits under ``__main__``."""
+"""Every script of benchmarks/ loads: every project name it imports exists (a script is run only when
+a benchmark is wanted, so a moved name would otherwise go unnoticed). Loading runs no benchmark: each
+script's work sits under ``__main__``."""
 
 from __future__ import annotations
 

@@ -667,24 +667,33 @@ def transient_share(f: ndarray, band: ndarray, gain: ndarray, start: int = 0) ->
     return max(0.0, 1.0 - u2.size * float(np.median(u2)) / 0.4549 / tot)
 
 
+def modal_eigenvalues(p: ndarray, inertance: float) -> ndarray:
+    """The eigenvalues of the linear part of the model p (friction and play left out) with the
+    inerter's inertance ``inertance`` between the masses (0: play, its chain free)."""
+    from ...physics.params import P_C, P_K, P_M, P_c, P_k, P_m
+
+    M, K, C, m, k, c = (float(p[i]) for i in (P_M, P_K, P_C, P_m, P_k, P_c))
+    Mt = np.array([[M + inertance, -inertance], [-inertance, m + inertance]])
+    Kt = np.array([[K + k, -k], [-k, k]])
+    Ct = np.array([[C + c, -c], [-c, c]])
+    Mi = np.linalg.inv(Mt)
+    A = np.block([[np.zeros((2, 2)), np.eye(2)], [-Mi @ Kt, -Mi @ Ct]])
+    return np.asarray(np.linalg.eigvals(A))
+
+
 def rates(p: ndarray) -> tuple[float, float, float]:
     """(modal, contact, friction) rates [1/s] of the model with parameters p: the largest |eigenvalue|
     of the linear part (friction, play left out), the play chain's contact frequency sqrt(ki / mu)
     (0 without play) and the friction's relaxation rate df (2/pi) s / mu (0 without friction)."""
-    from ...physics.params import P_C, P_I, P_K, P_M, P_MODEL, P_c, P_df, P_k, P_ki, P_m, P_s
+    from ...physics.params import P_I, P_M, P_MODEL, P_df, P_ki, P_m, P_s
 
-    M, K, C, m, k, c, I = (p[i] for i in (P_M, P_K, P_C, P_m, P_k, P_c, P_I))
+    M, m, I = (float(p[i]) for i in (P_M, P_m, P_I))
     contact = 0.0
     mu = 1.0 / (1.0 / m + 1.0 / M)
     if int(p[P_MODEL]) == 2:  # play: the chain's contact mode
         contact = math.sqrt(p[P_ki] / (1.0 / (1.0 / I + 1.0 / m + 1.0 / M)))
         I = 0.0
-    Mt = np.array([[M + I, -I], [-I, m + I]])
-    Kt = np.array([[K + k, -k], [-k, k]])
-    Ct = np.array([[C + c, -c], [-c, c]])
-    Mi = np.linalg.inv(Mt)
-    A = np.block([[np.zeros((2, 2)), np.eye(2)], [-Mi @ Kt, -Mi @ Ct]])
-    modal = float(np.max(np.abs(np.linalg.eigvals(A))))
+    modal = float(np.max(np.abs(modal_eigenvalues(p, I))))
     friction = p[P_df] * 2 / math.pi * p[P_s] / mu if p[P_df] > 0 else 0.0
     return modal, contact, float(friction)
 

@@ -77,15 +77,10 @@ def guarded(masks: list[ndarray]) -> list[ndarray]:
 
 def slowest_period(p: ndarray) -> float:
     """The longest period [s] of the linear model p's modes (2 pi / the smallest |eigenvalue|)."""
-    from ...physics.params import P_C, P_I, P_K, P_M, P_c, P_k, P_m
+    from ...physics.params import P_I
+    from .transient_sim import modal_eigenvalues
 
-    M, K, C, m, k, c, inert = (float(p[i]) for i in (P_M, P_K, P_C, P_m, P_k, P_c, P_I))
-    Mt = np.array([[M + inert, -inert], [-inert, m + inert]])
-    Kt = np.array([[K + k, -k], [-k, k]])
-    Ct = np.array([[C + c, -c], [-c, c]])
-    Mi = np.linalg.inv(Mt)
-    A = np.block([[np.zeros((2, 2)), np.eye(2)], [-Mi @ Kt, -Mi @ Ct]])
-    slow = float(np.min(np.abs(np.linalg.eigvals(A))))
+    slow = float(np.min(np.abs(modal_eigenvalues(p, float(p[P_I])))))
     return 2 * math.pi / slow if slow > 0 else math.inf
 
 
