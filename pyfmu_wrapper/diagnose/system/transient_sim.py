@@ -901,7 +901,15 @@ def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
     values, spacing h / 2 with h = q dt / n_sub, from half a sample before the first): the derivative
     of a cubic spline through the force's running integral (each sample standing for dt) -- exact
     for a smooth force to O(dt^3), and it keeps the area of an impulse shorter than a sample. The
-    force channel's declared chain is divided out first (the true force drives the model)."""
+    force channel's declared chain is divided out first (the true force drives the model).
+
+    Each value is a **local mean**, not a point value: (4 M(w / 2) - M(w)) / 3 with M(a) the mean over
+    t +- a and w the grid's spacing (Richardson: the point value to O(w^4) for a smooth force, a
+    response 1 + O((f w)^4) in its band, 0 at every multiple of 1 / w). Point values of a grid
+    coarser than the samples fold the load cell's white noise from up to the record's Nyquist onto
+    the structure's band: on a 1.3 kHz sweep (seed 6363 tr032, grid spacing 2.5 samples) the
+    simulation's response to the force noise was 3-4x its true rms (0.25-0.35 of a channel's noise
+    std against 0.07-0.10 on a fine grid), and the truth left chi2/n 1.07-1.13 in every channel."""
     from scipy.interpolate import CubicSpline
 
     def spline() -> CubicSpline:  # the same for every grid: made once per view and force
@@ -912,7 +920,13 @@ def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
     sp = _cached(v.fcache, ("spline",), spline)
     h = v.dt * v.q / n_sub
     tg = -0.5 * v.dt + 0.5 * h * np.arange(2 * v.n_out * n_sub + 1)  # time from the first sample
-    out = np.asarray(sp(np.clip(tg, sp.x[0], sp.x[-1]), 1))
+    w = 0.5 * h  # the grid's spacing
+
+    def mean(a: float) -> ndarray:  # the force's mean over [t - a, t + a] at every grid point
+        lo, hi = sp.x[0], sp.x[-1]
+        return np.asarray((sp(np.clip(tg + a, lo, hi)) - sp(np.clip(tg - a, lo, hi))) / (2 * a))
+
+    out = (4.0 * mean(0.5 * w) - mean(w)) / 3.0
     return out if gain == 1.0 else out * gain
 
 
