@@ -85,6 +85,7 @@ class TransientDiagnosis:
         from ...physics.params import BaseParams, TMDParams, pack
 
         self.ds = ds
+        self.late: dict[str, TFit] = {}  #: singles ruled out on their window, fitted on everything later
         from .transient_sim import fastest_rate
 
         recs = [r for r in ds.records if r.kind == "transient"]
@@ -340,18 +341,28 @@ class TransientDiagnosis:
             passing = [f for f in singles if z_test(f) <= EXPLAINS_Z]
         if passing:
             return self._result(res, nom, passing[0], passing[1:], "single")
+        self.late.clear()
         pairs = self._pairs(singles, res, ex0, tr, te, ruled)
-        if pairs:
-            return self._result(res, nom, pairs[0], pairs[1:], "pair")
         best = singles[0] if singles else None
         if best is None and ruled:  # the hint: the single closest on the windows, fitted on everything
             w = min(ruled.values(), key=lambda w: w.chi2["test"])
-            g = self._fit(w.effects, tr, te, **self._warm(w))
+            g = self.late.get(w.effects[0]) or self._fit(w.effects, tr, te, **self._warm(w))
+            if w.effects[0] not in self.late:
+                self.late[w.effects[0]] = g
+                if g.ok:
+                    row = self._row(g, ex0)
+                    row["restart"] = "fitted on everything as the hint (the closest single on the windows)"
+                    res["candidates"].append(row)
             if g.ok:
-                row = self._row(g, ex0)
-                row["restart"] = "fitted on everything as the hint (the closest single on the windows)"
-                res["candidates"].append(row)
                 best = g
+        # a single ruled out on its window (a local minimum there: seed 7474 tr050, friction window z
+        # 1519) whose fit on everything explains the data is named as a single: a second effect is
+        # never needed beside it
+        late = sorted((f for f in self.late.values() if f.ok and z_test(f) <= EXPLAINS_Z), key=lambda f: f.chi2["test"])
+        if late:
+            return self._result(res, nom, late[0], late[1:], "single")
+        if pairs:
+            return self._result(res, nom, pairs[0], pairs[1:], "pair")
         return self._result(res, nom, best, [], "unexplained")
 
     # --- the window fits (:mod:`.transient_window`) ------------------------------------------------
@@ -437,7 +448,7 @@ class TransientDiagnosis:
         inertance or tmd_mass is the model of inertance + tmd_mass: it is refitted in those, the
         nominal's own parameters, and judged there (its size test too). Every pair is first fitted on
         the windows: ruled out there, it is not fitted on everything (nor is a ruled-out first). A first
-        ruled out on its window takes every candidate as a second (:meth:`_every_second`)."""
+        ruled out on its window takes every candidate as a second (:meth:`_every_second`) if it is linear."""
         pairs: list[TFit] = []
         seen: set[frozenset[str]] = set()
         ruled = ruled or {}
@@ -451,8 +462,10 @@ class TransientDiagnosis:
             # a first ruled out on its window leaves a gap the linearised screen reads poorly (seed 6363
             # tr028, base_mass + tmd_stiffness: base_mass alone left window z 2.4e5, its screen ranked
             # tmd_stiffness below two others, the true pair was never tried): every candidate is its
-            # second, each ruled out or kept by a window fit (cheap)
-            seconds = self._seconds(first, order, tr) if first is not None else self._every_second(e1)
+            # second, each ruled out or kept by a window fit (cheap for a linear first; a nonlinear one's
+            # pairs cost up to 100 s each on the windows, seed 7474 tr019's friction: the screen's)
+            ruled_linear = first is None and e1 not in NONLINEAR
+            seconds = self._every_second(e1) if ruled_linear else self._seconds(first or first0, order, tr)
             for second in seconds:
                 key = frozenset((e1, second))
                 if key in seen:
@@ -472,12 +485,14 @@ class TransientDiagnosis:
                         seen.add(frozenset(MASS_PAIR))  # the same model: ruled out too
                     continue
                 if first is None:
-                    first = full[e1] = self._fit((e1,), tr, te, **self._warm(first0))
+                    first = full[e1] = self.late[e1] = self._fit((e1,), tr, te, **self._warm(first0))
                     row = self._row(first, ex0)
                     row["restart"] = "fitted on everything: a pair with it passed the window fit"
                     res["candidates"].append(row)
                 if not first.ok:
                     break
+                if e1 in self.late and z_test(first) <= EXPLAINS_Z:
+                    return []  # it explains the data alone (:meth:`run` names it): no pair is needed
                 ex1 = first.chi2["test"] - first.chi2["dof_test"]
                 f = self._fit((e1, second), tr, te, **(self._warm(w) if w is not None else {"init": init}))
                 if f.ok and set(f.effects) in MASS_PAIRS:
