@@ -17,7 +17,10 @@ Steps (docs/diagnose.md, "Transient records"):
    refitted from a large start, then pairs of each of the FIRST_TRIES best singles with up to
    PAIR_TRIES + 1 second effects (mass_split beside I or m refitted as inertance + tmd_mass); the
    second effect is needed only if the pair explains the data, closes >= PAIR_SHARE of the excess the
-   first leaves, and its size is > 3 std from 0 and physically meaningful.
+   first leaves, and its size is > 3 std from 0 and physically meaningful. Window fits
+   (:mod:`.transient_window`) rule candidates and pairs out first; a linear first ruled out there
+   takes every candidate as its second, the screened-out singles are tried on the windows when every
+   kept one is ruled out, and a ruled-out single whose fit on everything explains the data is named.
 4. The named set is refitted on all samples, and on each record alone: the per-record values must
    agree within their errors (:mod:`.transient_heldout`: chi-square test at AGREE_P; each record's std the sandwich one under the
    force's correlated noise); a disagreement is reported and nothing is
