@@ -896,6 +896,11 @@ def direct_force(v: TView) -> ndarray:
     return out
 
 
+#: grid points of the force evaluated at a time (:func:`grid_force`): its temporaries stay near 10 MB
+#: (whole, a grid of MAX_GRID intervals made about 1 GB of them, per record, records in parallel)
+GRID_CHUNK = 1 << 17
+
+
 def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
     """The measured force at the simulation's grid points and their midpoints (2 n_out n_sub + 1
     values, spacing h / 2 with h = q dt / n_sub, from half a sample before the first): the derivative
@@ -919,14 +924,17 @@ def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
 
     sp = _cached(v.fcache, ("spline",), spline)
     h = v.dt * v.q / n_sub
-    tg = -0.5 * v.dt + 0.5 * h * np.arange(2 * v.n_out * n_sub + 1)  # time from the first sample
     w = 0.5 * h  # the grid's spacing
+    lo, hi = sp.x[0], sp.x[-1]
+    n = 2 * v.n_out * n_sub + 1
+    out = np.empty(n)
+    for i in range(0, n, GRID_CHUNK):  # in chunks: a grid of MAX_GRID intervals holds 8e6 values
+        tg = -0.5 * v.dt + w * np.arange(i, min(n, i + GRID_CHUNK))  # time from the first sample
 
-    def mean(a: float) -> ndarray:  # the force's mean over [t - a, t + a] at every grid point
-        lo, hi = sp.x[0], sp.x[-1]
-        return np.asarray((sp(np.clip(tg + a, lo, hi)) - sp(np.clip(tg - a, lo, hi))) / (2 * a))
+        def mean(a: float, tg: ndarray = tg) -> ndarray:  # the force's mean over [t - a, t + a]
+            return np.asarray((sp(np.clip(tg + a, lo, hi)) - sp(np.clip(tg - a, lo, hi))) / (2 * a))
 
-    out = (4.0 * mean(0.5 * w) - mean(w)) / 3.0
+        out[i : i + tg.size] = (4.0 * mean(0.5 * w) - mean(w)) / 3.0
     return out if gain == 1.0 else out * gain
 
 
