@@ -316,9 +316,8 @@ class TransientDiagnosis:
             single(e)
         if not singles and ruled and screened:
             # every kept single ruled out on its window: the screen's one linear step from the nominal
-            # did not see the cause (seed 6363 tr044, base mass + base stiffness moving the base's
-            # resonance on a sweep past its bandwidth: both predicted a drop of 1.3 in a chi-square of
-            # 1e8 and were never fitted); the screened-out ones are fitted on the windows too (cheap)
+            # may not see a cause far from it (a resonance moved past its bandwidth); the screened-out
+            # ones are fitted on the windows too (linear: cheap)
             for e in screened:
                 single(e, "screened out, fitted on the windows: every kept single was ruled out there")
         singles.sort(key=lambda f: f.chi2["test"])
@@ -349,18 +348,17 @@ class TransientDiagnosis:
         best = singles[0] if singles else None
         if best is None and ruled:  # the hint: the single closest on the windows, fitted on everything
             w = min(ruled.values(), key=lambda w: w.chi2["test"])
-            g = self.late.get(w.effects[0]) or self._fit(w.effects, tr, te, **self._warm(w))
-            if w.effects[0] not in self.late:
-                self.late[w.effects[0]] = g
-                if g.ok:
-                    row = self._row(g, ex0)
+            hint = self.late.get(w.effects[0])
+            if hint is None:  # not fitted on everything by the pair search
+                hint = self.late[w.effects[0]] = self._fit(w.effects, tr, te, **self._warm(w))
+                if hint.ok:
+                    row = self._row(hint, ex0)
                     row["restart"] = "fitted on everything as the hint (the closest single on the windows)"
                     res["candidates"].append(row)
-            if g.ok:
-                best = g
-        # a single ruled out on its window (a local minimum there: seed 7474 tr050, friction window z
-        # 1519) whose fit on everything explains the data is named as a single: a second effect is
-        # never needed beside it
+            if hint.ok:
+                best = hint
+        # a single ruled out on its window (its window fit can stop in a local minimum) whose fit on
+        # everything explains the data is named as a single: a second effect is never needed beside it
         late = sorted((f for f in self.late.values() if f.ok and z_test(f) <= EXPLAINS_Z), key=lambda f: f.chi2["test"])
         if late:
             return self._result(res, nom, late[0], late[1:], "single")
@@ -462,11 +460,10 @@ class TransientDiagnosis:
         for first0 in firsts:
             e1 = first0.effects[0]
             first = full.get(e1)  # None: ruled out alone; fitted on everything once a pair with it passes its window
-            # a first ruled out on its window leaves a gap the linearised screen reads poorly (seed 6363
-            # tr028, base_mass + tmd_stiffness: base_mass alone left window z 2.4e5, its screen ranked
-            # tmd_stiffness below two others, the true pair was never tried): every candidate is its
-            # second, each ruled out or kept by a window fit (cheap for a linear first; a nonlinear one's
-            # pairs cost up to 100 s each on the windows, seed 7474 tr019's friction: the screen's)
+            # a first ruled out on its window leaves a gap the second-effect screen, linearised around
+            # it, reads poorly: a linear first takes every candidate as its second, each ruled out or
+            # kept by its window fit (cheap); a nonlinear one (its pairs' window fits cost far more)
+            # keeps the screen's
             ruled_linear = first is None and e1 not in NONLINEAR
             seconds = self._every_second(e1) if ruled_linear else self._seconds(first or first0, order, tr)
             for second in seconds:

@@ -668,17 +668,14 @@ def transient_share(f: ndarray, band: ndarray, gain: ndarray, start: int = 0) ->
 
 
 def modal_eigenvalues(p: ndarray, inertance: float) -> ndarray:
-    """The eigenvalues of the linear part of the model p (friction and play left out) with the
-    inerter's inertance ``inertance`` between the masses (0: play, its chain free)."""
-    from ...physics.params import P_C, P_K, P_M, P_c, P_k, P_m
+    """The eigenvalues of the linear part of the model p (friction, cubic term and play left out)
+    with an ideal inerter of inertance ``inertance`` between the masses (0: none), read off the
+    kernels' right-hand side (:func:`linear_split`): the (x, xd, y, yd) block of its A."""
+    from ...physics.params import P_I, P_MODEL
 
-    M, K, C, m, k, c = (float(p[i]) for i in (P_M, P_K, P_C, P_m, P_k, P_c))
-    Mt = np.array([[M + inertance, -inertance], [-inertance, m + inertance]])
-    Kt = np.array([[K + k, -k], [-k, k]])
-    Ct = np.array([[C + c, -c], [-c, c]])
-    Mi = np.linalg.inv(Mt)
-    A = np.block([[np.zeros((2, 2)), np.eye(2)], [-Mi @ Kt, -Mi @ Ct]])
-    return np.asarray(np.linalg.eigvals(A))
+    q = np.array(p, float)
+    q[P_MODEL], q[P_I] = (1.0 if inertance > 0 else 0.0), inertance
+    return np.asarray(np.linalg.eigvals(linear_split(q)[0][:4, :4]))
 
 
 def rates(p: ndarray) -> tuple[float, float, float]:
@@ -897,7 +894,7 @@ def direct_force(v: TView) -> ndarray:
 
 
 #: grid points of the force evaluated at a time (:func:`grid_force`): its temporaries stay near 10 MB
-#: (whole, a grid of MAX_GRID intervals made about 1 GB of them, per record, records in parallel)
+#: (a grid of MAX_GRID intervals holds 8e6 values, 64 MB per temporary)
 GRID_CHUNK = 1 << 17
 
 
@@ -910,11 +907,10 @@ def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
 
     Each value is a **local mean**, not a point value: (4 M(w / 2) - M(w)) / 3 with M(a) the mean over
     t +- a and w the grid's spacing (Richardson: the point value to O(w^4) for a smooth force, a
-    response 1 + O((f w)^4) in its band, 0 at every multiple of 1 / w). Point values of a grid
-    coarser than the samples fold the load cell's white noise from up to the record's Nyquist onto
-    the structure's band: on a 1.3 kHz sweep (seed 6363 tr032, grid spacing 2.5 samples) the
-    simulation's response to the force noise was 3-4x its true rms (0.25-0.35 of a channel's noise
-    std against 0.07-0.10 on a fine grid), and the truth left chi2/n 1.07-1.13 in every channel."""
+    response 1 + O((f w)^4) in its band, 0 at every multiple of 1 / w): on a grid coarser than the
+    samples, point values would fold the load cell's white noise from up to the record's Nyquist onto
+    the structure's band and inflate the simulated response to it (docs/diagnose.md, "the force
+    between samples")."""
     from scipy.interpolate import CubicSpline
 
     def spline() -> CubicSpline:  # the same for every grid: made once per view and force
@@ -928,13 +924,13 @@ def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
     lo, hi = sp.x[0], sp.x[-1]
     n = 2 * v.n_out * n_sub + 1
     out = np.empty(n)
-    for i in range(0, n, GRID_CHUNK):  # in chunks: a grid of MAX_GRID intervals holds 8e6 values
+
+    def mean(tg: ndarray, a: float) -> ndarray:  # the force's mean over [t - a, t + a]
+        return np.asarray((sp(np.clip(tg + a, lo, hi)) - sp(np.clip(tg - a, lo, hi))) / (2 * a))
+
+    for i in range(0, n, GRID_CHUNK):
         tg = -0.5 * v.dt + w * np.arange(i, min(n, i + GRID_CHUNK))  # time from the first sample
-
-        def mean(a: float, tg: ndarray = tg) -> ndarray:  # the force's mean over [t - a, t + a]
-            return np.asarray((sp(np.clip(tg + a, lo, hi)) - sp(np.clip(tg - a, lo, hi))) / (2 * a))
-
-        out[i : i + tg.size] = (4.0 * mean(0.5 * w) - mean(w)) / 3.0
+        out[i : i + tg.size] = (4.0 * mean(tg, 0.5 * w) - mean(tg, w)) / 3.0
     return out if gain == 1.0 else out * gain
 
 
