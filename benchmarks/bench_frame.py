@@ -20,9 +20,9 @@ from dataclasses import replace
 import numpy as np
 
 from pyfmu_wrapper.cosim.settings import CosimSettings
+from pyfmu_wrapper.models.frame_model import FrameParams
+from pyfmu_wrapper.models.frame_model import cosim as frame_system
 from pyfmu_wrapper.physics import frame as ref
-from pyfmu_wrapper.physics.frame_model import FrameParams
-from pyfmu_wrapper.physics.frame_model import cosim as frame_system
 from pyfmu_wrapper.physics.params import TMDParams
 from pyfmu_wrapper.solvers.sweep import sweep as mono_sweep
 

@@ -28,7 +28,11 @@ KNOWN_CYCLES: list[frozenset[str]] = []
 
 # Imports that break a rule of docs/architecture.md today and are being removed in parallel, as
 # (importing module, imported module). Emptied by the lead like KNOWN_CYCLES; a stale entry fails.
-KNOWN_VIOLATIONS: list[tuple[str, str]] = []
+KNOWN_VIOLATIONS: list[tuple[str, str]] = [
+    ("fmi.catalog", "models"),
+    ("solvers.frequency_response", "models"),
+    ("solvers.monolithic", "models"),
+]
 
 
 # --- the import graph ----------------------------------------------------------------------------------
@@ -305,21 +309,19 @@ def test_imports_follow_the_rules_of_the_architecture_map():
         ("scenario.loader", "errors", True),  # the bottom of the bad-input policy
         ("scenario.loader", "cli.errors", False),  # nothing imports up into cli/
         ("cosim.steady", "scenario.engines", False),  # no arrow runs back up
-        # a model's FMU folder sits above physics/ core and the fmi/ runtime ...
-        ("physics.frame_model.fmus.slave", "fmi.slave", True),
-        ("physics.frame_model.fmus.step", "physics.frame_model.equations", True),
-        ("physics.frame_model.fmus.native", "physics.base_tmd.fmus.native", True),
-        # ... and nothing below reaches it but by the registry's dotted names
-        ("physics.units", "physics.frame_model.fmus.shear_frame", False),
-        ("physics.frame_model", "physics.frame_model.fmus.slave", False),
-        ("fmi.catalog", "physics.base_tmd.fmus.variables", False),
-        ("fmubuild.native_build", "physics.frame_model.fmus.native", False),
-        ("physics.base_tmd.fmus.slaves", "cosim.system", False),
-        # a model's co-simulation wiring sits above cosim/, which reaches it only by the unit's dotted name
-        ("physics.frame_model.cosim", "cosim.periods", True),
-        ("physics.frame_model.cosim", "physics.frame_model", True),
-        ("cosim.steady", "physics.frame_model.cosim", False),
-        ("physics.frame_model", "physics.frame_model.cosim", False),
+        # a model's folder sits above the engines it plugs into ...
+        ("models.frame_model.fmus.slave", "fmi.slave", True),
+        ("models.frame_model.fmus.step", "models.frame_model.equations", True),
+        ("models.frame_model.cosim", "cosim.periods", True),
+        ("models.frame_model", "solvers.monolithic", True),
+        ("models.base_tmd", "physics.tmd", True),
+        # ... and nothing below reaches it: the engines take a unit as an argument
+        ("solvers.monolithic", "models", False),
+        ("fmi.catalog", "models.base_tmd.fmus.variables", False),
+        ("fmubuild.native_build", "models.frame_model.fmus.native", False),
+        ("cosim.steady", "models.frame_model.cosim", False),
+        ("physics.unit", "models", False),
+        ("scenario.engines", "models", True),
     ],
 )
 def test_the_rules_bite(src, dst, ok):

@@ -7,7 +7,7 @@ import zipfile
 import fmpy
 
 from pyfmu_wrapper.fmubuild import build
-from pyfmu_wrapper.physics.base_tmd.fmus.variables import BASE_OSCILLATOR, TMD_INERTER
+from pyfmu_wrapper.models.base_tmd.fmus.variables import BASE_OSCILLATOR, TMD_INERTER
 
 
 def test_ensure_fmus_builds_missing_and_stale_only(tmp_path, monkeypatch):

@@ -16,8 +16,8 @@ from pyfmu_wrapper.fmi import catalog
 from pyfmu_wrapper.fmi.fmumodel import FmuModel, NativeFmu, declared, resolve
 from pyfmu_wrapper.fmi.varspec import REAL, FmuSpec, Variable, parameter
 from pyfmu_wrapper.fmubuild import native_obj
+from pyfmu_wrapper.models import MODELS
 from pyfmu_wrapper.physics.unit import Registry
-from pyfmu_wrapper.physics.units import MODELS
 
 PKG = Path(catalog.__file__).resolve().parents[1]
 
@@ -48,7 +48,7 @@ def test_each_model_fmu_lives_in_its_units_folder(name):
     owners = [u for u in MODELS.units() if any(declared(m) is fmu for m in u.fmus)]
     assert owners, f"{name}: no unit names it"
     folder = ".".join(next(m for m in owners[0].fmus if declared(m) is fmu).split(".")[:-1])
-    assert folder.startswith("pyfmu_wrapper.physics.") and folder.endswith("fmus")
+    assert folder.startswith("pyfmu_wrapper.models.") and folder.endswith("fmus")
     slave_module, _, cls = fmu.spec.slave.partition(":")
     assert slave_module.startswith(folder + ".")
     assert resolve(fmu.spec.slave).spec is fmu.spec

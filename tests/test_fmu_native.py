@@ -85,7 +85,7 @@ def test_ordinary_steps_do_not_enter_the_python_slave(tmp_path, monkeypatch):
     s0.terminate()
     s0.freeInstance()
     mods = [
-        m for n, m in sys.modules.items() if n.startswith("_pyfmu_") and n.endswith(".physics.base_tmd.fmus.slaves")
+        m for n, m in sys.modules.items() if n.startswith("_pyfmu_") and n.endswith(".models.base_tmd.fmus.slaves")
     ]
     assert mods
     calls = []
@@ -113,8 +113,8 @@ def test_gear_chain_rate_gets_atol_times_the_mesh_frequency():
     """The FMU's atol holds every state, except the play chain's rate dd: atol x sqrt(ki/I), the
     mesh frequency (the monolithic solver's scaling). Held to atol like the deflection d, the
     rattle cost the TMD FMU 2.7x the integrator steps per period."""
+    from pyfmu_wrapper.models.base_tmd.fmus.integrators import fill_atol
     from pyfmu_wrapper.physics import kernels as kn
-    from pyfmu_wrapper.physics.base_tmd.fmus.integrators import fill_atol
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams, pack
 
     a = 1e-10

@@ -134,7 +134,7 @@ def _check_run(root, fmus, venv, py):
     assert out["exe"].startswith(str(venv))
     # the model code came from the FMU's resources/, never from the checkout
     assert out["files"] and all("/resources/_pyfmu_" in f and not f.startswith(str(REPO)) for f in out["files"])
-    assert any(f.endswith("/physics/base_tmd/fmus/slaves.py") for f in out["files"])
+    assert any(f.endswith("/models/base_tmd/fmus/slaves.py") for f in out["files"])
     # and computes the right numbers: exact forced response, exact free decay
     x, xd = damped_forced_response(np.array(out["t"]), **BASE)
     assert np.max(np.abs(np.array(out["x"]) - x)) < 1e-7 * 0.01

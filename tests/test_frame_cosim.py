@@ -1,5 +1,5 @@
 """The frame's co-simulation: the ShearFrame FMU (Python-hosted) and the TMDInerter FMU coupled by
-forces at two storeys (physics/frame_model/cosim.py), held against the exact response of the whole structure
+forces at two storeys (models/frame_model/cosim.py), held against the exact response of the whole structure
 from its matrices (physics/frame.py) and against the monolithic engine."""
 
 from __future__ import annotations
@@ -14,9 +14,9 @@ import pytest
 from pyfmu_wrapper.cli.run_scenario import main
 from pyfmu_wrapper.cosim.settings import CosimSettings
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
+from pyfmu_wrapper.models.frame_model import FrameParams
+from pyfmu_wrapper.models.frame_model.cosim import FRAME_FMUS, connections, sweep
 from pyfmu_wrapper.physics import frame as ref
-from pyfmu_wrapper.physics.frame_model import FrameParams
-from pyfmu_wrapper.physics.frame_model.cosim import FRAME_FMUS, connections, sweep
 from pyfmu_wrapper.physics.params import TMDParams
 from pyfmu_wrapper.scenario.tmdspec import detached_tmd
 
@@ -116,7 +116,7 @@ def test_a_failing_point_is_reported_and_the_sweep_goes_on(monkeypatch):
     """An FMU failure at one frequency (a MasterError) makes that point not converged, with the
     failure as its reason; the next frequency runs on new FMUs (before: the whole run ended)."""
     from pyfmu_wrapper.master.instance import MasterError
-    from pyfmu_wrapper.physics.frame_model import cosim as frame_system
+    from pyfmu_wrapper.models.frame_model import cosim as frame_system
 
     real = frame_system.steady_state
     calls = []
@@ -142,9 +142,9 @@ def test_a_failing_point_is_reported_and_the_sweep_goes_on(monkeypatch):
 
 def test_frame_parameters_name_their_fmu_variables():
     """The frame's declared parameters (docs/parameters.md) name the ShearFrame FMU's variables and
-    value references (physics/frame_model/fmus/variables.py)."""
+    value references (models/frame_model/fmus/variables.py)."""
+    from pyfmu_wrapper.models.frame_model.fmus.variables import SHEAR_FRAME
     from pyfmu_wrapper.physics import registry
-    from pyfmu_wrapper.physics.frame_model.fmus.variables import SHEAR_FRAME
 
     for p in registry.of("frame"):
         first = p.fmu_name.split("..")[0]
@@ -179,7 +179,7 @@ def test_the_cosimulation_system_is_the_one_the_unit_names(monkeypatch):
     from dataclasses import replace
 
     from pyfmu_wrapper.cosim import steady
-    from pyfmu_wrapper.physics.units import MODELS
+    from pyfmu_wrapper.models import MODELS
     from pyfmu_wrapper.scenario import engines
 
     with_fmus = [u for u in MODELS.units() if u.cosim]

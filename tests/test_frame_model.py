@@ -1,4 +1,4 @@
-"""The shear-frame model unit (physics/frame_model/) held against independent results: the paper's
+"""The shear-frame model unit (models/frame_model/) held against independent results: the paper's
 model (a 1-storey frame is the paper's base oscillator to 1e-12: equations, Jacobian, exact response,
 steady states) and the structure's matrices of physics/frame.py, (K - w^2 (M + B) + i w C) X = F,
 for TMDs on any storey with the inerter to the same storey, another storey or the ground."""
@@ -10,8 +10,8 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
+from pyfmu_wrapper.models.frame_model import UNIT, FrameParams, frame_pack, storey_index
 from pyfmu_wrapper.physics import frame as ref
-from pyfmu_wrapper.physics.frame_model import UNIT, FrameParams, frame_pack, storey_index
 from pyfmu_wrapper.physics.jacobians import coupled_jacobian
 from pyfmu_wrapper.physics.kernels import rhs
 from pyfmu_wrapper.physics.params import BaseParams, ParameterError, TMDParams, pack, paper_case

@@ -12,8 +12,8 @@ import pandas as pd
 import pytest
 
 from pyfmu_wrapper.cli.run_scenario import main
+from pyfmu_wrapper.models.frame_model import FrameParams
 from pyfmu_wrapper.physics import frame as ref
-from pyfmu_wrapper.physics.frame_model import FrameParams
 from pyfmu_wrapper.scenario.engines import RunSettings
 from pyfmu_wrapper.scenario.loader import load_scenario, parse_scenario
 from pyfmu_wrapper.scenario.runner import curve_structure
@@ -137,7 +137,7 @@ def test_a_model_without_fmus_is_refused_by_the_cosim_engine_before_any_work(tmp
     co-simulation in tests/test_frame_cosim.py)."""
     from dataclasses import replace
 
-    from pyfmu_wrapper.physics.units import MODELS
+    from pyfmu_wrapper.models import MODELS
 
     monkeypatch.setitem(MODELS._units, "frame", replace(MODELS.get("frame"), cosim=""))
     path = tmp_path / "f.yaml"

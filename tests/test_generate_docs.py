@@ -8,7 +8,7 @@ import re
 
 from pyfmu_wrapper.fmi.catalog import SPECS
 from pyfmu_wrapper.generate import docs as gen
-from pyfmu_wrapper.physics.units import MODELS
+from pyfmu_wrapper.models import MODELS
 
 
 def _section(text: str, heading: str) -> str:

@@ -1,4 +1,4 @@
-"""The plain linear TMD model (pyfmu_wrapper/physics/linear_tmd/, added by following
+"""The plain linear TMD model (pyfmu_wrapper/models/linear_tmd/, added by following
 docs/adding-a-model.md) against independent references: Den Hartog's closed form for an undamped main
 mass (the two fixed points of equal height sqrt(1 + 2/mu) at the tuning f = 1/(1+mu)), the 2-DOF
 matrices written here, the steady state integrated by shooting, and its scenario file run by
@@ -15,9 +15,9 @@ import pandas as pd
 import pytest
 
 from pyfmu_wrapper.cli.run_scenario import main
-from pyfmu_wrapper.physics.linear_tmd import UNIT, LinearTMDParams
+from pyfmu_wrapper.models import MODELS
+from pyfmu_wrapper.models.linear_tmd import UNIT, LinearTMDParams
 from pyfmu_wrapper.physics.params import ParameterError, TMDParams
-from pyfmu_wrapper.physics.units import MODELS
 from pyfmu_wrapper.scenario.loader import load_scenario, parse_scenario
 from pyfmu_wrapper.scenario.runner import curve_structure
 from pyfmu_wrapper.scenario.schema import ScenarioError

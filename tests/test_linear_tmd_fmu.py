@@ -1,4 +1,4 @@
-"""The linear TMD's FMU (physics/linear_tmd/fmus/), added by following docs/adding-a-model.md: it
+"""The linear TMD's FMU (models/linear_tmd/fmus/), added by following docs/adding-a-model.md: it
 validates (fmpy, FMI 2.0 and 3.0), and its co-simulated trajectory is the monolithic solver's periodic
 steady state; its input force moves the main mass as the model's equations say."""
 
@@ -13,10 +13,10 @@ from fmpy.validation import validate_fmu
 
 from pyfmu_wrapper.fmi.catalog import SPECS
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
-from pyfmu_wrapper.physics.linear_tmd import LinearTMDParams
-from pyfmu_wrapper.physics.linear_tmd.params import PARAMETERS
+from pyfmu_wrapper.models import MODELS
+from pyfmu_wrapper.models.linear_tmd import LinearTMDParams
+from pyfmu_wrapper.models.linear_tmd.params import PARAMETERS
 from pyfmu_wrapper.physics.params import TMDParams
-from pyfmu_wrapper.physics.units import MODELS
 from pyfmu_wrapper.solvers.monolithic import SolverSettings, steady_state
 
 S = LinearTMDParams.den_hartog(0.05, damping=2.0)

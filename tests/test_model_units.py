@@ -1,4 +1,4 @@
-"""Every registered model unit (physics/units.py) tested alike, on its example structure: the
+"""Every registered model unit (models/__init__.py) tested alike, on its example structure: the
 Jacobian against the complex-step derivative of its own right-hand side, the linear system read off
 the right-hand side against the right-hand side itself, the exact steady state against the
 integrated one, the start state's length checked, its declared parameters documented."""
@@ -8,9 +8,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from pyfmu_wrapper.models import MODELS
 from pyfmu_wrapper.physics.params import paper_case
 from pyfmu_wrapper.physics.unit import ModelError
-from pyfmu_wrapper.physics.units import MODELS
 from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
 from pyfmu_wrapper.solvers.monolithic import steady_state
 
@@ -108,7 +108,7 @@ def test_a_model_registered_later_needs_no_edit_of_the_scenario_reader(monkeypat
     located refusals and its curves' overrides."""
     from dataclasses import dataclass, replace
 
-    from pyfmu_wrapper.physics.linear_tmd import UNIT, LinearTMDParams
+    from pyfmu_wrapper.models.linear_tmd import UNIT, LinearTMDParams
     from pyfmu_wrapper.scenario.loader import parse_scenario
     from pyfmu_wrapper.scenario.schema import ScenarioError
 

@@ -42,8 +42,8 @@ import pytest
 rumoca = pytest.importorskip("rumoca")
 
 from pyfmu_wrapper.generate import modelica as gen  # noqa: E402
+from pyfmu_wrapper.models.base_tmd import UNIT as PAPER_UNIT  # noqa: E402
 from pyfmu_wrapper.physics import kernels  # noqa: E402
-from pyfmu_wrapper.physics.base_tmd import UNIT as PAPER_UNIT  # noqa: E402
 from pyfmu_wrapper.physics.params import BaseParams, InerterModel, TMDParams, pack  # noqa: E402
 from pyfmu_wrapper.solvers.monolithic import simulate  # noqa: E402
 
@@ -55,7 +55,7 @@ DT = 0.002
 RTOL = 1e-12
 STATES = ["x", "xd", "y", "yd", "d", "dd"]
 assert PAPER_UNIT.modelica is not None
-#: the paper's cases (the paper's model unit's, :mod:`pyfmu_wrapper.physics.base_tmd.modelica`)
+#: the paper's cases (the paper's model unit's, :mod:`pyfmu_wrapper.models.base_tmd.modelica`)
 CASES = {c.name: c for c in PAPER_UNIT.modelica.cases()}
 PLAY = [n for n, c in CASES.items() if c.tmd.inerter == InerterModel.PLAY]
 SMOOTH = [n for n in CASES if n not in PLAY]

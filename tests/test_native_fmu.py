@@ -201,14 +201,14 @@ def test_fmi3_native_equals_the_python_hosted_fmi3(tmp_path):
 
 
 def test_native_configure_checks_are_tmdparams_checks():
-    """The compiled configure (physics/base_tmd/fmus/native_model.py, calling physics.params.tmd_check) refuses exactly
+    """The compiled configure (models/base_tmd/fmus/native_model.py, calling physics.params.tmd_check) refuses exactly
     what TMDParams refuses, with the same check, on a grid of mass, inertance and inerter model
     including the edges."""
     import ctypes
 
     from pyfmu_wrapper.fmi.contract import NATIVE_OK
-    from pyfmu_wrapper.physics.base_tmd.fmus.native_model import tmd_functions
-    from pyfmu_wrapper.physics.base_tmd.fmus.variables import TMD_INERTER
+    from pyfmu_wrapper.models.base_tmd.fmus.native_model import tmd_functions
+    from pyfmu_wrapper.models.base_tmd.fmus.variables import TMD_INERTER
     from pyfmu_wrapper.physics.params import TMD_CHECKS, ParameterError, TMDParams
 
     nvr = max(v.vr for v in TMD_INERTER.variables) + 1

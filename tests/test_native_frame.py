@@ -1,10 +1,10 @@
-"""The ShearFrame FMU's step (pyfmu_wrapper/physics/frame_model/fmus/step.py): exact, and the same bits on every path.
+"""The ShearFrame FMU's step (pyfmu_wrapper/models/frame_model/fmus/step.py): exact, and the same bits on every path.
 
 - The exact step holds the frame on its exact steady orbit: a 3-storey frame started on the orbit of
   its structure's matrices (physics/frame.py: (K - w^2 M + i w C) X = F), with constant TMD forces
   f_link and f_inerter (whose static deflection, K x = the forces on storeys s and j, superposes),
   stays on it to 1e-10 of the amplitude over two periods of 40 steps.
-- The Python-hosted FMU's compiled step (the stub calls the cfunc of pyfmu_wrapper/physics/frame_model/fmus/native.py) and
+- The Python-hosted FMU's compiled step (the stub calls the cfunc of pyfmu_wrapper/models/frame_model/fmus/native.py) and
   its Python path (PYFMU_NATIVE=0) give the same outputs bit for bit, input derivatives included; so
   does the native ShearFrame FMU (no Python: configure, outputs and step compiled into its binary,
   fmubuild/native_build.py), FMI 2.0 and 3.0 alike, and both validate.

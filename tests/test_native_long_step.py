@@ -2,11 +2,11 @@
 test that needs no external tool: the same calls through fmpy.
 
 ``fmusim --output-interval 2`` co-simulates the TMD with communication steps of 2 s. The Python-hosted FMU
-takes such a step in pieces of at most 1 s (physics/base_tmd/fmus/slaves.py: advance); the native TMD FMU refused it with
+takes such a step in pieces of at most 1 s (models/base_tmd/fmus/slaves.py: advance); the native TMD FMU refused it with
 an error ("the native FMU takes steps of at most 1 s"), so fmusim stopped with exit status 3 on the
 native FMU and ran to the end on the Python-hosted one. A native FMU must compute what the Python-hosted
 FMU computes: the same outputs, bit for bit, after each long step. It does now: the compiled step takes
-long steps in the Python slave's pieces (physics/base_tmd/fmus/native.py tmd_step).
+long steps in the Python slave's pieces (models/base_tmd/fmus/native.py tmd_step).
 """
 
 from __future__ import annotations

@@ -24,7 +24,7 @@ import pytest
 from pyfmu_wrapper.fmi.catalog import SPECS
 from pyfmu_wrapper.fmi.contract import NATIVE_OK
 from pyfmu_wrapper.fmubuild.native_obj import RUNTIME_C, STEP_SYMBOL, mingw_gcc, write_objects
-from pyfmu_wrapper.physics.base_tmd.fmus.slaves import BaseOscillatorSlave, TMDInerterSlave
+from pyfmu_wrapper.models.base_tmd.fmus.slaves import BaseOscillatorSlave, TMDInerterSlave
 
 DRIVER = r"""
 #include <stdint.h>

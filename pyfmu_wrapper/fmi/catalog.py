@@ -1,6 +1,6 @@
 """The FMUs of the project, gathered from the registered model units (one place, no list of models).
 
-Every unit of :data:`pyfmu_wrapper.physics.units.MODELS` names the modules declaring its FMUs
+Every unit of :data:`pyfmu_wrapper.models.MODELS` names the modules declaring its FMUs
 (:attr:`~pyfmu_wrapper.physics.unit.ModelUnit.fmus`); :data:`FMUS` holds their
 :class:`~.fmumodel.FmuModel` declarations in registration order, and the test/support FMU
 :data:`~.trivial.TRIVIAL` (the stub's overhead benchmark) last, which belongs to no model.
@@ -10,8 +10,8 @@ the docs all derive from these declarations.
 
 from __future__ import annotations
 
+from ..models import MODELS
 from ..physics.unit import Registry
-from ..physics.units import MODELS
 from . import trivial
 from .fmumodel import FmuModel, declared
 from .varspec import FmuSpec

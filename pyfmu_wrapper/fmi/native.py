@@ -1,13 +1,13 @@
 """What every native-speed doStep shares: its C signature, and its helpers (a failed step recorded, outputs written).
 
 Each FMU's step is a C-callable function (numba ``cfunc``) in its model's folder, named by its declaration
-(:class:`~.fmumodel.NativeFmu`; the paper's pair: :mod:`pyfmu_wrapper.physics.base_tmd.fmus.native`, the frame:
-:mod:`pyfmu_wrapper.physics.frame_model.fmus.native`).
+(:class:`~.fmumodel.NativeFmu`; the paper's pair: :mod:`pyfmu_wrapper.models.base_tmd.fmus.native`, the frame:
+:mod:`pyfmu_wrapper.models.frame_model.fmus.native`).
 
 The C stub calls it directly for an ordinary step (h <= :data:`~.contract.NATIVE_MAX_STEP`), so a step enters
 neither the interpreter nor the Python slave: it reads the inputs and their derivatives from the
 stub's value buffers, advances the subsystem over [t, t + h] with the same compiled step the Python
-path calls (the paper's pair: :mod:`pyfmu_wrapper.physics.base_tmd.fmus.integrators`: the TMD's RODAS4 integrator built by
+path calls (the paper's pair: :mod:`pyfmu_wrapper.models.base_tmd.fmus.integrators`: the TMD's RODAS4 integrator built by
 :func:`~pyfmu_wrapper.solvers.rodas.make_integrator`, the base's exact step), writes the outputs at t + h
 with the same compiled outputs function (its ``outputs`` function), so the numbers are bit-identical, and clears
 the input derivatives. Python is entered only to instantiate, to set up, for long steps, and on errors.
@@ -27,7 +27,7 @@ native FMU's stub turns into its message; the Python-hosted FMU retakes the step
 fails the same way and names it (:func:`~pyfmu_wrapper.solvers.rodas.failure_message`).
 
 A step longer than :data:`~.slave.CHUNK` is taken in pieces exactly as the Python slave takes it
-(:meth:`~pyfmu_wrapper.physics.base_tmd.fmus.slaves.TMDInerterSlave.advance`), so a native FMU takes steps of any length.
+(:meth:`~pyfmu_wrapper.models.base_tmd.fmus.slaves.TMDInerterSlave.advance`), so a native FMU takes steps of any length.
 
 An exception inside the compiled code (e.g. a ZeroDivisionError) cannot leave a ``cfunc``: numba
 prints it to stderr and the function returns 0, the null value of its return type. That is why

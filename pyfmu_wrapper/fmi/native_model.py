@@ -3,8 +3,8 @@
 A native FMU (:mod:`pyfmu_wrapper.fmubuild.native_build`) runs with no Python: its stub calls compiled
 functions where the Python-hosted FMU calls its slave. Each model's functions are numba cfuncs in its
 folder, named by its declaration (:class:`~.fmumodel.NativeFmu`; the paper's pair:
-:mod:`pyfmu_wrapper.physics.base_tmd.fmus.native_model`, the frame:
-:mod:`pyfmu_wrapper.physics.frame_model.fmus.native`). Each computes what the slave computes, with the
+:mod:`pyfmu_wrapper.models.base_tmd.fmus.native_model`, the frame:
+:mod:`pyfmu_wrapper.models.frame_model.fmus.native`). Each computes what the slave computes, with the
 same compiled code, so the numbers are bit-identical (tests/test_native_fmu.py):
 
 - ``configure(reals, ints, p, z, u) -> int32``: the slave's ``configure``: the packed parameters (a table

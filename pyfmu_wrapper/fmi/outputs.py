@@ -1,7 +1,7 @@
 """The order in which an FMU's compiled outputs function writes its outputs, checked against its variable table.
 
 Each FMU has one compiled outputs function (in its model's folder, e.g.
-:mod:`pyfmu_wrapper.physics.base_tmd.fmus.outputs`), called by both step paths: the native step after a
+:mod:`pyfmu_wrapper.models.base_tmd.fmus.outputs`), called by both step paths: the native step after a
 compiled doStep and the Python slave (after a long or retaken doStep, in initialisation, and with complex
 inputs for the directional derivatives by complex step). It writes ``out`` in the order of the FMU's output
 variables; :func:`output_layout` checks that order and gives the value references the outputs go to.

@@ -45,8 +45,8 @@ def parameters_text() -> str:
 
 def _unit_tables() -> list[str]:
     """The tables of the subsystems the model units declare beyond base and tmd (the frame: its
-    structure, with the TMD's attachment), from :data:`pyfmu_wrapper.physics.units.MODELS`."""
-    from ..physics.units import MODELS
+    structure, with the TMD's attachment), from :data:`pyfmu_wrapper.models.MODELS`."""
+    from ..models import MODELS
 
     out = []
     for unit in MODELS.units():

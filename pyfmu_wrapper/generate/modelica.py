@@ -4,7 +4,7 @@ The Modelica package restates the physics of :mod:`pyfmu_wrapper.physics.kernels
 Modelica (no Modelica Standard Library). Its shared classes (Icons, Units, Interfaces, Components)
 are written by hand in the package; every registered model unit with a Modelica source
 (:attr:`~pyfmu_wrapper.physics.unit.ModelUnit.modelica`) brings its subpackage and its cases from its
-own folder (the paper's ``Systems.mo`` and cases from ``physics/base_tmd``, the frame's ``Frames.mo``,
+own folder (the paper's ``Systems.mo`` and cases from ``models/base_tmd``, the frame's ``Frames.mo``,
 ...). Parameter values have one source, the Python parameter definitions. This module writes
 
 * ``Defaults.mo``: the registry defaults (the dataclass defaults), the default values of every component;
@@ -24,11 +24,11 @@ import re
 import sys
 from pathlib import Path
 
+from ..models import MODELS
 from ..physics import registry
 from ..physics.modelica_source import ModelicaCase
 from ..physics.params import InerterModel
 from ..physics.unit import ModelUnit
-from ..physics.units import MODELS
 
 PACKAGE = "TMDInerter"
 #: default location of the package, relative to the repository root

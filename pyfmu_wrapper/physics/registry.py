@@ -8,7 +8,7 @@ applies to. Everything else is derived from this table:
 * the parameter classes :class:`~pyfmu_wrapper.physics.params.BaseParams` and
   :class:`~pyfmu_wrapper.physics.params.TMDParams` (fields, defaults, validation);
 * the packed float array of the compiled kernels (:data:`PACK_INDEX`, the ``P_*`` indices);
-* the parameter variables of the FMUs (the FMUs' variable tables, :mod:`pyfmu_wrapper.physics.base_tmd.fmus.variables`) and the values a
+* the parameter variables of the FMUs (the FMUs' variable tables, :mod:`pyfmu_wrapper.models.base_tmd.fmus.variables`) and the values a
   master sets on them (:func:`fmu_start_values`);
 * the parameters a scenario map may sweep (``scenario.schema.MAP_PARAMETERS``);
 * the Modelica defaults and parameter declarations (:mod:`pyfmu_wrapper.generate.modelica`);

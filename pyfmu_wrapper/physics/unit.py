@@ -6,7 +6,7 @@ the parameter class of its primary structure (the unit is found by the structure
 declared parameters (:class:`~pyfmu_wrapper.physics.registry.Parameter` rows: names, units, ranges,
 docs), the packing of its parameters for the compiled functions, its state layout (length, names,
 the states the shooting iterates), its absolute tolerances and the inerter force at a state (the
-start of a windowed solve). The registry (:data:`pyfmu_wrapper.physics.units.MODELS`) holds the
+start of a windowed solve). The registry (:data:`pyfmu_wrapper.models.MODELS`) holds the
 units, one registration line each; the monolithic solver and ``run-scenario`` take the unit of a
 structure from there and know no model by name.
 

@@ -26,8 +26,8 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
+from ..models import MODELS
 from ..physics.params import TMDParams
-from ..physics.units import MODELS
 from ..solvers.frequency_response import exact_amplitude, exact_response
 from ..solvers.monolithic import periodic_time_series
 from ..solvers.sweep import sweep
@@ -238,7 +238,7 @@ def _cosim_settings(settings: RunSettings) -> Any:
 def cosim_module(base: Any) -> Any:
     """The co-simulation module of a structure's model, the one its unit names
     (:attr:`~pyfmu_wrapper.physics.unit.ModelUnit.cosim`, e.g. :mod:`pyfmu_wrapper.cosim.steady` for the
-    paper's pair, :mod:`pyfmu_wrapper.physics.frame_model.cosim` for a frame); no model is named here.
+    paper's pair, :mod:`pyfmu_wrapper.models.frame_model.cosim` for a frame); no model is named here.
     It has ``sweep`` and may have ``periodic_time_series`` (phase portraits) and ``refusal`` (the
     frequencies its time scales cannot step, for an up-front refusal). None: the model has none."""
     name = MODELS.of(base).cosim

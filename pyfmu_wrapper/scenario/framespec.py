@@ -1,14 +1,14 @@
 """The ``frame:`` block of a scenario (a multi-storey shear frame as the primary structure, in place
 of ``base:``) and the TMD's attachment keys (``storey``, ``inerter_to`` in a ``tmd:`` block), read into
-:class:`~pyfmu_wrapper.physics.frame_model.FrameParams` with located errors (file, line, key path)."""
+:class:`~pyfmu_wrapper.models.frame_model.FrameParams` with located errors (file, line, key path)."""
 
 from __future__ import annotations
 
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
-from ..physics.frame_model import FrameParams
-from ..physics.frame_model.params import MAX_STOREYS
+from ..models.frame_model import FrameParams
+from ..models.frame_model.params import MAX_STOREYS
 from ..physics.params import ParameterError
 from .reader import Reader, key_path, line_of
 from .tmdspec import ATTACH_KEYS, TMDSpec

@@ -14,9 +14,9 @@ import importlib
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
+from ..models import MODELS
 from ..physics.params import ParameterError
 from ..physics.unit import ModelUnit
-from ..physics.units import MODELS
 from .reader import Reader, key_path, line_of
 
 if TYPE_CHECKING:

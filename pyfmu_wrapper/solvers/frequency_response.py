@@ -20,13 +20,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from ..models import MODELS
 from ..physics.params import InerterModel, ParameterError, TMDParams
-from ..physics.units import MODELS
 
 
 def linear_system(base: Any, tmd: TMDParams, linearise: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """(A, b): dz/dt = A z + b f for the applied force f [N] (module doc for linearise); base: the
-    primary structure's parameters (its model unit is read off :data:`~pyfmu_wrapper.physics.units.MODELS`)."""
+    primary structure's parameters (its model unit is read off :data:`~pyfmu_wrapper.models.MODELS`)."""
     unit = MODELS.of(base)
     gap = tmd.play_gap if tmd.inerter == InerterModel.PLAY else 0.0
     if linearise:

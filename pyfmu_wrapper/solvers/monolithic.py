@@ -45,9 +45,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..models import MODELS
 from ..physics.params import InerterModel, TMDParams
 from ..physics.unit import ModelUnit
-from ..physics.units import MODELS
 from . import settings_table as _table
 from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, make_integrator
 from .settings_table import MONO
@@ -205,7 +205,7 @@ def steady_state(
     """Integrate from z0 (default: :func:`initial_guess`) until the steady state (module doc).
 
     base: the primary structure's parameters (BaseParams, FrameParams, ...: the model is the unit
-    registered for its class, :data:`pyfmu_wrapper.physics.units.MODELS`).
+    registered for its class, :data:`pyfmu_wrapper.models.MODELS`).
     hint: a dict carried along a sweep (shooting keeps its Jacobian there for the next point).
     """
     if not (omega > 0 and math.isfinite(omega)):

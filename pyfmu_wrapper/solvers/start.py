@@ -14,13 +14,13 @@ from typing import Any
 
 import numpy as np
 
-from ..physics.base_tmd import chain_atol
 from ..physics.params import BaseParams, TMDParams
+from ..physics.tmd import chain_atol
 
 
 def play_atol(base: BaseParams, tmd: TMDParams) -> float:
     """Absolute tolerance [m] on the gear-chain deflection d of the play model, shared by both
-    engines (the monolithic integrator and the TMD FMU): :func:`~pyfmu_wrapper.physics.base_tmd.chain_atol`."""
+    engines (the monolithic integrator and the TMD FMU): :func:`~pyfmu_wrapper.physics.tmd.chain_atol`."""
     return chain_atol(base.force_amplitude, tmd)
 
 

@@ -1,0 +1,56 @@
+"""The paper's model as a unit: the base oscillator with the TMD-inerter (Brzeski & Perlikowski 2017).
+
+State z = [x, xd, y, yd, d, dd] (:mod:`~pyfmu_wrapper.physics.kernels`), parameters
+:class:`~pyfmu_wrapper.physics.params.BaseParams` and :class:`~pyfmu_wrapper.physics.params.TMDParams`,
+equations :data:`~pyfmu_wrapper.physics.models.COUPLED`, Modelica source and the paper's cases in
+:mod:`.modelica`. Registered in :mod:`pyfmu_wrapper.models`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...physics import registry
+from ...physics.kernels import NSTATE, inerter_force, rhs
+from ...physics.models import COUPLED
+from ...physics.params import BaseParams, TMDParams, pack
+from ...physics.tmd import active_states, tmd_atol
+from ...physics.unit import ModelUnit
+from .modelica import MODELICA
+
+
+def _atol(base: BaseParams, tmd: TMDParams, omega: float, atol_scale: float) -> NDArray[np.float64]:
+    xs = abs(base.force_amplitude) / max(base.stiffness, 1e-300)
+    xs = xs if xs > 0 else 1e-3
+    wn = max(omega, base.natural_frequency, 1.0)
+    a = atol_scale * xs
+    atol = np.array([a, a * wn, a, a * wn, a, a * wn])
+    tmd_atol(atol, base.force_amplitude, tmd)
+    return atol
+
+
+def _inerter_force(z: NDArray[np.float64], p: NDArray[np.float64]) -> float:
+    f = np.empty(NSTATE)
+    rhs(0.0, z, p, f)
+    return float(inerter_force(z, f[1], p))
+
+
+UNIT = ModelUnit(
+    name="base_tmd",
+    ode=COUPLED,
+    structure=BaseParams,
+    parameters=registry.of("base"),
+    pack=pack,
+    n_state=lambda base: NSTATE,
+    atol=_atol,
+    active=lambda base, tmd: active_states(tmd, NSTATE),
+    inerter_force=_inerter_force,
+    description="the paper's base oscillator with the TMD-inerter (one storey, one TMD)",
+    cosim="pyfmu_wrapper.cosim.steady",
+    fmus=("pyfmu_wrapper.models.base_tmd.fmus.base_oscillator", "pyfmu_wrapper.models.base_tmd.fmus.tmd_inerter"),
+    example=BaseParams,
+    modelica=MODELICA,
+    scenario_block="base",
+    scenario_reader="pyfmu_wrapper.scenario.loader:read_base",
+)

@@ -1,0 +1,113 @@
+"""The multi-storey shear frame with the paper's TMD-inerter attached to any storey (TMDI included),
+as one model unit: parameters (:mod:`.params`), equations (:mod:`.equations`), and here the unit
+(packing, state layout, tolerances). Registered in :mod:`pyfmu_wrapper.models`.
+
+With one storey and the inerter on that storey it is the paper's base oscillator with the
+TMD-inerter, in the paper's state layout (tests/test_frame_model.py holds the two to 1e-12).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...physics.kernels import inerter_force
+from ...physics.models import OdeModel, bind_describe, contact_mode_index, mode_describer
+from ...physics.params import N_PARAMS, TMDParams, pack
+from ...physics.tmd import active_states, tmd_atol
+from ...physics.unit import ModelUnit
+from .equations import (
+    F_LOAD,
+    F_N,
+    F_TMD,
+    F_TO,
+    F_VALUES,
+    frame_jacobian,
+    frame_rhs,
+    frame_switching,
+    storey_index,
+)
+from .modelica import MODELICA
+from .params import PARAMETERS, FrameParams
+
+__all__ = ["UNIT", "FrameParams", "frame_pack", "storey_index"]
+
+
+def frame_pack(frame: FrameParams, tmd: TMDParams, omega: float = 0.0) -> NDArray[np.float64]:
+    """The packed array (:mod:`.equations`): the paper's, with the first storey in the base's slots,
+    then the frame's part."""
+    from ...physics.params import BaseParams
+
+    n = frame.n
+    first = BaseParams(
+        mass=frame.masses[0],
+        stiffness=frame.stiffnesses[0],
+        damping=frame.dampings[0],
+        force_amplitude=frame.force_amplitude,
+    )
+    p = np.zeros(N_PARAMS + 4 + 3 * n)
+    p[:N_PARAMS] = pack(first, tmd, omega)
+    p[F_N], p[F_LOAD], p[F_TMD], p[F_TO] = n, frame.loaded_storey, frame.tmd_at, frame.terminal
+    p[F_VALUES : F_VALUES + n] = frame.masses
+    p[F_VALUES + n : F_VALUES + 2 * n] = frame.stiffnesses
+    p[F_VALUES + 2 * n :] = frame.dampings
+    return p
+
+
+def _n_state(frame: FrameParams) -> int:
+    return 2 * frame.n + 4
+
+
+def _atol(frame: FrameParams, tmd: TMDParams, omega: float, atol_scale: float) -> NDArray[np.float64]:
+    """The paper's rule per storey: atol_scale times the static deflection bound F / K (rates: times
+    the larger of w and the fastest storey's sqrt(K_i / M_i)); the play chain's as the paper's."""
+    xs = abs(frame.force_amplitude) / frame.stiffness
+    xs = xs if xs > 0 else 1e-3
+    wn = max(omega, frame.natural_frequency, 1.0)
+    a = atol_scale * xs
+    atol = np.tile([a, a * wn], frame.n + 2)
+    tmd_atol(atol, frame.force_amplitude, tmd)
+    return atol
+
+
+def _inerter_force(z: NDArray[np.float64], p: NDArray[np.float64]) -> float:
+    """P = I (xdd_j - ydd) through the kernels' :func:`~pyfmu_wrapper.physics.kernels.inerter_force`
+    at the TMD's storey, with the terminal's acceleration."""
+    n, s, j = int(p[F_N]), int(p[F_TMD]), int(p[F_TO])
+    f = np.empty(z.shape[0])
+    frame_rhs(0.0, z, p, np.zeros(1), f)
+    sx = storey_index(s, n)
+    zt = np.array([z[sx], z[sx + 1], z[2], z[3], z[4], z[5]])
+    return float(inerter_force(zt, f[storey_index(j, n) + 1] if j > 0 else 0.0, p))
+
+
+FRAME = OdeModel(
+    name="frame",
+    rhs=frame_rhs,
+    jacobian=frame_jacobian,
+    switching=frame_switching,
+    mode=contact_mode_index,
+    n_switches=3,
+    n_modes=3,
+    switch_tolerance=(-1, 4, 4),
+    state_names=("x_top", "xd_top", "y", "yd", "d", "dd"),
+    describe=bind_describe(mode_describer(True, 4), frame_switching),
+)
+
+UNIT = ModelUnit(
+    name="frame",
+    ode=FRAME,
+    structure=FrameParams,
+    parameters=PARAMETERS,
+    pack=frame_pack,
+    n_state=_n_state,
+    atol=_atol,
+    active=lambda frame, tmd: active_states(tmd, _n_state(frame)),
+    inerter_force=_inerter_force,
+    cosim="pyfmu_wrapper.models.frame_model.cosim",
+    fmus=("pyfmu_wrapper.models.frame_model.fmus.shear_frame",),
+    modelica=MODELICA,
+    scenario_reader="pyfmu_wrapper.scenario.framespec:read_frame",  # per-storey lists
+    example=lambda: FrameParams.uniform(3, 100.0, 1.2e5, 100.0, tmd_storey=3, inerter_to=2),
+    description="a shear frame of 1-20 storeys with the TMD-inerter on any storey (TMDI: inerter to another storey or the ground)",
+)

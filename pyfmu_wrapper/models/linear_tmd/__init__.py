@@ -1,0 +1,77 @@
+"""The base oscillator with a plain linear TMD (mass, spring, viscous damper; no inerter) as one model
+unit: parameters (:mod:`.params`), equations (:mod:`.equations`), and here the unit (packing, state
+layout, tolerances). Registered in :mod:`pyfmu_wrapper.models`.
+
+The absorber is part of the structure (:class:`~.params.LinearTMDParams`), so the model takes no
+paper TMD (``takes_tmd=False``: its scenario files have a ``linear_tmd:`` block and no ``tmd:`` block).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...physics.models import OdeModel
+from ...physics.params import P_F, P_W, TMDParams
+from ...physics.unit import ModelUnit
+from .equations import L_AT, N_PACKED, linear_tmd_jacobian, linear_tmd_rhs, no_switching, one_mode
+from .modelica import MODELICA
+from .params import PARAMETERS, SUBSYSTEM, LinearTMDParams
+
+__all__ = ["LINEAR_TMD", "UNIT", "LinearTMDParams", "linear_tmd_pack"]
+
+
+def linear_tmd_pack(s: LinearTMDParams, tmd: TMDParams | None = None, omega: float = 0.0) -> NDArray[np.float64]:
+    """The packed array of :mod:`.equations` (``tmd`` is not used: the absorber is in ``s``)."""
+    p = np.zeros(N_PACKED)
+    p[P_F], p[P_W] = s.force_amplitude, omega
+    p[L_AT:] = (s.mass, s.stiffness, s.damping, s.absorber_mass, s.absorber_stiffness, s.absorber_damping)
+    return p
+
+
+def _atol(s: LinearTMDParams, tmd: TMDParams, omega: float, atol_scale: float) -> NDArray[np.float64]:
+    """The paper's rule: atol_scale times the static deflection F / K for displacements, times the
+    larger of w and the fastest own frequency for velocities."""
+    xs = abs(s.force_amplitude) / s.stiffness
+    xs = xs if xs > 0 else 1e-3
+    a = atol_scale * xs
+    wn = max(omega, s.natural_frequency, 1.0)
+    return np.array([a, a * wn, a, a * wn])
+
+
+def _inerter_force(z: NDArray[np.float64], p: NDArray[np.float64]) -> float:
+    """No inerter: 0."""
+    return 0.0
+
+
+LINEAR_TMD = OdeModel(
+    name="linear_tmd",
+    rhs=linear_tmd_rhs,
+    jacobian=linear_tmd_jacobian,
+    switching=no_switching,
+    mode=one_mode,
+    n_switches=1,
+    n_modes=1,
+    switch_tolerance=(1000,),
+    state_names=("x", "xd", "y", "yd"),
+    describe=lambda z, p, atol, band: "smooth",
+)
+
+UNIT = ModelUnit(
+    name=SUBSYSTEM,
+    ode=LINEAR_TMD,
+    structure=LinearTMDParams,
+    parameters=PARAMETERS,
+    pack=linear_tmd_pack,
+    n_state=lambda s: 4,
+    atol=_atol,
+    # a detached absorber floats (its period map has the eigenvalue 1): shoot on the main mass only
+    active=lambda s, tmd: [0, 1] if s.detached else [0, 1, 2, 3],
+    inerter_force=_inerter_force,
+    example=LinearTMDParams,
+    description="a base oscillator with a plain linear TMD (mass, spring, viscous damper; no inerter)",
+    takes_tmd=False,
+    modelica=MODELICA,
+    is_linear=lambda s, tmd: True,  # every parameter enters linearly
+    fmus=("pyfmu_wrapper.models.linear_tmd.fmus.linear_tmd_fmu",),
+)

@@ -1,0 +1,57 @@
+"""The LinearTMD FMU's equations with its input and their RODAS4 integrator, as the slave steps them.
+
+The model's right-hand side (:func:`~pyfmu_wrapper.models.linear_tmd.equations.linear_tmd_rhs`) with the
+input ``f_ext`` (a polynomial of degree <= 2 in the step, :func:`~pyfmu_wrapper.physics.kernels.input_value`)
+added to the main mass's force; its Jacobian by the complex step; the integrator built from them by
+:func:`~pyfmu_wrapper.solvers.rodas.make_integrator` (compiled once, cached on disk).
+"""
+
+from __future__ import annotations
+
+from ...._jit import njit
+from ....physics.jacobians import CSTEP
+from ....physics.kernels import Vec, input_value
+from ....physics.models import OdeModel
+from ....solvers.rodas import make_integrator
+from ..equations import L_M, linear_tmd_rhs, no_switching, one_mode
+
+
+@njit(cache=True)
+def fmu_rhs(t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
+    """dz/dt of the model with the input force u (input 0) on the main mass; z and t real or complex."""
+    linear_tmd_rhs(t, z, p, u, out)
+    out[1] = out[1] + input_value(u, 0, t) / p[L_M]
+
+
+@njit(cache=True)
+def fmu_jacobian(t: float, z: Vec, p: Vec, u: Vec, J: Vec, ft: Vec, zc: Vec, oc: Vec) -> None:
+    """J = d rhs / dz and ft = d rhs / dt of :func:`fmu_rhs` by the complex step."""
+    n = z.shape[0]
+    for j in range(n):
+        for i in range(n):
+            zc[i] = z[i]
+        zc[j] = z[j] + 1j * CSTEP
+        fmu_rhs(t, zc, p, u, oc)
+        for i in range(n):
+            J[i, j] = oc[i].imag / CSTEP
+    for i in range(n):
+        zc[i] = z[i]
+    fmu_rhs(t + 1j * CSTEP, zc, p, u, oc)
+    for i in range(n):
+        ft[i] = oc[i].imag / CSTEP
+
+
+#: the model with its input, for the integrator (its own name: its own compiled integrator)
+FMU_MODEL = OdeModel(
+    name="linear_tmd_fmu",
+    rhs=fmu_rhs,
+    jacobian=fmu_jacobian,
+    switching=no_switching,
+    mode=one_mode,
+    n_switches=1,
+    n_modes=1,
+    switch_tolerance=(1000,),
+    state_names=("x", "xd", "y", "yd"),
+    describe=lambda z, p, atol, band: "smooth",
+)
+integrate = make_integrator(FMU_MODEL)

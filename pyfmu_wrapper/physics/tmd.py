@@ -1,0 +1,47 @@
+"""The paper's TMD-inerter as an element that any structure carries: the absolute tolerance of its play
+chain (shared by the monolithic integrator and the TMD FMU), whether it floats, and the states a period
+map's Newton iteration moves when a structure carries it at z[2:6]."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .params import InerterModel, TMDParams, has_gap
+
+
+def chain_atol(force_amplitude: float, tmd: TMDParams) -> float:
+    """Absolute tolerance [m] on the gear-chain deflection d of the play model, shared by both
+    engines (the monolithic integrator and the TMD FMU): the gear penetration is ~ F / ki, so
+    resolve it, not just the gap: 1e-3 of the larger of gap and penetration, plus the penetration."""
+    pen = max(abs(force_amplitude) / tmd.mesh_stiffness, 1e-12)
+    return 1e-3 * max(tmd.play_gap, pen) + pen
+
+
+def tmd_atol(atol: NDArray[np.float64], force_amplitude: float, tmd: TMDParams) -> None:
+    """Tighten the chain's entries atol[4], atol[5] for the play model with a gap (in place)."""
+    if has_gap(tmd):
+        atol[4] = min(atol[4], chain_atol(force_amplitude, tmd))
+        atol[5] = atol[4] * math.sqrt(tmd.mesh_stiffness / tmd.inertance)
+
+
+def detached(tmd: TMDParams) -> bool:
+    """The TMD has no link to the structure (no spring, damper, friction or inerter): it floats."""
+    return (
+        tmd.stiffness == 0.0
+        and tmd.cubic_stiffness == 0.0
+        and tmd.damping == 0.0
+        and tmd.friction_force == 0.0
+        and tmd.inertance == 0.0
+    )
+
+
+def active_states(tmd: TMDParams, n: int) -> list[int]:
+    """The states the shooting moves: all with the play chain, else all but the chain's d, dd; a
+    detached TMD's none of z[2:6] (it floats: its period map has the eigenvalue 1, no fixed point to
+    solve for, and the structure does not feel it)."""
+    if detached(tmd):
+        return [i for i in range(n) if not 2 <= i < 6]
+    return list(range(n)) if tmd.inerter == InerterModel.PLAY else [i for i in range(n) if i not in (4, 5)]
