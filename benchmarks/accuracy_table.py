@@ -83,8 +83,8 @@ def _hermite_max(x, v, t):
 
 
 def _setup(cfg):
+    from pyfmu_wrapper.models.solve import initial_guess
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
-    from pyfmu_wrapper.solvers.monolithic import initial_guess
 
     over, w = CONFIGS[cfg]
     base, tmd = BaseParams(), TMDParams(**over)
@@ -96,7 +96,7 @@ def _window(tmd):
 
 
 def run_this(label, cfg, h, periods):
-    from pyfmu_wrapper.cosim.system import fmu_parameters, make_master
+    from pyfmu_wrapper.models.base_tmd.cosim import fmu_parameters, make_master
 
     coupling, scheme, order = THIS[label]
     base, tmd, w, z0 = _setup(cfg)
@@ -159,7 +159,7 @@ def run_libcosim(cfg, h, periods, fmus, ecco=False):
     from libcosimpy.CosimObserver import CosimObserver
     from libcosimpy.CosimSlave import CosimLocalSlave
 
-    from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters
+    from pyfmu_wrapper.models.base_tmd.cosim import CONNECTIONS, fmu_parameters
 
     log_output_level(CosimLogLevel.ERROR)
     base, tmd, w, z0 = _setup(cfg)
@@ -262,7 +262,7 @@ def run_omsimulator(cfg, h, periods):
 
 
 def reference(cfg):
-    from pyfmu_wrapper.solvers import monolithic as mono
+    from pyfmu_wrapper.models import solve as mono
 
     base, tmd, w, _ = _setup(cfg)
     return float(mono.steady_state(base, tmd, w).amplitude)

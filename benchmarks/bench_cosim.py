@@ -111,11 +111,11 @@ def bench_overhead(steps: int = 20000, keep: list | None = None) -> dict:
     ``keep``: the masters are appended to it and closed by the caller at the very end (work-around:
     an FMU of one build that is freed and loaded again in the same process fails to import its
     bundle, "No module named '_pyfmu_<hash>.fmi.native'"; fixed on the FMU side in another branch)."""
-    from pyfmu_wrapper.cosim.system import fmu_parameters, make_master
     from pyfmu_wrapper.fmubuild.build import ensure_fmus
     from pyfmu_wrapper.master import Master
+    from pyfmu_wrapper.models.base_tmd.cosim import fmu_parameters, make_master
+    from pyfmu_wrapper.models.solve import initial_guess
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
-    from pyfmu_wrapper.solvers.monolithic import initial_guess
 
     keep = [] if keep is None else keep
     paths = ensure_fmus(names=("BaseOscillator", "TMDInerter", "Trivial"))

@@ -36,8 +36,8 @@ ROOT = Path(__file__).resolve().parents[1]
 
 
 def sweep_baseline():
+    from pyfmu_wrapper.models.solve import steady_state
     from pyfmu_wrapper.physics.params import BaseParams, paper_case
-    from pyfmu_wrapper.solvers.monolithic import steady_state
 
     tmd = paper_case(1, damping=15.0, friction_force=3.0)
     t0 = time.perf_counter()

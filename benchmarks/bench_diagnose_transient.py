@@ -70,8 +70,8 @@ def make(path: Path, changes: dict, T: float, fs: float, seed: int) -> None:
 
 
 def sweep_baseline() -> float:
+    from pyfmu_wrapper.models.solve import steady_state
     from pyfmu_wrapper.physics.params import BaseParams, paper_case
-    from pyfmu_wrapper.solvers.monolithic import steady_state
 
     base, tmd = BaseParams(), paper_case(1)
     steady_state(base, tmd, 20.0)  # compile

@@ -22,9 +22,9 @@ import numpy as np
 from pyfmu_wrapper.cosim.settings import CosimSettings
 from pyfmu_wrapper.models.frame_model import FrameParams
 from pyfmu_wrapper.models.frame_model import cosim as frame_system
+from pyfmu_wrapper.models.solve import sweep as mono_sweep
 from pyfmu_wrapper.physics import frame as ref
 from pyfmu_wrapper.physics.params import TMDParams
-from pyfmu_wrapper.solvers.sweep import sweep as mono_sweep
 
 FRAME = FrameParams.uniform(10, 100.0, 1.8e6, 200.0, force_amplitude=200.0, tmd_storey=10)
 TMD = TMDParams(mass=15.0, stiffness=8000.0, damping=40.0, inerter="ideal", inertance=5.0)

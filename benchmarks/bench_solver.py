@@ -26,9 +26,9 @@ import time
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from pyfmu_wrapper.models.solve import steady_state, sweep
 from pyfmu_wrapper.physics.params import BaseParams, paper_case
-from pyfmu_wrapper.solvers.monolithic import SolverSettings, steady_state
-from pyfmu_wrapper.solvers.sweep import sweep
+from pyfmu_wrapper.solvers.monolithic import SolverSettings
 
 
 def python_rhs(base, tmd, omega):

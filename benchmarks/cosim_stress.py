@@ -53,8 +53,7 @@ def _pair(M: float, k: float, play: bool) -> tuple:
 
 
 def _reference(base: object, tmd: object, omegas: tuple, play: bool) -> list[float]:
-    from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
-    from pyfmu_wrapper.solvers.monolithic import steady_state
+    from pyfmu_wrapper.models.solve import exact_amplitude, steady_state
 
     if not play:
         return [float(a) for a in exact_amplitude(base, tmd, np.asarray(omegas, float))]  # type: ignore[arg-type]
@@ -63,7 +62,7 @@ def _reference(base: object, tmd: object, omegas: tuple, play: bool) -> list[flo
 
 def run_config(M: float, k: float, omegas: tuple, play: bool) -> list[dict]:
     from pyfmu_wrapper.cosim.settings import CosimSettings
-    from pyfmu_wrapper.cosim.steady import sweep
+    from pyfmu_wrapper.models.base_tmd.cosim import sweep
 
     base, tmd = _pair(M, k, play)
     ref = _reference(base, tmd, omegas, play)

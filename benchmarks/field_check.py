@@ -32,9 +32,9 @@ from pathlib import Path
 import numpy as np
 import yaml
 
+from pyfmu_wrapper.models.solve import simulate, steady_state
 from pyfmu_wrapper.physics import kernels
 from pyfmu_wrapper.physics.params import BaseParams, InerterModel, pack, paper_case
-from pyfmu_wrapper.solvers.monolithic import simulate, steady_state
 
 EFFECTS = ("friction", "play", "damping", "mass_split", "cubic", "forcing", "offset")
 #: (low, high) severity of each effect's parameter (log-uniform in magnitude)

@@ -94,10 +94,10 @@ def main(argv=None) -> int:
         )
         return 2
 
-    from pyfmu_wrapper.cosim.system import export_tmd_system
     from pyfmu_wrapper.fmubuild.build import ensure_fmus
+    from pyfmu_wrapper.models import solve as mono
+    from pyfmu_wrapper.models.base_tmd.cosim import export_tmd_system
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
-    from pyfmu_wrapper.solvers import monolithic as mono
 
     version = subprocess.run([exe, "--version"], capture_output=True, text=True).stdout.strip()
     base = BaseParams()

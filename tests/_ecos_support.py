@@ -11,7 +11,7 @@ from typing import Any
 
 from numpy.typing import ArrayLike
 
-from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters
+from pyfmu_wrapper.models.base_tmd.cosim import CONNECTIONS, fmu_parameters
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
 
 

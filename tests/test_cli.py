@@ -15,9 +15,9 @@ import pandas as pd
 import pytest
 
 from pyfmu_wrapper.cli.run_scenario import main
+from pyfmu_wrapper.models.solve import exact_amplitude
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
 from pyfmu_wrapper.scenario import plots
-from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
 
 LINEAR = """\
 schema_version: 1

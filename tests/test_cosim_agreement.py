@@ -30,10 +30,10 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from pyfmu_wrapper.cosim import steady as cs
+from pyfmu_wrapper.models.base_tmd import cosim as cs
+from pyfmu_wrapper.models.solve import sweep
 from pyfmu_wrapper.physics.params import BaseParams, paper_case
 from pyfmu_wrapper.solvers.monolithic import SolverSettings
-from pyfmu_wrapper.solvers.sweep import sweep
 
 BASE = BaseParams()
 OMEGAS = np.linspace(15.0, 25.0, 41)

@@ -21,11 +21,12 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from pyfmu_wrapper.cosim import steady as cs
 from pyfmu_wrapper.cosim import timescales as ts
 from pyfmu_wrapper.cosim.settings import CosimSettings
+from pyfmu_wrapper.models.base_tmd import cosim as cs
+from pyfmu_wrapper.models.base_tmd.cosim import PairSystem
+from pyfmu_wrapper.models.solve import exact_amplitude
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams, paper_case
-from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
 
 TOL = 5e-3
 CASE1 = paper_case(1)  # ideal inerter, c = 0, df = 0 (curve 1 of full_case1)
@@ -57,7 +58,7 @@ def test_light_base_right_within_half_a_percent(mass, tmd):
     assert table["converged"].all()
     assert np.max(np.abs(rel)) <= TOL
     # the step resolves the base's own frequency: omega_fast h <= 0.5
-    w_fast = ts.fastest(base, tmd).omega
+    w_fast = cs.fastest(base, tmd).omega
     h = 2 * math.pi / table["omega"].to_numpy() / table["steps_per_period"].to_numpy()
     assert np.all(w_fast * h <= ts.STEP_SCALE + 1e-12)
 
@@ -71,7 +72,7 @@ def test_case1_low_frequencies_right_and_nothing_lost():
     assert np.max(np.abs(rel)) <= TOL
     # at 0.5 rad/s the step comes from the structure (~22 rad/s), not from the forcing period
     row = table[table["omega"] == 0.5].iloc[0]
-    assert row["steps_per_period"] >= 2 * math.pi / 0.5 * ts.fastest(BaseParams(), CASE1).omega / ts.STEP_SCALE
+    assert row["steps_per_period"] >= 2 * math.pi / 0.5 * cs.fastest(BaseParams(), CASE1).omega / ts.STEP_SCALE
 
 
 def test_lowest_forcing_frequency_works():
@@ -117,7 +118,7 @@ def test_estimate_bounds_the_error_on_the_paper_case():
 def test_play_model_light_base_right_or_flagged():
     """The play model's check goes through its smooth companion; against the monolithic
     steady-state solver on a 0.1 kg base (both at 22 rad/s)."""
-    from pyfmu_wrapper.solvers.monolithic import steady_state
+    from pyfmu_wrapper.models.solve import steady_state
 
     base = BaseParams(mass=0.1)
     tmd = paper_case(1, inerter="play", play_gap=1e-4, damping=10.0)
@@ -136,7 +137,7 @@ def test_structure_frequencies_against_closed_form():
     M, K, m, k = 50.0, 2e4, 5.0, 3e3
     b = (K + k) / M + k / m
     w_hi = math.sqrt((b + math.sqrt(b * b - 4 * K * k / (M * m))) / 2)
-    freqs = ts.structure_frequencies(base, tmd)
+    freqs = cs.structure_frequencies(base, tmd)
     assert freqs[0].omega == pytest.approx(w_hi, rel=1e-12)
     assert freqs[1].omega == pytest.approx(math.sqrt((K + k) / M), rel=1e-12)
     assert freqs[2].omega == pytest.approx(math.sqrt(k / m), rel=1e-12)
@@ -145,17 +146,17 @@ def test_structure_frequencies_against_closed_form():
     Mm = np.array([[M + 2.0, -2.0], [-2.0, m + 2.0]])
     Km = np.array([[K + k, -k], [-k, k]])
     w2 = np.max(np.linalg.eigvals(np.linalg.solve(Mm, Km)).real)
-    assert ts.structure_frequencies(base, ideal)[0].omega == pytest.approx(math.sqrt(w2), rel=1e-12)
+    assert cs.structure_frequencies(base, ideal)[0].omega == pytest.approx(math.sqrt(w2), rel=1e-12)
 
 
 def test_choose_steps_cap_and_accuracy():
     base, tmd = BaseParams(), CASE1
-    assert ts.choose_steps(base, tmd, 20.0, 96, 262144).steps == 96  # the paper band: accuracy rules
-    low = ts.choose_steps(base, tmd, 0.5, 96, 262144)
+    assert ts.choose_steps(PairSystem(base, tmd), 20.0, 96, 262144).steps == 96  # the paper band: accuracy rules
+    low = ts.choose_steps(PairSystem(base, tmd), 0.5, 96, 262144)
     assert low.limited_by == "structure" and low.steps > 96 and low.steps % 8 == 0
-    refused = ts.choose_steps(BaseParams(mass=1e-3), tmd, 0.05, 96, 262144)
+    refused = ts.choose_steps(PairSystem(BaseParams(mass=1e-3), tmd), 0.05, 96, 262144)
     assert refused.steps == 0 and "base.mass (M) = 0.001 kg" in (refused.refused or "")
-    assert ts.choose_steps(BaseParams(mass=1e-3), tmd, 0.05, 96, 262144, fixed=True).steps == 96
+    assert ts.choose_steps(PairSystem(BaseParams(mass=1e-3), tmd), 0.05, 96, 262144, fixed=True).steps == 96
 
 
 def test_time_series_at_a_low_frequency_uses_the_structure_step():
@@ -174,8 +175,8 @@ def test_time_series_at_a_low_frequency_uses_the_structure_step():
 def test_refusal_names_the_parameter_and_counts_the_frequencies():
     """The up-front form of the refusal (for a caller that exits 2 instead): None where every
     frequency works, else the sentence naming the parameter and how many frequencies it refuses."""
-    assert ts.refusal(BaseParams(), CASE1, [0.05, 20.0], 262144) is None
-    msg = ts.refusal(BaseParams(mass=1e-3), CASE1, [0.05, 0.5, 20.0], 262144)
+    assert ts.refusal(PairSystem(BaseParams(), CASE1), [0.05, 20.0], 262144) is None
+    msg = ts.refusal(PairSystem(BaseParams(mass=1e-3), CASE1), [0.05, 0.5, 20.0], 262144)
     assert msg is not None and msg.startswith("1 of 3 frequencies") and "base.mass (M) = 0.001 kg" in msg
 
 

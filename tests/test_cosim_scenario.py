@@ -17,8 +17,8 @@ import numpy as np
 import pandas as pd
 
 from pyfmu_wrapper.cli.run_scenario import main
+from pyfmu_wrapper.models.solve import exact_amplitude
 from pyfmu_wrapper.physics.params import BaseParams, paper_case
-from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
 
 SCENARIO = textwrap.dedent(
     """\

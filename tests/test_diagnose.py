@@ -80,8 +80,8 @@ def test_frc_viscous(tmp_path):
     import numpy as np
     import yaml
 
+    from pyfmu_wrapper.models.solve import exact_amplitude
     from pyfmu_wrapper.physics.params import BaseParams, paper_case
-    from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
 
     w = np.linspace(15, 25, 31)
     x = exact_amplitude(BaseParams(), paper_case(1, damping=55.0), w) + np.random.default_rng(0).normal(0, 2e-5, w.size)

@@ -44,9 +44,10 @@ def _rig_record(
     channels=("force", "x", "y", "xdd", "ydd"),
 ):
     """One steady-state record as the rig gives it: dense solver output, analog filter, ADC sampling."""
+    from pyfmu_wrapper.models.solve import simulate, steady_state
     from pyfmu_wrapper.physics.kernels import rhs
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams, pack
-    from pyfmu_wrapper.solvers.monolithic import SolverSettings, simulate, steady_state
+    from pyfmu_wrapper.solvers.monolithic import SolverSettings
 
     base = BaseParams(**{**NOMINAL["base"], "force_amplitude": F})
     tmd = TMDParams(**tmd_kw)

@@ -147,8 +147,8 @@ def test_acceleration_only_record_has_no_displacement(tmp_path):
 
 
 def test_oov_integrator_matches_the_project_with_the_effect_off():
+    from pyfmu_wrapper.models.solve import exact_response
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
-    from pyfmu_wrapper.solvers.frequency_response import exact_response
 
     nom = nominal(3, 10.0)
     w, F = 19.0, 220.0
@@ -165,8 +165,8 @@ def test_oov_integrator_matches_the_project_with_the_effect_off():
 
 def test_oov_integrator_follows_the_project_integrator_from_a_transient_start():
     """Off the orbit (a transient from an arbitrary state): the two integrators agree."""
+    from pyfmu_wrapper.models.solve import simulate
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
-    from pyfmu_wrapper.solvers.monolithic import simulate
 
     nom = nominal(2, 15.0)
     w, F = 17.0, 150.0

@@ -49,8 +49,9 @@ def _low_force_time_records_frc_at_200N(
 ):
     """Time records at a force so small that a cubic spring term is invisible in them; an FRC at
     200 N where it is not: the effect shows only in the FRC."""
+    from pyfmu_wrapper.models.solve import steady_state
     from pyfmu_wrapper.physics.params import BaseParams
-    from pyfmu_wrapper.solvers.monolithic import SolverSettings, steady_state
+    from pyfmu_wrapper.solvers.monolithic import SolverSettings
 
     folder.mkdir(parents=True, exist_ok=True)
     rng = np.random.default_rng(seed)
@@ -247,8 +248,8 @@ def test_frc_noise_is_estimated_per_record(tmp_path):
     mis-weights both), and the clean FRCs alone give no structural effect and nothing unexplained."""
     from pyfmu_wrapper.diagnose.data import load_dataset
     from pyfmu_wrapper.diagnose.system.frc import FRCDiagnosis
+    from pyfmu_wrapper.models.solve import exact_amplitude
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
-    from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
 
     nom = nominal(1)
     rng = np.random.default_rng(3)

@@ -22,8 +22,8 @@ import pytest
 from _ecos_support import ecos_simulation
 from _fmu_support import built_fmus
 
+from pyfmu_wrapper.models import solve as mono
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
-from pyfmu_wrapper.solvers import monolithic as mono
 
 
 @pytest.fixture(scope="module")

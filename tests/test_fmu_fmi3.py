@@ -266,7 +266,7 @@ def test_cosimulation_through_fmi3_equals_fmi2_bit_for_bit(tmd_kw, monkeypatch):
     (Case 1; the impulse coupling with its input derivatives and interface Jacobian), in the compiled
     stepping loop (its fmi3 adapters) and on the Python path."""
     from pyfmu_wrapper.cosim.settings import CosimSettings
-    from pyfmu_wrapper.cosim.steady import sweep
+    from pyfmu_wrapper.models.base_tmd.cosim import sweep
     from pyfmu_wrapper.physics.params import BaseParams, paper_case
 
     base, tmd = BaseParams(), paper_case(1, **tmd_kw)
@@ -278,7 +278,7 @@ def test_cosimulation_through_fmi3_equals_fmi2_bit_for_bit(tmd_kw, monkeypatch):
         assert np.array_equal(r[3][col].to_numpy(), r["3py"][col].to_numpy()), col
     assert r[3]["master_loop_time"].iloc[0] > 0 and r["3py"]["master_loop_time"].iloc[0] == 0  # which path ran
     # and the numbers are the physics: within 0.5 % of the monolithic solver (docs/cosimulation.md)
-    from pyfmu_wrapper.solvers.monolithic import steady_state
+    from pyfmu_wrapper.models.solve import steady_state
 
     mono = steady_state(base, tmd, 17.0).amplitude
     assert r[3]["amplitude"].iloc[0] == pytest.approx(mono, rel=5e-3)

@@ -193,9 +193,9 @@ def test_bundled_runtime_leaves_the_host_locale_alone(standalone):
 
 
 def _pair_amplitude(standalone, omega, h, periods=25, window=3):
-    from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters
+    from pyfmu_wrapper.models import solve as mono
+    from pyfmu_wrapper.models.base_tmd.cosim import CONNECTIONS, fmu_parameters
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
-    from pyfmu_wrapper.solvers import monolithic as mono
 
     _, dirs, *_ = standalone
     vr = {"base": _vrs(dirs["BaseOscillator"]), "tmd": _vrs(dirs["TMDInerter"])}

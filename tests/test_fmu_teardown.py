@@ -163,9 +163,9 @@ ECOS_SCRIPT = textwrap.dedent("""
     import math, sys
     sys.path.insert(0, {tests!r})
     from test_fmu_ecos import _ecospy
-    from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters
+    from pyfmu_wrapper.models.base_tmd.cosim import CONNECTIONS, fmu_parameters
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
-    from pyfmu_wrapper.solvers import monolithic as mono
+    from pyfmu_wrapper.models import solve as mono
     base_fmu, tmd_fmu, mode = sys.argv[1], sys.argv[2], sys.argv[3]
     ecospy = _ecospy()
     omega, h, T = 17.0, 1e-3, 30.0

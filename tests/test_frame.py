@@ -10,9 +10,9 @@ import numpy as np
 import pytest
 from scipy.linalg import eigh
 
+from pyfmu_wrapper.models.solve import exact_amplitude
 from pyfmu_wrapper.physics.frame import LinearTMD, ShearFrame, frequency_response, matrices, top_amplitude
 from pyfmu_wrapper.physics.params import BaseParams, paper_case
-from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
 
 W = np.linspace(10.0, 30.0, 81)
 

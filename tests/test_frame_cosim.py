@@ -172,22 +172,21 @@ def test_a_coupling_error_above_the_tolerance_is_never_reported_as_converged():
 
 
 def test_the_cosimulation_system_is_the_one_the_unit_names(monkeypatch):
-    """scenario/engines runs the sweep of the module a unit names (ModelUnit.cosim), for every
-    registered unit with FMUs; it names no model itself, so a unit naming another system gets that one."""
-    import importlib
+    """scenario/engines runs the sweep of the co-simulation a unit holds (ModelUnit.cosim), for every
+    registered unit with FMUs; it names no model itself, so a unit holding another system gets that one."""
     import inspect
     from dataclasses import replace
 
-    from pyfmu_wrapper.cosim import steady
     from pyfmu_wrapper.models import MODELS
+    from pyfmu_wrapper.models.base_tmd import cosim as pair
     from pyfmu_wrapper.scenario import engines
 
     with_fmus = [u for u in MODELS.units() if u.cosim]
     assert {u.name for u in with_fmus} >= {"base_tmd", "frame"}
     for unit in with_fmus:
-        assert unit.example is not None
-        assert engines._cosim_system(unit.example()) is importlib.import_module(unit.cosim).sweep
-    source = inspect.getsource(engines._cosim_system)
+        assert unit.example is not None and unit.cosim is not None
+        assert engines._cosim_system(unit.example()) is unit.cosim().sweep
+    source = inspect.getsource(engines._cosim_system) + inspect.getsource(engines.cosim_engine)
     assert not [u.name for u in MODELS.units() if f'"{u.name}"' in source]
-    monkeypatch.setitem(MODELS._units, "frame", replace(MODELS.get("frame"), cosim="pyfmu_wrapper.cosim.steady"))
-    assert engines._cosim_system(FrameParams.uniform(2, 100.0, 1e5, 50.0)) is steady.sweep
+    monkeypatch.setitem(MODELS._units, "frame", replace(MODELS.get("frame"), cosim=lambda: pair.ENGINE))
+    assert engines._cosim_system(FrameParams.uniform(2, 100.0, 1e5, 50.0)) is pair.sweep

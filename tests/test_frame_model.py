@@ -11,13 +11,13 @@ import numpy as np
 import pytest
 
 from pyfmu_wrapper.models.frame_model import UNIT, FrameParams, frame_pack, storey_index
+from pyfmu_wrapper.models.solve import exact_amplitude, exact_response, simulate, steady_state
 from pyfmu_wrapper.physics import frame as ref
 from pyfmu_wrapper.physics.jacobians import coupled_jacobian
 from pyfmu_wrapper.physics.kernels import rhs
 from pyfmu_wrapper.physics.params import BaseParams, ParameterError, TMDParams, pack, paper_case
 from pyfmu_wrapper.physics.unit import ModelError
-from pyfmu_wrapper.solvers.frequency_response import exact_amplitude, exact_response
-from pyfmu_wrapper.solvers.monolithic import SolverSettings, simulate, steady_state
+from pyfmu_wrapper.solvers.monolithic import SolverSettings
 
 BASE = BaseParams()
 ONE = FrameParams.uniform(1, BASE.mass, BASE.stiffness, BASE.damping, force_amplitude=BASE.force_amplitude)

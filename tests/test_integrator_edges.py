@@ -15,9 +15,10 @@ import math
 import numpy as np
 import pytest
 
+from pyfmu_wrapper.models.solve import simulate, steady_state
 from pyfmu_wrapper.physics.models import COUPLED
 from pyfmu_wrapper.physics.params import BaseParams, pack, paper_case
-from pyfmu_wrapper.solvers.monolithic import SolverError, SolverSettings, simulate, steady_state
+from pyfmu_wrapper.solvers.monolithic import SolverError, SolverSettings
 from pyfmu_wrapper.solvers.rodas import OK, STAT_STEPS, STEP_CAP, failure_message, make_integrator
 
 integrate = make_integrator(COUPLED)
@@ -136,9 +137,9 @@ def test_stuck_pair_closed_form_cosimulation():
     """The same stuck pair co-simulated (default settings: Newton shooting, which the continuum of
     stuck offsets defeats, then period after period until the base orbit has settled): the
     amplitude is the closed form to 2e-5, not the unconverged 7.1176e-3 m reported before."""
-    from pyfmu_wrapper.cosim import steady as cs
     from pyfmu_wrapper.cosim.settings import CosimSettings
-    from pyfmu_wrapper.cosim.system import make_master
+    from pyfmu_wrapper.models.base_tmd import cosim as cs
+    from pyfmu_wrapper.models.base_tmd.cosim import make_master
 
     tmd = paper_case(1, damping=0.0, friction_force=45.78)
     w = 25.0
@@ -156,9 +157,9 @@ def test_fmu_do_step_failure_names_time_state_and_mode():
     """The FMU's doStep uses the same integrator: when it cannot proceed (here tolerances of
     1e-30 / 1e-300 that no step can meet) the master raises an error carrying the FMU's own
     message: where the integrator stopped, why, the subsystem state and its mode."""
-    from pyfmu_wrapper.cosim import system as cs
     from pyfmu_wrapper.master.master import MasterError
-    from pyfmu_wrapper.solvers.monolithic import initial_guess
+    from pyfmu_wrapper.models.base_tmd import cosim as cs
+    from pyfmu_wrapper.models.solve import initial_guess
 
     tmd = paper_case(1, friction_force=10.0)
     m = cs.make_master(BASE, tmd, coupling="impulse", fmu_build="python")  # the reference build names the state

@@ -17,12 +17,12 @@ import pytest
 from pyfmu_wrapper.cli.run_scenario import main
 from pyfmu_wrapper.models import MODELS
 from pyfmu_wrapper.models.linear_tmd import UNIT, LinearTMDParams
+from pyfmu_wrapper.models.solve import exact_response, steady_state
 from pyfmu_wrapper.physics.params import ParameterError, TMDParams
 from pyfmu_wrapper.scenario.loader import load_scenario, parse_scenario
 from pyfmu_wrapper.scenario.runner import curve_structure
 from pyfmu_wrapper.scenario.schema import ScenarioError
-from pyfmu_wrapper.solvers.frequency_response import exact_response
-from pyfmu_wrapper.solvers.monolithic import SolverSettings, steady_state
+from pyfmu_wrapper.solvers.monolithic import SolverSettings
 
 SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "linear_tmd.yaml"
 TMD = TMDParams()  # what the engines pass; the unit does not read it

@@ -16,8 +16,9 @@ from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.models import MODELS
 from pyfmu_wrapper.models.linear_tmd import LinearTMDParams
 from pyfmu_wrapper.models.linear_tmd.params import PARAMETERS
+from pyfmu_wrapper.models.solve import steady_state
 from pyfmu_wrapper.physics.params import TMDParams
-from pyfmu_wrapper.solvers.monolithic import SolverSettings, steady_state
+from pyfmu_wrapper.solvers.monolithic import SolverSettings
 
 S = LinearTMDParams.den_hartog(0.05, damping=2.0)
 OMEGA = 18.5

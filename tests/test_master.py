@@ -17,13 +17,18 @@ import numpy as np
 import pytest
 
 from pyfmu_wrapper.cosim.settings import CosimSettings, steps_for_accuracy
-from pyfmu_wrapper.cosim.steady import steady_state
-from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters, impulse_connections, make_master
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.master import Master, build_graph
 from pyfmu_wrapper.master.graph import Connection, GraphError
+from pyfmu_wrapper.models import solve as mono
+from pyfmu_wrapper.models.base_tmd.cosim import (
+    CONNECTIONS,
+    fmu_parameters,
+    impulse_connections,
+    make_master,
+    steady_state,
+)
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
-from pyfmu_wrapper.solvers import monolithic as mono
 
 BASE = BaseParams()
 CONFIGS = {
@@ -240,8 +245,8 @@ def test_ssp_export_runs_in_fmpy(tmp_path):
     from fmpy.ssp.simulation import simulate_ssp
     from fmpy.ssp.ssd import read_ssd
 
-    from pyfmu_wrapper.cosim.system import export_tmd_system
     from pyfmu_wrapper.master.ssp import ssp_parameter_set
+    from pyfmu_wrapper.models.base_tmd.cosim import export_tmd_system
 
     tmd = CONFIGS["ideal_inerter"]
     w = 18.0
@@ -266,7 +271,7 @@ def test_ssp_carries_omsimulator_master_annotation_only_when_a_step_is_given(tmp
     import xml.etree.ElementTree as ET
     import zipfile
 
-    from pyfmu_wrapper.cosim.system import export_tmd_system
+    from pyfmu_wrapper.models.base_tmd.cosim import export_tmd_system
 
     tmd, w = CONFIGS["ideal_inerter"], 18.0
     ns = {

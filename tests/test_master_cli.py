@@ -9,8 +9,8 @@ import numpy as np
 import pandas as pd
 
 from pyfmu_wrapper.cli.run_scenario import main
+from pyfmu_wrapper.models.solve import exact_amplitude
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
-from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
 
 SCN = """\
 schema_version: 1

@@ -15,12 +15,11 @@ import numpy as np
 import pytest
 
 from pyfmu_wrapper.cosim.settings import CosimSettings
-from pyfmu_wrapper.cosim.steady import steady_state
-from pyfmu_wrapper.cosim.system import fmu_parameters, make_master
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.master import Master, MasterError, cloop
+from pyfmu_wrapper.models.base_tmd.cosim import fmu_parameters, make_master, steady_state
+from pyfmu_wrapper.models.solve import initial_guess
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
-from pyfmu_wrapper.solvers.monolithic import initial_guess
 
 BASE = BaseParams()
 TMD = TMDParams(damping=10.0)

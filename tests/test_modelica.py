@@ -43,9 +43,9 @@ rumoca = pytest.importorskip("rumoca")
 
 from pyfmu_wrapper.generate import modelica as gen  # noqa: E402
 from pyfmu_wrapper.models.base_tmd import UNIT as PAPER_UNIT  # noqa: E402
+from pyfmu_wrapper.models.solve import simulate  # noqa: E402
 from pyfmu_wrapper.physics import kernels  # noqa: E402
 from pyfmu_wrapper.physics.params import BaseParams, InerterModel, TMDParams, pack  # noqa: E402
-from pyfmu_wrapper.solvers.monolithic import simulate  # noqa: E402
 
 PKG_DIR = gen.PACKAGE_DIR
 PKG_FILE = str(PKG_DIR / "package.mo")

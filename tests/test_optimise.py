@@ -13,10 +13,10 @@ import numpy as np
 import pytest
 
 from pyfmu_wrapper.cli.optimise import main
+from pyfmu_wrapper.models.solve import exact_response
 from pyfmu_wrapper.paper.objectives import OBJECTIVES, Objective, OptimisationError, h2_exact, linear_response
 from pyfmu_wrapper.paper.optimise import OptimiseConfig, optimise, split_parameter
 from pyfmu_wrapper.physics.params import PAPER_C_OPT, PAPER_DF_OPT, BaseParams, paper_case
-from pyfmu_wrapper.solvers.frequency_response import exact_response
 
 BASE = BaseParams()
 

@@ -5,10 +5,10 @@ import math
 import numpy as np
 import pytest
 
+from pyfmu_wrapper.models.solve import exact_amplitude, exact_response
 from pyfmu_wrapper.physics import jacobians as Jac
 from pyfmu_wrapper.physics import kernels as K
 from pyfmu_wrapper.physics.params import BaseParams, ParameterError, TMDParams, pack, paper_case
-from pyfmu_wrapper.solvers.frequency_response import exact_amplitude, exact_response
 
 BASE = BaseParams()
 #: TMD configurations the Jacobian tests run through: every inerter model, friction, cubic spring

@@ -21,17 +21,17 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq, minimize_scalar
 
-from pyfmu_wrapper.cosim.system import fmu_parameters
 from pyfmu_wrapper.fmi.varspec import INTEGER
 from pyfmu_wrapper.generate import docs as docs_gen
+from pyfmu_wrapper.models.base_tmd.cosim import fmu_parameters
 from pyfmu_wrapper.models.base_tmd.fmus.variables import BASE_OSCILLATOR, TMD_INERTER
+from pyfmu_wrapper.models.solve import steady_state
 from pyfmu_wrapper.physics import jacobians as Jac
 from pyfmu_wrapper.physics import kernels as K
 from pyfmu_wrapper.physics import params as P
 from pyfmu_wrapper.physics import registry
 from pyfmu_wrapper.physics.params import BaseParams, ParameterError, TMDParams, pack, paper_case
 from pyfmu_wrapper.scenario.schema import MAP_PARAMETERS
-from pyfmu_wrapper.solvers.monolithic import steady_state
 
 BASE = BaseParams()
 
@@ -237,9 +237,9 @@ def test_cubic_spring_in_the_fmus_matches_the_monolithic_solver():
     k3 on that run is far larger than the agreement (so the FMU did not ignore it)."""
     import math
 
-    from pyfmu_wrapper.cosim.system import make_master
     from pyfmu_wrapper.fmubuild.build import ensure_fmus
-    from pyfmu_wrapper.solvers import monolithic as mono
+    from pyfmu_wrapper.models import solve as mono
+    from pyfmu_wrapper.models.base_tmd.cosim import make_master
 
     paths = ensure_fmus()
     fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
@@ -276,7 +276,7 @@ def test_linearisation_about_rest_is_the_small_amplitude_limit():
     """The exact linearisation of the cubic spring about rest is the linear spring (A identical to
     k3 = 0 to rounding); at F = 0.02 N the simulated cubic response equals it to 1e-6, at F = 200 N
     it does not (the nonlinearity is real)."""
-    from pyfmu_wrapper.solvers.frequency_response import exact_amplitude, linear_system
+    from pyfmu_wrapper.models.solve import exact_amplitude, linear_system
 
     tmd = paper_case(1, damping=10.0, cubic_stiffness=3e6)
     A3, b3 = linear_system(BASE, tmd, linearise=True)
@@ -341,8 +341,7 @@ GOLDEN_UNITS = {
 
 
 def test_model_units_leave_the_papers_numbers_bit_identical():
-    from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
-    from pyfmu_wrapper.solvers.monolithic import simulate
+    from pyfmu_wrapper.models.solve import exact_amplitude, simulate
 
     cases = {
         "ideal_c10": paper_case(1, damping=10.0),
@@ -361,8 +360,7 @@ def test_model_units_leave_the_papers_numbers_bit_identical():
 
 
 def test_the_registry_holds_every_model_and_finds_it_by_structure():
-    from pyfmu_wrapper.models import MODELS
-    from pyfmu_wrapper.models import base_tmd, frame_model
+    from pyfmu_wrapper.models import MODELS, base_tmd, frame_model
     from pyfmu_wrapper.physics.unit import ModelError, Registry
 
     # the first two models, in registration order (a model added later needs no edit here)

@@ -208,7 +208,7 @@ def test_best_fit_viscous_against_brute_force():
     assert abs(fit["c"] - c_ref) <= 0.011
     assert fit["area"] <= areas.min() * (1 + 1e-9)
     # a linear target is recovered exactly
-    from pyfmu_wrapper.solvers.frequency_response import exact_amplitude
+    from pyfmu_wrapper.models.solve import exact_amplitude
 
     tgt = exact_amplitude(BASE, paper_case(2, damping=23.4), w)
     for metric in ("area", "max"):

@@ -46,8 +46,8 @@ def test_every_field_of_both_engines_is_one_row_with_its_default():
 
 
 def test_the_table_choices_are_the_codes_choices():
-    from pyfmu_wrapper.cosim.system import COUPLINGS
     from pyfmu_wrapper.master.schemes import SCHEMES
+    from pyfmu_wrapper.models.base_tmd.cosim import COUPLINGS
 
     assert set(T.BY_NAME["coupling"].choices) == set(COUPLINGS)
     assert set(T.BY_NAME["scheme"].choices) == set(SCHEMES)

@@ -7,11 +7,10 @@ import pytest
 from scipy.integrate import solve_ivp
 from scipy.linalg import expm
 
+from pyfmu_wrapper.models.solve import exact_amplitude, exact_response, linear_system, simulate, steady_state, sweep
 from pyfmu_wrapper.physics import kernels as K
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams, pack, paper_case
-from pyfmu_wrapper.solvers.frequency_response import exact_amplitude, exact_response, linear_system
-from pyfmu_wrapper.solvers.monolithic import SolverSettings, simulate, steady_state
-from pyfmu_wrapper.solvers.sweep import sweep
+from pyfmu_wrapper.solvers.monolithic import SolverSettings
 
 BASE = BaseParams()
 TIGHT = SolverSettings(rtol=1e-10, atol_scale=1e-10, tol=1e-10)

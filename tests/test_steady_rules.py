@@ -18,10 +18,11 @@ from dataclasses import fields
 import numpy as np
 import pytest
 
+from pyfmu_wrapper.models.solve import initial_guess
 from pyfmu_wrapper.physics.models import COUPLED
 from pyfmu_wrapper.physics.params import BaseParams, pack, paper_case
 from pyfmu_wrapper.solvers import rodas
-from pyfmu_wrapper.solvers.monolithic import SolverSettings, initial_guess
+from pyfmu_wrapper.solvers.monolithic import SolverSettings
 from pyfmu_wrapper.solvers.steady import SettingsError, SteadySettings, WindowCriterion
 
 

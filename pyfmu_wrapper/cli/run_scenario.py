@@ -272,13 +272,14 @@ def _refused_curves(scn: Any, settings: RunSettings) -> list[tuple[bool, str]]:
     """The configurations whose structure the co-simulation cannot step at some frequency (a time scale
     far below the forcing period): (every frequency refused, the sentence naming the parameters)."""
     from ..cosim.settings import CosimSettings
-    from ..scenario.engines import cosim_module
+    from ..scenario.engines import cosim_engine
     from ..scenario.runner import study_configurations
 
     cs = settings.cosim if isinstance(settings.cosim, CosimSettings) else CosimSettings()
     cap = cs.max_steps_per_period
     out = []
-    refusal = getattr(cosim_module(scn.base), "refusal", None)
+    engine = cosim_engine(scn.base)
+    refusal = None if engine is None else engine.refusal
     if refusal is None:  # the model's co-simulation takes its steps from the accuracy asked for
         return []
     for where, tmd, omegas in study_configurations(scn):

@@ -1,9 +1,9 @@
-"""The base + TMD application of the co-simulation master: the co-simulation engine.
+"""The co-simulation engine: steady states, their coupling-error check and sweeps of any co-simulated
+system of FMUs on the generic master (:mod:`pyfmu_wrapper.master`), behind a small protocol
+(:mod:`.system`: :class:`~.system.CosimSystem`, :class:`~.system.CosimEngine`).
 
-A model's own wiring may live in its folder (the frame's: :mod:`pyfmu_wrapper.models.frame_model.cosim`,
-named by its unit). :mod:`.system` wires the BaseOscillator and TMDInerter FMUs (connections, FMU parameters, the
-master, SSP export of the pair); :mod:`.steady` computes co-simulated steady states, sweeps and
-steady-state time series with the steady-state definition shared with the monolithic engine
-(:mod:`pyfmu_wrapper.solvers.steady`). The generic master (FMI and coupling only) is
-:mod:`pyfmu_wrapper.master`.
+A model's system lives in its folder (the paper's pair: :mod:`pyfmu_wrapper.models.base_tmd.cosim`; the
+frame's: :mod:`pyfmu_wrapper.models.frame_model.cosim`) and reaches these modules, never the reverse.
+:mod:`.steady` computes co-simulated steady states, sweeps and steady-state time series with the
+steady-state definition shared with the monolithic engine (:mod:`pyfmu_wrapper.solvers.steady`).
 """

@@ -33,11 +33,11 @@ from typing import Any
 import numpy as np
 
 from ..master.master import Master
-from ..physics.params import BaseParams, InerterModel, TMDParams
+from ..physics.params import InerterModel, TMDParams
 from ..solvers.shooting import shoot
-from ..solvers.start import initial_guess
-from .periods import CosimSteadyState, Periods, can_shoot, run_steady, start, state_of
+from .periods import CosimSteadyState, Periods, can_shoot, run_steady, start, start_state, state_of
 from .settings import CosimSettings
+from .system import CosimSystem
 
 #: the largest inerter-to-base mass ratio I/M of the configurations the play model's rattle error
 #: model was fitted on (the paper's Cases 1-3 on the 100 kg base: 0.01-0.09)
@@ -47,20 +47,21 @@ PLAY_CALIBRATED_RATIO = 0.1
 AMPLITUDE_FLOOR = 1e-4
 
 
-def check_mode(base: BaseParams, tmd: TMDParams, settings: CosimSettings) -> str:
+def check_mode(system: CosimSystem, settings: CosimSettings) -> str:
     """How a point's coupling error is estimated (module doc): "own" (shooting, smooth
     configurations), "companion" (the play model where its error model holds) or "doubling" (the
     play run itself at N/2 and N)."""
-    if can_shoot(tmd) and settings.window_for(tmd) == 1:
+    tmd = system.tmd
+    if can_shoot(system) and settings.window_for(tmd) == 1:
         return "own"
-    if float(tmd.inertance) / float(base.mass) <= PLAY_CALIBRATED_RATIO:
+    if float(tmd.inertance) / float(system.reaction_mass()) <= PLAY_CALIBRATED_RATIO:
         return "companion"
     return "doubling"
 
 
-def relative_gap(fine: float, coarse: float, base: BaseParams, amplitude: float | None = None) -> float:
+def relative_gap(fine: float, coarse: float, base: Any, amplitude: float | None = None) -> float:
     """The estimated relative error of ``fine`` from its gap to ``coarse`` (half the steps), relative
-    to ``amplitude`` (default ``fine``) or the floor."""
+    to ``amplitude`` (default ``fine``) or the floor of the structure ``base`` (:data:`AMPLITUDE_FLOOR` |F|/K)."""
     amp = fine if amplitude is None else amplitude
     if not (math.isfinite(fine) and math.isfinite(coarse) and math.isfinite(amp)):
         return math.inf
@@ -81,8 +82,7 @@ DECIDED = 0.2
 
 def coarse_amplitude(
     master: Master,
-    base: BaseParams,
-    tmd: TMDParams,
+    system: CosimSystem,
     omega: float,
     ss: CosimSteadyState,
     settings: CosimSettings,
@@ -98,22 +98,20 @@ def coarse_amplitude(
     within :data:`DECIDED` ``tol`` (relative) or the correction is within 1 % of
     ``coupling_tol``. (NaN, 0) when Newton fails."""
     T = 2.0 * math.pi / omega
-    run = Periods(master, n, T)
-    z = np.array(ss.state[:4], dtype=float)
-    tail = np.asarray(ss.state[4:6], dtype=float)
-    scale = max(
-        math.hypot(z[0], z[1] / omega),
-        math.hypot(z[2], z[3] / omega),
-        1e-6 * abs(base.force_amplitude) / base.stiffness,
-    )
-    zs = np.array([scale, scale * omega, scale, scale * omega])
+    base = system.structure
+    run = Periods(master, n, T, system.observed)
+    m = len(system.state_outputs)
+    z = np.array(ss.state[:m], dtype=float)
+    tail = np.asarray(ss.state[m:], dtype=float)
+    zs = system.shooting_scale(z, omega)
+    zero = np.zeros(len(ss.state))
 
     def period_map(zz: np.ndarray) -> tuple[np.ndarray, float]:
-        start(master, base, tmd, omega, np.concatenate([zz, tail]), settings)
+        start(master, system, omega, np.concatenate([zz, tail]), settings)
         a = run.period()
-        return state_of(master, np.zeros(6))[:4], a
+        return state_of(system, master, zero)[:m], a
 
-    if jacobian is None or np.shape(jacobian) != (4, 4):
+    if jacobian is None or np.shape(jacobian) != (m, m):
         res = shoot(period_map, z, zs, settings.tol, settings.max_newton, None)
         return (math.nan, 0.0) if res is None else (float(res.amplitude), 0.0)
     enough = max(10.0 * settings.tol, 1e-2 * settings.coupling_tol)
@@ -137,8 +135,7 @@ def coarse_amplitude(
 
 def own_error(
     master: Master,
-    base: BaseParams,
-    tmd: TMDParams,
+    system: CosimSystem,
     omega: float,
     ss: CosimSteadyState,
     settings: CosimSettings,
@@ -150,12 +147,13 @@ def own_error(
     (steps, amplitude) of a run with half the steps, if there was one. With ``restart`` the master
     is left re-initialised at ``ss.state`` (the fine orbit, for a time series that follows)."""
     n = ss.steps_per_period
+    base = system.structure
     if previous is not None and previous[0] * 2 == n:
         return relative_gap(ss.amplitude, previous[1], base)
-    tol = settings.coupling_tolerance(tmd)
-    a, u = coarse_amplitude(master, base, tmd, omega, ss, settings, hint.get("A"), max(n // 2, 4), tol)
+    tol = settings.coupling_tolerance(system.tmd)
+    a, u = coarse_amplitude(master, system, omega, ss, settings, hint.get("A"), max(n // 2, 4), tol)
     if restart:
-        start(master, base, tmd, omega, ss.state, settings)
+        start(master, system, omega, ss.state, settings)
     floor = AMPLITUDE_FLOOR * abs(base.force_amplitude) / base.stiffness
     return relative_gap(ss.amplitude, a, base) + u / max(abs(ss.amplitude), floor, 1e-300)
 
@@ -167,8 +165,7 @@ def companion(tmd: TMDParams) -> TMDParams:
 
 def companion_error(
     master: Master,
-    base: BaseParams,
-    tmd: TMDParams,
+    system: CosimSystem,
     omega: float,
     settings: CosimSettings,
     hint: dict,
@@ -179,15 +176,15 @@ def companion_error(
     own amplitude (the companion's antiresonance, zero to rounding, is not the play model's: it
     rattles there). The companion's orbit and Jacobian are carried along a sweep in
     ``hint['companion_cosim']``."""
-    ideal = companion(tmd)
+    ideal = system.with_tmd(companion(system.tmd))
     sub: dict[str, Any] = hint.setdefault("companion_cosim", {})
     z0 = sub.get("z")
     if z0 is None or sub.get("omega") is None:
-        z = initial_guess(base, ideal, omega)
+        z = start_state(ideal, omega)
     else:
-        z = np.asarray(z0, float) + initial_guess(base, ideal, omega) - initial_guess(base, ideal, sub["omega"])
+        z = np.asarray(z0, float) + start_state(ideal, omega) - start_state(ideal, sub["omega"])
     smooth = replace(settings, window=1, shooting=True)
-    ss = run_steady(master, base, ideal, omega, z, smooth, sub, n)
+    ss = run_steady(master, ideal, omega, z, smooth, sub, n)
     sub["z"], sub["omega"] = ss.state.copy(), float(omega)
-    coarse, u = coarse_amplitude(master, base, ideal, omega, ss, smooth, sub.get("A"), max(n // 2, 4))
+    coarse, u = coarse_amplitude(master, ideal, omega, ss, smooth, sub.get("A"), max(n // 2, 4))
     return ss.amplitude, coarse + math.copysign(u, coarse - ss.amplitude)

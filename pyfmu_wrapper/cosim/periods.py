@@ -15,21 +15,22 @@ import numpy as np
 from numpy.typing import ArrayLike
 
 from ..master.master import Master
-from ..physics.params import BaseParams, InerterModel, TMDParams
+from ..physics.params import InerterModel
+from ..physics.unit import SmallForcing
 from ..solvers.hermite import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
-from ..solvers.monolithic import SolverSettings, companion_start
+from ..solvers.monolithic import SolverSettings, companion_start, small_forcing_start
 from ..solvers.shooting import shoot
 from ..solvers.start import initial_guess
 from ..solvers.steady import WindowCriterion
 from .settings import CosimSettings
-from .system import fmu_parameters
+from .system import CosimSystem
 
 
 @dataclass
 class CosimSteadyState:
     omega: float
     amplitude: float
-    state: np.ndarray  #: x, xd, y, yd, d, dd at the end (d, dd: not observable, from the start guess)
+    state: np.ndarray  #: the state at the end (the entries no FMU output shows, the play chain's d, dd: from the start)
     periods: int
     converged: bool
     change: float
@@ -66,9 +67,9 @@ class Periods:
     A period is one block of the master's :meth:`~pyfmu_wrapper.master.master.Master.advance`
     (the compiled loop: no Python work per step), recorded into preallocated arrays."""
 
-    def __init__(self, master: Master, n: int, T: float):
+    def __init__(self, master: Master, n: int, T: float, observed: tuple[str, str]):
         self.m, self.n, self.h = master, n, T / n
-        self.ix, self.iv = master.signals.index("base.x"), master.signals.index("base.xd")
+        self.ix, self.iv = master.signals.index(observed[0]), master.signals.index(observed[1])
         self.t_rec = np.zeros(n)
         self.y_rec = np.zeros((n + 1, master.nsig))
 
@@ -82,29 +83,27 @@ class Periods:
         return _hermite_absmax(self.x, self.v, self.h)
 
 
-def state_of(master: Master, z_guess: np.ndarray) -> np.ndarray:
+def state_of(system: CosimSystem, master: Master, z_guess: np.ndarray) -> np.ndarray:
+    """The system's state: the FMU outputs of :attr:`~.system.CosimSystem.state_outputs`, the rest from
+    ``z_guess``."""
     s = master.signals
     y = master.y
-    return np.array(
-        [y[s.index("base.x")], y[s.index("base.xd")], y[s.index("tmd.y")], y[s.index("tmd.yd")], z_guess[4], z_guess[5]]
-    )
+    n = len(system.state_outputs)
+    return np.concatenate([[y[s.index(name)] for name in system.state_outputs], np.asarray(z_guess)[n:]])
 
 
-def can_shoot(tmd: TMDParams) -> bool:
-    """Shooting needs the whole state observable at the FMU outputs: x, xd, y, yd (no play chain)."""
-    return tmd.inerter != InerterModel.PLAY
+def can_shoot(system: CosimSystem) -> bool:
+    """Shooting needs the whole state observable at the FMU outputs (not the play chain's d, dd)."""
+    return system.tmd.inerter != InerterModel.PLAY
 
 
-def start(
-    master: Master, base: BaseParams, tmd: TMDParams, omega: float, z: ArrayLike, settings: CosimSettings
-) -> None:
-    master.initialize(0.0, fmu_parameters(base, tmd, omega, z, settings.fmu_rtol))
+def start(master: Master, system: CosimSystem, omega: float, z: ArrayLike, settings: CosimSettings) -> None:
+    master.initialize(0.0, system.parameters(omega, np.asarray(z, dtype=float), settings.fmu_rtol))
 
 
 def _shoot(
     master: Master,
-    base: BaseParams,
-    tmd: TMDParams,
+    system: CosimSystem,
     omega: float,
     z0: np.ndarray,
     settings: CosimSettings,
@@ -112,25 +111,21 @@ def _shoot(
     hint: dict,
 ) -> Any:
     """Newton shooting (:func:`~pyfmu_wrapper.solvers.shooting.shoot`, the one shared with the
-    monolithic solver) on the co-simulated period map z -> z(T) over z = (x, xd, y, yd); each
-    evaluation re-initialises the FMUs from z. The Jacobian comes from the previous frequency of
-    the sweep (``hint['A']``) or from finite differences. Returns the ShootingResult or None."""
-    z = np.array(z0[:4], dtype=float)
-    tail = np.asarray(z0[4:6], dtype=float)
-    amp = max(
-        math.hypot(z[0], z[1] / omega),
-        math.hypot(z[2], z[3] / omega),
-        1e-6 * abs(base.force_amplitude) / base.stiffness,
-    )
+    monolithic solver) on the co-simulated period map z -> z(T) over the states the FMU outputs show
+    (the pair's x, xd, y, yd); each evaluation re-initialises the FMUs from z. The Jacobian comes from
+    the previous frequency of the sweep (``hint['A']``) or from finite differences. Returns the
+    ShootingResult or None."""
+    n = len(system.state_outputs)
+    z = np.array(z0[:n], dtype=float)
+    tail = np.asarray(z0[n:], dtype=float)
+    zero = np.zeros(len(z0))
 
     def period_map(zz: np.ndarray) -> tuple[np.ndarray, float]:
-        start(master, base, tmd, omega, np.concatenate([zz, tail]), settings)
+        start(master, system, omega, np.concatenate([zz, tail]), settings)
         a = run.period()
-        return state_of(master, np.zeros(6))[:4], a
+        return state_of(system, master, zero)[:n], a
 
-    res = shoot(
-        period_map, z, np.array([amp, amp * omega, amp, amp * omega]), settings.tol, settings.max_newton, hint.get("A")
-    )
+    res = shoot(period_map, z, system.shooting_scale(z, omega), settings.tol, settings.max_newton, hint.get("A"))
     if res is None:
         hint.pop("A", None)
     else:
@@ -140,8 +135,7 @@ def _shoot(
 
 def run_steady(
     master: Master,
-    base: BaseParams,
-    tmd: TMDParams,
+    system: CosimSystem,
     omega: float,
     z0: ArrayLike | None,
     settings: CosimSettings,
@@ -158,28 +152,29 @@ def run_steady(
     hint: a dict carried along a sweep (the shooting Jacobian)."""
     t_start = time.perf_counter()
     hint = {} if hint is None else hint
+    unit, base, tmd = system.unit, system.structure, system.tmd
     W = settings.window_for(tmd)
     if W > 1 and settings.play_start == "companion":
         # the play model starts from the orbit of its smooth companion (ideal inerter), as in the
         # monolithic solver: the windows then settle in about two (see companion_start)
         z = companion_start(
-            base, tmd, omega, SolverSettings(rtol=1e-8, atol_scale=1e-8), hint.setdefault("monolithic", {})
+            unit, base, tmd, omega, SolverSettings(rtol=1e-8, atol_scale=1e-8), hint.setdefault("monolithic", {})
         )
     else:
-        guess = initial_guess(base, tmd, omega)
+        guess = start_state(system, omega)
         z = guess if z0 is None else np.array(z0, dtype=float)
         if tmd.inerter == InerterModel.PLAY and z0 is not None:
-            z = np.concatenate([z[:4], guess[4:]])
+            z = np.concatenate([z[: len(system.state_outputs)], guess[len(system.state_outputs) :]])
     T = 2.0 * math.pi / omega
-    run = Periods(master, n, T)
+    run = Periods(master, n, T, system.observed)
     steps = 0
-    if W == 1 and settings.shooting and can_shoot(tmd):
-        res = _shoot(master, base, tmd, omega, z, settings, run, hint)
+    if W == 1 and settings.shooting and can_shoot(system):
+        res = _shoot(master, system, omega, z, settings, run, hint)
         if res is not None:  # the master stands at the end of the period from res.z
             return CosimSteadyState(
                 omega=float(omega),
                 amplitude=res.amplitude,
-                state=state_of(master, z),
+                state=state_of(system, master, z),
                 periods=res.periods,
                 converged=True,
                 change=res.change,
@@ -189,9 +184,9 @@ def run_steady(
                 steps_per_period=n,
             )
         steps = 0
-    start(master, base, tmd, omega, z, settings)
+    start(master, system, omega, z, settings)
     crit = WindowCriterion.from_settings(settings, W, base, omega)
-    ix, iv = master.signals.index("base.x"), master.signals.index("base.xd")
+    ix, iv = master.signals.index(system.observed[0]), master.signals.index(system.observed[1])
     if W == 1:
         crit.add(abs(master.y[ix]), (master.y[ix], master.y[iv]))  # the start, for the first residual
         crit.period_max.clear()
@@ -204,7 +199,7 @@ def run_steady(
     return CosimSteadyState(
         omega=float(omega),
         amplitude=amplitude,
-        state=state_of(master, z),
+        state=state_of(system, master, z),
         periods=k,
         converged=converged,
         change=change,
@@ -215,6 +210,18 @@ def run_steady(
         reason=_window_reason(crit, k, converged, change),
         steps_per_period=n,
     )
+
+
+def start_state(system: CosimSystem, omega: float) -> np.ndarray:
+    """The start of a periodic solution at omega [rad/s] with no better one at hand: the one the model's
+    unit declares (:func:`~pyfmu_wrapper.solvers.start.initial_guess`: a linear companion's exact steady
+    state; for a unit that continues from small forcing, the monolithic solver's continuation)."""
+    unit = system.unit
+    if isinstance(unit.start, SmallForcing):
+        return small_forcing_start(
+            unit, system.structure, system.tmd, omega, SolverSettings(rtol=1e-8, atol_scale=1e-8)
+        )
+    return initial_guess(unit, system.structure, system.tmd, omega)
 
 
 def _window_reason(crit: WindowCriterion, periods: int, converged: bool, change: float) -> str:

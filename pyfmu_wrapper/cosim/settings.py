@@ -9,11 +9,10 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ..physics.params import BaseParams, TMDParams, has_gap
+from ..physics.params import TMDParams, has_gap
 from ..solvers import settings_table as _table
 from ..solvers.settings_table import COSIM
 from ..solvers.steady import SteadySettings
-from .timescales import choose_steps
 
 
 @dataclass(frozen=True)
@@ -60,13 +59,6 @@ class CosimSettings(SteadySettings):
         if self.steps_per_period is not None:
             return int(self.steps_per_period)
         return steps_for_accuracy(self.accuracy_for(tmd), self.order, self.coupling, has_gap(tmd))
-
-    def steps_at(self, base: BaseParams, tmd: TMDParams, omega: float) -> int:
-        """Steps per period at omega [rad/s] before any refinement: the larger of :meth:`steps_for`
-        and the structure's (:func:`~.timescales.choose_steps`); :meth:`steps_for` where the
-        structure is refused (the steady state then reports why)."""
-        choice = choose_steps(base, tmd, omega, self.steps_for(tmd), self.max_steps_per_period, False)
-        return choice.steps or self.steps_for(tmd)
 
     def accuracy_for(self, tmd: TMDParams) -> float:
         """The relative amplitude accuracy asked for (:data:`DEFAULT_ACCURACY` when not set)."""

@@ -1,22 +1,21 @@
-"""Steady states and frequency sweeps of the base + TMD system by co-simulation of the two FMUs.
+"""Steady states and frequency sweeps of a co-simulated system of FMUs (:class:`~.system.CosimSystem`).
 
 This is the co-simulation engine, the counterpart of :mod:`pyfmu_wrapper.solvers.monolithic`:
-on the pair wired by :mod:`.system` (a generic :class:`~pyfmu_wrapper.master.master.Master`) it
-applies the steady-state definition of the monolithic solver
-(:mod:`pyfmu_wrapper.solvers.monolithic`): A_k = max |x| over forcing period k, from the base
-outputs x, xd at the communication points with the cubic Hermite interpolant between them;
+on the system's master (a generic :class:`~pyfmu_wrapper.master.master.Master`, its FMUs and
+connections the model's) it applies the steady-state definition of the monolithic solver
+(:mod:`pyfmu_wrapper.solvers.monolithic`): A_k = max |z[0]| over forcing period k, from the observed
+outputs of z[0], z[1] at the communication points with the cubic Hermite interpolant between them;
 windows of W periods (1 without play, 20 with a gap), W_j = max of A_k in window j; W = 1 stops
-when the estimated distance of the base state to the periodic orbit is below ``tol``, W > 1
+when the estimated distance of the observed state to the periodic orbit is below ``tol``, W > 1
 when two windows agree to ``tol_window`` or their scatter is known (irregular responses are
 flagged; :class:`~pyfmu_wrapper.solvers.steady.WindowCriterion`; the run at one step count is
 :mod:`.periods`). The communication step is T / N so that periods start at communication points,
-N the larger of the accuracy model's and the structure's own time scales' (:mod:`.timescales`);
+N the larger of the accuracy model's and the system's own time scales' (:mod:`.timescales`);
 every point's coupling error is estimated by step doubling and held against ``coupling_tol``
 (:mod:`.checked`, :func:`steady_state`): refined, or reported not converged with its ``reason``.
-Each frequency starts from the previous frequency's final state (x, xd, y, yd read from the FMU outputs; d, dd of the play chain from
-:func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`) or, for the first one, from
-:func:`initial_guess`.
-"""
+Each frequency starts from the previous frequency's final state (the states the FMU outputs show;
+the others, the play chain's d, dd, from the unit's start state) or, for the first one, from the
+unit's start state (:func:`~.periods.start_state`)."""
 
 from __future__ import annotations
 
@@ -24,6 +23,7 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
+from functools import partial
 from typing import Any
 
 import numpy as np
@@ -32,26 +32,24 @@ from numpy.typing import ArrayLike
 
 from ..master.instance import MasterError
 from ..master.master import Master
-from ..physics.params import BaseParams, TMDParams
-from ..solvers.start import initial_guess
+from ..physics.unit import SmallForcing
 from ..solvers.sweep import run_sweep_pieces
-from . import timescales
 from .checked import check_mode, companion_error, own_error, relative_gap
-from .periods import CosimSteadyState, Periods, run_steady
+from .periods import CosimSteadyState, Periods, run_steady, start_state
 from .settings import CosimSettings
-from .system import make_master
+from .system import CosimSystem
 from .timescales import choose_steps, fastest
 
-__all__ = ["CosimSteadyState", "continuation_start", "periodic_time_series", "steady_state", "sweep"]
+__all__ = ["CosimSteadyState", "continuation_start", "periodic_time_series", "steady_state", "steps_at", "sweep"]
 
 
 #: the most times the coupling-error check doubles the steps of one point
 MAX_DOUBLINGS = 3
 
 
-def _no_result(base: BaseParams, tmd: TMDParams, omega: float, z0: ArrayLike | None) -> CosimSteadyState:
+def _no_result(system: CosimSystem, omega: float, z0: ArrayLike | None) -> CosimSteadyState:
     """A point with no steady state: no amplitude, not converged, the start state it would have used."""
-    z = initial_guess(base, tmd, omega) if z0 is None else np.array(z0, dtype=float)
+    z = start_state(system, omega) if z0 is None else np.array(z0, dtype=float)
     return CosimSteadyState(
         omega=float(omega),
         amplitude=math.nan,
@@ -66,8 +64,7 @@ def _no_result(base: BaseParams, tmd: TMDParams, omega: float, z0: ArrayLike | N
 
 def steady_state(
     master: Master,
-    base: BaseParams,
-    tmd: TMDParams,
+    system: CosimSystem,
     omega: float,
     z0: ArrayLike | None = None,
     settings: CosimSettings = CosimSettings(),
@@ -88,14 +85,15 @@ def steady_state(
     the master on the converged orbit (for a time series that follows; a sweep does not need it)."""
     t_start = time.perf_counter()
     hint = {} if hint is None else hint
+    base, tmd = system.structure, system.tmd
     fixed = settings.steps_per_period is not None
     cap = int(settings.max_steps_per_period)
-    choice = choose_steps(base, tmd, omega, settings.steps_for(tmd), cap, fixed)
+    choice = choose_steps(system, omega, settings.steps_for(tmd), cap, fixed)
     if choice.refused is not None:
-        return replace(_no_result(base, tmd, omega, z0), wall_time=time.perf_counter() - t_start, reason=choice.refused)
+        return replace(_no_result(system, omega, z0), wall_time=time.perf_counter() - t_start, reason=choice.refused)
     n = choice.steps
     tol = settings.coupling_tolerance(tmd)
-    mode = check_mode(base, tmd, settings)
+    mode = check_mode(system, settings)
     previous: tuple[int, float] | None = None
     last: tuple[CosimSteadyState, float, str] | None = None  #: the last run that finished
     steps = periods = 0
@@ -106,14 +104,14 @@ def steady_state(
             coarse = math.nan
             companion = (math.nan, math.nan)
             if mode == "companion":
-                companion = companion_error(master, base, tmd, omega, settings, hint, n)
+                companion = companion_error(master, system, omega, settings, hint, n)
             elif mode == "doubling":  # the play run itself at n/2 first: the master ends on the n run
                 coarse = previous[1] if previous is not None and 2 * previous[0] == n else math.nan
                 if math.isnan(coarse):
-                    coarse = run_steady(master, base, tmd, omega, z0, settings, hint, max(n // 2, 8)).amplitude
-            ss = run_steady(master, base, tmd, omega, z0, settings, hint, n)
+                    coarse = run_steady(master, system, omega, z0, settings, hint, max(n // 2, 8)).amplitude
+            ss = run_steady(master, system, omega, z0, settings, hint, n)
             if mode == "own":
-                est = own_error(master, base, tmd, omega, ss, settings, hint, previous, restart)
+                est = own_error(master, system, omega, ss, settings, hint, previous, restart)
             elif mode == "doubling":
                 est = relative_gap(ss.amplitude, coarse, base)
             else:  # the companion's gap against the play model's amplitude
@@ -139,11 +137,11 @@ def steady_state(
         z0 = z0 if ss is None else ss.state
         n *= 2
     if ss is None:
-        ss = _no_result(base, tmd, omega, z0)
+        ss = _no_result(system, omega, z0)
     reason = ss.reason or problem
     if problem and not ss.reason and ss.steps_per_period:
         limit = "a fixed steps_per_period" if fixed else f"max_steps_per_period = {cap} or {MAX_DOUBLINGS} doublings"
-        reason = f"{problem} ({limit}; {fastest(base, tmd).what} is {fastest(base, tmd).omega:.4g} rad/s)"
+        reason = f"{problem} ({limit}; {fastest(system).what} is {fastest(system).omega:.4g} rad/s)"
     return replace(
         ss,
         converged=bool(ss.converged and not problem),
@@ -170,33 +168,30 @@ def _time_split(before: dict, after: dict) -> dict:
     return out
 
 
-def continuation_start(base: BaseParams, tmd: TMDParams, z_prev: ArrayLike, w_prev: float, w: float) -> np.ndarray:
+def continuation_start(system: CosimSystem, z_prev: ArrayLike, w_prev: float, w: float) -> np.ndarray:
     """Start state at w from the steady state z_prev found at w_prev: z_prev shifted by the change
-    of the linear steady state (:func:`initial_guess`) between the two frequencies. Exact for a
-    linear configuration; for a nonlinear one it keeps the branch (the nonlinear part of z_prev)
-    while removing most of the transient a plain restart from z_prev would excite."""
-    return np.asarray(z_prev, float) + initial_guess(base, tmd, w) - initial_guess(base, tmd, w_prev)
+    of the unit's start state (:func:`~.periods.start_state`: the linear companion's steady state)
+    between the two frequencies. Exact for a linear configuration; for a nonlinear one it keeps the
+    branch (the nonlinear part of z_prev) while removing most of the transient a plain restart from
+    z_prev would excite. A unit that continues from small forcing has no linear companion: z_prev."""
+    if isinstance(system.unit.start, SmallForcing):
+        return np.asarray(z_prev, float)
+    return np.asarray(z_prev, float) + start_state(system, w) - start_state(system, w_prev)
 
 
 def _sweep_piece(
-    base: BaseParams,
-    tmd: TMDParams,
+    system: CosimSystem,
+    base: Any,
+    tmd: Any,
     seq: Sequence[float],
     direction: str,
     settings: CosimSettings,
     z0: ArrayLike | None,
     queue: Any = None,
 ) -> Any:
-    master = make_master(
-        base,
-        tmd,
-        settings.scheme,
-        settings.order,
-        coupling=settings.coupling,
-        interface_jacobian=settings.interface_jacobian,
-        fmi_version=settings.fmi_version,
-        fmu_build=settings.fmu_build,
-    )
+    """One contiguous piece of a sweep on one master (``base``, ``tmd``: the system's, as
+    :func:`~pyfmu_wrapper.solvers.sweep.run_sweep_pieces` hands them)."""
+    master = system.make_master(settings)
     rows = []
     z = None if z0 is None else np.asarray(z0, dtype=float)
     hint: dict = {}
@@ -205,9 +200,9 @@ def _sweep_piece(
         for w in seq:
             start = z
             if z is not None and w_prev is not None:
-                start = continuation_start(base, tmd, z, w_prev, float(w))
+                start = continuation_start(system, z, w_prev, float(w))
             before = master.timing()
-            ss = steady_state(master, base, tmd, float(w), start, settings, hint, restart=False)
+            ss = steady_state(master, system, float(w), start, settings, hint, restart=False)
             z, w_prev = ss.state, float(w)
             rows.append(ss.row(direction) | _time_split(before, master.timing()))
             if queue is not None:
@@ -218,8 +213,7 @@ def _sweep_piece(
 
 
 def sweep(
-    base: BaseParams,
-    tmd: TMDParams,
+    system: CosimSystem,
     omegas: Sequence[float] | np.ndarray,
     direction: str = "up",
     settings: CosimSettings = CosimSettings(),
@@ -230,16 +224,16 @@ def sweep(
     """Co-simulated steady-state amplitudes over omegas (sorted), up, down or both.
 
     workers > 1 splits each direction into that many contiguous pieces, one process each (the
-    first piece continues from z0, the others start from :func:`initial_guess`), exactly as the
+    first piece continues from z0, the others start from the unit's start state), exactly as the
     monolithic :func:`~pyfmu_wrapper.solvers.sweep.sweep` does, so both engines meet the same branch.
     """
-    rows, _ = run_sweep_pieces(_sweep_piece, base, tmd, omegas, direction, settings, progress, z0, workers)
+    piece = partial(_sweep_piece, system)
+    rows, _ = run_sweep_pieces(piece, system.structure, system.tmd, omegas, direction, settings, progress, z0, workers)
     return pd.DataFrame(rows)
 
 
 def periodic_time_series(
-    base: BaseParams,
-    tmd: TMDParams,
+    system: CosimSystem,
     omega: float,
     n_periods: int = 1,
     samples_per_period: int | None = None,
@@ -248,33 +242,21 @@ def periodic_time_series(
 ) -> tuple[np.ndarray, np.ndarray, CosimSteadyState]:
     """Steady state, then n_periods more recorded at the communication points.
 
-    Returns (t, states[:, 6] = x, xd, y, yd, d, dd (d, dd: nan, not outputs of the FMUs), steady state).
-    ``samples_per_period`` overrides the communication steps per period (the record is at the
-    communication points)."""
+    Returns (t, states[:, n] (the pair's x, xd, y, yd, d, dd; the states no FMU output shows, the play
+    chain's d, dd: nan), steady state). ``samples_per_period`` overrides the communication steps per
+    period (the record is at the communication points)."""
     own = master is None
-    m = (
-        master
-        if master is not None
-        else make_master(
-            base,
-            tmd,
-            settings.scheme,
-            settings.order,
-            coupling=settings.coupling,
-            interface_jacobian=settings.interface_jacobian,
-            fmi_version=settings.fmi_version,
-            fmu_build=settings.fmu_build,
-        )
-    )
+    m = master if master is not None else system.make_master(settings)
+    n_state = system.unit.n_state(system.structure)
     try:
         if samples_per_period is not None:
             settings = replace(settings, steps_per_period=int(samples_per_period))
-        ss = steady_state(m, base, tmd, omega, None, settings)
-        n = ss.steps_per_period or settings.steps_for(tmd)
+        ss = steady_state(m, system, omega, None, settings)
+        n = ss.steps_per_period or settings.steps_for(system.tmd)
         if not ss.steps_per_period:  # refused or failed: nothing to record
             t = np.arange(n_periods * n) * (2 * math.pi / omega / n)
-            return t, np.full((t.size, 6), np.nan), ss
-        run = Periods(m, n, 2 * math.pi / omega)
+            return t, np.full((t.size, n_state), np.nan), ss
+        run = Periods(m, n, 2 * math.pi / omega, system.observed)
         rec = []
         for _ in range(n_periods):
             buf = np.zeros((n + 1, m.nsig))
@@ -282,8 +264,8 @@ def periodic_time_series(
             rec.append(buf[:-1])
         Y = np.vstack(rec)
         s = m.signals
-        states = np.full((Y.shape[0], 6), np.nan)
-        for j, p in enumerate(("base.x", "base.xd", "tmd.y", "tmd.yd")):
+        states = np.full((Y.shape[0], n_state), np.nan)
+        for j, p in enumerate(system.state_outputs):
             states[:, j] = Y[:, s.index(p)]
         t = np.arange(Y.shape[0]) * (2 * math.pi / omega / n)
         return t, states, ss
@@ -292,7 +274,9 @@ def periodic_time_series(
             m.close()
 
 
-def refusal(base: Any, tmd: TMDParams, omegas: object, cap: int) -> str | None:
-    """The frequencies of ``omegas`` the pair's time scales cannot step within ``cap`` steps per
-    period (:func:`.timescales.refusal`): what ``run-scenario`` refuses up front."""
-    return timescales.refusal(base, tmd, omegas, cap)
+def steps_at(system: CosimSystem, omega: float, settings: CosimSettings) -> int:
+    """Steps per period at omega [rad/s] before any refinement: the larger of the accuracy model's
+    (:meth:`~.settings.CosimSettings.steps_for`) and the structure's (:func:`~.timescales.choose_steps`);
+    the accuracy model's where the structure is refused (the steady state then reports why)."""
+    choice = choose_steps(system, omega, settings.steps_for(system.tmd), settings.max_steps_per_period, False)
+    return choice.steps or settings.steps_for(system.tmd)

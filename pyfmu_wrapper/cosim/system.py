@@ -1,160 +1,101 @@
-"""The base + TMD pair as two co-simulated FMUs: connections, FMU parameters, the master, SSP export.
+"""What the co-simulation engine asks of a model: a co-simulated system of FMUs (:class:`CosimSystem`),
+and what ``run-scenario`` asks of a model's co-simulation (:class:`CosimEngine`).
 
-The two FMUs are BaseOscillator (``base``) and TMDInerter (``tmd``). Force coupling
-(:data:`CONNECTIONS`)::
+The engine (:mod:`.periods`, :mod:`.checked`, :mod:`.steady`) computes steady states, their coupling-error
+check and sweeps on any :class:`CosimSystem`: a structure and its absorber as FMUs on the generic master,
+with the states the FMUs' outputs show. A model's folder implements it (the paper's pair:
+:mod:`pyfmu_wrapper.models.base_tmd.cosim`) and gives its unit a :class:`CosimEngine` (its sweep, and
+optionally its phase portrait, its up-front refusal and its step count), which ``run-scenario`` calls; the
+engine knows no model.
 
-    base.x -> tmd.x, base.xd -> tmd.xd, base.xdd -> tmd.xdd, tmd.force -> base.f_link
-
-(the ideal inerter makes ``base.xdd -> tmd.xdd -> tmd.force -> base.f_link -> base.xdd`` an
-algebraic loop), or the momentum (impulse) coupling of :func:`impulse_connections`.
-:func:`fmu_parameters` maps :class:`BaseParams` / :class:`TMDParams` and a start state onto the
-FMU parameters (through the parameter registry), :func:`make_master` builds the generic
-:class:`~pyfmu_wrapper.master.master.Master` for the pair and :func:`export_tmd_system` writes
-the pair as an SSP file (:func:`pyfmu_wrapper.master.ssp.export_ssp`).
+Conventions (those of the model units): the reported displacement is z[0], its rate z[1]; the structure has
+``force_amplitude`` and ``stiffness`` (F/K bounds the static deflection: the floors of the relative
+errors); the paper's TMD, where the model takes it, sits at z[2:6] = [y, yd, d, dd] (a model with its own
+absorber passes a detached TMD: no play, one window, every state shootable).
 """
 
 from __future__ import annotations
 
-from pathlib import Path
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, NamedTuple, Protocol
 
 import numpy as np
-from numpy.typing import ArrayLike
+from numpy.typing import NDArray
 
-from ..master.graph import Connection
-from ..master.master import Master
-from ..master.ssp import export_ssp
-from ..physics import registry
-from ..physics.params import BaseParams, TMDParams, has_gap
-from ..solvers.start import initial_guess, play_atol
+from ..physics.params import TMDParams
+from ..physics.unit import ModelUnit
 
-CONNECTIONS = ("base.x -> tmd.x", "base.xd -> tmd.xd", "base.xdd -> tmd.xdd", "tmd.force -> base.f_link")
-RECORD = ("tmd.y", "tmd.yd")
-#: smallest absolute tolerance [m] given to the FMUs: with no forcing (F = 0) the scale 1e-8 F/K is 0,
-#: which the FMUs refuse (atol must be > 0); any forced configuration of the paper is far above it
-ATOL_FLOOR = 1e-14
-
-#: how the TMD force reaches the base (CosimSettings.coupling)
-COUPLINGS = ("impulse", "force")
+if TYPE_CHECKING:
+    from ..master.master import Master
+    from .settings import CosimSettings
 
 
-def fmu_parameters(base: BaseParams, tmd: TMDParams, omega: float, z0: ArrayLike, fmu_rtol: float = 1e-8) -> dict:
-    """The FMU parameter values ("instance.variable" -> value) of a configuration and start state."""
-    z = np.asarray(z0, dtype=float)
-    out = registry.fmu_start_values(base, tmd, omega)
-    out.update(
-        {
-            "base.x0": z[0],
-            "base.xd0": z[1],
-            "base.rtol": fmu_rtol,
-            "base.atol": max(1e-8 * abs(base.force_amplitude) / base.stiffness, ATOL_FLOOR),
-            "tmd.y0": z[2],
-            "tmd.yd0": z[3],
-            "tmd.d0": z[4],
-            "tmd.dd0": z[5],
-            "tmd.rtol": fmu_rtol,
-            "tmd.atol": _tmd_atol(base, tmd),
-        }
-    )
-    return out
+class Scale(NamedTuple):
+    """A time scale of a co-simulated system that a communication step has to resolve (:mod:`.timescales`)."""
+
+    omega: float  #: angular frequency [rad/s]
+    what: str  #: what it is, with the parameters (names, symbols, values) that set it
 
 
-def _tmd_atol(base: BaseParams, tmd: TMDParams) -> float:
-    a = max(1e-8 * abs(base.force_amplitude) / base.stiffness, ATOL_FLOOR)
-    if has_gap(tmd):
-        a = min(a, play_atol(base, tmd))
-    return a
+class CosimSystem(Protocol):
+    """A structure and its absorber as co-simulated FMUs (module doc)."""
+
+    @property
+    def unit(self) -> ModelUnit: ...  #: the model (its start states, its monolithic companion)
+    @property
+    def structure(self) -> Any: ...  #: the primary structure's parameters
+    @property
+    def tmd(self) -> TMDParams: ...  #: the paper's TMD (a detached one for a model with its own absorber)
+
+    @property
+    def observed(self) -> tuple[str, str]:
+        """The outputs ("instance.variable") of the reported displacement z[0] and its rate z[1]."""
+        ...
+
+    @property
+    def state_outputs(self) -> tuple[str, ...]:
+        """The outputs that give the state's first entries z[0], z[1], ...: the states Newton shooting moves
+        (the rest, not outputs of the FMUs, are taken from the start state)."""
+        ...
+
+    def with_tmd(self, tmd: TMDParams) -> CosimSystem:
+        """The same system with another TMD (the play model's smooth companion)."""
+        ...
+
+    def make_master(self, settings: CosimSettings) -> Master:
+        """A master with the system's FMUs and connections (the FMUs built if missing or stale)."""
+        ...
+
+    def parameters(self, omega: float, z: NDArray[np.float64], fmu_rtol: float) -> dict[str, Any]:
+        """The FMU parameters ("instance.variable" -> value) at excitation omega [rad/s] from state z."""
+        ...
+
+    def time_scales(self) -> list[Scale]:
+        """The angular frequencies [rad/s] a communication step has to resolve, each with the parameters
+        that set it (:mod:`.timescales`)."""
+        ...
+
+    def reaction_mass(self) -> float:
+        """The mass [kg] the absorber hangs on (the play model's rattle error model holds up to an
+        inertance of 0.1 of it, :mod:`.checked`)."""
+        ...
+
+    def shooting_scale(self, z: NDArray[np.float64], omega: float) -> NDArray[np.float64]:
+        """The scale of each shot state (:attr:`state_outputs`) at omega, for Newton's tolerance."""
+        ...
 
 
-def impulse_connections(tmd: TMDParams, interface_jacobian: bool = True) -> list:
-    """Momentum coupling: the base gets the exact impulse of the links over each step, from the
-    TMD's momentum balance m ydd = (force of the links) (the inerter chain is massless): mean
-    f_link = m (yd(t + h) - yd(t)) / h over the step, handed to the base as a linear function with
-    that mean and the slope between consecutive means; the TMD steps first. The base's change of
-    momentum from the links is exact whatever the gear does inside the step, and no algebraic
-    loop remains.
+@dataclass(frozen=True)
+class CosimEngine:
+    """A model's co-simulation as ``run-scenario`` calls it (module doc); every function takes the
+    structure and the TMD first."""
 
-    interface_jacobian (default): the TMD gets the base's acceleration without the link force
-    (``base.xdd_free -> tmd.xdd``) and, as the parameter ``tmd.base_compliance`` = 1/M set by
-    :func:`make_master`, the base's compliance, so that within a step it adds the base's
-    instantaneous reaction -force/M to its own force: the gear-mesh rattle meets a base that
-    reacts without a step of delay. The base's force then also matches the first moment of the
-    impulse (``integral_src="tmd.y"``: exact change of momentum *and* of position over every
-    step), which without the interface Jacobian was less accurate because the TMD fed on the
-    base's then jumpy end-of-step acceleration (docs/cosimulation.md, "interface Jacobian")."""
-    if not interface_jacobian:
-        return [*CONNECTIONS[:3], Connection("tmd.yd", "base.f_link", "rate", float(tmd.mass), "tmd.force")]
-    return [
-        CONNECTIONS[0],
-        CONNECTIONS[1],
-        "base.xdd_free -> tmd.xdd",
-        Connection("tmd.yd", "base.f_link", "rate", float(tmd.mass), "tmd.force", integral_src="tmd.y"),
-    ]
-
-
-def make_master(
-    base: BaseParams | None = None,
-    tmd: TMDParams | None = None,
-    scheme: str = "loop",
-    order: int = 2,
-    fmus: dict | None = None,
-    coupling: str = "force",
-    interface_jacobian: bool = True,
-    fmi_version: int = 2,
-    fmu_build: str = "native",
-) -> Master:
-    """A master for the base + TMD pair (the FMUs are built if missing or stale).
-
-    coupling: "force" (tmd.force -> base.f_link, the algebraic loop of the ideal inerter) or
-    "impulse" (:func:`impulse_connections`; needs ``tmd``; ``interface_jacobian`` sets
-    ``tmd.base_compliance`` = 1/M of ``base``); fmi_version: 2 or 3 (the FMUs of that version);
-    fmu_build: "native" (the model compiled into the FMUs' binaries) or "python" (the Python-hosted
-    FMUs, the reference)."""
-    if fmus is None:
-        if fmu_build == "native":
-            from ..fmubuild.native_build import ensure_native_fmus
-
-            paths = ensure_native_fmus(fmi_version=fmi_version)
-        else:
-            from ..fmubuild.build import ensure_fmus
-
-            paths = ensure_fmus(fmi_version=fmi_version)
-        fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
-    if coupling == "impulse":
-        pars = {"tmd.base_compliance": 1.0 / (base or BaseParams()).mass} if interface_jacobian else {}
-        return Master(
-            fmus,
-            impulse_connections(tmd or TMDParams(), interface_jacobian),
-            pars,
-            scheme="jacobi",
-            order=order,
-            record=RECORD,
-        )
-    return Master(fmus, CONNECTIONS, {}, scheme=scheme, order=order, record=RECORD)
-
-
-def export_tmd_system(
-    path: str | Path,
-    base: BaseParams,
-    tmd: TMDParams,
-    omega: float,
-    z0: ArrayLike | None = None,
-    stop_time: float | None = None,
-    step_size: float | None = None,
-) -> Path:
-    """SSP of the base + TMD pair of this project at excitation omega [rad/s] (start state z0,
-    default the linear steady state of :func:`~pyfmu_wrapper.solvers.monolithic.initial_guess`;
-    step_size: OMSimulator's master step, see :func:`pyfmu_wrapper.master.ssp.ssd_xml`)."""
-    from ..fmubuild.build import ensure_fmus
-
-    paths = ensure_fmus()
-    fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
-    z = initial_guess(base, tmd, omega) if z0 is None else z0
-    return export_ssp(
-        path,
-        fmus,
-        CONNECTIONS,
-        fmu_parameters(base, tmd, omega, z),
-        name="BaseTMD",
-        stop_time=stop_time,
-        step_size=step_size,
-    )
+    #: sweep(structure, tmd, omegas, direction=, settings=, progress=, workers=) -> the sweep table
+    sweep: Callable[..., Any]
+    #: periodic_time_series(structure, tmd, omega, n_periods, samples_per_period, settings) -> (t, states, ss)
+    periodic_time_series: Callable[..., Any] | None = None
+    #: refusal(structure, tmd, omegas, cap) -> why some frequency cannot be stepped (an up-front refusal)
+    refusal: Callable[..., str | None] | None = None
+    #: steps_at(structure, tmd, omega, settings) -> the communication steps per period at omega
+    steps_at: Callable[..., int] | None = None

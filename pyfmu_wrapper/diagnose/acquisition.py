@@ -54,7 +54,7 @@ if TYPE_CHECKING:
 
     from numpy import complex128, ndarray
 
-    from ..scenario.yamlio import MarkedDict
+    from ..inputs.yamlio import MarkedDict
     from .errors import DataError
     from .harmonic import Series
     from .records import Record

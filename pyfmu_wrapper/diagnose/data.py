@@ -126,7 +126,7 @@ def load_dataset(
     """Load and validate ``path/dataset.yaml`` and its records (``model_override``: a nominal model
     read from the file ``model_source``). Progress of long records goes to ``log``."""
     from ..errors import read_utf8
-    from ..scenario.yamlio import load_marked
+    from ..inputs.yamlio import load_marked
 
     path = Path(path)
     yml = path if path.suffix in (".yaml", ".yml") else path / "dataset.yaml"

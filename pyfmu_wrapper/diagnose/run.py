@@ -17,7 +17,7 @@ if TYPE_CHECKING:
     from pathlib import Path
     from typing import Any
 
-    from ..scenario.yamlio import MarkedDict
+    from ..inputs.yamlio import MarkedDict
     from .data import Dataset
 
 
@@ -26,7 +26,7 @@ def _load_model(spec: str | None) -> dict[str, Any] | MarkedDict | None:
         return None
     import yaml
 
-    from ..scenario.yamlio import load_marked
+    from ..inputs.yamlio import load_marked
 
     p = Path(spec)
     if not p.is_file():

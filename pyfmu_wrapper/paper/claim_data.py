@@ -15,10 +15,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.optimize import minimize_scalar
 
+from ..models.solve import exact_amplitude
 from ..physics.params import BaseParams, InerterModel, TMDParams
 from ..scenario.engines import RunSettings, TimeSeries, compute_sweep, compute_time_series
 from ..scenario.runner import FRCData, MapData
-from ..solvers.frequency_response import exact_amplitude
 
 PAPER_COPT = {1: 56.38, 2: 31.73, 3: 6.45}
 PAPER_DFOPT = {1: 45.78, 2: 37.65, 3: 15.44}

@@ -15,8 +15,8 @@ import numpy as np
 from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.figure import Figure
 
+from ..models.solve import exact_amplitude
 from ..scenario import plots
-from ..solvers.frequency_response import exact_amplitude
 from .claim_data import PAPER_SIMPLIFIED, curve
 from .reproduce import CASES, Run
 

@@ -23,8 +23,8 @@ import numpy as np
 from scipy.linalg import solve_continuous_lyapunov
 
 from ..errors import InputError
+from ..models.solve import linear_system
 from ..physics.params import BaseParams, InerterModel, TMDParams
-from ..solvers.frequency_response import linear_system
 
 
 class OptimisationError(InputError):

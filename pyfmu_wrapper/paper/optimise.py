@@ -115,7 +115,7 @@ class Evaluator:
                 f"objective {self.objective.name!r} needs a linear configuration "
                 "(exact frequency response); this one is nonlinear"
             )
-        from ..solvers.sweep import sweep
+        from ..models.solve import sweep
 
         tab = sweep(base, tmd, self.omegas, self.direction, self.settings, workers=self.workers).table
         amp = tab.groupby("omega")["amplitude"].max()  # 'both': the envelope of the two branches

@@ -18,11 +18,11 @@ from typing import Any
 
 import yaml
 
+from ..inputs.yamlio import load_marked
 from ..scenario.engines import RunSettings
 from ..scenario.loader import Scenario, parse_scenario, plain_data
 from ..scenario.output import run_scenario
 from ..scenario.runner import work_units
-from ..scenario.yamlio import load_marked
 
 ROOT = Path(__file__).resolve().parents[2]
 PAPER_DIR = ROOT / "scenarios" / "paper"

@@ -1,6 +1,7 @@
 """Jacobians of the equations of :mod:`.kernels`: the derivatives the implicit integrator needs.
 
-Two kinds, both of the *same* right-hand sides:
+Two kinds, both of the *same* right-hand sides (and :func:`complex_step_jacobian`, the complex-step Jacobian
+of any model's right-hand side, the one helper every model with its own equations uses):
 
 * **complex-step** (:func:`system_jacobian`, :func:`system_dfdt`, :func:`jacobian`): the right-hand
   side of :mod:`.kernels` evaluated at a complex state (the kernels accept complex arguments), so
@@ -18,6 +19,8 @@ Two kinds, both of the *same* right-hand sides:
 from __future__ import annotations
 
 import math
+import types
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
@@ -218,3 +221,47 @@ def system_dfdt_work(system: int, t: float, z: Vec, p: Vec, u: Vec, out: Vec, zc
 def jacobian(t: float, z: Vec, p: Vec, J: Vec) -> None:
     """d(rhs)/dz of the coupled system."""
     system_jacobian(SYS_COUPLED, t, z, p, np.zeros(1), J)
+
+
+# -- the complex-step Jacobian of any right-hand side ------------------------------------------------
+
+
+def _complex_step_template(t: float, z: Vec, p: Vec, u: Vec, J: Vec, ft: Vec, zc: Vec, oc: Vec) -> None:
+    """J = d rhs / dz and ft = d rhs / dt by the complex step (exact to rounding) of the right-hand side
+    bound as ``_cs_rhs`` (see :func:`complex_step_jacobian`); zc, oc: complex work arrays."""
+    n = z.shape[0]
+    for j in range(n):
+        for i in range(n):
+            zc[i] = z[i]
+        zc[j] = z[j] + 1j * CSTEP
+        _cs_rhs(t, zc, p, u, oc)  # noqa: F821 - bound per right-hand side by complex_step_jacobian
+        for i in range(n):
+            J[i, j] = oc[i].imag / CSTEP
+    for i in range(n):
+        zc[i] = z[i]
+    _cs_rhs(t + 1j * CSTEP, zc, p, u, oc)  # noqa: F821
+    for i in range(n):
+        ft[i] = oc[i].imag / CSTEP
+
+
+if TYPE_CHECKING:  # bound per right-hand side by complex_step_jacobian
+    _cs_rhs: Any
+
+
+def complex_step_jacobian(rhs: Any, name: str) -> Any:
+    """The Jacobian function of the integrator's signature, ``jacobian(t, z, p, u, J, ft, zc, oc)``, of a
+    right-hand side ``rhs(t, z, p, u, out)`` that accepts a complex state and time: the complex-step
+    derivative in z and t, exact to rounding (no second statement of the equations). One template for
+    every model: its code with ``rhs`` as its global and a name of its own (``jacobian_<name>``, a Python
+    identifier), so numba compiles ``rhs`` inline and caches each Jacobian in a file of its own (as
+    :func:`~pyfmu_wrapper.solvers.rodas.make_integrator` does for the integrator)."""
+    if not name.isidentifier():
+        raise ValueError(f"complex_step_jacobian: name {name!r} is not a Python identifier")
+    g = dict(globals())
+    g["_cs_rhs"] = rhs
+    tpl = _complex_step_template
+    fn = types.FunctionType(tpl.__code__, g, f"jacobian_{name}", tpl.__defaults__)
+    fn.__qualname__ = f"jacobian_{name}"
+    fn.__doc__ = f"J = d rhs / dz and ft = d rhs / dt of {getattr(rhs, '__name__', name)} by the complex step."
+    fn.__module__ = tpl.__module__
+    return njit(cache=True)(fn)

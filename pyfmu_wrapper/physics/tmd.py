@@ -5,6 +5,8 @@ map's Newton iteration moves when a structure carries it at z[2:6]."""
 from __future__ import annotations
 
 import math
+from dataclasses import replace
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -45,3 +47,9 @@ def active_states(tmd: TMDParams, n: int) -> list[int]:
     if detached(tmd):
         return [i for i in range(n) if not 2 <= i < 6]
     return list(range(n)) if tmd.inerter == InerterModel.PLAY else [i for i in range(n) if i not in (4, 5)]
+
+
+def tmd_companion(structure: Any, tmd: TMDParams) -> tuple[Any, TMDParams]:
+    """The linear configuration nearest a structure with the paper's TMD: the TMD without friction, play
+    gap and cubic spring (the start of its periodic solutions)."""
+    return structure, replace(tmd, friction_force=0.0, play_gap=0.0, cubic_stiffness=0.0)

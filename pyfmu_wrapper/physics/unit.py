@@ -19,6 +19,7 @@ TMD equations of :mod:`.kernels` run unchanged on it.
 
 from __future__ import annotations
 
+import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
@@ -31,12 +32,41 @@ from .modelica_source import ModelicaSource
 from .models import OdeModel
 from .params import P_F, P_W, TMDParams
 from .registry import Parameter
+from .tmd import tmd_companion
 
 
 def tmd_is_linear(structure: Any, tmd: TMDParams) -> bool:
     """A linear structure with the paper's TMD: linear when the TMD is (no friction, play or cubic
     spring): the default of :attr:`ModelUnit.is_linear`."""
     return tmd.is_linear
+
+
+@dataclass(frozen=True)
+class LinearCompanion:
+    """Periodic solutions start from the exact steady state of a linear configuration near the model's:
+    ``companion(structure, tmd) -> (structure, tmd)`` of that configuration (the solvers take its exact
+    frequency response, :func:`~pyfmu_wrapper.solvers.frequency_response.exact_state`)."""
+
+    companion: Callable[[Any, TMDParams], tuple[Any, TMDParams]]
+
+
+@dataclass(frozen=True)
+class SmallForcing:
+    """Periodic solutions start from the linearisation about rest (the small-amplitude limit, exact to
+    rounding there) and are continued in the force amplitude: the steady state is solved at each
+    ``fractions`` of the structure's ``force_amplitude`` in turn, each from the last, the full force last.
+    For a model nonlinear in its own way (a pendulum) that has no linear configuration nearby."""
+
+    fractions: tuple[float, ...] = (0.05, 0.2, 0.5)
+
+
+def same_configuration(structure: Any, tmd: TMDParams) -> tuple[Any, TMDParams]:
+    """The companion of a linear model: itself."""
+    return structure, tmd
+
+
+#: the start of a model that takes the paper's TMD: the TMD without friction, gap and cubic spring
+PAPER_START = LinearCompanion(tmd_companion)
 
 
 class ModelError(InputError):
@@ -64,10 +94,11 @@ class ModelUnit:
     description: str = ""
     #: example() -> a structure of this model (the tests run every registered model on it)
     example: Callable[[], Any] | None = None
-    #: the dotted name of the module of the unit's co-simulation system (FMUs, master, steady states),
-    #: whose ``sweep(structure, tmd, omegas, direction=, settings=, progress=, workers=)`` the
-    #: co-simulation engine runs (resolved there: physics imports no co-simulation); "": none
-    cosim: str = ""
+    #: cosim() -> the unit's co-simulation (a :class:`pyfmu_wrapper.cosim.system.CosimEngine`: its
+    #: ``sweep(structure, tmd, omegas, direction=, settings=, progress=, workers=)`` and the rest), a
+    #: function of the model's folder that imports it when asked (the FMUs and the master load only
+    #: for a co-simulation); None: the model has no co-simulation
+    cosim: Callable[[], Any] | None = None
     #: the dotted names of the modules declaring the unit's FMUs, each defining ``FMU`` (a
     #: ``pyfmu_wrapper.fmi.fmumodel.FmuModel``: variable table, slave, native functions), resolved in
     #: ``fmi/catalog.py`` (physics imports no FMU runtime); (): the unit has no FMU
@@ -80,13 +111,24 @@ class ModelUnit:
     modelica: ModelicaSource | None = None
     #: the key of the structure's block in a scenario file ("": the unit's name, e.g. ``linear_tmd:``)
     scenario_block: str = ""
-    #: "module:function" of a reader of its own for that block, ``reader(rd, node, line) -> structure``
-    #: (resolved by the scenario loader: physics imports no scenario code); "": the block's keys are the
-    #: unit's declared parameters (:mod:`pyfmu_wrapper.scenario.structspec`)
-    scenario_reader: str = ""
+    #: a reader of its own for that block, ``reader(rd, node, line) -> structure`` (an
+    #: :class:`~pyfmu_wrapper.inputs.reader.Reader` with located errors, the block, its line); None: the
+    #: block's keys are the unit's declared parameters (:mod:`pyfmu_wrapper.scenario.structspec`)
+    scenario_reader: Callable[[Any, Any, int | None], Any] | None = None
     #: is_linear(structure, tmd) -> the equations are linear in the state (the exact frequency
     #: response applies); default: the structure is linear and the TMD decides (:func:`tmd_is_linear`)
     is_linear: Callable[[Any, TMDParams], bool] = tmd_is_linear
+    #: how the solvers start a periodic solution (:class:`LinearCompanion` or :class:`SmallForcing`);
+    #: default: the paper's TMD without friction, gap and cubic spring
+    start: LinearCompanion | SmallForcing = PAPER_START
+    #: the module that defines the unit as its ``UNIT`` (its ``__name__``): a unit is pickled by that
+    #: reference, as Python pickles a function (a sweep's worker processes get the unit that way)
+    home: str = ""
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        if not self.home:
+            raise TypeError(f"model unit {self.name!r} cannot be pickled: it names no home module (home=__name__)")
+        return (load_unit, (self.home,))
 
     def check_state(self, structure: Any, z: NDArray[Any], what: str = "start state") -> NDArray[np.float64]:
         """z as a float array, refused with a one-line :class:`ModelError` unless it has the
@@ -139,6 +181,14 @@ class ModelUnit:
         b = np.empty(n)
         self.ode.rhs(0.0, np.zeros(n), p, u, b)
         return A, b
+
+
+def load_unit(home: str) -> ModelUnit:
+    """The unit a module defines as ``UNIT`` (the other end of :meth:`ModelUnit.__reduce__`)."""
+    unit = getattr(importlib.import_module(home), "UNIT", None)
+    if not isinstance(unit, ModelUnit):
+        raise TypeError(f"{home} defines no model unit UNIT")
+    return unit
 
 
 class Registry:

@@ -16,7 +16,6 @@ portraits). An engine is a pair of functions registered in :data:`ENGINES`:
 
 from __future__ import annotations
 
-import importlib
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -27,10 +26,8 @@ import pandas as pd
 
 from ..errors import InputError
 from ..models import MODELS
+from ..models.solve import exact_amplitude, exact_response, periodic_time_series, sweep
 from ..physics.params import TMDParams
-from ..solvers.frequency_response import exact_amplitude, exact_response
-from ..solvers.monolithic import periodic_time_series
-from ..solvers.sweep import sweep
 from .schema import SolverConfig, SweepConfig
 from .sweeptable import with_sweep_columns
 
@@ -235,19 +232,19 @@ def _cosim_settings(settings: RunSettings) -> Any:
     return settings.cosim if settings.cosim is not None else CosimSettings()
 
 
-def cosim_module(base: Any) -> Any:
-    """The co-simulation module of a structure's model, the one its unit names
-    (:attr:`~pyfmu_wrapper.physics.unit.ModelUnit.cosim`, e.g. :mod:`pyfmu_wrapper.cosim.steady` for the
-    paper's pair, :mod:`pyfmu_wrapper.models.frame_model.cosim` for a frame); no model is named here.
-    It has ``sweep`` and may have ``periodic_time_series`` (phase portraits) and ``refusal`` (the
-    frequencies its time scales cannot step, for an up-front refusal). None: the model has none."""
-    name = MODELS.of(base).cosim
-    return importlib.import_module(name) if name else None
+def cosim_engine(base: Any) -> Any:
+    """The co-simulation of a structure's model, as its unit holds it
+    (:attr:`~pyfmu_wrapper.physics.unit.ModelUnit.cosim`: a :class:`~pyfmu_wrapper.cosim.system.CosimEngine`
+    with ``sweep`` and optionally ``periodic_time_series`` (phase portraits), ``refusal`` (the frequencies its
+    time scales cannot step, for an up-front refusal) and ``steps_at``); no model is named here. None: the
+    model has none."""
+    load = MODELS.of(base).cosim
+    return load() if load is not None else None
 
 
 def _cosim_system(base: Any) -> Callable[..., pd.DataFrame]:
-    """The co-simulation sweep of a structure's model (:func:`cosim_module`)."""
-    sweep: Callable[..., pd.DataFrame] = cosim_module(base).sweep
+    """The co-simulation sweep of a structure's model (:func:`cosim_engine`)."""
+    sweep: Callable[..., pd.DataFrame] = cosim_engine(base).sweep
     return sweep
 
 
@@ -320,13 +317,14 @@ def _cosim_time_series(
 ) -> TimeSeries:
     from dataclasses import replace as _replace
 
-    cosim_series = getattr(cosim_module(base), "periodic_time_series", None)  # (getattr of None: None)
-    if cosim_series is None:
+    engine = cosim_engine(base)
+    cosim_series = None if engine is None else engine.periodic_time_series
+    if cosim_series is None or engine.steps_at is None:
         raise EngineError(f"the co-simulated phase portrait is not written for model {MODELS.of(base).name!r}")
 
     cs = _cosim_settings(settings)
     # record at the communication points: at least the requested samples per period
-    n = max(int(samples_per_period), cs.steps_at(base, tmd, omega))  # the structure's step too
+    n = max(int(samples_per_period), engine.steps_at(base, tmd, omega, cs))  # the structure's step too
     t, states, ss = cosim_series(base, tmd, omega, n_periods, None, _replace(cs, steps_per_period=n))
     if n != samples_per_period:  # resample to the requested grid (cubic Hermite on x, xd; linear otherwise)
         T = 2.0 * np.pi / omega

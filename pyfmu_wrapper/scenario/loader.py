@@ -17,12 +17,13 @@ from typing import TYPE_CHECKING, Any
 
 import yaml
 
-from ..physics.params import BaseParams, ParameterError, TMDParams, field_names
+from ..inputs.reader import Reader, key_path, line_of
+from ..inputs.yamlio import load_marked
+from ..physics.params import TMDParams
 from ..physics.unit import ModelUnit
 from ..solvers import settings_table as _settings
 from ..solvers.steady import SettingsError
 from .framespec import attached
-from .reader import Reader, key_path, line_of
 from .schema import (
     COSIM_KEYS,
     DIRECTIONS,
@@ -43,7 +44,6 @@ from .schema import (
 )
 from .structspec import block_units, over_block, read_structure
 from .tmdspec import TMDSpec, detached_tmd
-from .yamlio import load_marked
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -51,10 +51,9 @@ if TYPE_CHECKING:
 
     from numpy import ndarray
 
+    from ..inputs.yamlio import MarkedDict, MarkedList
     from .schema import FRCStudy, MapStudy, PhasePortraitStudy
-    from .yamlio import MarkedDict, MarkedList
 
-BASE_FIELDS = tuple(field_names(BaseParams))
 _NAME_RE = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.-]*$")
 
 
@@ -187,32 +186,6 @@ def _check_tmd_block(
             f"{block}: block",
             node["tmd"],
         )
-
-
-def read_base(rd: Reader, node: MarkedDict, line: int | None) -> BaseParams:
-    """The paper's ``base:`` block as BaseParams (the base_tmd unit's reader: its declared rows hold
-    omega, which a scenario gives as ``frequencies``)."""
-    b = rd.mapping(node, "base", line, required=BASE_FIELDS)
-    for key in BASE_FIELDS:
-        rd.number(b, key, "base")
-    try:
-        return BaseParams(**{k: b[k] for k in BASE_FIELDS})
-    except ParameterError:
-        key = next(k for k in BASE_FIELDS if _base_fails(b, k))
-        p, ln = f"base.{key}", line_of(b, key)
-        try:
-            BaseParams(**{k: b[k] for k in BASE_FIELDS}, source=rd.source(p, ln))
-        except ParameterError as exc:
-            rd.parameter_error(exc, p, ln, b[key])
-        raise  # pragma: no cover - the same values cannot pass the second time
-
-
-def _base_fails(b: MarkedDict, key: str) -> bool:
-    try:
-        BaseParams(**{key: b[key]})
-        return False
-    except ParameterError:
-        return True
 
 
 _SWEEP_KEYS = ("direction", "continuation")

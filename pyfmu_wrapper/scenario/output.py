@@ -24,7 +24,6 @@ from typing import TYPE_CHECKING
 import numpy as np
 import pandas as pd
 
-from ..physics.params import as_dict
 from . import plots
 from .engines import RunSettings
 from .outdir import (
@@ -37,7 +36,7 @@ from .outdir import (
 )
 from .runner import FRCData, MapData, run_studies
 from .schema import Scenario
-from .summary import study_summary
+from .summary import model_parameters, study_summary
 from .tasks import code_version
 
 if TYPE_CHECKING:
@@ -182,7 +181,7 @@ def make_summary(
         ),
         engine=settings.engine,
         workers=settings.workers,
-        parameters=dict(base=as_dict(scn.base), tmd=as_dict(scn.tmd)),
+        parameters=model_parameters(scn.base, scn.tmd),
         settings=settings.used(),
         not_used=[b for b in ("solver", "cosim") if b in scn.raw and b not in settings.used()],
         code_version=code_version(),
@@ -192,7 +191,7 @@ def make_summary(
             studies={d.study.name: d.wall_time for d in datas},
             cosim=cosim_time_split(datas),
         ),
-        studies=[study_summary(d) for d in datas],
+        studies=[study_summary(d, scn.base) for d in datas],
         created=_dt.datetime.now(_dt.UTC).isoformat(timespec="seconds"),
         versions=dict(pyfmu_wrapper=version, numpy=np.__version__),
     )

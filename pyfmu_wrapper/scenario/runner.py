@@ -17,7 +17,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from ..solvers.frequency_response import exact_amplitude
+from ..models.solve import exact_amplitude
 from .engines import RunSettings, compute_sweep, compute_time_series, uses_exact
 from .executors import run_tasks
 from .schema import Curve, FRCStudy, MapStudy, PhasePortraitStudy, Scenario

@@ -11,13 +11,15 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from ..errors import InputError
+from ..inputs.reader import ScenarioError
 from ..physics import registry
 from ..physics.params import TMDParams
 from ..solvers.monolithic import SolverSettings
 
 if TYPE_CHECKING:
     from ..cosim.settings import CosimSettings
+
+__all__ = ["ScenarioError"]  # (defined with the reader that raises it; imported from here by the scenario code)
 
 SCHEMA_VERSION = 2
 #: older versions still read: 1 only when the file has no ``solver:`` block (docs/scenarios.md)
@@ -28,26 +30,6 @@ LINEAR_METHODS = ("exact", "simulate")
 STUDY_KINDS = ("frc", "map", "phase_portrait")
 #: TMD parameters a map may sweep: the numeric TMDParams fields and the derived inertance_ratio.
 MAP_PARAMETERS = tuple(p.name for p in registry.fields("tmd") if p.mappable) + ("inertance_ratio",)
-
-
-class ScenarioError(InputError):
-    """A scenario file that cannot be read or is not valid.
-
-    Attributes: ``file``, ``line`` (1-based, or None), ``path`` (key path such as
-    ``studies[2].values[3]``, or None) and ``value`` (the offending value, when there is one).
-    """
-
-    def __init__(
-        self,
-        message: str,
-        *,
-        file: str | None = None,
-        line: int | None = None,
-        path: str | None = None,
-        value: Any = None,
-    ) -> None:
-        super().__init__(message)
-        self.file, self.line, self.path, self.value = file, line, path, value
 
 
 @dataclass(frozen=True)

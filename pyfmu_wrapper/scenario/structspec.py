@@ -5,22 +5,21 @@ unit's structure class built from them, with located errors (file, line, key pat
 
 A new model needs no edit here: a unit may name its block (``scenario_block``: the paper's ``base:``)
 and a reader of its own (``scenario_reader``: the frame's per-storey lists, which the declared rows
-cannot state, :mod:`.framespec`; the paper's ``base:``, the loader's), resolved here by name.
+cannot state; the paper's ``base:``), which the unit holds.
 """
 
 from __future__ import annotations
 
-import importlib
 from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
+from ..inputs.reader import Reader, key_path, line_of
 from ..models import MODELS
 from ..physics.params import ParameterError
 from ..physics.unit import ModelUnit
-from .reader import Reader, key_path, line_of
 
 if TYPE_CHECKING:
-    from .yamlio import MarkedDict
+    from ..inputs.yamlio import MarkedDict
 
 
 def block_units() -> dict[str, ModelUnit]:
@@ -30,12 +29,11 @@ def block_units() -> dict[str, ModelUnit]:
 
 
 def read_structure(rd: Reader, unit: ModelUnit, node: MarkedDict, path: str, line: int | None) -> Any:
-    """The scenario's block as the unit's structure: by the unit's own reader if it names one
-    (``"module:function"``), else from its declared parameters (:func:`read_block`)."""
-    if not unit.scenario_reader:
+    """The scenario's block as the unit's structure: by the unit's own reader if it holds one, else from
+    its declared parameters (:func:`read_block`)."""
+    if unit.scenario_reader is None:
         return read_block(rd, unit, node, path, line)
-    module, _, function = unit.scenario_reader.partition(":")
-    return getattr(importlib.import_module(module), function)(rd, node, line)
+    return unit.scenario_reader(rd, node, line)
 
 
 def read_block(rd: Reader, unit: ModelUnit, node: MarkedDict, path: str, line: int | None) -> Any:

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
+from ..models import MODELS
 from ..physics.params import as_dict
 from .runner import FRCData, MapData, PhaseData
 from .sweeptable import engine_differences, irregular_mask, sweep_diagnostics
@@ -19,21 +20,34 @@ if TYPE_CHECKING:
 # --- summary -----------------------------------------------------------------------------------
 
 
-def study_summary(data: Any) -> dict[str, Any]:
+def model_parameters(structure: Any, tmd: Any) -> dict[str, Any]:
+    """The parameter blocks of the model that ran, each under its scenario key: the structure's (``base``,
+    ``frame``, ``linear_tmd``, ...) and the paper's TMD only for a model that takes it."""
+    unit = MODELS.of(structure)
+    out = {unit.scenario_block or unit.name: as_dict(structure)}
+    if unit.takes_tmd:
+        out["tmd"] = as_dict(tmd)
+    return out
+
+
+def _curve(c: Any, structure: Any) -> dict[str, Any]:
+    """A curve's entry: its label and the parameters it ran with (the TMD's only where the model takes one)."""
+    unit = MODELS.of(c.structure if c.structure is not None else structure)
+    d: dict[str, Any] = dict(label=c.label, without_tmd=c.without_tmd)
+    if unit.takes_tmd:
+        d.update(tmd=as_dict(c.tmd), inertance_ratio=c.tmd.inertance_ratio)
+    if c.structure is not None:
+        d[unit.scenario_block or unit.name] = as_dict(c.structure)
+    return d
+
+
+def study_summary(data: Any, structure: Any) -> dict[str, Any]:
+    """The ``summary.json`` entry of a study run on ``structure`` (the scenario's primary structure)."""
     st = data.study
     d = dict(kind=st.kind, name=st.name, title=st.title, wall_time=data.wall_time)
     if isinstance(data, FRCData):
         d["omegas"] = _grid(st.omegas)
-        d["curves"] = [
-            dict(
-                label=c.label,
-                without_tmd=c.without_tmd,
-                tmd=as_dict(c.tmd),
-                inertance_ratio=c.tmd.inertance_ratio,
-                directions=data.peaks[c.label],
-            )
-            for c in st.curves
-        ]
+        d["curves"] = [_curve(c, structure) | dict(directions=data.peaks[c.label]) for c in st.curves]
     elif isinstance(data, MapData):
         d.update(
             parameter=st.parameter,

@@ -7,11 +7,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
+from ..inputs.reader import Reader, key_path, line_of
 from ..physics.params import CASES, InerterModel, ParameterError, TMDParams, field_names
-from .reader import Reader, key_path, line_of
 
 if TYPE_CHECKING:
-    from .yamlio import MarkedDict
+    from ..inputs.yamlio import MarkedDict
 
 TMD_FIELDS = tuple(field_names(TMDParams))
 #: keys of a tmd: block that attach the TMD to a frame's storeys, not TMD parameters (.framespec reads them)

@@ -20,14 +20,13 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
-from ..models import MODELS
 from ..physics.params import InerterModel, ParameterError, TMDParams
+from ..physics.unit import ModelUnit
 
 
-def linear_system(base: Any, tmd: TMDParams, linearise: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """(A, b): dz/dt = A z + b f for the applied force f [N] (module doc for linearise); base: the
-    primary structure's parameters (its model unit is read off :data:`~pyfmu_wrapper.models.MODELS`)."""
-    unit = MODELS.of(base)
+def linear_system(unit: ModelUnit, base: Any, tmd: TMDParams, linearise: bool = False) -> tuple[np.ndarray, np.ndarray]:
+    """(A, b): dz/dt = A z + b f for the applied force f [N] (module doc for linearise); unit: the
+    structure's model, base: the primary structure's parameters."""
     gap = tmd.play_gap if tmd.inerter == InerterModel.PLAY else 0.0
     if linearise:
         if unit.takes_tmd and (tmd.friction_force != 0.0 or gap != 0.0):
@@ -49,10 +48,12 @@ def linear_system(base: Any, tmd: TMDParams, linearise: bool = False) -> tuple[n
     return unit.linear_system(base, tmd, linearise)
 
 
-def exact_response(base: Any, tmd: TMDParams, omegas: ArrayLike, linearise: bool = False) -> np.ndarray:
+def exact_response(
+    unit: ModelUnit, base: Any, tmd: TMDParams, omegas: ArrayLike, linearise: bool = False
+) -> np.ndarray:
     """Complex amplitudes Z[k, :] of the state (the paper's [x, xd, y, yd, d, dd]; a model's own
     layout) at each omega [rad/s]."""
-    A, b = linear_system(base, tmd, linearise)
+    A, b = linear_system(unit, base, tmd, linearise)
     n = A.shape[0]
     omegas = np.atleast_1d(np.asarray(omegas, dtype=float))
     out = np.empty((omegas.size, n), dtype=complex)
@@ -67,12 +68,17 @@ def exact_response(base: Any, tmd: TMDParams, omegas: ArrayLike, linearise: bool
     return out
 
 
-def exact_amplitude(base: Any, tmd: TMDParams, omegas: ArrayLike, linearise: bool = False) -> np.ndarray:
+def exact_amplitude(
+    unit: ModelUnit, base: Any, tmd: TMDParams, omegas: ArrayLike, linearise: bool = False
+) -> np.ndarray:
     """Steady-state amplitude |z[0]| [m] (the base; a frame's top storey) at each omega [rad/s]."""
-    return np.abs(exact_response(base, tmd, omegas, linearise)[:, 0])
+    return np.abs(exact_response(unit, base, tmd, omegas, linearise)[:, 0])
 
 
-def exact_state(base: Any, tmd: TMDParams, omega: float, t: float = 0.0) -> np.ndarray:
-    """The steady-state state vector at time t (phase w t) of a linear configuration."""
-    Z = exact_response(base, tmd, [omega])[0]
+def exact_state(
+    unit: ModelUnit, base: Any, tmd: TMDParams, omega: float, t: float = 0.0, linearise: bool = False
+) -> np.ndarray:
+    """The steady-state state vector at time t (phase w t) of a linear configuration (``linearise``: of
+    the linearisation about rest)."""
+    Z = exact_response(unit, base, tmd, [omega], linearise)[0]
     return np.real(Z * np.exp(1j * omega * t))

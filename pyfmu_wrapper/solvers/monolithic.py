@@ -45,9 +45,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..models import MODELS
 from ..physics.params import InerterModel, TMDParams
-from ..physics.unit import ModelUnit
+from ..physics.unit import ModelUnit, SmallForcing
 from . import settings_table as _table
 from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, make_integrator
 from .settings_table import MONO
@@ -103,18 +102,19 @@ class SteadyState:
     period_max: np.ndarray = field(repr=False)  #: max |x| of every period [m]
     wall_time: float = 0.0
     irregular: bool = False  #: settled into irregular motion; ``change`` is then its scatter
+    reason: str = ""  #: why it is not converged ("" when it is)
 
 
-def integrator_atol(base: Any, tmd: TMDParams, omega: float, settings: SolverSettings) -> np.ndarray:
+def integrator_atol(unit: ModelUnit, base: Any, tmd: TMDParams, omega: float, settings: SolverSettings) -> np.ndarray:
     """The absolute tolerance per state of the structure's model (its unit's rule)."""
-    return MODELS.of(base).atol(base, tmd, omega, settings.atol_scale)
+    return unit.atol(base, tmd, omega, settings.atol_scale)
 
 
 class _Runner:
     """Holds the packed parameters and work arrays for repeated period integrations."""
 
-    def __init__(self, base: Any, tmd: TMDParams, omega: float, settings: SolverSettings) -> None:
-        self.unit = unit = MODELS.of(base)
+    def __init__(self, unit: ModelUnit, base: Any, tmd: TMDParams, omega: float, settings: SolverSettings) -> None:
+        self.unit = unit
         self.integrate = integrator(unit)
         self.p = unit.pack(base, tmd, omega)
         self.T = 2.0 * math.pi / omega
@@ -169,7 +169,12 @@ class _Runner:
 
 
 def companion_start(
-    base: Any, tmd: TMDParams, omega: float, settings: SolverSettings, hint: dict[str, Any] | None = None
+    unit: ModelUnit,
+    base: Any,
+    tmd: TMDParams,
+    omega: float,
+    settings: SolverSettings,
+    hint: dict[str, Any] | None = None,
 ) -> np.ndarray:
     """Start state for the play model: the periodic orbit of its smooth companion (the same
     links with an ideal inerter), with the gear chain at the contact the ideal inerter force
@@ -183,11 +188,10 @@ def companion_start(
     ideal = replace(tmd, inerter=InerterModel.IDEAL, play_gap=0.0)
     sub = None if hint is None else hint.setdefault("companion", {})
     z0 = None if sub is None else sub.get("z")
-    ss = steady_state(base, ideal, omega, z0, replace(settings, window=1), sub)
-    z = ss.state.copy() if ss.converged else initial_guess(base, ideal, omega)
+    ss = steady_state(unit, base, ideal, omega, z0, replace(settings, window=1), sub)
+    z = ss.state.copy() if ss.converged else initial_guess(unit, base, ideal, omega)
     if sub is not None and ss.converged:
         sub["z"] = ss.state.copy()
-    unit = MODELS.of(base)
     P = unit.inerter_force(z, unit.pack(base, ideal, omega))
     z[4] = math.copysign(tmd.play_gap + abs(P) / tmd.mesh_stiffness, P)
     z[5] = 0.0
@@ -195,6 +199,7 @@ def companion_start(
 
 
 def steady_state(
+    unit: ModelUnit,
     base: Any,
     tmd: TMDParams,
     omega: float,
@@ -204,26 +209,88 @@ def steady_state(
 ) -> SteadyState:
     """Integrate from z0 (default: :func:`initial_guess`) until the steady state (module doc).
 
-    base: the primary structure's parameters (BaseParams, FrameParams, ...: the model is the unit
-    registered for its class, :data:`pyfmu_wrapper.models.MODELS`).
+    unit: the structure's model; base: the primary structure's parameters (BaseParams, FrameParams, ...).
     hint: a dict carried along a sweep (shooting keeps its Jacobian there for the next point).
     """
     if not (omega > 0 and math.isfinite(omega)):
         raise ValueError(f"omega must be a positive number of rad/s, got {omega!r}")
     t_start = time.perf_counter()
-    run = _Runner(base, tmd, omega, settings)
+    run = _Runner(unit, base, tmd, omega, settings)
     W = settings.window_for(tmd)
     if z0 is not None:
         z = run.unit.check_state(base, np.array(z0, dtype=float))
     elif W > 1 and settings.play_start == "companion":
-        z = companion_start(base, tmd, omega, settings, hint)
+        z = companion_start(unit, base, tmd, omega, settings, hint)
+    elif W == 1 and settings.shooting and isinstance(unit.start, SmallForcing):
+        z = small_forcing_start(unit, base, tmd, omega, settings)
     else:
-        z = initial_guess(base, tmd, omega)
+        z = initial_guess(unit, base, tmd, omega)
+    try:
+        return _settle(run, base, tmd, omega, z, W, settings, hint, t_start)
+    except SolverError as exc:  # the integrator gave up: this point is not converged, with the reason
+        s = run.stats
+        return SteadyState(
+            omega=omega,
+            amplitude=float("nan"),
+            state=z,
+            periods=0,
+            converged=False,
+            change=float("inf"),
+            steps=int(s[STAT_STEPS]),
+            rejected=int(s[STAT_REJECTED]),
+            events=int(s[STAT_EVENTS]),
+            period_max=np.zeros(0),
+            wall_time=time.perf_counter() - t_start,
+            reason=f"the integrator failed: {str(exc).splitlines()[0][:300]}",
+        )
+
+
+def small_forcing_start(
+    unit: ModelUnit, base: Any, tmd: TMDParams, omega: float, settings: SolverSettings
+) -> np.ndarray:
+    """The start of a unit that continues from small forcing (:class:`~pyfmu_wrapper.physics.unit.SmallForcing`):
+    the linearisation's steady state at the first fraction of the force, then the periodic solution at each
+    fraction in turn from the last one scaled up to the next force; returns the state scaled to the full
+    force (the start of the full-force solve). A fraction that does not converge ends the continuation with
+    the last converged state (the full-force solve then falls back on its own start rules)."""
+    F = float(base.force_amplitude)
+    fractions = [f for f in unit.start.fractions if 0.0 < f < 1.0]  # type: ignore[union-attr]
+    if F == 0.0 or not fractions:
+        return initial_guess(unit, base, tmd, omega)
+    z = initial_guess(unit, replace(base, force_amplitude=fractions[0] * F), tmd, omega)
+    done = None
+    for frac in fractions:
+        ss = steady_state(unit, replace(base, force_amplitude=frac * F), tmd, omega, z, settings)
+        if not ss.converged:
+            break
+        done, z = frac, ss.state.copy()
+    if done is None:
+        return initial_guess(unit, base, tmd, omega)
+    return z / done  # the last solution scaled to the full force: exact in the linear limit
+
+
+def _settle(
+    run: _Runner,
+    base: Any,
+    tmd: TMDParams,
+    omega: float,
+    z: np.ndarray,
+    W: int,
+    settings: SolverSettings,
+    hint: dict[str, Any] | None,
+    t_start: float,
+) -> SteadyState:
+    """The steady state from z (module doc): Newton shooting (window 1) or windows of periods."""
     if W == 1 and settings.shooting:
         # Newton shooting; if it fails from a far start, let the transient decay a little and retry
         spent = 0
         while spent < settings.max_periods:
-            res = _shoot(run, tmd, z, settings, hint)
+            try:
+                res = _shoot(run, tmd, z, settings, hint)
+            except SolverError:  # a Newton iterate the integrator cannot follow: as a failed Newton
+                res = None
+                if hint is not None:
+                    hint.pop("J", None)
             if res is not None:
                 zs, amp, k, change = res
                 s = run.stats
@@ -256,6 +323,7 @@ def steady_state(
             events=int(run.stats[STAT_EVENTS]),
             period_max=np.zeros(0),
             wall_time=time.perf_counter() - t_start,
+            reason=f"Newton shooting did not converge within max_periods = {settings.max_periods} periods",
         )
     crit = WindowCriterion.from_settings(settings, W, base, omega)
     k = 0
@@ -282,6 +350,13 @@ def steady_state(
         period_max=np.array(pmax),
         wall_time=time.perf_counter() - t_start,
         irregular=crit.irregular,
+        reason=""
+        if converged
+        else (
+            f"irregular response: the window maxima scatter by {change:.3g}"
+            if crit.irregular
+            else f"no steady state within {k} periods (last relative change {change:.3g})"
+        ),
     )
 
 
@@ -319,6 +394,7 @@ def _shoot(
 
 
 def simulate(
+    unit: ModelUnit,
     base: Any,
     tmd: TMDParams,
     omega: float,
@@ -336,14 +412,13 @@ def simulate(
     max_steps caps the integrator steps (default: DEFAULT_MAX_STEPS per forcing period); a stalled
     run raises :class:`SolverError` naming time, state and mode.
     """
-    unit = MODELS.of(base)
     n = unit.n_state(base)
     p = unit.pack(base, tmd, omega)
     z = np.zeros(n) if z0 is None else unit.check_state(base, np.array(z0, dtype=float))
     t = np.linspace(0.0, t_end, n_samples) if sample_times is None else np.asarray(sample_times, dtype=float)
     out = np.zeros((t.size, n))
     if atol is None:
-        atol = integrator_atol(base, tmd, omega, SolverSettings(atol_scale=1e-7))
+        atol = integrator_atol(unit, base, tmd, omega, SolverSettings(atol_scale=1e-7))
     stats = np.zeros(4, dtype=np.int64)
     T = 2 * math.pi / omega
     atol = np.asarray(atol, dtype=float)
@@ -371,6 +446,7 @@ def simulate(
 
 
 def periodic_time_series(
+    unit: ModelUnit,
     base: Any,
     tmd: TMDParams,
     omega: float,
@@ -380,8 +456,8 @@ def periodic_time_series(
     settings: SolverSettings = SolverSettings(),
 ) -> tuple[np.ndarray, np.ndarray, SteadyState]:
     """Steady-state time series: settle at omega, then record n_periods (t from 0, states)."""
-    ss = steady_state(base, tmd, omega, z0, settings)
-    run = _Runner(base, tmd, omega, settings)
+    ss = steady_state(unit, base, tmd, omega, z0, settings)
+    run = _Runner(unit, base, tmd, omega, settings)
     z = ss.state.copy()
     n = samples_per_period
     ts, zs = [], []

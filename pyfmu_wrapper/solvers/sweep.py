@@ -19,7 +19,8 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Sequence
 from concurrent.futures import ProcessPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
+from functools import partial
 from typing import Any, Protocol
 
 import numpy as np
@@ -27,7 +28,8 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from ..physics.params import TMDParams
-from .monolithic import SolverSettings, steady_state
+from ..physics.unit import ModelUnit
+from .monolithic import SolverSettings, SteadyState, steady_state
 
 
 @dataclass
@@ -47,6 +49,7 @@ class ProgressQueue(Protocol):
 
 
 def _sweep_piece(
+    unit: ModelUnit,
     base: Any,
     tmd: TMDParams,
     seq: Sequence[float] | NDArray[np.float64],
@@ -60,9 +63,13 @@ def _sweep_piece(
     hint: dict = {}
     # windowed (play) points start from their smooth companion's orbit, continued via hint
     companion = settings.window_for(tmd) > 1 and settings.play_start == "companion"
+    w_prev = None
     for w in seq:
-        ss = steady_state(base, tmd, float(w), None if companion else z, settings, hint)
-        z = ss.state
+        ss = steady_state(unit, base, tmd, float(w), None if companion else z, settings, hint)
+        if not ss.converged and not companion and z is not None and w_prev is not None:
+            ss = refine(unit, base, tmd, w_prev, float(w), z, settings, ss)
+        z = ss.state if ss.converged or z is None else z  # a failed point hands on the last converged state
+        w_prev = float(w) if ss.converged else w_prev
         rows.append(
             dict(
                 direction=d,
@@ -75,6 +82,7 @@ def _sweep_piece(
                 steps=ss.steps,
                 rejected=ss.rejected,
                 wall_time=ss.wall_time,
+                reason=ss.reason,
             )
         )
         if queue is not None:
@@ -82,7 +90,39 @@ def _sweep_piece(
     return rows, z
 
 
+#: the continuation steps a point that failed from its neighbour's state is approached by
+REFINE_STEPS = 4
+
+
+def refine(
+    unit: ModelUnit,
+    base: Any,
+    tmd: TMDParams,
+    w_prev: float,
+    w: float,
+    z_prev: NDArray[np.float64],
+    settings: SolverSettings,
+    failed: SteadyState,
+) -> SteadyState:
+    """A point that did not converge from the previous point's state (a jump of the continuation too
+    large for Newton), approached again in :data:`REFINE_STEPS` smaller steps from ``w_prev``, each from
+    the last; returns the point at ``w`` if that converges, else ``failed`` with the reason extended (the
+    sweep goes on either way)."""
+    z = np.array(z_prev, dtype=float)
+    spent = failed.wall_time
+    for k in range(1, REFINE_STEPS + 1):
+        wk = w_prev + (w - w_prev) * k / REFINE_STEPS
+        ss = steady_state(unit, base, tmd, wk, z, settings)
+        spent += ss.wall_time
+        if not ss.converged:
+            why = f"{failed.reason}; refined in {REFINE_STEPS} steps from {w_prev:.6g} rad/s: failed at {wk:.6g} rad/s"
+            return replace(failed, reason=why, wall_time=spent)
+        z = ss.state
+    return replace(ss, wall_time=spent)
+
+
 def sweep(
+    unit: ModelUnit,
     base: Any,
     tmd: TMDParams,
     omegas: ArrayLike,
@@ -99,7 +139,9 @@ def sweep(
     workers: processes to use (0 or None: all cores); see the module doc.
     """
     settings = SolverSettings() if settings is None else settings
-    rows, finals = run_sweep_pieces(_sweep_piece, base, tmd, omegas, direction, settings, progress, z0, workers)
+    rows, finals = run_sweep_pieces(
+        partial(_sweep_piece, unit), base, tmd, omegas, direction, settings, progress, z0, workers
+    )
     return SweepResult(pd.DataFrame(rows), finals)
 
 

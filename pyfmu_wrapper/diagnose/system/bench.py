@@ -125,23 +125,24 @@ def steady_record(
     rtol: float = 1e-9,
 ) -> tuple[ndarray, ndarray, ndarray, SteadyState | None]:
     """(t, states, accelerations [n, 2]) of n_periods of the steady state sampled at fs."""
+    from ...models.solve import simulate, steady_state
     from ...physics.kernels import rhs
     from ...physics.params import pack
-    from ...solvers.monolithic import SolverSettings, simulate, steady_state
+    from ...solvers.monolithic import SolverSettings
 
     T = 2 * math.pi / omega
     if settle_periods is None:
         ss = steady_state(base, tmd, omega, settings=SolverSettings(max_periods_window=80))
         z0, t0 = ss.state, 0.0
     else:  # the play model's companion orbit, then a fixed number of settling periods
-        from ...solvers.monolithic import companion_start
+        from ...models.solve import companion_start
 
         ss = None
         z0, t0 = companion_start(base, tmd, omega, SolverSettings()), settle_periods * T
     t = np.arange(0.0, n_periods * T, 1.0 / fs)
     atol = None
     if rtol > 1e-9:
-        from ...solvers.monolithic import integrator_atol
+        from ...models.solve import integrator_atol
 
         atol = integrator_atol(base, tmd, omega, SolverSettings())
     _, z = simulate(base, tmd, omega, t0 + n_periods * T, z0=z0, sample_times=t + t0, rtol=rtol, atol=atol)
@@ -190,7 +191,8 @@ def make_system_dataset(
         write_record(folder / name, cols, fmt="%.8g")
         recs.append({"file": name, "omega": float(w), "force_amplitude": float(F)})
     if frc:
-        from ...solvers.monolithic import SolverSettings, steady_state
+        from ...models.solve import steady_state
+        from ...solvers.monolithic import SolverSettings
 
         for j in range(n_frc):
             amp = FRC_FORCE / (j + 1)

@@ -86,7 +86,7 @@ def truth_dense(truth: dict, omega: float, F_rec: float, tau: np.ndarray) -> dic
     base = BaseParams(**{**truth["base"], "force_amplitude": Ft})
     tmd = TMDParams(**truth["tmd"])
     if tmd.is_linear:
-        from ...solvers.frequency_response import exact_response
+        from ...models.solve import exact_response
 
         Z = exact_response(base, tmd, [omega])[0]
         e = np.exp(1j * omega * tau)
@@ -97,9 +97,10 @@ def truth_dense(truth: dict, omega: float, F_rec: float, tau: np.ndarray) -> dic
             "xdd": np.real(-(omega**2) * X * e),
             "ydd": np.real(-(omega**2) * Y * e),
         }
+    from ...models.solve import simulate, steady_state
     from ...physics.kernels import rhs
     from ...physics.params import pack
-    from ...solvers.monolithic import SolverSettings, simulate, steady_state
+    from ...solvers.monolithic import SolverSettings
 
     ss = steady_state(base, tmd, omega, settings=SolverSettings(max_periods_window=PLAY_PERIODS))
     _, z = simulate(base, tmd, omega, float(tau[-1]), z0=ss.state, sample_times=tau, rtol=1e-9)
@@ -207,11 +208,12 @@ def frc_amplitudes(truth: dict[str, Any], omegas: Any, F_rec: Any) -> np.ndarray
     base = BaseParams(**{**truth["base"], "force_amplitude": Ft})
     tmd = TMDParams(**truth["tmd"])
     if tmd.is_linear:
-        from ...solvers.frequency_response import exact_amplitude
+        from ...models.solve import exact_amplitude
 
         return exact_amplitude(base, tmd, np.asarray(omegas, dtype=float))
+    from ...models.solve import steady_state
     from ...physics.params import has_gap
-    from ...solvers.monolithic import SolverSettings, steady_state
+    from ...solvers.monolithic import SolverSettings
 
     out, z, hint = [], None, {}
     rattle = has_gap(tmd)

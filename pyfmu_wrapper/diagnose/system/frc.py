@@ -28,9 +28,9 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.optimize import least_squares, minimize_scalar
 
+from ...models.solve import exact_amplitude, steady_state
 from ...physics.params import BaseParams, ParameterError, TMDParams
-from ...solvers.frequency_response import exact_amplitude
-from ...solvers.monolithic import SolverError, steady_state
+from ...solvers.monolithic import SolverError
 from . import frc_report
 from .frcfit import FRCEffectFit
 
@@ -74,7 +74,7 @@ class FRCDiagnosis(FRCEffectFit):
         #: relative noise of every point, estimated per FRC record (two sweeps may have other noise)
         self.noise_rel_pt = self._per_record(self.x / self.pred0 - 1.0, self.noise_rel)
         try:  # the TMD's relative stroke |x - y| the nominal predicts (sets the cubic's plausible range)
-            from ...solvers.frequency_response import exact_response
+            from ...models.solve import exact_response
 
             Z = exact_response(replace(self.base, force_amplitude=1.0), replace(self.tmd, friction_force=0.0), self.w)
             self.stroke = float(np.max(np.abs(Z[:, 0] - Z[:, 2]) * np.abs(self.F)))

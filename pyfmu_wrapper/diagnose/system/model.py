@@ -326,7 +326,7 @@ def steady_signature(model: SystemModel, v: RecView, tmd: TMDParams) -> tuple:
     simulated motion (e.g. dry friction with its stick phases)."""
     from dataclasses import replace
 
-    from ...solvers.monolithic import periodic_time_series
+    from ...models.solve import periodic_time_series
 
     base = replace(model.base, force_amplitude=v.amplitude)
     t, z, _ = periodic_time_series(base, tmd, v.omega, 1, N_GRID)

@@ -8,6 +8,8 @@ equations :data:`~pyfmu_wrapper.physics.models.COUPLED`, Modelica source and the
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -18,6 +20,7 @@ from ...physics.params import BaseParams, TMDParams, pack
 from ...physics.tmd import active_states, tmd_atol
 from ...physics.unit import ModelUnit
 from .modelica import MODELICA
+from .scenario import read_base
 
 
 def _atol(base: BaseParams, tmd: TMDParams, omega: float, atol_scale: float) -> NDArray[np.float64]:
@@ -36,21 +39,37 @@ def _inerter_force(z: NDArray[np.float64], p: NDArray[np.float64]) -> float:
     return float(inerter_force(z, f[1], p))
 
 
+def _n_state(base: BaseParams) -> int:
+    return NSTATE
+
+
+def _active(base: BaseParams, tmd: TMDParams) -> list[int]:
+    return active_states(tmd, NSTATE)
+
+
+def _cosim() -> Any:
+    """The pair's co-simulation (imported when asked: the FMUs and the master load only for a co-simulation)."""
+    from .cosim import ENGINE
+
+    return ENGINE
+
+
 UNIT = ModelUnit(
     name="base_tmd",
     ode=COUPLED,
     structure=BaseParams,
     parameters=registry.of("base"),
     pack=pack,
-    n_state=lambda base: NSTATE,
+    n_state=_n_state,
     atol=_atol,
-    active=lambda base, tmd: active_states(tmd, NSTATE),
+    active=_active,
     inerter_force=_inerter_force,
     description="the paper's base oscillator with the TMD-inerter (one storey, one TMD)",
-    cosim="pyfmu_wrapper.cosim.steady",
+    cosim=_cosim,
     fmus=("pyfmu_wrapper.models.base_tmd.fmus.base_oscillator", "pyfmu_wrapper.models.base_tmd.fmus.tmd_inerter"),
     example=BaseParams,
     modelica=MODELICA,
     scenario_block="base",
-    scenario_reader="pyfmu_wrapper.scenario.loader:read_base",
+    scenario_reader=read_base,
+    home=__name__,
 )

@@ -8,6 +8,8 @@ TMD-inerter, in the paper's state layout (tests/test_frame_model.py holds the tw
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -29,6 +31,7 @@ from .equations import (
 )
 from .modelica import MODELICA
 from .params import PARAMETERS, FrameParams
+from .scenario import read_frame
 
 __all__ = ["UNIT", "FrameParams", "frame_pack", "storey_index"]
 
@@ -94,6 +97,22 @@ FRAME = OdeModel(
     describe=bind_describe(mode_describer(True, 4), frame_switching),
 )
 
+
+def _active(frame: FrameParams, tmd: TMDParams) -> list[int]:
+    return active_states(tmd, _n_state(frame))
+
+
+def _example() -> FrameParams:
+    return FrameParams.uniform(3, 100.0, 1.2e5, 100.0, tmd_storey=3, inerter_to=2)
+
+
+def _cosim() -> Any:
+    """The frame's co-simulation (imported when asked: the FMUs and the master load only for a co-simulation)."""
+    from .cosim import ENGINE
+
+    return ENGINE
+
+
 UNIT = ModelUnit(
     name="frame",
     ode=FRAME,
@@ -102,12 +121,13 @@ UNIT = ModelUnit(
     pack=frame_pack,
     n_state=_n_state,
     atol=_atol,
-    active=lambda frame, tmd: active_states(tmd, _n_state(frame)),
+    active=_active,
     inerter_force=_inerter_force,
-    cosim="pyfmu_wrapper.models.frame_model.cosim",
+    cosim=_cosim,
     fmus=("pyfmu_wrapper.models.frame_model.fmus.shear_frame",),
     modelica=MODELICA,
-    scenario_reader="pyfmu_wrapper.scenario.framespec:read_frame",  # per-storey lists
-    example=lambda: FrameParams.uniform(3, 100.0, 1.2e5, 100.0, tmd_storey=3, inerter_to=2),
+    scenario_reader=read_frame,
+    example=_example,
     description="a shear frame of 1-20 storeys with the TMD-inerter on any storey (TMDI: inerter to another storey or the ground)",
+    home=__name__,
 )

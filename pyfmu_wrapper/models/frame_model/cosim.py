@@ -43,6 +43,7 @@ from numpy.typing import ArrayLike
 from ...cosim.checked import AMPLITUDE_FLOOR, companion
 from ...cosim.periods import CosimSteadyState
 from ...cosim.settings import CosimSettings
+from ...cosim.system import CosimEngine
 from ...master.graph import Connection
 from ...master.instance import MasterError
 from ...master.master import Master
@@ -53,7 +54,7 @@ from ...solvers.monolithic import SolverSettings, companion_start
 from ...solvers.start import initial_guess, play_atol
 from ...solvers.steady import WindowCriterion
 from ...solvers.sweep import run_sweep_pieces
-from . import FrameParams, storey_index
+from . import UNIT, FrameParams, storey_index
 
 #: the FMUs of the frame's co-simulation
 FRAME_FMUS = ("ShearFrame", "TMDInerter")
@@ -164,9 +165,9 @@ def steady_state(
     t0 = time.perf_counter()
     W = settings.window_for(tmd)
     if W > 1 and settings.play_start == "companion":
-        z = companion_start(frame, tmd, omega, SolverSettings(rtol=1e-8, atol_scale=1e-8))
+        z = companion_start(UNIT, frame, tmd, omega, SolverSettings(rtol=1e-8, atol_scale=1e-8))
     else:
-        z = initial_guess(frame, tmd, omega)
+        z = initial_guess(UNIT, frame, tmd, omega)
     master.initialize(0.0, fmu_parameters(frame, tmd, omega, z, settings.fmu_rtol))
     T = 2.0 * math.pi / omega
     h = T / n
@@ -305,3 +306,8 @@ def sweep(
         settings = replace(settings, coupling="force")
     rows, _ = run_sweep_pieces(_sweep_piece, frame, tmd, omegas, direction, settings, progress, None, workers)
     return pd.DataFrame(rows)
+
+
+#: the frame's co-simulation as ``run-scenario`` calls it (the unit holds it): its sweep (its steps come
+#: from the accuracy asked for, so nothing is refused up front, and it has no phase portrait)
+ENGINE = CosimEngine(sweep=sweep)

@@ -25,7 +25,7 @@ dampings (:data:`FRAME_AT` onwards).
 from __future__ import annotations
 
 from ..._jit import njit
-from ...physics.jacobians import CSTEP
+from ...physics.jacobians import complex_step_jacobian
 from ...physics.kernels import Num, Vec, excitation, input_value, static_link_force, switching_functions, tmd_link
 from ...physics.params import N_PARAMS, P_df
 
@@ -99,22 +99,8 @@ def storeys_rhs(t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
         out[i] = 0.0 * z[0]
 
 
-@njit(cache=True)
-def frame_jacobian(t: float, z: Vec, p: Vec, u: Vec, J: Vec, ft: Vec, zc: Vec, oc: Vec) -> None:
-    """J = d rhs / dz and ft = d rhs / dt by the complex step (exact to rounding)."""
-    n = z.shape[0]
-    for j in range(n):
-        for i in range(n):
-            zc[i] = z[i]
-        zc[j] = z[j] + 1j * CSTEP
-        frame_rhs(t, zc, p, u, oc)
-        for i in range(n):
-            J[i, j] = oc[i].imag / CSTEP
-    for i in range(n):
-        zc[i] = z[i]
-    frame_rhs(t + 1j * CSTEP, zc, p, u, oc)
-    for i in range(n):
-        ft[i] = oc[i].imag / CSTEP
+#: J = d rhs / dz and ft = d rhs / dt of :func:`frame_rhs` by the complex step (exact to rounding)
+frame_jacobian = complex_step_jacobian(frame_rhs, "frame")
 
 
 @njit(cache=True)

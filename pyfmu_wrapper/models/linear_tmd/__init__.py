@@ -13,7 +13,7 @@ from numpy.typing import NDArray
 
 from ...physics.models import OdeModel
 from ...physics.params import P_F, P_W, TMDParams
-from ...physics.unit import ModelUnit
+from ...physics.unit import LinearCompanion, ModelUnit, same_configuration
 from .equations import L_AT, N_PACKED, linear_tmd_jacobian, linear_tmd_rhs, no_switching, one_mode
 from .modelica import MODELICA
 from .params import PARAMETERS, SUBSYSTEM, LinearTMDParams
@@ -44,6 +44,24 @@ def _inerter_force(z: NDArray[np.float64], p: NDArray[np.float64]) -> float:
     return 0.0
 
 
+def _describe(z: NDArray[np.float64], p: NDArray[np.float64], atol: NDArray[np.float64], band: float) -> str:
+    return "smooth"
+
+
+def _n_state(s: LinearTMDParams) -> int:
+    return 4
+
+
+def _active(s: LinearTMDParams, tmd: TMDParams) -> list[int]:
+    """A detached absorber floats (its period map has the eigenvalue 1): shoot on the main mass only."""
+    return [0, 1] if s.detached else [0, 1, 2, 3]
+
+
+def _is_linear(s: LinearTMDParams, tmd: TMDParams) -> bool:
+    """Every parameter enters linearly."""
+    return True
+
+
 LINEAR_TMD = OdeModel(
     name="linear_tmd",
     rhs=linear_tmd_rhs,
@@ -54,7 +72,7 @@ LINEAR_TMD = OdeModel(
     n_modes=1,
     switch_tolerance=(1000,),
     state_names=("x", "xd", "y", "yd"),
-    describe=lambda z, p, atol, band: "smooth",
+    describe=_describe,
 )
 
 UNIT = ModelUnit(
@@ -63,15 +81,16 @@ UNIT = ModelUnit(
     structure=LinearTMDParams,
     parameters=PARAMETERS,
     pack=linear_tmd_pack,
-    n_state=lambda s: 4,
+    n_state=_n_state,
     atol=_atol,
-    # a detached absorber floats (its period map has the eigenvalue 1): shoot on the main mass only
-    active=lambda s, tmd: [0, 1] if s.detached else [0, 1, 2, 3],
+    active=_active,
     inerter_force=_inerter_force,
     example=LinearTMDParams,
     description="a base oscillator with a plain linear TMD (mass, spring, viscous damper; no inerter)",
     takes_tmd=False,
     modelica=MODELICA,
-    is_linear=lambda s, tmd: True,  # every parameter enters linearly
+    is_linear=_is_linear,
+    start=LinearCompanion(same_configuration),
+    home=__name__,
     fmus=("pyfmu_wrapper.models.linear_tmd.fmus.linear_tmd_fmu",),
 )

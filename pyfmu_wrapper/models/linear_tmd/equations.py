@@ -15,7 +15,7 @@ sets them), then M, K, C, m, k, c from :data:`L_AT` on.
 from __future__ import annotations
 
 from ..._jit import njit
-from ...physics.jacobians import CSTEP
+from ...physics.jacobians import complex_step_jacobian
 from ...physics.kernels import Vec, excitation
 from ...physics.params import N_PARAMS
 
@@ -35,22 +35,8 @@ def linear_tmd_rhs(t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
     out[3] = -link / p[L_m]
 
 
-@njit(cache=True)
-def linear_tmd_jacobian(t: float, z: Vec, p: Vec, u: Vec, J: Vec, ft: Vec, zc: Vec, oc: Vec) -> None:
-    """J = d rhs / dz and ft = d rhs / dt by the complex step (exact to rounding)."""
-    n = z.shape[0]
-    for j in range(n):
-        for i in range(n):
-            zc[i] = z[i]
-        zc[j] = z[j] + 1j * CSTEP
-        linear_tmd_rhs(t, zc, p, u, oc)
-        for i in range(n):
-            J[i, j] = oc[i].imag / CSTEP
-    for i in range(n):
-        zc[i] = z[i]
-    linear_tmd_rhs(t + 1j * CSTEP, zc, p, u, oc)
-    for i in range(n):
-        ft[i] = oc[i].imag / CSTEP
+#: J = d rhs / dz and ft = d rhs / dt of :func:`linear_tmd_rhs` by the complex step (exact to rounding)
+linear_tmd_jacobian = complex_step_jacobian(linear_tmd_rhs, "linear_tmd")
 
 
 @njit(cache=True)

@@ -9,7 +9,7 @@ added to the main mass's force; its Jacobian by the complex step; the integrator
 from __future__ import annotations
 
 from ...._jit import njit
-from ....physics.jacobians import CSTEP
+from ....physics.jacobians import complex_step_jacobian
 from ....physics.kernels import Vec, input_value
 from ....physics.models import OdeModel
 from ....solvers.rodas import make_integrator
@@ -23,23 +23,8 @@ def fmu_rhs(t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
     out[1] = out[1] + input_value(u, 0, t) / p[L_M]
 
 
-@njit(cache=True)
-def fmu_jacobian(t: float, z: Vec, p: Vec, u: Vec, J: Vec, ft: Vec, zc: Vec, oc: Vec) -> None:
-    """J = d rhs / dz and ft = d rhs / dt of :func:`fmu_rhs` by the complex step."""
-    n = z.shape[0]
-    for j in range(n):
-        for i in range(n):
-            zc[i] = z[i]
-        zc[j] = z[j] + 1j * CSTEP
-        fmu_rhs(t, zc, p, u, oc)
-        for i in range(n):
-            J[i, j] = oc[i].imag / CSTEP
-    for i in range(n):
-        zc[i] = z[i]
-    fmu_rhs(t + 1j * CSTEP, zc, p, u, oc)
-    for i in range(n):
-        ft[i] = oc[i].imag / CSTEP
-
+#: J = d rhs / dz and ft = d rhs / dt of :func:`fmu_rhs` by the complex step
+fmu_jacobian = complex_step_jacobian(fmu_rhs, "linear_tmd_fmu")
 
 #: the model with its input, for the integrator (its own name: its own compiled integrator)
 FMU_MODEL = OdeModel(

@@ -1,6 +1,7 @@
 """Reading a scenario document with located errors: :class:`Reader` checks mappings, lists, numbers,
-strings and grids and raises :class:`~.schema.ScenarioError` naming the file, the line, the key path
-(``tmd.friction_force``, ``studies[2].values[3]``) and the offending value."""
+strings and grids and raises :class:`ScenarioError` naming the file, the line, the key path
+(``tmd.friction_force``, ``studies[2].values[3]``) and the offending value; the scenario loader and a
+model's own block reader (:attr:`~pyfmu_wrapper.physics.unit.ModelUnit.scenario_reader`) use it."""
 
 from __future__ import annotations
 
@@ -11,9 +12,8 @@ from typing import TYPE_CHECKING, Any, NoReturn
 
 import numpy as np
 
-from ..errors import short
+from ..errors import InputError, short
 from ..physics.params import ParameterError
-from .schema import ScenarioError
 from .yamlio import MarkedDict, MarkedList
 
 if TYPE_CHECKING:
@@ -22,6 +22,27 @@ if TYPE_CHECKING:
     from numpy import ndarray
 
     from .yamlio import MarkedDict, MarkedList
+
+
+class ScenarioError(InputError):
+    """A scenario file that cannot be read or is not valid.
+
+    Attributes: ``file``, ``line`` (1-based, or None), ``path`` (key path such as
+    ``studies[2].values[3]``, or None) and ``value`` (the offending value, when there is one).
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        file: str | None = None,
+        line: int | None = None,
+        path: str | None = None,
+        value: Any = None,
+    ) -> None:
+        super().__init__(message)
+        self.file, self.line, self.path, self.value = file, line, path, value
+
 
 MAX_GRID = 100_000
 #: the longest text a scenario field may hold (a description of a few paragraphs is a few thousand)
