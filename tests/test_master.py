@@ -321,7 +321,7 @@ def test_period_maximum_uses_the_hermite_interpolant_between_communication_point
                 self.y = np.array([A * math.cos(w * self.t - phi), -A * w * math.sin(w * self.t - phi)])
                 rec_t[k], rec_y[k] = self.t, self.y
 
-    run = Periods(Clock(), n, T)
+    run = Periods(Clock(), n, T, ("base.x", "base.xd"))
     a = run.period()
     assert abs(np.max(np.abs(run.x)) / A - 1) > 4e-4
     assert a == pytest.approx(A, rel=1e-6)

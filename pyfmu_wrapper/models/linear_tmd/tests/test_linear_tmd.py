@@ -24,7 +24,7 @@ from pyfmu_wrapper.scenario.runner import curve_structure
 from pyfmu_wrapper.scenario.schema import ScenarioError
 from pyfmu_wrapper.solvers.monolithic import SolverSettings
 
-SCENARIO = Path(__file__).resolve().parents[1] / "scenarios" / "linear_tmd.yaml"
+SCENARIO = Path(__file__).resolve().parents[4] / "scenarios" / "linear_tmd.yaml"  # the checkout's scenarios/
 TMD = TMDParams()  # what the engines pass; the unit does not read it
 
 
