@@ -11,6 +11,7 @@ landed on the same side, and the next step did it again: ~1e-9 s of progress per
 from __future__ import annotations
 
 import math
+import re
 
 import numpy as np
 import pytest
@@ -109,13 +110,35 @@ def test_the_step_cap_ends_a_call_with_a_status_naming_it():
     assert "cap of 50 steps" in msg and f"t = {t:.12g}" in msg and "d = " in msg and "mode: " in msg
 
 
-def test_step_cap_raises_solver_error_in_the_callers():
-    """A cap too small for a period ends steady_state and simulate with a SolverError naming
-    omega, the time reached, the state and the mode."""
-    with pytest.raises(SolverError, match=r"omega = 15\.5 rad/s.*stopped at t = .*cap of 50 steps.*state x = .*mode: "):
-        steady_state(BASE, TMD3, OMEGA, settings=SolverSettings(max_steps=50))
+def test_step_cap_ends_a_steady_state_not_converged_and_a_simulation_with_a_solver_error():
+    """A cap too small for a period: the steady state is a point not converged whose reason names omega,
+    the time reached, the state and the mode (a sweep goes on past it); simulate raises a SolverError
+    naming the same."""
+    ss = steady_state(BASE, TMD3, OMEGA, settings=SolverSettings(max_steps=50))
+    assert not ss.converged and np.isnan(ss.amplitude)
+    assert re.search(
+        r"integrator failed: omega = 15\.5 rad/s.*stopped at t = .*cap of 50 steps.*state x = .*mode: ", ss.reason
+    )
     with pytest.raises(SolverError, match=r"cap of 30 steps.*mode: .*gear"):
         simulate(BASE, TMD3, OMEGA, 2 * T, max_steps=30)
+
+
+def test_a_solver_error_inside_shooting_ends_the_point_not_the_sweep():
+    """Newton shooting's period map (a smooth configuration, window 1) meets the integrator's step cap: the
+    error does not escape shoot() or the sweep; every point is reported not converged with the
+    integrator's reason (omega, the cap), and a generous cap on the same sweep converges every point to
+    the exact response (1e-5): the failure was the cap's, not the sweep's."""
+    from pyfmu_wrapper.models.solve import exact_amplitude, sweep
+
+    tmd = paper_case(1, damping=10.0)
+    omegas = [18.0, 19.0, 20.0]
+    capped = sweep(BASE, tmd, omegas, "up", SolverSettings(max_steps=20)).table
+    assert not capped["converged"].any() and capped["amplitude"].isna().all()
+    assert all(re.search(r"integrator failed: omega = .* cap of 20 steps", r) for r in capped["reason"])
+    fine = sweep(BASE, tmd, omegas, "up", SolverSettings()).table
+    assert fine["converged"].all() and fine["reason"].eq("").all()
+    exact = exact_amplitude(BASE, tmd, omegas)
+    assert np.max(np.abs(fine["amplitude"].to_numpy() / exact - 1)) < 1e-5
 
 
 def test_stuck_pair_closed_form_monolithic():

@@ -241,7 +241,7 @@ def steady_state(
             events=int(s[STAT_EVENTS]),
             period_max=np.zeros(0),
             wall_time=time.perf_counter() - t_start,
-            reason=f"the integrator failed: {str(exc).splitlines()[0][:300]}",
+            reason=f"the integrator failed: {str(exc).splitlines()[0][:1000]}",
         )
 
 
