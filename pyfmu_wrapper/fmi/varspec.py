@@ -2,6 +2,9 @@
 variability, unit, start, range, dependencies) and :class:`FmuSpec` (one FMU's interface). The
 declarations themselves are the tables of :mod:`.variables`.
 
+Units are unit strings of FMI's unit grammar (:mod:`.units`), checked when the spec is declared: a
+malformed string or an unknown symbol is refused with the FMU, the variable and the string named.
+
 Value references are unique across all types of one FMU (the C stub keeps one buffer per type
 indexed by value reference).
 
@@ -22,6 +25,8 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass, field
 from typing import Any
+
+from .units import base_unit
 
 REAL, INTEGER, BOOLEAN = "Real", "Integer", "Boolean"
 
@@ -121,6 +126,8 @@ class FmuSpec:
         if len(set(vrs)) != len(vrs):
             raise ValueError(f"{self.model_name}: duplicate value references")
         for v in self.variables:
+            if v.unit is not None:
+                base_unit(v.unit, where=f"FMU {self.model_name}, variable {v.name!r}")
             for d in v.depends_on:
                 if self.by_name(d).causality != "input":
                     raise ValueError(f"{v.name}: dependency {d} is not an input")
