@@ -96,6 +96,7 @@ def main(argv=None) -> int:
 
     from pyfmu_wrapper.cosim.system import export_tmd_system
     from pyfmu_wrapper.fmubuild.build import ensure_fmus
+    from pyfmu_wrapper.models.catalog import PROJECT_FMUS, pick
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
     from pyfmu_wrapper.solvers import monolithic as mono
 
@@ -115,7 +116,7 @@ def main(argv=None) -> int:
     }
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        for name, fmu in ensure_fmus().items():
+        for name, fmu in ensure_fmus(pick(PROJECT_FMUS)).items():
             run = _run([exe, *args.option, str(fmu)], tmp, 600)
             results["runs"].append({"model": name, **run})
         for w in args.omega:

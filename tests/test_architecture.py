@@ -29,7 +29,9 @@ KNOWN_CYCLES: list[frozenset[str]] = []
 # Imports that break a rule of docs/architecture.md today and are being removed in parallel, as
 # (importing module, imported module). Emptied by the lead like KNOWN_CYCLES; a stale entry fails.
 KNOWN_VIOLATIONS: list[tuple[str, str]] = [
-    ("fmi.catalog", "models"),
+    # cosim/system.py builds the paper pair's FMUs with the declarations its unit gives (pair_fmus): temporary,
+    # until the pair's co-simulation moves into models/base_tmd/ (issue 39)
+    ("cosim.system", "models.base_tmd"),
     ("solvers.frequency_response", "models"),
     ("solvers.monolithic", "models"),
 ]
@@ -317,8 +319,11 @@ def test_imports_follow_the_rules_of_the_architecture_map():
         ("models.base_tmd", "physics.tmd", True),
         # ... and nothing below reaches it: the engines take a unit as an argument
         ("solvers.monolithic", "models", False),
-        ("fmi.catalog", "models.base_tmd.fmus.variables", False),
+        ("fmi.varspec", "models.base_tmd.fmus.variables", False),
         ("fmubuild.native_build", "models.frame_model.fmus.native", False),
+        ("fmubuild.build", "models.catalog", False),  # the builders take the FMUs they build
+        ("cli.build_fmus", "models.catalog", True),
+        ("models.catalog", "fmi.trivial", True),
         ("cosim.steady", "models.frame_model.cosim", False),
         ("physics.unit", "models", False),
         ("scenario.engines", "models", True),

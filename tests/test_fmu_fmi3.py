@@ -19,6 +19,7 @@ from _fmu_support import built_fmus, damped_forced_response
 from fmpy.fmi3 import FMU3Slave
 
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
+from pyfmu_wrapper.models.catalog import pick
 
 NAMES = ("BaseOscillator", "TMDInerter", "Trivial")
 FMI3_ERROR = 3
@@ -26,7 +27,7 @@ FMI3_ERROR = 3
 
 @pytest.fixture(scope="module")
 def fmus3():
-    return ensure_fmus(names=NAMES, fmi_version=3)
+    return ensure_fmus(pick(NAMES), fmi_version=3)
 
 
 @pytest.fixture(scope="module")

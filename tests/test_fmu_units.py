@@ -9,11 +9,11 @@ import re
 
 import pytest
 
-from pyfmu_wrapper.fmi.catalog import SPECS
 from pyfmu_wrapper.fmi.units import BASE_UNITS, UnitError, base_unit, time_derivative
 from pyfmu_wrapper.fmi.varspec import REAL, FmuSpec, Variable, parameter
 from pyfmu_wrapper.fmubuild.model_description import model_description_xml
 from pyfmu_wrapper.fmubuild.model_description3 import model_description3_xml
+from pyfmu_wrapper.models.catalog import SPECS
 
 
 @pytest.mark.parametrize(
@@ -82,7 +82,6 @@ def _spec(unit: str) -> FmuSpec:
         model_name="PendulumTMD",
         model_identifier="PendulumTMD",
         description="a pendulum",
-        slave="toy:PendulumSlave",
         variables=(
             parameter("c_p", 0, 0.0177228, unit, "pivot damping"),
             Variable(name="x", vr=1, type=REAL, causality="output", variability="continuous", description="x"),

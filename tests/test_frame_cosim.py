@@ -15,7 +15,7 @@ from pyfmu_wrapper.cli.run_scenario import main
 from pyfmu_wrapper.cosim.settings import CosimSettings
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.models.frame_model import FrameParams
-from pyfmu_wrapper.models.frame_model.cosim import FRAME_FMUS, connections, sweep
+from pyfmu_wrapper.models.frame_model.cosim import connections, frame_fmus, sweep
 from pyfmu_wrapper.physics import frame as ref
 from pyfmu_wrapper.physics.params import TMDParams
 from pyfmu_wrapper.scenario.tmdspec import detached_tmd
@@ -28,7 +28,7 @@ TMD = TMDParams(mass=10.0, stiffness=3500.0, damping=20.0, inerter="ideal", iner
 def test_shear_frame_fmu_validates(fmi_version, tmp_path):
     from fmpy.validation import validate_fmu
 
-    paths = ensure_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
+    paths = ensure_fmus(frame_fmus(), fmi_version=fmi_version)
     problems = validate_fmu(str(paths["ShearFrame"]))
     assert problems == []
     with zipfile.ZipFile(paths["ShearFrame"]) as z:

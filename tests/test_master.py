@@ -22,6 +22,7 @@ from pyfmu_wrapper.cosim.system import CONNECTIONS, fmu_parameters, impulse_conn
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.master import Master, build_graph
 from pyfmu_wrapper.master.graph import Connection, GraphError
+from pyfmu_wrapper.models.catalog import PROJECT_FMUS, pick
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
 from pyfmu_wrapper.solvers import monolithic as mono
 
@@ -45,7 +46,7 @@ FRC_OMEGAS = {
 
 @pytest.fixture(scope="module")
 def fmus():
-    p = ensure_fmus()
+    p = ensure_fmus(pick(PROJECT_FMUS))
     return {"base": p["BaseOscillator"], "tmd": p["TMDInerter"]}
 
 

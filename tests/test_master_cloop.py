@@ -19,6 +19,7 @@ from pyfmu_wrapper.cosim.steady import steady_state
 from pyfmu_wrapper.cosim.system import fmu_parameters, make_master
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.master import Master, MasterError, cloop
+from pyfmu_wrapper.models.catalog import PROJECT_FMUS, pick
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
 from pyfmu_wrapper.solvers.monolithic import initial_guess
 
@@ -29,7 +30,7 @@ PLAY = TMDParams(inerter="play", play_gap=1e-4, damping=10.0, friction_force=10.
 
 @pytest.fixture(scope="module")
 def fmus():
-    p = ensure_fmus()
+    p = ensure_fmus(pick(PROJECT_FMUS))
     return {"base": p["BaseOscillator"], "tmd": p["TMDInerter"]}
 
 
@@ -155,7 +156,7 @@ def test_cosim_steady_state_same_on_both_paths(fmus):
 def test_plain_c_loop_baseline_runs_the_same_calls():
     """The benchmark's baseline (a plain C loop of fmi2SetReal / fmi2DoStep / fmi2GetReal over the
     same instances) advances the FMUs: a Trivial FMU's output follows its input."""
-    p = ensure_fmus(names=("Trivial",))
+    p = ensure_fmus(pick((*PROJECT_FMUS, "Trivial")))  # built with the pair, as the FMU tests build it
     with Master(
         {"a": p["Trivial"], "b": p["Trivial"]},
         ["a.y -> b.u", "b.y -> a.u"],

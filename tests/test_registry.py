@@ -239,9 +239,10 @@ def test_cubic_spring_in_the_fmus_matches_the_monolithic_solver():
 
     from pyfmu_wrapper.cosim.system import make_master
     from pyfmu_wrapper.fmubuild.build import ensure_fmus
+    from pyfmu_wrapper.models.catalog import PROJECT_FMUS, pick
     from pyfmu_wrapper.solvers import monolithic as mono
 
-    paths = ensure_fmus()
+    paths = ensure_fmus(pick(PROJECT_FMUS))
     fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
     w = 19.0
     T = 2 * math.pi / w

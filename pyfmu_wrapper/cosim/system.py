@@ -16,6 +16,7 @@ the pair as an SSP file (:func:`pyfmu_wrapper.master.ssp.export_ssp`).
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numpy.typing import ArrayLike
@@ -91,6 +92,17 @@ def impulse_connections(tmd: TMDParams, interface_jacobian: bool = True) -> list
     ]
 
 
+def pair_fmus() -> tuple[Any, ...]:
+    """The pair's FMU declarations (BaseOscillator, TMDInerter), for the builders.
+
+    TEMPORARY upward import (listed in tests/test_architecture.py's KNOWN_VIOLATIONS): the pair's
+    co-simulation is moving into its model's folder (models/base_tmd/, issue 39), which gives its FMUs
+    without reaching up."""
+    from ..models.base_tmd import UNIT
+
+    return UNIT.fmus()
+
+
 def make_master(
     base: BaseParams | None = None,
     tmd: TMDParams | None = None,
@@ -113,11 +125,11 @@ def make_master(
         if fmu_build == "native":
             from ..fmubuild.native_build import ensure_native_fmus
 
-            paths = ensure_native_fmus(fmi_version=fmi_version)
+            paths = ensure_native_fmus(pair_fmus(), fmi_version=fmi_version)
         else:
             from ..fmubuild.build import ensure_fmus
 
-            paths = ensure_fmus(fmi_version=fmi_version)
+            paths = ensure_fmus(pair_fmus(), fmi_version=fmi_version)
         fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
     if coupling == "impulse":
         pars = {"tmd.base_compliance": 1.0 / (base or BaseParams()).mass} if interface_jacobian else {}
@@ -146,7 +158,7 @@ def export_tmd_system(
     step_size: OMSimulator's master step, see :func:`pyfmu_wrapper.master.ssp.ssd_xml`)."""
     from ..fmubuild.build import ensure_fmus
 
-    paths = ensure_fmus()
+    paths = ensure_fmus(pair_fmus())
     fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
     z = initial_guess(base, tmd, omega) if z0 is None else z0
     return export_ssp(

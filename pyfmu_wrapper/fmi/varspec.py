@@ -1,6 +1,7 @@
 """What an FMU variable declaration is: :class:`Variable` (value reference, type, causality,
 variability, unit, start, range, dependencies) and :class:`FmuSpec` (one FMU's interface). The
-declarations themselves are the tables of :mod:`.variables`.
+declarations themselves are the variable tables in the models' FMU folders; the slave and native
+functions that implement one are its :class:`~.fmumodel.FmuModel`.
 
 Units are unit strings of FMI's unit grammar (:mod:`.units`), checked when the spec is declared: a
 malformed string or an unknown symbol is refused with the FMU, the variable and the string named.
@@ -105,12 +106,12 @@ class Variable:
 
 @dataclass(frozen=True)
 class FmuSpec:
-    """Everything needed to generate, build and run one FMU."""
+    """One FMU's interface: what its model descriptions, variable table and documentation are generated
+    from (the slave and the native functions that implement it: :class:`~.fmumodel.FmuModel`)."""
 
     model_name: str
     model_identifier: str
     description: str
-    slave: str  #: "module:Class" of the Python slave
     variables: tuple[Variable, ...]
     can_interpolate_inputs: bool = True
     max_output_derivative_order: int = 0

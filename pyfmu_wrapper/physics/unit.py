@@ -39,6 +39,11 @@ def tmd_is_linear(structure: Any, tmd: TMDParams) -> bool:
     return tmd.is_linear
 
 
+def no_fmus() -> tuple[Any, ...]:
+    """A unit without FMUs: the default of :attr:`ModelUnit.fmus`."""
+    return ()
+
+
 class ModelError(InputError):
     """A structure no registered model takes, or a state that does not fit its model."""
 
@@ -68,10 +73,10 @@ class ModelUnit:
     #: whose ``sweep(structure, tmd, omegas, direction=, settings=, progress=, workers=)`` the
     #: co-simulation engine runs (resolved there: physics imports no co-simulation); "": none
     cosim: str = ""
-    #: the dotted names of the modules declaring the unit's FMUs, each defining ``FMU`` (a
-    #: ``pyfmu_wrapper.fmi.fmumodel.FmuModel``: variable table, slave, native functions), resolved in
-    #: ``fmi/catalog.py`` (physics imports no FMU runtime); (): the unit has no FMU
-    fmus: tuple[str, ...] = ()
+    #: fmus() -> the unit's FMU declarations (``pyfmu_wrapper.fmi.fmumodel.FmuModel``: variable table,
+    #: slave class, native functions), a function of the model's folder that imports its FMU code on the
+    #: first call (importing a unit stays cheap; physics imports no FMU runtime); default: no FMU
+    fmus: Callable[[], tuple[Any, ...]] = no_fmus
     #: the model takes the paper's TMD (``TMDParams``, a scenario's ``tmd:`` block); False: the
     #: structure carries its own absorber, scenario files give no ``tmd:`` block and the engines pass
     #: a detached TMD that the unit does not read

@@ -8,6 +8,8 @@ equations :data:`~pyfmu_wrapper.physics.models.COUPLED`, Modelica source and the
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -18,6 +20,18 @@ from ...physics.params import BaseParams, TMDParams, pack
 from ...physics.tmd import active_states, tmd_atol
 from ...physics.unit import ModelUnit
 from .modelica import MODELICA
+
+if TYPE_CHECKING:
+    from ...fmi.fmumodel import FmuModel
+
+
+def fmus() -> tuple[FmuModel, ...]:
+    """The pair's FMUs, BaseOscillator and TMDInerter (the paper's co-simulation; the frame's uses the
+    TMDInerter too), imported on the first call: importing the unit stays cheap."""
+    from .fmus.base_oscillator import FMU as BASE_OSCILLATOR
+    from .fmus.tmd_inerter import FMU as TMD_INERTER
+
+    return (BASE_OSCILLATOR, TMD_INERTER)
 
 
 def _atol(base: BaseParams, tmd: TMDParams, omega: float, atol_scale: float) -> NDArray[np.float64]:
@@ -48,7 +62,7 @@ UNIT = ModelUnit(
     inerter_force=_inerter_force,
     description="the paper's base oscillator with the TMD-inerter (one storey, one TMD)",
     cosim="pyfmu_wrapper.cosim.steady",
-    fmus=("pyfmu_wrapper.models.base_tmd.fmus.base_oscillator", "pyfmu_wrapper.models.base_tmd.fmus.tmd_inerter"),
+    fmus=fmus,
     example=BaseParams,
     modelica=MODELICA,
     scenario_block="base",

@@ -34,7 +34,7 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -55,8 +55,9 @@ from ...solvers.steady import WindowCriterion
 from ...solvers.sweep import run_sweep_pieces
 from . import FrameParams, storey_index
 
-#: the FMUs of the frame's co-simulation
-FRAME_FMUS = ("ShearFrame", "TMDInerter")
+if TYPE_CHECKING:
+    from ...fmi.fmumodel import FmuModel
+
 RECORD = ("frame.x_top", "frame.xd_top")
 #: the relative amplitude accuracy asked of a frame's co-simulation unless the settings ask another
 #: (3-storey TMDI at 13.75 rad/s: 1e-3 gives 1.0e-4 against the exact response, 1e-4 gives 1.1e-5 in
@@ -137,6 +138,15 @@ def fmu_parameters(frame: FrameParams, tmd: TMDParams, omega: float, z0: ArrayLi
     return out
 
 
+def frame_fmus() -> tuple[FmuModel, ...]:
+    """The FMUs of the frame's co-simulation: the frame's own (its unit's) and the paper's TMDInerter
+    (declared by ``base_tmd``)."""
+    from ..base_tmd.fmus.tmd_inerter import FMU as TMD_INERTER
+    from . import UNIT
+
+    return (*UNIT.fmus(), TMD_INERTER)
+
+
 def make_master(
     frame: FrameParams, tmd: TMDParams | None = None, order: int = 2, fmi_version: int = 2, fmu_build: str = "native"
 ) -> Master:
@@ -146,11 +156,11 @@ def make_master(
     if fmu_build == "native":
         from ...fmubuild.native_build import ensure_native_fmus
 
-        paths = ensure_native_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
+        paths = ensure_native_fmus(frame_fmus(), fmi_version=fmi_version)
     else:
         from ...fmubuild.build import ensure_fmus
 
-        paths = ensure_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
+        paths = ensure_fmus(frame_fmus(), fmi_version=fmi_version)
     fmus: dict[str, str | Path] = {"frame": paths["ShearFrame"], "tmd": paths["TMDInerter"]}
     conns = connections(frame, tmd)
     impulse = any(not isinstance(c, str) for c in conns)
