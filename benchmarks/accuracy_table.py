@@ -122,8 +122,9 @@ def run_this(label, cfg, h, periods):
 
 def _fmu_copies(tmp):
     from pyfmu_wrapper.fmubuild.build import ensure_fmus
+    from pyfmu_wrapper.models.catalog import PROJECT_FMUS, pick
 
-    p = ensure_fmus()
+    p = ensure_fmus(pick(PROJECT_FMUS))
     return {n: Path(shutil.copy(p[n], Path(tmp) / p[n].name)) for n in ("BaseOscillator", "TMDInerter")}
 
 

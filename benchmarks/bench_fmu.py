@@ -33,6 +33,7 @@ from _fmu_support import compile_c_host, extract, guid  # noqa: E402
 
 from pyfmu_wrapper.fmubuild.build import build_fmus  # noqa: E402
 from pyfmu_wrapper.fmubuild.standalone import libpython_path  # noqa: E402
+from pyfmu_wrapper.models.catalog import pick  # noqa: E402
 
 PYTHONFMU_SLAVE = textwrap.dedent('''
     from pythonfmu import Fmi2Causality, Fmi2Variability, Fmi2Slave, Real
@@ -126,12 +127,12 @@ def main(argv=None):
         tmp = Path(tmp)
         exe = compile_c_host(tmp)
         env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "LD_PRELOAD"))}
-        (fmu,) = build_fmus(["Trivial"], tmp / "ours")
+        (fmu,) = build_fmus(pick("Trivial"), tmp / "ours")
         d = extract(fmu, tmp / "x")
         res["pyfmu_wrapper_stub"] = _bench(exe, d, guid(d), 1, 2, args.steps, env)
         res["pyfmu_wrapper_stub_fmpy"] = _bench_fmpy(fmu, d, 1, 2, args.steps // 4)
         # the real FMUs, h = 1 ms, Case 1 (m = 9, I = 1, c = 10): Python step vs native step
-        real = build_fmus(["BaseOscillator", "TMDInerter"], tmp / "real")
+        real = build_fmus(pick(("BaseOscillator", "TMDInerter")), tmp / "real")
         cases = {"BaseOscillator": (10, 20, {}), "TMDInerter": (30, 40, {2: 10.0})}
         for f in real:
             dr = extract(f, tmp / "xr")

@@ -59,6 +59,7 @@ from bench_native_step import CASES, case_args, compile_fmu_timer, time_fmu  # n
 
 from pyfmu_wrapper.fmubuild.build import ensure_fmus  # noqa: E402
 from pyfmu_wrapper.fmubuild.native_build import build_native_fmus  # noqa: E402
+from pyfmu_wrapper.models.catalog import PROJECT_FMUS, pick  # noqa: E402
 
 W, H = 25.0, 1e-3
 #: a path opened that belongs to Python (interpreter, library, packages, bytecode, the project's venvs)
@@ -350,10 +351,13 @@ def main() -> None:
         assert not tmp.resolve().is_relative_to(REPO)
         fmus: dict[tuple[str, int], dict[str, Path]] = {}
         for v in (2, 3):
-            fmus[("native", v)] = {p.stem: p for p in build_native_fmus(out_dir=tmp / f"native{v}", fmi_version=v)}
+            fmus[("native", v)] = {
+                p.stem: p for p in build_native_fmus(pick(PROJECT_FMUS), out_dir=tmp / f"native{v}", fmi_version=v)
+            }
             (tmp / f"hosted{v}").mkdir()
             fmus[("hosted", v)] = {
-                n: Path(shutil.copy(p, tmp / f"hosted{v}" / p.name)) for n, p in ensure_fmus(fmi_version=v).items()
+                n: Path(shutil.copy(p, tmp / f"hosted{v}" / p.name))
+                for n, p in ensure_fmus(pick(PROJECT_FMUS), fmi_version=v).items()
             }
             vdp = getattr(a, f"vanderpol{v}")
             if vdp:

@@ -62,7 +62,9 @@ def _reference(base: object, tmd: object, omegas: tuple, play: bool) -> list[flo
 
 def run_config(M: float, k: float, omegas: tuple, play: bool) -> list[dict]:
     from pyfmu_wrapper.cosim.settings import CosimSettings
-    from pyfmu_wrapper.models.base_tmd.cosim import sweep
+    from pyfmu_wrapper.models.base_tmd import UNIT
+
+    sweep = UNIT.cosim().sweep
 
     base, tmd = _pair(M, k, play)
     ref = _reference(base, tmd, omegas, play)

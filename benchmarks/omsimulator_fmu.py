@@ -96,7 +96,9 @@ def main(argv=None) -> int:
 
     from pyfmu_wrapper.fmubuild.build import ensure_fmus
     from pyfmu_wrapper.models import solve as mono
+    from pyfmu_wrapper.models.base_tmd import UNIT
     from pyfmu_wrapper.models.base_tmd.cosim import export_tmd_system
+    from pyfmu_wrapper.models.catalog import PROJECT_FMUS, pick
     from pyfmu_wrapper.physics.params import BaseParams, TMDParams
 
     version = subprocess.run([exe, "--version"], capture_output=True, text=True).stdout.strip()
@@ -115,13 +117,13 @@ def main(argv=None) -> int:
     }
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        for name, fmu in ensure_fmus().items():
+        for name, fmu in ensure_fmus(pick(PROJECT_FMUS)).items():
             run = _run([exe, *args.option, str(fmu)], tmp, 600)
             results["runs"].append({"model": name, **run})
         for w in args.omega:
             T = 2 * math.pi / w
             stop = args.periods * T
-            ssp = export_tmd_system(tmp / f"case1_{w:g}.ssp", base, tmd, w, stop_time=stop, step_size=args.step)
+            ssp = export_tmd_system(UNIT, tmp / f"case1_{w:g}.ssp", base, tmd, w, stop_time=stop, step_size=args.step)
             res = tmp / f"case1_{w:g}.csv"
             run = _run([exe, *args.option, f"--stopTime={stop}", f"--resultFile={res}", str(ssp)], tmp, 3600)
             amp, rule = None, None

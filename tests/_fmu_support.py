@@ -10,19 +10,18 @@ from pathlib import Path
 import numpy as np
 
 from pyfmu_wrapper.fmubuild.build import DEFAULT_OUT, ensure_fmus, fmi_headers_dir
+from pyfmu_wrapper.models.catalog import SPECS, pick
 
 C_HOST_SOURCE = Path(__file__).parent / "c_host" / "fmu_host.c"
 
 
 def built_fmus() -> dict[str, Path]:
-    return ensure_fmus(out_dir=DEFAULT_OUT, names=("BaseOscillator", "TMDInerter", "Trivial"))
+    return ensure_fmus(pick(("BaseOscillator", "TMDInerter", "Trivial")), out_dir=DEFAULT_OUT)
 
 
 def every_fmu() -> dict[str, Path]:
     """Every declared FMU (every registered unit's, and Trivial), Python-hosted, FMI 2.0."""
-    from pyfmu_wrapper.fmi.catalog import SPECS
-
-    return ensure_fmus(out_dir=DEFAULT_OUT, names=tuple(SPECS))
+    return ensure_fmus(pick(SPECS), out_dir=DEFAULT_OUT)
 
 
 def extract(fmu: Path, root: Path) -> Path:
@@ -100,7 +99,7 @@ def run_fuzz(
     """Run the C fuzz harness (one forked subprocess per sequence) on copies of two FMUs."""
     import os
 
-    fmus = ensure_fmus(out_dir=DEFAULT_OUT, names=names)
+    fmus = ensure_fmus(pick(names), out_dir=DEFAULT_OUT)
     dirs = [extract(fmus[n], root) for n in names]
     exe = compile_fuzz(root)
     env = {k: v for k, v in os.environ.items() if not k.startswith(("PYTHON", "LD_PRELOAD", "VIRTUAL_ENV"))}

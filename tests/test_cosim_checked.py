@@ -23,18 +23,20 @@ import pytest
 
 from pyfmu_wrapper.cosim import timescales as ts
 from pyfmu_wrapper.cosim.settings import CosimSettings
+from pyfmu_wrapper.models.base_tmd import UNIT
 from pyfmu_wrapper.models.base_tmd import cosim as cs
 from pyfmu_wrapper.models.base_tmd.cosim import PairSystem
 from pyfmu_wrapper.models.solve import exact_amplitude
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams, paper_case
 
+PAIR = UNIT.cosim()  # the pair's co-simulation, as run-scenario calls it
 TOL = 5e-3
 CASE1 = paper_case(1)  # ideal inerter, c = 0, df = 0 (curve 1 of full_case1)
 DAMPED = paper_case(1, damping=10.0)  # curve 3
 
 
 def _check(base: BaseParams, tmd: TMDParams, omegas: list[float], settings: CosimSettings = CosimSettings()):
-    table = cs.sweep(base, tmd, omegas, "up", settings)
+    table = PAIR.sweep(base, tmd, omegas, "up", settings)
     exact = exact_amplitude(base, tmd, table["omega"].to_numpy())
     rel = table["amplitude"].to_numpy() / exact - 1.0
     conv = table["converged"].to_numpy(bool)
@@ -86,7 +88,7 @@ def test_absurd_mass_refused_naming_the_parameter():
     """Before: ~2 m against an exact 2.6-6.8 mm, 'converged and periodic'. Now refused at once:
     not converged, no amplitude, and the reason names base.mass and its value."""
     base = BaseParams(mass=1e-300)
-    table = cs.sweep(base, CASE1, [15.0, 22.0], "up", CosimSettings())
+    table = PAIR.sweep(base, CASE1, [15.0, 22.0], "up", CosimSettings())
     assert not table["converged"].any()
     assert table["amplitude"].isna().all()
     for reason in table["reason"]:
@@ -97,7 +99,7 @@ def test_absurd_mass_refused_naming_the_parameter():
 def test_too_coarse_fixed_step_is_flagged_not_converged():
     """A fixed steps_per_period is not refined, but checked: 96 steps per period on a 0.001 kg base
     (the old default: +560 % at 22 rad/s) is reported not converged with the estimate in the reason."""
-    table = cs.sweep(BaseParams(mass=0.001), DAMPED, [22.0], "up", CosimSettings(steps_per_period=96))
+    table = PAIR.sweep(BaseParams(mass=0.001), DAMPED, [22.0], "up", CosimSettings(steps_per_period=96))
     row = table.iloc[0]
     exact = exact_amplitude(BaseParams(mass=0.001), DAMPED, np.array([22.0]))[0]
     assert abs(row["amplitude"] / exact - 1.0) > TOL  # it is wrong ...
@@ -122,7 +124,7 @@ def test_play_model_light_base_right_or_flagged():
 
     base = BaseParams(mass=0.1)
     tmd = paper_case(1, inerter="play", play_gap=1e-4, damping=10.0)
-    table = cs.sweep(base, tmd, [22.0], "up", CosimSettings())
+    table = PAIR.sweep(base, tmd, [22.0], "up", CosimSettings())
     ref = steady_state(base, tmd, 22.0).amplitude
     row = table.iloc[0]
     assert math.isfinite(row["coupling_error"])
@@ -151,12 +153,12 @@ def test_structure_frequencies_against_closed_form():
 
 def test_choose_steps_cap_and_accuracy():
     base, tmd = BaseParams(), CASE1
-    assert ts.choose_steps(PairSystem(base, tmd), 20.0, 96, 262144).steps == 96  # the paper band: accuracy rules
-    low = ts.choose_steps(PairSystem(base, tmd), 0.5, 96, 262144)
+    assert ts.choose_steps(PairSystem(UNIT, base, tmd), 20.0, 96, 262144).steps == 96  # the paper band: accuracy rules
+    low = ts.choose_steps(PairSystem(UNIT, base, tmd), 0.5, 96, 262144)
     assert low.limited_by == "structure" and low.steps > 96 and low.steps % 8 == 0
-    refused = ts.choose_steps(PairSystem(BaseParams(mass=1e-3), tmd), 0.05, 96, 262144)
+    refused = ts.choose_steps(PairSystem(UNIT, BaseParams(mass=1e-3), tmd), 0.05, 96, 262144)
     assert refused.steps == 0 and "base.mass (M) = 0.001 kg" in (refused.refused or "")
-    assert ts.choose_steps(PairSystem(BaseParams(mass=1e-3), tmd), 0.05, 96, 262144, fixed=True).steps == 96
+    assert ts.choose_steps(PairSystem(UNIT, BaseParams(mass=1e-3), tmd), 0.05, 96, 262144, fixed=True).steps == 96
 
 
 def test_time_series_at_a_low_frequency_uses_the_structure_step():
@@ -175,8 +177,8 @@ def test_time_series_at_a_low_frequency_uses_the_structure_step():
 def test_refusal_names_the_parameter_and_counts_the_frequencies():
     """The up-front form of the refusal (for a caller that exits 2 instead): None where every
     frequency works, else the sentence naming the parameter and how many frequencies it refuses."""
-    assert ts.refusal(PairSystem(BaseParams(), CASE1), [0.05, 20.0], 262144) is None
-    msg = ts.refusal(PairSystem(BaseParams(mass=1e-3), CASE1), [0.05, 0.5, 20.0], 262144)
+    assert ts.refusal(PairSystem(UNIT, BaseParams(), CASE1), [0.05, 20.0], 262144) is None
+    msg = ts.refusal(PairSystem(UNIT, BaseParams(mass=1e-3), CASE1), [0.05, 0.5, 20.0], 262144)
     assert msg is not None and msg.startswith("1 of 3 frequencies") and "base.mass (M) = 0.001 kg" in msg
 
 
@@ -184,7 +186,7 @@ def test_fmu_failure_is_a_flagged_point_not_a_lost_sweep():
     """A fixed step the structure cannot take (Case 1 at 0.5 rad/s, 96 steps per period: the TMD
     FMU's integrator gives up on a diverging exchange) is one flagged point with the FMU's message;
     the other frequencies of the sweep are computed (before: the MasterError ended the sweep)."""
-    table = cs.sweep(BaseParams(), CASE1, [0.5, 22.0], "up", CosimSettings(steps_per_period=96))
+    table = PAIR.sweep(BaseParams(), CASE1, [0.5, 22.0], "up", CosimSettings(steps_per_period=96))
     bad, good = table.iloc[0], table.iloc[1]
     assert not bad["converged"] and math.isnan(bad["amplitude"])
     assert bad["reason"].startswith("the FMUs failed at 96 steps per period")

@@ -324,17 +324,18 @@ def test_build_fmus_keeps_a_file_that_appears_at_its_target_while_it_builds(tmp_
     """The FMU is written beside its target and put in place only if what is there then is an FMU of
     build-fmus: a user's file that appeared meanwhile is kept, the new FMU goes beside it (exit 2)."""
     from pyfmu_wrapper.fmubuild import build
+    from pyfmu_wrapper.models.catalog import FMUS
     from pyfmu_wrapper.safeio import Diverted
 
     out = tmp_path / "fmus"
     real = build._write_archive
 
-    def write_then_user_file(part, spec, *a, **k):
-        real(part, spec, *a, **k)
-        (out / f"{spec.model_identifier}.fmu").write_text("my own file\n")  # the user, during the build
+    def write_then_user_file(part, fmu, *a, **k):
+        real(part, fmu, *a, **k)
+        (out / f"{fmu.spec.model_identifier}.fmu").write_text("my own file\n")  # the user, during the build
 
     monkeypatch.setattr(build, "_write_archive", write_then_user_file)
     with pytest.raises(Diverted) as err:
-        build.build_fmu("BaseOscillator", out)
+        build.build_fmu(FMUS["BaseOscillator"], out)
     assert (out / "BaseOscillator.fmu").read_text() == "my own file\n"
     assert err.value.path.exists() and build.fmu_source_hash(err.value.path) is not None

@@ -8,16 +8,21 @@ import fmpy
 
 from pyfmu_wrapper.fmubuild import build
 from pyfmu_wrapper.models.base_tmd.fmus.variables import BASE_OSCILLATOR, TMD_INERTER
+from pyfmu_wrapper.models.catalog import PROJECT_FMUS, pick
 
 
 def test_ensure_fmus_builds_missing_and_stale_only(tmp_path, monkeypatch):
-    paths = build.ensure_fmus(out_dir=tmp_path)
+    pair = pick(PROJECT_FMUS)
+    paths = build.ensure_fmus(pair, out_dir=tmp_path)
     assert set(paths) == {"BaseOscillator", "TMDInerter"}
     mtimes = {n: p.stat().st_mtime_ns for n, p in paths.items()}
-    build.ensure_fmus(out_dir=tmp_path)
+    build.ensure_fmus(pair, out_dir=tmp_path)
     assert {n: p.stat().st_mtime_ns for n, p in paths.items()} == mtimes  # up to date: untouched
-    monkeypatch.setattr(build, "source_hash", lambda: "0123456789abcdef01234567")
-    build.ensure_fmus(out_dir=tmp_path)
+    # the FMUs of a model carry one bundle whichever FMUs are built with them: never stale by company
+    build.ensure_fmus(pick(("TMDInerter", "ShearFrame", "Trivial")), out_dir=tmp_path)
+    assert paths["TMDInerter"].stat().st_mtime_ns == mtimes["TMDInerter"]
+    monkeypatch.setattr(build, "source_hash", lambda fmus: "0123456789abcdef01234567")
+    build.ensure_fmus(pair, out_dir=tmp_path)
     assert all(build.fmu_source_hash(p) == "0123456789abcdef01234567" for p in paths.values())
     with zipfile.ZipFile(paths["TMDInerter"]) as z:
         names = set(z.namelist())
@@ -33,7 +38,7 @@ def test_ensure_fmus_builds_missing_and_stale_only(tmp_path, monkeypatch):
 
 
 def test_xml_matches_variable_table(tmp_path):
-    (fmu,) = build.build_fmus(["BaseOscillator"], tmp_path)
+    (fmu,) = build.build_fmus(pick("BaseOscillator"), tmp_path)
     md = fmpy.read_model_description(str(fmu))
     for spec_var in BASE_OSCILLATOR.variables:
         v = next(x for x in md.modelVariables if x.name == spec_var.name)
@@ -102,5 +107,5 @@ def test_build_fmus_bad_input_is_refused_with_exit_2_and_nothing_lost(tmp_path):
     assert r.returncode == 0, r.stderr
     assert sorted(p.name for p in (tmp_path / "new").iterdir()) == ["Trivial.fmu"]
     with pytest.raises(build.OutputError):
-        build.build_fmus(["BaseOscillator"], mine)
+        build.build_fmus(pick("BaseOscillator"), mine)
     assert _user_files(tmp_path / "mine") == {p: b for p, b in before.items() if p.parent == mine}

@@ -15,7 +15,7 @@ import pytest
 from _fmu_support import damped_forced_response, every_fmu
 from fmpy.fmi2 import FMU2Slave, fmi2CallbackFunctions, fmi2CallbackLoggerTYPE, fmi2FMUstate
 
-from pyfmu_wrapper.fmi.catalog import BUILD_FMUS
+from pyfmu_wrapper.models.catalog import BUILD_FMUS
 
 ERROR = 3
 

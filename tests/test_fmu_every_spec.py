@@ -24,22 +24,22 @@ from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 from test_fmu_fuzz import check
 
-from pyfmu_wrapper.fmi.catalog import SPECS
 from pyfmu_wrapper.fmi.varspec import REAL, FmuSpec
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.fmubuild.model_description3 import derivative_vr, time_vr
+from pyfmu_wrapper.models.catalog import SPECS, pick
 
 NAMES = sorted(SPECS)
 
 
 @pytest.fixture(scope="module")
 def fmus2() -> dict[str, Path]:
-    return ensure_fmus(names=NAMES)
+    return ensure_fmus(pick(NAMES))
 
 
 @pytest.fixture(scope="module")
 def fmus3() -> dict[str, Path]:
-    return ensure_fmus(names=NAMES, fmi_version=3)
+    return ensure_fmus(pick(NAMES), fmi_version=3)
 
 
 @pytest.mark.parametrize("name", NAMES)

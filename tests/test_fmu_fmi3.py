@@ -19,6 +19,7 @@ from _fmu_support import built_fmus, damped_forced_response
 from fmpy.fmi3 import FMU3Slave
 
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
+from pyfmu_wrapper.models.catalog import pick
 
 NAMES = ("BaseOscillator", "TMDInerter", "Trivial")
 FMI3_ERROR = 3
@@ -26,7 +27,7 @@ FMI3_ERROR = 3
 
 @pytest.fixture(scope="module")
 def fmus3():
-    return ensure_fmus(names=NAMES, fmi_version=3)
+    return ensure_fmus(pick(NAMES), fmi_version=3)
 
 
 @pytest.fixture(scope="module")
@@ -266,7 +267,9 @@ def test_cosimulation_through_fmi3_equals_fmi2_bit_for_bit(tmd_kw, monkeypatch):
     (Case 1; the impulse coupling with its input derivatives and interface Jacobian), in the compiled
     stepping loop (its fmi3 adapters) and on the Python path."""
     from pyfmu_wrapper.cosim.settings import CosimSettings
-    from pyfmu_wrapper.models.base_tmd.cosim import sweep
+    from pyfmu_wrapper.models.base_tmd import UNIT
+
+    sweep = UNIT.cosim().sweep
     from pyfmu_wrapper.physics.params import BaseParams, paper_case
 
     base, tmd = BaseParams(), paper_case(1, **tmd_kw)

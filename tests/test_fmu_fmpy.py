@@ -9,7 +9,7 @@ from _fmu_support import damped_forced_response, every_fmu
 from fmpy.fmi2 import FMU2Slave
 from fmpy.validation import validate_fmu
 
-from pyfmu_wrapper.fmi.catalog import BUILD_FMUS
+from pyfmu_wrapper.models.catalog import BUILD_FMUS
 
 
 @pytest.fixture(scope="module")

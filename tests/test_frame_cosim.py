@@ -14,11 +14,14 @@ import pytest
 from pyfmu_wrapper.cli.run_scenario import main
 from pyfmu_wrapper.cosim.settings import CosimSettings
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
+from pyfmu_wrapper.models.frame_model import UNIT as FRAME_UNIT
 from pyfmu_wrapper.models.frame_model import FrameParams
-from pyfmu_wrapper.models.frame_model.cosim import FRAME_FMUS, connections, sweep
+from pyfmu_wrapper.models.frame_model.cosim import connections, frame_fmus
 from pyfmu_wrapper.physics import frame as ref
 from pyfmu_wrapper.physics.params import TMDParams
 from pyfmu_wrapper.scenario.tmdspec import detached_tmd
+
+sweep = FRAME_UNIT.cosim().sweep  # the frame's co-simulation, as run-scenario calls it
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 TMD = TMDParams(mass=10.0, stiffness=3500.0, damping=20.0, inerter="ideal", inertance=5.0)
@@ -28,7 +31,7 @@ TMD = TMDParams(mass=10.0, stiffness=3500.0, damping=20.0, inerter="ideal", iner
 def test_shear_frame_fmu_validates(fmi_version, tmp_path):
     from fmpy.validation import validate_fmu
 
-    paths = ensure_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
+    paths = ensure_fmus(frame_fmus(), fmi_version=fmi_version)
     problems = validate_fmu(str(paths["ShearFrame"]))
     assert problems == []
     with zipfile.ZipFile(paths["ShearFrame"]) as z:
@@ -121,11 +124,11 @@ def test_a_failing_point_is_reported_and_the_sweep_goes_on(monkeypatch):
     real = frame_system.steady_state
     calls = []
 
-    def flaky(master, frame, tmd, omega, settings, n):
+    def flaky(unit, master, frame, tmd, omega, settings, n):
         calls.append(omega)
         if len(calls) == 1:
             raise MasterError("tmd: fmi2DoStep failed at t = 1 s (injected)")
-        return real(master, frame, tmd, omega, settings, n)
+        return real(unit, master, frame, tmd, omega, settings, n)
 
     monkeypatch.setattr(frame_system, "steady_state", flaky)
     frame = FrameParams.uniform(3, 100.0, 1.2e5, 100.0, force_amplitude=200.0)

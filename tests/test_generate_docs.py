@@ -6,9 +6,9 @@ from __future__ import annotations
 
 import re
 
-from pyfmu_wrapper.fmi.catalog import SPECS
 from pyfmu_wrapper.generate import docs as gen
 from pyfmu_wrapper.models import MODELS
+from pyfmu_wrapper.models.catalog import SPECS
 
 
 def _section(text: str, heading: str) -> str:

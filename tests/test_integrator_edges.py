@@ -161,6 +161,7 @@ def test_stuck_pair_closed_form_cosimulation():
     stuck offsets defeats, then period after period until the base orbit has settled): the
     amplitude is the closed form to 2e-5, not the unconverged 7.1176e-3 m reported before."""
     from pyfmu_wrapper.cosim.settings import CosimSettings
+    from pyfmu_wrapper.models.base_tmd import UNIT
     from pyfmu_wrapper.models.base_tmd import cosim as cs
     from pyfmu_wrapper.models.base_tmd.cosim import make_master
 
@@ -169,7 +170,7 @@ def test_stuck_pair_closed_form_cosimulation():
     exact = BASE.force_amplitude / abs(BASE.stiffness - (BASE.mass + tmd.mass) * w**2 + 1j * BASE.damping * w)
     m = make_master(BASE, tmd, coupling="impulse")
     try:
-        ss = cs.steady_state(m, BASE, tmd, w, None, CosimSettings())
+        ss = cs.steady_state(UNIT, m, BASE, tmd, w, None, CosimSettings())
     finally:
         m.close()
     assert ss.converged

@@ -21,6 +21,7 @@ from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.master import Master, build_graph
 from pyfmu_wrapper.master.graph import Connection, GraphError
 from pyfmu_wrapper.models import solve as mono
+from pyfmu_wrapper.models.base_tmd import UNIT
 from pyfmu_wrapper.models.base_tmd.cosim import (
     CONNECTIONS,
     fmu_parameters,
@@ -28,6 +29,7 @@ from pyfmu_wrapper.models.base_tmd.cosim import (
     make_master,
     steady_state,
 )
+from pyfmu_wrapper.models.catalog import PROJECT_FMUS, pick
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
 
 BASE = BaseParams()
@@ -50,7 +52,7 @@ FRC_OMEGAS = {
 
 @pytest.fixture(scope="module")
 def fmus():
-    p = ensure_fmus()
+    p = ensure_fmus(pick(PROJECT_FMUS))
     return {"base": p["BaseOscillator"], "tmd": p["TMDInerter"]}
 
 
@@ -175,7 +177,7 @@ def test_frc_and_time_series_against_monolithic(name, masters):
     z = None
     for w in FRC_OMEGAS[name]:
         ref = mono.steady_state(BASE, tmd, w)
-        ss = steady_state(m, BASE, tmd, w, z, settings)
+        ss = steady_state(UNIT, m, BASE, tmd, w, z, settings)
         assert ss.converged and ref.converged
         diffs.append(ss.amplitude / ref.amplitude - 1.0)
     assert max(abs(d) for d in diffs) <= 5e-3, diffs
@@ -208,7 +210,7 @@ def test_ideal_inerter_loop_solved_and_naive(masters):
     ref = mono.steady_state(BASE, tmd, w).amplitude
     m = masters(tmd, "force", "loop", 2)
     n = steps_for_accuracy(1e-3, 2, "force")
-    ss = steady_state(m, BASE, tmd, w, None, CosimSettings(coupling="force", scheme="loop", steps_per_period=n))
+    ss = steady_state(UNIT, m, BASE, tmd, w, None, CosimSettings(coupling="force", scheme="loop", steps_per_period=n))
     assert abs(ss.amplitude / ref - 1) <= 5e-3
     e1 = _series_error(m, tmd, w, 48)
     e2 = _series_error(m, tmd, w, 96)
@@ -250,7 +252,7 @@ def test_ssp_export_runs_in_fmpy(tmp_path):
 
     tmd = CONFIGS["ideal_inerter"]
     w = 18.0
-    p = export_tmd_system(tmp_path / "base_tmd.ssp", BASE, tmd, w, stop_time=0.5, step_size=1e-4)
+    p = export_tmd_system(UNIT, tmp_path / "base_tmd.ssp", BASE, tmd, w, stop_time=0.5, step_size=1e-4)
     ssd = read_ssd(str(p))  # validated against the SSP 1.0 schema, OMSimulator's annotations included
     assert {c.name for c in ssd.system.elements} == {"base", "tmd"}
     assert len(ssd.system.connections) == 4
@@ -278,7 +280,7 @@ def test_ssp_carries_omsimulator_master_annotation_only_when_a_step_is_given(tmp
         "ssd": "http://ssp-standard.org/SSP1/SystemStructureDescription",
         "oms": "https://raw.githubusercontent.com/OpenModelica/OMSimulator/master/schema/oms.xsd",
     }
-    with_step = export_tmd_system(tmp_path / "a.ssp", BASE, tmd, w, stop_time=1.0, step_size=2.5e-4)
+    with_step = export_tmd_system(UNIT, tmp_path / "a.ssp", BASE, tmd, w, stop_time=1.0, step_size=2.5e-4)
     root = ET.fromstring(zipfile.ZipFile(with_step).read("SystemStructure.ssd"))
     master = root.findall(
         "ssd:System/ssd:Annotations/*/oms:Annotations/oms:SimulationInformation/oms:FixedStepMaster", ns
@@ -288,11 +290,11 @@ def test_ssp_carries_omsimulator_master_annotation_only_when_a_step_is_given(tmp
     assert (
         len(root.findall("ssd:DefaultExperiment/ssd:Annotations/*/oms:Annotations/oms:SimulationInformation", ns)) == 1
     )
-    plain = export_tmd_system(tmp_path / "b.ssp", BASE, tmd, w, stop_time=1.0)
+    plain = export_tmd_system(UNIT, tmp_path / "b.ssp", BASE, tmd, w, stop_time=1.0)
     assert b"org.openmodelica" not in zipfile.ZipFile(plain).read("SystemStructure.ssd")
     for bad in (0.0, -1e-3, float("inf"), float("nan")):
         with pytest.raises(ValueError, match="step_size"):
-            export_tmd_system(tmp_path / "c.ssp", BASE, tmd, w, stop_time=1.0, step_size=bad)
+            export_tmd_system(UNIT, tmp_path / "c.ssp", BASE, tmd, w, stop_time=1.0, step_size=bad)
 
 
 def test_period_maximum_uses_the_hermite_interpolant_between_communication_points():

@@ -17,7 +17,9 @@ import pytest
 from pyfmu_wrapper.cosim.settings import CosimSettings
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.master import Master, MasterError, cloop
+from pyfmu_wrapper.models.base_tmd import UNIT
 from pyfmu_wrapper.models.base_tmd.cosim import fmu_parameters, make_master, steady_state
+from pyfmu_wrapper.models.catalog import PROJECT_FMUS, pick
 from pyfmu_wrapper.models.solve import initial_guess
 from pyfmu_wrapper.physics.params import BaseParams, TMDParams
 
@@ -28,7 +30,7 @@ PLAY = TMDParams(inerter="play", play_gap=1e-4, damping=10.0, friction_force=10.
 
 @pytest.fixture(scope="module")
 def fmus():
-    p = ensure_fmus()
+    p = ensure_fmus(pick(PROJECT_FMUS))
     return {"base": p["BaseOscillator"], "tmd": p["TMDInerter"]}
 
 
@@ -142,7 +144,7 @@ def test_cosim_steady_state_same_on_both_paths(fmus):
         m = make_master(BASE, TMD, fmus=fmus, coupling="impulse")
         m.compiled = compiled
         try:
-            res.append(steady_state(m, BASE, TMD, w, None, CosimSettings()))
+            res.append(steady_state(UNIT, m, BASE, TMD, w, None, CosimSettings()))
         finally:
             m.close()
     assert res[0].converged and res[1].converged
@@ -154,7 +156,7 @@ def test_cosim_steady_state_same_on_both_paths(fmus):
 def test_plain_c_loop_baseline_runs_the_same_calls():
     """The benchmark's baseline (a plain C loop of fmi2SetReal / fmi2DoStep / fmi2GetReal over the
     same instances) advances the FMUs: a Trivial FMU's output follows its input."""
-    p = ensure_fmus(names=("Trivial",))
+    p = ensure_fmus(pick((*PROJECT_FMUS, "Trivial")))  # built with the pair, as the FMU tests build it
     with Master(
         {"a": p["Trivial"], "b": p["Trivial"]},
         ["a.y -> b.u", "b.y -> a.u"],

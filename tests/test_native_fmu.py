@@ -27,6 +27,7 @@ from test_fmu_ranges import Logged
 
 from pyfmu_wrapper.fmubuild.build import REPO_ROOT, fmi_headers_dir
 from pyfmu_wrapper.fmubuild.native_build import build_native_fmus
+from pyfmu_wrapper.models.catalog import PROJECT_FMUS, pick
 
 PAIR = Path(__file__).parent / "c_host" / "fmu_pair.c"
 CASE1 = dict(m=9.0, I=1.0, k=4.0e3, c=10.0)
@@ -35,7 +36,7 @@ PLAY = dict(CASE1, inerter=2, eps=1e-4, ki=2e7)
 
 @pytest.fixture(scope="module")
 def native(tmp_path_factory):
-    return {p.stem: p for p in build_native_fmus(out_dir=tmp_path_factory.mktemp("native"))}
+    return {p.stem: p for p in build_native_fmus(pick(PROJECT_FMUS), out_dir=tmp_path_factory.mktemp("native"))}
 
 
 @pytest.fixture(scope="module")
@@ -172,9 +173,10 @@ def test_fmi3_native_equals_the_python_hosted_fmi3(tmp_path):
     from fmpy.validation import validate_fmu
 
     from pyfmu_wrapper.fmubuild.build import ensure_fmus
+    from pyfmu_wrapper.models.catalog import pick
 
-    nat = {p.stem: p for p in build_native_fmus(["TMDInerter"], tmp_path / "n3", fmi_version=3)}
-    hosted3 = ensure_fmus(names=("TMDInerter",), fmi_version=3)
+    nat = {p.stem: p for p in build_native_fmus(pick("TMDInerter"), tmp_path / "n3", fmi_version=3)}
+    hosted3 = ensure_fmus(pick("TMDInerter"), fmi_version=3)
     out = {}
     for tag, fmu in (("native", nat["TMDInerter"]), ("hosted", hosted3["TMDInerter"])):
         assert validate_fmu(str(fmu)) == []

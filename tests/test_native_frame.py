@@ -26,6 +26,7 @@ import pytest
 
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.fmubuild.native_build import ensure_native_fmus
+from pyfmu_wrapper.models.catalog import pick
 from pyfmu_wrapper.physics import frame as ref
 
 #: a 3-storey frame (the frame3 scenarios' storeys), its TMD forces on storey 3 (links) and 2 (inerter)
@@ -88,7 +89,7 @@ def _run(fmu: Path, start: dict, steps: list, native: str) -> np.ndarray:
 
 @pytest.fixture(scope="module")
 def hosted() -> Path:
-    return ensure_fmus(names=("ShearFrame",))["ShearFrame"]
+    return ensure_fmus(pick("ShearFrame"))["ShearFrame"]
 
 
 def test_exact_step_stays_on_the_structures_exact_orbit(hosted):
@@ -126,7 +127,7 @@ def test_compiled_and_python_steps_bit_identical(hosted):
 @pytest.fixture(scope="module")
 def native() -> dict[int, Path]:
     """The native ShearFrame FMUs (built if stale, where the frame's co-simulation finds them)."""
-    return {v: ensure_native_fmus(names=("ShearFrame",), fmi_version=v)["ShearFrame"] for v in (2, 3)}
+    return {v: ensure_native_fmus(pick("ShearFrame"), fmi_version=v)["ShearFrame"] for v in (2, 3)}
 
 
 def test_native_fmu_is_the_python_hosted_fmu_bit_for_bit(hosted, native):

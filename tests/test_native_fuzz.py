@@ -18,10 +18,14 @@ from _fmu_support import compile_fuzz, extract, guid
 from test_fmu_fuzz import check, check3
 
 from pyfmu_wrapper.fmubuild.native_build import build_native_fmus
+from pyfmu_wrapper.models.catalog import PROJECT_FMUS, pick
 
 
 def _dirs(root: Path, fmi_version: int) -> list[str]:
-    fmus = {p.stem: p for p in build_native_fmus(out_dir=root / f"fmus{fmi_version}", fmi_version=fmi_version)}
+    fmus = {
+        p.stem: p
+        for p in build_native_fmus(pick(PROJECT_FMUS), out_dir=root / f"fmus{fmi_version}", fmi_version=fmi_version)
+    }
     args = []
     for n in ("BaseOscillator", "TMDInerter"):
         d = extract(fmus[n], root / f"x{fmi_version}")

@@ -17,13 +17,14 @@ from _fmu_support import built_fmus
 from test_fmu_ranges import Logged
 
 from pyfmu_wrapper.fmubuild.native_build import build_native_fmus
+from pyfmu_wrapper.models.catalog import pick
 
 OUTPUTS = ("force", "y", "yd", "inerter_force")
 
 
 @pytest.fixture(scope="module")
 def tmd_pair(tmp_path_factory):
-    native = build_native_fmus(["TMDInerter"], out_dir=tmp_path_factory.mktemp("native"))[0]
+    native = build_native_fmus(pick("TMDInerter"), out_dir=tmp_path_factory.mktemp("native"))[0]
     return {"native": native, "hosted": built_fmus()["TMDInerter"]}
 
 

@@ -25,13 +25,14 @@ from test_fmu_ranges import Logged
 
 from pyfmu_wrapper.fmi.contract import NATIVE_MAX_STEP
 from pyfmu_wrapper.fmubuild.native_build import build_native_fmus
+from pyfmu_wrapper.models.catalog import PROJECT_FMUS, pick
 
 PLAY = dict(m=9.0, I=1.0, k=4.0e3, c=10.0, df=10.0, inerter=2, eps=1e-4, ki=2e7)
 
 
 @pytest.fixture(scope="module")
 def builds(tmp_path_factory):
-    native = {p.stem: p for p in build_native_fmus(out_dir=tmp_path_factory.mktemp("native"))}
+    native = {p.stem: p for p in build_native_fmus(pick(PROJECT_FMUS), out_dir=tmp_path_factory.mktemp("native"))}
     return {"native": native, "hosted": built_fmus()}
 
 

@@ -25,6 +25,7 @@ import pytest
 from pyfmu_wrapper.fmubuild.build import fmi_headers_dir
 from pyfmu_wrapper.fmubuild.native_build import build_native_fmus
 from pyfmu_wrapper.fmubuild.native_obj import mingw_gcc
+from pyfmu_wrapper.models.catalog import PROJECT_FMUS, pick
 
 HOST = r"""
 #include <stdarg.h>
@@ -101,7 +102,7 @@ def setup(tmp_path_factory):
     if mingw_gcc() is None or shutil.which("wine") is None:
         pytest.skip("mingw-w64 or wine is missing (.ci/run installs gcc-mingw-w64-x86-64 and wine64)")
     root = tmp_path_factory.mktemp("win64")
-    fmus = {p.stem: p for p in build_native_fmus(out_dir=root / "fmus", win64=True)}
+    fmus = {p.stem: p for p in build_native_fmus(pick(PROJECT_FMUS), out_dir=root / "fmus", win64=True)}
     dirs = {}
     for n, p in fmus.items():
         with zipfile.ZipFile(p) as z:

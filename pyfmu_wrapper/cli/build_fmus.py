@@ -1,6 +1,8 @@
 """``build-fmus``: build the FMUs (FMI 2.0, FMI 3.0 or both) into a folder.
 
-The console entry point; the building is :mod:`pyfmu_wrapper.fmubuild.build`.
+The console entry point: the FMUs named are picked from the project's catalogue
+(:mod:`pyfmu_wrapper.models.catalog`) and their declarations handed to the builders
+(:mod:`pyfmu_wrapper.fmubuild.build`, :mod:`pyfmu_wrapper.fmubuild.native_build`).
 """
 
 from __future__ import annotations
@@ -9,7 +11,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..fmi.catalog import BUILD_FMUS, NATIVE_FMUS, SPECS
 from ..fmubuild.build import (
     DEFAULT_OUT,
     BuildError,
@@ -19,6 +20,7 @@ from ..fmubuild.build import (
     fmi_out_dir,
 )
 from ..fmubuild.build import __doc__ as BUILD_DOC
+from ..models.catalog import BUILD_FMUS, NATIVE_FMUS, SPECS, pick
 from .errors import cli_main
 
 
@@ -67,6 +69,7 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(f"--native: {', '.join(no_native)} has no native variant ({', '.join(NATIVE_FMUS)})")
     if Path(args.out).exists() and not Path(args.out).is_dir():  # before compiling anything
         ap.error(f"--out {args.out}: is a file, not a folder (build-fmus writes the FMUs into a folder)")
+    fmus = pick(args.names)
     try:
         paths = []
         for v in versions:
@@ -75,16 +78,16 @@ def main(argv: list[str] | None = None) -> int:
 
                 out = DEFAULT_OUT / NATIVE_SUBDIR if args.out == str(DEFAULT_OUT) else args.out
                 if args.force:
-                    paths += build_native_fmus(args.names, fmi_out_dir(out, v), fmi_version=v)
+                    paths += build_native_fmus(fmus, fmi_out_dir(out, v), fmi_version=v)
                 else:
-                    paths += list(ensure_native_fmus(out, args.names, fmi_version=v).values())
+                    paths += list(ensure_native_fmus(fmus, out, fmi_version=v).values())
             elif args.standalone:
                 out = DEFAULT_OUT / "standalone" if args.out == str(DEFAULT_OUT) else args.out
-                paths += build_fmus(args.names, fmi_out_dir(out, v), standalone=True, fmi_version=v)
+                paths += build_fmus(fmus, fmi_out_dir(out, v), standalone=True, fmi_version=v)
             elif args.force:
-                paths += build_fmus(args.names, fmi_out_dir(args.out, v), fmi_version=v)
+                paths += build_fmus(fmus, fmi_out_dir(args.out, v), fmi_version=v)
             else:
-                paths += list(ensure_fmus(args.out, args.names, fmi_version=v).values())
+                paths += list(ensure_fmus(fmus, args.out, fmi_version=v).values())
     except OutputError as e:
         print(f"build-fmus: {e}", file=sys.stderr)
         return 2

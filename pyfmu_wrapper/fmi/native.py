@@ -1,6 +1,6 @@
 """What every native-speed doStep shares: its C signature, and its helpers (a failed step recorded, outputs written).
 
-Each FMU's step is a C-callable function (numba ``cfunc``) in its model's folder, named by its declaration
+Each FMU's step is a C-callable function (numba ``cfunc``) in its model's folder, whose factory its declaration holds
 (:class:`~.fmumodel.NativeFmu`; the paper's pair: :mod:`pyfmu_wrapper.models.base_tmd.fmus.native`, the frame:
 :mod:`pyfmu_wrapper.models.frame_model.fmus.native`).
 

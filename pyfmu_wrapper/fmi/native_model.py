@@ -2,7 +2,7 @@
 
 A native FMU (:mod:`pyfmu_wrapper.fmubuild.native_build`) runs with no Python: its stub calls compiled
 functions where the Python-hosted FMU calls its slave. Each model's functions are numba cfuncs in its
-folder, named by its declaration (:class:`~.fmumodel.NativeFmu`; the paper's pair:
+folder, whose factories its declaration holds (:class:`~.fmumodel.NativeFmu`; the paper's pair:
 :mod:`pyfmu_wrapper.models.base_tmd.fmus.native_model`, the frame:
 :mod:`pyfmu_wrapper.models.frame_model.fmus.native`). Each computes what the slave computes, with the
 same compiled code, so the numbers are bit-identical (tests/test_native_fmu.py):

@@ -1,7 +1,9 @@
 """The support FMU Trivial (y = gain * u, a step only advances time): its declaration and its slave, one place.
 
 It belongs to no model: the stub's per-call overhead benchmark and the tests of the FMU machinery use it.
-:mod:`.catalog` lists it after the models' FMUs; ``build-fmus`` builds it only on request.
+:mod:`pyfmu_wrapper.models.catalog` lists it after the models' FMUs; ``build-fmus`` builds it only on
+request. Every Python-hosted FMU bundles this module (:data:`pyfmu_wrapper.fmubuild.bundle.ROOTS`): a model's
+FMUs carry the same bundle with or without Trivial, and share it with a Trivial built with them.
 """
 
 from __future__ import annotations
@@ -19,7 +21,6 @@ TRIVIAL = FmuSpec(
     model_name="Trivial",
     model_identifier="Trivial",
     description="y = gain * u; doStep only advances time (stub overhead benchmark)",
-    slave="pyfmu_wrapper.fmi.trivial:TrivialSlave",
     variables=(
         parameter("gain", 0, 2.0, None, "gain"),
         Variable(
@@ -65,4 +66,4 @@ class TrivialSlave(Slave):
         self.r[2] = self.r[0] * self.r[1]
 
 
-FMU = FmuModel(spec=TRIVIAL)
+FMU = FmuModel(spec=TRIVIAL, slave=TrivialSlave)

@@ -1,6 +1,10 @@
 """What an FMU variable declaration is: :class:`Variable` (value reference, type, causality,
 variability, unit, start, range, dependencies) and :class:`FmuSpec` (one FMU's interface). The
-declarations themselves are the tables of :mod:`.variables`.
+declarations themselves are the variable tables in the models' FMU folders; the slave and native
+functions that implement one are its :class:`~.fmumodel.FmuModel`.
+
+Units are unit strings of FMI's unit grammar (:mod:`.units`), checked when the spec is declared: a
+malformed string or an unknown symbol is refused with the FMU, the variable and the string named.
 
 Value references are unique across all types of one FMU (the C stub keeps one buffer per type
 indexed by value reference).
@@ -22,6 +26,8 @@ from __future__ import annotations
 import sys
 from dataclasses import dataclass, field
 from typing import Any
+
+from .units import base_unit
 
 REAL, INTEGER, BOOLEAN = "Real", "Integer", "Boolean"
 
@@ -100,12 +106,12 @@ class Variable:
 
 @dataclass(frozen=True)
 class FmuSpec:
-    """Everything needed to generate, build and run one FMU."""
+    """One FMU's interface: what its model descriptions, variable table and documentation are generated
+    from (the slave and the native functions that implement it: :class:`~.fmumodel.FmuModel`)."""
 
     model_name: str
     model_identifier: str
     description: str
-    slave: str  #: "module:Class" of the Python slave
     variables: tuple[Variable, ...]
     can_interpolate_inputs: bool = True
     max_output_derivative_order: int = 0
@@ -121,6 +127,8 @@ class FmuSpec:
         if len(set(vrs)) != len(vrs):
             raise ValueError(f"{self.model_name}: duplicate value references")
         for v in self.variables:
+            if v.unit is not None:
+                base_unit(v.unit, where=f"FMU {self.model_name}, variable {v.name!r}")
             for d in v.depends_on:
                 if self.by_name(d).causality != "input":
                     raise ValueError(f"{v.name}: dependency {d} is not an input")

@@ -8,14 +8,17 @@ Command line (console script ``build-fmus``)::
     build-fmus --standalone         # also bundle a Python runtime (fmu/build/standalone/)
 
 API: :func:`build_fmu`, :func:`build_fmus`, :func:`ensure_fmus` (builds what is missing or stale,
-judged by a hash of the sources: the C stub, the bundled modules and the build interpreter).
+judged by a hash of the sources: the C stub, the bundled modules and the build interpreter). Each takes
+the declarations of the FMUs it builds (:class:`~pyfmu_wrapper.fmi.fmumodel.FmuModel`, e.g. a model
+unit's ``fmus()`` or :data:`pyfmu_wrapper.models.catalog.FMUS`): nothing here knows a model or the list
+of them.
 
 An FMU is self-contained: it contains ``modelDescription.xml``, ``binaries/linux64/<id>.so`` (the
 stub, compiled with the system gcc against the FMI 2.0 headers that fmpy ships) and
 ``resources/``:
 
-- ``_pyfmu_<hash>/``: the modules of this package the model runs (``fmi/slave.py``, the slaves the FMUs declare and
-  everything it imports from the package, transitively), copied verbatim under a package name
+- ``_pyfmu_<hash>/``: the modules of this package the model runs (``fmi/slave.py``, the slaves of the FMUs built and
+  everything they import from the package, transitively: :mod:`.bundle`), copied verbatim under a package name
   that carries their hash, so no checkout or install of this project is needed to run it;
 - ``model.py``: checks the bundle against its recorded hash, keys numba's on-disk cache of the
   bundled functions by that hash (a cache of other code can never be loaded), imports the slave;
@@ -45,8 +48,8 @@ from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from ..fmi.catalog import PROJECT_FMUS, SPECS
 from ..fmi.contract import c_header
+from ..fmi.fmumodel import FmuModel
 from ..fmi.varspec import FmuSpec
 from ..safeio.files import replace_checked
 from .buildinfo import BuildError, version_of
@@ -81,14 +84,14 @@ class OutputError(BuildError):
     name that this tool did not write): refused before anything is written."""
 
 
-def check_output(out_dir: Path, names: Iterable[str]) -> None:
+def check_output(out_dir: Path, fmus: Iterable[FmuModel]) -> None:
     """Refuse an output folder that is a file or cannot be written, and an existing target that
     is not an FMU built by this tool (a user's file is never overwritten); creates the folder."""
     out_dir = Path(out_dir)
     if out_dir.exists() and not out_dir.is_dir():
         raise OutputError(f"--out {out_dir} is a file, not a folder; nothing was written")
-    for n in names:
-        target = out_dir / f"{SPECS[n].model_identifier}.fmu"
+    for fmu in fmus:
+        target = out_dir / f"{fmu.spec.model_identifier}.fmu"
         if target.is_dir() or (target.exists() and fmu_source_hash(target) is None):
             raise OutputError(
                 f"{target} exists and was not written by build-fmus (it is not an FMU with a "
@@ -126,13 +129,15 @@ def build_python() -> str:
     return str(cand) if cand.is_file() else sys.executable
 
 
-def source_hash() -> str:
-    """Hash of everything an FMU is built from (stale FMUs are rebuilt by ensure_fmus)."""
+def source_hash(fmus: Iterable[FmuModel]) -> str:
+    """Hash of everything the FMUs ``fmus``, built together, are built from (stale FMUs are rebuilt by
+    ensure_fmus): the stub, the bundle of their slaves (:func:`.bundle.bundled_files`), the writers, the
+    build interpreter."""
     h = hashlib.sha256()
     for f in stub_sources():
         h.update(f.name.encode())
         h.update(f.read_bytes())
-    h.update(bundle_hash().encode())
+    h.update(bundle_hash(bundled_files(fmus)).encode())
     for writer in (
         "fmubuild/build.py",
         "fmubuild/bundle.py",
@@ -211,28 +216,31 @@ def _config(spec: FmuSpec, guid: str, shash: str, bhash: str, runtime: dict | No
 
 
 def build_fmu(
-    name: str,
+    fmu: FmuModel,
     out_dir: str | os.PathLike = DEFAULT_OUT,
     stub_so: Path | None = None,
     standalone: bool = False,
     runtime: list | None = None,
     fmi_version: int = 2,
+    bundle: Iterable[FmuModel] = (),
 ) -> Path:
-    """Build one FMU (name: a key of :data:`~pyfmu_wrapper.fmi.catalog.SPECS`); return the path of the .fmu.
+    """Build one FMU from its declaration; return the path of the .fmu.
 
     standalone: also bundle the Python runtime and numpy/numba/llvmlite (``resources/python/``);
     runtime: the (source, archive name) pairs of that runtime, if already collected
     (:func:`.standalone.runtime_files`); stub_so: the compiled stub, if already compiled (for a
     standalone FMU, with :func:`.standalone.stub_flags`; for ``fmi_version``); fmi_version: 2 or 3
-    (written into ``out_dir`` itself: :func:`fmi_out_dir` is the caller's choice of folder)."""
-    spec = SPECS[name]
+    (written into ``out_dir`` itself: :func:`fmi_out_dir` is the caller's choice of folder); bundle: the
+    other FMUs of the build, whose slaves the bundled package carries too (the FMUs of one build share it)."""
+    spec = fmu.spec
+    together = (fmu, *bundle)
     out_dir = Path(out_dir)
     if fmi_version not in FMI_VERSIONS:
         raise ValueError(f"FMI version {fmi_version!r}: this builder writes {FMI_VERSIONS}")
-    check_output(out_dir, [name])
-    shash = source_hash()
+    check_output(out_dir, [fmu])
+    shash = source_hash(together)
     guid = guid_of(spec, shash)
-    files = bundled_files()
+    files = bundled_files(together)
     bhash = bundle_hash(files)
     package = bundle_package(bhash)
     with tempfile.TemporaryDirectory() as tmp_name:
@@ -253,7 +261,7 @@ def build_fmu(
         # unique per builder: parallel workers may build the same stale FMU at once
         part = out_dir / f".{spec.model_identifier}.fmu.{os.getpid()}.{os.urandom(4).hex()}.part"
         try:
-            _write_archive(part, spec, guid, shash, bhash, rt_cfg, so, package, files, runtime, fmi_version)
+            _write_archive(part, fmu, guid, shash, bhash, rt_cfg, so, package, files, runtime, fmi_version)
         except BaseException:
             part.unlink(missing_ok=True)  # ours: never left behind
             raise
@@ -263,7 +271,7 @@ def build_fmu(
 
 def _write_archive(
     part: Path,
-    spec: FmuSpec,
+    fmu: FmuModel,
     guid: str,
     shash: str,
     bhash: str,
@@ -274,6 +282,7 @@ def _write_archive(
     runtime: list[tuple[Path, str]] | None,
     fmi_version: int = 2,
 ) -> None:
+    spec = fmu.spec
     md = model_description_xml(spec, guid) if fmi_version == 2 else model_description3_xml(spec, guid)
     with zipfile.ZipFile(part, "w", zipfile.ZIP_DEFLATED) as z:
         z.writestr("modelDescription.xml", md)
@@ -281,7 +290,7 @@ def _write_archive(
         z.write(so, f"{BINARY_DIR[fmi_version]}/{spec.model_identifier}.so")
         z.writestr("resources/pyfmu.cfg", _config(spec, guid, shash, bhash, rt_cfg))
         z.writestr("resources/variables.tsv", variable_table_tsv(spec))
-        z.writestr("resources/model.py", model_py(spec, package, bhash, files))
+        z.writestr("resources/model.py", model_py(fmu, package, bhash, files))
         for rel in files:
             z.write(PACKAGE_DIR / rel, f"resources/{package}/{rel}")
         for src, arc in runtime or ():
@@ -289,14 +298,18 @@ def _write_archive(
 
 
 def build_fmus(
-    names: Iterable[str] = PROJECT_FMUS,
+    fmus: Iterable[FmuModel],
     out_dir: str | os.PathLike[str] = DEFAULT_OUT,
     standalone: bool = False,
     fmi_version: int = 2,
+    bundle: Iterable[FmuModel] = (),
 ) -> list[Path]:
-    """Build several FMUs (the stub is compiled once, a standalone runtime collected once) of one
-    FMI version into ``out_dir``."""
-    check_output(Path(out_dir), names)  # all refused before any is written
+    """Build several FMUs from their declarations (the stub is compiled once, a standalone runtime
+    collected once) of one FMI version into ``out_dir``, sharing one bundled package (with the slaves of
+    ``bundle`` too: :func:`ensure_fmus` passes all the FMUs it was asked for when it rebuilds a few)."""
+    fmus = list(fmus)
+    together = [*fmus, *(f for f in bundle if f not in fmus)]
+    check_output(Path(out_dir), fmus)  # all refused before any is written
     with tempfile.TemporaryDirectory() as tmp:
         so = Path(tmp) / "stub.so"
         runtime = None
@@ -307,8 +320,16 @@ def build_fmus(
             runtime, flags = runtime_files(Path(tmp) / "pyc"), stub_flags()
         compile_stub(so, extra_flags=flags, fmi_version=fmi_version)
         return [
-            build_fmu(n, out_dir, stub_so=so, standalone=standalone, runtime=runtime, fmi_version=fmi_version)
-            for n in names
+            build_fmu(
+                f,
+                out_dir,
+                stub_so=so,
+                standalone=standalone,
+                runtime=runtime,
+                fmi_version=fmi_version,
+                bundle=[g for g in together if g is not f],
+            )
+            for f in fmus
         ]
 
 
@@ -325,14 +346,15 @@ def fmu_source_hash(fmu: Path) -> str | None:
 
 
 def ensure_fmus(
-    out_dir: str | os.PathLike[str] = DEFAULT_OUT, names: Iterable[str] = PROJECT_FMUS, fmi_version: int = 2
+    fmus: Iterable[FmuModel], out_dir: str | os.PathLike[str] = DEFAULT_OUT, fmi_version: int = 2
 ) -> dict[str, Path]:
-    """Paths of the FMUs, building those that are missing or stale (source hash); FMI 3.0 ones in
-    ``out_dir/fmi3`` (:func:`fmi_out_dir`)."""
+    """Paths of the FMUs (model identifier -> path), building those that are missing or stale (source
+    hash); FMI 3.0 ones in ``out_dir/fmi3`` (:func:`fmi_out_dir`)."""
+    fmus = list(fmus)
     out_dir = fmi_out_dir(out_dir, fmi_version)
-    shash = source_hash()
-    paths = {n: out_dir / f"{SPECS[n].model_identifier}.fmu" for n in names}
-    stale = [n for n, p in paths.items() if fmu_source_hash(p) != shash]
+    shash = source_hash(fmus)
+    paths = {f.name: out_dir / f"{f.spec.model_identifier}.fmu" for f in fmus}
+    stale = [f for f in fmus if fmu_source_hash(paths[f.name]) != shash]
     if stale:
-        build_fmus(stale, out_dir, fmi_version=fmi_version)
+        build_fmus(stale, out_dir, fmi_version=fmi_version, bundle=fmus)
     return paths

@@ -1,26 +1,37 @@
-"""What an FMU bundles of this package: the import closure of the slaves module (:func:`bundled_files`,
+"""What an FMU bundles of this package: the import closure of the slaves of the FMUs built (:func:`bundled_files`,
 found by reading the import statements, with the ``__init__.py`` of every package on the way), its
 identity (:func:`bundle_hash`, the name it is imported under, :func:`bundle_package`) and the FMU's
 ``resources/model.py`` that hands over to the bundled loader (:data:`MODEL_PY`). The archive is
 written by :mod:`.build`.
+
+The builders give the FMUs (:class:`~pyfmu_wrapper.fmi.fmumodel.FmuModel`) whose slave classes the bundle
+must run; the closure starts at those classes' modules and at :data:`ROOTS`. A model's FMU folder lies below
+the registry (``models/__init__.py``), which imports every registered unit, and each unit's ``fmus()``
+imports its FMU code: so every FMU of a model carries the same bundle, whichever FMUs of the project are
+built together, and the FMUs of one build share one bundled package in a process.
 """
 
 from __future__ import annotations
 
 import ast
 import hashlib
+import sys
+from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
-    from ..fmi.varspec import FmuSpec
+    from ..fmi.fmumodel import FmuModel
 
 PACKAGE_DIR = Path(__file__).resolve().parents[1]  # pyfmu_wrapper/
 
-#: The module the slaves live in (the root of the bundled import closure).
+#: The module the slaves' machinery lives in.
 SLAVE_MODULE = "fmi/slave.py"
 #: the bundled loader of the model code (loaded by the FMU's model.py)
 LOADER_MODULE = "fmi/fmu_loader.py"
+#: what every bundle starts from besides the slaves of the FMUs built: the slaves' machinery, the loader and
+#: the support FMU Trivial (part of the runtime, so a build with or without it bundles the same package)
+ROOTS = (SLAVE_MODULE, LOADER_MODULE, "fmi/trivial.py")
 
 
 def _relative_imports(rel: str, source: bytes) -> set[str]:
@@ -57,27 +68,38 @@ def _relative_imports(rel: str, source: bytes) -> set[str]:
     return found
 
 
-#: bundled_files' last answer, kept while no module of the package has changed (key: every module's
-#: name, size and modification time): parsing the import closure is most of what a hash costs
+#: _closure's answers, kept while no module of the package has changed (key: every module's name, size and
+#: modification time, and the roots): parsing the import closure is most of what a hash costs
 _CLOSURE: dict[tuple, list[str]] = {}
 
 
-def bundled_files() -> list[str]:
-    """Package-relative files the slaves need: the slave machinery (fmi/slave.py), the modules of every FMU's slave (those
-    :data:`~pyfmu_wrapper.fmi.catalog.SPECS` name) and their package imports, transitively, with the
-    ``__init__.py`` of every package on the way."""
-    key = tuple((str(f), st.st_size, st.st_mtime_ns) for f in sorted(PACKAGE_DIR.rglob("*.py")) if (st := f.stat()))
+def slave_file(fmu: FmuModel) -> str:
+    """The package-relative file of an FMU's slave class (refused if the class is not this package's:
+    only this package is bundled)."""
+    module = fmu.slave.__module__
+    top, _, rest = module.partition(".")
+    path = sys.modules[module].__file__ if module in sys.modules else None
+    if top != PACKAGE_DIR.name or not rest or path is None or not Path(path).resolve().is_relative_to(PACKAGE_DIR):
+        raise ValueError(
+            f"{fmu.name}: its slave {fmu.slave.__qualname__} is not in {PACKAGE_DIR}: it cannot be bundled"
+        )
+    return Path(path).resolve().relative_to(PACKAGE_DIR).as_posix()
+
+
+def bundled_files(fmus: Iterable[FmuModel]) -> list[str]:
+    """Package-relative files the slaves of ``fmus`` need: :data:`ROOTS`, their slave classes' modules and
+    their package imports, transitively, with the ``__init__.py`` of every package on the way."""
+    roots = tuple(sorted({*ROOTS, *(slave_file(f) for f in fmus)}))
+    files = tuple((str(f), st.st_size, st.st_mtime_ns) for f in sorted(PACKAGE_DIR.rglob("*.py")) if (st := f.stat()))
+    key = (files, roots)
     if key not in _CLOSURE:
-        _CLOSURE.clear()
-        _CLOSURE[key] = _closure()
+        if len(_CLOSURE) > 16 or any(k[0] != files for k in _CLOSURE):
+            _CLOSURE.clear()
+        _CLOSURE[key] = _closure(roots)
     return list(_CLOSURE[key])
 
 
-def _closure() -> list[str]:
-    from ..fmi.catalog import SPECS
-
-    roots = {SLAVE_MODULE, LOADER_MODULE}
-    roots |= {spec.slave.split(":")[0].split(".", 1)[1].replace(".", "/") + ".py" for spec in SPECS.values()}
+def _closure(roots: Iterable[str]) -> list[str]:
     todo, seen = sorted(roots), set()
     while todo:
         rel = todo.pop()
@@ -93,10 +115,10 @@ def _closure() -> list[str]:
     return sorted(seen)
 
 
-def bundle_hash(files: list[str] | None = None) -> str:
+def bundle_hash(files: list[str]) -> str:
     """SHA-256 over the bundled files (names and contents): the bundle's identity."""
     h = hashlib.sha256()
-    for rel in files or bundled_files():
+    for rel in files:
         h.update(rel.encode() + b"\0" + hashlib.sha256((PACKAGE_DIR / rel).read_bytes()).digest())
     return h.hexdigest()
 
@@ -122,8 +144,11 @@ create = _loader.Bundle(_HERE, {package!r}, {bhash!r}, {files!r}, {slave!r}).cre
 """
 
 
-def model_py(spec: FmuSpec, package: str, bhash: str, files: list[str]) -> str:
-    """The FMU's ``resources/model.py`` (:data:`MODEL_PY`) for ``spec``'s slave in the bundle ``package``."""
-    module, _, cls = spec.slave.partition(":")
-    rel = module.split(".", 1)[1] if module.startswith(PACKAGE_DIR.name + ".") else module
-    return MODEL_PY.format(model=spec.model_name, package=package, bhash=bhash, files=files, slave=f"{rel}:{cls}")
+def model_py(fmu: FmuModel, package: str, bhash: str, files: list[str]) -> str:
+    """The FMU's ``resources/model.py`` (:data:`MODEL_PY`) for its slave class in the bundle ``package``
+    (the class named for the loader by its module and qualified name, relative to the package)."""
+    slave_file(fmu)  # this package's
+    module = fmu.slave.__module__.split(".", 1)[1]
+    return MODEL_PY.format(
+        model=fmu.spec.model_name, package=package, bhash=bhash, files=files, slave=f"{module}:{fmu.slave.__qualname__}"
+    )

@@ -1,6 +1,7 @@
 """Generate ``modelDescription.xml`` (FMI 2.0 co-simulation) and the stub's variable table.
 
-Both are produced from one :class:`~.variables.FmuSpec`; nothing is written by hand.
+Both are produced from one :class:`~pyfmu_wrapper.fmi.varspec.FmuSpec`; nothing is written by hand. The
+UnitDefinitions are read off the unit strings by FMI's unit grammar (:func:`~pyfmu_wrapper.fmi.units.base_unit`).
 """
 
 from __future__ import annotations
@@ -13,23 +14,8 @@ from collections.abc import Sequence
 from xml.sax.saxutils import quoteattr
 
 from ..fmi.contract import LOG_CATEGORIES
+from ..fmi.units import base_unit
 from ..fmi.varspec import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
-
-#: SI base-unit exponents of the units the tables use (FMI 2.0 UnitDefinitions).
-UNITS = {
-    "kg": dict(kg=1),
-    "m": dict(m=1),
-    "m/s": dict(m=1, s=-1),
-    "m/s2": dict(m=1, s=-2),
-    "N": dict(kg=1, m=1, s=-2),
-    "N/m": dict(kg=1, s=-2),
-    "N/m3": dict(kg=1, m=-2, s=-2),
-    "N.s/m": dict(kg=1, s=-1),
-    "rad/s": dict(rad=1, s=-1),
-    "s/m": dict(s=1, m=-1),
-    "1/kg": dict(kg=-1),
-}
-
 
 TYPE_CODE = {REAL: "R", INTEGER: "I", BOOLEAN: "B"}
 
@@ -88,6 +74,13 @@ def _unknown(spec: FmuSpec, v: Variable, deps: Sequence[str] | None, kinds: Sequ
     return s + "/>"
 
 
+def unit_exponents(spec: FmuSpec, unit: str) -> dict[str, int]:
+    """The BaseUnit exponents of a unit string of ``spec`` (a bad string refused with the FMU and the
+    variables that use it named)."""
+    users = ", ".join(repr(v.name) for v in spec.variables if v.unit == unit) or "(none)"
+    return base_unit(unit, where=f"FMU {spec.model_name}, variable(s) {users}")
+
+
 def guid_of(spec: FmuSpec, salt: str = "") -> str:
     """A deterministic GUID: a hash of the variable table (and of the sources, through salt)."""
     h = hashlib.sha256(repr(spec.variables).encode() + spec.model_name.encode() + salt.encode()).digest()
@@ -99,7 +92,7 @@ def model_description_xml(spec: FmuSpec, guid: str, generation_tool: str = "pyfm
     used_units = sorted({v.unit for v in spec.variables if v.unit})
     units = []
     for u in used_units:
-        exps = " ".join(f'{k}="{e}"' for k, e in UNITS[u].items())
+        exps = " ".join(f'{k}="{e}"' for k, e in unit_exponents(spec, u).items())
         units.append(f'    <Unit name="{u}">\n      <BaseUnit {exps}/>\n    </Unit>')
     outputs = spec.of("output")
     init_unknowns = [

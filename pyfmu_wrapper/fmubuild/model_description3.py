@@ -22,8 +22,9 @@ from collections.abc import Sequence
 from xml.sax.saxutils import quoteattr
 
 from ..fmi.contract import LOG_CATEGORIES
+from ..fmi.units import base_unit, time_derivative
 from ..fmi.varspec import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
-from .model_description import UNITS, declared_range, xml_value
+from .model_description import declared_range, unit_exponents, xml_value
 
 TYPE3 = {REAL: "Float64", INTEGER: "Int32", BOOLEAN: "Boolean"}
 #: orders of the input derivatives an FMI 3.0 variant declares (FMI 2.0: canInterpolateInputs, order <= 2)
@@ -44,21 +45,7 @@ def derivative_vr(spec: FmuSpec, input_vr: int, order: int) -> int:
 
 def _derived_unit(unit: str | None, order: int) -> str | None:
     """The unit of the order-th time derivative: m -> m/s, m/s -> m/s2, N -> N/s2 (order 2)."""
-    if unit is None:
-        return None
-    exps = dict(UNITS[unit])
-    exps["s"] = exps.get("s", 0) - order
-    for name, e in UNITS.items():
-        if e == {k: v for k, v in exps.items() if v}:
-            return name
-    return _unit_name(unit, order)
-
-
-def _unit_name(unit: str, order: int) -> str:
-    if "/s" in unit:
-        head, tail = unit.rsplit("/s", 1)
-        return f"{head}/s{(int(tail) if tail else 1) + order}"
-    return f"{unit}/s" if order == 1 else f"{unit}/s{order}"
+    return None if unit is None else time_derivative(unit, order)
 
 
 def input_derivatives(spec: FmuSpec) -> list[tuple[Variable, int, str | None]]:
@@ -86,13 +73,10 @@ def input_derivatives(spec: FmuSpec) -> list[tuple[Variable, int, str | None]]:
 
 
 def _units_used(spec: FmuSpec) -> dict[str, dict[str, int]]:
-    used = {v.unit: UNITS[v.unit] for v in spec.variables if v.unit}
-    for _, k, unit in input_derivatives(spec):
+    used = {v.unit: unit_exponents(spec, v.unit) for v in spec.variables if v.unit}
+    for _, _, unit in input_derivatives(spec):
         if unit and unit not in used:
-            base = next(u.unit for u in spec.variables if u.unit and _derived_unit(u.unit, k) == unit)
-            exps = dict(UNITS[base])
-            exps["s"] = exps.get("s", 0) - k
-            used[unit] = {a: e for a, e in exps.items() if e}
+            used[unit] = base_unit(unit)
     used.setdefault("s", {"s": 1})  # of time
     return dict(sorted(used.items()))
 

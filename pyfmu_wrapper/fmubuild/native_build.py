@@ -4,8 +4,9 @@
 ``py_embed.c`` and ``py_config.c``) is compiled with ``fmu/src/native/native_embed.c`` in their
 place, which serves the core's calls into its slave with the compiled functions, and
 ``fmu/src/native/native_rt.c``, the run time those need; the functions themselves are object code
-emitted from the numba source (:mod:`.native_obj`: the step, configure, outputs, derivative and sensitivity each FMU's
-declaration names). The model's table (sizes, value references, start values,
+emitted from the numba source (:mod:`.native_obj`: the step, configure, outputs, derivative and sensitivity whose
+factories each FMU's declaration holds). The builders take those declarations
+(:class:`~pyfmu_wrapper.fmi.fmumodel.FmuModel`) as arguments. The model's table (sizes, value references, start values,
 the messages of its checks) is generated here from the FMU's declaration into
 ``pyfmu_native_model.h``. The archive holds what a Python-hosted FMU holds but the bundled Python
 code: ``modelDescription.xml``, ``documentation/``, ``resources/pyfmu.cfg`` and
@@ -20,17 +21,16 @@ import hashlib
 import os
 import shutil
 import subprocess
+import sys
 import tempfile
 import zipfile
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
 
-from ..fmi.catalog import FMUS, NATIVE_FMUS, PROJECT_FMUS, SPECS
 from ..fmi.contract import MAX_INTEGRATOR_STEPS, c_header
-from ..fmi.fmumodel import resolve
+from ..fmi.fmumodel import FmuModel, NativeFmu
 from ..fmi.native_model import FIELD_CODE, KAPPA_CODE
-from ..fmi.varspec import FmuSpec
 from ..safeio.files import replace_checked
 from .build import DEFAULT_OUT, STUB_DIR, check_output, fmi_headers_dir, fmi_out_dir, fmu_source_hash, source_hash
 from .buildinfo import BuildError
@@ -63,23 +63,26 @@ def failure_reasons() -> tuple[str, ...]:
     )
 
 
-def model_table(spec: FmuSpec) -> dict[str, Any]:
+def native_of(fmu: FmuModel) -> NativeFmu:
+    """The native functions of a declaration (refused by name if it has none)."""
+    if fmu.native is None:
+        raise BuildError(f"{fmu.name} has no native variant (its declaration holds no native functions)")
+    return fmu.native
+
+
+def model_table(fmu: FmuModel) -> dict[str, Any]:
     """The sizes and words of one native model, from its declaration (:class:`~pyfmu_wrapper.fmi.fmumodel.NativeFmu`'s
     ``table``): its state length, packed parameters and input array (the slave's ``z``, ``p`` and ``u``), its
     states' names, the messages of its cross-field checks and of its field checks, the variables a failed
     check reports."""
-    fmu = FMUS[spec.model_identifier]
-    if fmu.native is None:
-        raise BuildError(
-            f"{spec.model_identifier} has no native variant: native FMUs are built for {list(NATIVE_FMUS)}"
-        )
-    table: dict[str, Any] = resolve(fmu.native.table)()
+    table: dict[str, Any] = native_of(fmu).table()
     return table
 
 
-def model_header(spec: FmuSpec) -> str:
+def model_header(fmu: FmuModel) -> str:
     """pyfmu_native_model.h: the table native_embed.c needs of one model, from its declaration."""
-    tab = model_table(spec)
+    spec = fmu.spec
+    tab = model_table(fmu)
     nvr = max(v.vr for v in spec.variables) + 1
     nstate = tab["nstate"]
     inputs = [v for v in spec.variables if v.causality == "input"]
@@ -146,27 +149,21 @@ def native_sources() -> list[Path]:
     return [STUB_DIR / n for n in CORE] + sorted(STUB_DIR.glob("*.h")) + sorted(NATIVE_DIR.glob("*.[ch]"))
 
 
-def native_hash() -> str:
-    """Hash of what a native FMU is built from (the Python-hosted FMU's hash and the native sources)."""
-    h = hashlib.sha256(source_hash().encode())
+def native_hash(fmu: FmuModel) -> str:
+    """Hash of what one native FMU is built from (its Python-hosted variant's hash, the native sources and
+    the modules of its declared native functions): one FMU's, so the FMUs built with it never make it stale."""
+    h = hashlib.sha256(source_hash([fmu]).encode())
     pkg = Path(__file__).resolve().parents[1]
-    declared = {p for f in FMUS.values() if f.native for p in (f.native.step, f.native.functions, f.native.table)}
-    modules = sorted({d.partition(":")[0].split(".", 1)[1].replace(".", "/") + ".py" for d in declared})
-    for f in native_sources() + [
-        pkg / n
-        for n in (
-            "fmubuild/native_build.py",
-            "fmubuild/native_obj.py",
-            "fmi/native.py",
-            "fmi/native_model.py",
-            *modules,
-        )
-    ]:
+    writers = [
+        pkg / n for n in ("fmubuild/native_build.py", "fmubuild/native_obj.py", "fmi/native.py", "fmi/native_model.py")
+    ]
+    declared = sorted({Path(sys.modules[f.__module__].__file__ or "") for f in native_of(fmu).factories()})
+    for f in native_sources() + writers + declared:
         h.update(f.name.encode() + f.read_bytes())
     return h.hexdigest()[:24]
 
 
-def compile_native(spec: FmuSpec, objects: list[Path], out_so: Path, fmi_version: int) -> None:
+def compile_native(fmu: FmuModel, objects: list[Path], out_so: Path, fmi_version: int) -> None:
     """Link the core, native_embed.c, native_rt.c and the model's objects into one shared library that
     exports the fmi{2,3}* functions only."""
     cc = os.environ.get("CC", "gcc")
@@ -176,7 +173,7 @@ def compile_native(spec: FmuSpec, objects: list[Path], out_so: Path, fmi_version
     with tempfile.TemporaryDirectory(prefix=".native-gen-", dir=out_so.parent) as gen_name:
         gen = Path(gen_name)
         (gen / "pyfmu_contract.h").write_text(c_header())
-        (gen / "pyfmu_native_model.h").write_text(model_header(spec))
+        (gen / "pyfmu_native_model.h").write_text(model_header(fmu))
         script = gen / "fmi.map"
         script.write_text(f"{{ global: fmi{fmi_version}*; local: *; }};\n")
         cmd = [
@@ -191,7 +188,7 @@ def compile_native(spec: FmuSpec, objects: list[Path], out_so: Path, fmi_version
         raise BuildError(f"linking the native FMU failed:\n{' '.join(cmd)}\n{r.stderr}")
 
 
-def compile_native_win64(spec: FmuSpec, objects: list[Path], out_dll: Path, fmi_version: int) -> None:
+def compile_native_win64(fmu: FmuModel, objects: list[Path], out_dll: Path, fmi_version: int) -> None:
     """The same binary for Windows x86-64, cross-compiled with mingw-w64: a DLL that needs only
     KERNEL32 and msvcrt (libgcc and winpthreads linked in). It exports the fmi{2,3}* functions (a .def file
     lists those of ``fmi_version``; the FMI headers also mark the other version's dllexport, so both are)."""
@@ -203,7 +200,7 @@ def compile_native_win64(spec: FmuSpec, objects: list[Path], out_dll: Path, fmi_
     with tempfile.TemporaryDirectory(prefix=".native-win-", dir=out_dll.parent) as gen_name:
         gen = Path(gen_name)
         (gen / "pyfmu_contract.h").write_text(c_header())
-        (gen / "pyfmu_native_model.h").write_text(model_header(spec))
+        (gen / "pyfmu_native_model.h").write_text(model_header(fmu))
         srcs = [*[STUB_DIR / n for n in CORE], NATIVE_DIR / "native_embed.c", RUNTIME_C]
         flags = ["-O2", "-std=gnu11", "-w", "-D__USE_MINGW_ANSI_STDIO=1", f"-I{gen}", f"-I{STUB_DIR}"]
         flags.append(f"-I{fmi_headers_dir()}")
@@ -226,34 +223,33 @@ def compile_native_win64(spec: FmuSpec, objects: list[Path], out_dll: Path, fmi_
 
 
 def build_native_fmus(
-    names: Iterable[str] = PROJECT_FMUS,
+    fmus: Iterable[FmuModel],
     out_dir: str | os.PathLike[str] = DEFAULT_OUT / NATIVE_SUBDIR,
     fmi_version: int = 2,
     win64: bool | None = None,
 ) -> list[Path]:
-    """Build native FMUs of one FMI version into ``out_dir`` (FMI 3.0: pass :func:`.build.fmi_out_dir`'s),
-    with the win64 binary beside the linux64 one (``win64`` None: when mingw-w64 is installed); by
-    default the paper's pair, any FMU with a native variant (:data:`~pyfmu_wrapper.fmi.catalog.NATIVE_FMUS`) on request."""
+    """Build native FMUs of one FMI version into ``out_dir`` (FMI 3.0: pass :func:`.build.fmi_out_dir`'s)
+    from their declarations, each of which must hold native functions, with the win64 binary beside the
+    linux64 one (``win64`` None: when mingw-w64 is installed)."""
     if win64 is None:
         win64 = mingw_gcc() is not None
-    names = list(names)
-    missing = [n for n in names if n not in NATIVE_FMUS]
+    fmus = list(fmus)
+    missing = [f.name for f in fmus if f.native is None]
     if missing:
-        raise BuildError(f"no native variant of {missing}: native FMUs are built for {sorted(NATIVE_FMUS)}")
+        raise BuildError(f"no native variant of {missing}: their declarations hold no native functions")
     out = Path(out_dir)
-    check_output(out, names)
-    nhash = native_hash()
+    check_output(out, fmus)
     built = []
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
-        objects = write_objects(tmp / "obj", tuple(names))
-        for n in names:
-            spec = SPECS[n]
+        objects = write_objects(tmp / "obj", fmus)
+        for fmu in fmus:
+            n, spec, nhash = fmu.name, fmu.spec, native_hash(fmu)
             binaries = {"linux64": tmp / f"{n}.so"}
-            compile_native(spec, objects[(n, "linux64")], binaries["linux64"], fmi_version)
+            compile_native(fmu, objects[(n, "linux64")], binaries["linux64"], fmi_version)
             if win64:
                 binaries["win64"] = tmp / f"{n}.dll"
-                compile_native_win64(spec, objects[(n, "win64")], binaries["win64"], fmi_version)
+                compile_native_win64(fmu, objects[(n, "win64")], binaries["win64"], fmi_version)
             guid = guid_of(spec, "native" + nhash)
             md = model_description_xml(spec, guid) if fmi_version == 2 else model_description3_xml(spec, guid)
             cfg = (
@@ -279,16 +275,16 @@ def build_native_fmus(
 
 
 def ensure_native_fmus(
+    fmus: Iterable[FmuModel],
     out_dir: str | os.PathLike[str] = DEFAULT_OUT / NATIVE_SUBDIR,
-    names: Iterable[str] = PROJECT_FMUS,
     fmi_version: int = 2,
 ) -> dict[str, Path]:
-    """Paths of the native FMUs, building those missing or stale (FMI 3.0 ones in ``out_dir/fmi3``)."""
-
+    """Paths of the native FMUs (model identifier -> path), building those missing or stale (FMI 3.0 ones
+    in ``out_dir/fmi3``)."""
+    fmus = list(fmus)
     d = fmi_out_dir(out_dir, fmi_version)
-    nhash = native_hash()
-    paths = {n: d / f"{SPECS[n].model_identifier}.fmu" for n in names}
-    stale = [n for n, p in paths.items() if fmu_source_hash(p) != nhash]
+    paths = {f.name: d / f"{f.spec.model_identifier}.fmu" for f in fmus}
+    stale = [f for f in fmus if fmu_source_hash(paths[f.name]) != native_hash(f)]
     if stale:
         build_native_fmus(stale, d, fmi_version)
     return paths

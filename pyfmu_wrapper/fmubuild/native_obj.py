@@ -1,7 +1,7 @@
 """Object code of the compiled model functions, per target (the native FMUs).
 
-The numba source of truth (each FMU's declared :class:`~pyfmu_wrapper.fmi.fmumodel.NativeFmu`: the step cfuncs, which call the same compiled integrators
-and outputs as the Python slaves) is compiled by numba to LLVM IR; llvmlite turns that IR into an
+The numba source of truth (each FMU's declared :class:`~pyfmu_wrapper.fmi.fmumodel.NativeFmu`, given by the
+builder: the step cfuncs, which call the same compiled integrators and outputs as the Python slaves) is compiled by numba to LLVM IR; llvmlite turns that IR into an
 object file for each target triple (:data:`TRIPLES`: x86_64 Linux and x86_64 Windows, the FMI
 platforms linux64 / win64 and x86_64-linux / x86_64-windows). The object is linked with C: what numba's
 generated code calls outside itself is either the C library's maths (:data:`LIBM`) or the small run
@@ -23,9 +23,15 @@ import os
 import subprocess
 import sys
 import tempfile
+from collections.abc import Iterable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
+from ..fmi.fmumodel import dotted_name
 from .buildinfo import BuildError
+
+if TYPE_CHECKING:
+    from ..fmi.fmumodel import FmuModel
 
 #: FMI 2.0 platform folder -> LLVM target triple
 TRIPLES = {"linux64": "x86_64-unknown-linux-gnu", "win64": "x86_64-w64-windows-gnu"}
@@ -68,7 +74,8 @@ LIBM = frozenset({"atan", "sqrt", "log2", "log", "exp", "sin", "cos", "pow", "ex
 RUNTIME_C = Path(__file__).resolve().parents[2] / "fmu" / "src" / "native" / "native_rt.c"
 
 # Run in a fresh interpreter: numba's cache off (it keeps no IR), each model's declared factories (argv[2]:
-# model -> [step, functions], "module:function") compiled, their IR and symbols written as JSON to argv[1].
+# model -> [step, functions], "module:qualified.name" derived from the factories by dotted_name) compiled,
+# their IR and symbols written as JSON to argv[1].
 _IR_SCRIPT = """
 import json, sys
 from numba.core import caching
@@ -87,26 +94,29 @@ with open(sys.argv[1], "w") as fh:
 """
 
 
-def native_models() -> dict[str, tuple[str, str]]:
-    """FMU -> (its step factory, its functions factory), from the declarations of the FMUs with a native variant."""
-    from ..fmi.catalog import FMUS
+def native_models(fmus: Iterable[FmuModel]) -> dict[str, tuple[str, str]]:
+    """FMU -> the names of its step factory and its functions factory (derived from the factories, for
+    the subprocess that compiles them), of the declarations given; one without native functions is refused."""
+    out = {}
+    for f in fmus:
+        if f.native is None:
+            raise BuildError(f"no compiled step for {f.name}: its declaration holds no native functions")
+        out[f.name] = (dotted_name(f.native.step), dotted_name(f.native.functions))
+    return out
 
-    return {n: (f.native.step, f.native.functions) for n, f in FMUS.items() if f.native is not None}
+
+def model_ir(fmus: Iterable[FmuModel]) -> dict[str, dict[str, tuple[str, str]]]:
+    """model -> {C name: (symbol of the cfunc, the LLVM IR of its library)} of the native FMUs given,
+    compiled afresh (once per process and set of factories: the sources do not change under a running build)."""
+    return _model_ir(tuple(native_models(fmus).items()))
 
 
 @functools.cache
-def model_ir(models: tuple[str, ...] | None = None) -> dict[str, dict[str, tuple[str, str]]]:
-    """model -> {C name: (symbol of the cfunc, the LLVM IR of its library)}, compiled afresh (once per
-    process and set of models: the sources do not change under a running build); None: every native FMU."""
-    known = native_models()
-    models = tuple(known) if models is None else models
-    unknown = [m for m in models if m not in known]
-    if unknown:
-        raise BuildError(f"no compiled step for {unknown}: native FMUs exist for {sorted(known)}")
+def _model_ir(models: tuple[tuple[str, tuple[str, str]], ...]) -> dict[str, dict[str, tuple[str, str]]]:
     with tempfile.TemporaryDirectory() as tmp:
         out = Path(tmp) / "ir.json"
         env = dict(os.environ, NUMBA_CACHE_DIR=tmp)
-        args = [str(out), json.dumps({m: known[m] for m in models}), json.dumps(ENTRIES), STEP_SYMBOL]
+        args = [str(out), json.dumps(dict(models)), json.dumps(ENTRIES), STEP_SYMBOL]
         r = subprocess.run([sys.executable, "-c", _IR_SCRIPT, *args], capture_output=True, text=True, env=env)
         if r.returncode != 0:
             raise BuildError(f"compiling the model functions to LLVM IR failed:\n{r.stderr[-4000:]}")
@@ -157,11 +167,12 @@ def emit_object(ir: str, symbol: str, platform: str, alias: str = STEP_SYMBOL) -
     return bytes(tm.emit_object(m))
 
 
-def write_objects(out_dir: Path, models: tuple[str, ...] | None = None) -> dict[tuple[str, str], list[Path]]:
-    """(model, platform) -> the object files of its functions (step first), written into out_dir."""
+def write_objects(out_dir: Path, fmus: Iterable[FmuModel]) -> dict[tuple[str, str], list[Path]]:
+    """(model, platform) -> the object files of its functions (step first), written into out_dir, for the
+    native FMUs given."""
     out_dir.mkdir(parents=True, exist_ok=True)
     paths: dict[tuple[str, str], list[Path]] = {}
-    for model, fns in model_ir(models).items():
+    for model, fns in model_ir(fmus).items():
         for platform in TRIPLES:
             for alias, (symbol, ir) in fns.items():
                 p = out_dir / f"{model}.{alias}.{platform}.o"

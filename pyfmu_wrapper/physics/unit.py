@@ -69,6 +69,11 @@ def same_configuration(structure: Any, tmd: TMDParams) -> tuple[Any, TMDParams]:
 PAPER_START = LinearCompanion(tmd_companion)
 
 
+def no_fmus() -> tuple[Any, ...]:
+    """A unit without FMUs: the default of :attr:`ModelUnit.fmus`."""
+    return ()
+
+
 class ModelError(InputError):
     """A structure no registered model takes, or a state that does not fit its model."""
 
@@ -99,10 +104,10 @@ class ModelUnit:
     #: function of the model's folder that imports it when asked (the FMUs and the master load only
     #: for a co-simulation); None: the model has no co-simulation
     cosim: Callable[[], Any] | None = None
-    #: the dotted names of the modules declaring the unit's FMUs, each defining ``FMU`` (a
-    #: ``pyfmu_wrapper.fmi.fmumodel.FmuModel``: variable table, slave, native functions), resolved in
-    #: ``fmi/catalog.py`` (physics imports no FMU runtime); (): the unit has no FMU
-    fmus: tuple[str, ...] = ()
+    #: fmus() -> the unit's FMU declarations (``pyfmu_wrapper.fmi.fmumodel.FmuModel``: variable table,
+    #: slave class, native functions), a function of the model's folder that imports its FMU code on the
+    #: first call (importing a unit stays cheap; physics imports no FMU runtime); default: no FMU
+    fmus: Callable[[], tuple[Any, ...]] = no_fmus
     #: the model takes the paper's TMD (``TMDParams``, a scenario's ``tmd:`` block); False: the
     #: structure carries its own absorber, scenario files give no ``tmd:`` block and the engines pass
     #: a detached TMD that the unit does not read

@@ -8,7 +8,7 @@ equations :data:`~pyfmu_wrapper.physics.models.COUPLED`, Modelica source and the
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,6 +21,18 @@ from ...physics.tmd import active_states, tmd_atol
 from ...physics.unit import ModelUnit
 from .modelica import MODELICA
 from .scenario import read_base
+
+if TYPE_CHECKING:
+    from ...fmi.fmumodel import FmuModel
+
+
+def fmus() -> tuple[FmuModel, ...]:
+    """The pair's FMUs, BaseOscillator and TMDInerter (the paper's co-simulation; the frame's uses the
+    TMDInerter too), imported on the first call: importing the unit stays cheap."""
+    from .fmus.base_oscillator import FMU as BASE_OSCILLATOR
+    from .fmus.tmd_inerter import FMU as TMD_INERTER
+
+    return (BASE_OSCILLATOR, TMD_INERTER)
 
 
 def _atol(base: BaseParams, tmd: TMDParams, omega: float, atol_scale: float) -> NDArray[np.float64]:
@@ -49,9 +61,9 @@ def _active(base: BaseParams, tmd: TMDParams) -> list[int]:
 
 def _cosim() -> Any:
     """The pair's co-simulation (imported when asked: the FMUs and the master load only for a co-simulation)."""
-    from .cosim import ENGINE
+    from .cosim import engine
 
-    return ENGINE
+    return engine(UNIT)
 
 
 UNIT = ModelUnit(
@@ -66,7 +78,7 @@ UNIT = ModelUnit(
     inerter_force=_inerter_force,
     description="the paper's base oscillator with the TMD-inerter (one storey, one TMD)",
     cosim=_cosim,
-    fmus=("pyfmu_wrapper.models.base_tmd.fmus.base_oscillator", "pyfmu_wrapper.models.base_tmd.fmus.tmd_inerter"),
+    fmus=fmus,
     example=BaseParams,
     modelica=MODELICA,
     scenario_block="base",

@@ -34,6 +34,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -41,7 +42,7 @@ import numpy as np
 import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
-from ...cosim import steady as engine
+from ...cosim import steady as cosim_steady
 from ...cosim import timescales
 from ...cosim.periods import CosimSteadyState
 from ...cosim.settings import CosimSettings
@@ -53,7 +54,8 @@ from ...physics import registry
 from ...physics.params import BaseParams, InerterModel, TMDParams, has_gap
 from ...physics.unit import ModelUnit
 from ...solvers.start import initial_guess, play_atol
-from . import UNIT
+from .fmus.base_oscillator import FMU as BASE_OSCILLATOR
+from .fmus.tmd_inerter import FMU as TMD_INERTER
 
 CONNECTIONS = ("base.x -> tmd.x", "base.xd -> tmd.xd", "base.xdd -> tmd.xdd", "tmd.force -> base.f_link")
 RECORD = ("tmd.y", "tmd.yd")
@@ -141,11 +143,11 @@ def make_master(
         if fmu_build == "native":
             from ...fmubuild.native_build import ensure_native_fmus
 
-            paths = ensure_native_fmus(fmi_version=fmi_version)
+            paths = ensure_native_fmus(PAIR_FMUS, fmi_version=fmi_version)
         else:
             from ...fmubuild.build import ensure_fmus
 
-            paths = ensure_fmus(fmi_version=fmi_version)
+            paths = ensure_fmus(PAIR_FMUS, fmi_version=fmi_version)
         fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
     if coupling == "impulse":
         pars = {"tmd.base_compliance": 1.0 / (base or BaseParams()).mass} if interface_jacobian else {}
@@ -161,6 +163,7 @@ def make_master(
 
 
 def export_tmd_system(
+    unit: ModelUnit,
     path: str | Path,
     base: BaseParams,
     tmd: TMDParams,
@@ -174,9 +177,9 @@ def export_tmd_system(
     step_size: OMSimulator's master step, see :func:`pyfmu_wrapper.master.ssp.ssd_xml`)."""
     from ...fmubuild.build import ensure_fmus
 
-    paths = ensure_fmus()
+    paths = ensure_fmus(PAIR_FMUS)
     fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
-    z = initial_guess(UNIT, base, tmd, omega) if z0 is None else z0
+    z = initial_guess(unit, base, tmd, omega) if z0 is None else z0
     return export_ssp(
         path,
         fmus,
@@ -251,9 +254,9 @@ def fastest(base: BaseParams, tmd: TMDParams) -> Scale:
 class PairSystem:
     """The base + TMD pair as a :class:`~pyfmu_wrapper.cosim.system.CosimSystem` (module doc)."""
 
+    unit: ModelUnit  #: the base_tmd unit (the package gives it: :func:`engine`)
     structure: BaseParams
     tmd: TMDParams
-    unit: ModelUnit = UNIT
 
     observed: tuple[str, str] = ("base.x", "base.xd")
     state_outputs: tuple[str, ...] = ("base.x", "base.xd", "tmd.y", "tmd.yd")
@@ -294,6 +297,7 @@ class PairSystem:
 
 
 def steady_state(
+    unit: ModelUnit,
     master: Master,
     base: BaseParams,
     tmd: TMDParams,
@@ -305,10 +309,11 @@ def steady_state(
 ) -> CosimSteadyState:
     """The co-simulated steady state of the pair at omega [rad/s], checked
     (:func:`pyfmu_wrapper.cosim.steady.steady_state` on :class:`PairSystem`)."""
-    return engine.steady_state(master, PairSystem(base, tmd), omega, z0, settings, hint, restart)
+    return cosim_steady.steady_state(master, PairSystem(unit, base, tmd), omega, z0, settings, hint, restart)
 
 
 def sweep(
+    unit: ModelUnit,
     base: BaseParams,
     tmd: TMDParams,
     omegas: Sequence[float] | np.ndarray,
@@ -320,10 +325,11 @@ def sweep(
 ) -> pd.DataFrame:
     """Co-simulated steady-state amplitudes of the pair over omegas (sorted), up, down or both
     (:func:`pyfmu_wrapper.cosim.steady.sweep` on :class:`PairSystem`)."""
-    return engine.sweep(PairSystem(base, tmd), omegas, direction, settings, progress, z0, workers)
+    return cosim_steady.sweep(PairSystem(unit, base, tmd), omegas, direction, settings, progress, z0, workers)
 
 
 def periodic_time_series(
+    unit: ModelUnit,
     base: BaseParams,
     tmd: TMDParams,
     omega: float,
@@ -335,19 +341,32 @@ def periodic_time_series(
     """Steady state, then n_periods more recorded at the communication points: (t, states[:, 6] = x, xd,
     y, yd, d, dd (d, dd: nan, not outputs of the FMUs), steady state)
     (:func:`pyfmu_wrapper.cosim.steady.periodic_time_series` on :class:`PairSystem`)."""
-    return engine.periodic_time_series(PairSystem(base, tmd), omega, n_periods, samples_per_period, settings, master)
+    return cosim_steady.periodic_time_series(
+        PairSystem(unit, base, tmd), omega, n_periods, samples_per_period, settings, master
+    )
 
 
-def refusal(base: BaseParams, tmd: TMDParams, omegas: object, cap: int) -> str | None:
+def refusal(unit: ModelUnit, base: BaseParams, tmd: TMDParams, omegas: object, cap: int) -> str | None:
     """The frequencies of ``omegas`` the pair's time scales cannot step within ``cap`` steps per
     period (:func:`pyfmu_wrapper.cosim.timescales.refusal`): what ``run-scenario`` refuses up front."""
-    return timescales.refusal(PairSystem(base, tmd), omegas, cap)
+    return timescales.refusal(PairSystem(unit, base, tmd), omegas, cap)
 
 
-def steps_at(base: BaseParams, tmd: TMDParams, omega: float, settings: CosimSettings) -> int:
+def steps_at(unit: ModelUnit, base: BaseParams, tmd: TMDParams, omega: float, settings: CosimSettings) -> int:
     """Steps per period at omega before any refinement (:func:`pyfmu_wrapper.cosim.steady.steps_at`)."""
-    return engine.steps_at(PairSystem(base, tmd), omega, settings)
+    return cosim_steady.steps_at(PairSystem(unit, base, tmd), omega, settings)
 
 
-#: the pair's co-simulation as ``run-scenario`` calls it (the unit holds it)
-ENGINE = CosimEngine(sweep=sweep, periodic_time_series=periodic_time_series, refusal=refusal, steps_at=steps_at)
+#: the pair's FMUs, BaseOscillator and TMDInerter (its unit gives the same declarations)
+PAIR_FMUS = (BASE_OSCILLATOR, TMD_INERTER)
+
+
+def engine(unit: ModelUnit) -> CosimEngine:
+    """The pair's co-simulation as ``run-scenario`` calls it, for its unit (the unit holds it: the unit's
+    ``cosim`` returns ``engine(UNIT)``; this module imports no unit)."""
+    return CosimEngine(
+        sweep=partial(sweep, unit),
+        periodic_time_series=partial(periodic_time_series, unit),
+        refusal=partial(refusal, unit),
+        steps_at=partial(steps_at, unit),
+    )

@@ -1,6 +1,7 @@
 """The multi-storey shear frame with the paper's TMD-inerter attached to any storey (TMDI included),
-as one model unit: parameters (:mod:`.params`), equations (:mod:`.equations`), and here the unit
-(packing, state layout, tolerances). Registered in :mod:`pyfmu_wrapper.models`.
+as one model unit: parameters (:mod:`.params`), equations (:mod:`.equations`), their packing
+(:mod:`.packing`), and here the unit (state layout, tolerances, its FMU). Registered in
+:mod:`pyfmu_wrapper.models`.
 
 With one storey and the inerter on that storey it is the paper's base oscillator with the
 TMD-inerter, in the paper's state layout (tests/test_frame_model.py holds the two to 1e-12).
@@ -8,53 +9,42 @@ TMD-inerter, in the paper's state layout (tests/test_frame_model.py holds the tw
 
 from __future__ import annotations
 
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import NDArray
 
 from ...physics.kernels import inerter_force
 from ...physics.models import OdeModel, bind_describe, contact_mode_index, mode_describer
-from ...physics.params import N_PARAMS, TMDParams, pack
+from ...physics.params import TMDParams
 from ...physics.tmd import active_states, tmd_atol
 from ...physics.unit import ModelUnit
 from .equations import (
-    F_LOAD,
     F_N,
     F_TMD,
     F_TO,
-    F_VALUES,
     frame_jacobian,
     frame_rhs,
     frame_switching,
     storey_index,
 )
 from .modelica import MODELICA
+from .packing import frame_pack
 from .params import PARAMETERS, FrameParams
 from .scenario import read_frame
+
+if TYPE_CHECKING:
+    from ...fmi.fmumodel import FmuModel
 
 __all__ = ["UNIT", "FrameParams", "frame_pack", "storey_index"]
 
 
-def frame_pack(frame: FrameParams, tmd: TMDParams, omega: float = 0.0) -> NDArray[np.float64]:
-    """The packed array (:mod:`.equations`): the paper's, with the first storey in the base's slots,
-    then the frame's part."""
-    from ...physics.params import BaseParams
+def fmus() -> tuple[FmuModel, ...]:
+    """The frame's FMU, ShearFrame (its TMD's FMU is the paper's TMDInerter, which ``base_tmd`` declares),
+    imported on the first call: importing the unit stays cheap."""
+    from .fmus.shear_frame import FMU
 
-    n = frame.n
-    first = BaseParams(
-        mass=frame.masses[0],
-        stiffness=frame.stiffnesses[0],
-        damping=frame.dampings[0],
-        force_amplitude=frame.force_amplitude,
-    )
-    p = np.zeros(N_PARAMS + 4 + 3 * n)
-    p[:N_PARAMS] = pack(first, tmd, omega)
-    p[F_N], p[F_LOAD], p[F_TMD], p[F_TO] = n, frame.loaded_storey, frame.tmd_at, frame.terminal
-    p[F_VALUES : F_VALUES + n] = frame.masses
-    p[F_VALUES + n : F_VALUES + 2 * n] = frame.stiffnesses
-    p[F_VALUES + 2 * n :] = frame.dampings
-    return p
+    return (FMU,)
 
 
 def _n_state(frame: FrameParams) -> int:
@@ -108,9 +98,9 @@ def _example() -> FrameParams:
 
 def _cosim() -> Any:
     """The frame's co-simulation (imported when asked: the FMUs and the master load only for a co-simulation)."""
-    from .cosim import ENGINE
+    from .cosim import engine
 
-    return ENGINE
+    return engine(UNIT)
 
 
 UNIT = ModelUnit(
@@ -124,7 +114,7 @@ UNIT = ModelUnit(
     active=_active,
     inerter_force=_inerter_force,
     cosim=_cosim,
-    fmus=("pyfmu_wrapper.models.frame_model.fmus.shear_frame",),
+    fmus=fmus,
     modelica=MODELICA,
     scenario_reader=read_frame,
     example=_example,

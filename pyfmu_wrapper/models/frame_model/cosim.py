@@ -33,8 +33,9 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import replace
+from functools import partial
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
@@ -49,15 +50,18 @@ from ...master.instance import MasterError
 from ...master.master import Master
 from ...physics import registry
 from ...physics.params import BaseParams, TMDParams, has_gap
+from ...physics.unit import ModelUnit
 from ...solvers.hermite import hermite_absmax_series
 from ...solvers.monolithic import SolverSettings, companion_start
 from ...solvers.start import initial_guess, play_atol
 from ...solvers.steady import WindowCriterion
 from ...solvers.sweep import run_sweep_pieces
-from . import UNIT, FrameParams, storey_index
+from .equations import storey_index
+from .params import FrameParams
 
-#: the FMUs of the frame's co-simulation
-FRAME_FMUS = ("ShearFrame", "TMDInerter")
+if TYPE_CHECKING:
+    from ...fmi.fmumodel import FmuModel
+
 RECORD = ("frame.x_top", "frame.xd_top")
 #: the relative amplitude accuracy asked of a frame's co-simulation unless the settings ask another
 #: (3-storey TMDI at 13.75 rad/s: 1e-3 gives 1.0e-4 against the exact response, 1e-4 gives 1.1e-5 in
@@ -138,6 +142,15 @@ def fmu_parameters(frame: FrameParams, tmd: TMDParams, omega: float, z0: ArrayLi
     return out
 
 
+def frame_fmus() -> tuple[FmuModel, ...]:
+    """The FMUs of the frame's co-simulation: the frame's own (its unit's) and the paper's TMDInerter
+    (declared by ``base_tmd``)."""
+    from ..base_tmd.fmus.tmd_inerter import FMU as TMD_INERTER
+    from .fmus.shear_frame import FMU as SHEAR_FRAME
+
+    return (SHEAR_FRAME, TMD_INERTER)
+
+
 def make_master(
     frame: FrameParams, tmd: TMDParams | None = None, order: int = 2, fmi_version: int = 2, fmu_build: str = "native"
 ) -> Master:
@@ -147,11 +160,11 @@ def make_master(
     if fmu_build == "native":
         from ...fmubuild.native_build import ensure_native_fmus
 
-        paths = ensure_native_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
+        paths = ensure_native_fmus(frame_fmus(), fmi_version=fmi_version)
     else:
         from ...fmubuild.build import ensure_fmus
 
-        paths = ensure_fmus(names=FRAME_FMUS, fmi_version=fmi_version)
+        paths = ensure_fmus(frame_fmus(), fmi_version=fmi_version)
     fmus: dict[str, str | Path] = {"frame": paths["ShearFrame"], "tmd": paths["TMDInerter"]}
     conns = connections(frame, tmd)
     impulse = any(not isinstance(c, str) for c in conns)
@@ -159,15 +172,15 @@ def make_master(
 
 
 def steady_state(
-    master: Master, frame: FrameParams, tmd: TMDParams, omega: float, settings: CosimSettings, n: int
+    unit: ModelUnit, master: Master, frame: FrameParams, tmd: TMDParams, omega: float, settings: CosimSettings, n: int
 ) -> CosimSteadyState:
     """The co-simulated steady state at omega [rad/s] with n communication steps per period."""
     t0 = time.perf_counter()
     W = settings.window_for(tmd)
     if W > 1 and settings.play_start == "companion":
-        z = companion_start(UNIT, frame, tmd, omega, SolverSettings(rtol=1e-8, atol_scale=1e-8))
+        z = companion_start(unit, frame, tmd, omega, SolverSettings(rtol=1e-8, atol_scale=1e-8))
     else:
-        z = initial_guess(UNIT, frame, tmd, omega)
+        z = initial_guess(unit, frame, tmd, omega)
     master.initialize(0.0, fmu_parameters(frame, tmd, omega, z, settings.fmu_rtol))
     T = 2.0 * math.pi / omega
     h = T / n
@@ -203,7 +216,13 @@ def steady_state(
 
 
 def coupling_gap(
-    master: Master, frame: FrameParams, tmd: TMDParams, omega: float, settings: CosimSettings, ss: CosimSteadyState
+    unit: ModelUnit,
+    master: Master,
+    frame: FrameParams,
+    tmd: TMDParams,
+    omega: float,
+    settings: CosimSettings,
+    ss: CosimSteadyState,
 ) -> float:
     """Step-doubling estimate of the coupling error of ``ss`` (found with N steps per period): the gap
     between the steady-state amplitudes at N and N/2 steps per period, relative to max(|ss.amplitude|,
@@ -215,8 +234,8 @@ def coupling_gap(
     the same N and N/2. inf when a run does not settle."""
     n = ss.steps_per_period
     smooth = tmd if settings.window_for(tmd) == 1 else replace(companion(tmd), friction_force=0.0, cubic_stiffness=0.0)
-    fine = ss if smooth is tmd else steady_state(master, frame, smooth, omega, settings, n)
-    coarse = steady_state(master, frame, smooth, omega, settings, max(n // 2, 8))
+    fine = ss if smooth is tmd else steady_state(unit, master, frame, smooth, omega, settings, n)
+    coarse = steady_state(unit, master, frame, smooth, omega, settings, max(n // 2, 8))
     if not (fine.converged and coarse.converged):
         return math.inf
     scale = max(abs(ss.amplitude), AMPLITUDE_FLOOR * abs(frame.force_amplitude) / frame.stiffness)
@@ -224,7 +243,7 @@ def coupling_gap(
 
 
 def checked_steady_state(
-    master: Master, frame: FrameParams, tmd: TMDParams, omega: float, settings: CosimSettings, n: int
+    unit: ModelUnit, master: Master, frame: FrameParams, tmd: TMDParams, omega: float, settings: CosimSettings, n: int
 ) -> CosimSteadyState:
     """The steady state at omega with n steps per period, its coupling error estimated by step
     doubling (:func:`coupling_gap`) and held to ``settings.coupling_tolerance``: above it the steps are
@@ -233,10 +252,10 @@ def checked_steady_state(
     tol = settings.coupling_tolerance(tmd)
     t0 = time.perf_counter()
     for k in range(MAX_REFINEMENTS + 1):
-        ss = steady_state(master, frame, tmd, omega, settings, n)
+        ss = steady_state(unit, master, frame, tmd, omega, settings, n)
         if not ss.converged:
             break
-        ss.coupling_error = coupling_gap(master, frame, tmd, omega, settings, ss)
+        ss.coupling_error = coupling_gap(unit, master, frame, tmd, omega, settings, ss)
         if ss.coupling_error <= tol:
             break
         if k == MAX_REFINEMENTS or 2 * n > settings.max_steps_per_period:
@@ -257,6 +276,7 @@ def _impulse_tmd(tmd: TMDParams, settings: CosimSettings) -> TMDParams | None:
 
 
 def _sweep_piece(
+    unit: ModelUnit,
     frame: FrameParams,
     tmd: TMDParams,
     seq: Sequence[float],
@@ -272,7 +292,7 @@ def _sweep_piece(
             n = max(settings.steps_for(tmd), int(settings.steps_per_period or 0))
             t0 = time.perf_counter()
             try:
-                ss = checked_steady_state(master, frame, tmd, float(w), settings, n)
+                ss = checked_steady_state(unit, master, frame, tmd, float(w), settings, n)
             except MasterError as exc:  # this point is not converged, the sweep goes on with new FMUs
                 master.close()
                 master = make_master(
@@ -290,6 +310,7 @@ def _sweep_piece(
 
 
 def sweep(
+    unit: ModelUnit,
     frame: FrameParams,
     tmd: TMDParams,
     omegas: Sequence[float] | np.ndarray,
@@ -304,10 +325,13 @@ def sweep(
     settings = replace(settings, accuracy=accuracy)
     if frame.terminal != frame.tmd_at:  # the TMDI: force coupling, its steps from the force coupling's error model
         settings = replace(settings, coupling="force")
-    rows, _ = run_sweep_pieces(_sweep_piece, frame, tmd, omegas, direction, settings, progress, None, workers)
+    piece = partial(_sweep_piece, unit)
+    rows, _ = run_sweep_pieces(piece, frame, tmd, omegas, direction, settings, progress, None, workers)
     return pd.DataFrame(rows)
 
 
-#: the frame's co-simulation as ``run-scenario`` calls it (the unit holds it): its sweep (its steps come
-#: from the accuracy asked for, so nothing is refused up front, and it has no phase portrait)
-ENGINE = CosimEngine(sweep=sweep)
+def engine(unit: ModelUnit) -> CosimEngine:
+    """The frame's co-simulation as ``run-scenario`` calls it, for its unit (the unit's ``cosim`` returns
+    ``engine(UNIT)``; this module imports no unit): its sweep (its steps come from the accuracy asked
+    for, so nothing is refused up front, and it has no phase portrait)."""
+    return CosimEngine(sweep=partial(sweep, unit))

@@ -1,6 +1,6 @@
 """The base oscillator with a plain linear TMD (mass, spring, viscous damper; no inerter) as one model
-unit: parameters (:mod:`.params`), equations (:mod:`.equations`), and here the unit (packing, state
-layout, tolerances). Registered in :mod:`pyfmu_wrapper.models`.
+unit: parameters (:mod:`.params`), equations (:mod:`.equations`), their packing (:mod:`.packing`), and
+here the unit (state layout, tolerances, its FMU). Registered in :mod:`pyfmu_wrapper.models`.
 
 The absorber is part of the structure (:class:`~.params.LinearTMDParams`), so the model takes no
 paper TMD (``takes_tmd=False``: its scenario files have a ``linear_tmd:`` block and no ``tmd:`` block).
@@ -8,25 +8,30 @@ paper TMD (``takes_tmd=False``: its scenario files have a ``linear_tmd:`` block 
 
 from __future__ import annotations
 
+from typing import TYPE_CHECKING
+
 import numpy as np
 from numpy.typing import NDArray
 
 from ...physics.models import OdeModel
-from ...physics.params import P_F, P_W, TMDParams
+from ...physics.params import TMDParams
 from ...physics.unit import LinearCompanion, ModelUnit, same_configuration
-from .equations import L_AT, N_PACKED, linear_tmd_jacobian, linear_tmd_rhs, no_switching, one_mode
+from .equations import linear_tmd_jacobian, linear_tmd_rhs, no_switching, one_mode
 from .modelica import MODELICA
+from .packing import linear_tmd_pack
 from .params import PARAMETERS, SUBSYSTEM, LinearTMDParams
+
+if TYPE_CHECKING:
+    from ...fmi.fmumodel import FmuModel
 
 __all__ = ["LINEAR_TMD", "UNIT", "LinearTMDParams", "linear_tmd_pack"]
 
 
-def linear_tmd_pack(s: LinearTMDParams, tmd: TMDParams | None = None, omega: float = 0.0) -> NDArray[np.float64]:
-    """The packed array of :mod:`.equations` (``tmd`` is not used: the absorber is in ``s``)."""
-    p = np.zeros(N_PACKED)
-    p[P_F], p[P_W] = s.force_amplitude, omega
-    p[L_AT:] = (s.mass, s.stiffness, s.damping, s.absorber_mass, s.absorber_stiffness, s.absorber_damping)
-    return p
+def fmus() -> tuple[FmuModel, ...]:
+    """The model's FMU, LinearTMD, imported on the first call: importing the unit stays cheap."""
+    from .fmus.linear_tmd_fmu import FMU
+
+    return (FMU,)
 
 
 def _atol(s: LinearTMDParams, tmd: TMDParams, omega: float, atol_scale: float) -> NDArray[np.float64]:
@@ -92,5 +97,5 @@ UNIT = ModelUnit(
     is_linear=_is_linear,
     start=LinearCompanion(same_configuration),
     home=__name__,
-    fmus=("pyfmu_wrapper.models.linear_tmd.fmus.linear_tmd_fmu",),
+    fmus=fmus,
 )

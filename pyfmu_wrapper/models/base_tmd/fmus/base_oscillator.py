@@ -3,15 +3,13 @@
 from __future__ import annotations
 
 from ....fmi.fmumodel import FmuModel, NativeFmu
+from .native import base_step
+from .native_model import base_functions, base_table
+from .slaves import BaseOscillatorSlave
 from .variables import BASE_OSCILLATOR
-
-_HERE = "pyfmu_wrapper.models.base_tmd.fmus"
 
 FMU = FmuModel(
     spec=BASE_OSCILLATOR,
-    native=NativeFmu(
-        step=f"{_HERE}.native:base_step",
-        functions=f"{_HERE}.native_model:base_functions",
-        table=f"{_HERE}.native_model:base_table",
-    ),
+    slave=BaseOscillatorSlave,
+    native=NativeFmu(step=base_step, functions=base_functions, table=base_table),
 )

@@ -3,15 +3,13 @@
 from __future__ import annotations
 
 from ....fmi.fmumodel import FmuModel, NativeFmu
+from .native import tmd_step
+from .native_model import tmd_functions, tmd_table
+from .slaves import TMDInerterSlave
 from .variables import TMD_INERTER
-
-_HERE = "pyfmu_wrapper.models.base_tmd.fmus"
 
 FMU = FmuModel(
     spec=TMD_INERTER,
-    native=NativeFmu(
-        step=f"{_HERE}.native:tmd_step",
-        functions=f"{_HERE}.native_model:tmd_functions",
-        table=f"{_HERE}.native_model:tmd_table",
-    ),
+    slave=TMDInerterSlave,
+    native=NativeFmu(step=tmd_step, functions=tmd_functions, table=tmd_table),
 )

@@ -99,7 +99,6 @@ BASE_OSCILLATOR = FmuSpec(
     model_name="BaseOscillator",
     model_identifier="BaseOscillator",
     description="Base oscillator of Brzeski & Perlikowski (2017): M xdd + C xd + K x = F cos(w t) - f_link",
-    slave="pyfmu_wrapper.models.base_tmd.fmus.slaves:BaseOscillatorSlave",
     variables=(
         *_registry_parameters("base"),
         parameter("x0", 5, 0.0, "m", "initial base displacement"),
@@ -180,7 +179,6 @@ TMD_INERTER = FmuSpec(
     model_name="TMDInerter",
     model_identifier="TMDInerter",
     description="TMD with spring, damper, dry friction and an inerter (none/ideal/with play) driven by the base motion",
-    slave="pyfmu_wrapper.models.base_tmd.fmus.slaves:TMDInerterSlave",
     variables=(
         *_registry_parameters("tmd"),
         parameter("y0", 11, 0.0, "m", "initial TMD displacement"),

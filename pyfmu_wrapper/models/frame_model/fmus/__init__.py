@@ -1,5 +1,6 @@
 """The frame model's FMU, ShearFrame: its variable table, slave, exact step and native functions, declared by one module.
 
-The unit names the declaring module (:mod:`.shear_frame`) by its dotted name, so nothing in ``physics/``
-core imports this folder (docs/architecture.md).
+The unit's ``fmus()`` imports the declaring module (:mod:`.shear_frame`) when it is first called, so importing
+the unit stays cheap. Nothing here imports the unit's package (``models/frame_model/__init__.py``): it imports
+this folder; the packing comes from :mod:`..packing`.
 """

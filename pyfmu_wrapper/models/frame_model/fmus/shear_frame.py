@@ -3,15 +3,12 @@
 from __future__ import annotations
 
 from ....fmi.fmumodel import FmuModel, NativeFmu
+from .native import frame_functions, frame_step, frame_table
+from .slave import ShearFrameSlave
 from .variables import SHEAR_FRAME
-
-_HERE = "pyfmu_wrapper.models.frame_model.fmus"
 
 FMU = FmuModel(
     spec=SHEAR_FRAME,
-    native=NativeFmu(
-        step=f"{_HERE}.native:frame_step",
-        functions=f"{_HERE}.native:frame_functions",
-        table=f"{_HERE}.native:frame_table",
-    ),
+    slave=ShearFrameSlave,
+    native=NativeFmu(step=frame_step, functions=frame_functions, table=frame_table),
 )

@@ -18,7 +18,9 @@ from numpy.typing import NDArray
 
 from ....fmi.slave import FloatArray, FmuStepError, Slave
 from ....physics.params import TMDParams
-from .. import FrameParams, frame_pack, storey_index
+from ..equations import storey_index
+from ..packing import frame_pack
+from ..params import FrameParams
 from .step import FRAME_U_SIZE, NP_FRAME, NS_MAX, advance_frame, frame_outputs
 from .variables import SHEAR_FRAME
 

@@ -57,7 +57,6 @@ SHEAR_FRAME = FmuSpec(
     model_name="ShearFrame",
     model_identifier="ShearFrame",
     description="Shear frame of 1-20 storeys under F cos(w t) on one storey, driven by a TMD's forces on two storeys",
-    slave="pyfmu_wrapper.models.frame_model.fmus.slave:ShearFrameSlave",
     variables=(
         parameter("storeys", 0, 1, None, "number of storeys n (structural)", min=1, max=MAX_STOREYS),
         parameter("F", 1, 200.0, "N", "F: amplitude of the excitation F cos(w t)"),

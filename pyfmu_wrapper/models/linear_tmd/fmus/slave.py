@@ -16,9 +16,9 @@ from numpy.typing import NDArray
 from ....fmi.contract import MAX_INTEGRATOR_STEPS
 from ....fmi.slave import CHUNK, FloatArray, FmuStepError, Slave
 from ....solvers.rodas import STAT_STEPS, failure_message
-from .. import LinearTMDParams, linear_tmd_pack
 from ..equations import L_M, N_PACKED, linear_tmd_rhs
-from ..params import PARAMETERS
+from ..packing import linear_tmd_pack
+from ..params import PARAMETERS, LinearTMDParams
 from .step import FMU_MODEL, integrate
 from .variables import LINEAR_TMD_FMU
 

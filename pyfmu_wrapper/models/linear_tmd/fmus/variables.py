@@ -36,7 +36,6 @@ LINEAR_TMD_FMU = FmuSpec(
     model_name="LinearTMD",
     model_identifier="LinearTMD",
     description="Main mass on K and C under F cos(w t) + f_ext, with a plain linear TMD (m, k, c; no inerter)",
-    slave="pyfmu_wrapper.models.linear_tmd.fmus.slave:LinearTMDSlave",
     variables=(
         *(
             parameter(

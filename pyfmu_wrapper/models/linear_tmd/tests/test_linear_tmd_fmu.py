@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from fmpy.validation import validate_fmu
 
-from pyfmu_wrapper.fmi.catalog import SPECS
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.models import MODELS
+from pyfmu_wrapper.models.catalog import SPECS, pick
 from pyfmu_wrapper.models.linear_tmd import LinearTMDParams
 from pyfmu_wrapper.models.linear_tmd.params import PARAMETERS
 from pyfmu_wrapper.models.solve import steady_state
@@ -26,7 +26,7 @@ OMEGA = 18.5
 
 @pytest.fixture(scope="module", params=[2, 3])
 def fmu(request):
-    return ensure_fmus(names=("LinearTMD",), fmi_version=request.param)["LinearTMD"]
+    return ensure_fmus(pick("LinearTMD"), fmi_version=request.param)["LinearTMD"]
 
 
 def _starts(s: LinearTMDParams, omega: float, z0) -> dict:
@@ -35,9 +35,10 @@ def _starts(s: LinearTMDParams, omega: float, z0) -> dict:
     return out
 
 
-def test_the_unit_names_its_fmu():
-    assert [m.rsplit(".", 1)[1] for m in MODELS.get("linear_tmd").fmus] == ["linear_tmd_fmu"]
-    assert "LinearTMD" in SPECS
+def test_the_unit_holds_its_fmu():
+    (fmu,) = MODELS.get("linear_tmd").fmus()
+    assert fmu.name == "LinearTMD" and fmu.slave.__module__.endswith("models.linear_tmd.fmus.slave")
+    assert SPECS["LinearTMD"] is fmu.spec
 
 
 def test_fmpy_validates_it(fmu):
