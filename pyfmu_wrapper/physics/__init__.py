@@ -1,1 +1,1 @@
-"""The physics of the paper's models: parameters, equations, Jacobians and exact linear responses."""
+"""The shared core every model builds on: element kernels (the paper's equations), parameter and unit types, Jacobian helpers; imports nothing above it."""
