@@ -84,9 +84,7 @@ def test_ordinary_steps_do_not_enter_the_python_slave(tmp_path, monkeypatch):
     s0, _ = _slave(fmu, tmp_path, "warm", TMD)  # imports the bundled package
     s0.terminate()
     s0.freeInstance()
-    mods = [
-        m for n, m in sys.modules.items() if n.startswith("_pyfmu_") and n.endswith(".models.base_tmd.fmus.slaves")
-    ]
+    mods = [m for n, m in sys.modules.items() if n.startswith("_pyfmu_") and n.endswith(".models.base_tmd.fmus.slaves")]
     assert mods
     calls = []
     for m in mods:

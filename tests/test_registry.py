@@ -490,8 +490,7 @@ def test_model_units_leave_the_papers_numbers_bit_identical():
 
 
 def test_the_registry_holds_every_model_and_finds_it_by_structure():
-    from pyfmu_wrapper.models import MODELS
-    from pyfmu_wrapper.models import base_tmd, frame_model
+    from pyfmu_wrapper.models import MODELS, base_tmd, frame_model
     from pyfmu_wrapper.physics.unit import ModelError, Registry
 
     # the first two models, in registration order (a model added later needs no edit here)
