@@ -1,5 +1,6 @@
 """What an FMU bundles of this package: the import closure of the slaves of the FMUs built (:func:`bundled_files`,
-found by reading the import statements, with the ``__init__.py`` of every package on the way), its
+found by reading the import statements, with the ``__init__.py`` of every package on the way, within the
+parts an FMU runs, :data:`RUNTIME_PARTS`), its
 identity (:func:`bundle_hash`, the name it is imported under, :func:`bundle_package`) and the FMU's
 ``resources/model.py`` that hands over to the bundled loader (:data:`MODEL_PY`). The archive is
 written by :mod:`.build`.
@@ -32,6 +33,20 @@ LOADER_MODULE = "fmi/fmu_loader.py"
 #: what every bundle starts from besides the slaves of the FMUs built: the slaves' machinery, the loader and
 #: the support FMU Trivial (part of the runtime, so a build with or without it bundles the same package)
 ROOTS = (SLAVE_MODULE, LOADER_MODULE, "fmi/trivial.py")
+#: the parts of the package an FMU runs (the layers below the models, and the models): an import into any
+#: other part is not followed. A model's folder also reaches the co-simulation engine, the master and the
+#: builders (its unit's ``cosim()``, the FMUs' builds), which never run inside an FMU.
+RUNTIME_PARTS = (
+    "__init__.py",
+    "_jit.py",
+    "codeversion.py",
+    "errors.py",
+    "physics/",
+    "solvers/",
+    "fmi/",
+    "inputs/",
+    "models/",
+)
 
 
 def _relative_imports(rel: str, source: bytes) -> set[str]:
@@ -111,7 +126,8 @@ def _closure(roots: Iterable[str]) -> list[str]:
             init = "/".join(parts[:k] + ["__init__.py"])
             if (PACKAGE_DIR / init).is_file() and init not in seen:
                 todo.append(init)
-        todo.extend(_relative_imports(rel, (PACKAGE_DIR / rel).read_bytes()) - seen)
+        found = _relative_imports(rel, (PACKAGE_DIR / rel).read_bytes())
+        todo.extend(f for f in found - seen if f.startswith(RUNTIME_PARTS) and f != "models/catalog.py")
     return sorted(seen)
 
 
