@@ -60,7 +60,9 @@ def _small(unit, s, tmd):
 @pytest.mark.parametrize("unit", UNITS, ids=lambda u: u.name)
 def test_linear_system_reproduces_the_rhs(unit):
     """A linear model's rhs is A z + b F cos(w t) to rounding; a nonlinear one's tends to its linearisation
-    about rest: the gap shrinks as the square of the state (halving z quarters it, to 10 %)."""
+    about rest: the gap is of second order or higher in the state (halving z divides it by 4 or more, to
+    10 %: a quadratic term quarters it, an odd one (the sine of an angle) divides it by 8, a mix
+    of both by anything between)."""
     s = unit.example()
     n = unit.n_state(s)
     tmd = TMDS["ideal"]
@@ -81,7 +83,7 @@ def test_linear_system_reproduces_the_rhs(unit):
         assert g <= 1e-12 * size
     else:
         g2, _ = gap(z / 2)
-        assert g > 0.0 and abs(g2 / g - 0.25) < 0.025, (g, g2)
+        assert g > 0.0 and g2 / g <= 0.25 * 1.1, (g, g2)
 
 
 @pytest.mark.parametrize("unit", UNITS, ids=lambda u: u.name)

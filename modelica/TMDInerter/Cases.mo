@@ -128,4 +128,9 @@ package Cases "One model per case of the paper (Brzeski & Perlikowski 2017) and 
     extends TMDInerter.LinearTMD.BaseWithTMD(M = 10.0, K = 4000.0, C = 2.0, F = 10.0, m = 0.5, k = 181.40589569160997, c = 2.4241382486387697, w = 19.0);
     annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
   end LinearTMDDenHartog;
+
+  model PendulumTMDF60 "main mass with a pendulum TMD, F = 60 N (model pendulum_tmd)"
+    extends TMDInerter.PendulumTMD.BaseWithPendulum(M = 100.0, K = 40000.0, C = 100.0, F = 60.0, m = 5.0, L = 0.0270388, c_p = 0.0177228, w = 19.0);
+    annotation(experiment(StartTime = 0, StopTime = 2.0, Tolerance = 1e-08));
+  end PendulumTMDF60;
 end Cases;

@@ -12,6 +12,7 @@ package TMDInerter "Tuned mass damper with inerter (Brzeski & Perlikowski 2017),
   package Units "SI types used by the library (subset of Modelica.Units.SI, redeclared here)"
     extends TMDInerter.Icons.Package;
     type Position = Real(final quantity = "Length", final unit = "m");
+    type Length = Real(final quantity = "Length", final unit = "m", min = 0) "A body's dimension (not a position)";
     type Velocity = Real(final quantity = "Velocity", final unit = "m/s");
     type Acceleration = Real(final quantity = "Acceleration", final unit = "m/s2");
     type Force = Real(final quantity = "Force", final unit = "N");
@@ -23,6 +24,9 @@ package TMDInerter "Tuned mass damper with inerter (Brzeski & Perlikowski 2017),
     type TranslationalDampingConstant = Real(final quantity = "TranslationalDampingConstant", final unit = "N.s/m");
     type AngularFrequency = Real(final quantity = "AngularFrequency", final unit = "rad/s");
     type InverseVelocity = Real(final unit = "s/m") "Slope of the friction regularisation";
+    type Angle = Real(final quantity = "Angle", final unit = "rad");
+    type AngularVelocity = Real(final quantity = "AngularVelocity", final unit = "rad/s");
+    type RotationalDampingConstant = Real(final quantity = "RotationalDampingConstant", final unit = "N.m.s/rad");
   end Units;
 
   annotation(Documentation(info = "<html>

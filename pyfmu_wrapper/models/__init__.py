@@ -7,9 +7,10 @@ says how to add one."""
 from __future__ import annotations
 
 from ..physics.unit import Registry
-from . import base_tmd, frame_model, linear_tmd
+from . import base_tmd, frame_model, linear_tmd, pendulum_tmd
 
 MODELS = Registry()
 MODELS.register(base_tmd.UNIT)
 MODELS.register(frame_model.UNIT)
 MODELS.register(linear_tmd.UNIT)
+MODELS.register(pendulum_tmd.UNIT)

@@ -1,0 +1,99 @@
+"""The base oscillator with a pendulum TMD (a mass on a massless rod pivoted on the main mass, with a
+pivot damper) as one model unit: parameters (:mod:`.params`), equations (:mod:`.equations`), Modelica
+source (:mod:`.modelica`), and here the unit (packing, state layout, tolerances, start). Registered in
+:mod:`pyfmu_wrapper.models`.
+
+The absorber is part of the structure (:class:`~.params.PendulumTMDParams`), so the model takes no paper
+TMD (``takes_tmd=False``: its scenario files have a ``pendulum_tmd:`` block and no ``tmd:`` block). It is
+nonlinear in its own way and has no linear configuration nearby: its periodic solutions start from the
+linearisation about rest and are continued in the force (:class:`~pyfmu_wrapper.physics.unit.SmallForcing`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ...physics.models import OdeModel
+from ...physics.params import P_F, P_W, TMDParams
+from ...physics.unit import ModelUnit, SmallForcing
+from .equations import N_PACKED, Q_AT, no_switching, one_mode, pendulum_tmd_jacobian, pendulum_tmd_rhs
+from .modelica import MODELICA
+from .params import PARAMETERS, SUBSYSTEM, PendulumTMDParams
+
+__all__ = ["PENDULUM_TMD", "UNIT", "PendulumTMDParams", "pendulum_tmd_pack"]
+
+
+def pendulum_tmd_pack(s: PendulumTMDParams, tmd: TMDParams | None = None, omega: float = 0.0) -> NDArray[np.float64]:
+    """The packed array of :mod:`.equations` (``tmd`` is not used: the absorber is in ``s``)."""
+    p = np.zeros(N_PACKED)
+    p[P_F], p[P_W] = s.force_amplitude, omega
+    p[Q_AT:] = (s.mass, s.stiffness, s.damping, s.pendulum_mass, s.length, s.pivot_damping)
+    return p
+
+
+def _atol(s: PendulumTMDParams, tmd: TMDParams, omega: float, atol_scale: float) -> NDArray[np.float64]:
+    """The paper's rule: atol_scale times the static deflection F / K for x and F / (K L) for the angle
+    (the bob's swing of the same size), times the larger of w and the fastest own frequency for rates."""
+    xs = abs(s.force_amplitude) / s.stiffness
+    xs = xs if xs > 0 else 1e-3
+    a = atol_scale * xs
+    b = a / s.length
+    wn = max(omega, s.natural_frequency, 1.0)
+    return np.array([a, a * wn, b, b * wn])
+
+
+def _inerter_force(z: NDArray[np.float64], p: NDArray[np.float64]) -> float:
+    """No inerter: 0."""
+    return 0.0
+
+
+def _describe(z: NDArray[np.float64], p: NDArray[np.float64], atol: NDArray[np.float64], band: float) -> str:
+    return "smooth"
+
+
+def _n_state(s: PendulumTMDParams) -> int:
+    return 4
+
+
+def _active(s: PendulumTMDParams, tmd: TMDParams) -> list[int]:
+    """Every state: the damped pendulum has no floating mode."""
+    return [0, 1, 2, 3]
+
+
+def _is_linear(s: PendulumTMDParams, tmd: TMDParams) -> bool:
+    """The angle enters through sin and cos: never linear."""
+    return False
+
+
+PENDULUM_TMD = OdeModel(
+    name="pendulum_tmd",
+    rhs=pendulum_tmd_rhs,
+    jacobian=pendulum_tmd_jacobian,
+    switching=no_switching,
+    mode=one_mode,
+    n_switches=1,
+    n_modes=1,
+    switch_tolerance=(1000,),
+    state_names=("x", "xd", "th", "thd"),
+    describe=_describe,
+)
+
+UNIT = ModelUnit(
+    name=SUBSYSTEM,
+    ode=PENDULUM_TMD,
+    structure=PendulumTMDParams,
+    parameters=PARAMETERS,
+    pack=pendulum_tmd_pack,
+    n_state=_n_state,
+    atol=_atol,
+    active=_active,
+    inerter_force=_inerter_force,
+    example=PendulumTMDParams,
+    description="a base oscillator with a pendulum TMD (a mass on a massless rod, pivot damper)",
+    takes_tmd=False,
+    modelica=MODELICA,
+    is_linear=_is_linear,
+    start=SmallForcing(),
+    home=__name__,
+)

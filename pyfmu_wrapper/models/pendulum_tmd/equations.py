@@ -1,0 +1,64 @@
+"""Equations of the base oscillator with a pendulum TMD, numba-compiled with the integrator's signatures
+(:mod:`pyfmu_wrapper.physics.models`).
+
+State z = [x, xd, th, thd] (main mass displacement [m] and velocity, pendulum angle from the hanging
+position [rad] and its rate; z[0] is the displacement the curves report):
+
+    (M + m) xdd + m L (thdd cos th - thd^2 sin th) + C xd + K x = F cos(w t)
+    m L^2 thdd + m L xdd cos th + c_p thd + m g L sin th = 0
+
+The 2x2 mass matrix [[M + m, m L cos th], [m L cos th, m L^2]] is solved explicitly (its determinant
+m L^2 (M + m sin^2 th) never vanishes).
+
+Packed parameters: the paper's array's length (:data:`~pyfmu_wrapper.physics.params.N_PARAMS`) with
+only F and w set at their ``P_F``, ``P_W`` indices (the excitation
+:func:`~pyfmu_wrapper.physics.kernels.excitation` reads them there, and ``ModelUnit.linear_system``
+sets them), then M, K, C, m, L, c_p from :data:`Q_AT` on.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..._jit import njit
+from ...physics.jacobians import complex_step_jacobian
+from ...physics.kernels import Vec, excitation
+from ...physics.params import N_PARAMS
+from .params import GRAVITY
+
+#: index of the model's own part of the packed array: M, K, C, m, L, c_p
+Q_AT = N_PARAMS
+Q_M, Q_K, Q_C, Q_m, Q_L, Q_cp = Q_AT, Q_AT + 1, Q_AT + 2, Q_AT + 3, Q_AT + 4, Q_AT + 5
+N_PACKED = Q_AT + 6
+
+
+@njit(cache=True)
+def pendulum_tmd_rhs(t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
+    """dz/dt (module doc); z and t real or complex (np.sin, np.cos take either)."""
+    M, K, C, m, L, cp = p[Q_M], p[Q_K], p[Q_C], p[Q_m], p[Q_L], p[Q_cp]
+    xd, th, thd = z[1], z[2], z[3]
+    s, c = np.sin(th), np.cos(th)
+    # right-hand sides of the two equations with the accelerations moved to the left
+    r1 = excitation(t, p) - K * z[0] - C * xd + m * L * thd * thd * s
+    r2 = -cp * thd - m * GRAVITY * L * s
+    det = m * L * L * (M + m * s * s)
+    out[0] = xd
+    out[1] = (m * L * L * r1 - m * L * c * r2) / det
+    out[2] = thd
+    out[3] = ((M + m) * r2 - m * L * c * r1) / det
+
+
+#: J = d rhs / dz and ft = d rhs / dt of :func:`pendulum_tmd_rhs` by the complex step (exact to rounding)
+pendulum_tmd_jacobian = complex_step_jacobian(pendulum_tmd_rhs, "pendulum_tmd")
+
+
+@njit(cache=True)
+def no_switching(z: Vec, p: Vec, g: Vec) -> None:
+    """The model is smooth: its one switching function is inactive (1)."""
+    g[0] = 1.0
+
+
+@njit(cache=True)
+def one_mode(g: Vec) -> int:
+    """The model's one smooth mode."""
+    return 0

@@ -1,0 +1,106 @@
+"""Parameters of the base oscillator with a pendulum TMD: the declared rows (names, units, ranges, docs)
+and the structure class.
+
+The main mass M [kg] stands on a spring K [N/m] and a viscous damper C [N s/m] to the ground, under
+F cos(w t) [N]; the absorber is a mass m [kg] on a massless rod of length L [m] pivoted on the main mass,
+with a viscous pivot damper c_p [N m s/rad], swinging under gravity g. The model is nonlinear in its own
+way (the angle enters through sin and cos); about rest it is the linear TMD of mass m, stiffness m g / L
+and damping c_p / L^2.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from ...physics.params import ParameterError
+from ...physics.registry import Parameter, declare
+
+#: the subsystem (and the scenario block, the model's name) the parameters are declared under
+SUBSYSTEM = "pendulum_tmd"
+
+#: the acceleration of gravity [m/s^2]
+GRAVITY = 9.81
+
+#: the Modelica type (``TMDInerter.Units``) of each unit
+_MODELICA_TYPE = {
+    "kg": "Mass",
+    "N/m": "TranslationalSpringConstant",
+    "N.s/m": "TranslationalDampingConstant",
+    "N": "Force",
+    "m": "Length",
+    "N.m.s/rad": "RotationalDampingConstant",
+}
+
+
+def _row(name: str, symbol: str, unit: str, default: float, minimum: float | None, strict: bool, doc: str) -> Parameter:
+    return Parameter(
+        name=name,
+        symbol=symbol,
+        subsystem=SUBSYSTEM,
+        unit=unit,
+        default=default,
+        minimum=minimum,
+        strict=strict,
+        description=doc,
+        fmu_name="",  # no FMU yet
+        fmu_vr=-1,
+        modelica_name=symbol,  # the parameter of PendulumTMD.mo
+        modelica_type=_MODELICA_TYPE[unit],
+        mappable=False,
+    )
+
+
+#: the model's declared parameters, in the order of :class:`PendulumTMDParams`'s fields (the defaults:
+#: scenarios/pendulum_tmd.yaml's, at its large force)
+PARAMETERS: tuple[Parameter, ...] = declare(
+    SUBSYSTEM,
+    (
+        _row("mass", "M", "kg", 100.0, 0.0, True, "main mass"),
+        _row("stiffness", "K", "N/m", 4.0e4, 0.0, True, "main spring, mass to ground"),
+        _row("damping", "C", "N.s/m", 100.0, 0.0, False, "main viscous damper, mass to ground"),
+        _row(
+            "force_amplitude", "F", "N", 60.0, None, False, "amplitude F of the excitation F cos(w t) on the main mass"
+        ),
+        _row("pendulum_mass", "m", "kg", 5.0, 0.0, True, "pendulum bob mass (the absorber)"),
+        _row("length", "L", "m", 0.0270388, 0.0, True, "pendulum rod length, pivot to bob (massless rod)"),
+        _row("pivot_damping", "c_p", "N.m.s/rad", 0.0177228, 0.0, False, "viscous damper of the pivot"),
+    ),
+)
+
+
+@dataclass(frozen=True)
+class PendulumTMDParams:
+    """The main oscillator with its pendulum TMD (module doc). Validated at construction against the
+    declared rows (:class:`ParameterError` naming the field, its value and ``source``)."""
+
+    mass: float = 100.0
+    stiffness: float = 4.0e4
+    damping: float = 100.0
+    force_amplitude: float = 60.0
+    pendulum_mass: float = 5.0
+    length: float = 0.0270388
+    pivot_damping: float = 0.0177228
+    source: str | None = None
+
+    def __post_init__(self) -> None:
+        where = f" (from {self.source})" if self.source else ""
+        for p in PARAMETERS:
+            v = getattr(self, p.name)
+            ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+            if ok and p.minimum is not None:
+                ok = v > p.minimum if p.strict else v >= p.minimum
+            if not ok:
+                bound = "" if p.minimum is None else (f" > {p.minimum:g}" if p.strict else f" >= {p.minimum:g}")
+                raise ParameterError(f"{p.label} must be a finite number{bound} [{p.unit}], got {v!r}{where}")
+            object.__setattr__(self, p.name, float(v))
+
+    @property
+    def pendulum_frequency(self) -> float:
+        """sqrt(g / L) [rad/s]: the pendulum's small-swing frequency on a fixed pivot."""
+        return math.sqrt(GRAVITY / self.length)
+
+    @property
+    def natural_frequency(self) -> float:
+        """max(sqrt(K / M), sqrt(g / L)) [rad/s]: the fastest own scale of the two bodies."""
+        return max(math.sqrt(self.stiffness / self.mass), self.pendulum_frequency)
