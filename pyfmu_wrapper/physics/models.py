@@ -184,3 +184,40 @@ TMD = OdeModel(
     state_names=("y", "yd", "d", "dd"),
     describe=bind_describe(mode_describer(False, 2), tmd_switching),
 )
+
+
+# -- a smooth model of its own (no switching, one mode): what every such model shares -------------------
+
+
+@njit(cache=True)
+def no_switching(z: Vec, p: Vec, g: Vec) -> None:
+    """A smooth model: its one switching function is inactive (1)."""
+    g[0] = 1.0
+
+
+@njit(cache=True)
+def one_mode(g: Vec) -> int:
+    """A smooth model's one mode."""
+    return 0
+
+
+def describe_smooth(z: ArrayLike, p: Vec, atol: ArrayLike, band: float) -> str:
+    """A smooth model's mode in words (for the integrator's error messages)."""
+    return "smooth"
+
+
+def smooth_model(name: str, rhs: Any, jacobian: Any, state_names: tuple[str, ...]) -> OdeModel:
+    """The :class:`OdeModel` of a smooth model with equations of its own (the linear TMD, the pendulum):
+    one inactive switching function, one mode, no switching tolerance (an index past the state)."""
+    return OdeModel(
+        name=name,
+        rhs=rhs,
+        jacobian=jacobian,
+        switching=no_switching,
+        mode=one_mode,
+        n_switches=1,
+        n_modes=1,
+        switch_tolerance=(1000,),
+        state_names=state_names,
+        describe=describe_smooth,
+    )

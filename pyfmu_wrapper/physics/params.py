@@ -256,3 +256,19 @@ def paper_case(case: int, **overrides: Any) -> TMDParams:
 
 def field_names(cls: Any) -> list[str]:
     return [f.name for f in fields(cls) if f.name != "source"]
+
+
+def check_structure(obj: Any, parameters: tuple[registry.Parameter, ...], source: str | None) -> None:
+    """Validate a frozen structure dataclass against its declared rows, in its ``__post_init__``: every field a
+    finite number within its bound (refused with one :class:`ParameterError`
+    line naming the field, its value, its unit and ``source``), stored as a float."""
+    where = f" (from {source})" if source else ""
+    for p in parameters:
+        v = getattr(obj, p.name)
+        ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
+        if ok and p.minimum is not None:
+            ok = v > p.minimum if p.strict else v >= p.minimum
+        if not ok:
+            bound = "" if p.minimum is None else (f" > {p.minimum:g}" if p.strict else f" >= {p.minimum:g}")
+            raise ParameterError(f"{p.label} must be a finite number{bound} [{p.unit}], got {v!r}{where}")
+        object.__setattr__(obj, p.name, float(v))

@@ -402,3 +402,47 @@ def markdown_table(subsystem: str) -> str:
             f"| {p.modelica_name or '-'} | {applies} | {p.description.replace('|', chr(92) + '|')} |"
         )
     return "\n".join(rows) + "\n"
+
+
+# -- a model's own structure, declared by rows: its checks and the Modelica types of its units ----------
+
+#: the Modelica type (``TMDInerter.Units``) of each SI unit a model's own rows use
+MODELICA_TYPES = {
+    "kg": "Mass",
+    "N/m": "TranslationalSpringConstant",
+    "N.s/m": "TranslationalDampingConstant",
+    "N": "Force",
+    "m": "Length",
+    "N.m.s/rad": "RotationalDampingConstant",
+}
+
+
+def structure_row(
+    subsystem: str,
+    name: str,
+    symbol: str,
+    unit: str,
+    default: float,
+    minimum: float | None,
+    strict: bool,
+    description: str,
+    fmu_vr: int = -1,
+) -> Parameter:
+    """A declared row of a model's own structure: its scenario key and dataclass field ``name``, its symbol
+    (also its Modelica parameter and, with ``fmu_vr`` >= 0, its FMU parameter), its SI unit (Modelica type
+    from :data:`MODELICA_TYPES`), its default, bound and description; never mapped."""
+    return Parameter(
+        name=name,
+        symbol=symbol,
+        subsystem=subsystem,
+        unit=unit,
+        default=default,
+        minimum=minimum,
+        strict=strict,
+        description=description,
+        fmu_name=symbol if fmu_vr >= 0 else "",
+        fmu_vr=fmu_vr,
+        modelica_name=symbol,
+        modelica_type=MODELICA_TYPES[unit],
+        mappable=False,
+    )

@@ -13,10 +13,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 from numpy.typing import NDArray
 
-from ...physics.models import OdeModel
+from ...physics.models import smooth_model
 from ...physics.params import TMDParams
 from ...physics.unit import LinearCompanion, ModelUnit, same_configuration
-from .equations import linear_tmd_jacobian, linear_tmd_rhs, no_switching, one_mode
+from .equations import linear_tmd_jacobian, linear_tmd_rhs
 from .modelica import MODELICA
 from .packing import linear_tmd_pack
 from .params import PARAMETERS, SUBSYSTEM, LinearTMDParams
@@ -49,10 +49,6 @@ def _inerter_force(z: NDArray[np.float64], p: NDArray[np.float64]) -> float:
     return 0.0
 
 
-def _describe(z: NDArray[np.float64], p: NDArray[np.float64], atol: NDArray[np.float64], band: float) -> str:
-    return "smooth"
-
-
 def _n_state(s: LinearTMDParams) -> int:
     return 4
 
@@ -67,18 +63,7 @@ def _is_linear(s: LinearTMDParams, tmd: TMDParams) -> bool:
     return True
 
 
-LINEAR_TMD = OdeModel(
-    name="linear_tmd",
-    rhs=linear_tmd_rhs,
-    jacobian=linear_tmd_jacobian,
-    switching=no_switching,
-    mode=one_mode,
-    n_switches=1,
-    n_modes=1,
-    switch_tolerance=(1000,),
-    state_names=("x", "xd", "y", "yd"),
-    describe=_describe,
-)
+LINEAR_TMD = smooth_model("linear_tmd", linear_tmd_rhs, linear_tmd_jacobian, ("x", "xd", "y", "yd"))
 
 UNIT = ModelUnit(
     name=SUBSYSTEM,

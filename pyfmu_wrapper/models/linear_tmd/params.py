@@ -13,20 +13,11 @@ import math
 from dataclasses import dataclass, fields
 from typing import Any
 
-from ...physics.params import ParameterError
-from ...physics.registry import Parameter, declare
+from ...physics.params import check_structure
+from ...physics.registry import Parameter, declare, structure_row
 
 #: the subsystem (and the scenario block, the model's name) the parameters are declared under
 SUBSYSTEM = "linear_tmd"
-
-
-#: the Modelica type (``TMDInerter.Units``) of each unit
-_MODELICA_TYPE = {
-    "kg": "Mass",
-    "N/m": "TranslationalSpringConstant",
-    "N.s/m": "TranslationalDampingConstant",
-    "N": "Force",
-}
 
 
 #: the fields in the order of the LinearTMD FMU's value references 0, 1, ... (fmus/variables.py)
@@ -42,21 +33,8 @@ _FMU_ORDER = (
 
 
 def _row(name: str, symbol: str, unit: str, default: float, minimum: float | None, strict: bool, doc: str) -> Parameter:
-    return Parameter(
-        name=name,
-        symbol=symbol,
-        subsystem=SUBSYSTEM,
-        unit=unit,
-        default=default,
-        minimum=minimum,
-        strict=strict,
-        description=doc,
-        fmu_name=symbol,  # the LinearTMD FMU's parameter (fmus/variables.py)
-        fmu_vr=_FMU_ORDER.index(name),
-        modelica_name=symbol,  # the parameter of LinearTMD.mo
-        modelica_type=_MODELICA_TYPE[unit],
-        mappable=False,
-    )
+    """A declared row (its FMU parameter the LinearTMD FMU's, fmus/variables.py; its Modelica one LinearTMD.mo's)."""
+    return structure_row(SUBSYSTEM, name, symbol, unit, default, minimum, strict, doc, _FMU_ORDER.index(name))
 
 
 #: the model's declared parameters, in the order of :class:`LinearTMDParams`'s fields
@@ -91,16 +69,7 @@ class LinearTMDParams:
     source: str | None = None
 
     def __post_init__(self) -> None:
-        where = f" (from {self.source})" if self.source else ""
-        for p in PARAMETERS:
-            v = getattr(self, p.name)
-            ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
-            if ok and p.minimum is not None:
-                ok = v > p.minimum if p.strict else v >= p.minimum
-            if not ok:
-                bound = "" if p.minimum is None else (f" > {p.minimum:g}" if p.strict else f" >= {p.minimum:g}")
-                raise ParameterError(f"{p.label} must be a finite number{bound} [{p.unit}], got {v!r}{where}")
-            object.__setattr__(self, p.name, float(v))
+        check_structure(self, PARAMETERS, self.source)
 
     @property
     def natural_frequency(self) -> float:

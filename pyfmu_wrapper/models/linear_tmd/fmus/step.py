@@ -11,9 +11,9 @@ from __future__ import annotations
 from ...._jit import njit
 from ....physics.jacobians import complex_step_jacobian
 from ....physics.kernels import Vec, input_value
-from ....physics.models import OdeModel
+from ....physics.models import smooth_model
 from ....solvers.rodas import make_integrator
-from ..equations import L_M, linear_tmd_rhs, no_switching, one_mode
+from ..equations import L_M, linear_tmd_rhs
 
 
 @njit(cache=True)
@@ -27,16 +27,5 @@ def fmu_rhs(t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
 fmu_jacobian = complex_step_jacobian(fmu_rhs, "linear_tmd_fmu")
 
 #: the model with its input, for the integrator (its own name: its own compiled integrator)
-FMU_MODEL = OdeModel(
-    name="linear_tmd_fmu",
-    rhs=fmu_rhs,
-    jacobian=fmu_jacobian,
-    switching=no_switching,
-    mode=one_mode,
-    n_switches=1,
-    n_modes=1,
-    switch_tolerance=(1000,),
-    state_names=("x", "xd", "y", "yd"),
-    describe=lambda z, p, atol, band: "smooth",
-)
+FMU_MODEL = smooth_model("linear_tmd_fmu", fmu_rhs, fmu_jacobian, ("x", "xd", "y", "yd"))
 integrate = make_integrator(FMU_MODEL)
