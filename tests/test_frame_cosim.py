@@ -191,5 +191,6 @@ def test_the_cosimulation_system_is_the_one_the_unit_names(monkeypatch):
         assert engines._cosim_system(unit.example()) is unit.cosim().sweep
     source = inspect.getsource(engines._cosim_system) + inspect.getsource(engines.cosim_engine)
     assert not [u.name for u in MODELS.units() if f'"{u.name}"' in source]
-    monkeypatch.setitem(MODELS._units, "frame", replace(MODELS.get("frame"), cosim=lambda: pair.ENGINE))
-    assert engines._cosim_system(FrameParams.uniform(2, 100.0, 1e5, 50.0)) is pair.sweep
+    other = pair.engine(MODELS.get("base_tmd"))
+    monkeypatch.setitem(MODELS._units, "frame", replace(MODELS.get("frame"), cosim=lambda: other))
+    assert engines._cosim_system(FrameParams.uniform(2, 100.0, 1e5, 50.0)) is other.sweep

@@ -35,7 +35,8 @@ LOADER_MODULE = "fmi/fmu_loader.py"
 ROOTS = (SLAVE_MODULE, LOADER_MODULE, "fmi/trivial.py")
 #: the parts of the package an FMU runs (the layers below the models, and the models): an import into any
 #: other part is not followed. A model's folder also reaches the co-simulation engine, the master and the
-#: builders (its unit's ``cosim()``, the FMUs' builds), which never run inside an FMU.
+#: builders (its unit's ``cosim()``, the FMUs' builds) and the scenario reader (its ``scenario_reader``), which
+#: never run inside an FMU.
 RUNTIME_PARTS = (
     "__init__.py",
     "_jit.py",

@@ -8,6 +8,7 @@ equations :data:`~pyfmu_wrapper.physics.models.COUPLED`, Modelica source and the
 
 from __future__ import annotations
 
+import functools
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -59,6 +60,7 @@ def _active(base: BaseParams, tmd: TMDParams) -> list[int]:
     return active_states(tmd, NSTATE)
 
 
+@functools.cache
 def _cosim() -> Any:
     """The pair's co-simulation (imported when asked: the FMUs and the master load only for a co-simulation)."""
     from .cosim import engine

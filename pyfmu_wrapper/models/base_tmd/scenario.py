@@ -6,10 +6,10 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ...inputs.reader import Reader, line_of
 from ...physics.params import BaseParams, ParameterError, field_names
 
 if TYPE_CHECKING:
+    from ...inputs.reader import Reader
     from ...inputs.yamlio import MarkedDict
 
 #: the keys of a base: block, every one required
@@ -19,6 +19,8 @@ BASE_FIELDS = tuple(field_names(BaseParams))
 def read_base(rd: Reader, node: MarkedDict, line: int | None) -> BaseParams:
     """The paper's ``base:`` block as BaseParams (the base_tmd unit's reader: its declared rows hold
     omega, which a scenario gives as ``frequencies``)."""
+    from ...inputs.reader import line_of  # here: an FMU, which imports the unit, reads no scenario
+
     b = rd.mapping(node, "base", line, required=BASE_FIELDS)
     for key in BASE_FIELDS:
         rd.number(b, key, "base")

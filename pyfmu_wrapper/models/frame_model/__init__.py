@@ -9,6 +9,7 @@ TMD-inerter, in the paper's state layout (tests/test_frame_model.py holds the tw
 
 from __future__ import annotations
 
+import functools
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -96,6 +97,7 @@ def _example() -> FrameParams:
     return FrameParams.uniform(3, 100.0, 1.2e5, 100.0, tmd_storey=3, inerter_to=2)
 
 
+@functools.cache
 def _cosim() -> Any:
     """The frame's co-simulation (imported when asked: the FMUs and the master load only for a co-simulation)."""
     from .cosim import engine

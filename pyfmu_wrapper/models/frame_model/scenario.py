@@ -6,11 +6,11 @@ from __future__ import annotations
 
 from typing import TYPE_CHECKING
 
-from ...inputs.reader import Reader, key_path, line_of
 from ...physics.params import ParameterError
 from .params import MAX_STOREYS, FrameParams
 
 if TYPE_CHECKING:
+    from ...inputs.reader import Reader
     from ...inputs.yamlio import MarkedDict
 
 #: keys of a frame: block (mass, stiffness, damping: one number for every storey, or a list, one per storey)
@@ -20,6 +20,8 @@ FRAME_OPTIONAL = ("force_storey",)
 
 def read_frame(rd: Reader, node: MarkedDict, line: int | None) -> FrameParams:
     """The frame: block as FrameParams (the TMD on the top storey, its inerter to the same storey)."""
+    from ...inputs.reader import key_path, line_of  # here: an FMU, which imports the unit, reads no scenario
+
     rd.mapping(node, "frame", line, required=FRAME_REQUIRED, optional=FRAME_OPTIONAL)
     n = rd.integer(node, "storeys", "frame", minimum=1, maximum=MAX_STOREYS)
     per: dict[str, tuple[float, ...]] = {}
