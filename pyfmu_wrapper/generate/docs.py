@@ -1,7 +1,10 @@
 """Generate the documentation tables that restate declarations: ``docs/parameters.md`` (from the
 parameter registry), the "Variables" section at the end of ``docs/fmus.md`` (from the FMU
 variable tables, gathered by :mod:`pyfmu_wrapper.models.catalog`) and the settings table of
-``docs/scenarios.md`` (from :mod:`pyfmu_wrapper.solvers.settings_table`).
+``docs/scenarios.md`` (from :mod:`pyfmu_wrapper.solvers.settings_table`), the table of the models' scenario
+files in ``docs/scenarios.md`` (from ``scenarios/*.yaml`` and the registry) and the table of the model units'
+Modelica cases in ``docs/modelica.md`` (from each unit's ``modelica.cases()``): a new model appears in each by
+running this, with no hand edit.
 
 Run ``python -m pyfmu_wrapper.generate.docs`` to rewrite them, ``--check`` to fail when a committed
 file differs (the test suite does the same check).
@@ -12,6 +15,8 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
+
+import numpy as np
 
 from ..physics import registry
 
@@ -108,6 +113,72 @@ def scenarios_text(current: str) -> str:
     return current[:i] + "\n" + docs_table() + "\n" + current[j:]
 
 
+#: the generated table of docs/scenarios.md of every model's scenario files but the paper's lies between these
+MODEL_SCENARIOS_BEGIN = "<!-- BEGIN model scenarios"
+MODEL_SCENARIOS_END = "<!-- END model scenarios -->"
+#: the generated table of docs/modelica.md of the model units' cases lies between these
+MODELICA_FILE = DOCS_FILE.parent / "modelica.md"
+UNIT_CASES_BEGIN = "<!-- BEGIN unit cases"
+UNIT_CASES_END = "<!-- END unit cases -->"
+SCENARIO_DIR = DOCS_FILE.parents[1] / "scenarios"
+
+
+def _between(current: str, begin: str, end: str, body: str, where: Path) -> str:
+    """``current`` with the text between the lines ``begin`` ... and ``end`` replaced by ``body``."""
+    i = current.find(begin)
+    j = current.find(end)
+    if i < 0 or j < i:
+        raise SystemExit(f"{where}: the markers {begin!r} ... {end!r} are missing")
+    i = current.index("\n", i) + 1
+    return current[:i] + "\n" + body + "\n" + current[j:]
+
+
+def _cell(text: str) -> str:
+    return " ".join(str(text).split()).replace("|", "\\|")
+
+
+def model_scenarios_table() -> str:
+    """One row per scenario file of a model other than the paper's pair (``scenarios/*.yaml`` whose primary
+    structure is not ``BaseParams``): the file, the model, the scenario's own description, its studies (kind,
+    frequencies, curves) and the engines that run it, read from the files and the registry."""
+    from ..models import MODELS
+    from ..physics.params import BaseParams
+    from ..scenario.loader import load_scenario
+
+    rows = ["| file | model | what | studies | engines |", "|---|---|---|---|---|"]
+    for path in sorted(SCENARIO_DIR.glob("*.yaml")):
+        scn = load_scenario(path)
+        if isinstance(scn.base, BaseParams):
+            continue
+        unit = MODELS.of(scn.base)
+        studies = []
+        for st in scn.studies:
+            w = np.asarray(st.omegas, float)
+            grid = f"{w.min():g}-{w.max():g} rad/s ({w.size})"
+            labels = "; ".join(c.label for c in getattr(st, "curves", ()))
+            studies.append(f"`{st.name}` ({st.kind}), {grid}: {labels}")
+        engines = "monolithic, cosim, both" if unit.cosim is not None else "monolithic (no co-simulation yet)"
+        rows.append(
+            f"| `{path.name}` | `{unit.name}`: {_cell(unit.description)} | {_cell(scn.description)} "
+            f"| {_cell(' / '.join(studies))} | {engines} |"
+        )
+    return "\n".join(rows) + "\n"
+
+
+def unit_cases_table() -> str:
+    """One row per Modelica case of the model units (``TMDInerter.Cases``), from each unit's
+    ``modelica.cases()``."""
+    from ..models import MODELS
+
+    rows = ["| case | model | what |", "|---|---|---|"]
+    for unit in MODELS.units():
+        if unit.modelica is None or unit.name == "base_tmd":  # the paper's cases have their own table above
+            continue
+        for case in unit.modelica.cases():
+            rows.append(f"| `{case.name}` | `{unit.name}` | {_cell(case.description)} |")
+    return "\n".join(rows) + "\n"
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--check", action="store_true", help="only check that the files are up to date")
@@ -117,7 +188,26 @@ def main(argv: list[str] | None = None) -> int:
     targets = (
         (DOCS_FILE, parameters_text()),
         (FMUS_FILE, fmus_text(fmus_now)),
-        (SCENARIOS_FILE, scenarios_text(scen_now)),
+        (
+            SCENARIOS_FILE,
+            _between(
+                scenarios_text(scen_now),
+                MODEL_SCENARIOS_BEGIN,
+                MODEL_SCENARIOS_END,
+                model_scenarios_table(),
+                SCENARIOS_FILE,
+            ),
+        ),
+        (
+            MODELICA_FILE,
+            _between(
+                MODELICA_FILE.read_text(encoding="utf-8"),
+                UNIT_CASES_BEGIN,
+                UNIT_CASES_END,
+                unit_cases_table(),
+                MODELICA_FILE,
+            ),
+        ),
     )
     if a.check:
         stale = [p for p, text in targets if not p.is_file() or p.read_text(encoding="utf-8") != text]
