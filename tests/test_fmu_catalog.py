@@ -103,8 +103,7 @@ def test_fmi_and_fmubuild_name_no_model():
 
 def test_no_hand_written_dotted_name_of_a_model():
     """No string literal of the package (docstrings aside) names a module of the models by its dotted name:
-    a unit holds its parts as objects (issue 39). The co-simulation modules' names (``cosim=``) are the one
-    exception left, until the co-simulation takes a unit."""
+    a unit holds its parts as objects (issue 39): its FMUs, its co-simulation, its scenario reader."""
     found = []
     for path in sorted(PKG.rglob("*.py")):
         tree = ast.parse(path.read_text())
@@ -117,8 +116,6 @@ def test_no_hand_written_dotted_name_of_a_model():
             and isinstance(n.body[0].value, ast.Constant)
         }
         for node in ast.walk(tree):
-            if isinstance(node, ast.keyword) and node.arg == "cosim":
-                docs.add(id(node.value))
             literal = isinstance(node, ast.Constant) and isinstance(node.value, str) and id(node) not in docs
             if literal and "pyfmu_wrapper.models." in node.value:
                 found.append(f"{path.relative_to(PKG)}:{node.lineno}: {node.value!r}")
