@@ -212,3 +212,45 @@ def test_win64_object_under_wine_agrees_with_the_jit(objects, tmp_path, case):
     rtol = real0[0, SPECS["TMDInerter"].vr("rtol")] if case == "tmd_play" else 0.0
     assert rel <= (1e-12 if case == "base" else rtol)
     assert rel > 0.0  # the C run times do differ here (else this case belongs with the bit-identical ones)
+
+
+#: the two-argument functions of LIBM (the others take one)
+LIBM_BINARY = frozenset({"atan2", "pow", "hypot", "fmod", "copysign", "fmin", "fmax"})
+
+
+@pytest.mark.parametrize("platform", ["linux64", "win64"])
+def test_every_maths_function_the_objects_may_call_is_the_c_librarys(tmp_path, platform):
+    """The maths functions an object may call (native_obj.LIBM) are all in the C library the native FMU
+    links on both platforms (glibc's libm, mingw-w64's C run time): a program calling each through a
+    pointer (no builtin folded) links and runs there, every value finite."""
+    from pyfmu_wrapper.fmubuild.native_obj import LIBM
+
+    if platform == "win64" and (mingw_gcc() is None or shutil.which("wine") is None):
+        pytest.skip("mingw-w64 or wine is missing (.ci/run installs gcc-mingw-w64-x86-64 and wine64)")
+    one, two = sorted(LIBM - LIBM_BINARY), sorted(LIBM & LIBM_BINARY)
+    calls = [f'    printf("{n} %.17g\\n", (*(F1){n})({"y" if n == "acosh" else "x"}));' for n in one]  # acosh: >= 1
+    calls += [f'    printf("{n} %.17g\\n", (*(F2){n})(x, y));' for n in two]
+    src = "\n".join(
+        [
+            "#include <math.h>",
+            "#include <stdio.h>",
+            "typedef double (*F1)(double);",
+            "typedef double (*F2)(double, double);",
+            "int main(void) {",
+            "    volatile double x = 0.3, y = 1.7;",
+            *calls,
+            "    return 0;",
+            "}",
+        ]
+    )
+    (tmp_path / "m.c").write_text(src)
+    cc = "gcc" if platform == "linux64" else mingw_gcc()
+    exe = tmp_path / ("m" if platform == "linux64" else "m.exe")
+    subprocess.run([cc, "-O0", "-fno-builtin", str(tmp_path / "m.c"), "-o", str(exe), "-lm"], check=True)
+    run = [str(exe)] if platform == "linux64" else [shutil.which("wine") or "wine", str(exe)]
+    env = {"PATH": "/usr/bin:/bin", "WINEDEBUG": "-all", "HOME": str(tmp_path), "WINEPREFIX": str(tmp_path / "wine")}
+    r = subprocess.run(run, capture_output=True, text=True, env=env, timeout=600)
+    assert r.returncode == 0, r.stderr[-2000:]
+    values = dict(line.split() for line in r.stdout.splitlines())
+    assert set(values) == set(LIBM)
+    assert all(np.isfinite(float(v)) for v in values.values()), values
