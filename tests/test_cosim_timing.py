@@ -50,3 +50,19 @@ def test_monolithic_rows_carry_no_cosim_split(tmp_path):
     assert main([str(scn), "--out", str(out), "--quiet", "--engine", "monolithic", "--no-resume"]) == 0
     assert json.loads((out / "summary.json").read_text())["timings"]["cosim"] is None
     assert pd.read_csv(out / "frc.csv")["fmu_time_tmd"].isna().all()
+
+
+def test_the_split_names_the_fmus_by_their_role_not_their_instance():
+    """The FMU seconds go to the columns by role, whatever a model names its instances: the structure's FMU
+    (the instance of the observed displacement) to fmu_time_base, every other (the absorber) to fmu_time_tmd;
+    the paper's pair's instances are those roles' names. Without the compiled loop (no FMU times) no column."""
+    from pyfmu_wrapper.cosim.steady import _time_split
+
+    def timing(frame: float, absorber: float) -> dict:
+        fmus = {"frame": {"seconds": frame, "calls": 1}, "absorber": {"seconds": absorber, "calls": 1}}
+        return {"fmus": fmus, "master_seconds": frame + absorber + 1.0, "python_seconds": 0.5}
+
+    split = _time_split(timing(1.0, 2.0), timing(1.25, 2.5), "frame")
+    assert split == {"fmu_time_base": 0.25, "fmu_time_tmd": 0.5, "master_loop_time": 0.75, "python_step_time": 0.0}
+    none = {"fmus": {}, "master_seconds": 0.0, "python_seconds": 0.0}
+    assert set(_time_split(none, none, "frame")) == {"master_loop_time", "python_step_time"}

@@ -153,16 +153,18 @@ def steady_state(
     )
 
 
-def _time_split(before: dict, after: dict) -> dict:
+def _time_split(before: dict, after: dict, structure: str) -> dict:
     """Where the wall time of a steady state went (:meth:`Master.timing` before and after): seconds
-    inside each FMU's fmi2 calls of the compiled loop (``fmu_time_<instance>``), the compiled
+    inside the FMUs' fmi2 calls of the compiled loop, by their role in the system (``fmu_time_base``: the
+    structure's FMU, the instance ``structure`` whose outputs are the observed displacement and rate;
+    ``fmu_time_tmd``: the absorber's, every other instance, whatever the model names it), the compiled
     loop's own work (``master_loop_time``) and the steps taken on the Python path
     (``python_step_time``); the rest of ``wall_time`` is the steady-state logic (shooting,
     windows, re-initialisations)."""
-    out = {
-        f"fmu_time_{k}": v["seconds"] - before["fmus"].get(k, {"seconds": 0.0})["seconds"]
-        for k, v in after["fmus"].items()
-    }
+    out: dict[str, float] = {}
+    for k, v in after["fmus"].items():
+        role = "fmu_time_base" if k == structure else "fmu_time_tmd"
+        out[role] = out.get(role, 0.0) + (v["seconds"] - before["fmus"].get(k, {"seconds": 0.0})["seconds"])
     out["master_loop_time"] = after["master_seconds"] - before["master_seconds"]
     out["python_step_time"] = after["python_seconds"] - before["python_seconds"]
     return out
@@ -192,6 +194,7 @@ def _sweep_piece(
     """One contiguous piece of a sweep on one master (``base``, ``tmd``: the system's, as
     :func:`~pyfmu_wrapper.solvers.sweep.run_sweep_pieces` hands them)."""
     master = system.make_master(settings)
+    structure = system.observed[0].split(".", 1)[0]  # the structure's FMU instance (the timing split's roles)
     rows = []
     z = None if z0 is None else np.asarray(z0, dtype=float)
     hint: dict = {}
@@ -204,7 +207,7 @@ def _sweep_piece(
             before = master.timing()
             ss = steady_state(master, system, float(w), start, settings, hint, restart=False)
             z, w_prev = ss.state, float(w)
-            rows.append(ss.row(direction) | _time_split(before, master.timing()))
+            rows.append(ss.row(direction) | _time_split(before, master.timing(), structure))
             if queue is not None:
                 queue.put(1)
     finally:

@@ -43,8 +43,9 @@ SWEEP_COLUMNS = (
 )
 #: co-simulation only (NaN for the monolithic engine): ``coupling_error``, the estimated relative
 #: amplitude error of the coupling (step doubling, ``cosim.checked``), and ``reason``, why a point is
-#: not converged (``cosim.steady.steady_state``); and the seconds inside each FMU's fmi2 calls of the
-#: compiled stepping loop, the loop's own work, and the steps taken on the Python path
+#: not converged (``cosim.steady.steady_state``); and the seconds inside the FMUs' fmi2 calls of the
+#: compiled stepping loop by role (``fmu_time_base``: the structure's FMU, ``fmu_time_tmd``: the absorber's,
+#: whatever each model names its instances), the loop's own work, and the steps taken on the Python path
 #: (``cosim.steady._time_split``); the rest of ``wall_time`` is the steady-state logic
 TIMING_COLUMNS = ("fmu_time_base", "fmu_time_tmd", "master_loop_time", "python_step_time")
 
