@@ -1,6 +1,7 @@
 """The base oscillator with a pendulum TMD (a mass on a massless rod pivoted on the main mass, with a
 pivot damper) as one model unit: parameters (:mod:`.params`), equations (:mod:`.equations`), Modelica
-source (:mod:`.modelica`), and here the unit (packing, state layout, tolerances, start). Registered in
+source (:mod:`.modelica`), its FMU PendulumTMD (:mod:`.fmus`), its co-simulation with the paper's
+BaseOscillator (:mod:`.cosim`), and here the unit (packing, state layout, tolerances, start). Registered in
 :mod:`pyfmu_wrapper.models`.
 
 The absorber is part of the structure (:class:`~.params.PendulumTMDParams`), so the model takes no paper
@@ -11,25 +12,41 @@ linearisation about rest and are continued in the force (:class:`~pyfmu_wrapper.
 
 from __future__ import annotations
 
+import functools
+from typing import TYPE_CHECKING, Any
+
 import numpy as np
 from numpy.typing import NDArray
 
 from ...physics.models import OdeModel
-from ...physics.params import P_F, P_W, TMDParams
+from ...physics.params import TMDParams
 from ...physics.unit import ModelUnit, SmallForcing
-from .equations import N_PACKED, Q_AT, no_switching, one_mode, pendulum_tmd_jacobian, pendulum_tmd_rhs
+from .equations import no_switching, one_mode, pendulum_tmd_jacobian, pendulum_tmd_rhs
 from .modelica import MODELICA
+from .packing import pendulum_tmd_pack
 from .params import PARAMETERS, SUBSYSTEM, PendulumTMDParams
+
+if TYPE_CHECKING:
+    from ...fmi.fmumodel import FmuModel
 
 __all__ = ["PENDULUM_TMD", "UNIT", "PendulumTMDParams", "pendulum_tmd_pack"]
 
 
-def pendulum_tmd_pack(s: PendulumTMDParams, tmd: TMDParams | None = None, omega: float = 0.0) -> NDArray[np.float64]:
-    """The packed array of :mod:`.equations` (``tmd`` is not used: the absorber is in ``s``)."""
-    p = np.zeros(N_PACKED)
-    p[P_F], p[P_W] = s.force_amplitude, omega
-    p[Q_AT:] = (s.mass, s.stiffness, s.damping, s.pendulum_mass, s.length, s.pivot_damping)
-    return p
+def fmus() -> tuple[FmuModel, ...]:
+    """The model's FMU, PendulumTMD (its co-simulation couples it to the paper's BaseOscillator, which
+    ``base_tmd`` gives), imported on the first call: importing the unit stays cheap."""
+    from .fmus.pendulum_tmd_fmu import FMU
+
+    return (FMU,)
+
+
+@functools.cache
+def _cosim() -> Any:
+    """The co-simulation (imported when asked: the FMUs and the master load only for a co-simulation; built
+    once per process)."""
+    from .cosim import engine
+
+    return engine(UNIT)
 
 
 def _atol(s: PendulumTMDParams, tmd: TMDParams, omega: float, atol_scale: float) -> NDArray[np.float64]:
@@ -95,5 +112,7 @@ UNIT = ModelUnit(
     modelica=MODELICA,
     is_linear=_is_linear,
     start=SmallForcing(),
+    cosim=_cosim,
+    fmus=fmus,
     home=__name__,
 )

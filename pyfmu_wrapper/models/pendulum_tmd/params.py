@@ -33,6 +33,22 @@ _MODELICA_TYPE = {
 }
 
 
+#: the FMU parameter each row is set on (name, value reference): the pendulum's own rows on the PendulumTMD
+#: FMU's (``fmus/variables.py``), the main mass's on the paper's BaseOscillator FMU (declared by ``base_tmd``),
+#: which the co-simulation couples to it (``cosim.py``)
+FMU_VARIABLES = {
+    "mass": ("BaseOscillator.M", 0),
+    "stiffness": ("BaseOscillator.K", 1),
+    "damping": ("BaseOscillator.C", 2),
+    "force_amplitude": ("BaseOscillator.F", 3),
+    "pendulum_mass": ("m", 0),
+    "length": ("L", 1),
+    "pivot_damping": ("c_p", 2),
+}
+#: the rows of the PendulumTMD FMU's own parameters (the others are the BaseOscillator's)
+OWN = ("pendulum_mass", "length", "pivot_damping")
+
+
 def _row(name: str, symbol: str, unit: str, default: float, minimum: float | None, strict: bool, doc: str) -> Parameter:
     return Parameter(
         name=name,
@@ -43,8 +59,8 @@ def _row(name: str, symbol: str, unit: str, default: float, minimum: float | Non
         minimum=minimum,
         strict=strict,
         description=doc,
-        fmu_name="",  # no FMU yet
-        fmu_vr=-1,
+        fmu_name=FMU_VARIABLES[name][0],
+        fmu_vr=FMU_VARIABLES[name][1],
         modelica_name=symbol,  # the parameter of PendulumTMD.mo
         modelica_type=_MODELICA_TYPE[unit],
         mappable=False,
