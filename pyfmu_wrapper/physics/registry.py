@@ -427,10 +427,12 @@ def structure_row(
     strict: bool,
     description: str,
     fmu_vr: int = -1,
+    fmu_name: str | None = None,
 ) -> Parameter:
     """A declared row of a model's own structure: its scenario key and dataclass field ``name``, its symbol
-    (also its Modelica parameter and, with ``fmu_vr`` >= 0, its FMU parameter), its SI unit (Modelica type
-    from :data:`MODELICA_TYPES`), its default, bound and description; never mapped."""
+    (also its Modelica parameter and, with ``fmu_vr`` >= 0, its FMU parameter unless ``fmu_name`` names
+    another), its SI unit (Modelica type from :data:`MODELICA_TYPES`), its default, bound and description;
+    never mapped."""
     return Parameter(
         name=name,
         symbol=symbol,
@@ -440,7 +442,7 @@ def structure_row(
         minimum=minimum,
         strict=strict,
         description=description,
-        fmu_name=symbol if fmu_vr >= 0 else "",
+        fmu_name=(symbol if fmu_name is None else fmu_name) if fmu_vr >= 0 else "",
         fmu_vr=fmu_vr,
         modelica_name=symbol,
         modelica_type=MODELICA_TYPES[unit],

@@ -3,8 +3,9 @@
 The single dispatch point is :func:`compute_sweep` (and :func:`compute_time_series` for phase
 portraits). An engine is a pair of functions registered in :data:`ENGINES`:
 
-* ``cosim`` (the default of ``run-scenario``): co-simulation of the two FMUs (BaseOscillator,
-  TMDInerter) by the master of :mod:`pyfmu_wrapper.master` for every configuration, linear ones
+* ``cosim`` (the default of ``run-scenario``): co-simulation of the model's FMUs (its unit's
+  :class:`~pyfmu_wrapper.cosim.system.CosimEngine`: the paper's BaseOscillator and TMDInerter, a frame's,
+  a pendulum's) by the master of :mod:`pyfmu_wrapper.master` for every configuration, linear ones
   included; steady state as the monolithic solver defines it (:mod:`pyfmu_wrapper.cosim.steady`).
 * ``monolithic``: exact frequency response for linear configurations, the monolithic
   steady-state solver otherwise.
@@ -347,7 +348,7 @@ ENGINES: dict[str, Engine] = {
     "cosim": Engine(
         _cosim_sweep,
         _cosim_time_series,
-        "co-simulation of the BaseOscillator and TMDInerter FMUs (pyfmu_wrapper.cosim)",
+        "co-simulation of the model's FMUs (the paper's BaseOscillator and TMDInerter; pyfmu_wrapper.cosim)",
     ),
     "monolithic": Engine(
         _monolithic_sweep,

@@ -18,10 +18,10 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import NDArray
 
-from ...physics.models import OdeModel
+from ...physics.models import smooth_model
 from ...physics.params import TMDParams
 from ...physics.unit import ModelUnit, SmallForcing
-from .equations import no_switching, one_mode, pendulum_tmd_jacobian, pendulum_tmd_rhs
+from .equations import pendulum_tmd_jacobian, pendulum_tmd_rhs
 from .modelica import MODELICA
 from .packing import pendulum_tmd_pack
 from .params import PARAMETERS, SUBSYSTEM, PendulumTMDParams
@@ -65,10 +65,6 @@ def _inerter_force(z: NDArray[np.float64], p: NDArray[np.float64]) -> float:
     return 0.0
 
 
-def _describe(z: NDArray[np.float64], p: NDArray[np.float64], atol: NDArray[np.float64], band: float) -> str:
-    return "smooth"
-
-
 def _n_state(s: PendulumTMDParams) -> int:
     return 4
 
@@ -83,18 +79,7 @@ def _is_linear(s: PendulumTMDParams, tmd: TMDParams) -> bool:
     return False
 
 
-PENDULUM_TMD = OdeModel(
-    name="pendulum_tmd",
-    rhs=pendulum_tmd_rhs,
-    jacobian=pendulum_tmd_jacobian,
-    switching=no_switching,
-    mode=one_mode,
-    n_switches=1,
-    n_modes=1,
-    switch_tolerance=(1000,),
-    state_names=("x", "xd", "th", "thd"),
-    describe=_describe,
-)
+PENDULUM_TMD = smooth_model("pendulum_tmd", pendulum_tmd_rhs, pendulum_tmd_jacobian, ("x", "xd", "th", "thd"))
 
 UNIT = ModelUnit(
     name=SUBSYSTEM,

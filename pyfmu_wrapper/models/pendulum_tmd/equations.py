@@ -70,15 +70,3 @@ def pendulum_tmd_rhs(t: float, z: Vec, p: Vec, u: Vec, out: Vec) -> None:
 
 #: J = d rhs / dz and ft = d rhs / dt of :func:`pendulum_tmd_rhs` by the complex step (exact to rounding)
 pendulum_tmd_jacobian = complex_step_jacobian(pendulum_tmd_rhs, "pendulum_tmd")
-
-
-@njit(cache=True)
-def no_switching(z: Vec, p: Vec, g: Vec) -> None:
-    """The model is smooth: its one switching function is inactive (1)."""
-    g[0] = 1.0
-
-
-@njit(cache=True)
-def one_mode(g: Vec) -> int:
-    """The model's one smooth mode."""
-    return 0

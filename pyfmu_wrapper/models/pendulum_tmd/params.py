@@ -13,25 +13,14 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from ...physics.params import ParameterError
-from ...physics.registry import Parameter, declare
+from ...physics.params import check_structure
+from ...physics.registry import Parameter, declare, structure_row
 
 #: the subsystem (and the scenario block, the model's name) the parameters are declared under
 SUBSYSTEM = "pendulum_tmd"
 
 #: the acceleration of gravity [m/s^2]
 GRAVITY = 9.81
-
-#: the Modelica type (``TMDInerter.Units``) of each unit
-_MODELICA_TYPE = {
-    "kg": "Mass",
-    "N/m": "TranslationalSpringConstant",
-    "N.s/m": "TranslationalDampingConstant",
-    "N": "Force",
-    "m": "Length",
-    "N.m.s/rad": "RotationalDampingConstant",
-}
-
 
 #: the FMU parameter each row is set on (name, value reference): the pendulum's own rows on the PendulumTMD
 #: FMU's (``fmus/variables.py``), the main mass's on the paper's BaseOscillator FMU (declared by ``base_tmd``),
@@ -50,21 +39,9 @@ OWN = ("pendulum_mass", "length", "pivot_damping")
 
 
 def _row(name: str, symbol: str, unit: str, default: float, minimum: float | None, strict: bool, doc: str) -> Parameter:
-    return Parameter(
-        name=name,
-        symbol=symbol,
-        subsystem=SUBSYSTEM,
-        unit=unit,
-        default=default,
-        minimum=minimum,
-        strict=strict,
-        description=doc,
-        fmu_name=FMU_VARIABLES[name][0],
-        fmu_vr=FMU_VARIABLES[name][1],
-        modelica_name=symbol,  # the parameter of PendulumTMD.mo
-        modelica_type=_MODELICA_TYPE[unit],
-        mappable=False,
-    )
+    """A declared row (its FMU parameter :data:`FMU_VARIABLES`'s; its Modelica one PendulumTMD.mo's)."""
+    fmu_name, vr = FMU_VARIABLES[name]
+    return structure_row(SUBSYSTEM, name, symbol, unit, default, minimum, strict, doc, vr, fmu_name)
 
 
 #: the model's declared parameters, in the order of :class:`PendulumTMDParams`'s fields (the defaults:
@@ -100,16 +77,7 @@ class PendulumTMDParams:
     source: str | None = None
 
     def __post_init__(self) -> None:
-        where = f" (from {self.source})" if self.source else ""
-        for p in PARAMETERS:
-            v = getattr(self, p.name)
-            ok = not isinstance(v, bool) and isinstance(v, (int, float)) and math.isfinite(v)
-            if ok and p.minimum is not None:
-                ok = v > p.minimum if p.strict else v >= p.minimum
-            if not ok:
-                bound = "" if p.minimum is None else (f" > {p.minimum:g}" if p.strict else f" >= {p.minimum:g}")
-                raise ParameterError(f"{p.label} must be a finite number{bound} [{p.unit}], got {v!r}{where}")
-            object.__setattr__(self, p.name, float(v))
+        check_structure(self, PARAMETERS, self.source)
 
     @property
     def pendulum_frequency(self) -> float:
