@@ -37,10 +37,18 @@ from ..solvers.sweep import run_sweep_pieces
 from .checked import check_mode, companion_error, own_error, relative_gap
 from .periods import CosimSteadyState, Periods, run_steady, start_state
 from .settings import CosimSettings
-from .system import CosimSystem
-from .timescales import choose_steps, fastest
+from .system import CosimEngine, CosimSystem
+from .timescales import choose_steps, fastest, refusal
 
-__all__ = ["CosimSteadyState", "continuation_start", "periodic_time_series", "steady_state", "steps_at", "sweep"]
+__all__ = [
+    "CosimSteadyState",
+    "continuation_start",
+    "engine_of",
+    "periodic_time_series",
+    "steady_state",
+    "steps_at",
+    "sweep",
+]
 
 
 #: the most times the coupling-error check doubles the steps of one point
@@ -283,3 +291,56 @@ def steps_at(system: CosimSystem, omega: float, settings: CosimSettings) -> int:
     the accuracy model's where the structure is refused (the steady state then reports why)."""
     choice = choose_steps(system, omega, settings.steps_for(system.tmd), settings.max_steps_per_period, False)
     return choice.steps or settings.steps_for(system.tmd)
+
+
+# -- a model's co-simulation as run-scenario calls it, from its system --------------------------------------
+
+#: make_system(structure, tmd) -> the model's CosimSystem (its unit bound: ``partial(PairSystem, unit)``)
+SystemFactory = Callable[[Any, Any], CosimSystem]
+
+
+def _sweep_of(
+    make_system: SystemFactory,
+    structure: Any,
+    tmd: Any,
+    omegas: Sequence[float] | np.ndarray,
+    direction: str = "up",
+    settings: CosimSettings = CosimSettings(),
+    progress: Callable[..., Any] | None = None,
+    z0: ArrayLike | None = None,
+    workers: int = 1,
+) -> pd.DataFrame:
+    return sweep(make_system(structure, tmd), omegas, direction, settings, progress, z0, workers)
+
+
+def _time_series_of(
+    make_system: SystemFactory,
+    structure: Any,
+    tmd: Any,
+    omega: float,
+    n_periods: int = 1,
+    samples_per_period: int | None = None,
+    settings: CosimSettings = CosimSettings(),
+    master: Master | None = None,
+) -> tuple[np.ndarray, np.ndarray, CosimSteadyState]:
+    return periodic_time_series(make_system(structure, tmd), omega, n_periods, samples_per_period, settings, master)
+
+
+def _refusal_of(make_system: SystemFactory, structure: Any, tmd: Any, omegas: object, cap: int) -> str | None:
+    return refusal(make_system(structure, tmd), omegas, cap)
+
+
+def _steps_at_of(make_system: SystemFactory, structure: Any, tmd: Any, omega: float, settings: CosimSettings) -> int:
+    return steps_at(make_system(structure, tmd), omega, settings)
+
+
+def engine_of(make_system: SystemFactory) -> CosimEngine:
+    """A model's :class:`~.system.CosimEngine` on this engine, from the factory of its system
+    (``make_system(structure, tmd)``): its sweep, phase portrait, up-front refusal and step count, each taking
+    the structure and the TMD as ``run-scenario`` calls them."""
+    return CosimEngine(
+        sweep=partial(_sweep_of, make_system),
+        periodic_time_series=partial(_time_series_of, make_system),
+        refusal=partial(_refusal_of, make_system),
+        steps_at=partial(_steps_at_of, make_system),
+    )

@@ -14,8 +14,8 @@ FMU parameters (through the parameter registry), :func:`make_master` builds the 
 :class:`~pyfmu_wrapper.master.master.Master` for the pair, :func:`structure_frequencies` lists the time
 scales a communication step has to resolve and :func:`export_tmd_system` writes the pair as an SSP file
 (:func:`pyfmu_wrapper.master.ssp.export_ssp`). The steady states, their check and the sweeps are the
-co-simulation engine's (:mod:`pyfmu_wrapper.cosim.steady`) on :class:`PairSystem`; :func:`sweep`,
-:func:`steady_state`, :func:`periodic_time_series` and :func:`refusal` take the pair's parameters.
+co-simulation engine's (:mod:`pyfmu_wrapper.cosim.steady`) on :class:`PairSystem`: :func:`engine` (what
+``run-scenario`` calls) and :func:`steady_state` (on a master of the pair) take the pair's parameters.
 
 Time scales (:func:`structure_frequencies`), each with the parameters that set it:
 
@@ -32,18 +32,15 @@ Time scales (:func:`structure_frequencies`), each with the parameters that set i
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from ...cosim import steady as cosim_steady
-from ...cosim import timescales
 from ...cosim.periods import CosimSteadyState
 from ...cosim.settings import CosimSettings
 from ...cosim.system import CosimEngine, Scale
@@ -312,61 +309,11 @@ def steady_state(
     return cosim_steady.steady_state(master, PairSystem(unit, base, tmd), omega, z0, settings, hint, restart)
 
 
-def sweep(
-    unit: ModelUnit,
-    base: BaseParams,
-    tmd: TMDParams,
-    omegas: Sequence[float] | np.ndarray,
-    direction: str = "up",
-    settings: CosimSettings = CosimSettings(),
-    progress: Callable[..., Any] | None = None,
-    z0: ArrayLike | None = None,
-    workers: int = 1,
-) -> pd.DataFrame:
-    """Co-simulated steady-state amplitudes of the pair over omegas (sorted), up, down or both
-    (:func:`pyfmu_wrapper.cosim.steady.sweep` on :class:`PairSystem`)."""
-    return cosim_steady.sweep(PairSystem(unit, base, tmd), omegas, direction, settings, progress, z0, workers)
-
-
-def periodic_time_series(
-    unit: ModelUnit,
-    base: BaseParams,
-    tmd: TMDParams,
-    omega: float,
-    n_periods: int = 1,
-    samples_per_period: int | None = None,
-    settings: CosimSettings = CosimSettings(),
-    master: Master | None = None,
-) -> tuple[np.ndarray, np.ndarray, CosimSteadyState]:
-    """Steady state, then n_periods more recorded at the communication points: (t, states[:, 6] = x, xd,
-    y, yd, d, dd (d, dd: nan, not outputs of the FMUs), steady state)
-    (:func:`pyfmu_wrapper.cosim.steady.periodic_time_series` on :class:`PairSystem`)."""
-    return cosim_steady.periodic_time_series(
-        PairSystem(unit, base, tmd), omega, n_periods, samples_per_period, settings, master
-    )
-
-
-def refusal(unit: ModelUnit, base: BaseParams, tmd: TMDParams, omegas: object, cap: int) -> str | None:
-    """The frequencies of ``omegas`` the pair's time scales cannot step within ``cap`` steps per
-    period (:func:`pyfmu_wrapper.cosim.timescales.refusal`): what ``run-scenario`` refuses up front."""
-    return timescales.refusal(PairSystem(unit, base, tmd), omegas, cap)
-
-
-def steps_at(unit: ModelUnit, base: BaseParams, tmd: TMDParams, omega: float, settings: CosimSettings) -> int:
-    """Steps per period at omega before any refinement (:func:`pyfmu_wrapper.cosim.steady.steps_at`)."""
-    return cosim_steady.steps_at(PairSystem(unit, base, tmd), omega, settings)
-
-
 #: the pair's FMUs, BaseOscillator and TMDInerter (its unit gives the same declarations)
 PAIR_FMUS = (BASE_OSCILLATOR, TMD_INERTER)
 
 
 def engine(unit: ModelUnit) -> CosimEngine:
     """The pair's co-simulation as ``run-scenario`` calls it, for its unit (the unit holds it: the unit's
-    ``cosim`` returns ``engine(UNIT)``; this module imports no unit)."""
-    return CosimEngine(
-        sweep=partial(sweep, unit),
-        periodic_time_series=partial(periodic_time_series, unit),
-        refusal=partial(refusal, unit),
-        steps_at=partial(steps_at, unit),
-    )
+    ``cosim`` returns ``engine(UNIT)``; this module imports no unit): the engine's on :class:`PairSystem`."""
+    return cosim_steady.engine_of(partial(PairSystem, unit))

@@ -33,18 +33,15 @@ faster.) This module imports no unit (the unit's ``cosim`` calls :func:`engine` 
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
 from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from ...cosim import steady as cosim_steady
-from ...cosim import timescales
 from ...cosim.periods import CosimSteadyState
 from ...cosim.settings import CosimSettings
 from ...cosim.system import CosimEngine, Scale
@@ -230,55 +227,7 @@ def steady_state(
     return cosim_steady.steady_state(master, PendulumSystem(unit, s, tmd), omega, z0, settings, hint, restart)
 
 
-def sweep(
-    unit: ModelUnit,
-    s: PendulumTMDParams,
-    tmd: TMDParams,
-    omegas: Sequence[float] | np.ndarray,
-    direction: str = "up",
-    settings: CosimSettings = CosimSettings(),
-    progress: Callable[..., Any] | None = None,
-    z0: ArrayLike | None = None,
-    workers: int = 1,
-) -> pd.DataFrame:
-    """Co-simulated steady-state amplitudes max |x| over omegas (sorted), up, down or both
-    (:func:`pyfmu_wrapper.cosim.steady.sweep`)."""
-    return cosim_steady.sweep(PendulumSystem(unit, s, tmd), omegas, direction, settings, progress, z0, workers)
-
-
-def periodic_time_series(
-    unit: ModelUnit,
-    s: PendulumTMDParams,
-    tmd: TMDParams,
-    omega: float,
-    n_periods: int = 1,
-    samples_per_period: int | None = None,
-    settings: CosimSettings = CosimSettings(),
-    master: Master | None = None,
-) -> tuple[np.ndarray, np.ndarray, CosimSteadyState]:
-    """Steady state, then n_periods more recorded at the communication points: (t, states[:, 4] = x, xd, th,
-    thd, steady state) (:func:`pyfmu_wrapper.cosim.steady.periodic_time_series`)."""
-    system = PendulumSystem(unit, s, tmd)
-    return cosim_steady.periodic_time_series(system, omega, n_periods, samples_per_period, settings, master)
-
-
-def refusal(unit: ModelUnit, s: PendulumTMDParams, tmd: TMDParams, omegas: object, cap: int) -> str | None:
-    """The frequencies of ``omegas`` the structure's time scales cannot step within ``cap`` steps per period
-    (:func:`pyfmu_wrapper.cosim.timescales.refusal`)."""
-    return timescales.refusal(PendulumSystem(unit, s, tmd), omegas, cap)
-
-
-def steps_at(unit: ModelUnit, s: PendulumTMDParams, tmd: TMDParams, omega: float, settings: CosimSettings) -> int:
-    """Steps per period at omega before any refinement (:func:`pyfmu_wrapper.cosim.steady.steps_at`)."""
-    return cosim_steady.steps_at(PendulumSystem(unit, s, tmd), omega, settings)
-
-
 def engine(unit: ModelUnit) -> CosimEngine:
     """The co-simulation as ``run-scenario`` calls it, for the unit (the unit's ``cosim`` returns
-    ``engine(UNIT)``; this module imports no unit)."""
-    return CosimEngine(
-        sweep=partial(sweep, unit),
-        periodic_time_series=partial(periodic_time_series, unit),
-        refusal=partial(refusal, unit),
-        steps_at=partial(steps_at, unit),
-    )
+    ``engine(UNIT)``; this module imports no unit): the engine's on :class:`PendulumSystem`."""
+    return cosim_steady.engine_of(partial(PendulumSystem, unit))
