@@ -103,7 +103,7 @@ def test_fmi_and_fmubuild_name_no_model():
 
 def test_no_hand_written_dotted_name_of_a_model():
     """No string literal of the package (docstrings aside) names a module of the models by its dotted name:
-    a unit holds its parts as objects (issue 39): its FMUs, its co-simulation, its scenario reader."""
+    a unit holds its parts as objects: its FMUs, its co-simulation, its scenario reader."""
     found = []
     for path in sorted(PKG.rglob("*.py")):
         tree = ast.parse(path.read_text())

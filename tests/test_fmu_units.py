@@ -1,7 +1,6 @@
 """FMU unit strings are read by FMI's unit grammar (pyfmu_wrapper/fmi/units.py), never looked up in a table of
 whole strings: any product of known symbols gives its BaseUnit exponents, a malformed string or an unknown
-symbol is refused with the FMU, the variable and the string named (issue 39: ``build-fmus PendulumTMD`` ended
-in ``KeyError: 'N.m.s/rad'``)."""
+symbol is refused with the FMU, the variable and the string named (never a bare ``KeyError``)."""
 
 from __future__ import annotations
 

@@ -1,5 +1,5 @@
 """The README's two commands, and .ci/run running exactly the README's test command (plus the linters), then
-the numeric tests once more on another processor's arithmetic (issue 43)."""
+the numeric tests once more on another processor's arithmetic."""
 
 import re
 import shlex
@@ -29,7 +29,7 @@ def _steps(command):
 
 
 #: the environment of .ci/run's second test run: numba compiled for a generic x86-64 CPU, OpenBLAS's kernels of
-#: another core than any current host's, numpy's SIMD loops at their baseline (issue 43)
+#: another core than any current host's, numpy's SIMD loops at their baseline
 OTHER_CPU_ENV = {
     "NUMBA_CPU_NAME": "generic",
     "OPENBLAS_CORETYPE": "Prescott",
@@ -90,7 +90,7 @@ def _other_cpu_run(line):
 
 
 def test_ci_runs_the_numeric_tests_again_on_another_processors_arithmetic():
-    """.ci/run's second test run (issue 43): after the README's command, the numeric tests with numba compiled for a
+    """.ci/run's second test run: after the README's command, the numeric tests with numba compiled for a
     generic CPU, OpenBLAS's kernels of another core and numpy at its baseline; every file exists, those that hold
     the solver's, the physics', the registry's, the frame's and the linear model's numbers are among them."""
     runs = _ci_test_runs()

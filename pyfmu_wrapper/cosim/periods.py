@@ -161,10 +161,13 @@ def run_steady(
             unit, base, tmd, omega, SolverSettings(rtol=1e-8, atol_scale=1e-8), hint.setdefault("monolithic", {})
         )
     else:
-        guess = start_state(system, omega)
-        z = guess if z0 is None else np.array(z0, dtype=float)
-        if tmd.inerter == InerterModel.PLAY and z0 is not None:
-            z = np.concatenate([z[: len(system.state_outputs)], guess[len(system.state_outputs) :]])
+        if z0 is None:
+            z = start_state(system, omega)
+        else:  # the states no FMU output shows (the play chain's d, dd) from the start state
+            z = np.array(z0, dtype=float)
+            if tmd.inerter == InerterModel.PLAY:
+                n = len(system.state_outputs)
+                z = np.concatenate([z[:n], start_state(system, omega)[n:]])
     T = 2.0 * math.pi / omega
     run = Periods(master, n, T, system.observed)
     steps = 0

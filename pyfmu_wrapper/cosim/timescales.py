@@ -88,3 +88,17 @@ def refusal(system: CosimSystem, omegas: object, cap: int) -> str | None:
         return None
     why = choose_steps(system, float(min(refused)), 0, cap).refused
     return f"{len(refused)} of {w.size} frequencies (up to {max(refused):.4g} rad/s): {why}"
+
+
+def parameter_text(name: str, value: float, unit: str) -> str:
+    """A parameter as a time scale's sentence names it: ``base.mass (M) = 100 kg``."""
+    return f"{name} = {value:.4g} {unit}"
+
+
+def ratio_sqrt(num: float, den: float) -> float:
+    """sqrt(num / den) [rad/s] of a stiffness over a mass, inf for a massless part that is stiff, 0 for one that
+    is not."""
+    if den <= 0.0:
+        return math.inf if num > 0.0 else 0.0
+    r = num / den
+    return math.sqrt(r) if math.isfinite(r) else math.inf

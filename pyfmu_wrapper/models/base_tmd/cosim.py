@@ -44,6 +44,7 @@ from ...cosim import steady as cosim_steady
 from ...cosim.periods import CosimSteadyState
 from ...cosim.settings import CosimSettings
 from ...cosim.system import CosimEngine, Scale
+from ...cosim.timescales import parameter_text, ratio_sqrt
 from ...master.graph import Connection
 from ...master.master import Master
 from ...master.ssp import export_ssp
@@ -188,21 +189,17 @@ def export_tmd_system(
     )
 
 
-def _fmt(name: str, value: float, unit: str) -> str:
-    return f"{name} = {value:.4g} {unit}"
-
-
 def structure_frequencies(base: BaseParams, tmd: TMDParams) -> list[Scale]:
     """The angular frequencies [rad/s] of the coupled structure and of its two parts (module doc)."""
     M, K = float(base.mass), float(base.stiffness)
     m, k = float(tmd.mass), float(tmd.stiffness)
     inert = 0.0 if tmd.inerter == InerterModel.NONE else float(tmd.inertance)
     pars = {
-        "M": _fmt("base.mass (M)", M, "kg"),
-        "K": _fmt("base.stiffness (K)", K, "N/m"),
-        "m": _fmt("tmd.mass (m)", m, "kg"),
-        "k": _fmt("tmd.stiffness (k)", k, "N/m"),
-        "I": _fmt("tmd.inertance (I)", inert, "kg"),
+        "M": parameter_text("base.mass (M)", M, "kg"),
+        "K": parameter_text("base.stiffness (K)", K, "N/m"),
+        "m": parameter_text("tmd.mass (m)", m, "kg"),
+        "k": parameter_text("tmd.stiffness (k)", k, "N/m"),
+        "I": parameter_text("tmd.inertance (I)", inert, "kg"),
     }
     out: list[Scale] = []
     with np.errstate(all="ignore"):
@@ -218,28 +215,21 @@ def structure_frequencies(base: BaseParams, tmd: TMDParams) -> list[Scale]:
     out.append(Scale(math.sqrt(w2), f"the coupled structure's highest natural frequency ({', '.join(pars.values())})"))
     out.append(
         Scale(
-            _ratio_sqrt(K + k, M),
+            ratio_sqrt(K + k, M),
             f"the base alone, sqrt((K + k)/M) ({pars['M']}, {pars['K']}, {pars['k']})",
         )
     )
     out.append(
-        Scale(_ratio_sqrt(k, m + inert), f"the TMD alone, sqrt(k/(m + I)) ({pars['k']}, {pars['m']}, {pars['I']})")
+        Scale(ratio_sqrt(k, m + inert), f"the TMD alone, sqrt(k/(m + I)) ({pars['k']}, {pars['m']}, {pars['I']})")
     )
     if inert > 0.0:
         out.append(
             Scale(
-                _ratio_sqrt(k * inert, (m + inert) * M),
+                ratio_sqrt(k * inert, (m + inert) * M),
                 f"the inerter against the base, sqrt(k I/((m + I) M)) ({pars['k']}, {pars['I']}, {pars['m']}, {pars['M']})",
             )
         )
     return out
-
-
-def _ratio_sqrt(num: float, den: float) -> float:
-    if den <= 0.0:
-        return math.inf if num > 0.0 else 0.0
-    r = num / den
-    return math.sqrt(r) if math.isfinite(r) else math.inf
 
 
 def fastest(base: BaseParams, tmd: TMDParams) -> Scale:

@@ -42,9 +42,9 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ...cosim import steady as cosim_steady
-from ...cosim.periods import CosimSteadyState
 from ...cosim.settings import CosimSettings
 from ...cosim.system import CosimEngine, Scale
+from ...cosim.timescales import parameter_text, ratio_sqrt
 from ...master.graph import Connection
 from ...master.master import Master
 from ...physics.params import TMDParams
@@ -137,26 +137,15 @@ def make_master(s: PendulumTMDParams, settings: CosimSettings = CosimSettings())
     return Master(fmus, CONNECTIONS, {}, scheme=settings.scheme, order=settings.order, record=RECORD)
 
 
-def _fmt(name: str, value: float, unit: str) -> str:
-    return f"{name} = {value:.4g} {unit}"
-
-
-def _ratio_sqrt(num: float, den: float) -> float:
-    if den <= 0.0:
-        return math.inf if num > 0.0 else 0.0
-    r = num / den
-    return math.sqrt(r) if math.isfinite(r) else math.inf
-
-
 def structure_frequencies(s: PendulumTMDParams) -> list[Scale]:
     """The angular frequencies [rad/s] of the linearised structure and of its two parts (module doc)."""
     M, K, m, L = float(s.mass), float(s.stiffness), float(s.pendulum_mass), float(s.length)
     k = m * GRAVITY / L
     pars = {
-        "M": _fmt("pendulum_tmd.mass (M)", M, "kg"),
-        "K": _fmt("pendulum_tmd.stiffness (K)", K, "N/m"),
-        "m": _fmt("pendulum_tmd.pendulum_mass (m)", m, "kg"),
-        "L": _fmt("pendulum_tmd.length (L)", L, "m"),
+        "M": parameter_text("pendulum_tmd.mass (M)", M, "kg"),
+        "K": parameter_text("pendulum_tmd.stiffness (K)", K, "N/m"),
+        "m": parameter_text("pendulum_tmd.pendulum_mass (m)", m, "kg"),
+        "L": parameter_text("pendulum_tmd.length (L)", L, "m"),
     }
     with np.errstate(all="ignore"):
         try:
@@ -168,10 +157,10 @@ def structure_frequencies(s: PendulumTMDParams) -> list[Scale]:
     return [
         Scale(math.sqrt(w2), f"the linearised structure's highest natural frequency ({', '.join(pars.values())})"),
         Scale(
-            _ratio_sqrt(K + k, M),
+            ratio_sqrt(K + k, M),
             f"the base alone, sqrt((K + m g/L)/M) ({pars['M']}, {pars['K']}, {pars['m']}, {pars['L']})",
         ),
-        Scale(_ratio_sqrt(GRAVITY, L), f"the pendulum alone, sqrt(g/L) ({pars['L']})"),
+        Scale(ratio_sqrt(GRAVITY, L), f"the pendulum alone, sqrt(g/L) ({pars['L']})"),
     ]
 
 
@@ -210,21 +199,6 @@ class PendulumSystem:
         ax = max(math.hypot(z[0], z[1] / omega), 1e-6 * xs)
         at = max(math.hypot(z[2], z[3] / omega), 1e-6 * xs / s.length)
         return np.array([ax, ax * omega, at, at * omega])
-
-
-def steady_state(
-    unit: ModelUnit,
-    master: Master,
-    s: PendulumTMDParams,
-    tmd: TMDParams,
-    omega: float,
-    z0: ArrayLike | None = None,
-    settings: CosimSettings = CosimSettings(),
-    hint: dict | None = None,
-    restart: bool = True,
-) -> CosimSteadyState:
-    """The co-simulated steady state at omega [rad/s], checked (:func:`pyfmu_wrapper.cosim.steady.steady_state`)."""
-    return cosim_steady.steady_state(master, PendulumSystem(unit, s, tmd), omega, z0, settings, hint, restart)
 
 
 def engine(unit: ModelUnit) -> CosimEngine:
