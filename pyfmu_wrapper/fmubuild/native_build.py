@@ -10,16 +10,25 @@ factories each FMU's declaration holds). The builders take those declarations
 the messages of its checks) is generated here from the FMU's declaration into
 ``pyfmu_native_model.h``. The archive holds what a Python-hosted FMU holds but the bundled Python
 code: ``modelDescription.xml``, ``documentation/``, ``resources/pyfmu.cfg`` and
-``resources/variables.tsv``, and the binaries for Linux x86-64 (``linux64`` / ``x86_64-linux``) and,
-when mingw-w64 is installed, Windows x86-64 (``win64`` / ``x86_64-windows``; cross-compiled, linking
-only KERNEL32 and msvcrt).
+``resources/variables.tsv``, and the binaries of three platforms (:data:`PLATFORM_DIR`):
+
+- Linux x86-64 (``linux64`` / ``x86_64-linux``) and Linux aarch64 (``aarch64-linux``, FMI 2.0.4's use of the
+  FMI 3.0 tuple), linked with zig's C compiler (the ``ziglang`` package) against glibc 2.17's symbols
+  (:data:`ZIG_TARGET`): they load on any glibc >= 2.17 and need only libc, libm and libdl;
+- Windows x86-64 (``win64`` / ``x86_64-windows``), cross-compiled with mingw-w64 when it is installed,
+  linking only KERNEL32 and msvcrt.
+
+Each binary exports the functions of its own FMI version only. A shipped FMU carries no test hook: the
+variables of :data:`TEST_HOOKS` (``debug_raise``) are left out of its model description and variable table,
+so a host can neither see nor set them; ``test_hooks=True`` builds the test variant that keeps them.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
+import importlib.util
 import os
-import shutil
 import subprocess
 import sys
 import tempfile
@@ -31,6 +40,7 @@ from typing import Any
 from ..fmi.contract import MAX_INTEGRATOR_STEPS, c_header
 from ..fmi.fmumodel import FmuModel, NativeFmu
 from ..fmi.native_model import FIELD_CODE, KAPPA_CODE
+from ..fmi.varspec import FmuSpec
 from ..safeio.files import replace_checked
 from .build import DEFAULT_OUT, STUB_DIR, check_output, fmi_headers_dir, fmi_out_dir, fmu_source_hash, source_hash
 from .buildinfo import BuildError
@@ -46,7 +56,16 @@ NATIVE_SUBDIR = "native"
 CORE = ("fmi_api.c", "fmi3_api.c", "fmi_state.c", "log.c", "resources.c")
 #: the binary folder of each platform, per FMI version (FMI 2.0 names, FMI 3.0 platform tuples), and the suffix
 PLATFORM_DIR = {(2, p): f"binaries/{p}" for p in PLATFORM3} | {(3, p): f"binaries/{t}" for p, t in PLATFORM3.items()}
-SUFFIX = {"linux64": ".so", "win64": ".dll"}
+SUFFIX = {"linux64": ".so", "win64": ".dll", "aarch64-linux": ".so"}
+#: zig's target of each Linux platform: glibc 2.17 (manylinux2014's baseline), so no symbol of a newer
+#: glibc is referenced and the binary loads on any glibc >= 2.17
+ZIG_TARGET = {"linux64": "x86_64-linux-gnu.2.17", "aarch64-linux": "aarch64-linux-gnu.2.17"}
+#: the newest glibc symbol version a Linux binary may reference (tests/test_native_platforms.py reads them)
+GLIBC_FLOOR = (2, 17)
+#: the FMI headers' export marks, defined empty for the win64 DLL (its .def file names what it exports)
+NO_DLLEXPORT = ("-DFMI2_Export=", "-DFMI3_Export=")
+#: variables that exist for tests only (a shipped native FMU leaves them out; ``test_hooks=True`` keeps them)
+TEST_HOOKS = ("debug_raise",)
 
 
 def failure_reasons() -> tuple[str, ...]:
@@ -79,8 +98,29 @@ def model_table(fmu: FmuModel) -> dict[str, Any]:
     return table
 
 
-def model_header(fmu: FmuModel) -> str:
-    """pyfmu_native_model.h: the table native_embed.c needs of one model, from its declaration."""
+def shipped_spec(spec: FmuSpec, test_hooks: bool = False) -> FmuSpec:
+    """The variable table a native FMU declares: ``spec`` without the variables of :data:`TEST_HOOKS`
+    (``test_hooks``: with them, the test build)."""
+    if test_hooks:
+        return spec
+    return dataclasses.replace(spec, variables=tuple(v for v in spec.variables if v.name not in TEST_HOOKS))
+
+
+def native_variable_table(fmu: FmuModel, test_hooks: bool = False) -> str:
+    """``resources/variables.tsv`` of a native FMU: the rows of :func:`shipped_spec`, and, when a test hook
+    had the highest value reference, a last line holding that value reference alone. The stub sizes its
+    value buffers by the highest value reference of the file (the compiled functions address the
+    declaration's, test hooks included) and defines only the full rows, so the hook's value reference
+    is refused like any unknown one and keeps its start value."""
+    spec = shipped_spec(fmu.spec, test_hooks)
+    table = variable_table_tsv(spec)
+    top = max(v.vr for v in fmu.spec.variables)
+    return table if max(v.vr for v in spec.variables) == top else table + f"{top}\n"
+
+
+def model_header(fmu: FmuModel, test_hooks: bool = False) -> str:
+    """pyfmu_native_model.h: the table native_embed.c needs of one model, from its declaration (the
+    buffers span every value reference of the declaration; a test hook is read only in a test build)."""
     spec = fmu.spec
     tab = model_table(fmu)
     nvr = max(v.vr for v in spec.variables) + 1
@@ -125,7 +165,7 @@ def model_header(fmu: FmuModel) -> str:
         "static const struct { unsigned vr; char type; double value; } NM_START[] = {" + start_rows + "};",
         f'static const char NM_KIND[] = "{"".join(kind)}";',
         f"#define NM_RTOL_VR {names.get('rtol', -1)}",
-        f"#define NM_DEBUG_VR {names.get('debug_raise', -1)}",
+        f"#define NM_DEBUG_VR {names.get('debug_raise', -1) if test_hooks else -1}",
         "static const char *const NM_STATE_NAMES[] = {" + ", ".join(f'"{n}"' for n in tab["states"]) + "};",
         "static const char *const NM_FAIL_WHY[] = {" + ", ".join(f'"{w}"' for w in failure_reasons()) + "};",
         f"#define NM_NCHECKS {len(checks)}",
@@ -149,10 +189,11 @@ def native_sources() -> list[Path]:
     return [STUB_DIR / n for n in CORE] + sorted(STUB_DIR.glob("*.h")) + sorted(NATIVE_DIR.glob("*.[ch]"))
 
 
-def native_hash(fmu: FmuModel) -> str:
+def native_hash(fmu: FmuModel, test_hooks: bool = False) -> str:
     """Hash of what one native FMU is built from (its Python-hosted variant's hash, the native sources and
-    the modules of its declared native functions): one FMU's, so the FMUs built with it never make it stale."""
-    h = hashlib.sha256(source_hash([fmu]).encode())
+    the modules of its declared native functions; and whether it is the test build): one FMU's, so the FMUs
+    built with it never make it stale."""
+    h = hashlib.sha256(source_hash([fmu]).encode() + (b"test_hooks" if test_hooks else b""))
     pkg = Path(__file__).resolve().parents[1]
     writers = [
         pkg / n for n in ("fmubuild/native_build.py", "fmubuild/native_obj.py", "fmi/native.py", "fmi/native_model.py")
@@ -163,35 +204,58 @@ def native_hash(fmu: FmuModel) -> str:
     return h.hexdigest()[:24]
 
 
-def compile_native(fmu: FmuModel, objects: list[Path], out_so: Path, fmi_version: int) -> None:
-    """Link the core, native_embed.c, native_rt.c and the model's objects into one shared library that
-    exports the fmi{2,3}* functions only."""
-    cc = os.environ.get("CC", "gcc")
-    if shutil.which(cc) is None:
-        raise BuildError(f"C compiler {cc!r} not found")
+def zig_cc() -> list[str]:
+    """The command of zig's C compiler (the ``ziglang`` package, a dependency of this project)."""
+    if importlib.util.find_spec("ziglang") is None:
+        raise BuildError(
+            "the Linux binaries of a native FMU are linked with zig's C compiler against glibc 2.17: "
+            f"install the ziglang package into {sys.executable} (pip install ziglang)"
+        )
+    return [sys.executable, "-m", "ziglang", "cc"]
+
+
+def compile_native(
+    fmu: FmuModel,
+    objects: list[Path],
+    out_so: Path,
+    fmi_version: int,
+    platform: str = "linux64",
+    test_hooks: bool = False,
+) -> None:
+    """Link the core, native_embed.c, native_rt.c and the model's objects into one shared library for a
+    Linux ``platform`` (a key of :data:`ZIG_TARGET`) that exports the fmi{2,3}* functions of ``fmi_version``
+    only, with zig's C compiler against glibc 2.17 (floating-point contraction off: the C computes what
+    it says on every architecture)."""
+    if platform not in ZIG_TARGET:
+        raise BuildError(f"platform {platform!r}: the Linux binaries are built for {sorted(ZIG_TARGET)}")
+    cc = zig_cc()
     out_so.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix=".native-gen-", dir=out_so.parent) as gen_name:
         gen = Path(gen_name)
         (gen / "pyfmu_contract.h").write_text(c_header())
-        (gen / "pyfmu_native_model.h").write_text(model_header(fmu))
+        (gen / "pyfmu_native_model.h").write_text(model_header(fmu, test_hooks))
         script = gen / "fmi.map"
         script.write_text(f"{{ global: fmi{fmi_version}*; local: *; }};\n")
         cmd = [
-            cc, "-shared", "-fPIC", "-O2", "-std=gnu11", "-Wall", "-Wno-unused-parameter", "-Wno-format-truncation",
-            "-fvisibility=hidden", f"-I{gen}", f"-I{STUB_DIR}", f"-I{fmi_headers_dir()}",
-            *[str(STUB_DIR / n) for n in CORE], str(NATIVE_DIR / "native_embed.c"), str(RUNTIME_C),
-            *[str(o) for o in objects], "-o", str(out_so), "-Wl,-z,noexecstack", "-Wl,--no-as-needed",
-            "-l:libdl.so.2", "-Wl,--as-needed", "-lpthread", "-lm", f"-Wl,--version-script={script}",
+            *cc, "-target", ZIG_TARGET[platform], "-shared", "-fPIC", "-O2", "-std=gnu11", "-ffp-contract=off",
+            "-fno-sanitize=all", "-Wall", "-Wno-unused-parameter", "-fvisibility=hidden", f"-I{gen}", f"-I{STUB_DIR}",
+            f"-I{fmi_headers_dir()}", *[str(STUB_DIR / n) for n in CORE], str(NATIVE_DIR / "native_embed.c"),
+            str(RUNTIME_C), *[str(o) for o in objects], "-o", str(out_so), "-s", "-Wl,-z,noexecstack", "-ldl",
+            "-lpthread", "-lm", f"-Wl,--version-script={script}",
         ]  # fmt: skip
-        r = subprocess.run(cmd, capture_output=True, text=True)
+        env = dict(os.environ, ZIG_LOCAL_CACHE_DIR=str(gen / "zig-cache"))
+        r = subprocess.run(cmd, capture_output=True, text=True, env=env)
     if r.returncode != 0:
-        raise BuildError(f"linking the native FMU failed:\n{' '.join(cmd)}\n{r.stderr}")
+        raise BuildError(f"linking the native FMU for {platform} failed:\n{' '.join(cmd)}\n{r.stderr}")
 
 
-def compile_native_win64(fmu: FmuModel, objects: list[Path], out_dll: Path, fmi_version: int) -> None:
+def compile_native_win64(
+    fmu: FmuModel, objects: list[Path], out_dll: Path, fmi_version: int, test_hooks: bool = False
+) -> None:
     """The same binary for Windows x86-64, cross-compiled with mingw-w64: a DLL that needs only
-    KERNEL32 and msvcrt (libgcc and winpthreads linked in). It exports the fmi{2,3}* functions (a .def file
-    lists those of ``fmi_version``; the FMI headers also mark the other version's dllexport, so both are)."""
+    KERNEL32 and msvcrt (libgcc and winpthreads linked in). It exports the fmi{2,3}* functions of
+    ``fmi_version`` only: a .def file lists them, and the FMI headers' ``dllexport`` marks are defined away
+    (:data:`NO_DLLEXPORT`), which would export the other version's too."""
     cc = mingw_gcc()
     if cc is None:
         raise BuildError("the mingw-w64 cross compiler (Debian: gcc-mingw-w64-x86-64) is needed for win64 binaries")
@@ -200,9 +264,9 @@ def compile_native_win64(fmu: FmuModel, objects: list[Path], out_dll: Path, fmi_
     with tempfile.TemporaryDirectory(prefix=".native-win-", dir=out_dll.parent) as gen_name:
         gen = Path(gen_name)
         (gen / "pyfmu_contract.h").write_text(c_header())
-        (gen / "pyfmu_native_model.h").write_text(model_header(fmu))
+        (gen / "pyfmu_native_model.h").write_text(model_header(fmu, test_hooks))
         srcs = [*[STUB_DIR / n for n in CORE], NATIVE_DIR / "native_embed.c", RUNTIME_C]
-        flags = ["-O2", "-std=gnu11", "-w", "-D__USE_MINGW_ANSI_STDIO=1", f"-I{gen}", f"-I{STUB_DIR}"]
+        flags = ["-O2", "-std=gnu11", "-w", "-D__USE_MINGW_ANSI_STDIO=1", *NO_DLLEXPORT, f"-I{gen}", f"-I{STUB_DIR}"]
         flags.append(f"-I{fmi_headers_dir()}")
         objs = []
         for src in srcs:
@@ -222,17 +286,27 @@ def compile_native_win64(fmu: FmuModel, objects: list[Path], out_dll: Path, fmi_
         raise BuildError(f"linking the win64 native FMU failed:\n{' '.join(cmd)}\n{r.stderr}")
 
 
+def native_platforms(win64: bool | None = None, aarch64: bool = True) -> tuple[str, ...]:
+    """The platforms of a native build (FMI 2.0 folder names): linux64, then win64 (``win64`` None: when
+    mingw-w64 is installed), then aarch64-linux (unless ``aarch64`` is False)."""
+    if win64 is None:
+        win64 = mingw_gcc() is not None
+    return ("linux64",) + (("win64",) if win64 else ()) + (("aarch64-linux",) if aarch64 else ())
+
+
 def build_native_fmus(
     fmus: Iterable[FmuModel],
     out_dir: str | os.PathLike[str] = DEFAULT_OUT / NATIVE_SUBDIR,
     fmi_version: int = 2,
     win64: bool | None = None,
+    aarch64: bool = True,
+    test_hooks: bool = False,
 ) -> list[Path]:
     """Build native FMUs of one FMI version into ``out_dir`` (FMI 3.0: pass :func:`.build.fmi_out_dir`'s)
-    from their declarations, each of which must hold native functions, with the win64 binary beside the
-    linux64 one (``win64`` None: when mingw-w64 is installed)."""
-    if win64 is None:
-        win64 = mingw_gcc() is not None
+    from their declarations, each of which must hold native functions, with the binaries of
+    :func:`native_platforms` in each archive (``win64`` None: when mingw-w64 is installed); ``test_hooks``:
+    the test build, which keeps the variables of :data:`TEST_HOOKS`."""
+    platforms = native_platforms(win64, aarch64)
     fmus = list(fmus)
     missing = [f.name for f in fmus if f.native is None]
     if missing:
@@ -242,18 +316,20 @@ def build_native_fmus(
     built = []
     with tempfile.TemporaryDirectory() as tmp_name:
         tmp = Path(tmp_name)
-        objects = write_objects(tmp / "obj", fmus)
+        objects = write_objects(tmp / "obj", fmus, platforms)
         for fmu in fmus:
-            n, spec, nhash = fmu.name, fmu.spec, native_hash(fmu)
-            binaries = {"linux64": tmp / f"{n}.so"}
-            compile_native(fmu, objects[(n, "linux64")], binaries["linux64"], fmi_version)
-            if win64:
-                binaries["win64"] = tmp / f"{n}.dll"
-                compile_native_win64(fmu, objects[(n, "win64")], binaries["win64"], fmi_version)
+            n, spec, nhash = fmu.name, shipped_spec(fmu.spec, test_hooks), native_hash(fmu, test_hooks)
+            binaries = {}
+            for plat in platforms:
+                binaries[plat] = tmp / plat / f"{n}{SUFFIX[plat]}"
+                if plat == "win64":
+                    compile_native_win64(fmu, objects[(n, plat)], binaries[plat], fmi_version, test_hooks)
+                else:
+                    compile_native(fmu, objects[(n, plat)], binaries[plat], fmi_version, plat, test_hooks)
             guid = guid_of(spec, "native" + nhash)
             md = model_description_xml(spec, guid) if fmi_version == 2 else model_description3_xml(spec, guid)
             cfg = (
-                f"guid={guid}\nmodel_identifier={spec.model_identifier}\nvariant=native\n"
+                f"guid={guid}\nmodel_identifier={spec.model_identifier}\nvariant=native{'-test' if test_hooks else ''}\n"
                 f"platforms={' '.join(binaries)}\nsource_hash={nhash}\n"
             )
             target = out / f"{spec.model_identifier}.fmu"
@@ -265,7 +341,7 @@ def build_native_fmus(
                     for plat, b in binaries.items():
                         z.write(b, f"{PLATFORM_DIR[(fmi_version, plat)]}/{spec.model_identifier}{SUFFIX[plat]}")
                     z.writestr("resources/pyfmu.cfg", cfg)
-                    z.writestr("resources/variables.tsv", variable_table_tsv(spec))
+                    z.writestr("resources/variables.tsv", native_variable_table(fmu, test_hooks))
             except BaseException:
                 part.unlink(missing_ok=True)
                 raise
@@ -278,13 +354,14 @@ def ensure_native_fmus(
     fmus: Iterable[FmuModel],
     out_dir: str | os.PathLike[str] = DEFAULT_OUT / NATIVE_SUBDIR,
     fmi_version: int = 2,
+    test_hooks: bool = False,
 ) -> dict[str, Path]:
     """Paths of the native FMUs (model identifier -> path), building those missing or stale (FMI 3.0 ones
-    in ``out_dir/fmi3``)."""
+    in ``out_dir/fmi3``; ``test_hooks``: the test build)."""
     fmus = list(fmus)
     d = fmi_out_dir(out_dir, fmi_version)
     paths = {f.name: d / f"{f.spec.model_identifier}.fmu" for f in fmus}
-    stale = [f for f in fmus if fmu_source_hash(paths[f.name]) != native_hash(f)]
+    stale = [f for f in fmus if fmu_source_hash(paths[f.name]) != native_hash(f, test_hooks)]
     if stale:
-        build_native_fmus(stale, d, fmi_version)
+        build_native_fmus(stale, d, fmi_version, test_hooks=test_hooks)
     return paths

@@ -2,15 +2,19 @@
 
 The numba source of truth (each FMU's declared :class:`~pyfmu_wrapper.fmi.fmumodel.NativeFmu`, given by the
 builder: the step cfuncs, which call the same compiled integrators and outputs as the Python slaves) is compiled by numba to LLVM IR; llvmlite turns that IR into an
-object file for each target triple (:data:`TRIPLES`: x86_64 Linux and x86_64 Windows, the FMI
-platforms linux64 / win64 and x86_64-linux / x86_64-windows). The object is linked with C: what numba's
+object file for each target triple (:data:`TRIPLES`: x86_64 Linux, x86_64 Windows and aarch64 Linux, the FMI
+platforms linux64 / win64 / aarch64-linux and x86_64-linux / x86_64-windows / aarch64-linux). The object is linked with C: what numba's
 generated code calls outside itself is either the C library's maths (:data:`LIBM`) or the small run
 time of ``fmu/src/native/native_rt.c`` (:data:`RUNTIME_SYMBOLS`: NRT allocation, and the exception
 path of a cfunc wrapper, which does nothing without Python). No model code is written in C.
 
 numba's on-disk cache holds machine code without its IR, so the IR is produced in a fresh interpreter
 with the cache neither read nor written (:func:`model_ir`). The code is generated for a generic
-x86-64 CPU (no host-specific instructions: the binary runs on any x86-64). numba emits no contracted
+x86-64 CPU (no host-specific instructions: the binary runs on any x86-64) and a generic ARMv8-A one.
+numba optimises the IR for the build host (x86-64): its target triple and data layout are replaced by each
+target's, and the one x86 intrinsic its reference counting leaves in the IR (``llvm.x86.atomic.*.cc``, an
+atomic update whose result is a flag) is rewritten for another target as the plain ``atomicrmw`` it stands
+for (:func:`portable_ir`); any other target-specific intrinsic is refused. numba emits no contracted
 (fused) floating-point operations, so the object computes the bits the JIT-compiled function computes,
 as long as the maths functions of the C library agree (glibc on Linux: the same library the JIT calls).
 """
@@ -20,6 +24,7 @@ from __future__ import annotations
 import functools
 import json
 import os
+import re
 import subprocess
 import sys
 import tempfile
@@ -33,10 +38,16 @@ from .buildinfo import BuildError
 if TYPE_CHECKING:
     from ..fmi.fmumodel import FmuModel
 
-#: FMI 2.0 platform folder -> LLVM target triple
-TRIPLES = {"linux64": "x86_64-unknown-linux-gnu", "win64": "x86_64-w64-windows-gnu"}
+#: FMI 2.0 platform folder -> LLVM target triple (FMI 2.0.4: platforms it does not name use FMI 3.0's tuple)
+TRIPLES = {
+    "linux64": "x86_64-unknown-linux-gnu",
+    "win64": "x86_64-w64-windows-gnu",
+    "aarch64-linux": "aarch64-unknown-linux-gnu",
+}
 #: FMI 3.0 platform tuple of each FMI 2.0 platform folder
-PLATFORM3 = {"linux64": "x86_64-linux", "win64": "x86_64-windows"}
+PLATFORM3 = {"linux64": "x86_64-linux", "win64": "x86_64-windows", "aarch64-linux": "aarch64-linux"}
+#: the CPU the code of each platform is generated for: the baseline of its architecture
+CPU = {"linux64": "x86-64", "win64": "x86-64", "aarch64-linux": "generic"}
 #: the name the step has in the object file (the C side calls it by this name)
 STEP_SYMBOL = "pyfmu_model_step"
 #: the C names of a model's other functions (:mod:`pyfmu_wrapper.fmi.native_model`)
@@ -157,13 +168,13 @@ def emit_object(ir: str, symbol: str, platform: str, alias: str = STEP_SYMBOL) -
             f"the compiled model needs {sorted(missing)}, which neither {RUNTIME_C.name} nor the C library "
             "provides: add them to the run time (or restructure the compiled function)"
         )
-    llvm.initialize_all_targets()
+    llvm.initialize_all_targets()  # every target llvmlite carries (x86 and AArch64 among them)
     llvm.initialize_all_asmprinters()
     triple = TRIPLES[platform]
-    m = llvm.parse_assembly(ir)
+    m = llvm.parse_assembly(portable_ir(ir, platform))
     m.triple = triple
     tm = llvm.Target.from_triple(triple).create_target_machine(
-        cpu="x86-64", features="", opt=3, reloc="pic", codemodel="default"
+        cpu=CPU[platform], features="", opt=3, reloc="pic", codemodel="default"
     )
     m.data_layout = str(tm.target_data)
     for f in m.functions:  # one entry per object: everything else private (several objects link together)
@@ -178,13 +189,59 @@ def emit_object(ir: str, symbol: str, platform: str, alias: str = STEP_SYMBOL) -
     return bytes(tm.emit_object(m))
 
 
-def write_objects(out_dir: Path, fmus: Iterable[FmuModel]) -> dict[tuple[str, str], list[Path]]:
+#: the condition codes of ``llvm.x86.atomic.<op>.cc`` (X86::CondCode) as a comparison of the new value with 0
+_X86_CC = {4: "eq", 5: "ne", 8: "slt", 9: "sge", 14: "sle", 15: "sgt"}
+_X86_ATOMIC_CC = re.compile(
+    r"^(?P<indent>\s*)(?P<res>%[-\w.$]+) = (?:tail )?call i8 @llvm\.x86\.atomic\.(?P<op>add|sub|and|or|xor)\.cc\."
+    r"(?P<ty>i\d+)\(ptr (?:\w+ )*(?P<ptr>%[-\w.$]+), (?P=ty) (?P<val>[-\w.$%]+), i32 (?P<cc>\d+)\)\s*$",
+    re.M,
+)
+
+
+def portable_ir(ir: str, platform: str) -> str:
+    """The IR for ``platform``: unchanged for x86-64; for another architecture every
+    ``llvm.x86.atomic.<op>.cc`` call (numba's reference-count decrement, as LLVM's x86 lowering folds it:
+    the atomic update and a flag of its result) written as ``atomicrmw`` and a comparison of the new
+    value, the declaration dropped. Any other ``llvm.x86.*`` (or call to an intrinsic of no target
+    here) is refused by name: the object would not build."""
+    if TRIPLES[platform].startswith("x86_64"):
+        return ir
+    count = 0
+
+    def rewrite(mt: re.Match[str]) -> str:
+        nonlocal count
+        cc = int(mt["cc"])
+        if cc not in _X86_CC:
+            raise BuildError(f"llvm.x86.atomic.{mt['op']}.cc with condition code {cc}: no rewrite for {platform}")
+        count += 1
+        i, ty, tag = mt["indent"], mt["ty"], f"%x86cc.{count}"
+        return "\n".join(
+            (
+                f"{i}{tag}.old = atomicrmw {mt['op']} ptr {mt['ptr']}, {ty} {mt['val']} seq_cst",
+                f"{i}{tag}.new = {mt['op']} {ty} {tag}.old, {mt['val']}",
+                f"{i}{tag}.flag = icmp {_X86_CC[cc]} {ty} {tag}.new, 0",
+                f"{i}{mt['res']} = zext i1 {tag}.flag to i8",
+            )
+        )
+
+    out = _X86_ATOMIC_CC.sub(rewrite, ir)
+    out = re.sub(r"^declare [^\n]*@llvm\.x86\.atomic\.\w+\.cc\.i\d+\([^\n]*$", "", out, flags=re.M)
+    left = sorted(set(re.findall(r"@llvm\.x86\.[\w.]+", out)))
+    if left:
+        raise BuildError(f"the compiled model uses x86 intrinsics {left}: they have no {platform} form")
+    return out
+
+
+def write_objects(
+    out_dir: Path, fmus: Iterable[FmuModel], platforms: Iterable[str] = tuple(TRIPLES)
+) -> dict[tuple[str, str], list[Path]]:
     """(model, platform) -> the object files of its functions (step first), written into out_dir, for the
-    native FMUs given."""
+    native FMUs given and the platforms given (keys of :data:`TRIPLES`; default all)."""
     out_dir.mkdir(parents=True, exist_ok=True)
     paths: dict[tuple[str, str], list[Path]] = {}
+    platforms = tuple(platforms)
     for model, fns in model_ir(fmus).items():
-        for platform in TRIPLES:
+        for platform in platforms:
             for alias, (symbol, ir) in fns.items():
                 p = out_dir / f"{model}.{alias}.{platform}.o"
                 p.write_bytes(emit_object(ir, symbol, platform, alias))
