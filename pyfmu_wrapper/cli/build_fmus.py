@@ -2,7 +2,8 @@
 
 The console entry point: the FMUs named are picked from the project's catalogue
 (:mod:`pyfmu_wrapper.models.catalog`) and their declarations handed to the builders
-(:mod:`pyfmu_wrapper.fmubuild.build`, :mod:`pyfmu_wrapper.fmubuild.native_build`).
+(:mod:`pyfmu_wrapper.fmubuild.native_build`, the default; :mod:`pyfmu_wrapper.fmubuild.build` with
+``--python`` or ``--standalone``).
 """
 
 from __future__ import annotations
@@ -19,34 +20,47 @@ from ..fmubuild.build import (
     ensure_fmus,
     fmi_out_dir,
 )
-from ..fmubuild.build import __doc__ as BUILD_DOC
 from ..models.catalog import BUILD_FMUS, NATIVE_FMUS, SPECS, pick
 from .errors import cli_main
+
+#: what ``build-fmus`` builds with no variant flag: the native FMUs (the model compiled into the binary)
+DEFAULT_VARIANT = "native"
 
 
 @cli_main("build-fmus")
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="build-fmus", description=(BUILD_DOC or "").split("\n\n")[0])
+    ap = argparse.ArgumentParser(
+        prog="build-fmus",
+        description="Build the FMUs (FMI 2.0, 3.0 or both) into a folder: by default native, the model compiled "
+        "into the binary for linux64, win64 and aarch64-linux, no Python needed on the target.",
+    )
     ap.add_argument(
         "names",
         nargs="*",
         default=[],
-        help=f"FMUs to build, of {sorted(SPECS)} (default: {', '.join(BUILD_FMUS)}; with --native, those with a "
-        f"native variant: {', '.join(NATIVE_FMUS)})",
+        help=f"FMUs to build, of {sorted(SPECS)} (default: every model's, {', '.join(NATIVE_FMUS)}; with --python, "
+        f"{', '.join(BUILD_FMUS)})",
     )
-    ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory (default fmu/build)")
+    ap.add_argument("--out", default=None, help="output directory (default fmu/build/native; with --python fmu/build)")
     ap.add_argument("--force", action="store_true", help="rebuild even when up to date")
-    ap.add_argument(
-        "--standalone",
-        action="store_true",
-        help="also bundle a relocatable Python runtime with numpy, numba and llvmlite, so the FMU runs "
-        "where no Python is installed (always rebuilt; default --out fmu/build/standalone)",
-    )
     ap.add_argument(
         "--native",
         action="store_true",
-        help="the model compiled into the binary: no Python on the target (the FMUs whose declaration has native functions; "
-        "default --out fmu/build/native)",
+        help="the default, spelled out: the model compiled into the binary (linux64, win64 when mingw-w64 is "
+        "installed, aarch64-linux; Linux binaries for glibc >= 2.17), no Python on the target",
+    )
+    ap.add_argument(
+        "--python",
+        action="store_true",
+        help="the Python-hosted FMUs instead (linux64 only, run by the build's Python installation): the "
+        "debugging reference, bit for bit the native FMUs' numbers (default --out fmu/build)",
+    )
+    ap.add_argument(
+        "--standalone",
+        action="store_true",
+        help="a Python-hosted FMU that also bundles a relocatable Python runtime with numpy, numba and llvmlite "
+        "(~100 MB, linux64; for an FMU whose declaration has no native functions yet; always rebuilt; default "
+        "--out fmu/build/standalone)",
     )
     ap.add_argument(
         "--fmi-version",
@@ -57,37 +71,41 @@ def main(argv: list[str] | None = None) -> int:
     )
     args = ap.parse_args(argv)
     versions = [2, 3] if args.fmi_version in ("2,3", "both") else [int(args.fmi_version)]
-    if not args.names:  # every model's FMU (with --native: every one with a native variant)
-        args.names = list(NATIVE_FMUS if args.native else BUILD_FMUS)
+    if args.native and (args.python or args.standalone):
+        ap.error(f"--native excludes {'--python' if args.python else '--standalone'} (a native FMU runs no Python)")
+    native = not (args.python or args.standalone)
+    if not args.names:  # every model's FMU (native: every one with a native variant)
+        args.names = list(NATIVE_FMUS if native else BUILD_FMUS)
     unknown = [n for n in args.names if n not in SPECS]
     if unknown:
         ap.error(f"unknown FMU(s) {unknown}; choose from {sorted(SPECS)}")
-    if args.native and args.standalone:
-        ap.error("--native and --standalone exclude each other (a native FMU needs no Python to bundle)")
     no_native = [n for n in args.names if n not in NATIVE_FMUS]
-    if args.native and no_native:
-        ap.error(f"--native: {', '.join(no_native)} has no native variant ({', '.join(NATIVE_FMUS)})")
-    if Path(args.out).exists() and not Path(args.out).is_dir():  # before compiling anything
+    if native and no_native:
+        ap.error(
+            f"{', '.join(no_native)} has no native variant (those with one: {', '.join(NATIVE_FMUS)}); "
+            "--python builds the Python-hosted FMU"
+        )
+    if args.out is not None and Path(args.out).exists() and not Path(args.out).is_dir():  # before compiling
         ap.error(f"--out {args.out}: is a file, not a folder (build-fmus writes the FMUs into a folder)")
     fmus = pick(args.names)
     try:
         paths = []
         for v in versions:
-            if args.native:
+            if native:
                 from ..fmubuild.native_build import NATIVE_SUBDIR, build_native_fmus, ensure_native_fmus
 
-                out = DEFAULT_OUT / NATIVE_SUBDIR if args.out == str(DEFAULT_OUT) else args.out
+                out = DEFAULT_OUT / NATIVE_SUBDIR if args.out is None else args.out
                 if args.force:
                     paths += build_native_fmus(fmus, fmi_out_dir(out, v), fmi_version=v)
                 else:
                     paths += list(ensure_native_fmus(fmus, out, fmi_version=v).values())
             elif args.standalone:
-                out = DEFAULT_OUT / "standalone" if args.out == str(DEFAULT_OUT) else args.out
+                out = DEFAULT_OUT / "standalone" if args.out is None else args.out
                 paths += build_fmus(fmus, fmi_out_dir(out, v), standalone=True, fmi_version=v)
             elif args.force:
-                paths += build_fmus(fmus, fmi_out_dir(args.out, v), fmi_version=v)
+                paths += build_fmus(fmus, fmi_out_dir(args.out or DEFAULT_OUT, v), fmi_version=v)
             else:
-                paths += list(ensure_fmus(fmus, args.out, fmi_version=v).values())
+                paths += list(ensure_fmus(fmus, args.out or DEFAULT_OUT, fmi_version=v).values())
     except OutputError as e:
         print(f"build-fmus: {e}", file=sys.stderr)
         return 2
