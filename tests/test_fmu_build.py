@@ -101,9 +101,9 @@ def test_build_fmus_bad_input_is_refused_with_exit_2_and_nothing_lost(tmp_path):
         assert _user_files(tmp_path) == before, args  # nothing deleted, changed or added
     assert not (tmp_path / "new").exists()
     # its own FMUs it replaces (a rebuild), and only those
-    r = _build_cli("Trivial", "--force", "--out", str(tmp_path / "new"), cwd=tmp_path)
+    r = _build_cli("Trivial", "--python", "--force", "--out", str(tmp_path / "new"), cwd=tmp_path)
     assert r.returncode == 0, r.stderr
-    r = _build_cli("Trivial", "--force", "--out", str(tmp_path / "new"), cwd=tmp_path)
+    r = _build_cli("Trivial", "--python", "--force", "--out", str(tmp_path / "new"), cwd=tmp_path)
     assert r.returncode == 0, r.stderr
     assert sorted(p.name for p in (tmp_path / "new").iterdir()) == ["Trivial.fmu"]
     with pytest.raises(build.OutputError):

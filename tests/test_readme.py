@@ -107,3 +107,16 @@ def test_ci_runs_the_numeric_tests_again_on_another_processors_arithmetic():
 
 def test_main_scenario_exists():
     assert (ROOT / "scenarios" / "full_case1.yaml").is_file()
+
+
+def test_readme_describes_the_default_build_as_build_fmus_makes_it():
+    """The README's words on ``build-fmus``: native by default, the platforms the native build emits, the
+    Python-hosted build behind ``--python``; the command line's default is that native build."""
+    from pyfmu_wrapper.cli.build_fmus import DEFAULT_VARIANT
+    from pyfmu_wrapper.fmubuild.native_obj import TRIPLES
+
+    text = " ".join((ROOT / "README.md").read_text().split())
+    assert DEFAULT_VARIANT == "native"
+    assert "`build-fmus` builds them native by default" in text
+    assert "platforms " + ", ".join(list(TRIPLES)[:-1]) + f" and {list(TRIPLES)[-1]} in one archive" in text
+    assert "glibc >= 2.17" in text and "`build-fmus --python` builds the Python-hosted reference" in text

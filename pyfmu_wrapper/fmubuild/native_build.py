@@ -62,8 +62,6 @@ SUFFIX = {"linux64": ".so", "win64": ".dll", "aarch64-linux": ".so"}
 ZIG_TARGET = {"linux64": "x86_64-linux-gnu.2.17", "aarch64-linux": "aarch64-linux-gnu.2.17"}
 #: the newest glibc symbol version a Linux binary may reference (tests/test_native_platforms.py reads them)
 GLIBC_FLOOR = (2, 17)
-#: the FMI headers' export marks, defined empty for the win64 DLL (its .def file names what it exports)
-NO_DLLEXPORT = ("-DFMI2_Export=", "-DFMI3_Export=")
 #: variables that exist for tests only (a shipped native FMU leaves them out; ``test_hooks=True`` keeps them)
 TEST_HOOKS = ("debug_raise",)
 
@@ -254,24 +252,29 @@ def compile_native_win64(
 ) -> None:
     """The same binary for Windows x86-64, cross-compiled with mingw-w64: a DLL that needs only
     KERNEL32 and msvcrt (libgcc and winpthreads linked in). It exports the fmi{2,3}* functions of
-    ``fmi_version`` only: a .def file lists them, and the FMI headers' ``dllexport`` marks are defined away
-    (:data:`NO_DLLEXPORT`), which would export the other version's too."""
+    ``fmi_version`` only: a .def file lists them, and the ``-export:`` directives the FMI headers'
+    ``__declspec(dllexport)`` leave in each object's ``.drectve`` section (fmpy's fmi2Functions.h marks every
+    fmi2 function so, whatever is defined) are removed before linking, else the other version's functions
+    would be exported too."""
     cc = mingw_gcc()
     if cc is None:
         raise BuildError("the mingw-w64 cross compiler (Debian: gcc-mingw-w64-x86-64) is needed for win64 binaries")
     nm = cc.replace("-gcc", "-nm").replace("-posix", "").replace("-win32", "")
+    objcopy = nm[: -len("-nm")] + "-objcopy"
     out_dll.parent.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix=".native-win-", dir=out_dll.parent) as gen_name:
         gen = Path(gen_name)
         (gen / "pyfmu_contract.h").write_text(c_header())
         (gen / "pyfmu_native_model.h").write_text(model_header(fmu, test_hooks))
         srcs = [*[STUB_DIR / n for n in CORE], NATIVE_DIR / "native_embed.c", RUNTIME_C]
-        flags = ["-O2", "-std=gnu11", "-w", "-D__USE_MINGW_ANSI_STDIO=1", *NO_DLLEXPORT, f"-I{gen}", f"-I{STUB_DIR}"]
+        flags = ["-O2", "-std=gnu11", "-w", "-D__USE_MINGW_ANSI_STDIO=1", f"-I{gen}", f"-I{STUB_DIR}"]
         flags.append(f"-I{fmi_headers_dir()}")
         objs = []
         for src in srcs:
             o = gen / (src.stem + ".obj")
             r = subprocess.run([cc, *flags, "-c", str(src), "-o", str(o)], capture_output=True, text=True)
+            if r.returncode == 0:  # the .def file alone says what the DLL exports
+                r = subprocess.run([objcopy, "--remove-section=.drectve", str(o)], capture_output=True, text=True)
             if r.returncode != 0:
                 raise BuildError(f"compiling {src.name} for win64 failed:\n{r.stderr}")
             objs.append(o)
