@@ -189,7 +189,15 @@ def test_two_builds_in_one_process_never_mix(tmp_path):
     slaves = src / PACKAGE_DIR.name / "fmi" / "slaves.py"
     slaves.write_text(slaves.read_text() + "\n# build B: the same code, another bundle hash\n")
     r = subprocess.run(
-        [sys.executable, "-m", "pyfmu_wrapper.cli.build_fmus", "--python", "--out", str(tmp_path / "b"), "BaseOscillator"],
+        [
+            sys.executable,
+            "-m",
+            "pyfmu_wrapper.cli.build_fmus",
+            "--python",
+            "--out",
+            str(tmp_path / "b"),
+            "BaseOscillator",
+        ],
         cwd=src,
         capture_output=True,
         text=True,
