@@ -1,11 +1,13 @@
-"""Build the FMI 2.0 (and 3.0) co-simulation FMUs: compile the C stub, bundle the model code, pack the archive.
+"""Build the Python-hosted FMI 2.0 (and 3.0) co-simulation FMUs: compile the C stub, bundle the model code, pack
+the archive. (``build-fmus`` builds the native FMUs by default: :mod:`.native_build`; these are the debugging
+reference, bit for bit the same numbers.)
 
 Command line (console script ``build-fmus``)::
 
-    build-fmus                      # build BaseOscillator.fmu and TMDInerter.fmu into fmu/build/
-    build-fmus --out DIR --force    # elsewhere, rebuilding even when up to date
-    build-fmus Trivial              # the stub-overhead benchmark model
-    build-fmus --standalone         # also bundle a Python runtime (fmu/build/standalone/)
+    build-fmus --python                      # every model's Python-hosted FMU into fmu/build/
+    build-fmus --python --out DIR --force    # elsewhere, rebuilding even when up to date
+    build-fmus --python Trivial              # the stub-overhead benchmark model
+    build-fmus --standalone                  # also bundle a Python runtime (fmu/build/standalone/)
 
 API: :func:`build_fmu`, :func:`build_fmus`, :func:`ensure_fmus` (builds what is missing or stale,
 judged by a hash of the sources: the C stub, the bundled modules and the build interpreter). Each takes
