@@ -90,6 +90,9 @@ def test_build_fmus_bad_input_is_refused_with_exit_2_and_nothing_lost(tmp_path):
         (["--out", str(tmp_path / "notes.txt" / "sub")], "cannot write into --out"),
         (["--out", "/sys/pyfmu-build-test"], "cannot write into --out"),
         (["NoSuchModel", "--out", str(tmp_path / "new")], "unknown FMU(s) ['NoSuchModel']"),
+        (["Trivial", "--out", str(tmp_path / "new")], "Trivial has no native variant"),  # native: the default
+        (["--native", "--python", "--out", str(tmp_path / "new")], "--native excludes --python"),
+        (["--native", "--standalone", "--out", str(tmp_path / "new")], "--native excludes --standalone"),
         (["--bogus"], "unrecognized arguments: --bogus"),
         (["--out"], "expected one argument"),
     ]
