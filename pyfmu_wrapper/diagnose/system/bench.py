@@ -38,6 +38,7 @@ import numpy as np
 import yaml
 
 from ..records import write_record
+from .effects import VOCAB
 
 if TYPE_CHECKING:
     from numpy import ndarray
@@ -54,16 +55,8 @@ RANGES = {
     "force_error": (0.02, 0.15),
     "sensor_offset": (3e-4, 3e-3),
 }
-SIGNED = {"mass_split", "force_error", "sensor_offset"}
-TRUTH_KEY = {
-    "friction": "friction.friction_force",
-    "play": "play.play_gap",
-    "viscous": "viscous.delta_damping",
-    "mass_split": "mass_split.delta_inertance",
-    "cubic": "cubic.cubic_stiffness",
-    "force_error": "force_error.force_gain_error",
-    "sensor_offset": "sensor_offset.x_offset",
-}
+SIGNED = VOCAB.signed()  #: effects drawn with either sign (the vocabulary's signed ones)
+TRUTH_KEY = VOCAB.truth_keys(RANGES)  #: effect -> the parameter key its truth is scored by
 FS = 1000.0
 N_PERIODS = 10
 FRC_OMEGAS = np.linspace(15.0, 25.0, 21)

@@ -27,9 +27,8 @@ from typing import Any
 import numpy as np
 
 from .bench import RANGES as BASE_RANGES
-from .bench import SIGNED as BASE_SIGNED
-from .bench import TRUTH_KEY as BASE_TRUTH_KEY
 from .bench import has_cubic, nominal, true_tmd_kwargs
+from .effects import VOCAB
 
 RANGES = dict(
     BASE_RANGES,
@@ -38,14 +37,8 @@ RANGES = dict(
     base_damping=(10.0, 50.0),
     tmd_stiffness=(80.0, 320.0),
 )
-SIGNED = set(BASE_SIGNED) | {"base_mass", "base_stiffness", "base_damping", "tmd_stiffness"}
-TRUTH_KEY = dict(
-    BASE_TRUTH_KEY,
-    base_mass="base_mass.delta_mass",
-    base_stiffness="base_stiffness.delta_stiffness",
-    base_damping="base_damping.delta_damping",
-    tmd_stiffness="tmd_stiffness.delta_stiffness",
-)
+SIGNED = VOCAB.signed()
+TRUTH_KEY = VOCAB.truth_keys(RANGES)
 OOV_RANGES = {
     "quadratic_damping": (1.0, 20.0),
     "base_friction": (1.0, 10.0),

@@ -1,9 +1,8 @@
 """Transient records: the candidate effects as changes of the simulated model.
 
 Every candidate is a change of the model that :mod:`.transient_sim` simulates with the measured
-force: the vocabulary of the system diagnosis (:mod:`.effects`) plus every parameter of the
-nominal model (M, K, C, m, k, c, I; dry friction df through ``friction``), with the bounds of their
-fits and the smallest size a second effect must have to mean something physically.
+force: the unit's vocabulary (:mod:`.effects`: its mechanisms and every parameter of the nominal
+model, M, K, C, m, k, c, I; dry friction df through ``friction``), with the bounds of their fits and the smallest size a second effect must have to mean something physically.
 """
 
 from __future__ import annotations
@@ -15,6 +14,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...physics.params import P_C, P_I, P_K, P_M, P_MODEL, P_c, P_ci, P_df, P_eps, P_k, P_k3, P_ki, P_m, P_s
+from .effects import TRANSIENT_EFFECTS, VOCAB
 from .transient_sim import fastest_rate
 
 if TYPE_CHECKING:
@@ -28,32 +28,13 @@ PLAY_KI, PLAY_CI = 2.0e6, 20.0
 #: FRICTION_SLOPE (a transition velocity of 0.2 mm/s at most is resolved: the explicit step's cost)
 FRICTION_RATE = 20.0
 FRICTION_SLOPE = (10.0, 5000.0)
-#: effect -> (parameter names, units, scale of each parameter)
+#: effect -> (parameter names, their units), from the unit's vocabulary (:mod:`.effects`)
 TEFFECTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
-    "viscous": (("delta_damping",), ("N s/m",)),
-    "friction": (("friction_force", "friction_slope"), ("N", "s/m")),
-    "play": (("play_gap",), ("m",)),
-    "mass_split": (("delta_inertance",), ("kg",)),
-    "cubic": (("cubic_stiffness",), ("N/m^3",)),
-    "force_error": (("force_gain_error",), ("1",)),
-    "sensor_offset": (("x_offset", "y_offset"), ("m", "m")),
-    "base_mass": (("delta_mass",), ("kg",)),
-    "base_stiffness": (("delta_stiffness",), ("N/m",)),
-    "base_damping": (("delta_damping",), ("N s/m",)),
-    "tmd_stiffness": (("delta_stiffness",), ("N/m",)),
-    "tmd_mass": (("delta_mass",), ("kg",)),
-    "inertance": (("delta_inertance",), ("kg",)),
+    e: (VOCAB[e].param_names, tuple(p.unit for p in VOCAB[e].params)) for e in TRANSIENT_EFFECTS
 }
-#: bounds of the fit (SI)
-BOUNDS = {
-    "friction.friction_force": (0.0, np.inf),
-    "friction.friction_slope": FRICTION_SLOPE,
-    "play.play_gap": (0.0, np.inf),
-}
-LABELS = {
-    "tmd_mass": "TMD mass m off the nominal",
-    "inertance": "inertance I off the nominal (m unchanged)",
-}
+#: bounds of the fit (SI): the vocabulary's physical ones, the friction slope within what the explicit
+#: step resolves
+BOUNDS = {**VOCAB.bounds(), "friction.friction_slope": FRICTION_SLOPE}
 
 
 def scales(p: ndarray, stroke: float, xscale: float) -> dict[str, tuple[float, ...]]:

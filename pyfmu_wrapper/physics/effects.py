@@ -1,0 +1,133 @@
+"""The effect vocabulary of a model unit: what ``diagnose`` can name as the cause of a misfit.
+
+An :class:`Effect` is a mechanism or a parameter change at one element of the model (dry friction in
+the TMD link, play in the inerter gear, a storey's stiffness off the nominal, a gain error of the force
+channel), with its parameters (name, SI unit, whether it enters the equations linearly, the bounds of
+its physical range) and the levels at which it can occur (``system``: the whole rig's records;
+``link``: the TMD link on a test machine). A model unit declares its vocabulary once
+(:attr:`pyfmu_wrapper.physics.unit.ModelUnit.effects`); the steady, FRC, transient and link fits, the
+benchmark generators and the reports read it from there and choose their subsets by name.
+
+A parameter that is one of the unit's declared parameters takes its unit from the registry
+(:func:`registry_param`), so a change of a registry row reaches the diagnosis.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+from . import registry
+
+SYSTEM, LINK = "system", "link"
+
+
+@dataclass(frozen=True)
+class EffectParam:
+    """One parameter of an effect: the name it is reported under (``friction_force``, ``delta_mass``),
+    its SI unit as the reports write it, whether the model is linear in it (fitted by least squares in
+    the equation-error fits; a nonlinear one is searched), and its physical bounds."""
+
+    name: str
+    unit: str
+    linear: bool = True
+    bounds: tuple[float, float] = (-math.inf, math.inf)
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One effect of the vocabulary (module doc). ``element``: where it acts, as the verdict names it;
+    ``signed``: it can be of either sign (a parameter off its nominal, a gain error), else it is a
+    positive amount (a friction force, a gap); ``size``: the parameter a benchmark scores the effect by
+    (default: the first)."""
+
+    name: str
+    label: str
+    element: str
+    params: tuple[EffectParam, ...]
+    signed: bool = False
+    levels: tuple[str, ...] = (SYSTEM,)
+    size: str = ""
+
+    @property
+    def param_names(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.params)
+
+    @property
+    def linear_params(self) -> tuple[str, ...]:
+        return tuple(p.name for p in self.params if p.linear)
+
+    @property
+    def truth_key(self) -> str:
+        """``effect.parameter`` of the size the benchmarks score (the diagnosis reports it under this key)."""
+        return f"{self.name}.{self.size or self.params[0].name}"
+
+
+def report_unit(fmi_unit: str) -> str:
+    """A registry unit (FMI notation: ``N.s/m``, ``N/m3``) as the reports write it (``N s/m``, ``N/m^3``)."""
+    out = fmi_unit.replace(".", " ")
+    for n in "23456789":
+        out = out.replace(f"m{n}", f"m^{n}")
+    return out
+
+
+def registry_param(
+    subsystem: str,
+    name: str,
+    reported: str = "",
+    *,
+    linear: bool = True,
+    bounds: tuple[float, float] = (-math.inf, math.inf),
+) -> EffectParam:
+    """An effect parameter that is (a change of) the declared parameter ``subsystem.name``, reported
+    under ``reported`` (default: its own name), its unit from the registry."""
+    row = registry.get(subsystem, name)
+    return EffectParam(reported or name, report_unit(row.unit), linear, bounds)
+
+
+class Vocabulary:
+    """A unit's effects by name, with the views every path reads."""
+
+    def __init__(self, effects: Iterable[Effect]) -> None:
+        self.effects: dict[str, Effect] = {}
+        units: dict[str, str] = {}
+        for e in effects:
+            if e.name in self.effects:
+                raise ValueError(f"effect {e.name!r} is declared twice")
+            for p in e.params:
+                if units.setdefault(p.name, p.unit) != p.unit:
+                    raise ValueError(f"parameter {p.name!r} has two units: {units[p.name]!r} and {p.unit!r}")
+            self.effects[e.name] = e
+        self.units = units
+
+    def __getitem__(self, name: str) -> Effect:
+        return self.effects[name]
+
+    def __contains__(self, name: object) -> bool:
+        return name in self.effects
+
+    def names(self, level: str = SYSTEM) -> tuple[str, ...]:
+        return tuple(n for n, e in self.effects.items() if level in e.levels)
+
+    def select(self, names: Iterable[str]) -> tuple[str, ...]:
+        """``names`` checked against the vocabulary (a path's subset, in its own order)."""
+        out = tuple(names)
+        unknown = [n for n in out if n not in self.effects]
+        if unknown:
+            raise KeyError(f"effects {unknown} are not in the vocabulary ({', '.join(self.effects)})")
+        return out
+
+    def labels(self) -> dict[str, str]:
+        return {n: e.label for n, e in self.effects.items()}
+
+    def bounds(self) -> dict[str, tuple[float, float]]:
+        """``effect.parameter`` -> bounds, for the bounded ones."""
+        inf = (-math.inf, math.inf)
+        return {f"{n}.{p.name}": p.bounds for n, e in self.effects.items() for p in e.params if p.bounds != inf}
+
+    def truth_keys(self, names: Iterable[str]) -> dict[str, str]:
+        return {n: self.effects[n].truth_key for n in names}
+
+    def signed(self) -> set[str]:
+        return {n for n, e in self.effects.items() if e.signed}
