@@ -30,25 +30,20 @@ import numpy as np
 import yaml
 from scipy import signal
 
+from ..acquisition import analog_lowpass
 from ..records import write_record
 
 DENSE_HZ = 20000.0
 PREROLL_PERIODS = 2
 CHANNELS = ("force", "x", "y", "xdd", "ydd")
-BESSEL_NORM = "mag"  #: a Bessel cutoff_hz is the -3 dB point (the acquisition key, as diagnose.acquisition reads it)
 PLAY_PERIODS = 40  #: play (rattling): settle at most 40 periods; x_max = max over the last 20-period window
 
 
 # -- acquisition ------------------------------------------------------------------------------------
 def analog_zpk(spec: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, float]:
-    """Analog prototype (z, p, k) of a declared filter {type, order, cutoff_hz}."""
-    wc = 2 * math.pi * float(spec["cutoff_hz"])
-    n = int(spec["order"])
-    if spec["type"] == "butterworth":
-        return signal.butter(n, wc, analog=True, output="zpk")
-    if spec["type"] == "bessel":
-        return signal.bessel(n, wc, analog=True, norm=BESSEL_NORM, output="zpk")
-    raise ValueError(f"unknown filter type {spec['type']!r}")
+    """Analog prototype (z, p, k) of a declared filter {type, order, cutoff_hz}
+    (:func:`..acquisition.analog_lowpass`, the one builder)."""
+    return analog_lowpass(spec["type"], spec["order"], spec["cutoff_hz"], "zpk")
 
 
 def filter_response(spec: dict[str, Any], omega: Any) -> np.ndarray:
@@ -66,9 +61,16 @@ def apply_filter(x: np.ndarray, spec: dict, fd: float) -> np.ndarray:
 
 
 def channel_spec(acq: dict | None, ch: str) -> dict:
+    """The acquisition of channel ``ch``: the ``all`` block, overridden by the channel's own key by key
+    (``filter``, ``delay_s``; ``filter: none`` exempts the channel), as ``diagnose`` reads
+    ``dataset.yaml`` (:func:`..acquisition.parse_acquisition`)."""
     if not acq:
         return {}
-    return acq.get(ch, acq.get("all", {})) or {}
+    spec = {**(acq.get("all") or {}), **(acq.get(ch) or {})}
+    f = spec.get("filter")
+    if f is None or (isinstance(f, str) and f.strip().lower() == "none"):  # `filter: none` exempts a channel
+        spec.pop("filter", None)
+    return spec
 
 
 # -- truth on a dense grid ------------------------------------------------------------------------

@@ -195,19 +195,15 @@ def measure(
     dense rate, delay), every step-th sample, white noise of std noise[ch] x rms."""
     from scipy import signal
 
+    from ..acquisition import analog_lowpass
+
     out = {"t": t[::step] - t[0]}
     for ch, u in sig.items():
         u = np.asarray(u, float) * (1 + (gains or {}).get(ch, 0.0)) + (offsets or {}).get(ch, 0.0)
         spec = {**((acq or {}).get("all") or {}), **((acq or {}).get(ch) or {})}  # key by key, as declared
         if spec and spec.get("filter"):
             fl = spec["filter"]
-            wc = 2 * math.pi * fl["cutoff_hz"]
-            ba = (
-                signal.butter(fl["order"], wc, analog=True)
-                if fl["type"] == "butterworth"
-                else signal.bessel(fl["order"], wc, analog=True, norm="mag")
-            )
-            A, B, C, D = signal.tf2ss(*ba)
+            A, B, C, D = signal.tf2ss(*analog_lowpass(fl["type"], fl["order"], fl["cutoff_hz"]))
             x0 = -np.linalg.solve(A, B[:, 0]) * u[0]
             _, u, _ = signal.lsim((A, B, C, D), u, t, X0=x0)
         if spec and spec.get("delay_s"):
