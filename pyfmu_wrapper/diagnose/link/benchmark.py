@@ -33,9 +33,9 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 
+from ...models.base_tmd.effects import VOCABULARY as VOCAB
 from ...physics.kernels import chain_force
 from ...physics.params import N_PARAMS, P_ci, P_eps, P_ki
-from ...models.base_tmd.effects import VOCABULARY as VOCAB
 from ..records import write_record
 from .models import friction_vec
 

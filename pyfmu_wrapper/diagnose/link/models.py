@@ -282,7 +282,9 @@ def effect_list(ld: LinkData) -> list:
     if ld.nominal["friction_force"] > 0 and ld.nominal["stiffness"] == 0:
         # play in front of a friction element: slider + contact spring + gap (two nonlinear params)
         effects[1] = _effect(
-            "play", (eps_grid, tuple(ld10 + np.linspace(-3.0, -1.0, 5))), ("friction_force", "play_gap", "elastic_deflection")
+            "play",
+            (eps_grid, tuple(ld10 + np.linspace(-3.0, -1.0, 5))),
+            ("friction_force", "play_gap", "elastic_deflection"),
         )
         # the same without the gap: friction with pre-sliding (contact) compliance, the rival explanation
         effects.insert(2, _effect("compliant_friction", (tuple(ld10 + np.linspace(-3.0, -0.5, 7)),)))

@@ -11,8 +11,6 @@ import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-import numpy as np
-
 from ...physics.params import P_C, P_I, P_K, P_M, P_MODEL, P_c, P_ci, P_df, P_eps, P_k, P_k3, P_ki, P_m, P_s
 from .effects import TRANSIENT_EFFECTS, VOCAB
 from .transient_sim import fastest_rate

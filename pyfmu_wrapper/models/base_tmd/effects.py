@@ -37,7 +37,13 @@ EFFECTS = (
         (registry_param("tmd", "play_gap", linear=False, bounds=POSITIVE),),
         levels=BOTH,
     ),
-    Effect("viscous", "extra viscous damping", "tmd link", (registry_param("tmd", "damping", "delta_damping"),), levels=BOTH),
+    Effect(
+        "viscous",
+        "extra viscous damping",
+        "tmd link",
+        (registry_param("tmd", "damping", "delta_damping"),),
+        levels=BOTH,
+    ),
     Effect(
         "mass_split",
         "different split of m and I (m + I fixed)",
@@ -50,7 +56,12 @@ EFFECTS = (
         "cubic", "cubic term in the TMD spring", "tmd link", (registry_param("tmd", "cubic_stiffness"),), levels=BOTH
     ),
     Effect(
-        "force_error", "forcing-amplitude error", "force", (EffectParam("force_gain_error", "1"),), signed=True, levels=BOTH
+        "force_error",
+        "forcing-amplitude error",
+        "force",
+        (EffectParam("force_gain_error", "1"),),
+        signed=True,
+        levels=BOTH,
     ),
     Effect(
         "sensor_offset",
@@ -68,7 +79,11 @@ EFFECTS = (
         True,
     ),
     Effect(
-        "base_damping", "base damping C off the nominal", "base", (registry_param("base", "damping", "delta_damping"),), True
+        "base_damping",
+        "base damping C off the nominal",
+        "base",
+        (registry_param("base", "damping", "delta_damping"),),
+        True,
     ),
     Effect(
         "tmd_stiffness",
@@ -99,7 +114,10 @@ EFFECTS = (
         "compliant_friction",
         "dry friction with contact compliance (no play)",
         "tmd link",
-        (registry_param("tmd", "friction_force", bounds=POSITIVE), EffectParam("elastic_deflection", "m", False, POSITIVE)),
+        (
+            registry_param("tmd", "friction_force", bounds=POSITIVE),
+            EffectParam("elastic_deflection", "m", False, POSITIVE),
+        ),
         levels=(LINK,),
     ),
 )
