@@ -16,9 +16,7 @@ if TYPE_CHECKING:
 
     from .link.fit import Fit
     from .link.models import LinkData
-    from .system.diagnosis import SystemDiagnosis
-    from .system.frc import FRCDiagnosis
-    from .system.transient import TransientDiagnosis
+    from .shapes import FRCDiagnosisShape, SystemDiagnosisShape, TransientDiagnosisShape
 
 
 def plot_where(ld: LinkData, r0: ndarray, r1: ndarray, path: Path, title: str = "") -> None:
@@ -109,7 +107,7 @@ def plot_candidates(ranking: list[Fit], path: Path) -> None:
     plt.close(fig)
 
 
-def plot_system_harmonics(sd: SystemDiagnosis, path: Path) -> None:
+def plot_system_harmonics(sd: SystemDiagnosisShape, path: Path) -> None:
     """Whitened residual per harmonic and record, nominal and fitted (periodic records only)."""
     import matplotlib
 
@@ -133,7 +131,7 @@ def plot_system_harmonics(sd: SystemDiagnosis, path: Path) -> None:
     plt.close(fig)
 
 
-def plot_frc(self: FRCDiagnosis, path: Path) -> None:
+def plot_frc(self: FRCDiagnosisShape, path: Path) -> None:
     """The FRC diagnosis (:class:`~.frc.FRCDiagnosis`): measured and fitted curves, residual by frequency."""
     import matplotlib
 
@@ -159,7 +157,7 @@ def plot_frc(self: FRCDiagnosis, path: Path) -> None:
     plt.close(fig)
 
 
-def plot_transient(td: TransientDiagnosis, res: dict, path: Path) -> None:
+def plot_transient(td: TransientDiagnosisShape, res: dict, path: Path) -> None:
     """Transient records: the nominal's whitened residual over time per record and channel (the
     noise band is +-1), and where its excess lives by frequency."""
     import matplotlib

@@ -17,7 +17,7 @@ import numpy as np
 if TYPE_CHECKING:
     from typing import Any
 
-    from .system.diagnosis import SystemDiagnosis
+    from .shapes import SystemDiagnosisShape
 
 
 Z_POINT = 3.0  #: an FRC point is in the band when its held-out residual exceeds this many noise std
@@ -28,7 +28,7 @@ def _share(d: dict) -> dict:
     return {k: (max(v, 0.0) / tot if tot > 0 else 0.0) for k, v in d.items()}
 
 
-def localise(sd: SystemDiagnosis) -> dict:
+def localise(sd: SystemDiagnosisShape) -> dict:
     """Where the held-out gap left by the named effects lives (module doc)."""
     cur: Any = sd.cur if sd.chosen else None
     fit = cur.fit if cur is not None else None
@@ -118,7 +118,7 @@ def _where_text(loc: dict[str, Any]) -> str:
     return "; ".join(parts) if parts else "no one place (spread over records, harmonics and equations)"
 
 
-def _param_text(sd: SystemDiagnosis, e: str, p: dict[str, float], s: dict[str, Any], units: dict[str, str]) -> str:
+def _param_text(sd: SystemDiagnosisShape, e: str, p: dict[str, float], s: dict[str, Any], units: dict[str, str]) -> str:
     return ", ".join(
         f"{k.split('.', 1)[1]} = {v:.4g} +- {s.get(k, float('nan')):.2g} {units.get(k.split('.', 1)[1], '')}"
         for k, v in p.items()
@@ -143,7 +143,7 @@ def _disagreement(a: dict[str, Any], labels: dict[str, str], units: dict[str, st
     )
 
 
-def verdict_text(sd: SystemDiagnosis, labels: dict[str, str], units: dict[str, str]) -> str:
+def verdict_text(sd: SystemDiagnosisShape, labels: dict[str, str], units: dict[str, str]) -> str:
     """The printed verdict: the named causes and what they close, then -- when a structural gap
     remains -- one sentence on it and where it lives, with the best candidate as a hint."""
     p, s = sd.params()

@@ -11,10 +11,10 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from .frc import FRCDiagnosis
+    from ..shapes import FRCDiagnosisShape
 
 
-def result(self: FRCDiagnosis) -> dict[str, Any]:
+def result(self: FRCDiagnosisShape) -> dict[str, Any]:
     nt = int(self.test.sum())
     xr = 1.0  # residuals are relative to x_max already
     c = self.chosen
@@ -57,7 +57,7 @@ def result(self: FRCDiagnosis) -> dict[str, Any]:
     }
 
 
-def markdown(self: FRCDiagnosis) -> list[str]:
+def markdown(self: FRCDiagnosisShape) -> list[str]:
     res = result(self)
     h = res["held_out"]
     L = [
@@ -78,7 +78,7 @@ def markdown(self: FRCDiagnosis) -> list[str]:
     return L
 
 
-def write(self: FRCDiagnosis, out: Path, res: dict[str, Any] | None = None) -> None:
+def write(self: FRCDiagnosisShape, out: Path, res: dict[str, Any] | None = None) -> None:
     out.mkdir(parents=True, exist_ok=True)
     from ..plotting import plot_frc
 

@@ -13,10 +13,10 @@ from ..gates import plausibility
 from .model import EFFECT_PARAMS
 
 if TYPE_CHECKING:
-    from .diagnosis import SystemDiagnosis
+    from ..shapes import SystemDiagnosisShape
 
 
-def held_out(self: SystemDiagnosis) -> dict[str, Any]:
+def held_out(self: SystemDiagnosisShape) -> dict[str, Any]:
     """Held-out chi-squares and gaps (time records + FRC points + rattle statistic), before and
     after the named effects."""
     dof = self.dof
@@ -69,7 +69,7 @@ def held_out(self: SystemDiagnosis) -> dict[str, Any]:
     }
 
 
-def candidates(self: SystemDiagnosis) -> list[dict[str, Any]]:
+def candidates(self: SystemDiagnosisShape) -> list[dict[str, Any]]:
     rows: list[dict[str, Any]] = []
     base: tuple[str, ...] = ("play",) if self.play_ok else ()
     chi_b = self._cand(base).chi if base else self.chi0

@@ -21,7 +21,7 @@ from .transient_fit import pmap, residual
 if TYPE_CHECKING:
     from numpy import ndarray
 
-    from .transient import TransientDiagnosis
+    from ..shapes import TransientDiagnosisShape
 
 
 SCREEN_KEEP = 4  #: linear candidates fully fitted after the screen
@@ -29,7 +29,7 @@ NONLINEAR = ("friction", "play", "cubic")  #: always fitted
 
 
 def screen(
-    d: TransientDiagnosis,
+    d: TransientDiagnosisShape,
     cands: list[str],
     train: list[ndarray],
     base: tuple[tuple[str, ...], ndarray] | None = None,
