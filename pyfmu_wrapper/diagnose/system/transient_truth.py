@@ -4,6 +4,13 @@ by an integrator of its own (``scipy.integrate.odeint``, right-hand side written
 project's kernels) and measured as a rig does (anti-alias filter, delay, sensor gain and offset,
 white ADC noise, sampling).
 
+Independent on purpose: the diagnosis simulates its candidates with the kernels' equations
+(:mod:`.transient_sim` integrates :func:`pyfmu_wrapper.physics.kernels.rhs_fext`; the steady path
+uses the project's solver), so a truth written here and integrated otherwise is what catches an
+error of sign, convention or integration in the diagnosis's own simulation. Only the declared
+anti-alias filter's prototype is shared (:func:`..acquisition.analog_lowpass`: it is scipy's, not a
+model of ours).
+
 Truth model (ideal inerter I, passive sign convention of the physics notes)::
 
     (M + I) xdd - I ydd = F(t) - C xd - K x - K3 x^3 - mu tanh(xd / v0) - Fs
