@@ -1,7 +1,7 @@
 """System-level withheld-effect datasets under fixed conditions (the tests of ``diagnose`` use
 :func:`make_system_dataset`); the field-like suite of ``make-benchmark`` is
 :mod:`sysbench_suite` (drawing), :mod:`sysbench_field` (simulation and acquisition chain) and
-:mod:`sysbench_oov` (out-of-vocabulary truths), see docs/diagnose.md "Check 1".
+:mod:`sysbench_oov` (out-of-vocabulary truths), see docs/diagnose-evidence.md "Check 1".
 
 The coupled base + TMD simulated with the project's solver (``solvers.monolithic``) and measured
 as a test rig does. Per dataset of :func:`make_system_dataset`: paper Case 1 or Case 2 nominal

@@ -1,6 +1,6 @@
 """One field-like system dataset: the truth simulated, then measured through a rig's acquisition chain.
 
-Per record (see docs/diagnose.md, "Check 1"): the truth is evaluated on a dense time grid (rate
+Per record (see docs/diagnose-evidence.md, "Check 1"): the truth is evaluated on a dense time grid (rate
 k fs >= 20 kHz, the ADC samples on it) that starts two forcing periods before the record (the
 filter's transient dies there: its slowest time constant is < 5 ms); each channel is then
 

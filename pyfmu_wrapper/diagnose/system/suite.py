@@ -1,4 +1,4 @@
-"""The field-like system suite of ``make-benchmark`` (docs/diagnose.md, "Check 1").
+"""The field-like system suite of ``make-benchmark`` (docs/diagnose-evidence.md, "Check 1").
 
 Per dataset, drawn with the seed: paper Case 1, 2 or 3 nominal with c = 10 or 15 N s/m (ideal
 inerter); sampling rate 256 Hz-5 kHz; an acquisition chain (none, anti-alias filters on the

@@ -1,6 +1,6 @@
 """Diagnosis of transient records (system level): which effect explains the data **to the noise**.
 
-Steps (docs/diagnose.md, "Transient records"):
+Steps (docs/diagnose-method.md, "Transient records"):
 
 1. Views (:mod:`.transient_sim`): each record averaged to at most FIT_MAX fit samples; its start
    state estimated under the nominal (two passes); the noise std of every channel of every record

@@ -909,7 +909,7 @@ def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
     t +- a and w the grid's spacing (Richardson: the point value to O(w^4) for a smooth force, a
     response 1 + O((f w)^4) in its band, 0 at every multiple of 1 / w): on a grid coarser than the
     samples, point values would fold the load cell's white noise from up to the record's Nyquist onto
-    the structure's band and inflate the simulated response to it (docs/diagnose.md, "the force
+    the structure's band and inflate the simulated response to it (docs/diagnose-method.md, "the force
     between samples")."""
     from scipy.interpolate import CubicSpline
 

@@ -1,5 +1,5 @@
 """``make-benchmark --suite transient``: system-level datasets of transient records under field
-conditions (docs/diagnose.md, "Check 3"), their truths simulated by :mod:`.transient_truth` (its own
+conditions (docs/diagnose-evidence.md, "Check 3"), their truths simulated by :mod:`.transient_truth` (its own
 right-hand side and ``odeint``, not the project's kernels) and measured as a rig does.
 
 Per dataset (drawn with the seed): nominal paper Case 1/2/3 (c = 10 or 15 N s/m); sampling rate
