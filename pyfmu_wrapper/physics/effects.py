@@ -15,8 +15,11 @@ A parameter that is one of the unit's declared parameters takes its unit from th
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
+from collections.abc import Iterable, MutableMapping, Sequence
 from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
 
 from . import registry
 
@@ -27,12 +30,17 @@ SYSTEM, LINK = "system", "link"
 class EffectParam:
     """One parameter of an effect: the name it is reported under (``friction_force``, ``delta_mass``),
     its SI unit as the reports write it, whether the model is linear in it (fitted by least squares in
-    the equation-error fits; a nonlinear one is searched), and its physical bounds."""
+    the equation-error fits; a nonlinear one is searched), its physical bounds, and what it does to the
+    model's declared parameters: ``targets`` as (``subsystem.name``, coefficient), each changed by
+    coefficient x the value, or (``replaces``) set to the value (a friction force replaces the
+    nominal's). A measurement effect (a gain, an offset) has no target."""
 
     name: str
     unit: str
     linear: bool = True
     bounds: tuple[float, float] = (-math.inf, math.inf)
+    targets: tuple[tuple[str, float], ...] = ()
+    replaces: bool = False
 
 
 @dataclass(frozen=True)
@@ -79,11 +87,15 @@ def registry_param(
     *,
     linear: bool = True,
     bounds: tuple[float, float] = (-math.inf, math.inf),
+    replaces: bool = False,
+    also: tuple[tuple[str, float], ...] = (),
 ) -> EffectParam:
-    """An effect parameter that is (a change of) the declared parameter ``subsystem.name``, reported
-    under ``reported`` (default: its own name), its unit from the registry."""
+    """An effect parameter that changes the declared parameter ``subsystem.name`` by its value (or,
+    ``replaces``, sets it), and the ``also`` ones by a coefficient times it; reported under ``reported``
+    (default: the declared name), its unit from the registry."""
     row = registry.get(subsystem, name)
-    return EffectParam(reported or name, report_unit(row.unit), linear, bounds)
+    targets = ((f"{subsystem}.{name}", 1.0), *also)
+    return EffectParam(reported or name, report_unit(row.unit), linear, bounds, targets, replaces)
 
 
 class Vocabulary:
@@ -100,6 +112,20 @@ class Vocabulary:
                     raise ValueError(f"parameter {p.name!r} has two units: {units[p.name]!r} and {p.unit!r}")
             self.effects[e.name] = e
         self.units = units
+
+    def change(
+        self, values: MutableMapping[str, float], effects: Iterable[str], theta: Sequence[float] | NDArray[np.float64]
+    ) -> None:
+        """Apply ``effects`` at parameters ``theta`` (concatenated in effect order) to ``values``
+        (``subsystem.name`` -> value, e.g. the packed array's entries by the registry's pack index):
+        each parameter's targets (:class:`EffectParam`). Measurement effects change nothing here."""
+        i = 0
+        for e in effects:
+            for par in self.effects[e].params:
+                v = float(theta[i])
+                i += 1
+                for key, coef in par.targets:
+                    values[key] = v if par.replaces else values[key] + coef * v
 
     def __getitem__(self, name: str) -> Effect:
         return self.effects[name]

@@ -8,10 +8,12 @@ model, M, K, C, m, k, c, I; dry friction df through ``friction``), with the boun
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator, MutableMapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-from ...physics.params import P_C, P_I, P_K, P_M, P_MODEL, P_c, P_ci, P_df, P_eps, P_k, P_k3, P_ki, P_m, P_s
+from ...physics.params import P_C, P_I, P_K, P_M, P_MODEL, P_c, P_ci, P_df, P_k, P_ki, P_m, P_s
+from ...physics.registry import PACK_INDEX
 from .effects import TRANSIENT_EFFECTS, VOCAB
 from .transient_sim import fastest_rate
 
@@ -54,6 +56,29 @@ def scales(p: ndarray, stroke: float, xscale: float) -> dict[str, tuple[float, .
     }
 
 
+class _Packed(MutableMapping[str, float]):
+    """The kernels' packed parameter array by the registry's names (``tmd.damping``), for
+    :meth:`~pyfmu_wrapper.physics.effects.Vocabulary.change`."""
+
+    def __init__(self, p: ndarray) -> None:
+        self.p = p
+
+    def __getitem__(self, key: str) -> float:
+        return float(self.p[PACK_INDEX[key]])
+
+    def __setitem__(self, key: str, value: float) -> None:
+        self.p[PACK_INDEX[key]] = value
+
+    def __delitem__(self, key: str) -> None:
+        raise TypeError("a packed parameter cannot be removed")
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(PACK_INDEX)
+
+    def __len__(self) -> int:
+        return len(PACK_INDEX)
+
+
 @dataclass
 class Model:
     """A candidate model: the kernels' parameter vector, a force gain and sensor offsets."""
@@ -72,37 +97,17 @@ def apply(p_nom: ndarray, effects: tuple[str, ...], theta: ndarray) -> Model | s
     for e in effects:
         th = theta[i : i + len(TEFFECTS[e][0])]
         i += len(th)
-        if e == "viscous":
-            p[P_c] += th[0]
-        elif e == "friction":
-            if th[0] < 0:
-                return f"friction force df < 0 ({th[0]:.3g} N)"
-            p[P_df], p[P_s] = th[0], th[1]
-        elif e == "play":
+        if e == "friction" and th[0] < 0:
+            return f"friction force df < 0 ({th[0]:.3g} N)"
+        if e == "play":
             if th[0] < 0:
                 return f"play gap < 0 ({th[0]:.3g} m)"
-            p[P_MODEL], p[P_ki], p[P_ci], p[P_eps] = 2.0, PLAY_KI, PLAY_CI, th[0]
-        elif e == "mass_split":
-            p[P_I] += th[0]
-            p[P_m] -= th[0]
-        elif e == "cubic":
-            p[P_k3] += th[0]
+            p[P_MODEL], p[P_ki], p[P_ci] = 2.0, PLAY_KI, PLAY_CI
         elif e == "force_error":
             mdl.gain = 1.0 + th[0]
         elif e == "sensor_offset":
             mdl.offset = (float(th[0]), float(th[1]))
-        elif e == "base_mass":
-            p[P_M] += th[0]
-        elif e == "base_stiffness":
-            p[P_K] += th[0]
-        elif e == "base_damping":
-            p[P_C] += th[0]
-        elif e == "tmd_stiffness":
-            p[P_k] += th[0]
-        elif e == "tmd_mass":
-            p[P_m] += th[0]
-        elif e == "inertance":
-            p[P_I] += th[0]
+    VOCAB.change(_Packed(p), effects, theta)  # the model parameters each effect changes (the unit's table)
     if p[P_df] > 0 and "friction" not in effects:  # a nominal's friction: the slope an explicit step resolves
         p[P_s] = min(p_nom[P_s], FRICTION_RATE * fastest_rate(p_nom) * max(p[P_m], 1e-9) / (p[P_df] * 2 / math.pi))
     for idx, name in ((P_M, "M"), (P_K, "K"), (P_m, "m"), (P_k, "k")):

@@ -25,8 +25,8 @@ EFFECTS = (
         "dry friction in the TMD link",
         "tmd link",
         (
-            registry_param("tmd", "friction_force", bounds=POSITIVE),
-            registry_param("tmd", "friction_slope", linear=False, bounds=(0.0, math.inf)),
+            registry_param("tmd", "friction_force", bounds=POSITIVE, replaces=True),
+            registry_param("tmd", "friction_slope", linear=False, bounds=(0.0, math.inf), replaces=True),
         ),
         levels=BOTH,
     ),
@@ -34,7 +34,7 @@ EFFECTS = (
         "play",
         "play in the inerter gear",
         "tmd link",
-        (registry_param("tmd", "play_gap", linear=False, bounds=POSITIVE),),
+        (registry_param("tmd", "play_gap", linear=False, bounds=POSITIVE, replaces=True),),
         levels=BOTH,
     ),
     Effect(
@@ -48,7 +48,7 @@ EFFECTS = (
         "mass_split",
         "different split of m and I (m + I fixed)",
         "tmd",
-        (registry_param("tmd", "inertance", "delta_inertance"),),
+        (registry_param("tmd", "inertance", "delta_inertance", also=(("tmd.mass", -1.0),)),),
         signed=True,
         levels=BOTH,
     ),
