@@ -53,22 +53,6 @@ EQ_EFFECTS = VOCAB.select(
         "tmd_stiffness",
     )
 )  #: the steady records' equation-error candidates (play is fitted by its rattle signature)
-#: the transient records' candidates (every system-level effect: the fit simulates the model), in the
-#: order they are tried
-TRANSIENT_EFFECTS = VOCAB.select(
-    (
-        "viscous",
-        "friction",
-        "play",
-        "mass_split",
-        "cubic",
-        "force_error",
-        "sensor_offset",
-        "base_mass",
-        "base_stiffness",
-        "base_damping",
-        "tmd_stiffness",
-        "tmd_mass",
-        "inertance",
-    )
-)
+#: the transient records' candidates: every system-level effect of the vocabulary, in its order (the
+#: fit simulates the model, so each can be tried)
+TRANSIENT_EFFECTS = VOCAB.names()

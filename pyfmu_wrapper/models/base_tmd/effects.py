@@ -21,6 +21,13 @@ POSITIVE = (0.0, math.inf)
 
 EFFECTS = (
     Effect(
+        "viscous",
+        "extra viscous damping",
+        "tmd link",
+        (registry_param("tmd", "damping", "delta_damping"),),
+        levels=BOTH,
+    ),
+    Effect(
         "friction",
         "dry friction in the TMD link",
         "tmd link",
@@ -35,13 +42,6 @@ EFFECTS = (
         "play in the inerter gear",
         "tmd link",
         (registry_param("tmd", "play_gap", linear=False, bounds=POSITIVE, replaces=True),),
-        levels=BOTH,
-    ),
-    Effect(
-        "viscous",
-        "extra viscous damping",
-        "tmd link",
-        (registry_param("tmd", "damping", "delta_damping"),),
         levels=BOTH,
     ),
     Effect(
