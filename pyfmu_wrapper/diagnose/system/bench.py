@@ -118,9 +118,7 @@ def steady_record(
     rtol: float = 1e-9,
 ) -> tuple[ndarray, ndarray, ndarray, SteadyState | None]:
     """(t, states, accelerations [n, 2]) of n_periods of the steady state sampled at fs."""
-    from ...models.solve import simulate, steady_state
-    from ...physics.kernels import rhs
-    from ...physics.params import pack
+    from ...models.solve import steady_state
     from ...solvers.monolithic import SolverSettings
 
     T = 2 * math.pi / omega
@@ -138,14 +136,37 @@ def steady_record(
         from ...models.solve import integrator_atol
 
         atol = integrator_atol(base, tmd, omega, SolverSettings())
-    _, z = simulate(base, tmd, omega, t0 + n_periods * T, z0=z0, sample_times=t + t0, rtol=rtol, atol=atol)
+    z, acc = solver_samples(base, tmd, omega, z0, t + t0, rtol, atol, t_end=t0 + n_periods * T)
+    return t, z, acc, ss
+
+
+def solver_samples(
+    base: BaseParams,
+    tmd: TMDParams,
+    omega: float,
+    z0: ndarray,
+    times: ndarray,
+    rtol: float,
+    atol: ndarray | None = None,
+    t_end: float | None = None,
+) -> tuple[ndarray, ndarray]:
+    """(states, accelerations [n, 2]) at ``times`` of the motion from ``z0`` at t = 0 (the forcing's
+    phase 0): the project's solver (``models.solve.simulate`` to ``t_end``, default times[-1]); the
+    accelerations xdd, ydd are the kernels' right-hand side at the sample times (contact spikes of the
+    play chain included, point-sampled like a real ADC). The steady benchmarks' one simulator."""
+    from ...models.solve import simulate
+    from ...physics.kernels import rhs
+    from ...physics.params import pack
+
+    t_end = float(times[-1]) if t_end is None else t_end
+    _, z = simulate(base, tmd, omega, t_end, z0=z0, sample_times=times, rtol=rtol, atol=atol)
     p = pack(base, tmd, omega)
     dz = np.empty(6)
-    acc = np.empty((t.size, 2))
-    for i in range(t.size):
-        rhs(t[i], z[i], p, dz)
+    acc = np.empty((times.size, 2))
+    for i in range(times.size):
+        rhs(times[i], z[i], p, dz)
         acc[i] = dz[1], dz[3]
-    return t, z, acc, ss
+    return z, acc
 
 
 def make_system_dataset(

@@ -99,19 +99,12 @@ def truth_dense(truth: dict, omega: float, F_rec: float, tau: np.ndarray) -> dic
             "xdd": np.real(-(omega**2) * X * e),
             "ydd": np.real(-(omega**2) * Y * e),
         }
-    from ...models.solve import simulate, steady_state
-    from ...physics.kernels import rhs
-    from ...physics.params import pack
+    from ...models.solve import steady_state
     from ...solvers.monolithic import SolverSettings
+    from .bench import solver_samples
 
     ss = steady_state(base, tmd, omega, settings=SolverSettings(max_periods_window=PLAY_PERIODS))
-    _, z = simulate(base, tmd, omega, float(tau[-1]), z0=ss.state, sample_times=tau, rtol=1e-9)
-    p = pack(base, tmd, omega)
-    dz = np.empty(6)
-    acc = np.empty((tau.size, 2))
-    for i in range(tau.size):
-        rhs(tau[i], z[i], p, dz)
-        acc[i] = dz[1], dz[3]
+    z, acc = solver_samples(base, tmd, omega, ss.state, tau, 1e-9)
     return {"x": z[:, 0], "y": z[:, 2], "xdd": acc[:, 0], "ydd": acc[:, 1]}
 
 
