@@ -66,6 +66,13 @@ class Effect:
     def linear_params(self) -> tuple[str, ...]:
         return tuple(p.name for p in self.params if p.linear)
 
+    def param(self, name: str) -> EffectParam:
+        """The parameter ``name`` (KeyError naming the effect's parameters otherwise)."""
+        for p in self.params:
+            if p.name == name:
+                return p
+        raise KeyError(f"effect {self.name!r} has no parameter {name!r}; it has {list(self.param_names)}")
+
     @property
     def truth_key(self) -> str:
         """``effect.parameter`` of the size the benchmarks score (the diagnosis reports it under this key)."""
