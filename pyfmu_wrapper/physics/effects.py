@@ -14,9 +14,11 @@ A parameter that is one of the unit's declared parameters takes its unit from th
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Iterable, MutableMapping, Sequence
+from collections.abc import Iterable, Mapping, MutableMapping, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -120,19 +122,38 @@ class Vocabulary:
             self.effects[e.name] = e
         self.units = units
 
+    def apply(self, values: MutableMapping[str, float], params: Mapping[str, float]) -> None:
+        """Apply effect parameters ``params`` (``effect.parameter`` -> value) to ``values``
+        (``subsystem.name`` -> value of the model's declared parameters): each parameter's targets
+        (:class:`EffectParam`), in the order of ``params``. Measurement effects change nothing here."""
+        for k, v in params.items():
+            e, name = k.split(".", 1)
+            par = self.effects[e].param(name)
+            for key, coef in par.targets:
+                values[key] = float(v) if par.replaces else values[key] + coef * float(v)
+
     def change(
         self, values: MutableMapping[str, float], effects: Iterable[str], theta: Sequence[float] | NDArray[np.float64]
     ) -> None:
-        """Apply ``effects`` at parameters ``theta`` (concatenated in effect order) to ``values``
-        (``subsystem.name`` -> value, e.g. the packed array's entries by the registry's pack index):
-        each parameter's targets (:class:`EffectParam`). Measurement effects change nothing here."""
-        i = 0
-        for e in effects:
-            for par in self.effects[e].params:
-                v = float(theta[i])
-                i += 1
-                for key, coef in par.targets:
-                    values[key] = v if par.replaces else values[key] + coef * v
+        """:meth:`apply` of ``effects`` at parameters ``theta`` (concatenated in effect order)."""
+        names = [f"{e}.{p.name}" for e in effects for p in self.effects[e].params]
+        self.apply(values, dict(zip(names, theta, strict=True)))
+
+    def changed(self, nominal: Mapping[str, Any], params: Mapping[str, float]) -> dict[str, Any]:
+        """The parameter objects ``nominal`` (subsystem -> dataclass, e.g. ``{"base": BaseParams, "tmd":
+        TMDParams}``) changed by ``params`` (:meth:`apply`), every changed parameter kept within its
+        registry bound (a strict minimum m: m + 1e-6 of the nominal), so the model can be evaluated."""
+        keys = {key for k in params for key, _ in self.effects[k.split(".", 1)[0]].param(k.split(".", 1)[1]).targets}
+        vals = {key: float(getattr(nominal[key.split(".")[0]], key.split(".")[1])) for key in keys}
+        self.apply(vals, params)
+        kw: dict[str, dict[str, Any]] = {sub: {} for sub in nominal}
+        for key, v in vals.items():
+            sub, field = key.split(".")
+            row = registry.get(sub, field)
+            if row.minimum is not None:
+                v = max(v, row.minimum + (1e-6 * getattr(nominal[sub], field) if row.strict else 0.0))
+            kw[sub][field] = v
+        return {sub: dataclasses.replace(obj, **kw[sub]) for sub, obj in nominal.items()}
 
     def __getitem__(self, name: str) -> Effect:
         return self.effects[name]

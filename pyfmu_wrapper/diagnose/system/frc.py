@@ -29,7 +29,6 @@ import numpy as np
 from scipy.optimize import least_squares, minimize_scalar
 
 from ...models.solve import exact_amplitude, steady_state
-from ...physics import registry
 from ...physics.params import BaseParams, ParameterError, TMDParams
 from ...solvers.monolithic import SolverError
 from . import frc_report
@@ -109,33 +108,18 @@ class FRCDiagnosis(FRCEffectFit):
         return a + bias
 
     def changed(self, params: dict[str, Any]) -> tuple[BaseParams, TMDParams]:
-        """The nominal changed by effect parameters (``effect.parameter``): each parameter's targets in
-        the unit's vocabulary, every changed model parameter kept within its registry bound (a strict
-        minimum 0: 1e-6 of the nominal) so the model can be evaluated; a different split of m and I
-        keeps m + I (I within 1e-6 of 0 and of m + I). Measurement effects change nothing here."""
+        """The nominal changed by effect parameters (``effect.parameter``: the vocabulary's
+        :meth:`~pyfmu_wrapper.physics.effects.Vocabulary.changed`, within the registry's bounds); a
+        different split of m and I keeps I within 1e-6 of 0 and of m + I, and m + I fixed."""
         b, t = self.base, self.tmd
-        nominal = {"base": b, "tmd": t}
-        vals: dict[str, float] = {}
-        for k, v in params.items():
-            e, name = k.split(".", 1)
-            par = VOCAB[e].param(name)
-            for key, coef in par.targets:
-                sub, field = key.split(".")
-                old = vals.get(key, getattr(nominal[sub], field))
-                vals[key] = float(v) if par.replaces else old + coef * float(v)
-        for key in vals:
-            sub, field = key.split(".")
-            row = registry.get(sub, field)
-            if row.minimum is not None:
-                floor = row.minimum + (1e-6 * getattr(nominal[sub], field) if row.strict else 0.0)
-                vals[key] = max(vals[key], floor)
-        if "mass_split.delta_inertance" in params:
-            I = min(max(t.inertance + float(params["mass_split.delta_inertance"]), 1e-6), t.inertia - 1e-6)
-            vals.update({"tmd.inertance": I, "tmd.mass": t.inertia - I})
-        kw: dict[str, dict[str, Any]] = {
-            sub: {k.split(".")[1]: v for k, v in vals.items() if k.startswith(sub + ".")} for sub in nominal
-        }
-        return replace(b, **kw["base"]), replace(t, **kw["tmd"])
+        split = params.get("mass_split.delta_inertance")
+        new = VOCAB.changed(
+            {"base": b, "tmd": t}, {k: v for k, v in params.items() if k != "mass_split.delta_inertance"}
+        )
+        if split is not None:
+            I = min(max(t.inertance + float(split), 1e-6), t.inertia - 1e-6)
+            new["tmd"] = replace(new["tmd"], inertance=I, mass=t.inertia - I)
+        return new["base"], new["tmd"]
 
     def predict(self, params: dict[str, Any]) -> ndarray | None:
         """x_max predicted by the nominal model changed by fitted effect parameters (names as in
