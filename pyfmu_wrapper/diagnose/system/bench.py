@@ -95,17 +95,26 @@ def true_tmd(nom: dict, hidden: dict) -> TMDParams:
 
 def true_tmd_kwargs(nom: dict, hidden: dict) -> dict:
     """TMDParams keyword arguments of the nominal's TMD with the hidden TMD-link effects applied."""
-    tk = dict(nom["tmd"])
-    tk["damping"] += hidden.get("viscous", 0.0)
-    tk["friction_force"] = hidden.get("friction", 0.0)
-    dI = hidden.get("mass_split", 0.0)
-    tk["inertance"] += dI
-    tk["mass"] -= dI
+    return true_values(nom, hidden)["tmd"]
+
+
+def true_values(nom: dict, hidden: dict) -> dict[str, dict]:
+    """The nominal's ``base`` and ``tmd`` blocks with the hidden model effects applied (``hidden``:
+    effect -> the size the benchmark scores, :attr:`~pyfmu_wrapper.physics.effects.Effect.truth_key`),
+    each by its targets in the unit's vocabulary; play also switches the inerter to the play chain.
+    Measurement effects (force_error, sensor_offset) are the rig's: left to the caller."""
+    vals = {f"{sub}.{k}": v for sub in ("base", "tmd") for k, v in nom[sub].items()}
+    vals.setdefault("tmd.cubic_stiffness", 0.0)
+    VOCAB.apply(vals, {VOCAB[e].truth_key: v for e, v in hidden.items() if e in VOCAB})
+    out: dict[str, dict] = {"base": {}, "tmd": {}}
+    for key, v in vals.items():
+        sub, name = key.split(".", 1)
+        out[sub][name] = v
+    if not out["tmd"]["cubic_stiffness"] and "cubic_stiffness" not in nom["tmd"]:
+        del out["tmd"]["cubic_stiffness"]
     if "play" in hidden:
-        tk.update(inerter="play", play_gap=hidden["play"])
-    if "cubic" in hidden:
-        tk["cubic_stiffness"] = hidden["cubic"]
-    return tk
+        out["tmd"]["inerter"] = "play"
+    return out
 
 
 def steady_record(

@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from .bench import RANGES as BASE_RANGES
-from .bench import has_cubic, nominal, true_tmd_kwargs
+from .bench import has_cubic, nominal, true_values
 from .effects import VOCAB
 
 RANGES = dict(
@@ -67,15 +67,10 @@ def draw_value(rng: np.random.Generator, lo_hi: Sequence[float], signed: bool, s
 
 
 def true_parts(nom: dict, hidden: dict, oov: dict) -> dict:
-    base = dict(nom["base"])
-    base["mass"] += hidden.get("base_mass", 0.0)
-    base["stiffness"] += hidden.get("base_stiffness", 0.0)
-    base["damping"] += hidden.get("base_damping", 0.0)
-    tk = true_tmd_kwargs(nom, hidden)
-    tk["stiffness"] += hidden.get("tmd_stiffness", 0.0)
+    true = true_values(nom, hidden)
     return {
-        "base": base,
-        "tmd": tk,
+        "base": true["base"],
+        "tmd": true["tmd"],
         "force_error": hidden.get("force_error", 0.0),
         "sensor_offset": hidden.get("sensor_offset", 0.0),
         "oov": dict(oov),
