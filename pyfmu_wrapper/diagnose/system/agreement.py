@@ -47,11 +47,12 @@ def records_agree(
     names: Sequence[str],
     floor: float = 0.0,
     scale: Sequence[float] | None = None,
-    level: float = LEVEL,
+    level: float | None = None,
 ) -> dict[str, Any] | None:
     """The agreement test (module doc) of per-record parameters ``values[i][j]`` (record i, parameter
     ``names[j]``) with stds ``stds[i][j]``; ``floor``: a model-error std added in quadrature, that share
-    of max(|weighted mean|, ``scale[j]``). A parameter that some record cannot determine (non-finite)
+    of max(|weighted mean|, ``scale[j]``); ``level``: the test's level (default :data:`LEVEL`, read at
+    the call). A parameter that some record cannot determine (non-finite)
     does not vote. ``{"agree", "level", "p_value" (the family's), "chi2", "dof" (the worst parameter's),
     "worst": {"param", ...}, "params": {name: {"values", "stds", "weighted_mean", "chi2", "dof",
     "p_value"}}}``, or None when no parameter votes."""
@@ -79,6 +80,7 @@ def records_agree(
         }
     if not out:
         return None
+    level = LEVEL if level is None else level
     worst = min(out, key=lambda k: out[k]["p_value"])
     p_family = min(1.0, len(out) * out[worst]["p_value"])
     return {
