@@ -42,6 +42,8 @@ def test_two_hidden_effects_found_as_a_pair(tmp_path):
     make_dataset(tmp_path, {"viscous": 8.0, "bias": 1e-3}, seed=13)
     res = run_diagnosis(tmp_path)
     assert sorted(res["attribution"]["effects"]) == ["bias", "viscous"]
+    where = dict(zip(res["attribution"]["effects"], res["attribution"]["elements"]))
+    assert where == {"bias": "channel d", "viscous": "tmd link"}  # the displacement sensor, the link
     assert abs(res["attribution"]["params"]["viscous.delta_damping"] - 8.0) < 0.8
 
 

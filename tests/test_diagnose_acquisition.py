@@ -334,3 +334,34 @@ def test_acceleration_only_viscous_named_offset_unobservable(tmp_path, accel_onl
     else:
         assert v["unobservable"] == ["displacement DC"]
         assert "sensor_offset" in [c["effects"][-1] for c in res["time_records"]["candidates"]]
+
+
+def test_benchmark_rig_merges_all_key_by_key(tmp_path):
+    """The benchmarks' rig (diagnose.system.field) reads an ``acquisition`` block as the diagnosis does:
+    a channel's own entry overrides ``all`` key by key. A load cell that declares only its delay keeps
+    the ``all`` anti-alias filter (before the fix its own block replaced ``all``: no filter at all),
+    and ``filter: none`` exempts a channel. The filtered force is held against the analytic
+    Butterworth response |H| = 1 / sqrt(1 + (f / fc)^(2n)), phase of the 4th-order prototype, and the delay."""
+    from pyfmu_wrapper.diagnose.system import field
+
+    block = {"all": {"filter": dict(BUTTER)}, "force": {"delay_s": 5e-4}, "ydd": {"filter": "none"}}
+    chains = acq.parse_acquisition(block, tmp_path / "dataset.yaml")
+    for ch in acq.CHANNELS:
+        spec, c = field.channel_spec(block, ch), chains.get(ch)
+        assert (spec.get("filter") or {}).get("type") == (c.type if c else None), ch
+        assert spec.get("delay_s", 0.0) == (c.delay_s if c else 0.0), ch
+    assert chains["force"].type == "butterworth" and chains["force"].delay_s == 5e-4 and "ydd" not in chains
+
+    f, fc, fd, delay = 100.0, BUTTER["cutoff_hz"], 20000.0, 5e-4
+    w = 2 * math.pi * f
+    t = np.arange(int(0.5 * fd)) / fd
+    out = field.measure({}, {}, w, 1.0, 0.0, t, block, fd, ["force"])["force"]
+    keep = t > 0.25  # the filter's start-up is over
+    G = np.column_stack([np.cos(w * t[keep]), np.sin(w * t[keep])])
+    a, b = np.linalg.lstsq(G, out[keep], rcond=None)[0]
+    s = 1j * f / fc  # normalised frequency; 4th-order Butterworth poles exp(i pi (2k + 5) / 8)
+    poles = np.exp(1j * math.pi * (2 * np.arange(4) + 5) / 8)
+    H = 1.0 / np.prod(s - poles)
+    assert abs(abs(H) - 1 / math.sqrt(1 + (f / fc) ** 8)) < 1e-12  # the prototype is the Butterworth one
+    want = H * np.exp(-1j * w * delay)  # the measured phasor of cos(w t) through filter and delay
+    assert abs(complex(a, -b) - want) < 1e-3 * abs(want)

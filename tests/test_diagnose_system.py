@@ -60,6 +60,7 @@ def test_diagnosis_json_and_report(data, tmp_path):
     j = json.loads((tmp_path / "diagnosis.json").read_text())
     v = j["verdict"]
     assert v["effects"] == ["viscous"] and v["sources"]["frc_records"] == ["frc.csv"]
+    assert v["elements"] == ["tmd link"]  # where extra damping in c acts: between base and TMD
     p = v["parameters"]["viscous.delta_damping"]
     assert p["unit"] == "N s/m" and 0 < p["std"] < 0.05 * p["value"]
     assert v["held_out"]["gap_before"] > v["held_out"]["gap_after"] >= 0

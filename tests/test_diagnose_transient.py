@@ -75,6 +75,7 @@ def test_viscous_from_acceleration_only_sweeps_and_a_decay(tmp_path, capsys):
     res = json.loads((tmp_path / "out" / "diagnosis.json").read_text())
     v = res["verdict"]
     assert v["effects"] == ["viscous"], v["text"]
+    assert v["elements"] == ["tmd link"]
     assert abs(v["parameters"]["viscous.delta_damping"]["value"] - 10.0) < 0.2
     assert not v["unexplained"]
     h = res["transient"]["held_out"]

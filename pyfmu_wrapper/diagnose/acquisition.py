@@ -66,6 +66,21 @@ FILTER_KEYS = ("type", "order", "cutoff_hz")
 MAX_ORDER = 12
 
 
+def analog_lowpass(kind: str, order: int, cutoff_hz: float, output: str = "ba") -> Any:
+    """The analog anti-alias low-pass declared as ``filter: {type, order, cutoff_hz}``, in s [rad/s]:
+    ``(b, a)`` (``output="ba"``) or ``(z, p, k)`` (``"zpk"``); ``cutoff_hz`` is the -3 dB frequency for
+    both types (Bessel normalised by magnitude). The one builder of the declared filters: the
+    diagnosis's chains, the benchmarks' acquisition and their truths all take it from here."""
+    from scipy import signal
+
+    wc = 2 * math.pi * float(cutoff_hz)
+    if kind == "butterworth":
+        return signal.butter(int(order), wc, btype="low", analog=True, output=output)
+    if kind == "bessel":
+        return signal.bessel(int(order), wc, btype="low", analog=True, norm="mag", output=output)
+    raise ValueError(f"unknown filter type {kind!r}; known: {', '.join(FILTER_TYPES)}")
+
+
 @dataclass(frozen=True)
 class Chain:
     """Acquisition chain of one channel: an analog low-pass (optional) and a pure delay."""
@@ -81,12 +96,7 @@ class Chain:
         """Numerator and denominator of the analog low-pass in s [rad/s] (None without filter)."""
         if self.type is None:
             return None
-        from scipy import signal
-
-        wc = 2 * math.pi * self.cutoff_hz
-        if self.type == "butterworth":
-            return signal.butter(self.order, wc, btype="low", analog=True)
-        return signal.bessel(self.order, wc, btype="low", analog=True, norm="mag")
+        return analog_lowpass(self.type, self.order, self.cutoff_hz)
 
     def state_space(self) -> tuple[ndarray, ndarray, ndarray] | None:
         """(A, B, C) of the analog low-pass as a cascade of its second-order (and one first-order)
@@ -94,13 +104,7 @@ class Chain:
         unlike the companion form of the whole polynomial (order 12 overflows there)."""
         if self.type is None:
             return None
-        from scipy import signal
-
-        wc = 2 * math.pi * self.cutoff_hz
-        if self.type == "butterworth":
-            _, p, _ = signal.butter(self.order, wc, btype="low", analog=True, output="zpk")
-        else:
-            _, p, _ = signal.bessel(self.order, wc, btype="low", analog=True, norm="mag", output="zpk")
+        _, p, _ = analog_lowpass(self.type, self.order, self.cutoff_hz, "zpk")
         secs = [np.array([[0.0, 1.0], [-(abs(q) ** 2), 2 * q.real]]) for q in p if q.imag > 1e-9 * abs(q)]
         secs += [np.array([[q.real]]) for q in p if abs(q.imag) <= 1e-9 * abs(q)]
         n = sum(a.shape[0] for a in secs)

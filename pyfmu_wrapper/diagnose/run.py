@@ -193,10 +193,13 @@ def flagged_lines(res: dict) -> list:
 
 def frc_verdict(res: dict) -> dict:
     """The top-level ``verdict`` of an FRC-only diagnosis."""
+    from .system.effects import VOCAB
+
     a = res["attribution"]
     return {
         "structural": a["structural"],
         "effects": a["effects"],
+        "elements": [VOCAB[e].element if e in VOCAB else "" for e in a["effects"]],
         "text": a["verdict"],
         "unexplained": a.get("unexplained", False),
         "unexplained_share": a.get("unexplained_share"),

@@ -28,6 +28,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..errors import InputError
+from .effects import Vocabulary
 from .modelica_source import ModelicaSource
 from .models import OdeModel
 from .params import P_F, P_W, TMDParams
@@ -129,6 +130,9 @@ class ModelUnit:
     #: the module that defines the unit as its ``UNIT`` (its ``__name__``): a unit is pickled by that
     #: reference, as Python pickles a function (a sweep's worker processes get the unit that way)
     home: str = ""
+    #: the effects ``diagnose`` can name on this model (:mod:`pyfmu_wrapper.physics.effects`), declared
+    #: once by the unit; None: the model has no diagnosis
+    effects: Vocabulary | None = None
 
     def __reduce__(self) -> tuple[Any, ...]:
         if not self.home:

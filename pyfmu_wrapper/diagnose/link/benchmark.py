@@ -33,6 +33,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 
+from ...models.base_tmd.effects import VOCABULARY as VOCAB
 from ...physics.kernels import chain_force
 from ...physics.params import N_PARAMS, P_ci, P_eps, P_ki
 from ..records import write_record
@@ -61,15 +62,7 @@ AMPS = (0.01, 0.02, 0.03)
 
 def _truth_param(effect: str, value: float) -> tuple[str, float]:
     """(parameter key in the diagnosis, value) that the fit should recover."""
-    key = {
-        "friction": "friction.friction_force",
-        "play": "play.play_gap",
-        "viscous": "viscous.delta_damping",
-        "mass_split": "mass_split.delta_inertance",
-        "cubic": "cubic.cubic_stiffness",
-        "force_error": "force_error.force_gain_error",
-        "bias": "bias.force_offset",
-    }[effect]
+    key = VOCAB[effect].truth_key
     if effect == "bias":
         value = NOMINAL["stiffness"] * value  # nominal sees d + b: force offset k b to be added
     return key, value

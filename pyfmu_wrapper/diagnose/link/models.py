@@ -21,6 +21,8 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..._jit import njit
+from ...models.base_tmd.effects import VOCABULARY as VOCAB
+from ...physics.effects import LINK
 from ...physics.kernels import chain_force, friction_force
 from ...physics.params import N_PARAMS, P_ci, P_eps, P_ki
 from ..data import DataError, Dataset
@@ -262,42 +264,30 @@ def _scales(ld: LinkData) -> tuple[float, float]:
     return float(np.percentile(np.abs(ld.d), 99)) or 1.0, float(np.percentile(np.abs(ld.v), 99)) or 1.0
 
 
+def _effect(name: str, theta0: tuple = (), params: tuple = ()) -> Effect:
+    """A link candidate from the unit's vocabulary: its label, its parameters (``params``: the link
+    fit's own, e.g. play's link level beside its gap), ``theta0`` its nonlinear parameters' grid."""
+    e = VOCAB[name]
+    assert LINK in e.levels, name
+    return Effect(name, e.label, params or e.param_names, theta0)
+
+
 def effect_list(ld: LinkData) -> list:
     dmax, vmax = _scales(ld)
     ld10, lv10 = math.log10(dmax), math.log10(vmax)
     eps_grid = tuple(ld10 + np.linspace(-2.3, -0.4, 9))
-    effects = [
-        Effect(
-            "friction",
-            "dry (Coulomb) friction",
-            ("friction_force", "friction_slope"),
-            (tuple(-lv10 + np.linspace(0.5, 3.5, 7)),),
-        ),
-        Effect("play", "play (backlash) in the link", ("link_level", "play_gap"), (eps_grid,)),
-        Effect("viscous", "extra viscous damping", ("delta_damping",)),
-        Effect("mass_split", "inertance/mass mis-split (m + I fixed)", ("delta_inertance",)),
-        Effect("cubic", "cubic stiffness", ("cubic_stiffness",)),
-        Effect("force_error", "forcing-amplitude / force-gain error", ("force_gain_error",)),
-        Effect("bias", "sensor bias (constant offset)", ("force_offset",)),
-    ]
+    slope_grid = (tuple(-lv10 + np.linspace(0.5, 3.5, 7)),)
+    effects = [_effect("friction", slope_grid), _effect("play", (eps_grid,), ("link_level", "play_gap"))]
+    effects += [_effect(e) for e in ("viscous", "mass_split", "cubic", "force_error", "bias")]
     if ld.nominal["friction_force"] > 0 and ld.nominal["stiffness"] == 0:
         # play in front of a friction element: slider + contact spring + gap (two nonlinear params)
-        effects[1] = Effect(
+        effects[1] = _effect(
             "play",
-            "play (backlash) in the link",
-            ("friction_force", "play_gap", "elastic_deflection"),
             (eps_grid, tuple(ld10 + np.linspace(-3.0, -1.0, 5))),
+            ("friction_force", "play_gap", "elastic_deflection"),
         )
         # the same without the gap: friction with pre-sliding (contact) compliance, the rival explanation
-        effects.insert(
-            2,
-            Effect(
-                "compliant_friction",
-                "dry friction with contact compliance (no play)",
-                ("friction_force", "elastic_deflection"),
-                (tuple(ld10 + np.linspace(-3.0, -0.5, 7)),),
-            ),
-        )
+        effects.insert(2, _effect("compliant_friction", (tuple(ld10 + np.linspace(-3.0, -0.5, 7)),)))
     return effects
 
 

@@ -9,6 +9,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
+from ...models.base_tmd.effects import VOCABULARY as VOCAB
 from .. import plotting
 from . import localise
 from .fit import per_band
@@ -76,6 +77,7 @@ def build_result(ds: Dataset, ld: LinkData, diag: Diagnosis) -> dict:
             "verdict": diag.verdict,
             "effects": list(chosen.effects) if chosen else [],
             "labels": list(chosen.labels) if chosen else [],
+            "elements": [VOCAB[e].element for e in chosen.effects] if chosen else [],
             "params": chosen.params if chosen else {},
             "std": chosen.std if chosen else {},
             "excess_over_noise": diag.excess,

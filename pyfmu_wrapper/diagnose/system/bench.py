@@ -1,7 +1,7 @@
 """System-level withheld-effect datasets under fixed conditions (the tests of ``diagnose`` use
 :func:`make_system_dataset`); the field-like suite of ``make-benchmark`` is
 :mod:`sysbench_suite` (drawing), :mod:`sysbench_field` (simulation and acquisition chain) and
-:mod:`sysbench_oov` (out-of-vocabulary truths), see docs/diagnose.md "Check 1".
+:mod:`sysbench_oov` (out-of-vocabulary truths), see docs/diagnose-evidence.md "Check 1".
 
 The coupled base + TMD simulated with the project's solver (``solvers.monolithic``) and measured
 as a test rig does. Per dataset of :func:`make_system_dataset`: paper Case 1 or Case 2 nominal
@@ -38,6 +38,7 @@ import numpy as np
 import yaml
 
 from ..records import write_record
+from .effects import VOCAB
 
 if TYPE_CHECKING:
     from numpy import ndarray
@@ -54,16 +55,8 @@ RANGES = {
     "force_error": (0.02, 0.15),
     "sensor_offset": (3e-4, 3e-3),
 }
-SIGNED = {"mass_split", "force_error", "sensor_offset"}
-TRUTH_KEY = {
-    "friction": "friction.friction_force",
-    "play": "play.play_gap",
-    "viscous": "viscous.delta_damping",
-    "mass_split": "mass_split.delta_inertance",
-    "cubic": "cubic.cubic_stiffness",
-    "force_error": "force_error.force_gain_error",
-    "sensor_offset": "sensor_offset.x_offset",
-}
+SIGNED = VOCAB.signed()  #: effects drawn with either sign (the vocabulary's signed ones)
+TRUTH_KEY = VOCAB.truth_keys(RANGES)  #: effect -> the parameter key its truth is scored by
 FS = 1000.0
 N_PERIODS = 10
 FRC_OMEGAS = np.linspace(15.0, 25.0, 21)
@@ -102,17 +95,26 @@ def true_tmd(nom: dict, hidden: dict) -> TMDParams:
 
 def true_tmd_kwargs(nom: dict, hidden: dict) -> dict:
     """TMDParams keyword arguments of the nominal's TMD with the hidden TMD-link effects applied."""
-    tk = dict(nom["tmd"])
-    tk["damping"] += hidden.get("viscous", 0.0)
-    tk["friction_force"] = hidden.get("friction", 0.0)
-    dI = hidden.get("mass_split", 0.0)
-    tk["inertance"] += dI
-    tk["mass"] -= dI
+    return true_values(nom, hidden)["tmd"]
+
+
+def true_values(nom: dict, hidden: dict) -> dict[str, dict]:
+    """The nominal's ``base`` and ``tmd`` blocks with the hidden model effects applied (``hidden``:
+    effect -> the size the benchmark scores, :attr:`~pyfmu_wrapper.physics.effects.Effect.truth_key`),
+    each by its targets in the unit's vocabulary; play also switches the inerter to the play chain.
+    Measurement effects (force_error, sensor_offset) are the rig's: left to the caller."""
+    vals = {f"{sub}.{k}": v for sub in ("base", "tmd") for k, v in nom[sub].items()}
+    vals.setdefault("tmd.cubic_stiffness", 0.0)
+    VOCAB.apply(vals, {VOCAB[e].truth_key: v for e, v in hidden.items() if e in VOCAB})
+    out: dict[str, dict] = {"base": {}, "tmd": {}}
+    for key, v in vals.items():
+        sub, name = key.split(".", 1)
+        out[sub][name] = v
+    if not out["tmd"]["cubic_stiffness"] and "cubic_stiffness" not in nom["tmd"]:
+        del out["tmd"]["cubic_stiffness"]
     if "play" in hidden:
-        tk.update(inerter="play", play_gap=hidden["play"])
-    if "cubic" in hidden:
-        tk["cubic_stiffness"] = hidden["cubic"]
-    return tk
+        out["tmd"]["inerter"] = "play"
+    return out
 
 
 def steady_record(
@@ -125,9 +127,7 @@ def steady_record(
     rtol: float = 1e-9,
 ) -> tuple[ndarray, ndarray, ndarray, SteadyState | None]:
     """(t, states, accelerations [n, 2]) of n_periods of the steady state sampled at fs."""
-    from ...models.solve import simulate, steady_state
-    from ...physics.kernels import rhs
-    from ...physics.params import pack
+    from ...models.solve import steady_state
     from ...solvers.monolithic import SolverSettings
 
     T = 2 * math.pi / omega
@@ -145,14 +145,37 @@ def steady_record(
         from ...models.solve import integrator_atol
 
         atol = integrator_atol(base, tmd, omega, SolverSettings())
-    _, z = simulate(base, tmd, omega, t0 + n_periods * T, z0=z0, sample_times=t + t0, rtol=rtol, atol=atol)
+    z, acc = solver_samples(base, tmd, omega, z0, t + t0, rtol, atol, t_end=t0 + n_periods * T)
+    return t, z, acc, ss
+
+
+def solver_samples(
+    base: BaseParams,
+    tmd: TMDParams,
+    omega: float,
+    z0: ndarray,
+    times: ndarray,
+    rtol: float,
+    atol: ndarray | None = None,
+    t_end: float | None = None,
+) -> tuple[ndarray, ndarray]:
+    """(states, accelerations [n, 2]) at ``times`` of the motion from ``z0`` at t = 0 (the forcing's
+    phase 0): the project's solver (``models.solve.simulate`` to ``t_end``, default times[-1]); the
+    accelerations xdd, ydd are the kernels' right-hand side at the sample times (contact spikes of the
+    play chain included, point-sampled like a real ADC). The steady benchmarks' one simulator."""
+    from ...models.solve import simulate
+    from ...physics.kernels import rhs
+    from ...physics.params import pack
+
+    t_end = float(times[-1]) if t_end is None else t_end
+    _, z = simulate(base, tmd, omega, t_end, z0=z0, sample_times=times, rtol=rtol, atol=atol)
     p = pack(base, tmd, omega)
     dz = np.empty(6)
-    acc = np.empty((t.size, 2))
-    for i in range(t.size):
-        rhs(t[i], z[i], p, dz)
+    acc = np.empty((times.size, 2))
+    for i in range(times.size):
+        rhs(times[i], z[i], p, dz)
         acc[i] = dz[1], dz[3]
-    return t, z, acc, ss
+    return z, acc
 
 
 def make_system_dataset(

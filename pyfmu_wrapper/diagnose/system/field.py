@@ -1,6 +1,6 @@
 """One field-like system dataset: the truth simulated, then measured through a rig's acquisition chain.
 
-Per record (see docs/diagnose.md, "Check 1"): the truth is evaluated on a dense time grid (rate
+Per record (see docs/diagnose-evidence.md, "Check 1"): the truth is evaluated on a dense time grid (rate
 k fs >= 20 kHz, the ADC samples on it) that starts two forcing periods before the record (the
 filter's transient dies there: its slowest time constant is < 5 ms); each channel is then
 
@@ -30,25 +30,20 @@ import numpy as np
 import yaml
 from scipy import signal
 
+from ..acquisition import analog_lowpass
 from ..records import write_record
 
 DENSE_HZ = 20000.0
 PREROLL_PERIODS = 2
 CHANNELS = ("force", "x", "y", "xdd", "ydd")
-BESSEL_NORM = "mag"  #: a Bessel cutoff_hz is the -3 dB point (the acquisition key, as diagnose.acquisition reads it)
 PLAY_PERIODS = 40  #: play (rattling): settle at most 40 periods; x_max = max over the last 20-period window
 
 
 # -- acquisition ------------------------------------------------------------------------------------
 def analog_zpk(spec: dict[str, Any]) -> tuple[np.ndarray, np.ndarray, float]:
-    """Analog prototype (z, p, k) of a declared filter {type, order, cutoff_hz}."""
-    wc = 2 * math.pi * float(spec["cutoff_hz"])
-    n = int(spec["order"])
-    if spec["type"] == "butterworth":
-        return signal.butter(n, wc, analog=True, output="zpk")
-    if spec["type"] == "bessel":
-        return signal.bessel(n, wc, analog=True, norm=BESSEL_NORM, output="zpk")
-    raise ValueError(f"unknown filter type {spec['type']!r}")
+    """Analog prototype (z, p, k) of a declared filter {type, order, cutoff_hz}
+    (:func:`..acquisition.analog_lowpass`, the one builder)."""
+    return analog_lowpass(spec["type"], spec["order"], spec["cutoff_hz"], "zpk")
 
 
 def filter_response(spec: dict[str, Any], omega: Any) -> np.ndarray:
@@ -66,9 +61,16 @@ def apply_filter(x: np.ndarray, spec: dict, fd: float) -> np.ndarray:
 
 
 def channel_spec(acq: dict | None, ch: str) -> dict:
+    """The acquisition of channel ``ch``: the ``all`` block, overridden by the channel's own key by key
+    (``filter``, ``delay_s``; ``filter: none`` exempts the channel), as ``diagnose`` reads
+    ``dataset.yaml`` (:func:`..acquisition.parse_acquisition`)."""
     if not acq:
         return {}
-    return acq.get(ch, acq.get("all", {})) or {}
+    spec = {**(acq.get("all") or {}), **(acq.get(ch) or {})}
+    f = spec.get("filter")
+    if f is None or (isinstance(f, str) and f.strip().lower() == "none"):  # `filter: none` exempts a channel
+        spec.pop("filter", None)
+    return spec
 
 
 # -- truth on a dense grid ------------------------------------------------------------------------
@@ -97,19 +99,12 @@ def truth_dense(truth: dict, omega: float, F_rec: float, tau: np.ndarray) -> dic
             "xdd": np.real(-(omega**2) * X * e),
             "ydd": np.real(-(omega**2) * Y * e),
         }
-    from ...models.solve import simulate, steady_state
-    from ...physics.kernels import rhs
-    from ...physics.params import pack
+    from ...models.solve import steady_state
     from ...solvers.monolithic import SolverSettings
+    from .bench import solver_samples
 
     ss = steady_state(base, tmd, omega, settings=SolverSettings(max_periods_window=PLAY_PERIODS))
-    _, z = simulate(base, tmd, omega, float(tau[-1]), z0=ss.state, sample_times=tau, rtol=1e-9)
-    p = pack(base, tmd, omega)
-    dz = np.empty(6)
-    acc = np.empty((tau.size, 2))
-    for i in range(tau.size):
-        rhs(tau[i], z[i], p, dz)
-        acc[i] = dz[1], dz[3]
+    z, acc = solver_samples(base, tmd, omega, ss.state, tau, 1e-9)
     return {"x": z[:, 0], "y": z[:, 2], "xdd": acc[:, 0], "ydd": acc[:, 1]}
 
 

@@ -32,6 +32,7 @@ from ...models.solve import exact_amplitude, steady_state
 from ...physics.params import BaseParams, ParameterError, TMDParams
 from ...solvers.monolithic import SolverError
 from . import frc_report
+from .effects import VOCAB
 from .frcfit import FRCEffectFit
 
 if TYPE_CHECKING:
@@ -106,45 +107,30 @@ class FRCDiagnosis(FRCEffectFit):
                 ).amplitude
         return a + bias
 
+    def changed(self, params: dict[str, Any]) -> tuple[BaseParams, TMDParams]:
+        """The nominal changed by effect parameters (``effect.parameter``: the vocabulary's
+        :meth:`~pyfmu_wrapper.physics.effects.Vocabulary.changed`, within the registry's bounds); a
+        different split of m and I keeps I within 1e-6 of 0 and of m + I, and m + I fixed."""
+        b, t = self.base, self.tmd
+        split = params.get("mass_split.delta_inertance")
+        new = VOCAB.changed(
+            {"base": b, "tmd": t}, {k: v for k, v in params.items() if k != "mass_split.delta_inertance"}
+        )
+        if split is not None:
+            I = min(max(t.inertance + float(split), 1e-6), t.inertia - 1e-6)
+            new["tmd"] = replace(new["tmd"], inertance=I, mass=t.inertia - I)
+        return new["base"], new["tmd"]
+
     def predict(self, params: dict[str, Any]) -> ndarray | None:
         """x_max predicted by the nominal model changed by fitted effect parameters (names as in
-        the diagnosis: ``effect.parameter``); None when an effect cannot be evaluated on FRC
-        records (play: its effect on x_max is below the solver's steady-state scatter)."""
-        b, t = self.base, self.tmd
-        kw: dict = {}
-        bkw: dict = {}
-        gain, fit_bias = 1.0, False
-        for k, v in params.items():
-            e, name = k.split(".", 1)
-            if e == "play":
-                return None
-            if k == "base_mass.delta_mass":
-                bkw["mass"] = max(b.mass + v, 1e-6 * b.mass)
-            elif k == "base_stiffness.delta_stiffness":
-                bkw["stiffness"] = max(b.stiffness + v, 0.0)
-            elif k == "base_damping.delta_damping":
-                bkw["damping"] = max(b.damping + v, 0.0)
-            elif k == "tmd_stiffness.delta_stiffness":
-                kw["stiffness"] = max(t.stiffness + v, 0.0)
-            if k == "viscous.delta_damping":
-                kw["damping"] = max(t.damping + v, 0.0)
-            elif k == "mass_split.delta_inertance":
-                I = min(max(t.inertance + v, 1e-6), t.inertia - 1e-6)
-                kw.update(inertance=I, mass=t.inertia - I)
-            elif k == "friction.friction_force":
-                kw["friction_force"] = max(v, 0.0)
-            elif k == "friction.friction_slope":
-                kw["friction_slope"] = v
-            elif k == "cubic.cubic_stiffness":
-                if "cubic_stiffness" not in {f.name for f in __import__("dataclasses").fields(t)}:
-                    return None
-                kw["cubic_stiffness"] = v
-            elif k == "force_error.force_gain_error":
-                gain = 1.0 + v
-            elif k == "sensor_offset.x_offset":
-                fit_bias = True  # x_max may be a peak (+b) or half a peak-to-peak (0): fitted below
-        pred = self.amplitude(replace(b, **bkw), replace(t, **kw), gain=gain)
-        if fit_bias:  # the offset of x_max, least squares in relative units
+        the diagnosis: ``effect.parameter``, :meth:`changed`); None when an effect cannot be evaluated on
+        FRC records (play: its effect on x_max is below the solver's steady-state scatter)."""
+        if any(k.split(".", 1)[0] == "play" for k in params):
+            return None
+        model = {k: v for k, v in params.items() if k.split(".", 1)[0] not in ("force_error", "sensor_offset")}
+        gain = 1.0 + params["force_error.force_gain_error"] if "force_error.force_gain_error" in params else 1.0
+        pred = self.amplitude(*self.changed(model), gain=gain)
+        if "sensor_offset.x_offset" in params:  # x_max may be a peak (+b) or half a peak-to-peak (0): fitted
             wgt = 1.0 / np.abs(self.x) ** 2
             pred = pred + float(np.sum(wgt * (self.x - pred)) / np.sum(wgt))
         return pred
@@ -184,66 +170,28 @@ class FRCDiagnosis(FRCEffectFit):
         return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0)) if d2.size else 0.0
 
     def _candidates(self) -> Iterator[Any]:
+        """(effect, [its parameter], start or search range, x_max of the changed model): the FRC's
+        candidates, each a change of the nominal from the unit's vocabulary (:meth:`changed`)."""
         b, t = self.base, self.tmd
-        I0 = t.inertance
-        yield (
-            "viscous",
-            ["delta_damping"],
-            [0.0],
-            lambda p: self.amplitude(b, replace(t, damping=max(t.damping + p[0], 0.0))),
-        )
+
+        def changed_by(key: str) -> Any:
+            return lambda p, only=None: self.amplitude(*self.changed({key: p[0]}), only=only)
+
+        yield "viscous", ["delta_damping"], [0.0], changed_by("viscous.delta_damping")
         if t.inerter.name != "NONE":
-            yield (
-                "mass_split",
-                ["delta_inertance"],
-                [0.0],
-                lambda p: self.amplitude(
-                    b,
-                    replace(
-                        t,
-                        inertance=min(max(I0 + p[0], 1e-6), t.inertia - 1e-6),
-                        mass=t.inertia - min(max(I0 + p[0], 1e-6), t.inertia - 1e-6),
-                    ),
-                ),
-            )
+            yield "mass_split", ["delta_inertance"], [0.0], changed_by("mass_split.delta_inertance")
         yield "force_error", ["force_gain_error"], [0.0], lambda p: self.amplitude(b, t, gain=1.0 + p[0])
         yield "sensor_offset", ["x_offset"], [0.0], lambda p: self.amplitude(b, t, bias=p[0])
-        yield (
-            "friction",
-            ["friction_force"],
-            None,
-            lambda p, only=None: self.amplitude(b, replace(t, friction_force=max(p[0], 0.0)), only=only),
-        )
+        yield "friction", ["friction_force"], None, changed_by("friction.friction_force")
         yield (
             "cubic",
             ["cubic_stiffness"],
             self.bounds("cubic.cubic_stiffness", 0.0),
-            lambda p, only=None: self.amplitude(b, replace(t, cubic_stiffness=p[0]), only=only),
+            changed_by("cubic.cubic_stiffness"),
         )
-        yield (
-            "base_mass",
-            ["delta_mass"],
-            [0.0],
-            lambda p: self.amplitude(replace(b, mass=max(b.mass + p[0], 1e-6 * b.mass)), t),
-        )
-        yield (
-            "base_stiffness",
-            ["delta_stiffness"],
-            [0.0],
-            lambda p: self.amplitude(replace(b, stiffness=max(b.stiffness + p[0], 0.0)), t),
-        )
-        yield (
-            "base_damping",
-            ["delta_damping"],
-            [0.0],
-            lambda p: self.amplitude(replace(b, damping=max(b.damping + p[0], 0.0)), t),
-        )
-        yield (
-            "tmd_stiffness",
-            ["delta_stiffness"],
-            [0.0],
-            lambda p: self.amplitude(b, replace(t, stiffness=max(t.stiffness + p[0], 0.0))),
-        )
+        for e in ("base_mass", "base_stiffness", "base_damping", "tmd_stiffness"):
+            name = VOCAB[e].params[0].name
+            yield e, [name], [0.0], changed_by(f"{e}.{name}")
 
     def run(self) -> FRCDiagnosis:
         """Fit each candidate on the training frequencies; everything in relative residuals

@@ -33,6 +33,7 @@ from ..._jit import njit
 from ...physics.kernels import friction_force, static_link_force
 from ...physics.params import N_PARAMS, BaseParams, P_k3, TMDParams, pack
 from ..harmonic import PERIODIC_R2, fit_series, fuse, grid_coef, grid_values
+from .effects import EQ_EFFECTS, VOCAB
 
 if TYPE_CHECKING:
     from typing import Any
@@ -303,19 +304,10 @@ class SystemModel:
         return out
 
 
-EFFECT_PARAMS = {
-    "friction": ("friction_force",),
-    "play": ("delta_inertance_eff",),
-    "viscous": ("delta_damping",),
-    "mass_split": ("delta_inertance",),
-    "cubic": ("cubic_stiffness",),
-    "force_error": ("force_gain_error",),
-    "sensor_offset": ("x_offset", "y_offset"),
-    "base_mass": ("delta_mass",),
-    "base_stiffness": ("delta_stiffness",),
-    "base_damping": ("delta_damping",),
-    "tmd_stiffness": ("delta_stiffness",),
-}
+#: the linear parameters each candidate of the steady fits adds (the vocabulary's; the friction slope
+#: is held on the grid SLOPES): play enters through its rattle signature (:func:`steady_signature`),
+#: an effective inertance its gap is then refitted from (:mod:`.playfit`)
+EFFECT_PARAMS = {**{e: VOCAB[e].linear_params for e in EQ_EFFECTS}, "play": ("delta_inertance_eff",)}
 SIGN = {"force_error": -1.0}  # beta = -alpha
 
 

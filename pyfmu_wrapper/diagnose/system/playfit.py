@@ -4,12 +4,12 @@ second effect (methods of :class:`sysdiag.SystemDiagnosis`, kept apart by job)."
 from __future__ import annotations
 
 import math
-from dataclasses import replace
 from typing import Any
 
 import numpy as np
 
 from ...solvers.monolithic import SolverError
+from .effects import VOCAB
 from .eqfit import fit_eq
 from .play import PlayFit
 
@@ -27,38 +27,16 @@ class PlayMixin:
         """Play + a second effect in the TMD link: the rattle curves S(eps) were simulated with the
         nominal link; extra damping (or stiffness, friction, ...) changes the rattle, so the gap is
         fitted again on curves simulated with the second effect's fitted parameters."""
-        t, b, p = self.model.tmd, self.model.base, c.params
-        bkw = {
-            "base_damping": lambda: {"damping": max(b.damping + p["base_damping.delta_damping"], 0.0)},
-            "base_mass": lambda: {"mass": b.mass + p["base_mass.delta_mass"]},
-            "base_stiffness": lambda: {"stiffness": b.stiffness + p["base_stiffness.delta_stiffness"]},
-        }
-        if c.effects[1] in bkw:
-            try:
-                pf = PlayFit(replace(b, **bkw[c.effects[1]]()), t, self.views)
-                pf.fit(self.train_ids, self.folds)
-            except (SolverError, ValueError, FloatingPointError, KeyError) as err:
-                self.log.append(("note", c.effects, [f"play not refitted with {c.effects[1]}: {err}"]))
-                return
-            return self._take_play(c, pf)
-        kw = {
-            "viscous": lambda: {"damping": max(t.damping + p["viscous.delta_damping"], 0.0)},
-            "tmd_stiffness": lambda: {"stiffness": t.stiffness + p["tmd_stiffness.delta_stiffness"]},
-            "friction": lambda: {
-                "friction_force": max(p["friction.friction_force"], 0.0),
-                "friction_slope": p["friction.friction_slope"],
-            },
-            "cubic": lambda: {"cubic_stiffness": p["cubic.cubic_stiffness"]},
-            "mass_split": lambda: {
-                "inertance": t.inertance + p["mass_split.delta_inertance"],
-                "mass": t.mass - p["mass_split.delta_inertance"],
-            },
-        }[c.effects[1]]()
+        second = c.effects[1]
         try:
-            pf = PlayFit(self.model.base, replace(t, **kw), self.views)
+            new = VOCAB.changed(
+                {"base": self.model.base, "tmd": self.model.tmd},
+                {k: v for k, v in c.params.items() if k.split(".", 1)[0] == second},
+            )
+            pf = PlayFit(new["base"], new["tmd"], self.views)
             pf.fit(self.train_ids, self.folds)
         except (SolverError, ValueError, FloatingPointError, KeyError) as err:
-            self.log.append(("note", c.effects, [f"play not refitted with {c.effects[1]}: {err}"]))
+            self.log.append(("note", c.effects, [f"play not refitted with {second}: {err}"]))
             return
         self._take_play(c, pf)
 

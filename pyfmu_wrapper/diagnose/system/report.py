@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import gates, plotting
-from .effects import LABELS, UNITS
+from .effects import LABELS, UNITS, VOCAB
 
 if TYPE_CHECKING:
     from typing import Any
@@ -115,6 +115,7 @@ def build_system_result(ds: Dataset, sd: SystemDiagnosis, frc: FRCDiagnosis | No
         "structural": bool(sd.chosen),
         "effects": list(sd.chosen),
         "labels": [LABELS[e] for e in sd.chosen],
+        "elements": [VOCAB[e].element for e in sd.chosen],
         "text": text,
         "parameters": params,
         "unobservable": unobs,

@@ -1,5 +1,5 @@
 """``score`` for the system suite: runs ``diagnose`` on every dataset and compares the verdict with
-``manifest.json`` (docs/diagnose.md, "Check 1").
+``manifest.json`` (docs/diagnose-evidence.md, "Check 1").
 
 What is read from each diagnosis: ``verdict.effects`` (the effects named as causes),
 ``verdict.unexplained`` (a missing key counts as false), ``verdict.text`` (the printed verdict)
@@ -36,7 +36,7 @@ TEXT_UNEXPLAINED = re.compile(
     r"structural gap remains",
     re.I,
 )
-TARGETS: dict[str, tuple[str, float]] = {  # what a field benchmark must reach (docs/diagnose.md)
+TARGETS: dict[str, tuple[str, float]] = {  # what a field benchmark must reach (docs/diagnose-evidence.md)
     "singles_top1": (">=", 0.95),
     "clean_false_positive_rate": ("<=", 0.10),
     "pairs_both_named": (">=", 0.80),
@@ -225,7 +225,7 @@ def _pct(x: float | None) -> str:
 
 
 def table(summary: dict) -> str:
-    """The score as a Markdown table (the one in docs/diagnose.md)."""
+    """The score as a Markdown table (the one in docs/diagnose-evidence.md)."""
     s = summary
     n = {c: s[f"n_{c}"] for c in ("clean", "single", "pair", "oov")}
     lines = [

@@ -1,4 +1,4 @@
-"""The field-like system suite of ``make-benchmark`` (docs/diagnose.md, "Check 1").
+"""The field-like system suite of ``make-benchmark`` (docs/diagnose-evidence.md, "Check 1").
 
 Per dataset, drawn with the seed: paper Case 1, 2 or 3 nominal with c = 10 or 15 N s/m (ideal
 inerter); sampling rate 256 Hz-5 kHz; an acquisition chain (none, anti-alias filters on the
@@ -27,9 +27,8 @@ from typing import Any
 import numpy as np
 
 from .bench import RANGES as BASE_RANGES
-from .bench import SIGNED as BASE_SIGNED
-from .bench import TRUTH_KEY as BASE_TRUTH_KEY
-from .bench import has_cubic, nominal, true_tmd_kwargs
+from .bench import has_cubic, nominal, true_values
+from .effects import VOCAB
 
 RANGES = dict(
     BASE_RANGES,
@@ -38,14 +37,8 @@ RANGES = dict(
     base_damping=(10.0, 50.0),
     tmd_stiffness=(80.0, 320.0),
 )
-SIGNED = set(BASE_SIGNED) | {"base_mass", "base_stiffness", "base_damping", "tmd_stiffness"}
-TRUTH_KEY = dict(
-    BASE_TRUTH_KEY,
-    base_mass="base_mass.delta_mass",
-    base_stiffness="base_stiffness.delta_stiffness",
-    base_damping="base_damping.delta_damping",
-    tmd_stiffness="tmd_stiffness.delta_stiffness",
-)
+SIGNED = VOCAB.signed()
+TRUTH_KEY = VOCAB.truth_keys(RANGES)
 OOV_RANGES = {
     "quadratic_damping": (1.0, 20.0),
     "base_friction": (1.0, 10.0),
@@ -74,15 +67,10 @@ def draw_value(rng: np.random.Generator, lo_hi: Sequence[float], signed: bool, s
 
 
 def true_parts(nom: dict, hidden: dict, oov: dict) -> dict:
-    base = dict(nom["base"])
-    base["mass"] += hidden.get("base_mass", 0.0)
-    base["stiffness"] += hidden.get("base_stiffness", 0.0)
-    base["damping"] += hidden.get("base_damping", 0.0)
-    tk = true_tmd_kwargs(nom, hidden)
-    tk["stiffness"] += hidden.get("tmd_stiffness", 0.0)
+    true = true_values(nom, hidden)
     return {
-        "base": base,
-        "tmd": tk,
+        "base": true["base"],
+        "tmd": true["tmd"],
         "force_error": hidden.get("force_error", 0.0),
         "sensor_offset": hidden.get("sensor_offset", 0.0),
         "oov": dict(oov),

@@ -1,6 +1,6 @@
 """Diagnosis of transient records (system level): which effect explains the data **to the noise**.
 
-Steps (docs/diagnose.md, "Transient records"):
+Steps (docs/diagnose-method.md, "Transient records"):
 
 1. Views (:mod:`.transient_sim`): each record averaged to at most FIT_MAX fit samples; its start
    state estimated under the nominal (two passes); the noise std of every channel of every record
@@ -37,8 +37,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .effects import LABELS, VOCAB
 from .transient_effects import BOUNDS, TEFFECTS, apply, meaningless, scales
-from .transient_effects import LABELS as T_LABELS
 from .transient_fit import TFit, chi2_of, fit, residual, start_update, warm_start, z_test
 from .transient_heldout import HeldOut
 from .transient_screen import NONLINEAR, screen
@@ -78,9 +78,7 @@ START_PASSES = 3  #: start-state passes under a fitted candidate before its held
 
 
 def _label(e: str) -> str:
-    from .effects import LABELS
-
-    return LABELS.get(e) or T_LABELS.get(e, e)
+    return LABELS.get(e, e)
 
 
 class TransientDiagnosis:
@@ -646,6 +644,7 @@ class TransientDiagnosis:
             "structural": how != "none",
             "effects": list(named),
             "labels": [_label(e) for e in named],
+            "elements": [VOCAB[e].element for e in named],
             "parameters": params,
             "alternatives": alternatives,
             "unexplained": unexplained,

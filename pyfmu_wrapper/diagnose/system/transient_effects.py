@@ -1,20 +1,20 @@
 """Transient records: the candidate effects as changes of the simulated model.
 
 Every candidate is a change of the model that :mod:`.transient_sim` simulates with the measured
-force: the vocabulary of the system diagnosis (:mod:`.effects`) plus every parameter of the
-nominal model (M, K, C, m, k, c, I; dry friction df through ``friction``), with the bounds of their
-fits and the smallest size a second effect must have to mean something physically.
+force: the unit's vocabulary (:mod:`.effects`: its mechanisms and every parameter of the nominal
+model, M, K, C, m, k, c, I; dry friction df through ``friction``), with the bounds of their fits and the smallest size a second effect must have to mean something physically.
 """
 
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator, MutableMapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
-import numpy as np
-
-from ...physics.params import P_C, P_I, P_K, P_M, P_MODEL, P_c, P_ci, P_df, P_eps, P_k, P_k3, P_ki, P_m, P_s
+from ...physics.params import P_C, P_I, P_K, P_M, P_MODEL, P_c, P_ci, P_df, P_k, P_ki, P_m, P_s
+from ...physics.registry import PACK_INDEX
+from .effects import TRANSIENT_EFFECTS, VOCAB
 from .transient_sim import fastest_rate
 
 if TYPE_CHECKING:
@@ -28,32 +28,13 @@ PLAY_KI, PLAY_CI = 2.0e6, 20.0
 #: FRICTION_SLOPE (a transition velocity of 0.2 mm/s at most is resolved: the explicit step's cost)
 FRICTION_RATE = 20.0
 FRICTION_SLOPE = (10.0, 5000.0)
-#: effect -> (parameter names, units, scale of each parameter)
+#: effect -> (parameter names, their units), from the unit's vocabulary (:mod:`.effects`)
 TEFFECTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
-    "viscous": (("delta_damping",), ("N s/m",)),
-    "friction": (("friction_force", "friction_slope"), ("N", "s/m")),
-    "play": (("play_gap",), ("m",)),
-    "mass_split": (("delta_inertance",), ("kg",)),
-    "cubic": (("cubic_stiffness",), ("N/m^3",)),
-    "force_error": (("force_gain_error",), ("1",)),
-    "sensor_offset": (("x_offset", "y_offset"), ("m", "m")),
-    "base_mass": (("delta_mass",), ("kg",)),
-    "base_stiffness": (("delta_stiffness",), ("N/m",)),
-    "base_damping": (("delta_damping",), ("N s/m",)),
-    "tmd_stiffness": (("delta_stiffness",), ("N/m",)),
-    "tmd_mass": (("delta_mass",), ("kg",)),
-    "inertance": (("delta_inertance",), ("kg",)),
+    e: (VOCAB[e].param_names, tuple(p.unit for p in VOCAB[e].params)) for e in TRANSIENT_EFFECTS
 }
-#: bounds of the fit (SI)
-BOUNDS = {
-    "friction.friction_force": (0.0, np.inf),
-    "friction.friction_slope": FRICTION_SLOPE,
-    "play.play_gap": (0.0, np.inf),
-}
-LABELS = {
-    "tmd_mass": "TMD mass m off the nominal",
-    "inertance": "inertance I off the nominal (m unchanged)",
-}
+#: bounds of the fit (SI): the vocabulary's physical ones, the friction slope within what the explicit
+#: step resolves
+BOUNDS = {**VOCAB.bounds(), "friction.friction_slope": FRICTION_SLOPE}
 
 
 def scales(p: ndarray, stroke: float, xscale: float) -> dict[str, tuple[float, ...]]:
@@ -75,6 +56,29 @@ def scales(p: ndarray, stroke: float, xscale: float) -> dict[str, tuple[float, .
     }
 
 
+class _Packed(MutableMapping[str, float]):
+    """The kernels' packed parameter array by the registry's names (``tmd.damping``), for
+    :meth:`~pyfmu_wrapper.physics.effects.Vocabulary.change`."""
+
+    def __init__(self, p: ndarray) -> None:
+        self.p = p
+
+    def __getitem__(self, key: str) -> float:
+        return float(self.p[PACK_INDEX[key]])
+
+    def __setitem__(self, key: str, value: float) -> None:
+        self.p[PACK_INDEX[key]] = value
+
+    def __delitem__(self, key: str) -> None:
+        raise TypeError("a packed parameter cannot be removed")
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(PACK_INDEX)
+
+    def __len__(self) -> int:
+        return len(PACK_INDEX)
+
+
 @dataclass
 class Model:
     """A candidate model: the kernels' parameter vector, a force gain and sensor offsets."""
@@ -93,37 +97,17 @@ def apply(p_nom: ndarray, effects: tuple[str, ...], theta: ndarray) -> Model | s
     for e in effects:
         th = theta[i : i + len(TEFFECTS[e][0])]
         i += len(th)
-        if e == "viscous":
-            p[P_c] += th[0]
-        elif e == "friction":
-            if th[0] < 0:
-                return f"friction force df < 0 ({th[0]:.3g} N)"
-            p[P_df], p[P_s] = th[0], th[1]
-        elif e == "play":
+        if e == "friction" and th[0] < 0:
+            return f"friction force df < 0 ({th[0]:.3g} N)"
+        if e == "play":
             if th[0] < 0:
                 return f"play gap < 0 ({th[0]:.3g} m)"
-            p[P_MODEL], p[P_ki], p[P_ci], p[P_eps] = 2.0, PLAY_KI, PLAY_CI, th[0]
-        elif e == "mass_split":
-            p[P_I] += th[0]
-            p[P_m] -= th[0]
-        elif e == "cubic":
-            p[P_k3] += th[0]
+            p[P_MODEL], p[P_ki], p[P_ci] = 2.0, PLAY_KI, PLAY_CI
         elif e == "force_error":
             mdl.gain = 1.0 + th[0]
         elif e == "sensor_offset":
             mdl.offset = (float(th[0]), float(th[1]))
-        elif e == "base_mass":
-            p[P_M] += th[0]
-        elif e == "base_stiffness":
-            p[P_K] += th[0]
-        elif e == "base_damping":
-            p[P_C] += th[0]
-        elif e == "tmd_stiffness":
-            p[P_k] += th[0]
-        elif e == "tmd_mass":
-            p[P_m] += th[0]
-        elif e == "inertance":
-            p[P_I] += th[0]
+    VOCAB.change(_Packed(p), effects, theta)  # the model parameters each effect changes (the unit's table)
     if p[P_df] > 0 and "friction" not in effects:  # a nominal's friction: the slope an explicit step resolves
         p[P_s] = min(p_nom[P_s], FRICTION_RATE * fastest_rate(p_nom) * max(p[P_m], 1e-9) / (p[P_df] * 2 / math.pi))
     for idx, name in ((P_M, "M"), (P_K, "K"), (P_m, "m"), (P_k, "k")):

@@ -25,6 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .agreement import LEVEL, records_agree
 from .transient_effects import TEFFECTS, apply
 from .transient_fit import TFit, chi2_of, fit, residual, start_update
 from .transient_sim import param_variance_factor
@@ -34,7 +35,7 @@ if TYPE_CHECKING:
 
     from .transient_sim import TView
 
-AGREE_P = 1e-3  #: per-record parameters disagree when the agreement chi-square's p-value is below this
+AGREE_P = LEVEL  #: per-record parameters disagree when the agreement test's p-value is below this
 #: model-error floor of a per-record parameter in the agreement test, as a share of max(|mean|, its
 #: scale): the measured force is the simulation's input with its own noise (errors in variables), which
 #: the statistical std does not cover (measured: viscous dc = 10 N s/m on four records scatters by 0.3 %)
@@ -99,8 +100,6 @@ class HeldOut:
         converging), and the chi-square of their agreement."""
         if len(self.views) < 2:
             return {"records": [], "p_value": None, "agree": True}
-        from scipy.stats import chi2 as chi2dist
-
         effects = self.effects
         rows, vals, stds = [], [], []
         lin = self._linear()
@@ -119,16 +118,12 @@ class HeldOut:
             stds.append(std)
         if len(vals) < 2:
             return {"records": rows, "p_value": None, "agree": True}
-        V, S = np.array(vals), np.maximum(np.array(stds), 1e-300)
-        scale = np.array([s for e in effects for s in self.sc[e]], float)
-        mean = (V / S**2).sum(0) / (1 / S**2).sum(0)
-        S = np.sqrt(S**2 + (AGREE_FLOOR * np.maximum(np.abs(mean), scale)) ** 2)
-        w = 1 / S**2
-        mean = (V * w).sum(0) / w.sum(0)
-        c2 = float(((V - mean) ** 2 * w).sum())
-        dof = V.size - V.shape[1]
-        p = float(chi2dist.sf(c2, dof))
-        return {"records": rows, "chi2": c2, "dof": dof, "p_value": p, "agree": p >= AGREE_P}
+        scale = [s for e in effects for s in self.sc[e]]
+        names = [f"{e}.{n}" for e in effects for n in TEFFECTS[e][0]]
+        a = records_agree(vals, stds, names, AGREE_FLOOR, scale, AGREE_P)
+        if a is None:
+            return {"records": rows, "p_value": None, "agree": True}
+        return {**a, "records": rows}
 
     def _std_widening(self, v: TView, m: ndarray, theta: ndarray) -> ndarray:
         """Per parameter of a fit of record v alone: how much its variance exceeds the one

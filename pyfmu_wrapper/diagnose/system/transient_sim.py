@@ -506,6 +506,20 @@ def hold_response(chain: Chain, h: float, w: ndarray) -> ndarray:
     return np.linalg.solve(A, b[:, :, None])[:, :, 0] @ cc
 
 
+def _through(out: ndarray, y: ndarray, gs: list, lead: int, nf: int) -> ndarray:
+    """``out`` with each column k of y passed through the frequency response gs[k] (None: left as it
+    is) by FFT of length nf, the column's first and last values held ``lead`` samples before and
+    after it (the chain at rest there, as on the rig)."""
+    n = y.shape[0]
+    for k, g in enumerate(gs):
+        if g is None:
+            continue
+        u = y[:, k]
+        pad = np.concatenate([np.full(lead, u[0]), u, np.full(nf - n - lead, u[-1])])
+        out[:, k] = np.fft.irfft(np.fft.rfft(pad) * g, nf)[lead : lead + n]
+    return out
+
+
 def hold_correct(y: ndarray, fs: float, chains: dict, h: float, cache: dict) -> ndarray:
     """Block means (n, 4) of the grid filters' outputs corrected to the analog filters' outputs: each
     filtered channel times G(i w) / G_hold(i w) at the fit rate fs (:func:`hold_response`), which
@@ -530,14 +544,7 @@ def hold_correct(y: ndarray, fs: float, chains: dict, h: float, cache: dict) -> 
     gs = _cached(cache, ("hold", nf, fs, h), make)
     if all(g is None for g in gs):
         return y
-    out = y.copy()
-    for k, g in enumerate(gs):
-        if g is None:
-            continue
-        u = y[:, k]
-        pad = np.concatenate([np.full(lead, u[0]), u, np.full(nf - n - lead, u[-1])])
-        out[:, k] = np.fft.irfft(np.fft.rfft(pad) * g, nf)[lead : lead + n]
-    return out
+    return _through(y.copy(), y, gs, lead, nf)
 
 
 @dataclass
@@ -815,13 +822,7 @@ def apply_chain(
             gs.append(g)
         if cache is not None:
             cache.update(key=key, g=gs)
-    for k, g in enumerate(gs):
-        if g is None:
-            continue
-        u = y[:, k]
-        pad = np.concatenate([np.full(lead, u[0]), u, np.full(nf - n - lead, u[-1])])
-        out[:, k] = np.fft.irfft(np.fft.rfft(pad) * g, nf)[lead : lead + n]
-    return out
+    return _through(out, y, gs, lead, nf)
 
 
 def feedthrough(p: ndarray) -> tuple[float, float]:
@@ -909,7 +910,7 @@ def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
     t +- a and w the grid's spacing (Richardson: the point value to O(w^4) for a smooth force, a
     response 1 + O((f w)^4) in its band, 0 at every multiple of 1 / w): on a grid coarser than the
     samples, point values would fold the load cell's white noise from up to the record's Nyquist onto
-    the structure's band and inflate the simulated response to it (docs/diagnose.md, "the force
+    the structure's band and inflate the simulated response to it (docs/diagnose-method.md, "the force
     between samples")."""
     from scipy.interpolate import CubicSpline
 

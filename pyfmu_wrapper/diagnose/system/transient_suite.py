@@ -1,5 +1,5 @@
 """``make-benchmark --suite transient``: system-level datasets of transient records under field
-conditions (docs/diagnose.md, "Check 3"), their truths simulated by :mod:`.transient_truth` (its own
+conditions (docs/diagnose-evidence.md, "Check 3"), their truths simulated by :mod:`.transient_truth` (its own
 right-hand side and ``odeint``, not the project's kernels) and measured as a rig does.
 
 Per dataset (drawn with the seed): nominal paper Case 1/2/3 (c = 10 or 15 N s/m); sampling rate
@@ -21,26 +21,29 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 
+from .effects import VOCAB
+
 if TYPE_CHECKING:
     from collections.abc import Callable
     from pathlib import Path
 
     from .transient_truth import Truth
 
-#: in-vocabulary truths: effect -> (Truth keyword, range, signed, manifest key of the parameter)
-IN_VOCAB: dict[str, tuple[str, tuple[float, float], bool, str]] = {
-    "viscous": ("dc", (2.0, 30.0), False, "viscous.delta_damping"),
-    "friction": ("df", (1.5, 15.0), False, "friction.friction_force"),
-    "mass_split": ("dI_split", (0.1, 0.8), True, "mass_split.delta_inertance"),
-    "cubic": ("k3", (3e4, 3e5), False, "cubic.cubic_stiffness"),
-    "force_error": ("force_gain", (0.02, 0.15), True, "force_error.force_gain_error"),
-    "sensor_offset": ("x_offset", (3e-4, 3e-3), True, "sensor_offset.x_offset"),
-    "base_mass": ("dM", (2.0, 8.0), True, "base_mass.delta_mass"),
-    "base_stiffness": ("dK", (800.0, 3200.0), True, "base_stiffness.delta_stiffness"),
-    "base_damping": ("dC", (10.0, 50.0), True, "base_damping.delta_damping"),
-    "tmd_stiffness": ("dk", (80.0, 320.0), True, "tmd_stiffness.delta_stiffness"),
-    "tmd_mass": ("dm", (0.2, 0.8), True, "tmd_mass.delta_mass"),
-    "inertance": ("dI", (0.1, 0.5), False, "inertance.delta_inertance"),
+#: in-vocabulary truths: effect -> (Truth keyword, range, signed); the manifest scores each by the
+#: vocabulary's truth key (:attr:`~pyfmu_wrapper.physics.effects.Effect.truth_key`)
+IN_VOCAB: dict[str, tuple[str, tuple[float, float], bool]] = {
+    "viscous": ("dc", (2.0, 30.0), False),
+    "friction": ("df", (1.5, 15.0), False),
+    "mass_split": ("dI_split", (0.1, 0.8), True),
+    "cubic": ("k3", (3e4, 3e5), False),
+    "force_error": ("force_gain", (0.02, 0.15), True),
+    "sensor_offset": ("x_offset", (3e-4, 3e-3), True),
+    "base_mass": ("dM", (2.0, 8.0), True),
+    "base_stiffness": ("dK", (800.0, 3200.0), True),
+    "base_damping": ("dC", (10.0, 50.0), True),
+    "tmd_stiffness": ("dk", (80.0, 320.0), True),
+    "tmd_mass": ("dm", (0.2, 0.8), True),
+    "inertance": ("dI", (0.1, 0.5), False),
 }
 #: out-of-vocabulary truths of this suite (Truth keyword, range, signed); the first four were
 #: never looked at while the transient diagnosis was tuned (only quadratic damping was)
@@ -250,7 +253,7 @@ def make_transient_benchmark(
             **spec,
             "hidden": sorted(hidden) + sorted(oov),
             "severity": {**hidden, **oov},
-            "truth": {IN_VOCAB[e][3]: v for e, v in hidden.items()},
+            "truth": {VOCAB[e].truth_key: v for e, v in hidden.items()},
             "oov": oov,
             "visibility": {"visible": True, "note": "OOV strengths drawn visible; not computed"},
             "seconds": round(time.perf_counter() - t0, 2),

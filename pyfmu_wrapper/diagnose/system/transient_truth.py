@@ -4,6 +4,13 @@ by an integrator of its own (``scipy.integrate.odeint``, right-hand side written
 project's kernels) and measured as a rig does (anti-alias filter, delay, sensor gain and offset,
 white ADC noise, sampling).
 
+Independent on purpose: the diagnosis simulates its candidates with the kernels' equations
+(:mod:`.transient_sim` integrates :func:`pyfmu_wrapper.physics.kernels.rhs_fext`; the steady path
+uses the project's solver), so a truth written here and integrated otherwise is what catches an
+error of sign, convention or integration in the diagnosis's own simulation. Only the declared
+anti-alias filter's prototype is shared (:func:`..acquisition.analog_lowpass`: it is scipy's, not a
+model of ours).
+
 Truth model (ideal inerter I, passive sign convention of the physics notes)::
 
     (M + I) xdd - I ydd = F(t) - C xd - K x - K3 x^3 - mu tanh(xd / v0) - Fs
@@ -195,19 +202,15 @@ def measure(
     dense rate, delay), every step-th sample, white noise of std noise[ch] x rms."""
     from scipy import signal
 
+    from ..acquisition import analog_lowpass
+
     out = {"t": t[::step] - t[0]}
     for ch, u in sig.items():
         u = np.asarray(u, float) * (1 + (gains or {}).get(ch, 0.0)) + (offsets or {}).get(ch, 0.0)
         spec = {**((acq or {}).get("all") or {}), **((acq or {}).get(ch) or {})}  # key by key, as declared
         if spec and spec.get("filter"):
             fl = spec["filter"]
-            wc = 2 * math.pi * fl["cutoff_hz"]
-            ba = (
-                signal.butter(fl["order"], wc, analog=True)
-                if fl["type"] == "butterworth"
-                else signal.bessel(fl["order"], wc, analog=True, norm="mag")
-            )
-            A, B, C, D = signal.tf2ss(*ba)
+            A, B, C, D = signal.tf2ss(*analog_lowpass(fl["type"], fl["order"], fl["cutoff_hz"]))
             x0 = -np.linalg.solve(A, B[:, 0]) * u[0]
             _, u, _ = signal.lsim((A, B, C, D), u, t, X0=x0)
         if spec and spec.get("delay_s"):

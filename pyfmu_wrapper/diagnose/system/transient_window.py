@@ -37,7 +37,7 @@ WINDOW_PERIODS = 5.0  #: the window must hold this many periods of the nominal's
 WINDOW_MIN = 400  #: ... and this many fit samples (every record)
 #: a window held-out z above this rules the candidate out. Measured: the true candidates' window z
 #: -1.9 to -0.3 (bench viscous, friction; seed 5252 tr026, tr050, tr003, tr055), the ruled-out ones'
-#: 142 to 9.6e6 (docs/diagnose.md, "Transient records")
+#: 142 to 9.6e6 (docs/diagnose-method.md, "Transient records")
 PRUNE_Z = 100.0
 
 

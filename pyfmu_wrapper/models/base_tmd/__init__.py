@@ -20,6 +20,7 @@ from ...physics.models import COUPLED
 from ...physics.params import BaseParams, TMDParams, pack
 from ...physics.tmd import active_states, tmd_atol
 from ...physics.unit import ModelUnit
+from .effects import VOCABULARY
 from .modelica import MODELICA
 from .scenario import read_base
 
@@ -86,4 +87,5 @@ UNIT = ModelUnit(
     scenario_block="base",
     scenario_reader=read_base,
     home=__name__,
+    effects=VOCABULARY,
 )
