@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
+from .names import EXECUTORS
 from .tasks import Checkpoint, SweepTask, TaskStats, run_task
 
 if TYPE_CHECKING:
@@ -46,7 +47,7 @@ if TYPE_CHECKING:
 
     from .tasks import SweepTask
 
-EXECUTORS = ("local", "dask", "sequential")
+#: EXECUTORS: the names the command line offers (scenario/names.py, imported light)
 
 
 # --- executors -----------------------------------------------------------------------------------
