@@ -13,7 +13,7 @@ Functions of other packages keep numba's own locators.
 Importing numba costs about a second of CPU (more on a loaded machine). A console script must read
 and refuse a bad input file before that (docs/scenarios.md, "Refusals"), and the input checks live
 beside the equations, in modules that define compiled functions. So until compiled code is needed,
-``@njit`` returns a :class:`LazyJit`: the Python function with numba's decorator arguments. Its
+the ``njit`` decorator returns a :class:`LazyJit`: the Python function with numba's decorator arguments. Its
 ``py_func`` is the plain function (input checks call a small compiled check through it); calling it,
 or asking it for any of the dispatcher's attributes, imports numba (:func:`load`), makes the real
 dispatcher, and replaces every lazy function in the package's loaded modules by its dispatcher (a
@@ -110,7 +110,7 @@ class LazyJit:
 
 def njit(*args: Any, **kwargs: Any) -> Any:
     """numba.njit, with this package's cache locator installed; lazy until numba is needed (see the
-    module doc). Used as ``@njit``, ``@njit(cache=True)`` or ``@njit(signature, ...)``."""
+    module doc). Used bare, with keywords (``cache=True``) or with a signature, as numba.njit."""
     if len(args) == 1 and callable(args[0]) and not isinstance(args[0], str) and not kwargs:
         return njit()(args[0])
     if _NUMBA_NJIT is None and "numba" in sys.modules:
