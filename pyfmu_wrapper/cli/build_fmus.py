@@ -20,8 +20,11 @@ from ..fmubuild.build import (
     fmi_out_dir,
 )
 from ..fmubuild.build import __doc__ as BUILD_DOC
-from ..models.catalog import BUILD_FMUS, NATIVE_FMUS, SPECS, pick
+from .common import add_version
 from .errors import cli_main
+
+# the catalogue of FMUs (their declarations import numba) is imported in main, after the command line
+# is parsed: --help and --version cost nothing
 
 
 @cli_main("build-fmus")
@@ -31,9 +34,10 @@ def main(argv: list[str] | None = None) -> int:
         "names",
         nargs="*",
         default=[],
-        help=f"FMUs to build, of {sorted(SPECS)} (default: {', '.join(BUILD_FMUS)}; with --native, those with a "
-        f"native variant: {', '.join(NATIVE_FMUS)})",
+        help="FMUs to build, by name (default: every model's FMUs; with --native, those with a native "
+        "variant); --list names them",
     )
+    ap.add_argument("--list", action="store_true", help="list the FMUs that can be built, and exit")
     ap.add_argument("--out", default=str(DEFAULT_OUT), help="output directory (default fmu/build)")
     ap.add_argument("--force", action="store_true", help="rebuild even when up to date")
     ap.add_argument(
@@ -55,7 +59,15 @@ def main(argv: list[str] | None = None) -> int:
         metavar="{2,3,both}",  # "2,3" is accepted as a spelling of "both"
         help="FMI version of the FMUs: 2 (default, into --out), 3 (FMI 3.0 co-simulation, into <out>/fmi3/), or both",
     )
+    add_version(ap)
     args = ap.parse_args(argv)
+    from ..models.catalog import BUILD_FMUS, NATIVE_FMUS, SPECS, pick
+
+    if args.list:
+        for n in sorted(SPECS):
+            tags = [t for t, on in (("default", n in BUILD_FMUS), ("native", n in NATIVE_FMUS)) if on]
+            print(n + (f" ({', '.join(tags)})" if tags else ""))
+        return 0
     versions = [2, 3] if args.fmi_version in ("2,3", "both") else [int(args.fmi_version)]
     if not args.names:  # every model's FMU (with --native: every one with a native variant)
         args.names = list(NATIVE_FMUS if args.native else BUILD_FMUS)
