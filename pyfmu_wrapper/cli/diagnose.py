@@ -48,15 +48,34 @@ def main_diagnose(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--max-input-size", type=float, default=None, metavar="MB", help="the largest YAML file read (default 16 MB)"
     )
+    ap.add_argument("--quiet", action="store_true", help="no progress report (the verdict is still printed)")
+    ap.add_argument(
+        "--progress-every",
+        type=float,
+        default=5.0,
+        metavar="SECONDS",
+        help="when stderr is not a terminal (a log, a pipe): one progress line every SECONDS while candidates "
+        "are fitted (default 5); on a terminal the line is redrawn every second",
+    )
     add_version(ap)
     a = ap.parse_args(argv)
     from ..diagnose.run import flagged_lines, run_diagnosis
 
     set_max_record_size(a.max_record_size)
     set_max_input_size(a.max_input_size)
+    if not a.progress_every > 0:
+        raise InputError(f"--progress-every must be > 0 seconds, got {a.progress_every}")
     out = check_out_folder(a.out, "diagnose", DIAGNOSE_MARKER)
-    with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
-        res = run_diagnosis(a.dataset, tmp, a.model)
+    from ..diagnose import progress
+    from .progress import StageProgress
+
+    with StageProgress("diagnose", interval=a.progress_every, enabled=not a.quiet) as bar:
+        old = progress.set_reporter(bar)
+        try:
+            with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
+                res = run_diagnosis(a.dataset, tmp, a.model)
+        finally:
+            progress.set_reporter(old)
     if "verdict" in res:
         print(res["verdict"]["text"])
         for d in res["verdict"].get("disagreements", []):

@@ -123,3 +123,96 @@ class Progress:
             elif self.tty:
                 self.stream.write("\n")
                 self.stream.flush()
+
+
+class StageProgress:
+    """The progress report of ``diagnose`` (:mod:`pyfmu_wrapper.diagnose.progress`): the stage it is in,
+    the candidate fits done, the elapsed time. Every new stage is one line; while a stage runs, a
+    background thread redraws the line every second on a terminal, and in a log writes a plain line
+    every ``interval`` seconds when candidates were done since the last one."""
+
+    def __init__(
+        self,
+        prog: str,
+        stream: TextIO | None = None,
+        tty: bool | None = None,
+        interval: float = 5.0,
+        enabled: bool = True,
+    ) -> None:
+        self.prog = prog
+        self.stream = stream if stream is not None else sys.stderr
+        self.tty = bool(getattr(self.stream, "isatty", lambda: False)()) if tty is None else tty
+        self.interval = 1.0 if self.tty else float(interval)
+        self.enabled = enabled
+        self.t0 = time.monotonic()
+        self.name = "starting"
+        self.done = 0  #: candidate fits done in the current stage
+        self.total = 0  #: candidate fits done in all
+        self.last = ""
+        self._lock = threading.Lock()
+        self._stop = threading.Event()
+        self._written = (0.0, -1)
+        self._thread: threading.Thread | None = None
+        self._open = False  # a redrawn line is on the terminal
+
+    def __enter__(self) -> StageProgress:
+        if self.enabled:
+            self._thread = threading.Thread(target=self._loop, name="diagnose-progress", daemon=True)
+            self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> Literal[False]:
+        self.close(final=exc[0] is None)
+        return False
+
+    def stage(self, name: str) -> None:
+        with self._lock:
+            self.name, self.done, self.last = name, 0, ""
+        self._emit(newline_before=True)
+
+    def candidate(self, label: str) -> None:
+        with self._lock:
+            self.done += 1
+            self.total += 1
+            self.last = label
+
+    def line(self) -> str:
+        with self._lock:
+            name, done, last = self.name, self.done, self.last
+        fits = f", {done} candidate fit{'s' if done != 1 else ''} done" + (f" (last: {last})" if last else "")
+        return f"{self.prog}: {name}{fits if done else ''}, {_fmt_time(time.monotonic() - self.t0)} elapsed"
+
+    def _emit(self, newline_before: bool = False, final: bool = False) -> None:
+        if not self.enabled:
+            return
+        text = self.line()
+        if self.tty:
+            lead = "\n" if (newline_before and self._open) else "\r"
+            self.stream.write(lead + text.ljust(110) + ("\n" if final else ""))
+            self._open = not final
+        else:
+            self.stream.write(text + "\n")
+        self.stream.flush()
+        self._written = (time.monotonic(), self.total)
+
+    def _loop(self) -> None:
+        while not self._stop.wait(0.2):
+            since = time.monotonic() - self._written[0]
+            if since >= self.interval and (self.tty or self.total != self._written[1]):
+                self._emit()
+
+    def close(self, final: bool = True) -> None:
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+        if final:
+            self.stage("done")
+            if self.tty and self._open:
+                self.stream.write("\n")
+                self.stream.flush()
+                self._open = False
+        elif self.tty and self._open:
+            self.stream.write("\n")
+            self.stream.flush()
+            self._open = False
