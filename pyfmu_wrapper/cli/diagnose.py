@@ -15,7 +15,7 @@ from pathlib import Path
 from ..diagnose.outfolder import BENCHMARK_MARKER, DIAGNOSE_MARKER, ResultFolder, check_out_file, check_out_folder
 from ..diagnose.record_checks import set_max_record_size
 from ..errors import InputError, set_max_input_size
-from .common import add_version
+from .common import add_version, check_creatable
 from .errors import cli_main
 
 # the diagnosis (numpy, pandas when a record's rows are read, scipy, numba, matplotlib) is imported in
@@ -66,6 +66,7 @@ def main_diagnose(argv: list[str] | None = None) -> int:
     if not a.progress_every > 0:
         raise InputError(f"--progress-every must be > 0 seconds, got {a.progress_every}")
     out = check_out_folder(a.out, "diagnose", DIAGNOSE_MARKER)
+    check_creatable(out)
     from ..diagnose import progress
     from .progress import StageProgress
 
@@ -172,6 +173,7 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
         from ..diagnose.system.example import write_example
 
         out = check_out_folder(a.out, "make-benchmark", BENCHMARK_MARKER)
+        check_creatable(out)
         with ResultFolder(out, BENCHMARK_MARKER) as tmp:
             files = write_example(a.example, tmp)
         print(f"wrote the {a.example} example dataset ({', '.join(files)}) to {out}; run: diagnose {out} --out OUT")
@@ -223,6 +225,7 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
     from ..diagnose.link.benchmark import make_benchmark
 
     out = check_out_folder(a.out, "make-benchmark", BENCHMARK_MARKER)
+    check_creatable(out)
     with ResultFolder(out, BENCHMARK_MARKER) as tmp:
         if a.suite == "system":
             from ..diagnose.system.suite import make_system_benchmark

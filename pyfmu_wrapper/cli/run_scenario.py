@@ -19,7 +19,7 @@ from typing import Any, NoReturn
 
 from ..errors import set_max_input_size
 from ..scenario.names import DEFAULT_ENGINE, ENGINE_NAMES, EXECUTORS
-from .common import add_version
+from .common import add_version, check_creatable
 from .errors import cli_main
 from .progress import Progress
 
@@ -195,6 +195,7 @@ def main(argv: list[str] | None = None) -> int:
         notes = check_output_dir(out, scn.path, cache)
     except OutputError as exc:
         return _err(str(exc))
+    check_creatable(out)  # a folder it cannot make (--out /proc/foo): one line, exit 2
 
     # the command line, the scenario and the output folder are checked: now the engines
     from ..scenario.engines import RunSettings

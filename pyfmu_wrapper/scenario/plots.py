@@ -312,9 +312,14 @@ def _difference_axes(dax: Axes, tab: DataFrame) -> None:
     irr = tab["irregular"].fillna(False).astype(bool).to_numpy() if "irregular" in tab else np.zeros(len(d), bool)
     if "reference_irregular" in tab:
         irr = irr | (tab["reference_irregular"].to_numpy(float) == 1.0)
-    reg = np.abs(d[~irr & np.isfinite(d)])
+    conv = tab["converged"].fillna(False).astype(bool).to_numpy() if "converged" in tab else np.ones(len(d), bool)
+    reg = np.abs(
+        d[~irr & conv & np.isfinite(d)]
+    )  # the points both engines call regular (sweeptable.engine_differences)
     head = (
-        f"max |difference| over {reg.size} regular points = {100 * reg.max():.3g} %" if reg.size else "no regular point"
+        f"max |difference| over {reg.size} points both engines call regular = {100 * reg.max():.3g} %"
+        if reg.size
+        else "no point both engines call regular"
     )
     if reg.size and irr.any():  # the scale of the regular points; an irregular point outside sits on the edge
         lim = max(1.3 * 100 * float(reg.max()), 0.05)

@@ -285,13 +285,20 @@ def study_report(data: Any) -> list[str]:
     else:
         lines.append(f"{st.name}: {n_nc} of {len(t)} points not converged, {n_irr} irregular: " + "; ".join(parts))
         lines += _reason_lines(st.name, t)
-    if "difference" in t and np.isfinite(t["difference"].to_numpy(float)).any():
-        diff = engine_differences(t)
+    diff = engine_differences(t)
+    if diff:  # engine 'both': always one line, whatever the points are
         where = "" if diff["omega_max_difference"] is None else f" (at {_w(diff['omega_max_difference'])} rad/s)"
         line = (
             f"{st.name}: co-simulation against monolithic: max |difference| = {_pct(diff['max_abs_difference'])} "
-            f"over the {diff['regular_points']} regular points{where}"
+            f"over the {diff['regular_points']} points both engines call regular{where}"
+            if diff["regular_points"]
+            else f"{st.name}: co-simulation against monolithic: no point both engines call regular"
         )
+        if diff["not_converged_points"]:
+            line += (
+                f"; {diff['not_converged_points']} points the co-simulation reports not converged (not in that "
+                f"maximum): max |difference| there {_pct(diff['max_abs_difference_not_converged'])}"
+            )
         if diff["irregular_points"]:
             irr_t = t[irregular_mask(t)]
             items = []
