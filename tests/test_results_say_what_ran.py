@@ -196,7 +196,7 @@ def test_diagnose_reports_stages_and_candidates_with_elapsed_time():
     from pyfmu_wrapper.diagnose import progress
 
     buf = io.StringIO()
-    bar = StageProgress("diagnose", stream=buf, tty=False, interval=0.05)
+    bar = StageProgress("diagnose", stream=buf, tty=False, interval=0.05, quiet_start=0.0)
     with bar:
         old = progress.set_reporter(bar)
         try:
@@ -213,6 +213,10 @@ def test_diagnose_reports_stages_and_candidates_with_elapsed_time():
     assert any("3 candidate fits done (last: cubic)" in ln for ln in lines), lines
     assert lines[-1].startswith("diagnose: done") and "elapsed" in lines[-1]
     progress.candidate("nothing installed: no effect")  # a library call without a reporter
+    quiet = io.StringIO()  # a refusal within the first second: not a line of progress, only its error
+    with StageProgress("diagnose", stream=quiet, tty=False, interval=0.05):
+        pass
+    assert quiet.getvalue() == ""
 
 
 def test_the_worked_example_is_the_tests_dataset(tmp_path):

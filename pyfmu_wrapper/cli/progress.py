@@ -129,7 +129,8 @@ class StageProgress:
     """The progress report of ``diagnose`` (:mod:`pyfmu_wrapper.diagnose.progress`): the stage it is in,
     the candidate fits done, the elapsed time. Every new stage is one line; while a stage runs, a
     background thread redraws the line every second on a terminal, and in a log writes a plain line
-    every ``interval`` seconds when candidates were done since the last one."""
+    every ``interval`` seconds when candidates were done since the last one. Nothing is written in
+    the first ``quiet_start`` seconds: a refusal of bad input stays the one line it is."""
 
     def __init__(
         self,
@@ -138,8 +139,10 @@ class StageProgress:
         tty: bool | None = None,
         interval: float = 5.0,
         enabled: bool = True,
+        quiet_start: float = 1.0,
     ) -> None:
         self.prog = prog
+        self.quiet_start = float(quiet_start)
         self.stream = stream if stream is not None else sys.stderr
         self.tty = bool(getattr(self.stream, "isatty", lambda: False)()) if tty is None else tty
         self.interval = 1.0 if self.tty else float(interval)
@@ -151,7 +154,9 @@ class StageProgress:
         self.last = ""
         self._lock = threading.Lock()
         self._stop = threading.Event()
-        self._written = (0.0, -1)
+        self._written = (self.t0, 0)
+        self._pending = False  # a stage not yet written
+        self._any = False  # anything written
         self._thread: threading.Thread | None = None
         self._open = False  # a redrawn line is on the terminal
 
@@ -168,7 +173,9 @@ class StageProgress:
     def stage(self, name: str) -> None:
         with self._lock:
             self.name, self.done, self.last = name, 0, ""
-        self._emit(newline_before=True)
+            self._pending = True
+        if time.monotonic() - self.t0 >= self.quiet_start:
+            self._emit(newline_before=True)
 
     def candidate(self, label: str) -> None:
         with self._lock:
@@ -194,11 +201,17 @@ class StageProgress:
             self.stream.write(text + "\n")
         self.stream.flush()
         self._written = (time.monotonic(), self.total)
+        self._pending, self._any = False, True
 
     def _loop(self) -> None:
         while not self._stop.wait(0.2):
-            since = time.monotonic() - self._written[0]
-            if since >= self.interval and (self.tty or self.total != self._written[1]):
+            now = time.monotonic()
+            if now - self.t0 < self.quiet_start:
+                continue
+            since = now - self._written[0]
+            if self._pending:
+                self._emit(newline_before=True)
+            elif since >= self.interval and (self.tty or self.total != self._written[1]):
                 self._emit()
 
     def close(self, final: bool = True) -> None:
@@ -206,7 +219,7 @@ class StageProgress:
         if self._thread is not None:
             self._thread.join()
             self._thread = None
-        if final:
+        if final and self._any:  # a run long enough to have reported: its end too
             self.stage("done")
             if self.tty and self._open:
                 self.stream.write("\n")
