@@ -149,20 +149,20 @@ def write_study_csv(data: FRCData | MapData | PhaseData, path: Path) -> None:
 
 def frc_table(data: FRCData) -> pd.DataFrame:
     """The FRC study's table as its CSV holds it: on a structure with places to attach the TMD (a
-    frame), each curve's attachment beside its label (``tmd_storey``, ``inerter_to``: 0 the ground;
-    empty for a curve without TMD)."""
+    frame), each curve's attachment in two last columns (``tmd_storey``, ``inerter_to``: 0 the ground;
+    empty for a curve without TMD; last, so the sweep columns keep their places)."""
     tab = data.table
     atts = {label: attachment(s) for label, s in data.structures.items()}
     if not any(a is not None for a in atts.values()):
         return tab
     tab = tab.copy()
     without = {c.label for c in data.study.curves if c.without_tmd}
-    for k, (col, key) in enumerate((("tmd_storey", "storey"), ("inerter_to", "inerter_to"))):
+    for col, key in (("tmd_storey", "storey"), ("inerter_to", "inerter_to")):
         vals = [
             None if (lab in without or atts.get(lab) is None) else int(atts[lab][key])  # type: ignore[index]
             for lab in tab["curve"]
         ]
-        tab.insert(1 + k, col, pd.array(vals, dtype="Int64"))
+        tab[col] = pd.array(vals, dtype="Int64")
     return tab
 
 
