@@ -94,7 +94,8 @@ class LazyJit:
         return self._disp
 
     def __call__(self, *args: Any, **kwargs: Any) -> Any:
-        return self.dispatcher()(*args, **kwargs)
+        d = self._disp  # held in a container (a tuple, a dataclass), a proxy stays: one attribute read more
+        return (d if d is not None else self.dispatcher())(*args, **kwargs)
 
     def __getattr__(self, name: str) -> Any:
         if name.startswith("__") or name in ("_disp", "_args", "_kwargs", "py_func"):
