@@ -233,3 +233,32 @@ def test_the_worked_example_is_the_tests_dataset(tmp_path):
     ref = yaml.safe_load((tmp_path / "ref" / "dataset.yaml").read_text())
     assert ours["records"] == ref["records"] and ours["nominal"] == ref["nominal"]
     assert ours["acquisition"] == ref["acquisition"]
+
+
+def test_time_left_from_each_sweeps_own_cost_per_point(monkeypatch):
+    """A cheap curve (no TMD: 50 points in 1 s) then an expensive one (1 s a point): the time left is
+    the expensive curve's 89 points at its own 1 s each, not the run's average speed (61 points in
+    11 s: 16 s, the issue's "about 49 s left" at 3 min 36 s)."""
+    from pyfmu_wrapper.cli import progress as pg
+
+    now = [0.0]
+    monkeypatch.setattr(pg.time, "monotonic", lambda: now[0])
+    bar = pg.Progress(150, "x", enabled=False)
+    bar.task_points("no TMD", 1, 50)
+    now[0] = 1.0
+    bar.task_points("no TMD", 49, 50)
+    bar.task_points("TMD", 1, 100)
+    now[0] = 11.0
+    bar.task_points("TMD", 10, 100)
+    assert bar.done == 61
+    assert bar.eta() == pytest.approx(89.0)
+    assert 89 * 11.0 / 61 < 17  # what the run's average speed said
+    # two sweeps at once: the work left is shared by the two processes
+    bar = pg.Progress(200, "y", enabled=False)
+    now[0] = 0.0
+    bar.task_points("a", 1, 100)
+    bar.task_points("b", 1, 100)
+    now[0] = 10.0
+    bar.task_points("a", 10, 100)  # 1 s a point
+    bar.task_points("b", 5, 100)  # 2 s a point
+    assert bar.eta() == pytest.approx((89 * 1.0 + 94 * 2.0) / 2)

@@ -52,6 +52,46 @@ class Progress:
         self._stop = threading.Event()
         self._last = (0.0, -1.0)  # (time, done) of the last line written
         self._thread: threading.Thread | None = None
+        #: per sweep (an FRC curve, a map row) reported by task_points: [points, done, first report
+        #: time, last report time, points of the first report]
+        self._tasks: dict[object, list[float]] = {}
+        self._parallel = 1  #: the most sweeps seen running at once
+
+    def task_points(self, key: object, n: float, units: float) -> None:
+        """``n`` points of the sweep ``key`` (of ``units`` points) finished: counted as ``progress(n)``,
+        and the sweep's own cost per point measured for the time left (:meth:`eta`)."""
+        now = time.monotonic()
+        with self._lock:
+            self.done += n
+            rec = self._tasks.get(key)
+            if rec is None:
+                self._tasks[key] = [float(units), float(n), now, now, float(n)]
+            else:
+                rec[1] += n
+                rec[3] = now
+            running = sum(1 for r in self._tasks.values() if r[1] < r[0] - 1e-9)
+            self._parallel = max(self._parallel, running)
+
+    def _eta_per_sweep(self, left: float) -> float | None:
+        """Time left from the measured cost per point of each sweep: a sweep that has reported twice
+        costs what its own points cost so far (an expensive curve after a cheap one is not
+        underestimated); the others, and the points of sweeps not started, the mean of those costs;
+        the sum divided by the sweeps seen running at once. None until a sweep has a cost."""
+        costs = {}
+        for k, (_, done, t1, t2, n1) in self._tasks.items():
+            if done > n1 + 1e-9 and t2 > t1:
+                costs[k] = (t2 - t1) / (done - n1)
+        if not costs:
+            return None
+        mean = sum(costs.values()) / len(costs)
+        tracked = 0.0
+        work = 0.0
+        for k, (units, done, *_) in self._tasks.items():
+            rest = max(0.0, units - done)
+            tracked += rest
+            work += rest * costs.get(k, mean)
+        work += max(0.0, left - tracked) * mean
+        return work / max(1, self._parallel)
 
     def __enter__(self) -> Progress:
         if self.enabled:
@@ -74,13 +114,18 @@ class Progress:
 
     def eta(self) -> float | None:
         """Seconds left: the points still to compute (those known to cost nothing left out) at the
-        speed of the points computed so far (None: unknown yet)."""
+        measured cost per point of each sweep when the sweeps report themselves (:meth:`task_points`,
+        the process pool's), else at the speed of the points computed so far (None: unknown yet)."""
         with self._lock:
             computed = self.done - self.skipped
             left = self.total - self.done - max(0.0, self.instant - self.skipped)
         elapsed = time.monotonic() - self.t0
         if left <= 0:
             return 0.0
+        with self._lock:
+            per_sweep = self._eta_per_sweep(left) if self._tasks else None
+        if per_sweep is not None:
+            return per_sweep
         if computed <= 0 or elapsed <= 0:
             return None
         return left * elapsed / computed
