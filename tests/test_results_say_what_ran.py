@@ -262,3 +262,27 @@ def test_time_left_from_each_sweeps_own_cost_per_point(monkeypatch):
     bar.task_points("a", 10, 100)  # 1 s a point
     bar.task_points("b", 5, 100)  # 2 s a point
     assert bar.eta() == pytest.approx((89 * 1.0 + 94 * 2.0) / 2)
+
+
+def test_where_png_shows_a_negative_z_at_its_value(tmp_path, monkeypatch):
+    """The winning candidate's held-out z is often below 0 (explained below the noise): its bar ends at
+    its own value on a symmetric log axis, not clipped to 0.1 on a log one."""
+    from types import SimpleNamespace
+
+    from matplotlib.figure import Figure
+
+    from pyfmu_wrapper.diagnose import plotting
+
+    saved = []
+    monkeypatch.setattr(Figure, "savefig", lambda self, *a, **k: saved.append(self))
+    res = {
+        "candidates": [
+            {"ok": True, "gap_closed": 1.0, "z": -3.1, "effects": ["viscous"]},
+            {"ok": True, "gap_closed": 0.62, "z": 41013.7, "effects": ["friction"]},
+        ]
+    }
+    plotting.plot_transient(SimpleNamespace(views=[], nominal_resid=[]), res, tmp_path / "where.png")
+    ax = saved[0].axes[-1]
+    assert ax.get_xscale() == "symlog"
+    ends = sorted(p.get_x() + p.get_width() for p in ax.patches)
+    assert ends == pytest.approx([-3.1, 41013.7])
