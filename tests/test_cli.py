@@ -63,7 +63,7 @@ def linear_run(tmp_path_factory):
 
 def test_outputs_exist(linear_run):
     names = sorted(os.listdir(linear_run))
-    files = ["frc.csv", "frc.png", "map.csv", "map.png", "phase.csv", "phase.png", "summary.json"]
+    files = ["frc.csv", "frc.png", "map.csv", "map.png", "phase.csv", "phase.png", "summary.json", "summary.md"]
     assert names == [".run-scenario.json"] + files
     marker = json.loads((linear_run / ".run-scenario.json").read_text())  # what marks the folder as ours
     assert marker["tool"] == "run-scenario" and marker["kind"] == "result" and marker["scenario"] == "fig2_small"
@@ -368,7 +368,10 @@ def test_engine_both_headlines_the_regular_points_only(tmp_path, capsys):
     assert ip["reference_scatter"] == pytest.approx(row["reference_change"], rel=1e-8)
     assert ip["difference"] == pytest.approx(row["amplitude"] / row["reference"] - 1, rel=1e-6)
     console = capsys.readouterr().out
-    assert f"max |difference| = {100 * d['max_abs_difference']:.3g} % over the 2 regular points" in console
+    assert (
+        f"max |difference| = {100 * d['max_abs_difference']:.3g} % over the 2 points both engines call regular"
+        in console
+    )
     assert "irregular points (not in that maximum): 20 rad/s" in console
 
 

@@ -107,7 +107,7 @@ def test_a_result_of_another_scenario_file_with_the_same_name_is_not_replaced(tm
 
 
 def test_reproduce_never_overwrites_a_users_files(tmp_path, capsys, monkeypatch):
-    import pyfmu_wrapper.cli.reproduce as rp
+    import pyfmu_wrapper.paper.reproduce as rp  # the CLI imports run_all from here when it runs
 
     monkeypatch.setattr(rp, "run_all", lambda *a, **k: (_ for _ in ()).throw(AssertionError("computed")))
     for name in ("reproduction.md", "reproduction.json", "figures/fig6.png"):

@@ -268,6 +268,7 @@ def test_result_folder_replaced_as_a_whole_user_files_never_touched(tmp_path):
 def test_flagged_records_are_printed(tmp_path, capsys, monkeypatch):
     """Records the analysis leaves out (or partly out) appear in the printed verdict, not only in the report."""
     from pyfmu_wrapper.cli import diagnose as cli
+    from pyfmu_wrapper.diagnose import run as diagnosis  # the CLI imports run_diagnosis from here when it runs
 
     res = {
         "verdict": {"text": "No structural effect."},
@@ -275,7 +276,7 @@ def test_flagged_records_are_printed(tmp_path, capsys, monkeypatch):
         "time_records": {"flagged": [{"record": "a.csv", "reason": "no 'y' column"}]},
         "flagged_records": [{"record": "b.csv", "reason": "no 'ydd' column"}],
     }
-    monkeypatch.setattr(cli, "run_diagnosis", lambda *a, **k: res)
+    monkeypatch.setattr(diagnosis, "run_diagnosis", lambda *a, **k: res)
     (tmp_path / "ds").mkdir()
     assert cli.main_diagnose([str(tmp_path / "ds"), "--out", str(tmp_path / "o")]) == 0
     out = capsys.readouterr().out

@@ -42,7 +42,7 @@ def make(path, changes, kinds, fs=256.0, T=40.0, seed=0, accel_only=False, acq=N
         if accel_only:
             m.pop("x"), m.pop("y")
         write_record(path / f"r{i}.csv", m)
-        recs.append({"file": f"r{i}.csv", "kind": "transient"})
+        recs.append({"file": f"r{i}.csv", "kind": "decay" if kind == "decay" else "transient"})
     doc = {"level": "system", "nominal": {"base": BASE, "tmd": TMD}, "records": recs, "acquisition": acq}
     (path / "dataset.yaml").write_text(yaml.safe_dump(doc))
     return path

@@ -45,7 +45,7 @@ def make(path, kinds, changes=None, offsets=None, gains=None, fs=256.0, T=30.0, 
         if gains is not None and "force" in m:
             m["force"] = m["force"] / (1 + gains[i])
         write_record(path / f"r{i}.csv", m)
-        recs.append({"file": f"r{i}.csv", "kind": "transient"})
+        recs.append({"file": f"r{i}.csv", "kind": "decay" if kind == "decay" else "transient"})
     doc = {"level": "system", "nominal": {"base": BASE, "tmd": TMD}, "records": recs, "acquisition": {}}
     (path / "dataset.yaml").write_text(yaml.safe_dump(doc))
     return path
@@ -119,7 +119,7 @@ def test_agreement_and_held_out_records_equal_the_full_fits_on_a_viscous_truth(t
     for i, (kind, dc) in enumerate(zip([RANDOM, SWEEP, DECAY], dcs)):  # one record per damping, merged
         make(tmp_path / f"p{i}", [kind], changes={"dc": dc}, seed=20 + i)
         (path / f"r{i}.csv").write_bytes((tmp_path / f"p{i}" / "r0.csv").read_bytes())
-        recs.append({"file": f"r{i}.csv", "kind": "transient"})
+        recs.append({"file": f"r{i}.csv", "kind": "decay" if kind == DECAY else "transient"})
     doc = {"level": "system", "nominal": {"base": BASE, "tmd": TMD}, "records": recs, "acquisition": {}}
     (path / "dataset.yaml").write_text(yaml.safe_dump(doc))
 

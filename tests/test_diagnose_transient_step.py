@@ -164,7 +164,7 @@ def _dataset(path, changes, fs=512.0, T=12.0):
             sig.pop("force")
         noise = {"x": 0.01, "y": 0.01, "xdd": 0.01, "ydd": 0.01, "force": 0.005}
         write_record(path / f"r{i}.csv", measure(sig, t, 8, rng, noise, acq))
-        recs.append({"file": f"r{i}.csv", "kind": "transient"})
+        recs.append({"file": f"r{i}.csv", "kind": "decay" if kind == "decay" else "transient"})
     doc = {"level": "system", "nominal": {"base": BASE, "tmd": TMD}, "records": recs, "acquisition": acq}
     (path / "dataset.yaml").write_text(yaml.safe_dump(doc))
     return path

@@ -78,7 +78,7 @@ def test_own_result_is_replaced_atomically_and_user_files_in_it_are_kept(tmp_pat
     assert main([str(scn), "--out", str(out)] + MONO) == 0
     first = json.loads((out / ".run-scenario.json").read_text())
     assert first["tool"] == "run-scenario" and first["kind"] == "result" and first["scenario"] == "tiny"
-    assert first["version"] and sorted(first["files"]) == ["frc.csv", "frc.png", "summary.json"]
+    assert first["version"] and sorted(first["files"]) == ["frc.csv", "frc.png", "summary.json", "summary.md"]
     time.sleep(1.1)  # a new 'created' second
     assert main([str(scn), "--out", str(out)] + MONO) == 0  # an earlier result of ours: replaced
     second = json.loads((out / ".run-scenario.json").read_text())

@@ -20,11 +20,13 @@ from ..fmubuild.build import (
     ensure_fmus,
     fmi_out_dir,
 )
-from ..models.catalog import BUILD_FMUS, NATIVE_FMUS, SPECS, pick
+from .common import add_version
 from .errors import cli_main
 
 #: what ``build-fmus`` builds with no variant flag: the native FMUs (the model compiled into the binary)
 DEFAULT_VARIANT = "native"
+# the catalogue of FMUs (their declarations import numba) is imported in main, after the command line
+# is parsed: --help and --version cost nothing
 
 
 @cli_main("build-fmus")
@@ -38,9 +40,10 @@ def main(argv: list[str] | None = None) -> int:
         "names",
         nargs="*",
         default=[],
-        help=f"FMUs to build, of {sorted(SPECS)} (default: every model's, {', '.join(NATIVE_FMUS)}; with --python, "
-        f"{', '.join(BUILD_FMUS)})",
+        help="FMUs to build, by name (default: every model's FMUs, native; with --python, every model's "
+        "Python-hosted FMU); --list names them",
     )
+    ap.add_argument("--list", action="store_true", help="list the FMUs that can be built, and exit")
     ap.add_argument("--out", default=None, help="output directory (default fmu/build/native; with --python fmu/build)")
     ap.add_argument("--force", action="store_true", help="rebuild even when up to date")
     ap.add_argument(
@@ -69,7 +72,15 @@ def main(argv: list[str] | None = None) -> int:
         metavar="{2,3,both}",  # "2,3" is accepted as a spelling of "both"
         help="FMI version of the FMUs: 2 (default, into --out), 3 (FMI 3.0 co-simulation, into <out>/fmi3/), or both",
     )
+    add_version(ap)
     args = ap.parse_args(argv)
+    from ..models.catalog import BUILD_FMUS, NATIVE_FMUS, SPECS, pick
+
+    if args.list:
+        for n in sorted(SPECS):
+            tags = [t for t, on in (("default", n in BUILD_FMUS), ("native", n in NATIVE_FMUS)) if on]
+            print(n + (f" ({', '.join(tags)})" if tags else ""))
+        return 0
     versions = [2, 3] if args.fmi_version in ("2,3", "both") else [int(args.fmi_version)]
     if args.native and (args.python or args.standalone):
         ap.error(f"--native excludes {'--python' if args.python else '--standalone'} (a native FMU runs no Python)")

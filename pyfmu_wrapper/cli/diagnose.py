@@ -14,9 +14,13 @@ from pathlib import Path
 
 from ..diagnose.outfolder import BENCHMARK_MARKER, DIAGNOSE_MARKER, ResultFolder, check_out_file, check_out_folder
 from ..diagnose.record_checks import set_max_record_size
-from ..diagnose.run import flagged_lines, load_manifest, run_diagnosis
 from ..errors import InputError, set_max_input_size
+from .common import add_version, check_creatable
 from .errors import cli_main
+
+# the diagnosis (numpy, pandas when a record's rows are read, scipy, numba, matplotlib) is imported in
+# each main after its command line is parsed; diagnose checks dataset.yaml and every record's header
+# before reading any record (pyfmu_wrapper/diagnose/data.py)
 
 
 @cli_main("diagnose")
@@ -44,12 +48,35 @@ def main_diagnose(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--max-input-size", type=float, default=None, metavar="MB", help="the largest YAML file read (default 16 MB)"
     )
+    ap.add_argument("--quiet", action="store_true", help="no progress report (the verdict is still printed)")
+    ap.add_argument(
+        "--progress-every",
+        type=float,
+        default=5.0,
+        metavar="SECONDS",
+        help="when stderr is not a terminal (a log, a pipe): one progress line every SECONDS while candidates "
+        "are fitted (default 5); on a terminal the line is redrawn every second",
+    )
+    add_version(ap)
     a = ap.parse_args(argv)
+    from ..diagnose.run import flagged_lines, run_diagnosis
+
     set_max_record_size(a.max_record_size)
     set_max_input_size(a.max_input_size)
+    if not a.progress_every > 0:
+        raise InputError(f"--progress-every must be > 0 seconds, got {a.progress_every}")
     out = check_out_folder(a.out, "diagnose", DIAGNOSE_MARKER)
-    with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
-        res = run_diagnosis(a.dataset, tmp, a.model)
+    check_creatable(out)
+    from ..diagnose import progress
+    from .progress import StageProgress
+
+    with StageProgress("diagnose", interval=a.progress_every, enabled=not a.quiet) as bar:
+        old = progress.set_reporter(bar)
+        try:
+            with ResultFolder(out, DIAGNOSE_MARKER) as tmp:
+                res = run_diagnosis(a.dataset, tmp, a.model)
+        finally:
+            progress.set_reporter(old)
     if "verdict" in res:
         print(res["verdict"]["text"])
         for d in res["verdict"].get("disagreements", []):
@@ -73,14 +100,25 @@ def main_diagnose(argv: list[str] | None = None) -> int:
 
 @cli_main("make-benchmark")
 def main_make_benchmark(argv: list[str] | None = None) -> int:
-    from ..diagnose.link.benchmark import make_benchmark
-
     ap = argparse.ArgumentParser(
         prog="make-benchmark",
         description="Generate withheld-effect datasets "
         "(labels in OUT/manifest.json, never read by diagnose and never printed).",
     )
-    ap.add_argument("--out", required=True, help="output folder: new, empty, or a previous make-benchmark result")
+    ap.add_argument(
+        "folder",
+        nargs="?",
+        default=None,
+        help="output folder (the same as --out): new, empty, or a previous make-benchmark result",
+    )
+    ap.add_argument("--out", default=None, help="output folder: new, empty, or a previous make-benchmark result")
+    ap.add_argument(
+        "--example",
+        choices=["swept-sine"],
+        default=None,
+        help="write one example dataset instead of a benchmark: swept-sine is the worked example of "
+        "docs/diagnose.md (three records, accelerations only; run diagnose on the folder)",
+    )
     ap.add_argument(
         "--suite",
         choices=["system", "link", "transient"],
@@ -124,7 +162,22 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
         help="system suite: draw the out-of-vocabulary datasets from the kinds diagnose was never tuned on "
         "(asymmetric TMD spring, quadratic base drag; docs/diagnose.md)",
     )
+    add_version(ap)
     a = ap.parse_args(argv)
+    if a.folder is not None and a.out is not None and a.folder != a.out:
+        raise InputError(f"give the output folder once: {a.folder} and --out {a.out} differ")
+    a.out = a.out if a.out is not None else a.folder
+    if a.out is None:
+        ap.error("the output folder is required (FOLDER or --out FOLDER)")
+    if a.example is not None:
+        from ..diagnose.system.example import write_example
+
+        out = check_out_folder(a.out, "make-benchmark", BENCHMARK_MARKER)
+        check_creatable(out)
+        with ResultFolder(out, BENCHMARK_MARKER) as tmp:
+            files = write_example(a.example, tmp)
+        print(f"wrote the {a.example} example dataset ({', '.join(files)}) to {out}; run: diagnose {out} --out OUT")
+        return 0
     if a.n is not None and a.n < 1:
         raise InputError(f"-n {a.n}: the number of datasets must be >= 1")
     for name, v in (
@@ -169,7 +222,10 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
         raise InputError(
             "--clean-fraction + --pair-fraction (link defaults 0.25 and 0.2 for the one not given) must be <= 1"
         )
+    from ..diagnose.link.benchmark import make_benchmark
+
     out = check_out_folder(a.out, "make-benchmark", BENCHMARK_MARKER)
+    check_creatable(out)
     with ResultFolder(out, BENCHMARK_MARKER) as tmp:
         if a.suite == "system":
             from ..diagnose.system.suite import make_system_benchmark
@@ -223,12 +279,14 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
 
 @cli_main("score")
 def main_score(argv: list[str] | None = None) -> int:
-    from ..diagnose.link.benchmark import score
-
     ap = argparse.ArgumentParser(prog="score", description="Run diagnose on a benchmark and score it.")
     ap.add_argument("benchmark", help="folder written by make-benchmark")
     ap.add_argument("--out", help="write score.json here (a new file, or a previous score.json)")
+    add_version(ap)
     a = ap.parse_args(argv)
+    from ..diagnose.link.benchmark import score
+    from ..diagnose.run import load_manifest
+
     load_manifest(Path(a.benchmark))
     if a.out:
         o = check_out_file(a.out)

@@ -28,7 +28,11 @@ from ..paper.optimise import OptimiseConfig, optimise, split_parameter, with_par
 from ..physics.params import BaseParams, ParameterError, paper_case
 from ..safeio.files import OwnedFiles
 from ..safeio.tree import OutputError
+from .common import add_version
 from .errors import cli_main
+
+# scipy, pandas and numba are imported when the optimiser first runs (paper/optimise.py, _jit.py),
+# after the command line and the scenario file are checked
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -96,6 +100,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument("--list-objectives", action="store_true", help="list the objectives and exit")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
     p.add_argument("--traceback", action="store_true", help="print the full traceback on failure")
+    add_version(p)
     return p
 
 

@@ -27,13 +27,10 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import InputError
-from ..paper.claims import Context, evaluate
-from ..paper.figures import FIGURES, draw_figures
-from ..paper.report import REPORT_FILES, write_report
-from ..paper.reproduce import CASES, DEFAULT_ENGINE, NAMES, run_all
+from ..paper.names import CASES, DEFAULT_ENGINE, NAMES
 from ..safeio.files import OwnedFiles
-from ..scenario.engines import ENGINES
-from ..scenario.executors import make_executor
+from ..scenario.names import ENGINE_NAMES, EXECUTORS
+from .common import add_version
 from .errors import cli_main
 
 #: the marker of the files reproduce writes into its --out folder (docs/ by default)
@@ -48,18 +45,19 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--engine",
         default=DEFAULT_ENGINE,
-        choices=sorted(ENGINES),
+        choices=list(ENGINE_NAMES),
         help=f"engine of every scenario (default {DEFAULT_ENGINE}); stated in the report",
     )
     ap.add_argument("--quick", action="store_true", help="small grids everywhere (tests, smoke runs)")
     ap.add_argument("--coarse", nargs="*", default=[], help="scenario names to run on a medium grid")
     ap.add_argument("--only", nargs="*", default=None, help="run only these scenario names")
-    ap.add_argument("--executor", default="local", choices=["local", "dask", "sequential"])
+    ap.add_argument("--executor", default="local", choices=list(EXECUTORS))
     ap.add_argument("--jobs", type=int, default=0, help="local processes (0: all cores)")
     ap.add_argument("--scheduler", default=None, help="dask scheduler address")
     ap.add_argument("--no-resume", dest="resume", action="store_false")
     ap.add_argument("--dpi", type=int, default=80)
     ap.add_argument("--quiet", action="store_true")
+    add_version(ap)
     a = ap.parse_args(argv)
     unknown = [n for n in (a.coarse + (a.only or [])) if n not in NAMES]
     if unknown:
@@ -77,6 +75,13 @@ def main(argv: list[str] | None = None) -> int:
             raise InputError(
                 f"{opt} {p}: is a file, not a folder; reproduce writes a folder there and never overwrites a file"
             )
+    # the command line is checked: now the engines, the claims and the figures (pandas, scipy, matplotlib)
+    from ..paper.claims import Context, evaluate
+    from ..paper.figures import FIGURES, draw_figures
+    from ..paper.report import REPORT_FILES, write_report
+    from ..paper.reproduce import run_all
+    from ..scenario.executors import make_executor
+
     owned = OwnedFiles(out, "reproduce", REPRODUCE_MARKER)
     owned.check(REPORT_FILES + [f"figures/{f}.png" for f in FIGURES])  # before computing
     names = a.only if a.only else NAMES

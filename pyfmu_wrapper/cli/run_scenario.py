@@ -18,16 +18,14 @@ from types import FrameType
 from typing import Any, NoReturn
 
 from ..errors import set_max_input_size
-from ..safeio import Diverted, OutputError
-from ..scenario import ScenarioError, load_scenario
-from ..scenario.engines import DEFAULT_ENGINE, ENGINES, RunSettings
-from ..scenario.executors import EXECUTORS, make_executor
-from ..scenario.outdir import check_output_dir, default_checkpoint_dir, default_output_dir
-from ..scenario.output import run_scenario
-from ..scenario.runner import instant_units, work_units
-from ..scenario.summary import study_report
+from ..scenario.names import DEFAULT_ENGINE, ENGINE_NAMES, EXECUTORS
+from .common import add_version, check_creatable
 from .errors import cli_main
 from .progress import Progress
+
+# The scenario reader (numpy, yaml) is imported in main, after the command line is parsed (--help,
+# --version cost nothing); the engines (pandas, scipy, numba on first use) and the plots
+# (matplotlib) after the scenario file and the output folder are checked: a refusal costs no heavy import.
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -42,7 +40,7 @@ def _parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--engine",
         default=DEFAULT_ENGINE,
-        choices=sorted(ENGINES),
+        choices=list(ENGINE_NAMES),
         help=f"computation engine (default: {DEFAULT_ENGINE}): cosim = co-simulation of the FMUs, "
         "monolithic = single-system solver, both = co-simulation with its difference to the "
         "monolithic solver in the summary and the plots",
@@ -105,6 +103,7 @@ def _parser() -> argparse.ArgumentParser:
         metavar="MB",
         help="the largest scenario file read, in MB (default 16): a larger file is refused before it is read",
     )
+    add_version(p)
     return p
 
 
@@ -165,6 +164,10 @@ def _workers(args: argparse.Namespace) -> tuple[int | None, str | None]:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)  # exits 2 on bad options
     set_max_input_size(args.max_input_size)
+    from ..safeio import Diverted, OutputError
+    from ..scenario import ScenarioError, load_scenario
+    from ..scenario.outdir import check_output_dir, default_checkpoint_dir, default_output_dir
+
     try:
         scn = load_scenario(args.path)
     except ScenarioError as exc:
@@ -175,10 +178,7 @@ def main(argv: list[str] | None = None) -> int:
     workers, problem = _workers(args)
     if problem:
         return _err(problem)
-    cosim = None
     if args.accuracy is not None or args.coupling is not None:
-        from dataclasses import replace
-
         if args.engine == "monolithic":
             return _err(
                 "--accuracy and --coupling are co-simulation settings; the monolithic engine "
@@ -186,27 +186,40 @@ def main(argv: list[str] | None = None) -> int:
             )
         if args.accuracy is not None and not (0 < args.accuracy < 1):
             return _err(f"--accuracy must be in (0, 1), got {args.accuracy}")
+    if args.executor == "dask" and not args.scheduler:
+        return _err("--executor dask needs --scheduler ADDRESS")
+    if not args.progress_every > 0:
+        return _err(f"--progress-every must be > 0 seconds, got {args.progress_every}")
+    try:  # before anything is computed: never replace what run-scenario did not write
+        cache = args.cache if args.cache is not None else default_checkpoint_dir(out)
+        notes = check_output_dir(out, scn.path, cache)
+    except OutputError as exc:
+        return _err(str(exc))
+    check_creatable(out)  # a folder it cannot make (--out /proc/foo): one line, exit 2
+
+    # the command line, the scenario and the output folder are checked: now the engines
+    from ..scenario.engines import RunSettings
+    from ..scenario.executors import make_executor
+    from ..scenario.output import run_scenario
+    from ..scenario.runner import instant_units, work_units
+
+    cosim = None
+    if args.accuracy is not None or args.coupling is not None:
+        from dataclasses import replace
+
         cosim = scn.cosim.settings()  # the scenario's cosim block, then the command line over it
         if args.accuracy is not None:
             cosim = replace(cosim, accuracy=args.accuracy, steps_per_period=None)
         if args.coupling is not None:
             cosim = replace(cosim, coupling=args.coupling)
     settings = RunSettings.for_scenario(scn, engine=args.engine, workers=1, cosim=cosim)
-    if args.executor == "dask" and not args.scheduler:
-        return _err("--executor dask needs --scheduler ADDRESS")
-    if not args.progress_every > 0:
-        return _err(f"--progress-every must be > 0 seconds, got {args.progress_every}")
     refused = _refused_curves(scn, settings) if args.engine != "monolithic" else []
     for full, text in refused:
         if full:
             return _err(text)
         print(f"run-scenario: warning: {text}", file=sys.stderr)
-    try:  # before anything is computed: never replace what run-scenario did not write
-        cache = args.cache if args.cache is not None else default_checkpoint_dir(out)
-        for note in check_output_dir(out, scn.path, cache):
-            print(f"run-scenario: note: {note}", file=sys.stderr)
-    except OutputError as exc:
-        return _err(str(exc))
+    for note in notes:
+        print(f"run-scenario: note: {note}", file=sys.stderr)
     try:
         executor = make_executor(args.executor, jobs=workers, scheduler=args.scheduler)
     except Exception as exc:
@@ -268,7 +281,7 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
-def _refused_curves(scn: Any, settings: RunSettings) -> list[tuple[bool, str]]:
+def _refused_curves(scn: Any, settings: Any) -> list[tuple[bool, str]]:
     """The configurations whose structure the co-simulation cannot step at some frequency (a time scale
     far below the forcing period): (every frequency refused, the sentence naming the parameters)."""
     from ..cosim.settings import CosimSettings
@@ -298,6 +311,8 @@ def _refused_curves(scn: Any, settings: RunSettings) -> list[tuple[bool, str]]:
 
 def _report(datas: list, stats: dict, cache: str | Path) -> None:
     """The closing lines: per study, what did not converge; and how much came from checkpoints."""
+    from ..scenario.summary import study_report
+
     for d in datas:
         for line in study_report(d):
             print(f"run-scenario: {line}")

@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 import yaml
 
 from .errors import DataError
-from .records import REQUIRED, data_error, read_record, say
+from .records import REQUIRED, check_header, data_error, read_record, say
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -59,6 +59,7 @@ ALLOWED_KEYS = {
         "role",
         "source_file",
         "description",
+        "free_decay",
     ),
 }
 
@@ -160,6 +161,7 @@ def load_dataset(
     if not isinstance(entries, list) or not entries:
         raise data_error(yml, "'records' must be a non-empty list of {file: ..., ...}", line=_line(raw, "records"))
     records = []
+    todo: list[tuple[Path, dict]] = []
     seen: dict[Path, int] = {}
     for i, entry in enumerate(entries):
         ln = _line(entries, i)
@@ -189,12 +191,22 @@ def load_dataset(
                 f"records[{i}].role must be 'train' or 'test', got {entry['role']!r}",
                 line=_line(entry, "role") or ln,
             )
-        if entry.get("kind") not in (None, *REQUIRED):
+        if entry.get("kind") not in (None, "decay", *REQUIRED):
             raise data_error(
                 yml,
-                f"records[{i}].kind must be one of {list(REQUIRED)}, got {entry['kind']!r}",
+                f"records[{i}].kind must be one of {[*REQUIRED, 'decay']}, got {entry['kind']!r}",
                 line=_line(entry, "kind") or ln,
             )
+        if "free_decay" in entry and not isinstance(entry["free_decay"], bool):
+            raise data_error(
+                yml,
+                f"records[{i}].free_decay must be true or false, got {entry['free_decay']!r}",
+                line=_line(entry, "free_decay") or ln,
+            )
+        if entry.get("kind") == "decay":  # a free decay: a transient record without force, said so
+            if entry.get("free_decay") is False:
+                raise data_error(yml, f"records[{i}]: kind: decay and free_decay: false contradict each other", line=ln)
+            entry["kind"], entry["free_decay"] = "transient", True
         real = (path / entry["file"]).resolve()
         if real in seen:
             raise data_error(
@@ -204,7 +216,13 @@ def load_dataset(
                 line=_line(entry, "file") or ln,
             )
         seen[real] = i
-        records.append(read_record(path / entry["file"], level, _plain_data(entry), log=log))
+        todo.append((path / entry["file"], _plain_data(entry)))
+    for file, entry in todo:  # every record's file and header before any is read
+        if not file.is_file():
+            raise data_error(file, "file not found")
+        check_header(file, level, entry)
+    for file, entry in todo:
+        records.append(read_record(file, level, entry, log=log))
     roles = [r.role for r in records if r.kind != "frc"]
     if any(roles) and "test" not in roles:
         raise data_error(
@@ -217,6 +235,8 @@ def load_dataset(
         raise data_error(
             yml, "every record has role 'test': at least one record must be for training", line=_line(raw, "records")
         )
+    if level == "system":
+        check_time_base(records, nominal, yml)
     from .acquisition import check_records, correct_frc, parse_acquisition
 
     acq = parse_acquisition(raw.get("acquisition"), yml, level)
@@ -314,3 +334,55 @@ def normalise_nominal(nom: dict, level: str, file: Path | str) -> dict:
             msg = str(e).replace(f" (from {file})", "")
             raise data_error(file, f"nominal model: {part}: {msg}", line=_line(nom, part)) from None
     return {"base": _plain_data(nom["base"]), "tmd": _plain_data(nom["tmd"])}
+
+
+def nominal_modes_hz(nominal: dict) -> list[float]:
+    """The undamped natural frequencies [Hz] of a system-level nominal model (base + TMD, the inerter
+    taken as ideal between them, the cubic spring and the play left out): the roots of
+    det(K - w^2 M) = 0 with M = [[M + I, -I], [-I, m + I]], K = [[K + k, -k], [-k, k]]."""
+    import numpy as np
+
+    from ..physics.params import BaseParams, InerterModel, TMDParams
+
+    b, t = BaseParams(**nominal["base"]), TMDParams(**nominal["tmd"])
+    inert = t.inertance if t.inerter != InerterModel.NONE else 0.0
+    mass = np.array([[b.mass + inert, -inert], [-inert, t.mass + inert]])
+    stiff = np.array([[b.stiffness + t.stiffness, -t.stiffness], [-t.stiffness, t.stiffness]])
+    if t.mass + inert <= 0.0:  # no TMD node: the base alone
+        return [math.sqrt(b.stiffness / b.mass) / (2 * math.pi)]
+    w2 = np.linalg.eigvals(np.linalg.solve(mass, stiff)).real
+    return sorted(math.sqrt(max(float(v), 0.0)) / (2 * math.pi) for v in w2)
+
+
+def check_time_base(records: list, nominal: dict, yml: Path) -> None:
+    """Refuse a time record whose sampling rate puts a mode of the nominal model at or above the
+    Nyquist frequency: the record cannot show that mode, and the usual cause is a time column in
+    milliseconds (1000 times too slow a rate), which would otherwise run for many minutes and end in a
+    meaningless verdict. Named with the numbers: the rate, the mode, what the rate would be in ms."""
+    modes = nominal_modes_hz(nominal)
+    top = modes[-1] if modes else 0.0
+    if not top > 0.0:
+        return
+    for r in records:
+        if r.kind not in ("time", "transient") or "t" not in r.columns or len(r.columns["t"]) < 2:
+            continue
+        t = r.columns["t"]
+        span = float(t[-1] - t[0])
+        if not span > 0.0:
+            continue
+        block = int((r.meta.get("reduced") or {}).get("block", 1))
+        fs = (len(t) - 1) / span * block  # the rate the rig sampled at (before any averaging on reading)
+        if top < 0.5 * fs:
+            continue
+        hint = (
+            f"; if the time column is in milliseconds, the rate is {1000 * fs:.4g} Hz: give t in seconds"
+            if top < 500.0 * fs
+            else ""
+        )
+        raise data_error(
+            yml.parent / r.name,
+            f"the time column samples at {fs:.4g} Hz (a step of {1 / fs:.4g} s over {span:.4g} s): the nominal "
+            f"model's mode at {top:.4g} Hz (modes {', '.join(f'{m:.4g}' for m in modes)} Hz) lies above the "
+            f"Nyquist frequency fs/2 = {0.5 * fs:.4g} Hz{hint}",
+            column="t",
+        )

@@ -182,8 +182,12 @@ def plot_transient(td: TransientDiagnosisShape, res: dict, path: Path) -> None:
     ax = axs[-1, 0]
     rows = [c for c in res["candidates"] if c.get("ok") and c.get("gap_closed") is not None]
     rows.sort(key=lambda c: c["z"])
-    ax.barh([" + ".join(c["effects"]) for c in rows[:12]], [max(c["z"], 0.1) for c in rows[:12]])
-    ax.set_xscale("log")
+    # z spans decades and may be negative (explained below the noise): a symmetric log axis, linear
+    # within +-1, shows every bar at its own sign and size (a log axis would clip z <= 0)
+    z = [float(c["z"]) for c in rows[:12]]
+    ax.barh([" + ".join(c["effects"]) for c in rows[:12]], z, color=["C2" if v <= 5.0 else "C0" for v in z])
+    ax.set_xscale("symlog", linthresh=1.0)
+    ax.axvline(0.0, color="0.5", lw=0.6)
     ax.axvline(5.0, color="k", lw=0.8)
     ax.set(xlabel="held-out z = (chi2 - dof) / sqrt(2 dof) [1] (line: explained to the noise)", title="candidates")
     fig.tight_layout()

@@ -19,9 +19,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 import numpy as np
-import pandas as pd
 
 from .errors import DataError
+
+# pandas is imported when a record's rows are read (_read_csv): the headers of every record are
+# checked first (check_header), so a dataset with a missing column costs no pandas import
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -74,7 +76,7 @@ def data_error(
     return DataError(f"{where}: {msg}")
 
 
-def _kind_of(cols: Index, level: str, file: Path) -> str:
+def _kind_of(cols: Index | list[str], level: str, file: Path) -> str:
     if "omega" in cols or "x_max" in cols:
         return "frc"
     if level == "link" or "displacement" in cols:
@@ -124,6 +126,8 @@ def _columns(df: DataFrame, file: Path, kind: str, row0: int = 0, t_prev: float6
                 )
             cols[c] = vals
             continue
+        import pandas as pd
+
         num = pd.to_numeric(df[c], errors="coerce").to_numpy(dtype=float)
         bad = np.nonzero(~np.isfinite(num))[0]
         if bad.size:
@@ -156,9 +160,21 @@ def _columns(df: DataFrame, file: Path, kind: str, row0: int = 0, t_prev: float6
 
 
 def _check_header(df: DataFrame, file: Path, level: str, entry: dict[str, Any]) -> str:
+    df.columns = [str(c).strip() for c in df.columns]
+    return check_header(file, level, entry)
+
+
+def check_header(file: Path, level: str, entry: dict[str, Any]) -> str:
+    """The record's kind from its header line and its declaration (dataset.yaml ``kind``,
+    ``free_decay``), or :class:`DataError` naming the file and the column: a name written twice, a
+    required column missing, a transient record without ``force`` that is not declared a free
+    decay. Reads the header line only (no pandas): every record of a dataset is checked so before
+    any is read."""
     from .record_checks import header_names
 
     names = header_names(file)
+    if any("\ufffd" in c for c in names):  # bytes that are not UTF-8: read_record names them (line, offset)
+        return str(entry.get("kind") or "")
     dup = sorted({c for c in names if names.count(c) > 1})
     if dup:
         raise data_error(
@@ -167,44 +183,63 @@ def _check_header(df: DataFrame, file: Path, level: str, entry: dict[str, Any]) 
             "channel is ambiguous; keep one (rename or drop the other)",
             column=dup[0],
         )
-    df.columns = [str(c).strip() for c in df.columns]
-    kind = entry.get("kind") or _kind_of(df.columns, level, file)
+    cols = [c for c in names if c]
+    kind = entry.get("kind") or _kind_of(cols, level, file)
     if kind not in REQUIRED:
         raise data_error(file, f"unknown record kind {kind!r} (link, time, frc or transient)")
     if level == "link" and kind == "transient":  # a link record without a drive frequency
         kind = "link"
     if level == "link" and kind != "link":
-        raise data_error(file, f"a link-level dataset needs columns {REQUIRED['link']}, got {list(df.columns)}")
-    missing = [c for c in REQUIRED[kind] if c not in df.columns]
+        raise data_error(file, f"a link-level dataset needs columns {REQUIRED['link']}, got {cols}")
+    missing = [c for c in REQUIRED[kind] if c not in cols]
     if missing:
         raise data_error(
             file,
             f"missing column(s) {missing} for a {kind} record (needs {REQUIRED[kind]}, "
-            f"optional {OPTIONAL[kind]}); found {list(df.columns)}",
+            f"optional {OPTIONAL[kind]}); found {cols}",
             column=missing[0],
         )
-    if kind == "transient" and not any(c in df.columns for c in ("x", "y", "xdd", "ydd")):
+    if kind == "transient" and not any(c in cols for c in ("x", "y", "xdd", "ydd")):
         raise data_error(
             file,
             "a transient record needs at least one response channel of x, y, xdd, ydd (and 'force', "
-            f"unless it is a free decay); found {list(df.columns)}",
+            f"unless it is a free decay); found {cols}",
             column="x",
         )
+    if kind == "transient":  # a record without force is a free decay only when dataset.yaml says so
+        declared = bool(entry.get("free_decay"))
+        if "force" not in cols and not declared:
+            raise data_error(
+                file,
+                "no 'force' column: a forced record needs the measured force (the model's input); if no force "
+                "acted (a free decay from a displaced start), say so in dataset.yaml: kind: decay (or "
+                f"free_decay: true); found columns {cols}",
+                column="force",
+            )
+        if declared and "force" in cols:
+            raise data_error(
+                file,
+                "dataset.yaml calls this record a free decay (kind: decay / free_decay: true) but it has a "
+                "'force' column: drop the column, or the declaration if a force acted",
+                column="force",
+            )
     if kind == "time":  # displacements or accelerations of both bodies (acceleration-only records)
-        opts = [[c for c in pair if c not in df.columns] for pair in (("x", "y"), ("xdd", "ydd"))]
+        opts = [[c for c in pair if c not in cols] for pair in (("x", "y"), ("xdd", "ydd"))]
         if all(opts):
             miss = min(opts, key=len)
             raise data_error(
                 file,
                 f"missing column(s) {miss} for a time record (needs {REQUIRED[kind]} and the "
                 f"displacements ['x', 'y'] or the accelerations ['xdd', 'ydd'], or both); "
-                f"found {list(df.columns)}",
+                f"found {cols}",
                 column=miss[0],
             )
     return kind
 
 
 def _read_csv(file: Path, **kw: Any) -> Any:
+    import pandas as pd
+
     try:
         return pd.read_csv(file, comment="#", skipinitialspace=True, **kw)
     except UnicodeDecodeError as e:  # pragma: no cover - caught by the byte scan first

@@ -81,8 +81,10 @@ def run_diagnosis(
 ) -> dict:
     """Diagnose a dataset folder; write report.md, diagnosis.json and PNGs to ``out`` if given
     (``out`` is written as given: the CLI passes a fresh folder, see :class:`ResultFolder`)."""
+    from . import progress
     from .records import say
 
+    progress.stage("reading the dataset")
     ds = load_dataset(dataset, _load_model(model), log=log or say, model_source=model)
     red = _reduced(ds)
     res = _run(ds, None if out is None else Path(out), red)
@@ -105,20 +107,25 @@ def _run(ds: Dataset, out: Path | None, red: list[Any]) -> dict:
             res["flagged_records"] = fl
         return res
 
+    from . import progress
+
     frc = None
     if any(r.kind == "frc" for r in ds.records):
         from .system.frc import diagnose_frc
 
+        progress.stage("FRC records: fitting the candidates")
         frc = diagnose_frc(ds)
     if frc is not None and not any(r.kind != "frc" for r in ds.records):  # FRC records only
         res = finish(frc.result())
         res["verdict"] = frc_verdict(res)
         if out is not None:
+            progress.stage("writing the report")
             frc.write(out, res)
         return res
     if ds.level == "system" and any(r.kind == "transient" for r in ds.records):
         from .system.transient_report import run_transient
 
+        progress.stage("transient records: screening and fitting the candidates")
         return finish(run_transient(ds, out, lambda sub: _run(sub, None, [])))
     if ds.level == "system":
         from .system.diagnosis import SystemDiagnosis
@@ -139,17 +146,21 @@ def _run(ds: Dataset, out: Path | None, red: list[Any]) -> dict:
                 + ")"
                 + (" -- give FRC records alone for an FRC-only diagnosis" if frc is None else "")
             )
+        progress.stage("time records: fitting the candidates")
         sd.run()
         res = finish(build_system_result(ds, sd, frc))
         if out is not None:
+            progress.stage("writing the report")
             write_system_report(res, sd, out, frc)
         return res
+    progress.stage("link records: fitting the candidates")
     ld = build_link_data(ds)
     diag = diagnose_link(ld)
     res = finish(build_result(ds, ld, diag))
     if frc is not None:
         res["frc"] = frc.result()
     if out is not None:
+        progress.stage("writing the report")
         write_report(res, ld, diag, out, frc=frc)
     return res
 

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..errors import InputError, short
 from ..physics.params import ParameterError
-from .yamlio import MarkedDict, MarkedList
+from .yamlio import MAX_LIST_ITEMS, MarkedDict, MarkedList
 
 if TYPE_CHECKING:
     from typing import Any
@@ -44,7 +44,7 @@ class ScenarioError(InputError):
         self.file, self.line, self.path, self.value = file, line, path, value
 
 
-MAX_GRID = 100_000
+MAX_GRID = MAX_LIST_ITEMS  # the longest list a YAML file may hold (inputs/yamlio.py)
 #: the longest text a scenario field may hold (a description of a few paragraphs is a few thousand)
 MAX_STRING = 20_000
 

@@ -97,8 +97,59 @@ class _Named(io.StringIO):
 MAX_EXPANDED_NODES = 200_000
 
 
+#: the longest list a document may hold (the longest frequency grid, :data:`pyfmu_wrapper.inputs.reader.MAX_GRID`)
+MAX_LIST_ITEMS = 100_000
+
+
 class AliasBombError(yaml.MarkedYAMLError):
     """A document whose aliases expand to more than :data:`MAX_EXPANDED_NODES` nodes."""
+
+
+class TooLargeError(yaml.MarkedYAMLError):
+    """A document holding a list longer than :data:`MAX_LIST_ITEMS`, or more than
+    :data:`MAX_EXPANDED_NODES` values as written."""
+
+
+def check_size(text: str, name: str = "<string>") -> None:
+    """Refuse a document with a list of more than :data:`MAX_LIST_ITEMS` values or more than
+    :data:`MAX_EXPANDED_NODES` values as written (:class:`TooLargeError`, naming the line), reading
+    only up to the first value past the limit with libyaml's event parser (about 1 us a value; the
+    Python composer takes some 30 us a value and all the memory of the whole tree). A document
+    libyaml cannot parse is left to the Python loader and its own messages."""
+    loader_cls = getattr(yaml, "CSafeLoader", None) or yaml.SafeLoader
+    stack: list[list[int]] = []  # per open collection: [is a sequence, items so far, start line]
+    nodes = 0
+    try:
+        for ev in yaml.parse(_Named(text, name), Loader=loader_cls):
+            if isinstance(ev, (yaml.ScalarEvent, yaml.AliasEvent, yaml.CollectionStartEvent)):
+                nodes += 1
+                if stack and stack[-1][0]:
+                    stack[-1][1] += 1
+                    if stack[-1][1] > MAX_LIST_ITEMS:
+                        line = stack[-1][2]
+                        raise TooLargeError(
+                            None,
+                            None,
+                            f"the list that starts on line {line} holds more than {MAX_LIST_ITEMS:,} values: at "
+                            f"most {MAX_LIST_ITEMS:,} (a longer grid: start, stop and count)",
+                            ev.start_mark,
+                        )
+                if nodes > MAX_EXPANDED_NODES:
+                    raise TooLargeError(
+                        None,
+                        None,
+                        f"the document holds more than {MAX_EXPANDED_NODES:,} values: refusing to read it (a "
+                        "scenario holds a few hundred)",
+                        ev.start_mark,
+                    )
+                if isinstance(ev, yaml.CollectionStartEvent):
+                    stack.append([isinstance(ev, yaml.SequenceStartEvent), 0, ev.start_mark.line + 1])
+            elif isinstance(ev, yaml.CollectionEndEvent) and stack:
+                stack.pop()
+    except TooLargeError:
+        raise
+    except yaml.YAMLError:
+        return  # the Python loader reports it, with its own words
 
 
 def expanded_size(node: yaml.Node, limit: int = MAX_EXPANDED_NODES) -> int:
@@ -133,9 +184,12 @@ def load_marked(text: str, name: str = "<string>") -> Any:
     """Parse YAML text with the safe loader; mappings/lists carry line numbers.
 
     Aliases are allowed as long as the document they expand to holds at most
-    :data:`MAX_EXPANDED_NODES` nodes (:class:`AliasBombError` otherwise, before anything is built).
+    :data:`MAX_EXPANDED_NODES` nodes (:class:`AliasBombError` otherwise, before anything is built); a
+    list of more than :data:`MAX_LIST_ITEMS` values, or a document of more than
+    :data:`MAX_EXPANDED_NODES` values as written, is refused first, fast (:func:`check_size`).
     Raises :class:`yaml.YAMLError` (with a ``problem_mark`` where PyYAML knows the position).
     """
+    check_size(text, name)
     loader = _MarkedSafeLoader(_Named(text, name))
     try:
         node = loader.get_single_node()

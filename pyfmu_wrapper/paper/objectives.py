@@ -20,10 +20,8 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import solve_continuous_lyapunov
 
 from ..errors import InputError
-from ..models.solve import linear_system
 from ..physics.params import BaseParams, InerterModel, TMDParams
 
 
@@ -40,6 +38,8 @@ def _active(tmd: TMDParams) -> list[int]:
 
 
 def _reduced_system(base: BaseParams, tmd: TMDParams) -> tuple[np.ndarray, np.ndarray, list[int]]:
+    from ..models.solve import linear_system  # imported at first use: the objectives' names cost nothing
+
     A, b = linear_system(base, tmd)
     act = _active(tmd)
     return A[np.ix_(act, act)], b[act], act
@@ -71,6 +71,8 @@ def h2_exact(base: BaseParams, tmd: TMDParams) -> float:
     A, b, _ = _reduced_system(base, tmd)
     if not np.all(np.linalg.eigvals(A).real < 0.0):
         return math.inf
+    from scipy.linalg import solve_continuous_lyapunov
+
     P = solve_continuous_lyapunov(A, -np.outer(b, b))
     return float(math.pi * base.force_amplitude**2 * P[0, 0])
 

@@ -36,15 +36,16 @@ import math
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
-import pandas as pd
-from scipy.optimize import minimize_scalar
 
 from ..physics.params import BaseParams, ParameterError, TMDParams, field_names
 from ..solvers.monolithic import SolverSettings
 from .objectives import Objective, OptimisationError, get_objective, linear_response
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 #: default search bounds per parameter (the ranges of the paper's maps, Figs. 3-4)
 DEFAULT_BOUNDS = {"damping": (0.0, 100.0), "friction_force": (0.0, 100.0)}
@@ -293,6 +294,8 @@ def optimise(
     i = int(np.argmin(vals))
     a, b = grid[max(i - 1, 0)], grid[min(i + 1, len(grid) - 1)]
     tol = xtol if xtol is not None else (1e-3 if nonlinear else 1e-6) * (hi - lo)
+    from scipy.optimize import minimize_scalar  # imported when optimising: checking the command line costs nothing
+
     res = minimize_scalar(f, bounds=(a, b), method="bounded", options=dict(xatol=tol))
     best_v, best_J = (float(res.x), float(res.fun)) if res.fun <= vals[i] else (float(grid[i]), float(vals[i]))
     at_bound = best_v - lo <= 2 * tol or hi - best_v <= 2 * tol
@@ -303,7 +306,13 @@ def optimise(
         objective_value=best_J,
         bounds=(lo, hi),
         band=used_band,
-        evaluations=pd.DataFrame(ev.rows),
+        evaluations=_frame(ev.rows),
         at_bound=bool(at_bound),
         wall_time=time.perf_counter() - t0,
     )
+
+
+def _frame(rows: Any) -> pd.DataFrame:
+    import pandas as pd
+
+    return pd.DataFrame(rows)

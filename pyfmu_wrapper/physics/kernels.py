@@ -35,11 +35,9 @@ from __future__ import annotations
 import math
 from typing import Any, cast
 
-from numba import types
-from numba.extending import overload
 from numpy.typing import NDArray
 
-from .._jit import njit
+from .._jit import njit, on_load
 from .params import P_C, P_F, P_I, P_K, P_M, P_MODEL, P_W, P_c, P_ci, P_df, P_eps, P_k, P_k3, P_ki, P_m, P_s
 from .registry import InerterModel
 
@@ -63,8 +61,9 @@ def _atan(v: Num) -> Num:  # real arctangent, or its complex-step extension, dis
     return math.atan(cast(float, v))  # the Python body runs for real v only; compiled code uses the overload
 
 
-@overload(_atan)
 def _atan_overload(v):  # type: ignore[no-untyped-def]  # numba compares this signature, annotations included, with the lambda's
+    from numba import types
+
     if isinstance(v, types.Complex):
         # complex-step use only (imaginary part ~1e-30): first order in Im is exact to rounding
         return lambda v: complex(math.atan(v.real), v.imag / (1.0 + v.real * v.real))
@@ -75,12 +74,24 @@ def _cos(v: Num) -> Num:  # real cosine, or its complex-step extension, dispatch
     return math.cos(cast(float, v))  # the Python body runs for real v only; compiled code uses the overload
 
 
-@overload(_cos)
 def _cos_overload(v):  # type: ignore[no-untyped-def]  # numba compares this signature, annotations included, with the lambda's
+    from numba import types
+
     if isinstance(v, types.Complex):
         # complex-step use only (imaginary part ~1e-30): first order in Im is exact to rounding
         return lambda v: complex(math.cos(v.real), -v.imag * math.sin(v.real))
     return lambda v: math.cos(v)
+
+
+def _register_overloads() -> None:
+    """The compiled versions of _atan and _cos (registered when numba is loaded, pyfmu_wrapper/_jit.py)."""
+    from numba.extending import overload
+
+    overload(_atan)(_atan_overload)
+    overload(_cos)(_cos_overload)
+
+
+on_load(_register_overloads)
 
 
 @njit(cache=True)

@@ -115,7 +115,7 @@ class TMDParams:
             ) from None
         object.__setattr__(self, "inerter", model)
         _validate_fields(self, "tmd")
-        code = tmd_check(float(self.mass), float(self.inertance), int(model))
+        code = tmd_check.py_func(float(self.mass), float(self.inertance), int(model))  # the same check, in Python
         if code:
             raise ParameterError(
                 f"{TMD_CHECKS[code - 1]}, got m = {self.mass!r}, I = {self.inertance!r}, "

@@ -29,6 +29,8 @@ from ..errors import InputError
 from ..models import MODELS
 from ..models.solve import exact_amplitude, exact_response, periodic_time_series, sweep
 from ..physics.params import TMDParams
+from .names import DEFAULT_ENGINE as DEFAULT_ENGINE  # re-exported: the default of every caller
+from .names import ENGINE_NAMES
 from .schema import SolverConfig, SweepConfig
 from .sweeptable import with_sweep_columns
 
@@ -42,7 +44,6 @@ if TYPE_CHECKING:
     from .schema import Scenario
 
 #: the engine run-scenario uses unless told otherwise
-DEFAULT_ENGINE = "cosim"
 #: a reference amplitude below this fraction of its curve's largest is zero to rounding: its
 #: relative difference is reported as NaN
 ZERO_REFERENCE = 1e-9
@@ -359,6 +360,7 @@ ENGINES: dict[str, Engine] = {
         _both_sweep, _cosim_time_series, "co-simulation held against the monolithic engine (difference per frequency)"
     ),
 }
+assert tuple(sorted(ENGINES)) == ENGINE_NAMES, "scenario/names.py lists the engines the command line offers"
 
 
 class EngineError(InputError):

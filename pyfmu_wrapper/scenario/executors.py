@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 
 import pandas as pd
 
+from .names import EXECUTORS
 from .tasks import Checkpoint, SweepTask, TaskStats, run_task
 
 if TYPE_CHECKING:
@@ -46,7 +47,7 @@ if TYPE_CHECKING:
 
     from .tasks import SweepTask
 
-EXECUTORS = ("local", "dask", "sequential")
+#: EXECUTORS: the names the command line offers (scenario/names.py, imported light)
 
 
 # --- executors -----------------------------------------------------------------------------------
@@ -292,11 +293,19 @@ def run_tasks(
     ex = executor if executor is not None else SequentialExecutor()
     reported = [0.0] * len(missing)  # points of each missing task already reported
 
+    per_sweep = getattr(progress, "task_points", None)  # a progress that measures each sweep's own cost
+
+    def report(j: int, n: float) -> None:
+        if per_sweep is not None:
+            per_sweep(id(todo[j]), n, todo[j].units())
+        elif progress is not None:
+            progress(n)
+
     def points(j: int, n: float) -> None:  # capped: a late report of a finished task is not counted twice
         n = min(n, todo[j].units() - reported[j])
         if n > 0 and progress is not None:  # points is handed over only with a progress
             reported[j] += n
-            progress(n)
+            report(j, n)
 
     todo = [tasks[i] for i in missing]
     results = (
@@ -311,7 +320,7 @@ def run_tasks(
         if checkpoint is not None:
             checkpoint.save(tasks[i], table)
         if progress is not None and tasks[i].units() - reported[j] > 1e-9:
-            progress(tasks[i].units() - reported[j])
+            report(j, tasks[i].units() - reported[j])
         reported[j] = tasks[i].units()
     stats.wall_time += time.perf_counter() - t0
     return out

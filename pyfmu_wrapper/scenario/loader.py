@@ -100,7 +100,7 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
         "",
         1,
         required=("schema_version", "name", "frequencies", "studies"),
-        optional=("description", "sweep", "solver", "cosim", "tmd", *block_units()),
+        optional=("description", "sweep", "solver", "cosim", "plot", "tmd", *block_units()),
     )
     blocks = [k for k in block_units() if k in doc]
     if len(blocks) != 1:
@@ -145,11 +145,12 @@ def parse_scenario(text: str, file: str = "<string>") -> Scenario:
     sweep = _sweep(rd, doc.get("sweep", {}), line_of(doc, "sweep"))
     solver = _solver(rd, doc.get("solver", {}), line_of(doc, "solver"))
     cosim = _cosim(rd, doc.get("cosim", {}), line_of(doc, "cosim"))
+    yscale = _plot(rd, doc.get("plot", {}), "plot", line_of(doc, "plot"), "linear")
 
     studies_node = rd.sequence(doc["studies"], "studies", line_of(doc, "studies"))
     studies, names = [], set()
     for i, st in enumerate(studies_node):
-        s = _study(rd, st, f"studies[{i}]", line_of(studies_node, i), top, omegas, base, (block, unit))
+        s = _study(rd, st, f"studies[{i}]", line_of(studies_node, i), top, omegas, base, (block, unit), yscale)
         if s.name in names:
             rd.fail(f"studies[{i}].name", line_of(st, "name"), "duplicate study name", s.name)
         names.add(s.name)
@@ -199,6 +200,18 @@ _TO_COSIM = {
 _TO_SOLVER = {
     k: f"a monolithic-engine setting: write it under solver: (solver.{k})" for k in _SOLVER_KEYS if k not in COSIM_KEYS
 }
+
+
+#: the plot: block (top level, or in an FRC study over it): how the FRC plots draw the amplitude
+PLOT_KEYS = ("yscale",)
+YSCALES = ("linear", "log")
+
+
+def _plot(rd: Reader, node: MarkedDict, path: str, line: int | None, default: str) -> str:
+    """The amplitude axis of the FRC plots: ``plot: {yscale: linear | log}`` (log shows the higher
+    modes of a frame beside its first)."""
+    rd.mapping(node, path, line, optional=PLOT_KEYS)
+    return rd.string(node, "yscale", path, choices=YSCALES, default=default)
 
 
 def _sweep(rd: Reader, node: MarkedDict, line: int | None) -> SweepConfig:
@@ -253,7 +266,7 @@ def _check_settings(rd: Reader, block: str, node: MarkedDict, line: int | None, 
 
 _COMMON = ("kind", "name", "title", "tmd", "frequencies")
 _KIND_KEYS = {
-    "frc": (("curves",), ()),
+    "frc": (("curves",), ("plot",)),
     "map": (("parameter", "values"), ()),
     "phase_portrait": (("omegas", "curves"), ("n_periods", "samples_per_period")),
 }
@@ -268,6 +281,7 @@ def _study(
     omegas: ndarray,
     base: Any,
     model: tuple[str, ModelUnit],
+    yscale: str = "linear",
 ) -> FRCStudy | PhasePortraitStudy | MapStudy:
     if not isinstance(node, dict):
         rd.fail(path, line, "must be a mapping (a study)", node)
@@ -291,7 +305,9 @@ def _study(
         )
     if kind == "frc":
         curves = _curves(rd, node["curves"], key_path(path, "curves"), line_of(node, "curves"), spec, base, model)
-        return FRCStudy(name=name, title=title, omegas=omegas, curves=curves)
+        if "plot" in node:
+            yscale = _plot(rd, node["plot"], key_path(path, "plot"), line_of(node, "plot"), yscale)
+        return FRCStudy(name=name, title=title, omegas=omegas, curves=curves, yscale=yscale)
     if kind == "phase_portrait":
         wp = key_path(path, "omegas")
         w = rd.grid(node["omegas"], wp, line_of(node, "omegas"), positive=True)

@@ -1,6 +1,7 @@
 """Run a scenario and write its results folder atomically, never touching what the tool did not write.
 
-Files: one ``<study>.csv`` and ``<study>.png`` per study, ``summary.json`` and the marker
+Files: one ``<study>.csv`` and ``<study>.png`` per study, ``summary.json``, ``summary.md`` (the same
+numbers in a few lines a person can paste into a report: peaks, reductions, convergence, timings) and the marker
 ``.run-scenario.json`` (tool, scenario, version, the list of files written). The marker is how a
 later run recognises a folder as a result of run-scenario, the only kind of non-empty folder it
 replaces.
@@ -36,7 +37,7 @@ from .outdir import (
 )
 from .runner import FRCData, MapData, run_studies
 from .schema import Scenario
-from .summary import model_parameters, study_summary
+from .summary import attachment, model_parameters, response_body, study_summary, summary_markdown
 from .tasks import code_version
 
 if TYPE_CHECKING:
@@ -112,7 +113,9 @@ def run_scenario(
             checkpoint_dir=None if checkpoint_dir is None else str(checkpoint_dir),
             tasks={k: dict(cached=v.cached, computed=v.computed, wall_time=v.wall_time) for k, v in stats.items()},
         )
-        (tmp / "summary.json").write_text(json.dumps(_finite(summary), indent=2) + "\n", encoding="utf-8")
+        summary = _finite(summary)
+        (tmp / "summary.json").write_text(json.dumps(summary, indent=2) + "\n", encoding="utf-8")
+        (tmp / "summary.md").write_text(summary_markdown(summary, response_body(scn.base)), encoding="utf-8")
     except BaseException:
         rf.abort()
         raise
@@ -128,7 +131,10 @@ def run_scenario(
 
 
 def write_study_csv(data: FRCData | MapData | PhaseData, path: Path) -> None:
-    if isinstance(data, (FRCData, MapData)):
+    if isinstance(data, FRCData):
+        frc_table(data).to_csv(path, index=False, float_format="%.10g")
+        return
+    if isinstance(data, MapData):
         data.table.to_csv(path, index=False, float_format="%.10g")
         return
     rows = []
@@ -141,29 +147,70 @@ def write_study_csv(data: FRCData | MapData | PhaseData, path: Path) -> None:
     pd.concat(rows, ignore_index=True).to_csv(path, index=False, float_format="%.10g")
 
 
+def frc_table(data: FRCData) -> pd.DataFrame:
+    """The FRC study's table as its CSV holds it: on a structure with places to attach the TMD (a
+    frame), each curve's attachment in two last columns (``tmd_storey``, ``inerter_to``: 0 the ground;
+    empty for a curve without TMD; last, so the sweep columns keep their places)."""
+    tab = data.table
+    atts = {label: attachment(s) for label, s in data.structures.items()}
+    if not any(a is not None for a in atts.values()):
+        return tab
+    tab = tab.copy()
+    without = {c.label for c in data.study.curves if c.without_tmd}
+    for col, key in (("tmd_storey", "storey"), ("inerter_to", "inerter_to")):
+        vals = [
+            None if (lab in without or atts.get(lab) is None) else int(atts[lab][key])  # type: ignore[index]
+            for lab in tab["curve"]
+        ]
+        tab[col] = pd.array(vals, dtype="Int64")
+    return tab
+
+
 def cosim_time_split(datas: Sequence[Any]) -> dict[str, Any] | None:
     """Where the co-simulation's time went, summed over every study's sweep table: seconds inside each
     FMU's fmi2 calls (``fmus``), in the compiled stepping loop's own work (``master_loop``), in steps
     taken on the Python path (``python_steps``) and the rest of the points' wall time (``steady_state_logic``:
-    shooting, windows, re-initialisations). None when no point was co-simulated."""
+    shooting, windows, re-initialisations). A model whose co-simulation does not measure the split (the
+    frame's) still gets its co-simulated points and their wall time, the split null and ``split_measured``
+    false. None when no point was co-simulated."""
     from .sweeptable import TIMING_COLUMNS
 
     tables = [d.table for d in datas if getattr(d, "table", None) is not None]
-    rows = [t[t[list(TIMING_COLUMNS)].notna().any(axis=1)] for t in tables if set(TIMING_COLUMNS) <= set(t.columns)]
-    rows = [t for t in rows if len(t)]
+    rows = []
+    for t in tables:
+        if "engine" not in t or "wall_time" not in t:
+            continue
+        cosim = t["engine"].isin(["cosim", "both"]).to_numpy()
+        if set(TIMING_COLUMNS) <= set(t.columns):
+            cosim = cosim | t[list(TIMING_COLUMNS)].notna().any(axis=1).to_numpy()
+        if cosim.any():
+            rows.append(t[cosim])
     if not rows:
         return None
     t = pd.concat(rows)
-    s = {c: float(np.nansum(t[c].to_numpy(float))) for c in TIMING_COLUMNS}
     wall = float(np.nansum(t["wall_time"].to_numpy(float)))
+    timed = t[t[list(TIMING_COLUMNS)].notna().any(axis=1)] if set(TIMING_COLUMNS) <= set(t.columns) else t.iloc[:0]
+    if not len(timed):
+        return dict(
+            points=int(len(t)),
+            wall_time=wall,
+            split_measured=False,
+            fmus=None,
+            master_loop=None,
+            python_steps=None,
+            steady_state_logic=None,
+        )
+    s = {c: float(np.nansum(timed[c].to_numpy(float))) for c in TIMING_COLUMNS}
     fmus = {"base": s["fmu_time_base"], "tmd": s["fmu_time_tmd"]}
+    timed_wall = float(np.nansum(timed["wall_time"].to_numpy(float)))
     return dict(
         points=int(len(t)),
         wall_time=wall,
+        split_measured=len(timed) == len(t),
         fmus=fmus,
         master_loop=s["master_loop_time"],
         python_steps=s["python_step_time"],
-        steady_state_logic=wall - sum(fmus.values()) - s["master_loop_time"] - s["python_step_time"],
+        steady_state_logic=timed_wall - sum(fmus.values()) - s["master_loop_time"] - s["python_step_time"],
     )
 
 

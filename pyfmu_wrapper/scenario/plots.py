@@ -69,6 +69,68 @@ def _units_title(study: PhasePortraitStudy | FRCStudy) -> str | None:
     return "units: " + ", ".join(found) if found else None
 
 
+def _frc_words(data: FRCData) -> tuple[dict[str, str], str | None, str]:
+    """What the legend of an FRC plot says of each curve and its heading, and the y-label's body.
+
+    Each curve with a TMD: its attachment on a structure with several places for it (a frame:
+    "storey 5, inerter to the ground") and the value of every TMD parameter that differs between the
+    study's curves or that a label names ("c = 56.38"); the heading gives the units of exactly those
+    symbols, so heading and entries match. The y-label names the body whose displacement is the
+    amplitude (the base, the top storey)."""
+    import re
+
+    from ..models import MODELS
+    from .summary import attachment, response_body
+
+    study = data.study
+    structs = getattr(data, "structures", {}) or {}
+    first = next(iter(structs.values()), None)
+    body = response_body(first) if first is not None else "the base"
+    takes = [MODELS.of(s).takes_tmd for s in structs.values()] if structs else [True]
+    tmd_curves = [c for c in study.curves if not c.without_tmd]
+    shown = []
+    for short, name, unit in _UNITS:
+        if short == "Iratio" or not all(takes):
+            continue
+        differs = len({getattr(c.tmd, name, None) for c in tmd_curves}) > 1
+        if differs:
+            shown.append((short, name, unit))
+    words: dict[str, str] = {}
+    for c in study.curves:
+        parts = []
+        att = attachment(structs.get(c.label)) if (structs.get(c.label) is not None and not c.without_tmd) else None
+        if att is not None:
+            parts.append(str(att["text"]))
+        if not c.without_tmd and all(takes):
+            vals = [f"{short} = {float(getattr(c.tmd, name)):.4g}" for short, name, _ in shown]
+            if vals:
+                parts.append(", ".join(vals))
+        words[c.label] = f"{c.label}\n  ({'; '.join(parts)})" if parts else c.label
+    symbols = {s for s, _, _ in shown}
+    named = [
+        f"{short} [{unit}]"
+        for short, _, unit in _UNITS
+        if short in symbols or any(re.search(rf"(?<![A-Za-z_]){short}\s*=", c.label) for c in study.curves)
+    ]
+    return words, ("units: " + ", ".join(named) if named else None), body
+
+
+def _with_peaks(omega: Any, amp: Any, peak: dict | None) -> tuple[Any, Any]:
+    """The curve's points with its refined maxima put in (the summary's peak between grid points),
+    so the drawn maximum is the reported one."""
+    if not peak or not peak.get("local_maxima"):
+        return omega, amp
+    w = np.asarray(omega, float)
+    a = np.asarray(amp, float)
+    extra = [(p["omega"], p["amplitude"]) for p in peak["local_maxima"] if not np.any(w == p["omega"])]
+    if not extra:
+        return w, a
+    w2 = np.concatenate([w, [e[0] for e in extra]])
+    a2 = np.concatenate([a, [e[1] for e in extra]])
+    order = np.argsort(w2, kind="stable")
+    return w2[order], a2[order]
+
+
 def _curve_style(k: int, n_points: int, one_direction: bool) -> dict:
     """Line style, marker and width of curve k: each curve differs from the others in all three,
     the earlier ones wider (drawn underneath), so identical curves still show both."""
@@ -115,9 +177,17 @@ def frc_plot(data: FRCData, ax: Axes | None = None) -> Figure:
             )
             lab = label if line is None else f"{label} ({d})"
             ls = style["ls"] if one_direction else _STYLE.get(d, "-")
+            pw, pa = _with_peaks(td["omega"], td["amplitude"], (data.peaks.get(label) or {}).get(d))
+            if style["markevery"] is not None and len(pw) != len(td):  # the markers stay on the grid points
+                style = dict(
+                    style,
+                    markevery=[int(i) for i in np.flatnonzero(np.isin(pw, td["omega"]))][
+                        style["markevery"][0] :: style["markevery"][1]
+                    ],
+                )
             (line,) = ax.plot(
-                td["omega"],
-                td["amplitude"],
+                pw,
+                pa,
                 ls=ls,
                 marker=style["marker"],
                 ms=style["ms"],
@@ -174,20 +244,29 @@ def frc_plot(data: FRCData, ax: Axes | None = None) -> Figure:
                         ms=6,
                         gid="irregular",
                     )
-    ax.set_ylabel("max |x| [m]")
+    words, heading, body = _frc_words(data)
+    ax.set_ylabel(f"max |x| of {body} [m]")
     if dax is not None:
         _difference_axes(dax, tab)
     else:
         ax.set_xlabel(r"$\omega$ [rad/s]")
     ax.set_title(data.study.title)
     ax.set_xlim(float(np.min(data.study.omegas)), float(np.max(data.study.omegas)))
-    top = ax.get_ylim()[1]
-    ax.set_ylim(-0.03 * top, top)  # a mark at zero amplitude stays whole above the axis
+    if getattr(data.study, "yscale", "linear") == "log":
+        pos = tab["amplitude"].to_numpy(float)
+        pos = pos[np.isfinite(pos) & (pos > 0)]
+        ax.set_yscale("log")
+        if pos.size:
+            ax.set_ylim(0.7 * float(pos.min()), 1.4 * float(pos.max()))
+    else:
+        top = ax.get_ylim()[1]
+        ax.set_ylim(-0.03 * top, top)  # a mark at zero amplitude stays whole above the axis
     ax.grid(alpha=0.3)
     if not embedded:
         valley_inset(ax, tab)
     handles, labels = ax.get_legend_handles_labels()
     labels = coincident_labels(tab, labels)
+    labels = [_worded(lb, words) for lb in labels]
     if has_ref:
         handles.append(Line2D([], [], ls=":", color="0.3"))
         labels.append("monolithic (thin dotted)")
@@ -200,13 +279,13 @@ def frc_plot(data: FRCData, ax: Axes | None = None) -> Figure:
             handles.append(h)
             labels.append(text + ("" if present else " (none)"))
     if embedded:
-        ax.legend(handles, labels, fontsize=6, title=_units_title(data.study), title_fontsize=6)
+        ax.legend(handles, labels, fontsize=6, title=heading, title_fontsize=6)
     else:
         ax.legend(
             handles,
             labels,
             fontsize=8,
-            title=_units_title(data.study),
+            title=heading,
             title_fontsize=8,
             loc="upper left",
             bbox_to_anchor=(1.01, 1.0),
@@ -216,6 +295,16 @@ def frc_plot(data: FRCData, ax: Axes | None = None) -> Figure:
     return fig
 
 
+def _worded(label: str, words: dict[str, str]) -> str:
+    """A legend entry with its curve's attachment and parameters (:func:`_frc_words`): the entry is the
+    curve's label, possibly with " (down)" or a coincidence note after it."""
+    for name in sorted(words, key=len, reverse=True):
+        if label == name or label.startswith(name + " "):
+            extra = words[name][len(name) :]
+            return name + label[len(name) :] + extra
+    return label
+
+
 def _difference_axes(dax: Axes, tab: DataFrame) -> None:
     """Engine 'both': the headline is the largest |difference| over the regular points; irregular
     points (open circles) have no single amplitude and are shown apart with their own scatter."""
@@ -223,9 +312,14 @@ def _difference_axes(dax: Axes, tab: DataFrame) -> None:
     irr = tab["irregular"].fillna(False).astype(bool).to_numpy() if "irregular" in tab else np.zeros(len(d), bool)
     if "reference_irregular" in tab:
         irr = irr | (tab["reference_irregular"].to_numpy(float) == 1.0)
-    reg = np.abs(d[~irr & np.isfinite(d)])
+    conv = tab["converged"].fillna(False).astype(bool).to_numpy() if "converged" in tab else np.ones(len(d), bool)
+    reg = np.abs(
+        d[~irr & conv & np.isfinite(d)]
+    )  # the points both engines call regular (sweeptable.engine_differences)
     head = (
-        f"max |difference| over {reg.size} regular points = {100 * reg.max():.3g} %" if reg.size else "no regular point"
+        f"max |difference| over {reg.size} points both engines call regular = {100 * reg.max():.3g} %"
+        if reg.size
+        else "no point both engines call regular"
     )
     if reg.size and irr.any():  # the scale of the regular points; an irregular point outside sits on the edge
         lim = max(1.3 * 100 * float(reg.max()), 0.05)

@@ -41,6 +41,7 @@ class FRCData:
     table: pd.DataFrame  #: SWEEP_COLUMNS plus 'curve' (the label)
     peaks: dict  #: label -> {direction -> peak summary}
     wall_time: float = 0.0
+    structures: dict = field(default_factory=dict)  #: label -> the primary structure the curve ran on
 
 
 @dataclass
@@ -227,7 +228,13 @@ def frc_response(
         for d, td in table.groupby("direction", sort=False):
             peaks[curve.label][d] = dict(find_peaks(td["omega"], td["amplitude"], refine), **sweep_diagnostics(td))
             peaks[curve.label][d].update(engine_differences(td))
-    return FRCData(study, pd.concat(parts, ignore_index=True), peaks, time.perf_counter() - t0)
+    return FRCData(
+        study,
+        pd.concat(parts, ignore_index=True),
+        peaks,
+        time.perf_counter() - t0,
+        {c.label: b for c, b in zip(study.curves, bases)},
+    )
 
 
 def map_response(

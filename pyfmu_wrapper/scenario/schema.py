@@ -156,6 +156,7 @@ class FRCStudy:
     omegas: np.ndarray = field(repr=False)
     curves: tuple[Curve, ...]
     kind: str = "frc"
+    yscale: str = "linear"  #: the amplitude axis, linear or log (the scenario's or the study's plot: block)
 
 
 @dataclass(frozen=True)

@@ -24,7 +24,7 @@ def model_parameters(structure: Any, tmd: Any) -> dict[str, Any]:
     """The parameter blocks of the model that ran, each under its scenario key: the structure's (``base``,
     ``frame``, ``linear_tmd``, ...) and the paper's TMD only for a model that takes it."""
     unit = MODELS.of(structure)
-    out = {unit.scenario_block or unit.name: as_dict(structure)}
+    out = {unit.scenario_block or unit.name: as_dict(_resolved(structure))}
     if unit.takes_tmd:
         out["tmd"] = as_dict(tmd)
     return out
@@ -37,8 +37,30 @@ def _curve(c: Any, structure: Any) -> dict[str, Any]:
     if unit.takes_tmd:
         d.update(tmd=as_dict(c.tmd), inertance_ratio=c.tmd.inertance_ratio)
     if c.structure is not None:
-        d[unit.scenario_block or unit.name] = as_dict(c.structure)
+        d[unit.scenario_block or unit.name] = as_dict(_resolved(c.structure))
+    att = attachment(c.structure if c.structure is not None else structure)
+    if att is not None and unit.takes_tmd and not c.without_tmd:
+        d["attachment"] = att
     return d
+
+
+def _resolved(structure: Any) -> Any:
+    """The structure with its defaults spelled out (a frame's top storey for 0, the TMD's own storey for
+    -1), values the scenario's keys accept; a structure without such defaults as it is."""
+    f = getattr(structure, "resolved", None)
+    return f() if callable(f) else structure
+
+
+def attachment(structure: Any) -> dict[str, Any] | None:
+    """Where the TMD is attached on ``structure`` (a frame: ``storey``, ``inerter_to``, ``text``); None
+    for a structure with one place for it (the paper's base)."""
+    f = getattr(structure, "attachment", None)
+    return f() if callable(f) else None
+
+
+def response_body(structure: Any) -> str:
+    """What the reported amplitude is the displacement of: the structure's own words, else the base."""
+    return str(getattr(structure, "response_body", "the base"))
 
 
 def study_summary(data: Any, structure: Any) -> dict[str, Any]:
@@ -85,6 +107,80 @@ def study_summary(data: Any, structure: Any) -> dict[str, Any]:
 def _grid(a: Any) -> dict[str, Any]:
     a = np.asarray(a, float)
     return dict(start=float(a[0]), stop=float(a[-1]), count=int(a.size))
+
+
+# --- summary.md ----------------------------------------------------------------------------------
+
+
+def _num(x: Any, digits: int = 4) -> str:
+    return "n/a" if x is None else f"{float(x):.{digits}g}"
+
+
+def _seconds(x: Any) -> str:
+    return "n/a" if x is None else f"{float(x):.3g} s"
+
+
+def summary_markdown(summary: dict[str, Any], body: str = "the base") -> str:
+    """``summary.md``: what ran and what came out, in a few lines (from summary.json's own numbers):
+    per FRC curve its peak (amplitude of ``body`` and frequency, per sweep direction), the reduction
+    against the study's curve without TMD, its attachment and convergence; per map the amplitude
+    range; the timings."""
+    sc = summary["scenario"]
+    L = [f"# {sc['name']}", ""]
+    if sc.get("description"):
+        L += [str(sc["description"]).strip(), ""]
+    L += [f"Engine: {summary['engine']}. Amplitude: max |x| of {body} [m], omega in rad/s.", ""]
+    for st in summary["studies"]:
+        L += [f"## {st['title']} ({st['kind']}, `{st['name']}`)", ""]
+        if st["kind"] == "frc":
+            ref = None
+            for c in st["curves"]:
+                if c.get("without_tmd"):
+                    peaks = [d.get("peak_amplitude") for d in c["directions"].values()]
+                    peaks = [p for p in peaks if p is not None]
+                    ref = max(peaks) if peaks else None
+                    break
+            L += [
+                "| curve | attachment | direction | peak [m] | at omega | reduction | not converged |",
+                "|---|---|---|---|---|---|---|",
+            ]
+            for c in st["curves"]:
+                att = (c.get("attachment") or {}).get("text", "-" if c.get("without_tmd") else "")
+                for d, p in c["directions"].items():
+                    a = p.get("peak_amplitude")
+                    red = (
+                        f"{100 * (1 - a / ref):.1f} %"
+                        if (ref and a is not None and not c.get("without_tmd"))
+                        else ("reference" if c.get("without_tmd") else "n/a")
+                    )
+                    nc = p.get("not_converged", 0)
+                    irr = p.get("irregular", 0)
+                    conv = f"{nc}" + (f" ({irr} irregular)" if irr else "")
+                    L.append(
+                        f"| {c['label']} | {att} | {d} | {_num(a)} | {_num(p.get('peak_omega'))} | {red} | {conv} |"
+                    )
+            L.append("")
+        elif st["kind"] == "map":
+            L += [
+                f"{st['parameter']} over {st['values']['count']} values, {st['omegas']['count']} frequencies: "
+                f"amplitude {_num(st['amplitude_min'])} to {_num(st['amplitude_max'])} m; "
+                f"{st.get('not_converged', 0)} points not converged.",
+                "",
+            ]
+        else:
+            n = len(st.get("portraits", []))
+            bad = sum(1 for p in st.get("portraits", []) if not p.get("converged", True))
+            L += [f"{n} phase portraits, {bad} not converged.", ""]
+    t = summary.get("timings", {})
+    L += ["## Timings", "", f"- computing: {_seconds(t.get('compute'))}, in all: {_seconds(t.get('total'))}"]
+    for name, w in (t.get("studies") or {}).items():
+        L.append(f"- study {name}: {_seconds(w)}")
+    co = t.get("cosim")
+    if co:
+        split = "" if not co.get("split_measured", True) else f" (inside the FMUs {_seconds(sum(co['fmus'].values()))})"
+        L.append(f"- co-simulated points: {co['points']}, {_seconds(co['wall_time'])} of their own time{split}")
+    L += ["", f"Code version {summary.get('code_version', '?')}, created {summary.get('created', '?')}.", ""]
+    return "\n".join(L)
 
 
 # --- closing report ------------------------------------------------------------------------------
@@ -189,13 +285,20 @@ def study_report(data: Any) -> list[str]:
     else:
         lines.append(f"{st.name}: {n_nc} of {len(t)} points not converged, {n_irr} irregular: " + "; ".join(parts))
         lines += _reason_lines(st.name, t)
-    if "difference" in t and np.isfinite(t["difference"].to_numpy(float)).any():
-        diff = engine_differences(t)
+    diff = engine_differences(t)
+    if diff:  # engine 'both': always one line, whatever the points are
         where = "" if diff["omega_max_difference"] is None else f" (at {_w(diff['omega_max_difference'])} rad/s)"
         line = (
             f"{st.name}: co-simulation against monolithic: max |difference| = {_pct(diff['max_abs_difference'])} "
-            f"over the {diff['regular_points']} regular points{where}"
+            f"over the {diff['regular_points']} points both engines call regular{where}"
+            if diff["regular_points"]
+            else f"{st.name}: co-simulation against monolithic: no point both engines call regular"
         )
+        if diff["not_converged_points"]:
+            line += (
+                f"; {diff['not_converged_points']} points the co-simulation reports not converged (not in that "
+                f"maximum): max |difference| there {_pct(diff['max_abs_difference_not_converged'])}"
+            )
         if diff["irregular_points"]:
             irr_t = t[irregular_mask(t)]
             items = []

@@ -131,15 +131,21 @@ def irregular_mask(t: pd.DataFrame) -> np.ndarray:
 
 def engine_differences(t: pd.DataFrame) -> dict:
     """Engine 'both': the relative difference co-simulation / monolithic - 1 per frequency; the
-    headline maximum is over the *regular* points only (an irregular point has no single amplitude:
-    it is listed apart with the window scatter of each engine)."""
-    if "difference" not in t or not np.isfinite(t["difference"].to_numpy(float)).any():
+    headline maximum is over the points *both engines call regular* only: converged and periodic (an
+    irregular point has no single amplitude: it is listed apart with the window scatter of each
+    engine; a point the co-simulation reports not converged is counted apart, with its own largest
+    difference)."""
+    if "reference" not in t or not np.isfinite(t["reference"].to_numpy(float)).any():
         return {}
     d = t["difference"].to_numpy(float)
     w = t["omega"].to_numpy(float)
     irr = irregular_mask(t)
-    reg = np.where(irr | ~np.isfinite(d), np.nan, np.abs(d))
+    conv = t["converged"].fillna(False).astype(bool).to_numpy() if "converged" in t else np.ones(len(t), bool)
+    reg = np.where(irr | ~conv | ~np.isfinite(d), np.nan, np.abs(d))
     out: dict[str, Any] = dict(regular_points=int(np.isfinite(reg).sum()))
+    nc = np.where(~irr & ~conv & np.isfinite(d), np.abs(d), np.nan)
+    out["not_converged_points"] = int(np.isfinite(nc).sum())
+    out["max_abs_difference_not_converged"] = float(np.nanmax(nc)) if np.isfinite(nc).any() else None
     if np.isfinite(reg).any():
         k = int(np.nanargmax(reg))
         out.update(max_abs_difference=float(reg[k]), omega_max_difference=float(w[k]))

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 from scipy.optimize import minimize
 
+from .. import progress
 from ..data import DataError
 from .models import Effect, LinkData, basis, effect_list, report_params
 
@@ -180,6 +181,7 @@ def fit_effects(effects: Sequence[Effect], ld: LinkData, train: ndarray, test: n
             std[f"{e.name}.{k}"] = float(s)
         kb += nb
         kt += nt
+    progress.candidate("+".join(e.name for e in effects) or "nominal")
     return Fit(
         effects=tuple(e.name for e in effects),
         labels=tuple(e.label for e in effects),

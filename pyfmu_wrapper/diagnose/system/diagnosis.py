@@ -27,7 +27,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ...solvers.monolithic import SolverError
-from .. import gates
+from .. import gates, progress
 from ..acquisition import unobservable
 from ..gates import (
     evidence_gate,
@@ -273,6 +273,7 @@ class SystemDiagnosis(PlayMixin):
             f = self.singles[effects[-1]]
         else:
             f = fit_eq(m, effects, self.folds)
+        progress.candidate("+".join(effects) or "nominal")
         params, std = dict(f.params), dict(f.std)
         if "play" in effects and hasattr(self.play, "eps"):
             params["play.play_gap"], std["play.play_gap"] = self.play.eps, self.play.std

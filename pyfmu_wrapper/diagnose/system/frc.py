@@ -31,6 +31,7 @@ from scipy.optimize import least_squares, minimize_scalar
 from ...models.solve import exact_amplitude, steady_state
 from ...physics.params import BaseParams, ParameterError, TMDParams
 from ...solvers.monolithic import SolverError
+from .. import progress
 from . import frc_report
 from .effects import VOCAB
 from .frcfit import FRCEffectFit
@@ -225,6 +226,7 @@ class FRCDiagnosis(FRCEffectFit):
                 p = np.array([res.x])
             else:
                 p = least_squares(lambda q, model=model: ((self.x - model(q)) / sc)[self.train], p0, diff_step=1e-4).x
+            progress.candidate(name)
             try:
                 pred = model(p)
             except (SolverError, ParameterError, ValueError, FloatingPointError):

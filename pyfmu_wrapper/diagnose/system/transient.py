@@ -37,6 +37,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from .. import progress
 from .effects import LABELS, VOCAB
 from .transient_effects import BOUNDS, TEFFECTS, apply, meaningless, scales
 from .transient_fit import TFit, chi2_of, fit, residual, start_update, warm_start, z_test
@@ -226,6 +227,7 @@ class TransientDiagnosis:
             # near its optimum instead of the whole way from the default start (friction: 14 -> 3)
             us, z_start = [held.theta / scale], held.z0
         f = fit(vs, self.p_nom, effects, train, test, self.sc, starts=us, z_start=z_start)
+        progress.candidate("+".join(effects) or "nominal")
         if views is None and test is not None and effects and f.ok:  # the best held-out fit of these effects
             self.held_fits: dict[tuple[str, ...], TFit] = getattr(self, "held_fits", {})
             old = self.held_fits.get(effects)

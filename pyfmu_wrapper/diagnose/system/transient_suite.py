@@ -209,7 +209,7 @@ def _records(
         if accel_only:
             m.pop("x"), m.pop("y")
         out.append((f"{kind}_{i}.csv", m))
-        recs.append({"file": f"{kind}_{i}.csv", "kind": "transient"})
+        recs.append({"file": f"{kind}_{i}.csv", "kind": "decay" if kind == "decay" else "transient"})
         meta.append({"kind": kind, **kw, "amp": amp, "noise": noise})
     path.mkdir(parents=True, exist_ok=True)
     for name, m in out:

@@ -11,7 +11,7 @@ TMD-inerter), another storey, or 0, the ground (the TMDI).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 from ...physics.params import ParameterError
@@ -144,6 +144,21 @@ class FrameParams:
     def terminal(self) -> int:
         """The inerter's second terminal: a storey 1..n, or 0 for the ground."""
         return self.tmd_at if self.inerter_to < 0 else self.inerter_to
+
+    #: what the reported amplitude max |z[0]| is the displacement of (plots' y-label, summary.md)
+    response_body = "the top storey"
+
+    def attachment(self) -> dict[str, Any]:
+        """Where the TMD hangs and where its inerter's second terminal is, as a scenario's tmd: block
+        writes them (``storey`` 1..n, ``inerter_to`` a storey or 0 for the ground), with the words."""
+        to = self.terminal
+        where = "the ground" if to == 0 else ("its own storey" if to == self.tmd_at else f"storey {to}")
+        return dict(storey=self.tmd_at, inerter_to=to, text=f"storey {self.tmd_at}, inerter to {where}")
+
+    def resolved(self) -> FrameParams:
+        """The same frame with the defaults spelled out (0 = the top, -1 = the TMD's own storey):
+        values a scenario's keys accept, for the summary."""
+        return replace(self, force_storey=self.loaded_storey, tmd_storey=self.tmd_at, inerter_to=self.terminal)
 
     @property
     def stiffness(self) -> float:

@@ -68,6 +68,9 @@ class LinearTMDParams:
     absorber_damping: float = 2.0
     source: str | None = None
 
+    #: what the reported amplitude max |z[0]| is the displacement of (plots' y-label, summary.md)
+    response_body = "the main mass"
+
     def __post_init__(self) -> None:
         check_structure(self, PARAMETERS, self.source)
 
