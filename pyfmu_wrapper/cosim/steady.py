@@ -277,7 +277,8 @@ def periodic_time_series(
         s = m.signals
         states = np.full((Y.shape[0], n_state), np.nan)
         for j, p in enumerate(system.state_outputs):
-            states[:, j] = Y[:, s.index(p)]
+            if p is not None:
+                states[:, j] = Y[:, s.index(p)]
         t = np.arange(Y.shape[0]) * (2 * math.pi / omega / n)
         return t, states, ss
     finally:
