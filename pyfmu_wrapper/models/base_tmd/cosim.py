@@ -49,7 +49,7 @@ from ...master.graph import Connection
 from ...master.master import Master
 from ...master.ssp import export_ssp
 from ...physics import registry
-from ...physics.params import BaseParams, InerterModel, TMDParams, has_gap
+from ...physics.params import BaseParams, InerterModel, TMDParams, has_gap, is_detached
 from ...physics.unit import ModelUnit
 from ...solvers.start import initial_guess, play_atol
 from .fmus.base_oscillator import FMU as BASE_OSCILLATOR
@@ -246,7 +246,14 @@ class PairSystem:
     tmd: TMDParams
 
     observed: tuple[str, str] = ("base.x", "base.xd")
-    state_outputs: tuple[str, ...] = ("base.x", "base.xd", "tmd.y", "tmd.yd")
+
+    @property
+    def state_outputs(self) -> tuple[str | None, ...]:
+        """x, xd of the base and y, yd of the TMD; a detached TMD's (no link: a free mass) are no part of the
+        response and not shot (their drift would make the period map's Jacobian singular)."""
+        if is_detached(self.tmd):
+            return ("base.x", "base.xd")
+        return ("base.x", "base.xd", "tmd.y", "tmd.yd")
 
     def with_tmd(self, tmd: TMDParams) -> PairSystem:
         return replace(self, tmd=tmd)
@@ -275,12 +282,11 @@ class PairSystem:
     def shooting_scale(self, z: NDArray[np.float64], omega: float) -> NDArray[np.float64]:
         """One scale for the base's and the TMD's (x, xd/w): the larger orbit's, at least 1e-6 F/K."""
         base = self.structure
+        pairs = np.asarray(z, dtype=float).reshape(-1, 2)
         amp = max(
-            math.hypot(z[0], z[1] / omega),
-            math.hypot(z[2], z[3] / omega),
-            1e-6 * abs(base.force_amplitude) / base.stiffness,
+            float(np.max(np.hypot(pairs[:, 0], pairs[:, 1] / omega))), 1e-6 * abs(base.force_amplitude) / base.stiffness
         )
-        return np.array([amp, amp * omega, amp, amp * omega])
+        return np.tile([amp, amp * omega], pairs.shape[0])
 
 
 def steady_state(

@@ -50,7 +50,7 @@ from ...cosim.timescales import parameter_text, ratio_sqrt
 from ...master.graph import Connection
 from ...master.master import Master
 from ...physics import registry
-from ...physics.params import BaseParams, InerterModel, TMDParams, has_gap
+from ...physics.params import BaseParams, InerterModel, TMDParams, has_gap, is_detached
 from ...physics.unit import ModelUnit
 from ...solvers.start import play_atol
 from .equations import storey_index
@@ -197,10 +197,12 @@ def frame_scales(frame: FrameParams, tmd: TMDParams) -> list[Scale]:
     return out
 
 
-def state_outputs(n: int) -> tuple[str | None, ...]:
+def state_outputs(n: int, detached: bool = False) -> tuple[str | None, ...]:
     """The FMU output of each entry of the frame unit's state (:mod:`.equations`' layout: x_n, xd_n, y, yd, d, dd,
-    then x_i, xd_i from storey n - 1 down to 1); the play chain's d, dd are no output (None)."""
-    out: list[str | None] = ["frame.x_top", "frame.xd_top", "tmd.y", "tmd.yd", None, None]
+    then x_i, xd_i from storey n - 1 down to 1); the play chain's d, dd are no output (None), nor the TMD's y, yd
+    when it is ``detached`` (no link: a free mass, whose drift would make the period map's Jacobian singular)."""
+    tmd: list[str | None] = [None, None] if detached else ["tmd.y", "tmd.yd"]
+    out: list[str | None] = ["frame.x_top", "frame.xd_top", *tmd, None, None]
     for i in range(n - 1, 0, -1):
         out += [f"frame.x_{i}", f"frame.xd_{i}"]
     return tuple(out)
@@ -218,7 +220,7 @@ class FrameSystem:
 
     @property
     def state_outputs(self) -> tuple[str | None, ...]:
-        return state_outputs(self.structure.n)
+        return state_outputs(self.structure.n, is_detached(self.tmd))
 
     def with_tmd(self, tmd: TMDParams) -> FrameSystem:
         return replace(self, tmd=tmd)
