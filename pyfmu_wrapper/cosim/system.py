@@ -100,3 +100,6 @@ class CosimEngine:
     refusal: Callable[..., str | None] | None = None
     #: steps_at(structure, tmd, omega, settings) -> the communication steps per period at omega
     steps_at: Callable[..., int] | None = None
+    #: fmus() -> the declarations of the FMUs its systems run (``run-scenario`` builds or checks them once, before
+    #: its workers start: :func:`pyfmu_wrapper.scenario.engines.prepare_cosim`)
+    fmus: Callable[[], tuple[Any, ...]] | None = None

@@ -138,14 +138,9 @@ def make_master(
     fmu_build: "native" (the model compiled into the FMUs' binaries) or "python" (the Python-hosted
     FMUs, the reference)."""
     if fmus is None:
-        if fmu_build == "native":
-            from ...fmubuild.native_build import ensure_native_fmus
+        from ...fmubuild.variants import ensure_variant
 
-            paths = ensure_native_fmus(PAIR_FMUS, fmi_version=fmi_version)
-        else:
-            from ...fmubuild.build import ensure_fmus
-
-            paths = ensure_fmus(PAIR_FMUS, fmi_version=fmi_version)
+        paths = ensure_variant(PAIR_FMUS, fmu_build, fmi_version)
         fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
     if coupling == "impulse":
         pars = {"tmd.base_compliance": 1.0 / (base or BaseParams()).mass} if interface_jacobian else {}
@@ -312,4 +307,4 @@ PAIR_FMUS = (BASE_OSCILLATOR, TMD_INERTER)
 def engine(unit: ModelUnit) -> CosimEngine:
     """The pair's co-simulation as ``run-scenario`` calls it, for its unit (the unit holds it: the unit's
     ``cosim`` returns ``engine(UNIT)``; this module imports no unit): the engine's on :class:`PairSystem`."""
-    return cosim_steady.engine_of(partial(PairSystem, unit))
+    return cosim_steady.engine_of(partial(PairSystem, unit), fmus=lambda: PAIR_FMUS)

@@ -151,14 +151,9 @@ def make_master(
     """A master for the frame and its TMD (the FMUs built if missing or stale); ``tmd``: the impulse
     coupling where it applies (:func:`connections`); fmu_build: "native" (the models compiled into the
     FMUs' binaries, no Python) or "python" (the Python-hosted FMUs, the reference: the same bits)."""
-    if fmu_build == "native":
-        from ...fmubuild.native_build import ensure_native_fmus
+    from ...fmubuild.variants import ensure_variant
 
-        paths = ensure_native_fmus(frame_fmus(), fmi_version=fmi_version)
-    else:
-        from ...fmubuild.build import ensure_fmus
-
-        paths = ensure_fmus(frame_fmus(), fmi_version=fmi_version)
+    paths = ensure_variant(frame_fmus(), fmu_build, fmi_version)
     fmus: dict[str, str | Path] = {"frame": paths["ShearFrame"], "tmd": paths["TMDInerter"]}
     conns = connections(frame, tmd)
     impulse = any(not isinstance(c, str) for c in conns)
@@ -288,4 +283,4 @@ def engine(unit: ModelUnit) -> CosimEngine:
     ``engine(UNIT)``; this module imports no unit): the engine's on :class:`FrameSystem`, its sweep with the
     frame's defaults (:func:`_sweep`)."""
     make_system = partial(FrameSystem, unit)
-    return replace(cosim_steady.engine_of(make_system), sweep=partial(_sweep, make_system))
+    return replace(cosim_steady.engine_of(make_system, fmus=frame_fmus), sweep=partial(_sweep, make_system))
