@@ -112,6 +112,15 @@ class Progress:
             self.done += n
             self.skipped += n
 
+    def note(self, text: str) -> None:
+        """One line of a step that is not a point (``building FMUs``), written at once (nothing when disabled)."""
+        if self.enabled:
+            with self._lock:
+                self.stream.write(
+                    ("\r" if self.tty else "") + f"run-scenario: {text}".ljust(110 if self.tty else 0) + "\n"
+                )
+                self.stream.flush()
+
     def eta(self) -> float | None:
         """Seconds left: the points still to compute (those known to cost nothing left out) at the
         measured cost per point of each sweep when the sweeps report themselves (:meth:`task_points`,

@@ -35,7 +35,7 @@ import numpy as np
 from ..master.master import Master
 from ..physics.params import InerterModel, TMDParams
 from ..solvers.shooting import shoot
-from .periods import CosimSteadyState, Periods, can_shoot, run_steady, start, start_state, state_of
+from .periods import CosimSteadyState, Periods, can_shoot, run_steady, shot_index, start, start_state, state_of
 from .settings import CosimSettings
 from .system import CosimSystem
 
@@ -100,16 +100,17 @@ def coarse_amplitude(
     T = 2.0 * math.pi / omega
     base = system.structure
     run = Periods(master, n, T, system.observed)
-    m = len(system.state_outputs)
-    z = np.array(ss.state[:m], dtype=float)
-    tail = np.asarray(ss.state[m:], dtype=float)
+    idx = shot_index(system)
+    m = idx.size
+    full = np.array(ss.state, dtype=float)
+    z = full[idx]
     zs = system.shooting_scale(z, omega)
-    zero = np.zeros(len(ss.state))
 
     def period_map(zz: np.ndarray) -> tuple[np.ndarray, float]:
-        start(master, system, omega, np.concatenate([zz, tail]), settings)
+        full[idx] = zz
+        start(master, system, omega, full, settings)
         a = run.period()
-        return state_of(system, master, zero)[:m], a
+        return state_of(system, master, full)[idx], a
 
     if jacobian is None or np.shape(jacobian) != (m, m):
         res = shoot(period_map, z, zs, settings.tol, settings.max_newton, None)

@@ -54,9 +54,10 @@ class CosimSystem(Protocol):
         ...
 
     @property
-    def state_outputs(self) -> tuple[str, ...]:
-        """The outputs that give the state's first entries z[0], z[1], ...: the states Newton shooting moves
-        (the rest, not outputs of the FMUs, are taken from the start state)."""
+    def state_outputs(self) -> tuple[str | None, ...]:
+        """The output ("instance.variable") of each entry of the unit's state z[0], z[1], ..., None for an entry
+        no FMU output shows: the states shown are those Newton shooting moves (the others, and the entries past
+        the end of the tuple, are taken from the start state)."""
         ...
 
     def with_tmd(self, tmd: TMDParams) -> CosimSystem:
@@ -99,3 +100,6 @@ class CosimEngine:
     refusal: Callable[..., str | None] | None = None
     #: steps_at(structure, tmd, omega, settings) -> the communication steps per period at omega
     steps_at: Callable[..., int] | None = None
+    #: fmus() -> the declarations of the FMUs its systems run (``run-scenario`` builds or checks them once, before
+    #: its workers start: :func:`pyfmu_wrapper.scenario.engines.prepare_cosim`)
+    fmus: Callable[[], tuple[Any, ...]] | None = None

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import ast
 import hashlib
+import json
+import os
 import sys
 from collections.abc import Iterable
 from pathlib import Path
@@ -111,8 +113,35 @@ def bundled_files(fmus: Iterable[FmuModel]) -> list[str]:
     if key not in _CLOSURE:
         if len(_CLOSURE) > 16 or any(k[0] != files for k in _CLOSURE):
             _CLOSURE.clear()
-        _CLOSURE[key] = _closure(roots)
+        _CLOSURE[key] = _stored_closure(key, roots)
     return list(_CLOSURE[key])
+
+
+#: where :func:`_stored_closure` keeps the closures it computed, beside the FMUs built from them (git-ignored)
+CLOSURE_CACHE = PACKAGE_DIR.parent / "fmu" / "build" / ".closure"
+
+
+def _stored_closure(key: tuple, roots: tuple[str, ...]) -> list[str]:
+    """:func:`_closure` of ``roots``, kept on disk under the key (every module's name, size and modification
+    time, and the roots): the worker processes of a run, each checking its FMUs, parse the package once between
+    them instead of once each (0.3-0.8 s of CPU a process). A missing, unreadable or unwritable cache only
+    costs the parse."""
+    path = CLOSURE_CACHE / (hashlib.sha256(repr(key).encode()).hexdigest()[:32] + ".json")
+    try:
+        found = json.loads(path.read_text())
+        if isinstance(found, list) and all(isinstance(f, str) and (PACKAGE_DIR / f).is_file() for f in found):
+            return found
+    except (OSError, ValueError):
+        pass
+    result = _closure(roots)
+    try:
+        CLOSURE_CACHE.mkdir(parents=True, exist_ok=True)
+        tmp = path.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(json.dumps(result))
+        os.replace(tmp, path)
+    except OSError:
+        pass
+    return result
 
 
 def _closure(roots: Iterable[str]) -> list[str]:

@@ -46,6 +46,8 @@ class Instance3(Instance):
     The compiled loop (:mod:`.cloop`) calls it through its fmi3 adapters (:attr:`der3_vr`: the
     FMI 3.0 variable of each position of the derivative arrays); both paths agree bit for bit."""
 
+    REAL_TYPE = "Float64"
+
     fmi_version = 3
     LEAN_CALLS = ("fmi3SetFloat64", "fmi3SetFloat64", "fmi3DoStep", "fmi3GetFloat64")
 

@@ -198,11 +198,14 @@ class Master:
         for ins in inst:
             if ins.initialized:
                 ins.reset()
+        by_instance: dict[str, dict[str, Any]] = {}
         for key, val in self.parameters.items():
             name, var = key.split(".", 1)
             if name not in self.instances:
                 raise MasterError(f"parameter {key!r}: unknown instance {name!r}")
-            self.instances[name].set_value(var, val)
+            by_instance.setdefault(name, {})[var] = val
+        for name, values in by_instance.items():
+            self.instances[name].set_values(values)
         for ins in inst:
             ins.enter_initialization(tol, t0)
         # propagate the connections in initialisation mode (fixed-point / Newton on the loops)

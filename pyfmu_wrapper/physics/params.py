@@ -245,6 +245,14 @@ def has_gap(tmd: TMDParams) -> bool:
     return tmd.inerter == InerterModel.PLAY and tmd.play_gap > 0.0
 
 
+def is_detached(tmd: TMDParams) -> bool:
+    """No link joins the TMD to the structure (no spring, damper, friction or inerter: a curve "without the
+    TMD"): its mass moves freely, untouched by the structure, so its states are no part of the response."""
+    no_inerter = tmd.inerter == InerterModel.NONE or tmd.inertance == 0.0
+    links = (tmd.stiffness, tmd.cubic_stiffness, tmd.damping, tmd.friction_force)
+    return no_inerter and all(v == 0.0 for v in links)
+
+
 def paper_case(case: int, **overrides: Any) -> TMDParams:
     """TMD parameters of the paper's Case 1, 2 or 3 (ideal inerter, no damping unless overridden)."""
     if case not in CASES:

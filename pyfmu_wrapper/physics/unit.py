@@ -19,6 +19,7 @@ TMD equations of :mod:`.kernels` run unchanged on it.
 
 from __future__ import annotations
 
+import functools
 import importlib
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -164,7 +165,18 @@ class ModelUnit:
     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """(A, b): dz/dt = A z + b f for the excitation's force f [N], read off the unit's right-hand
         side (exact to rounding for a linear configuration: the rhs is affine in z and in F;
-        ``linearise``: A is the complex-step Jacobian at rest, the small-amplitude limit)."""
+        ``linearise``: A is the complex-step Jacobian at rest, the small-amplitude limit). Kept for the last
+        configurations asked (a sweep asks for the same one at every frequency: its start states, the shooting's
+        monodromy); the arrays returned are the caller's own."""
+        try:
+            A, b = _linear_system(self, structure, tmd, bool(linearise))
+        except TypeError:  # a structure that is not hashable: computed afresh
+            A, b = self._linear_system(structure, tmd, bool(linearise))
+        return A.copy(), b.copy()
+
+    def _linear_system(
+        self, structure: Any, tmd: TMDParams, linearise: bool
+    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         n = self.n_state(structure)
         p = self.pack(structure, tmd, 0.0)
         p[P_W] = 0.0
@@ -190,6 +202,14 @@ class ModelUnit:
         b = np.empty(n)
         self.ode.rhs(0.0, np.zeros(n), p, u, b)
         return A, b
+
+
+@functools.lru_cache(maxsize=32)
+def _linear_system(
+    unit: ModelUnit, structure: Any, tmd: TMDParams, linearise: bool
+) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """:meth:`ModelUnit.linear_system`, kept per configuration (the parameters are frozen and hashable)."""
+    return unit._linear_system(structure, tmd, linearise)
 
 
 def load_unit(home: str) -> ModelUnit:

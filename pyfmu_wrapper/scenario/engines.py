@@ -18,7 +18,7 @@ portraits). An engine is a pair of functions registered in :data:`ENGINES`:
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
@@ -242,6 +242,23 @@ def cosim_engine(base: Any) -> Any:
     model has none."""
     load = MODELS.of(base).cosim
     return load() if load is not None else None
+
+
+def prepare_cosim(structures: Iterable[Any], settings: RunSettings) -> list[str]:
+    """Build, or check, the FMUs of the co-simulation of each structure's model once, here, before any sweep starts
+    (the workers, forked from this process, then find them built and their modules imported, instead of each
+    building or hashing them at once): the names of the FMUs; none for an engine that does not co-simulate."""
+    if settings.engine not in BLOCK_USERS["cosim"]:
+        return []
+    from ..fmubuild.variants import ensure_variant
+
+    cs = _cosim_settings(settings)
+    names: list[str] = []
+    for unit in dict.fromkeys(MODELS.of(s) for s in structures):
+        engine = unit.cosim() if unit.cosim is not None else None
+        if engine is not None and engine.fmus is not None:
+            names += [n for n in ensure_variant(engine.fmus(), cs.fmu_build, cs.fmi_version) if n not in names]
+    return names
 
 
 def _cosim_system(base: Any) -> Callable[..., pd.DataFrame]:

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 
 from ..models.solve import exact_amplitude
-from .engines import RunSettings, compute_sweep, compute_time_series, uses_exact
+from .engines import BLOCK_USERS, RunSettings, compute_sweep, compute_time_series, prepare_cosim, uses_exact
 from .executors import run_tasks
 from .schema import Curve, FRCStudy, MapStudy, PhasePortraitStudy, Scenario
 from .sweeptable import engine_differences, find_peaks, sweep_diagnostics
@@ -293,6 +293,14 @@ def run_studies(
     cache = _Cache(executor, checkpoint_dir, resume, checkpoint_marker)
     if stats is not None:
         cache.stats = stats
+    structures = [scn.base] + [c.structure for st in scn.studies for c in getattr(st, "curves", ()) if c.structure]
+    note = getattr(progress, "note", None)
+    if note is not None and settings.engine in BLOCK_USERS["cosim"]:
+        note("building FMUs (the co-simulation's, once for every worker; nothing to do when they are up to date)")
+    t_fmus = time.perf_counter()
+    built = prepare_cosim(structures, settings)
+    if note is not None and built:
+        note(f"FMUs ready: {', '.join(built)} ({time.perf_counter() - t_fmus:.1f} s)")
     out: list[FRCData | MapData | PhaseData] = []
     for st in scn.studies:
         if isinstance(st, FRCStudy):

@@ -45,13 +45,17 @@ def norm1(a: NDArray[np.float64]) -> float:
 
 @njit(cache=True)
 def _matmul(a: NDArray[np.float64], b: NDArray[np.float64], out: NDArray[np.float64]) -> None:
+    """out = a b. Each entry is the sum over k in ascending order, from 0 (the rounding of a plain dot product);
+    the loops run i, k, j so that the innermost runs along rows of b and out (vectorised by the compiler, the same
+    additions in the same order per entry)."""
     n = a.shape[0]
     for i in range(n):
         for j in range(n):
-            s = 0.0
-            for k in range(n):
-                s += a[i, k] * b[k, j]
-            out[i, j] = s
+            out[i, j] = 0.0
+        for k in range(n):
+            aik = a[i, k]
+            for j in range(n):
+                out[i, j] += aik * b[k, j]
 
 
 @njit(cache=True)

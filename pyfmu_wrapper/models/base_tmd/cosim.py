@@ -49,7 +49,7 @@ from ...master.graph import Connection
 from ...master.master import Master
 from ...master.ssp import export_ssp
 from ...physics import registry
-from ...physics.params import BaseParams, InerterModel, TMDParams, has_gap
+from ...physics.params import BaseParams, InerterModel, TMDParams, has_gap, is_detached
 from ...physics.unit import ModelUnit
 from ...solvers.start import initial_guess, play_atol
 from .fmus.base_oscillator import FMU as BASE_OSCILLATOR
@@ -138,14 +138,9 @@ def make_master(
     fmu_build: "native" (the model compiled into the FMUs' binaries) or "python" (the Python-hosted
     FMUs, the reference)."""
     if fmus is None:
-        if fmu_build == "native":
-            from ...fmubuild.native_build import ensure_native_fmus
+        from ...fmubuild.variants import ensure_variant
 
-            paths = ensure_native_fmus(PAIR_FMUS, fmi_version=fmi_version)
-        else:
-            from ...fmubuild.build import ensure_fmus
-
-            paths = ensure_fmus(PAIR_FMUS, fmi_version=fmi_version)
+        paths = ensure_variant(PAIR_FMUS, fmu_build, fmi_version)
         fmus = {"base": paths["BaseOscillator"], "tmd": paths["TMDInerter"]}
     if coupling == "impulse":
         pars = {"tmd.base_compliance": 1.0 / (base or BaseParams()).mass} if interface_jacobian else {}
@@ -246,7 +241,14 @@ class PairSystem:
     tmd: TMDParams
 
     observed: tuple[str, str] = ("base.x", "base.xd")
-    state_outputs: tuple[str, ...] = ("base.x", "base.xd", "tmd.y", "tmd.yd")
+
+    @property
+    def state_outputs(self) -> tuple[str | None, ...]:
+        """x, xd of the base and y, yd of the TMD; a detached TMD's (no link: a free mass) are no part of the
+        response and not shot (their drift would make the period map's Jacobian singular)."""
+        if is_detached(self.tmd):
+            return ("base.x", "base.xd")
+        return ("base.x", "base.xd", "tmd.y", "tmd.yd")
 
     def with_tmd(self, tmd: TMDParams) -> PairSystem:
         return replace(self, tmd=tmd)
@@ -275,12 +277,11 @@ class PairSystem:
     def shooting_scale(self, z: NDArray[np.float64], omega: float) -> NDArray[np.float64]:
         """One scale for the base's and the TMD's (x, xd/w): the larger orbit's, at least 1e-6 F/K."""
         base = self.structure
+        pairs = np.asarray(z, dtype=float).reshape(-1, 2)
         amp = max(
-            math.hypot(z[0], z[1] / omega),
-            math.hypot(z[2], z[3] / omega),
-            1e-6 * abs(base.force_amplitude) / base.stiffness,
+            float(np.max(np.hypot(pairs[:, 0], pairs[:, 1] / omega))), 1e-6 * abs(base.force_amplitude) / base.stiffness
         )
-        return np.array([amp, amp * omega, amp, amp * omega])
+        return np.tile([amp, amp * omega], pairs.shape[0])
 
 
 def steady_state(
@@ -306,4 +307,4 @@ PAIR_FMUS = (BASE_OSCILLATOR, TMD_INERTER)
 def engine(unit: ModelUnit) -> CosimEngine:
     """The pair's co-simulation as ``run-scenario`` calls it, for its unit (the unit holds it: the unit's
     ``cosim`` returns ``engine(UNIT)``; this module imports no unit): the engine's on :class:`PairSystem`."""
-    return cosim_steady.engine_of(partial(PairSystem, unit))
+    return cosim_steady.engine_of(partial(PairSystem, unit), fmus=lambda: PAIR_FMUS)

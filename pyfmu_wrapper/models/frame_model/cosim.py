@@ -1,6 +1,7 @@
 """The shear frame with its TMD as two co-simulated FMUs: ShearFrame (``frame``) and TMDInerter
-(``tmd``), coupled by forces at two storeys (native or Python-hosted FMUs, ``CosimSettings.fmu_build``), and their
-steady states.
+(``tmd``), coupled by forces at two storeys (native or Python-hosted FMUs, ``CosimSettings.fmu_build``): the
+unit's :class:`~pyfmu_wrapper.cosim.system.CosimSystem` (:class:`FrameSystem`) and
+:class:`~pyfmu_wrapper.cosim.system.CosimEngine` (:func:`engine`).
 
 Connections (:func:`connections`)::
 
@@ -17,45 +18,41 @@ instantaneous reaction to its own force within each step (no loop; the play chai
 storey that reacts without a step of delay: with frame.xdd it diverged, frame3_full at 62 s), and
 with the impulse coupling of the settings (the default) the storey gets the TMD's exact impulse over
 each step (:func:`connections`; frame3_full's full TMD: 0.21 % from the monolithic engine where the
-force coupling left 1-7 % and irregular windows). The steady state is the definition of both engines
-(:class:`~pyfmu_wrapper.solvers.steady.WindowCriterion` on max |x| of the top storey per period),
-started from the monolithic engine's start (the exact response of the linear companion, or the play
-model's companion orbit); the amplitude is the cubic Hermite maximum of the top storey between the
-communication points. Every point's coupling error is estimated by step doubling (the amplitude at N
-and at N/2 steps per period; with a gear gap, its linear companion's) and held to the settings'
-``coupling_tol``: the steps are doubled while it is above, and a point still above is reported not
-converged (:func:`checked_steady_state`).
+force coupling left 1-7 % and irregular windows).
+
+The steady states, their coupling-error check and the sweeps are the co-simulation engine's
+(:mod:`pyfmu_wrapper.cosim.steady`), as for the paper's pair: every storey's x_i, xd_i and the TMD's y, yd
+are FMU outputs (ShearFrame's ``x_i``, ``xd_i``; TMDInerter's ``y``, ``yd``), so a configuration without a
+gear gap is solved by Newton shooting on the co-simulated period map (a linear one in one Newton step once the
+period map's Jacobian is formed) and its coupling error estimated by step doubling from that orbit; the
+play model runs period after period from its smooth companion's orbit, its coupling error that of the
+companion. The frame's own modes need no resolving by the communication step (ShearFrame steps exactly, by
+the matrix exponential): the time scales (:meth:`FrameSystem.time_scales`) are those of the TMD against its
+storey.
 """
 
 from __future__ import annotations
 
-import math
-import time
 from collections.abc import Callable, Sequence
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from functools import partial
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 import pandas as pd
-from numpy.typing import ArrayLike
+from numpy.typing import ArrayLike, NDArray
 
-from ...cosim.checked import AMPLITUDE_FLOOR, companion
-from ...cosim.periods import CosimSteadyState
+from ...cosim import steady as cosim_steady
 from ...cosim.settings import CosimSettings
-from ...cosim.system import CosimEngine
+from ...cosim.system import CosimEngine, Scale
+from ...cosim.timescales import parameter_text, ratio_sqrt
 from ...master.graph import Connection
-from ...master.instance import MasterError
 from ...master.master import Master
 from ...physics import registry
-from ...physics.params import BaseParams, TMDParams, has_gap
+from ...physics.params import BaseParams, InerterModel, TMDParams, has_gap, is_detached
 from ...physics.unit import ModelUnit
-from ...solvers.hermite import hermite_absmax_series
-from ...solvers.monolithic import SolverSettings, companion_start
-from ...solvers.start import initial_guess, play_atol
-from ...solvers.steady import WindowCriterion
-from ...solvers.sweep import run_sweep_pieces
+from ...solvers.start import play_atol
 from .equations import storey_index
 from .params import FrameParams
 
@@ -68,9 +65,6 @@ RECORD = ("frame.x_top", "frame.xd_top")
 #: fewer periods: the orbit starts closer to the exact linear start)
 FRAME_ACCURACY = 1e-4
 ATOL_FLOOR = 1e-14
-#: a point's steps per period are doubled at most this many times when its coupling-error estimate
-#: is above the tolerance (:func:`checked_steady_state`)
-MAX_REFINEMENTS = 3
 
 
 def connections(frame: FrameParams, tmd: TMDParams | None = None) -> list[Any]:
@@ -157,156 +151,117 @@ def make_master(
     """A master for the frame and its TMD (the FMUs built if missing or stale); ``tmd``: the impulse
     coupling where it applies (:func:`connections`); fmu_build: "native" (the models compiled into the
     FMUs' binaries, no Python) or "python" (the Python-hosted FMUs, the reference: the same bits)."""
-    if fmu_build == "native":
-        from ...fmubuild.native_build import ensure_native_fmus
+    from ...fmubuild.variants import ensure_variant
 
-        paths = ensure_native_fmus(frame_fmus(), fmi_version=fmi_version)
-    else:
-        from ...fmubuild.build import ensure_fmus
-
-        paths = ensure_fmus(frame_fmus(), fmi_version=fmi_version)
+    paths = ensure_variant(frame_fmus(), fmu_build, fmi_version)
     fmus: dict[str, str | Path] = {"frame": paths["ShearFrame"], "tmd": paths["TMDInerter"]}
     conns = connections(frame, tmd)
     impulse = any(not isinstance(c, str) for c in conns)
-    return Master(fmus, conns, {}, scheme="jacobi" if impulse else "loop", order=order, record=RECORD)
+    record = tuple(dict.fromkeys(RECORD + tuple(o for o in state_outputs(frame.n) if o is not None)))
+    return Master(fmus, conns, {}, scheme="jacobi" if impulse else "loop", order=order, record=record)
 
 
-def steady_state(
-    unit: ModelUnit, master: Master, frame: FrameParams, tmd: TMDParams, omega: float, settings: CosimSettings, n: int
-) -> CosimSteadyState:
-    """The co-simulated steady state at omega [rad/s] with n communication steps per period."""
-    t0 = time.perf_counter()
-    W = settings.window_for(tmd)
-    if W > 1 and settings.play_start == "companion":
-        z = companion_start(unit, frame, tmd, omega, SolverSettings(rtol=1e-8, atol_scale=1e-8))
-    else:
-        z = initial_guess(unit, frame, tmd, omega)
-    master.initialize(0.0, fmu_parameters(frame, tmd, omega, z, settings.fmu_rtol))
-    T = 2.0 * math.pi / omega
-    h = T / n
-    ix, iv = master.signals.index("frame.x_top"), master.signals.index("frame.xd_top")
-    t_rec, rec = np.zeros(n), np.zeros((n + 1, master.nsig))
-    crit = WindowCriterion.from_settings(settings, W, frame, omega)
-    if W == 1:
-        crit.add(abs(master.y[ix]), (master.y[ix], master.y[iv]))
-        crit.period_max.clear()
-    k = 0
-    while k < crit.max_periods:
-        k += 1
-        rec[0] = master.y
-        master.advance(n, h, t_rec, rec[1:])
-        amp = hermite_absmax_series(np.ascontiguousarray(rec[:, ix]), np.ascontiguousarray(rec[:, iv]), h)
-        if crit.add(amp, (master.y[ix], master.y[iv])):
-            break
-    amplitude, converged, change = crit.result()
-    return CosimSteadyState(
-        omega=float(omega),
-        amplitude=amplitude,
-        state=z,
-        periods=k,
-        converged=converged,
-        change=change,
-        steps=k * n,
-        wall_time=time.perf_counter() - t0,
-        period_max=np.array(crit.period_max),
-        irregular=crit.irregular,
-        reason="" if converged else f"not settled within {k} periods (last relative change {change:.3g})",
-        steps_per_period=n,
-    )
-
-
-def coupling_gap(
-    unit: ModelUnit,
-    master: Master,
-    frame: FrameParams,
-    tmd: TMDParams,
-    omega: float,
-    settings: CosimSettings,
-    ss: CosimSteadyState,
-) -> float:
-    """Step-doubling estimate of the coupling error of ``ss`` (found with N steps per period): the gap
-    between the steady-state amplitudes at N and N/2 steps per period, relative to max(|ss.amplitude|,
-    :data:`~.checked.AMPLITUDE_FLOOR` |F|/K of the frame). The gap over-estimates the error of the N run
-    for any order of the coupling >= 1. With a gear gap (window > 1: the rattle, whose error the play
-    model's error model covers, :mod:`.checked`) the gap is that of the linear companion (the same
-    spring, damper and inertance with an ideal inerter, no friction, no cubic term: from the exact
-    linear start it settles in a few periods, where the friction's companion did not within 240) at
-    the same N and N/2. inf when a run does not settle."""
-    n = ss.steps_per_period
-    smooth = tmd if settings.window_for(tmd) == 1 else replace(companion(tmd), friction_force=0.0, cubic_stiffness=0.0)
-    fine = ss if smooth is tmd else steady_state(unit, master, frame, smooth, omega, settings, n)
-    coarse = steady_state(unit, master, frame, smooth, omega, settings, max(n // 2, 8))
-    if not (fine.converged and coarse.converged):
-        return math.inf
-    scale = max(abs(ss.amplitude), AMPLITUDE_FLOOR * abs(frame.force_amplitude) / frame.stiffness)
-    return abs(fine.amplitude - coarse.amplitude) / scale if scale > 0 else math.inf
-
-
-def checked_steady_state(
-    unit: ModelUnit, master: Master, frame: FrameParams, tmd: TMDParams, omega: float, settings: CosimSettings, n: int
-) -> CosimSteadyState:
-    """The steady state at omega with n steps per period, its coupling error estimated by step
-    doubling (:func:`coupling_gap`) and held to ``settings.coupling_tolerance``: above it the steps are
-    doubled (at most :data:`MAX_REFINEMENTS` times, within ``max_steps_per_period``); a point whose
-    estimate stays above is reported not converged, with the estimate, never as a converged answer."""
-    tol = settings.coupling_tolerance(tmd)
-    t0 = time.perf_counter()
-    for k in range(MAX_REFINEMENTS + 1):
-        ss = steady_state(unit, master, frame, tmd, omega, settings, n)
-        if not ss.converged:
-            break
-        ss.coupling_error = coupling_gap(unit, master, frame, tmd, omega, settings, ss)
-        if ss.coupling_error <= tol:
-            break
-        if k == MAX_REFINEMENTS or 2 * n > settings.max_steps_per_period:
-            ss.converged = False
-            ss.reason = (
-                f"coupling error estimate {ss.coupling_error:.3g} above coupling_tol {tol:g} at {n} steps per "
-                "period (step doubling)"
+def frame_scales(frame: FrameParams, tmd: TMDParams) -> list[Scale]:
+    """The time scales a communication step has to resolve (:mod:`pyfmu_wrapper.cosim.timescales`): those of the
+    TMD against the storeys it acts on (ShearFrame steps the frame's own modes exactly): the TMD alone on a
+    storey held still, sqrt(k/(m + I)); the storey s it hangs on swinging on the TMD's spring, sqrt(k/M_s); and,
+    with an inerter, its terminal j against it, sqrt(k I/((m + I) M_j))."""
+    m, k, inert = float(tmd.mass), float(tmd.stiffness), float(tmd.inertance)
+    s = frame.tmd_at
+    ms = frame.masses[s - 1]
+    pars = {
+        "m": parameter_text("tmd.mass (m)", m, "kg"),
+        "k": parameter_text("tmd.stiffness (k)", k, "N/m"),
+        "I": parameter_text("tmd.inertance (I)", inert, "kg"),
+        "Ms": parameter_text(f"frame.mass of storey {s} (M_{s})", ms, "kg"),
+    }
+    out = [
+        Scale(ratio_sqrt(k, m + inert), f"the TMD alone, sqrt(k/(m + I)) ({pars['k']}, {pars['m']}, {pars['I']})"),
+        Scale(ratio_sqrt(k, ms), f"storey {s} on the TMD's spring, sqrt(k/M_{s}) ({pars['k']}, {pars['Ms']})"),
+    ]
+    j = frame.terminal
+    if inert > 0.0 and tmd.inerter != InerterModel.NONE and j > 0:
+        mj = frame.masses[j - 1]
+        out.append(
+            Scale(
+                ratio_sqrt(k * inert, (m + inert) * mj),
+                f"the inerter against storey {j}, sqrt(k I/((m + I) M_{j})) ({pars['k']}, {pars['I']}, {pars['m']}, "
+                f"{parameter_text(f'frame.mass of storey {j} (M_{j})', mj, 'kg')})",
             )
-            break
-        n *= 2
-    ss.wall_time = time.perf_counter() - t0
-    return ss
+        )
+    return out
 
 
-def _impulse_tmd(tmd: TMDParams, settings: CosimSettings) -> TMDParams | None:
-    """The TMD for :func:`make_master` when the settings ask for the impulse coupling, else None."""
-    return tmd if settings.coupling == "impulse" else None
+def state_outputs(n: int, detached: bool = False) -> tuple[str | None, ...]:
+    """The FMU output of each entry of the frame unit's state (:mod:`.equations`' layout: x_n, xd_n, y, yd, d, dd,
+    then x_i, xd_i from storey n - 1 down to 1); the play chain's d, dd are no output (None), nor the TMD's y, yd
+    when it is ``detached`` (no link: a free mass, whose drift would make the period map's Jacobian singular)."""
+    tmd: list[str | None] = [None, None] if detached else ["tmd.y", "tmd.yd"]
+    out: list[str | None] = ["frame.x_top", "frame.xd_top", *tmd, None, None]
+    for i in range(n - 1, 0, -1):
+        out += [f"frame.x_{i}", f"frame.xd_{i}"]
+    return tuple(out)
 
 
-def _sweep_piece(
-    unit: ModelUnit,
+@dataclass(frozen=True)
+class FrameSystem:
+    """The frame and its TMD as a :class:`~pyfmu_wrapper.cosim.system.CosimSystem` (module doc)."""
+
+    unit: ModelUnit  #: the frame unit (the package gives it: :func:`engine`)
+    structure: FrameParams
+    tmd: TMDParams
+
+    observed: tuple[str, str] = ("frame.x_top", "frame.xd_top")
+
+    @property
+    def state_outputs(self) -> tuple[str | None, ...]:
+        return state_outputs(self.structure.n, is_detached(self.tmd))
+
+    def with_tmd(self, tmd: TMDParams) -> FrameSystem:
+        return replace(self, tmd=tmd)
+
+    def make_master(self, settings: CosimSettings) -> Master:
+        impulse = self.tmd if settings.coupling == "impulse" else None
+        return make_master(self.structure, impulse, settings.order, settings.fmi_version, settings.fmu_build)
+
+    def parameters(self, omega: float, z: NDArray[np.float64], fmu_rtol: float) -> dict[str, Any]:
+        return fmu_parameters(self.structure, self.tmd, omega, z, fmu_rtol)
+
+    def time_scales(self) -> list[Scale]:
+        return frame_scales(self.structure, self.tmd)
+
+    def reaction_mass(self) -> float:
+        return float(self.structure.masses[self.structure.tmd_at - 1])
+
+    def shooting_scale(self, z: NDArray[np.float64], omega: float) -> NDArray[np.float64]:
+        """One scale for every shot (x, xd/w) pair: the largest orbit's, at least 1e-6 F/K."""
+        frame = self.structure
+        pairs = np.asarray(z, dtype=float).reshape(-1, 2)
+        amp = max(
+            float(np.max(np.hypot(pairs[:, 0], pairs[:, 1] / omega))),
+            1e-6 * abs(frame.force_amplitude) / frame.stiffness,
+        )
+        return np.tile([amp, amp * omega], pairs.shape[0])
+
+
+def _sweep(
+    make_system: Callable[[FrameParams, TMDParams], FrameSystem],
     frame: FrameParams,
     tmd: TMDParams,
-    seq: Sequence[float],
-    direction: str,
-    settings: CosimSettings,
-    z0: ArrayLike | None,
-    queue: Any = None,
-) -> tuple[list[dict[str, Any]], None]:
-    master = make_master(frame, _impulse_tmd(tmd, settings), settings.order, settings.fmi_version, settings.fmu_build)
-    rows = []
-    try:
-        for w in seq:
-            n = max(settings.steps_for(tmd), int(settings.steps_per_period or 0))
-            t0 = time.perf_counter()
-            try:
-                ss = checked_steady_state(unit, master, frame, tmd, float(w), settings, n)
-            except MasterError as exc:  # this point is not converged, the sweep goes on with new FMUs
-                master.close()
-                master = make_master(
-                    frame, _impulse_tmd(tmd, settings), settings.order, settings.fmi_version, settings.fmu_build
-                )
-                why = f"the FMUs failed at {n} steps per period: {str(exc).splitlines()[0][:300]}"
-                ss = CosimSteadyState(float(w), math.nan, np.zeros(0), 0, False, math.inf, 0, 0.0, reason=why)
-                ss.wall_time = time.perf_counter() - t0
-            rows.append(ss.row(direction))
-            if queue is not None:
-                queue.put(1)
-    finally:
-        master.close()
-    return rows, None
+    omegas: Sequence[float] | np.ndarray,
+    direction: str = "up",
+    settings: CosimSettings = CosimSettings(),
+    progress: Callable[..., Any] | None = None,
+    z0: ArrayLike | None = None,
+    workers: int = 1,
+) -> pd.DataFrame:
+    """The engine's sweep with the frame's defaults: the accuracy :data:`FRAME_ACCURACY` unless the settings ask
+    another, and the force coupling for the TMDI (its inerter on another storey: no impulse coupling)."""
+    accuracy = FRAME_ACCURACY if settings.accuracy is None else settings.accuracy
+    settings = replace(settings, accuracy=accuracy)
+    if frame.terminal != frame.tmd_at:
+        settings = replace(settings, coupling="force")
+    return cosim_steady.sweep(make_system(frame, tmd), omegas, direction, settings, progress, z0, workers)
 
 
 def sweep(
@@ -319,19 +274,13 @@ def sweep(
     progress: Callable[..., Any] | None = None,
     workers: int = 1,
 ) -> pd.DataFrame:
-    """Co-simulated top-storey amplitudes over omegas (sorted), up, down or both; each frequency
-    starts from the monolithic engine's start state (no continuation)."""
-    accuracy = FRAME_ACCURACY if settings.accuracy is None else settings.accuracy
-    settings = replace(settings, accuracy=accuracy)
-    if frame.terminal != frame.tmd_at:  # the TMDI: force coupling, its steps from the force coupling's error model
-        settings = replace(settings, coupling="force")
-    piece = partial(_sweep_piece, unit)
-    rows, _ = run_sweep_pieces(piece, frame, tmd, omegas, direction, settings, progress, None, workers)
-    return pd.DataFrame(rows)
+    """Co-simulated top-storey amplitudes over omegas (sorted), up, down or both (:func:`engine`'s sweep)."""
+    return _sweep(partial(FrameSystem, unit), frame, tmd, omegas, direction, settings, progress, None, workers)
 
 
 def engine(unit: ModelUnit) -> CosimEngine:
     """The frame's co-simulation as ``run-scenario`` calls it, for its unit (the unit's ``cosim`` returns
-    ``engine(UNIT)``; this module imports no unit): its sweep (its steps come from the accuracy asked
-    for, so nothing is refused up front, and it has no phase portrait)."""
-    return CosimEngine(sweep=partial(sweep, unit))
+    ``engine(UNIT)``; this module imports no unit): the engine's on :class:`FrameSystem`, its sweep with the
+    frame's defaults (:func:`_sweep`)."""
+    make_system = partial(FrameSystem, unit)
+    return replace(cosim_steady.engine_of(make_system, fmus=frame_fmus), sweep=partial(_sweep, make_system))

@@ -121,14 +121,9 @@ def impulse_connections(s: PendulumTMDParams, interface_jacobian: bool = True) -
 def make_master(s: PendulumTMDParams, settings: CosimSettings = CosimSettings()) -> Master:
     """A master for the base and its pendulum (the FMUs built if missing or stale): the coupling, scheme,
     order, FMI version and build (native or Python-hosted) of ``settings``."""
-    if settings.fmu_build == "native":
-        from ...fmubuild.native_build import ensure_native_fmus
+    from ...fmubuild.variants import ensure_variant
 
-        paths = ensure_native_fmus(cosim_fmus(), fmi_version=settings.fmi_version)
-    else:
-        from ...fmubuild.build import ensure_fmus
-
-        paths = ensure_fmus(cosim_fmus(), fmi_version=settings.fmi_version)
+    paths = ensure_variant(cosim_fmus(), settings.fmu_build, settings.fmi_version)
     fmus: dict[str, str | Path] = {"base": paths["BaseOscillator"], "pendulum": paths["PendulumTMD"]}
     if settings.coupling == "impulse":
         pars = {"pendulum.base_compliance": 1.0 / s.mass} if settings.interface_jacobian else {}
@@ -204,4 +199,4 @@ class PendulumSystem:
 def engine(unit: ModelUnit) -> CosimEngine:
     """The co-simulation as ``run-scenario`` calls it, for the unit (the unit's ``cosim`` returns
     ``engine(UNIT)``; this module imports no unit): the engine's on :class:`PendulumSystem`."""
-    return cosim_steady.engine_of(partial(PendulumSystem, unit))
+    return cosim_steady.engine_of(partial(PendulumSystem, unit), fmus=cosim_fmus)

@@ -48,7 +48,13 @@ U_CACHE = U_IN
 _KEY = 1 + NP_FRAME
 FRAME_U_SIZE = U_CACHE + _KEY + NS_MAX * NA_MAX
 #: the outputs :func:`frame_outputs` writes, in the order of the variable table (checked on import)
-FRAME_OUTPUTS = ("x_top", "xd_top", "x", "xd", "xdd", "xdd_free")
+FRAME_OUTPUTS = (
+    ("x_top", "xd_top", "x", "xd", "xdd", "xdd_free")
+    + tuple(f"x_{i}" for i in range(1, MAX_STOREYS + 1))
+    + tuple(f"xd_{i}" for i in range(1, MAX_STOREYS + 1))
+)
+#: where the per-storey outputs x_i, xd_i start in ``out``
+OUT_X, OUT_XD = 6, 6 + MAX_STOREYS
 FRAME_OUT_VR, FRAME_OUT_INT = output_layout(SHEAR_FRAME, FRAME_OUTPUTS)
 #: a step longer than this [s] is taken in equal pieces (few squarings in exp(A h))
 PIECE = NATIVE_MAX_STEP
@@ -166,7 +172,8 @@ def frame_outputs(
 ) -> None:
     """ShearFrame: the top storey's x and xd, the TMD storey's x and xd, the inerter terminal's
     acceleration under the TMD's forces f (total) and P (the inerter's share) and without them (both 0
-    for the ground), at time t; f and P real or complex (directional derivatives by complex step)."""
+    for the ground), at time t; then every storey's x and xd (0 above the top); f and P real or complex
+    (directional derivatives by complex step)."""
     n = int(p[F_N])
     m = 2 * n + 4
     zc = np.empty(m, dtype=out.dtype)
@@ -183,3 +190,11 @@ def frame_outputs(
     out[3] = zc[sx + 1]
     out[4] = 0.0 * xdd if ground else xdd
     out[5] = 0.0 * free if ground else free
+    for i in range(1, MAX_STOREYS + 1):
+        if i <= n:
+            ix = storey_index(i, n)
+            out[OUT_X + i - 1] = zc[ix]
+            out[OUT_XD + i - 1] = zc[ix + 1]
+        else:
+            out[OUT_X + i - 1] = 0.0 * zc[0]
+            out[OUT_XD + i - 1] = 0.0 * zc[0]

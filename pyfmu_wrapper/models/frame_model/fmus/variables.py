@@ -18,6 +18,8 @@ from ..params import MAX_STOREYS
 
 #: value references: per-storey blocks of 20 from these bases (storey i at base + i - 1)
 VR_MASS, VR_STIFFNESS, VR_DAMPING, VR_X0, VR_XD0 = 200, 300, 400, 500, 600
+#: value references of the per-storey state outputs x_i, xd_i (storey i at base + i - 1)
+VR_X, VR_XD = 700, 800
 
 
 def _per_storey(prefix: str, base: int, start: float, unit: str, doc: str, **kw: Any) -> tuple[Variable, ...]:
@@ -109,6 +111,14 @@ SHEAR_FRAME = FmuSpec(
             "acceleration of the inerter's terminal without the TMD's forces: the input of a TMDInerter with "
             "base_compliance = 1/M of that storey (when the terminal is the TMD's storey)",
             False,
+        ),
+        *(
+            _out(f"x_{i}", VR_X + i - 1, "m", f"displacement of storey {i} (0 above the top)", False)
+            for i in range(1, MAX_STOREYS + 1)
+        ),
+        *(
+            _out(f"xd_{i}", VR_XD + i - 1, "m/s", f"velocity of storey {i} (0 above the top)", False)
+            for i in range(1, MAX_STOREYS + 1)
         ),
         parameter(
             "rtol",
