@@ -335,15 +335,15 @@ def _steps_at_of(make_system: SystemFactory, structure: Any, tmd: Any, omega: fl
     return steps_at(make_system(structure, tmd), omega, settings)
 
 
-def engine_of(make_system: SystemFactory, fmus: Callable[[], tuple[Any, ...]] | None = None) -> CosimEngine:
+def engine_of(make_system: SystemFactory, prepare: Callable[..., list[str]] | None = None) -> CosimEngine:
     """A model's :class:`~.system.CosimEngine` on this engine, from the factory of its system
     (``make_system(structure, tmd)``): its sweep, phase portrait, up-front refusal and step count, each taking
-    the structure and the TMD as ``run-scenario`` calls them; ``fmus``: the declarations of the FMUs its systems
-    run."""
+    the structure and the TMD as ``run-scenario`` calls them; ``prepare``: builds or checks its FMUs
+    (:attr:`~.system.CosimEngine.prepare`)."""
     return CosimEngine(
         sweep=partial(_sweep_of, make_system),
         periodic_time_series=partial(_time_series_of, make_system),
         refusal=partial(_refusal_of, make_system),
         steps_at=partial(_steps_at_of, make_system),
-        fmus=fmus,
+        prepare=prepare,
     )

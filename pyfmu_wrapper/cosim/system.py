@@ -100,6 +100,7 @@ class CosimEngine:
     refusal: Callable[..., str | None] | None = None
     #: steps_at(structure, tmd, omega, settings) -> the communication steps per period at omega
     steps_at: Callable[..., int] | None = None
-    #: fmus() -> the declarations of the FMUs its systems run (``run-scenario`` builds or checks them once, before
-    #: its workers start: :func:`pyfmu_wrapper.scenario.engines.prepare_cosim`)
-    fmus: Callable[[], tuple[Any, ...]] | None = None
+    #: prepare(settings) -> builds, or checks, the FMUs its systems run in the settings' build and FMI version, and
+    #: returns their names (``run-scenario`` calls it once, before its workers start:
+    #: :func:`pyfmu_wrapper.scenario.engines.prepare_cosim`)
+    prepare: Callable[..., list[str]] | None = None

@@ -250,14 +250,12 @@ def prepare_cosim(structures: Iterable[Any], settings: RunSettings) -> list[str]
     building or hashing them at once): the names of the FMUs; none for an engine that does not co-simulate."""
     if settings.engine not in BLOCK_USERS["cosim"]:
         return []
-    from ..fmubuild.variants import ensure_variant
-
     cs = _cosim_settings(settings)
     names: list[str] = []
     for unit in dict.fromkeys(MODELS.of(s) for s in structures):
         engine = unit.cosim() if unit.cosim is not None else None
-        if engine is not None and engine.fmus is not None:
-            names += [n for n in ensure_variant(engine.fmus(), cs.fmu_build, cs.fmi_version) if n not in names]
+        if engine is not None and engine.prepare is not None:
+            names += [n for n in engine.prepare(cs) if n not in names]
     return names
 
 

@@ -42,7 +42,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ...cosim import steady as cosim_steady
 from ...cosim.periods import CosimSteadyState
-from ...cosim.settings import CosimSettings
+from ...cosim.settings import CosimSettings, fmu_atol
 from ...cosim.system import CosimEngine, Scale
 from ...cosim.timescales import parameter_text, ratio_sqrt
 from ...master.graph import Connection
@@ -74,7 +74,7 @@ def fmu_parameters(base: BaseParams, tmd: TMDParams, omega: float, z0: ArrayLike
             "base.x0": z[0],
             "base.xd0": z[1],
             "base.rtol": fmu_rtol,
-            "base.atol": max(1e-8 * abs(base.force_amplitude) / base.stiffness, ATOL_FLOOR),
+            "base.atol": fmu_atol(base.force_amplitude, base.stiffness, ATOL_FLOOR),
             "tmd.y0": z[2],
             "tmd.yd0": z[3],
             "tmd.d0": z[4],
@@ -87,7 +87,7 @@ def fmu_parameters(base: BaseParams, tmd: TMDParams, omega: float, z0: ArrayLike
 
 
 def _tmd_atol(base: BaseParams, tmd: TMDParams) -> float:
-    a = max(1e-8 * abs(base.force_amplitude) / base.stiffness, ATOL_FLOOR)
+    a = fmu_atol(base.force_amplitude, base.stiffness, ATOL_FLOOR)
     if has_gap(tmd):
         a = min(a, play_atol(base, tmd))
     return a
@@ -307,4 +307,11 @@ PAIR_FMUS = (BASE_OSCILLATOR, TMD_INERTER)
 def engine(unit: ModelUnit) -> CosimEngine:
     """The pair's co-simulation as ``run-scenario`` calls it, for its unit (the unit holds it: the unit's
     ``cosim`` returns ``engine(UNIT)``; this module imports no unit): the engine's on :class:`PairSystem`."""
-    return cosim_steady.engine_of(partial(PairSystem, unit), fmus=lambda: PAIR_FMUS)
+    return cosim_steady.engine_of(partial(PairSystem, unit), prepare=prepare)
+
+
+def prepare(settings: CosimSettings) -> list[str]:
+    """Builds, or checks, the pair's FMUs in the settings' build and FMI version: their names."""
+    from ...fmubuild.variants import ensure_variant
+
+    return list(ensure_variant(PAIR_FMUS, settings.fmu_build, settings.fmi_version))

@@ -44,7 +44,7 @@ import pandas as pd
 from numpy.typing import ArrayLike, NDArray
 
 from ...cosim import steady as cosim_steady
-from ...cosim.settings import CosimSettings
+from ...cosim.settings import CosimSettings, fmu_atol
 from ...cosim.system import CosimEngine, Scale
 from ...cosim.timescales import parameter_text, ratio_sqrt
 from ...master.graph import Connection
@@ -101,7 +101,7 @@ def fmu_parameters(frame: FrameParams, tmd: TMDParams, omega: float, z0: ArrayLi
     (the frame model's layout, :mod:`pyfmu_wrapper.models.frame_model.equations`)."""
     z = np.asarray(z0, dtype=float)
     n = frame.n
-    atol = max(1e-8 * abs(frame.force_amplitude) / frame.stiffness, ATOL_FLOOR)
+    atol = fmu_atol(frame.force_amplitude, frame.stiffness, ATOL_FLOOR)
     out: dict[str, float | int] = {
         "frame.storeys": n,
         "frame.F": frame.force_amplitude,
@@ -283,4 +283,11 @@ def engine(unit: ModelUnit) -> CosimEngine:
     ``engine(UNIT)``; this module imports no unit): the engine's on :class:`FrameSystem`, its sweep with the
     frame's defaults (:func:`_sweep`)."""
     make_system = partial(FrameSystem, unit)
-    return replace(cosim_steady.engine_of(make_system, fmus=frame_fmus), sweep=partial(_sweep, make_system))
+    return replace(cosim_steady.engine_of(make_system, prepare=prepare), sweep=partial(_sweep, make_system))
+
+
+def prepare(settings: CosimSettings) -> list[str]:
+    """Builds, or checks, the frame's co-simulation FMUs in the settings' build and FMI version: their names."""
+    from ...fmubuild.variants import ensure_variant
+
+    return list(ensure_variant(frame_fmus(), settings.fmu_build, settings.fmi_version))

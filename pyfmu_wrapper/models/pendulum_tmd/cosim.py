@@ -41,6 +41,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ...cosim import settings as cosim_settings
 from ...cosim import steady as cosim_steady
 from ...cosim.settings import CosimSettings
 from ...cosim.system import CosimEngine, Scale
@@ -77,8 +78,9 @@ def cosim_fmus() -> tuple[FmuModel, FmuModel]:
 
 
 def fmu_atol(s: PendulumTMDParams) -> float:
-    """The FMUs' absolute tolerance [m]: 1e-8 of the static deflection F/K (the pendulum's angle gets it / L)."""
-    return max(1e-8 * abs(s.force_amplitude) / s.stiffness, ATOL_FLOOR)
+    """The FMUs' absolute tolerance [m]: :data:`~pyfmu_wrapper.cosim.settings.FMU_ATOL_SCALE` of the static
+    deflection F/K (the pendulum's angle gets it / L)."""
+    return cosim_settings.fmu_atol(s.force_amplitude, s.stiffness, ATOL_FLOOR)
 
 
 def fmu_parameters(s: PendulumTMDParams, omega: float, z0: ArrayLike, fmu_rtol: float = 1e-8) -> dict[str, Any]:
@@ -199,4 +201,11 @@ class PendulumSystem:
 def engine(unit: ModelUnit) -> CosimEngine:
     """The co-simulation as ``run-scenario`` calls it, for the unit (the unit's ``cosim`` returns
     ``engine(UNIT)``; this module imports no unit): the engine's on :class:`PendulumSystem`."""
-    return cosim_steady.engine_of(partial(PendulumSystem, unit), fmus=cosim_fmus)
+    return cosim_steady.engine_of(partial(PendulumSystem, unit), prepare=prepare)
+
+
+def prepare(settings: CosimSettings) -> list[str]:
+    """Builds, or checks, the base's and the pendulum's FMUs in the settings' build and FMI version: their names."""
+    from ...fmubuild.variants import ensure_variant
+
+    return list(ensure_variant(cosim_fmus(), settings.fmu_build, settings.fmi_version))
