@@ -1,6 +1,6 @@
 """The shear frame with its TMD as two co-simulated FMUs: ShearFrame (``frame``) and TMDInerter
 (``tmd``), coupled by forces at two storeys (native or Python-hosted FMUs, ``CosimSettings.fmu_build``): the
-unit's :class:`~pyfmu_wrapper.cosim.system.CosimSystem` (:class:`FrameSystem`) and
+unit's :class:`~pyfmu_wrapper.cosim.system.CosimSystem` (:class:`FramePairSystem`) and
 :class:`~pyfmu_wrapper.cosim.system.CosimEngine` (:func:`engine`).
 
 Connections (:func:`connections`)::
@@ -27,7 +27,7 @@ gear gap is solved by Newton shooting on the co-simulated period map (a linear o
 period map's Jacobian is formed) and its coupling error estimated by step doubling from that orbit; the
 play model runs period after period from its smooth companion's orbit, its coupling error that of the
 companion. The frame's own modes need no resolving by the communication step (ShearFrame steps exactly, by
-the matrix exponential): the time scales (:meth:`FrameSystem.time_scales`) are those of the TMD against its
+the matrix exponential): the time scales (:meth:`FramePairSystem.time_scales`) are those of the TMD against its
 storey.
 """
 
@@ -204,7 +204,7 @@ def state_outputs(n: int, detached: bool = False) -> tuple[str | None, ...]:
 
 
 @dataclass(frozen=True)
-class FrameSystem:
+class FramePairSystem:
     """The frame and its TMD as a :class:`~pyfmu_wrapper.cosim.system.CosimSystem` (module doc)."""
 
     unit: ModelUnit  #: the frame unit (the package gives it: :func:`engine`)
@@ -217,7 +217,7 @@ class FrameSystem:
     def state_outputs(self) -> tuple[str | None, ...]:
         return state_outputs(self.structure.n, is_detached(self.tmd))
 
-    def with_tmd(self, tmd: TMDParams) -> FrameSystem:
+    def with_tmd(self, tmd: TMDParams) -> FramePairSystem:
         return replace(self, tmd=tmd)
 
     def make_master(self, settings: CosimSettings) -> Master:
@@ -245,7 +245,7 @@ class FrameSystem:
 
 
 def _sweep(
-    make_system: Callable[[FrameParams, TMDParams], FrameSystem],
+    make_system: Callable[[FrameParams, TMDParams], FramePairSystem],
     frame: FrameParams,
     tmd: TMDParams,
     omegas: Sequence[float] | np.ndarray,
@@ -275,14 +275,14 @@ def sweep(
     workers: int = 1,
 ) -> pd.DataFrame:
     """Co-simulated top-storey amplitudes over omegas (sorted), up, down or both (:func:`engine`'s sweep)."""
-    return _sweep(partial(FrameSystem, unit), frame, tmd, omegas, direction, settings, progress, None, workers)
+    return _sweep(partial(FramePairSystem, unit), frame, tmd, omegas, direction, settings, progress, None, workers)
 
 
 def engine(unit: ModelUnit) -> CosimEngine:
     """The frame's co-simulation as ``run-scenario`` calls it, for its unit (the unit's ``cosim`` returns
-    ``engine(UNIT)``; this module imports no unit): the engine's on :class:`FrameSystem`, its sweep with the
+    ``engine(UNIT)``; this module imports no unit): the engine's on :class:`FramePairSystem`, its sweep with the
     frame's defaults (:func:`_sweep`)."""
-    make_system = partial(FrameSystem, unit)
+    make_system = partial(FramePairSystem, unit)
     return replace(cosim_steady.engine_of(make_system, prepare=prepare), sweep=partial(_sweep, make_system))
 
 
