@@ -19,8 +19,9 @@ from dataclasses import replace
 
 import numpy as np
 
+from pyfmu_wrapper.cosim.periods import run_steady
 from pyfmu_wrapper.cosim.settings import CosimSettings
-from pyfmu_wrapper.models.frame_model import FrameParams
+from pyfmu_wrapper.models.frame_model import UNIT, FrameParams
 from pyfmu_wrapper.models.frame_model import cosim as frame_system
 from pyfmu_wrapper.models.solve import sweep as mono_sweep
 from pyfmu_wrapper.physics import frame as ref
@@ -28,11 +29,14 @@ from pyfmu_wrapper.physics.params import TMDParams
 
 FRAME = FrameParams.uniform(10, 100.0, 1.8e6, 200.0, force_amplitude=200.0, tmd_storey=10)
 TMD = TMDParams(mass=15.0, stiffness=8000.0, damping=40.0, inerter="ideal", inertance=5.0)
+#: the frame's co-simulation as run-scenario calls it
+cosim_sweep = UNIT.cosim().sweep
 BUILDS = {"native": "native FMUs (no Python)", "python": "Python-hosted FMUs"}
 
 
 def profile(omega: float = 20.0) -> None:
-    """One point of each co-simulation build, without the coupling check: where the time goes."""
+    """One point of each co-simulation build, without the coupling check (the engine's run at one step count,
+    :func:`~pyfmu_wrapper.cosim.periods.run_steady`): where the time goes."""
     settings = replace(CosimSettings(), accuracy=frame_system.FRAME_ACCURACY)
     n = settings.steps_for(TMD)
     print(f"one point, {omega:g} rad/s, {n} steps per period (no coupling check)")
@@ -41,10 +45,11 @@ def profile(omega: float = 20.0) -> None:
     for build, label in BUILDS.items():
         master = frame_system.make_master(FRAME, TMD, settings.order, settings.fmi_version, build)
         try:
-            frame_system.steady_state(master, FRAME, TMD, omega, settings, n)  # warm up
+            system = frame_system.FramePairSystem(UNIT, FRAME, TMD)
+            run_steady(master, system, omega, None, settings, {}, n)  # warm up
             before = master.timing()
             t0 = time.perf_counter()
-            ss = frame_system.steady_state(master, FRAME, TMD, omega, settings, n)
+            ss = run_steady(master, system, omega, None, settings, {}, n)
             wall = time.perf_counter() - t0
             after = master.timing()
         finally:
@@ -74,7 +79,7 @@ def main() -> None:
     # warm up every engine (numba compile, FMU builds) on one point
     mono_sweep(FRAME, TMD, w[:1])
     for build in BUILDS:
-        frame_system.sweep(FRAME, TMD, w[:1], settings=CosimSettings(fmu_build=build))
+        cosim_sweep(FRAME, TMD, w[:1], settings=CosimSettings(fmu_build=build))
     rows = []
     t0 = time.perf_counter()
     mono = mono_sweep(FRAME, TMD, w).table
@@ -83,7 +88,7 @@ def main() -> None:
     rows.append(("monolithic (RODAS4 + shooting)", t_mono, mono["periods"].mean(), e_mono, "", ""))
     for build, label in BUILDS.items():
         t0 = time.perf_counter()
-        co = frame_system.sweep(FRAME, TMD, w, settings=CosimSettings(fmu_build=build))
+        co = cosim_sweep(FRAME, TMD, w, settings=CosimSettings(fmu_build=build))
         t_co = time.perf_counter() - t0
         e_co = np.max(np.abs(co["amplitude"].to_numpy() / exact - 1))
         checked = f"{co['coupling_error'].max():.1e}, {int(co['converged'].sum())}/{len(co)} converged"
