@@ -154,12 +154,11 @@ def write_corrected(ds: Dataset, res: Mapping[str, Any], folder: Path) -> list[P
             desc += f" Not applied: {k} ({why})."
     else:
         desc = (
-            f"The nominal of {ds.path.name} unchanged: diagnose named no effect, so the corrected model is the "
-            "nominal."
+            f"The nominal of {ds.path.name} unchanged: diagnose named no effect, so the corrected model is the nominal."
         )
     desc += (
         grid_note + " Frequencies: those of the dataset's steady and FRC records at this force (as recorded: "
-        f"{{F}} N). Curve 'nominal': the nominal TMD on this base block."
+        "{F} N). Curve 'nominal': the nominal TMD on this base block."
     )
     folder.mkdir(parents=True, exist_ok=False)
     written = []
@@ -213,7 +212,8 @@ def ssv_text(name: str, values: Mapping[str, Mapping[str, Any]], description: st
     specs = {"base": BASE_OSCILLATOR, "tmd": TMD_INERTER}
     lines = [
         '<?xml version="1.0" encoding="UTF-8"?>',
-        f'<ssv:ParameterSet xmlns:ssv="{_NS_SSV}" version="1.0" name={quoteattr(name)}>',
+        f'<ssv:ParameterSet xmlns:ssv="{_NS_SSV}" version="1.0" name={quoteattr(name)}'
+        + (f" description={quoteattr(description)}>" if description else ">"),
         "  <ssv:Parameters>",
     ]
     for sub, vals in values.items():
@@ -228,8 +228,6 @@ def ssv_text(name: str, values: Mapping[str, Mapping[str, Any]], description: st
                 unit = f" unit={quoteattr(var.unit)}" if var.unit else ""
                 lines.append(f'    <ssv:Parameter name={key}><ssv:Real value="{_fmt(v)}"{unit}/></ssv:Parameter>')
     lines.append("  </ssv:Parameters>")
-    if description:
-        lines.append(f"  <!-- {description.replace('--', '- -')} -->")
     lines.append("</ssv:ParameterSet>")
     return "\n".join(lines) + "\n"
 
@@ -239,7 +237,7 @@ def measured_points(ds: Dataset) -> list[dict[str, Any]]:
     harmonic series without the mean, from x and/or xdd, :func:`pyfmu_wrapper.diagnose.harmonic.fuse`;
     its std the square root of the sum of the harmonics' variances) and one per FRC point (x_max, its
     std the FRC path's: ``x_max_noise`` when the dataset states it, else the robust estimate of
-    :class:`.system.frc.FRCDiagnosis`). Each: ``record``, ``omega``, ``force`` (as recorded), ``x``,
+    :class:`.system.frc.FRCDiagnosis`). Each: ``record``, ``kind`` (steady, frc), ``omega``, ``force`` (as recorded), ``x``,
     ``sigma``."""
     from .harmonic import fit_series, fuse, grid_values
 
@@ -257,6 +255,7 @@ def measured_points(ds: Dataset) -> list[dict[str, Any]]:
         out.append(
             {
                 "record": r.name,
+                "kind": "steady",
                 "omega": float(r.omega),
                 "force": _record_force(r),
                 "x": float(np.max(np.abs(xs))),
@@ -266,7 +265,7 @@ def measured_points(ds: Dataset) -> list[dict[str, Any]]:
     if any(r.kind == "frc" for r in ds.records):
         from .system.frc import FRCDiagnosis
 
-        sig = iter(FRCDiagnosis(ds).sigma())  # its points: the FRC records' rows, in order
+        sig = iter(FRCDiagnosis(ds).sigma)  # its points: the FRC records' rows, in order
         for r in ds.records:
             if r.kind != "frc":
                 continue
@@ -274,6 +273,7 @@ def measured_points(ds: Dataset) -> list[dict[str, Any]]:
                 out.append(
                     {
                         "record": r.name,
+                        "kind": "frc",
                         "omega": float(w),
                         "force": _round_force(float(F)),
                         "x": float(x),
