@@ -128,7 +128,8 @@ def test_the_diagnosis_against_the_corrected_nominal_finds_nothing_left(loop):
     ds, out, _, _ = loop
     y = sorted((out / "corrected").glob("*.yaml"))[0]
     res = run_diagnosis(ds, None, str(y))
-    assert res["verdict"]["effects"] == [], res["verdict"]["text"]
+    v = res["verdict"]
+    assert v["effects"] == [] and not v["structural"] and not v["unexplained"], v["text"]
 
 
 def test_nothing_named_writes_the_nominal_and_says_so(tmp_path, loop):
