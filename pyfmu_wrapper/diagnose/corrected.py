@@ -132,7 +132,7 @@ def write_corrected(ds: Dataset, res: Mapping[str, Any], folder: Path) -> list[P
     verdict = res.get("verdict") or {}
     effects = list(verdict.get("effects") or [])
     params = verdict.get("parameters") or {}
-    base, tmd, notes = corrected_params(ds.nominal, params if effects else {})
+    base, tmd, notes = corrected_params(ds.nominal, {k: v for k, v in params.items() if k.split(".")[0] in effects})
     nom_tmd = as_dict(type(tmd)(**ds.nominal["tmd"]))
     points = record_points(ds)
     grid_note = ""
