@@ -99,6 +99,7 @@ def bench_one(root: Path, effect: str, size: float, seed: int) -> dict:
         "chi2_steady": chi2_per_point(steady, curves["corrected"]),
         "chi2_frc": chi2_per_point(frc, curves["corrected"]),
         "chi2_frc_true_noise": chi2_per_point(frc_true, curves["corrected"]),
+        "chi2_per_point_true_frc_noise": chi2_per_point(steady + frc_true, curves["corrected"]),
         "chi2_nominal": chi2_per_point(pts, curves["nominal"]),
         "rediagnosis_named": left,
         "rediagnosis_parameters": left_params,
@@ -127,7 +128,8 @@ def main() -> None:
         print(
             f"{e} {size:.4g}: named {r['named'] or '-'}; chi2/n corrected {r['chi2_per_point']['chi2_per_point']:.3g} "
             f"(n {r['chi2_per_point']['n']}; steady {r['chi2_steady']['chi2_per_point']:.3g}, FRC "
-            f"{r['chi2_frc']['chi2_per_point']:.3g}, FRC with the true noise {r['chi2_frc_true_noise']['chi2_per_point']:.3g}), "
+            f"{r['chi2_frc']['chi2_per_point']:.3g}, FRC with the true noise {r['chi2_frc_true_noise']['chi2_per_point']:.3g}; "
+            f"all with the FRC's true noise {r['chi2_per_point_true_frc_noise']['chi2_per_point']:.3g}), "
             f"nominal {r['chi2_nominal']['chi2_per_point']:.3g}; re-diagnosis names {r['rediagnosis_named'] or 'nothing'}"
             + (" (nothing left)" if r["nothing_left"] else f" (structural gap: {r['rediagnosis_verdict']['text']})"),
             flush=True,
