@@ -17,7 +17,8 @@ generator's range with ``--seed``. For each:
 3. ``diagnose DS --model D/corrected/<one>.yaml`` (the dataset against the corrected nominal): what
    is named now (the target: nothing).
 
-Writes ``OUT/bench_corrected.json`` and prints one line per dataset.
+With ``--fmus DIR`` (built FMUs, e.g. ``fmu/build``), also :func:`ssp_check`: the .ssv with the FMUs
+in fmpy against the solver. Writes ``OUT/bench_corrected.json`` and prints one line per dataset.
 """
 
 from __future__ import annotations
@@ -110,11 +111,51 @@ def bench_one(root: Path, effect: str, size: float, seed: int) -> dict:
     return row
 
 
+def ssp_check(ds: Path, yml: Path, fmus: Path, omega: float = 18.0) -> dict:
+    """The corrected .ssv with the FMUs (built FMUs in ``fmus``): the project's SSP of the dataset's
+    nominal (``master.ssp.export_ssp``, instances base and tmd), its parameter set overridden by the
+    .ssv, simulated by fmpy's ``simulate_ssp`` for 0.5 s; base x against the monolithic solver's
+    corrected and nominal models (relative to max |x|)."""
+    from fmpy.ssp.simulation import simulate_ssp
+    from fmpy.ssp.ssd import read_ssv
+
+    from pyfmu_wrapper.master.ssp import export_ssp, ssp_parameter_set
+    from pyfmu_wrapper.models.base_tmd import UNIT
+    from pyfmu_wrapper.models.base_tmd.cosim import CONNECTIONS, fmu_parameters
+    from pyfmu_wrapper.physics.params import BaseParams, TMDParams
+    from pyfmu_wrapper.scenario.loader import load_scenario
+    from pyfmu_wrapper.solvers import monolithic as mono
+
+    sc = load_scenario(yml)
+    nom = load_dataset(ds).nominal
+    bn, tn = BaseParams(**nom["base"]), TMDParams(**nom["tmd"])
+    z0 = mono.initial_guess(UNIT, sc.base, sc.tmd, omega)
+    fm = {"base": fmus / "BaseOscillator.fmu", "tmd": fmus / "TMDInerter.fmu"}
+    p = export_ssp(yml.parent.parent.parent / "nominal.ssp", fm, CONNECTIONS, fmu_parameters(bn, tn, omega, z0))
+    ps = ssp_parameter_set(p)
+    corr = read_ssv(str(yml.with_suffix(".ssv")))  # validated against the SSP 1.0 schema
+    names = {q.name for q in corr.parameters}
+    ps.parameters = [q for q in ps.parameters if q.name not in names] + list(corr.parameters)
+    h = 1e-4
+    res = simulate_ssp(str(p), stop_time=0.5, step_size=h, parameter_set=ps)
+    t = res["time"] + h  # fmpy records the values after the step under the step's start time
+    _, st = mono.simulate(UNIT, sc.base, sc.tmd, omega, 0.6, z0, sample_times=t)
+    _, sn = mono.simulate(UNIT, bn, tn, omega, 0.6, z0, sample_times=t)
+    scale = float(np.max(np.abs(st[:, 0])))
+    return {
+        "vs_corrected": float(np.max(np.abs(res["base.x"] - st[:, 0])) / scale),
+        "vs_nominal": float(np.max(np.abs(res["base.x"] - sn[:, 0])) / scale),
+    }
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--out", default="/tmp/bench_corrected")
     ap.add_argument("--seed", type=int, default=41)
     ap.add_argument("--effects", default=",".join(EFFECTS))
+    ap.add_argument(
+        "--fmus", default=None, help="folder with built BaseOscillator.fmu, TMDInerter.fmu: also run ssp_check"
+    )
     a = ap.parse_args()
     root = Path(a.out)
     root.mkdir(parents=True, exist_ok=True)
@@ -124,6 +165,10 @@ def main() -> None:
     for e in a.effects.split(","):
         size = sizes[e]
         r = bench_one(root, e, size, seed=a.seed * 100 + EFFECTS.index(e))
+        if a.fmus:
+            ymls = sorted((root / f"diag_{e}" / "corrected").glob("*.yaml"))
+            r["ssp"] = ssp_check(root / f"ds_{e}", ymls[-1], Path(a.fmus))
+            print(f"{e}: .ssv in fmpy: base x {r['ssp']}", flush=True)
         rows.append(r)
         print(
             f"{e} {size:.4g}: named {r['named'] or '-'}; chi2/n corrected {r['chi2_per_point']['chi2_per_point']:.3g} "

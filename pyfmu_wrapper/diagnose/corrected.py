@@ -144,7 +144,7 @@ def write_corrected(ds: Dataset, res: Mapping[str, Any], folder: Path) -> list[P
         elements = list(verdict.get("elements") or [""] * len(effects))
         what = "; ".join(f"{e} ({el})" if el else e for e, el in zip(effects, elements, strict=False))
         vals = ", ".join(f"{k} = {v:.6g}" for k, v in notes["applied"].items())
-        desc = f"The nominal of {ds.path.name} corrected by diagnose: {what} named; applied {vals or 'nothing'}."
+        desc = f"The nominal of {ds.path.name} corrected by diagnose: {what} named; applied {vals or 'no change of a model parameter'}."
         if notes["force_gain"] != 1.0:
             desc += (
                 f" force_error: true force = {notes['force_gain']:.6g} x recorded, so force_amplitude is the "
