@@ -13,6 +13,7 @@ benchmarks/bench_corrected.py (docs/diagnose-evidence.md).
 
 from __future__ import annotations
 
+import json
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -110,6 +111,7 @@ def test_the_corrected_model_reproduces_the_records_within_their_noise(loop):
     ds, out, res, curves = loop
     assert res["verdict"]["effects"] == ["viscous"]
     assert len(res["corrected"]) == 6  # 3 forces x (yaml, ssv)
+    assert json.loads((out / "diagnosis.json").read_text())["corrected"] == res["corrected"]
     ymls = sorted((out / "corrected").glob("*.yaml"))
     pts = measured_points(load_dataset(ds, _load_model(str(ymls[0]))))
     assert len(pts) == 3

@@ -100,6 +100,11 @@ def _write_corrected(ds: Dataset, res: dict[str, Any], out: Path) -> None:
 
     files = write_corrected(ds, res, out / "corrected")
     res["corrected"] = [f"corrected/{f.name}" for f in files]
+    js = out / "diagnosis.json"
+    if js.is_file():  # the files, in diagnosis.json too (written before them)
+        doc = json.loads(js.read_text(encoding="utf-8"))
+        doc["corrected"] = res["corrected"]
+        js.write_text(json.dumps(doc, indent=1), encoding="utf-8")
     if (out / "report.md").is_file():
         named = bool(res["verdict"].get("effects"))
         L = ["", "## The corrected model", ""]

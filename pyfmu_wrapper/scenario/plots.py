@@ -180,7 +180,9 @@ def frc_plot(data: FRCData, ax: Axes | None = None) -> Figure:
     else:
         ax.set_xlabel(r"$\omega$ [rad/s]")
     ax.set_title(data.study.title)
-    ax.set_xlim(float(np.min(data.study.omegas)), float(np.max(data.study.omegas)))
+    lo, hi = float(np.min(data.study.omegas)), float(np.max(data.study.omegas))
+    if hi > lo:  # one frequency (e.g. a corrected model at one steady record): matplotlib's own margins
+        ax.set_xlim(lo, hi)
     top = ax.get_ylim()[1]
     ax.set_ylim(-0.03 * top, top)  # a mark at zero amplitude stays whole above the axis
     ax.grid(alpha=0.3)
