@@ -83,6 +83,13 @@ def test_viscous_from_acceleration_only_sweeps_and_a_decay(tmp_path, capsys):
     assert res["transient"]["agreement"]["agree"]
     assert len(h["by_record"]) == 3 and all(r["gap_closed"] > 0.9 for r in h["by_record"])
     assert "viscous damping" in capsys.readouterr().out
+    # the corrected model (no steady record: one scenario file over the structure's band)
+    from pyfmu_wrapper.scenario.loader import load_scenario
+
+    (y,) = sorted((tmp_path / "out" / "corrected").glob("*.yaml"))
+    c0 = load_dataset(tmp_path / "ds").nominal["tmd"]["damping"]
+    assert load_scenario(y).tmd.damping == pytest.approx(c0 + v["parameters"]["viscous.delta_damping"]["value"])
+    assert y.with_suffix(".ssv").is_file()
 
 
 @pytest.mark.slow

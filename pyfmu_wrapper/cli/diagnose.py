@@ -94,6 +94,8 @@ def main_diagnose(argv: list[str] | None = None) -> int:
             f"held-out NRMSE {h['nrmse_before']:.4f} -> {h['nrmse_after']:.4f}"
             + ("" if gc is None else f", gap closed {100 * gc:.1f} %")
         )
+    if res.get("corrected"):
+        print(f"corrected model: {out / 'corrected'}")
     print(f"report: {out / 'report.md'}")
     return 0
 

@@ -91,7 +91,33 @@ def run_diagnosis(
     if red:
         res["input_reduced"] = red
         _append_reduction(res, None if out is None else Path(out))
+    if out is not None and ds.level == "system" and "verdict" in res:
+        _write_corrected(ds, res, Path(out))
     return res
+
+
+def _write_corrected(ds: Dataset, res: dict[str, Any], out: Path) -> None:
+    """``out/corrected/``: the nominal with the named effects (:mod:`.corrected`), said in report.md."""
+    from .corrected import write_corrected
+
+    files = write_corrected(ds, res, out / "corrected")
+    res["corrected"] = [f"corrected/{f.name}" for f in files]
+    js = out / "diagnosis.json"
+    if js.is_file():  # the files, in diagnosis.json too (written before them)
+        doc = json.loads(js.read_text(encoding="utf-8"))
+        doc["corrected"] = res["corrected"]
+        js.write_text(json.dumps(doc, indent=1), encoding="utf-8")
+    if (out / "report.md").is_file():
+        named = bool(res["verdict"].get("effects"))
+        L = ["", "## The corrected model", ""]
+        L.append(
+            ("The nominal with the named effects at their fitted values" if named else "The nominal (nothing named)")
+            + ": `run-scenario corrected/<file>.yaml` computes its curves at the records' frequencies; the "
+            ".ssv holds the same parameters for the FMUs (docs/diagnose.md, 'The corrected model')."
+        )
+        L += [f"- `{f}`" for f in res["corrected"]]
+        with open(out / "report.md", "a", encoding="utf-8") as fh:
+            fh.write("\n".join(L) + "\n")
 
 
 def _run(ds: Dataset, out: Path | None, red: list[Any]) -> dict:

@@ -251,7 +251,9 @@ def frc_plot(data: FRCData, ax: Axes | None = None) -> Figure:
     else:
         ax.set_xlabel(r"$\omega$ [rad/s]")
     ax.set_title(data.study.title)
-    ax.set_xlim(float(np.min(data.study.omegas)), float(np.max(data.study.omegas)))
+    lo, hi = float(np.min(data.study.omegas)), float(np.max(data.study.omegas))
+    if hi > lo:  # one frequency (e.g. a corrected model at one steady record): matplotlib's own margins
+        ax.set_xlim(lo, hi)
     if getattr(data.study, "yscale", "linear") == "log":
         pos = tab["amplitude"].to_numpy(float)
         pos = pos[np.isfinite(pos) & (pos > 0)]

@@ -1,0 +1,311 @@
+"""Close the loop: the corrected model a system-level diagnosis writes back (``OUT/corrected/``).
+
+The nominal of the dataset with the named effects added at their fitted values, by the unit's own
+vocabulary (:meth:`pyfmu_wrapper.physics.effects.Vocabulary.changed`: each effect parameter's
+targets, the registry's bounds), written as
+
+* scenario files (``corrected_F<force>N.yaml``, the schema of ``scenarios/*.yaml``, read by
+  ``run-scenario``'s loader), one per force amplitude of the dataset's steady and FRC records (a
+  scenario has one force amplitude), at those records' frequencies; one FRC study whose curves are
+  the corrected model and, for comparison, the nominal TMD;
+* the same parameter sets as SSP 1.0 parameter files (``corrected_F<force>N.ssv``) named by the
+  variables of the project's FMUs (``base.M``, ``tmd.k``, ...: instance ``base`` is BaseOscillator,
+  ``tmd`` is TMDInerter, as in :func:`pyfmu_wrapper.models.base_tmd.cosim.export_tmd_system`).
+
+What is not a model parameter is said in each file's description, not folded in: a named
+``force_error`` (true force = (1 + a) x recorded) sets the scenario's force amplitude to (1 + a) x the
+recorded one; a ``sensor_offset`` is the sensor's (the model is unchanged by it); nuisance parameters
+of a fit (``play.delta_inertance_eff``) are not applied. When nothing is named, the corrected model is
+the nominal, and the description says so.
+
+:func:`measured_points` and :func:`chi2_per_point` compare ``run-scenario``'s curves with the records
+in units of their noise (the FRC records' x_max noise of :class:`.system.frc.FRCDiagnosis`; a steady
+record's max |x| from its harmonic series, with the series' own variance), as
+``benchmarks/bench_corrected.py`` and the tests do.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+from xml.sax.saxutils import quoteattr
+
+import numpy as np
+
+if TYPE_CHECKING:
+    from .data import Dataset
+
+#: SSP instance name of each subsystem (as the project's SSP export names them) and its FMU
+INSTANCES = {"base": "BaseOscillator", "tmd": "TMDInerter"}
+_NS_SSV = "http://ssp-standard.org/SSP1/SystemStructureParameterValues"
+
+
+def _vocab() -> Any:
+    from .system.effects import VOCAB
+
+    return VOCAB
+
+
+def corrected_params(nominal: Mapping[str, Mapping[str, Any]], parameters: Mapping[str, Any]) -> tuple[Any, Any, dict]:
+    """(BaseParams, TMDParams, notes) of ``nominal`` (``{"base": {...}, "tmd": {...}}``) changed by the
+    verdict's ``parameters`` (``effect.parameter`` -> value or ``{"value": ...}``) through the
+    vocabulary; ``notes``: ``applied`` (key -> value), ``force_gain`` (1 + a), ``not_applied`` (key ->
+    why)."""
+    from ..physics.params import BaseParams, InerterModel, TMDParams
+
+    vocab = _vocab()
+    base = BaseParams(**nominal["base"])
+    tmd = TMDParams(**nominal["tmd"])
+    applied: dict[str, float] = {}
+    not_applied: dict[str, str] = {}
+    gain = 1.0
+    for key, v in parameters.items():
+        val = float(v["value"] if isinstance(v, Mapping) else v)
+        eff, _, name = key.partition(".")
+        if eff not in vocab or name not in vocab[eff].param_names:
+            not_applied[key] = "a nuisance parameter of the fit, not a model parameter"
+            continue
+        par = vocab[eff].param(name)
+        if eff == "force_error":
+            gain = 1.0 + val
+            continue
+        if not par.targets:
+            not_applied[key] = f"a measurement effect ({vocab[eff].label}): the sensor's, not the model's"
+            continue
+        if not math.isfinite(val):
+            not_applied[key] = f"not finite ({val})"
+            continue
+        applied[key] = val
+    changed = vocab.changed({"base": base, "tmd": tmd}, applied)
+    base, tmd = changed["base"], changed["tmd"]
+    if tmd.play_gap > 0.0 and tmd.inerter != InerterModel.PLAY:  # a gap needs the play chain
+        import dataclasses
+
+        tmd = dataclasses.replace(tmd, inerter=InerterModel.PLAY)
+    return base, tmd, {"applied": applied, "force_gain": gain, "not_applied": not_applied}
+
+
+def record_points(ds: Dataset) -> dict[float, list[float]]:
+    """Force amplitude [N] (as recorded) -> the sorted frequencies [rad/s] of the dataset's steady
+    time records and FRC points at that force."""
+    out: dict[float, set[float]] = {}
+    for r in ds.records:
+        if r.kind == "time" and r.omega:
+            F = _record_force(r)
+            out.setdefault(F, set()).add(float(r.omega))
+        elif r.kind == "frc":
+            for w, F in zip(r["omega"], r["force_amplitude"], strict=True):
+                out.setdefault(_round_force(float(F)), set()).add(float(w))
+    return {F: sorted(ws) for F, ws in sorted(out.items())}
+
+
+def _round_force(F: float) -> float:
+    return float(f"{F:.6g}")
+
+
+def _record_force(r: Any) -> float:
+    if r.amplitude:
+        return _round_force(float(r.amplitude))
+    from .harmonic import fit_series
+
+    s = fit_series(np.asarray(r["t"], float), {"force": r["force"]}, float(r.omega), 1)
+    return _round_force(abs(complex(s.coef["force"][1])))
+
+
+def _fmt(x: float) -> str:
+    return repr(float(x))
+
+
+def _name(F: float) -> str:
+    return f"corrected_F{F:g}N".replace("+", "")
+
+
+def write_corrected(ds: Dataset, res: Mapping[str, Any], folder: Path) -> list[Path]:
+    """Write ``folder`` (new: the caller's fresh result folder) with the corrected scenario files and
+    their .ssv parameter sets; returns the files written. System level only."""
+    import yaml
+
+    from ..physics.params import as_dict
+
+    verdict = res.get("verdict") or {}
+    effects = list(verdict.get("effects") or [])
+    params = verdict.get("parameters") or {}
+    base, tmd, notes = corrected_params(ds.nominal, {k: v for k, v in params.items() if k.split(".")[0] in effects})
+    nom_tmd = as_dict(type(tmd)(**ds.nominal["tmd"]))
+    points = record_points(ds)
+    grid_note = ""
+    if not points:  # transient records only: a band around the structure's resonances
+        wn = math.sqrt(base.stiffness / base.mass)
+        points = {_round_force(base.force_amplitude): [float(w) for w in np.linspace(0.75 * wn, 1.25 * wn, 41)]}
+        grid_note = " The dataset has no steady or FRC record: the frequencies are 0.75-1.25 sqrt(K/M)."
+    if effects:
+        elements = list(verdict.get("elements") or [""] * len(effects))
+        what = "; ".join(f"{e} ({el})" if el else e for e, el in zip(effects, elements, strict=False))
+        vals = ", ".join(f"{k} = {v:.6g}" for k, v in notes["applied"].items())
+        desc = f"The nominal of {ds.path.name} corrected by diagnose: {what} named; applied {vals or 'no change of a model parameter'}."
+        if notes["force_gain"] != 1.0:
+            desc += (
+                f" force_error: true force = {notes['force_gain']:.6g} x recorded, so force_amplitude is the "
+                "recorded one times that."
+            )
+        for k, why in notes["not_applied"].items():
+            desc += f" Not applied: {k} ({why})."
+    else:
+        desc = (
+            f"The nominal of {ds.path.name} unchanged: diagnose named no effect, so the corrected model is the nominal."
+        )
+    desc += (
+        grid_note + " Frequencies: those of the dataset's steady and FRC records at this force (as recorded: "
+        "{F} N). Curve 'nominal': the nominal TMD on this base block."
+    )
+    folder.mkdir(parents=True, exist_ok=False)
+    written = []
+    tmd_block = as_dict(tmd)
+    base_block = as_dict(base)
+    for F, omegas in points.items():
+        Fm = F * notes["force_gain"]
+        name = _name(F)
+        doc = {
+            "schema_version": 2,
+            "name": name,
+            "description": desc.replace("{F}", f"{F:g}"),
+            "base": {**base_block, "force_amplitude": Fm},
+            "tmd": tmd_block,
+            "frequencies": [float(w) for w in omegas],
+            "sweep": {"direction": "up", "continuation": False},
+            "studies": [
+                {
+                    "kind": "frc",
+                    "name": "corrected",
+                    "title": f"corrected model at F = {Fm:g} N",
+                    "curves": [
+                        {"label": "corrected" if effects else "corrected (= nominal)"},
+                        {"label": "nominal", "tmd": nom_tmd},
+                    ],
+                }
+            ],
+        }
+        p = folder / f"{name}.yaml"
+        p.write_text(
+            "# written by diagnose (the corrected model, docs/diagnose.md 'The corrected model')\n"
+            + yaml.safe_dump(doc, sort_keys=False, width=100),
+            encoding="utf-8",
+        )
+        q = folder / f"{name}.ssv"
+        values = {"base": {**base_block, "force_amplitude": Fm}, "tmd": tmd_block}
+        q.write_text(ssv_text(name, values, desc.replace("{F}", f"{F:g}")), encoding="utf-8")
+        written += [p, q]
+    return written
+
+
+def ssv_text(name: str, values: Mapping[str, Mapping[str, Any]], description: str = "") -> str:
+    """An SSP 1.0 parameter set (``ssv:ParameterSet``) of the subsystems' parameters ``values``
+    (``{"base": {"mass": ...}, "tmd": {...}}``, registry names) under the FMU variable names
+    (``base.M``, ``tmd.k``: the FMUs' variable tables, :mod:`pyfmu_wrapper.models.base_tmd.fmus.variables`),
+    with the units the FMUs declare; the inerter model as an integer (its enumeration code)."""
+    from ..models.base_tmd.fmus.variables import BASE_OSCILLATOR, TMD_INERTER
+    from ..physics import registry
+    from ..physics.params import InerterModel
+
+    specs = {"base": BASE_OSCILLATOR, "tmd": TMD_INERTER}
+    lines = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        f'<ssv:ParameterSet xmlns:ssv="{_NS_SSV}" version="1.0" name={quoteattr(name)}'
+        + (f" description={quoteattr(description)}>" if description else ">"),
+        "  <ssv:Parameters>",
+    ]
+    for sub, vals in values.items():
+        for field, v in vals.items():
+            row = registry.get(sub, field)
+            var = specs[sub].by_name(row.fmu_name)
+            key = quoteattr(f"{sub}.{var.name}")
+            if row.kind == "enum":
+                code = int(InerterModel[v.upper()]) if isinstance(v, str) else int(v)
+                lines.append(f'    <ssv:Parameter name={key}><ssv:Integer value="{code}"/></ssv:Parameter>')
+            else:
+                unit = f" unit={quoteattr(var.unit)}" if var.unit else ""
+                lines.append(f'    <ssv:Parameter name={key}><ssv:Real value="{_fmt(v)}"{unit}/></ssv:Parameter>')
+    lines.append("  </ssv:Parameters>")
+    lines.append("</ssv:ParameterSet>")
+    return "\n".join(lines) + "\n"
+
+
+def measured_points(ds: Dataset) -> list[dict[str, Any]]:
+    """The records' amplitudes with their noise std: one point per steady time record (max |x| of its
+    harmonic series without the mean, from x and/or xdd, :func:`pyfmu_wrapper.diagnose.harmonic.fuse`;
+    its std the square root of the sum of the harmonics' variances) and one per FRC point (x_max, its
+    std the FRC path's: ``x_max_noise`` when the dataset states it, else the robust estimate of
+    :class:`.system.frc.FRCDiagnosis`). Each: ``record``, ``kind`` (steady, frc), ``omega``, ``force`` (as recorded), ``x``,
+    ``sigma``."""
+    from .harmonic import fit_series, fuse, grid_values
+
+    out: list[dict[str, Any]] = []
+    for r in ds.records:
+        if r.kind != "time" or not r.omega:
+            continue
+        chans = {c: r[c] for c in ("x", "xdd") if r.has(c)}
+        if not chans:
+            continue
+        s = fit_series(np.asarray(r["t"], float), chans, float(r.omega))
+        X, vx = fuse(s, "x", "xdd" if "xdd" in chans else None, s.H)
+        X[0] = 0.0
+        xs = grid_values(X, float(r.omega), 4096)
+        out.append(
+            {
+                "record": r.name,
+                "kind": "steady",
+                "omega": float(r.omega),
+                "force": _record_force(r),
+                "x": float(np.max(np.abs(xs))),
+                "sigma": float(math.sqrt(float(np.sum(vx[1:])))),
+            }
+        )
+    if any(r.kind == "frc" for r in ds.records):
+        from .system.frc import FRCDiagnosis
+
+        sig = iter(FRCDiagnosis(ds).sigma)  # its points: the FRC records' rows, in order
+        for r in ds.records:
+            if r.kind != "frc":
+                continue
+            for w, F, x in zip(r["omega"], r["force_amplitude"], r["x_max"], strict=True):
+                out.append(
+                    {
+                        "record": r.name,
+                        "kind": "frc",
+                        "omega": float(w),
+                        "force": _round_force(float(F)),
+                        "x": float(x),
+                        "sigma": float(next(sig)),
+                    }
+                )
+    return out
+
+
+def read_curve(csv: Path, curve: str = "") -> dict[float, float]:
+    """omega -> amplitude of one curve (default: the first) of a run-scenario FRC CSV."""
+    import csv as _csv
+
+    rows = list(_csv.DictReader(csv.open(encoding="utf-8")))
+    curve = curve or rows[0]["curve"]
+    return {float(r["omega"]): float(r["amplitude"]) for r in rows if r["curve"] == curve}
+
+
+def chi2_per_point(points: list[dict[str, Any]], model: Mapping[float, Mapping[float, float]]) -> dict[str, Any]:
+    """chi2 / n of the records' ``points`` (:func:`measured_points`) against ``model`` (force as
+    recorded -> omega -> amplitude, e.g. run-scenario's corrected curves), each residual in units of its
+    point's noise; also the worst point."""
+    z = []
+    worst: dict[str, Any] = {}
+    for p in points:
+        curve = model[p["force"]]
+        w = min(curve, key=lambda o: abs(o - p["omega"]))
+        if abs(w - p["omega"]) > 1e-6 * p["omega"]:
+            raise KeyError(f"no model amplitude at omega {p['omega']} (force {p['force']} N)")
+        zi = (p["x"] - curve[w]) / p["sigma"]
+        z.append(zi)
+        if not worst or abs(zi) > abs(worst["z"]):
+            worst = {**p, "model": curve[w], "z": float(zi)}
+    za = np.asarray(z)
+    return {"chi2_per_point": float(np.mean(za**2)), "n": int(za.size), "worst": worst}
