@@ -281,7 +281,7 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component comp, fmi2FMUstate FMUstate, fmi2
 
 static int valid_fmi_state(int32_t st) {
     return st == S_INSTANTIATED || st == S_INIT || st == S_STEP_COMPLETE || st == S_STEP_FAILED || st == S_TERMINATED ||
-           st == S_ERROR;
+           st == S_ERROR || st == S_EVENT || st == S_CONT;
 }
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component comp, const fmi2Byte in[], size_t size, fmi2FMUstate *FMUstate) {

@@ -139,3 +139,12 @@ def parameter_sensitivity(
             res[j] = (rows[k, j] - rows[2, j]) / (v - r0)
         return NATIVE_OK
     return 1
+
+
+#: Model Exchange (a native FMU whose table declares states, :meth:`~.varspec.FmuSpec.derivatives`): its
+#: functions ``me_derivatives``, ``me_indicators``, ``me_nominals`` and ``me_jacobian``, each
+#: ``f(reals, ints, z, p, u, t, out) -> int32`` (NATIVE_OK): the states' derivatives, the event indicators, the
+#: states' nominal values, and [d derivatives / d z; d outputs / d z] (row-major, (nx + outputs) x nx)
+ME_SIG = types.int32(F64P, I32P, F64P, F64P, F64P, types.float64, F64P)
+#: the names of those functions in a model's functions dict (:data:`~pyfmu_wrapper.fmubuild.native_obj.ENTRIES`)
+ME_FUNCTIONS = ("me_derivatives", "me_indicators", "me_nominals", "me_jacobian")
