@@ -156,8 +156,8 @@ def model_description_xml(
     if outputs:
         lines.append("    <Outputs>")
         for v in outputs:
-            deps = me_dependencies(spec, v)
-            lines.append(_unknown(spec, v, deps, None if deps is None else v.dependencies_kind))
+            out_deps = me_dependencies(spec, v)
+            lines.append(_unknown(spec, v, out_deps, None if out_deps is None else v.dependencies_kind))
         lines.append("    </Outputs>")
     if spec.derivatives():
         lines.append("    <Derivatives>")

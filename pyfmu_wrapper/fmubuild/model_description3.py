@@ -162,8 +162,8 @@ def model_description3_xml(
     lines.append("  </ModelVariables>")
     lines.append("  <ModelStructure>")
     for v in spec.of("output"):
-        deps = me_dependencies(spec, v)
-        lines.append(_unknown3(spec, "Output", v, deps, None if deps is None else v.dependencies_kind))
+        out_deps = me_dependencies(spec, v)
+        lines.append(_unknown3(spec, "Output", v, out_deps, None if out_deps is None else v.dependencies_kind))
     for v in spec.derivatives():
         lines.append(_unknown3(spec, "ContinuousStateDerivative", v, None, None))
     for v in sorted(initial_unknowns(spec), key=lambda v: v.vr):

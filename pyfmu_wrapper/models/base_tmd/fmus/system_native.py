@@ -39,7 +39,17 @@ from ....physics.jacobians import CSTEP
 from ....physics.models import coupled_jac, coupled_rhs, coupled_switching
 from ....physics.params import N_PARAMS, TMD_CHECKS, tmd_check
 from ..tolerances import coupled_atol
-from .system import N_SWITCH, NSTATE, S_ATOL, S_RTOL, SYS_OUT_VR, SYSTEM_MODEL, advance_system, system_outputs, write_system
+from .system import (
+    N_SWITCH,
+    NSTATE,
+    S_ATOL,
+    S_RTOL,
+    SYS_OUT_VR,
+    SYSTEM_MODEL,
+    advance_system,
+    system_outputs,
+    write_system,
+)
 from .variables import TMD_SYSTEM
 
 NP = N_PARAMS
