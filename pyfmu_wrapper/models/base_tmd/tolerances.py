@@ -4,8 +4,8 @@ nominal values of its states in Model Exchange all call it.
 
 With xs = |F| / K the static deflection (1e-3 m when F = 0) and wn = max(w, sqrt(K/M), 1) [rad/s]: the
 displacements get scale xs, the rates scale xs wn; the play chain with a gap gets the chain's own tolerance
-(:func:`~pyfmu_wrapper.physics.tmd.chain_atol`, restated over the packed array: the gear penetration F / ki
-resolved) for d, and that times the mesh frequency sqrt(ki / I) for dd.
+(:func:`~pyfmu_wrapper.physics.tmd.chain_tolerance`: the gear penetration F / ki
+resolved) for d, and that times the mesh frequency sqrt(ki / I) for dd (:func:`~pyfmu_wrapper.physics.tmd.packed_tmd_atol`).
 """
 
 from __future__ import annotations
@@ -16,8 +16,8 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ..._jit import njit
-from ...physics.kernels import MODEL_PLAY
-from ...physics.params import P_F, P_I, P_K, P_M, P_MODEL, P_W, P_eps, P_ki
+from ...physics.params import P_F, P_K, P_M, P_W
+from ...physics.tmd import packed_tmd_atol
 
 
 @njit(cache=True)
@@ -31,7 +31,4 @@ def coupled_atol(p: NDArray[np.float64], scale: float, atol: NDArray[np.float64]
     for i in range(3):
         atol[2 * i] = a
         atol[2 * i + 1] = a * wn
-    if int(p[P_MODEL]) == MODEL_PLAY and p[P_eps] > 0.0:
-        pen = max(force / p[P_ki], 1e-12)
-        atol[4] = min(atol[4], 1e-3 * max(p[P_eps], pen) + pen)
-        atol[5] = atol[4] * math.sqrt(p[P_ki] / p[P_I])
+    packed_tmd_atol(p, atol)

@@ -18,7 +18,7 @@ from numpy.typing import NDArray
 from ...physics.kernels import inerter_force
 from ...physics.models import OdeModel, bind_describe, contact_mode_index, mode_describer
 from ...physics.params import TMDParams
-from ...physics.tmd import active_states, tmd_atol
+from ...physics.tmd import active_states
 from ...physics.unit import ModelUnit
 from .equations import (
     F_N,
@@ -33,6 +33,7 @@ from .modelica import MODELICA
 from .packing import frame_pack
 from .params import PARAMETERS, FrameParams
 from .scenario import read_frame
+from .tolerances import frame_atol
 
 if TYPE_CHECKING:
     from ...fmi.fmumodel import FmuModel
@@ -41,11 +42,13 @@ __all__ = ["UNIT", "FrameParams", "frame_pack", "storey_index"]
 
 
 def fmus() -> tuple[FmuModel, ...]:
-    """The frame's FMU, ShearFrame (its TMD's FMU is the paper's TMDInerter, which ``base_tmd`` declares),
-    imported on the first call: importing the unit stays cheap."""
+    """The frame's FMUs, ShearFrame (its TMD's FMU is the paper's TMDInerter, which ``base_tmd`` declares) and
+    FrameSystem (the frame with its TMD-inerter in one FMU, co-simulation and Model Exchange), imported on the
+    first call: importing the unit stays cheap."""
+    from .fmus.frame_system import FMU as FRAME_SYSTEM
     from .fmus.shear_frame import FMU
 
-    return (FMU,)
+    return (FMU, FRAME_SYSTEM)
 
 
 def _n_state(frame: FrameParams) -> int:
@@ -54,13 +57,10 @@ def _n_state(frame: FrameParams) -> int:
 
 def _atol(frame: FrameParams, tmd: TMDParams, omega: float, atol_scale: float) -> NDArray[np.float64]:
     """The paper's rule per storey: atol_scale times the static deflection bound F / K (rates: times
-    the larger of w and the fastest storey's sqrt(K_i / M_i)); the play chain's as the paper's."""
-    xs = abs(frame.force_amplitude) / frame.stiffness
-    xs = xs if xs > 0 else 1e-3
-    wn = max(omega, frame.natural_frequency, 1.0)
-    a = atol_scale * xs
-    atol = np.tile([a, a * wn], frame.n + 2)
-    tmd_atol(atol, frame.force_amplitude, tmd)
+    the larger of w and the fastest storey's sqrt(K_i / M_i)); the play chain's as the paper's
+    (:func:`.tolerances.frame_atol`)."""
+    atol = np.empty(_n_state(frame))
+    frame_atol(frame_pack(frame, tmd, omega), atol_scale, atol)
     return atol
 
 

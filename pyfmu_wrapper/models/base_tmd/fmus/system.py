@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 
 from ...._jit import njit
 from ....fmi.contract import FAIL_BUDGET, MAX_INTEGRATOR_STEPS, NATIVE_MAX_STEP
+from ....fmi.native_model import away_from_zero
 from ....fmi.outputs import output_layout
 from ....fmi.slave import FloatArray, FmuStepError, Slave
 from ....physics import kernels as kn
@@ -66,6 +67,16 @@ def system_outputs(z: NDArray[Any], t: float, p: NDArray[np.float64], out: NDArr
     out[9] = kn.contact_state(d.real, p)
 
 
+_away_from_zero = njit(away_from_zero)
+
+
+@njit(cache=True)
+def system_indicators(z: NDArray[np.float64], p: NDArray[np.float64], g: NDArray[np.float64]) -> None:
+    """The event indicators: the unit's switching functions (:func:`~pyfmu_wrapper.fmi.native_model.away_from_zero`)."""
+    coupled_switching(z, p, g)
+    _away_from_zero(g)
+
+
 @njit(cache=True)
 def system_locals(z: NDArray[np.float64], t: float, p: NDArray[np.float64], reals: NDArray[np.float64]) -> None:
     """The chain's states, the states' derivatives (the coupled right-hand side) and the event indicators (its
@@ -73,7 +84,7 @@ def system_locals(z: NDArray[np.float64], t: float, p: NDArray[np.float64], real
     dz = np.empty(NSTATE)
     coupled_rhs(t, z, p, np.zeros(1), dz)
     g = np.empty(N_SWITCH)
-    coupled_switching(z, p, g)
+    system_indicators(z, p, g)
     reals[SYS_D_VR[0]] = z[4]
     reals[SYS_D_VR[1]] = z[5]
     for i in range(NSTATE):

@@ -36,7 +36,7 @@ from ....fmi.native_model import (
     parameter_sensitivity,
 )
 from ....physics.jacobians import CSTEP
-from ....physics.models import coupled_jac, coupled_rhs, coupled_switching
+from ....physics.models import coupled_jac, coupled_rhs
 from ....physics.params import N_PARAMS, TMD_CHECKS, tmd_check
 from ..tolerances import coupled_atol
 from .system import (
@@ -47,6 +47,7 @@ from .system import (
     SYS_OUT_VR,
     SYSTEM_MODEL,
     advance_system,
+    system_indicators,
     system_outputs,
     write_system,
 )
@@ -184,7 +185,7 @@ def system_functions() -> dict[str, Any]:
 
     @cfunc(ME_SIG)
     def me_indicators(reals_p: Any, ints_p: Any, z_p: Any, p_p: Any, u_p: Any, t: float, out_p: Any) -> int:
-        coupled_switching(carray(z_p, (NSTATE,)), carray(p_p, (NP,)), carray(out_p, (N_SWITCH,)))
+        system_indicators(carray(z_p, (NSTATE,)), carray(p_p, (NP,)), carray(out_p, (N_SWITCH,)))
         return NATIVE_OK
 
     @cfunc(ME_SIG)
