@@ -124,7 +124,8 @@ def model_description_xml(
     init_unknowns = initial_unknowns(spec)
     me = (
         f'  <ModelExchange modelIdentifier="{spec.model_identifier}" canGetAndSetFMUstate="true" '
-        f'canSerializeFMUstate="true" providesDirectionalDerivative="true" canNotUseMemoryManagementFunctions="true"/>'
+        f'canSerializeFMUstate="true" providesDirectionalDerivative="true" canNotUseMemoryManagementFunctions="true" '
+        f'completedIntegratorStepNotNeeded="true"/>'
     )
     cs = (
         f'  <CoSimulation modelIdentifier="{spec.model_identifier}" canHandleVariableCommunicationStepSize="true" '

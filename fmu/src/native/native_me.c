@@ -47,7 +47,7 @@ static int index_of(const unsigned *vrs, int n, fmi2ValueReference vr) {
  * outputs or states (1 with respect to itself); from the model's Jacobian. */
 static fmi2Status me_directional(Comp *c, const char *f, const fmi2ValueReference *vu, size_t nu,
                                  const fmi2ValueReference *vk, size_t nk, const double *dvk, double *dvu) {
-    static double jac[(NM_NX + NM_NOUT) * NM_NX];
+    double jac[(NM_NX + NM_NOUT) * NM_NX]; /* at most (44 + 10) x 44 doubles: on the stack, per call */
     double dz[NM_NX] = {0};
     for (size_t i = 0; i < nk; i++) {
         int k = index_of(NM_X_VR, NM_NX, vk[i]);
@@ -86,12 +86,9 @@ static fmi2Status me_directional(Comp *c, const char *f, const fmi2ValueReferenc
         double sum = 0.0;
         if (row >= 0)
             for (int k = 0; k < NM_NX; k++) sum += jac[row * NM_NX + k] * dz[k];
-        else {
-            int k = index_of(NM_X_VR, NM_NX, vu[i]);
+        else /* a state, or another variable: 1 with respect to itself */
             for (size_t j = 0; j < nk; j++)
                 if (vk[j] == vu[i]) sum += dvk[j];
-            (void)k;
-        }
         if (!isfinite(sum)) {
             free(res);
             logmsg(c, fmi2Error, "logStatusError", "%s: the derivative of %s (value reference %u) is %g: the model "

@@ -16,7 +16,6 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...physics.kernels import inerter_force
-from ...physics.models import OdeModel, bind_describe, contact_mode_index, mode_describer
 from ...physics.params import TMDParams
 from ...physics.tmd import active_states
 from ...physics.unit import ModelUnit
@@ -24,12 +23,11 @@ from .equations import (
     F_N,
     F_TMD,
     F_TO,
-    frame_jacobian,
     frame_rhs,
-    frame_switching,
     storey_index,
 )
 from .modelica import MODELICA
+from .ode import FRAME
 from .packing import frame_pack
 from .params import PARAMETERS, FrameParams
 from .scenario import read_frame
@@ -73,20 +71,6 @@ def _inerter_force(z: NDArray[np.float64], p: NDArray[np.float64]) -> float:
     sx = storey_index(s, n)
     zt = np.array([z[sx], z[sx + 1], z[2], z[3], z[4], z[5]])
     return float(inerter_force(zt, f[storey_index(j, n) + 1] if j > 0 else 0.0, p))
-
-
-FRAME = OdeModel(
-    name="frame",
-    rhs=frame_rhs,
-    jacobian=frame_jacobian,
-    switching=frame_switching,
-    mode=contact_mode_index,
-    n_switches=3,
-    n_modes=3,
-    switch_tolerance=(-1, 4, 4),
-    state_names=("x_top", "xd_top", "y", "yd", "d", "dd"),
-    describe=bind_describe(mode_describer(True, 4), frame_switching),
-)
 
 
 def _active(frame: FrameParams, tmd: TMDParams) -> list[int]:

@@ -1,6 +1,6 @@
-"""TMDSystem: the paper's base with its TMD-inerter as one FMU. Its outputs, its step and its Python slave, as
-compiled functions both step paths call (the native step of :mod:`.system_native` and the slave here), so the
-two are bit-identical.
+"""TMDSystem: the paper's base with its TMD-inerter as one FMU. Its outputs and its step, as compiled functions
+both step paths call (the native step of :mod:`.system_native` and the slave of :mod:`.system_slave`), so the two
+are bit-identical.
 
 The model is the unit's: the coupled equations :data:`~pyfmu_wrapper.physics.models.COUPLED` (state
 z = [x, xd, y, yd, d, dd], every configuration of the paper), integrated over a communication step by the
@@ -21,12 +21,11 @@ from ...._jit import njit
 from ....fmi.contract import FAIL_BUDGET, MAX_INTEGRATOR_STEPS, NATIVE_MAX_STEP
 from ....fmi.native_model import away_from_zero
 from ....fmi.outputs import output_layout
-from ....fmi.slave import FloatArray, FmuStepError, Slave
 from ....physics import kernels as kn
 from ....physics import models
 from ....physics.models import coupled_rhs, coupled_switching
-from ....physics.params import P_W, BaseParams, P_s, TMDParams, pack
-from ....solvers.rodas import STAT_STEPS, failure_message, make_integrator
+from ....physics.params import P_W, P_s
+from ....solvers.rodas import STAT_STEPS, make_integrator
 from ..tolerances import coupled_atol
 from .variables import TMD_SYSTEM
 
@@ -141,52 +140,3 @@ def advance_system(
         if stats[STAT_STEPS] - start > MAX_INTEGRATOR_STEPS:
             return hn, FAIL_BUDGET - 1, b
     return hn, 0, t + h
-
-
-class TMDSystemSlave(Slave):
-    """The base with its TMD-inerter: state [x, xd, y, yd, d, dd], no inputs."""
-
-    spec = TMD_SYSTEM
-    n_state = NSTATE
-
-    def configure(self) -> None:
-        base = BaseParams(**self._registry_values("base"), source=f"FMU {self.instance_name}")
-        tmd = TMDParams(**self._registry_values("tmd"), source=f"FMU {self.instance_name}")
-        self.p[:] = pack(base, tmd, self.val("w"))
-        self.z[:] = [self.val(n) for n in ("x0", "xd0", "y0", "yd0", "d0", "dd0")]
-
-    def outputs(self, inputs: NDArray[Any]) -> list[Any]:
-        out = np.empty(len(self._outputs), dtype=np.result_type(inputs, np.float64))
-        system_outputs(self.z, self.t, self.p, out)
-        return list(out)
-
-    def _write_outputs(self, values: Any) -> None:
-        super()._write_outputs(values)
-        system_locals(self.z, self.t, self.p, self.r)
-
-    def advance(self, t: float, h: float, u: FloatArray) -> None:
-        """The coupled integrator over [t, t + h] (:func:`advance_system`), as the native step takes it."""
-        start = self.z.copy()
-        hn, status, tf = advance_system(
-            self.z, t, h, self.p, u, float(self.r[S_RTOL]), float(self.r[S_ATOL]), self._atol, self.h, self.stats
-        )
-        if status == 0:
-            self.h = hn
-            return
-        band = 1.0 / self.p[P_s] if self.p[P_s] > 0 else 1e-6
-        where = self.z.copy()
-        self.z[:] = start
-        if status == FAIL_BUDGET - 1:
-            raise FmuStepError(
-                f"doStep of {h:g} s from t = {t:.16g} needs more than {MAX_INTEGRATOR_STEPS} integrator steps; "
-                "use shorter communication steps"
-            )
-        raise FmuStepError(
-            f"doStep from t = {t:.16g} s: "
-            + failure_message(status, SYSTEM_MODEL, tf, where, self.p, self._atol, band, MAX_INTEGRATOR_STEPS)
-        )
-
-    def _native_step(self) -> Any:
-        from .system_native import system_step
-
-        return system_step()

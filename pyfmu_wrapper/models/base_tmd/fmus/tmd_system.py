@@ -4,8 +4,8 @@ native functions (co-simulation and Model Exchange)."""
 from __future__ import annotations
 
 from ....fmi.fmumodel import FmuModel, NativeFmu
-from .system import TMDSystemSlave
 from .system_native import system_functions, system_step, system_table
+from .system_slave import TMDSystemSlave
 from .variables import TMD_SYSTEM
 
 FMU = FmuModel(

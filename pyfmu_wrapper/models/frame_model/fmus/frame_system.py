@@ -4,8 +4,8 @@ its native functions (co-simulation and Model Exchange)."""
 from __future__ import annotations
 
 from ....fmi.fmumodel import FmuModel, NativeFmu
-from .system import FrameSystemSlave
 from .system_native import frame_system_functions, frame_system_step, frame_system_table
+from .system_slave import FrameSystemSlave
 from .system_variables import FRAME_SYSTEM
 
 FMU = FmuModel(
