@@ -27,7 +27,7 @@ from test_fmu_fuzz import check
 from pyfmu_wrapper.fmi.varspec import REAL, FmuSpec
 from pyfmu_wrapper.fmubuild.build import ensure_fmus
 from pyfmu_wrapper.fmubuild.model_description3 import derivative_vr, time_vr
-from pyfmu_wrapper.models.catalog import SPECS, pick
+from pyfmu_wrapper.models.catalog import FMUS, SPECS, pick
 
 NAMES = sorted(SPECS)
 
@@ -72,6 +72,10 @@ def _reals(spec: FmuSpec, causality: str) -> list:
 def test_directional_derivatives_are_the_central_difference_and_the_dependencies_are_true(fmus2, tmp_path, name):
     spec = SPECS[name]
     inputs, outputs = _reals(spec, "input"), _reals(spec, "output")
+    if FMUS[name].system:  # the whole structure in one FMU: no inputs, its parameters are the knowns
+        assert not inputs and outputs, f"{name}: a system FMU has outputs and no inputs"
+        _parameter_derivatives(fmus2[name], tmp_path, name, outputs)
+        return
     assert inputs and outputs, f"{name}: a co-simulation FMU of this project has real inputs and outputs"
     md = fmpy.read_model_description(str(fmus2[name]))
     d = tmp_path / name
@@ -108,6 +112,43 @@ def test_directional_derivatives_are_the_central_difference_and_the_dependencies
                 else:  # no declared dependency: the output does not move with the input
                     assert abs(fd) <= 1e-9 * scale and dd[j] == 0.0, (y.name, u.name, dd[j], fd)
         assert checked > 0, f"{name}: no output declares a dependency on an input"
+        s.terminate()
+    finally:
+        s.freeInstance()
+
+
+def _parameter_derivatives(fmu: Path, tmp_path: Path, name: str, outputs: list) -> None:
+    """In initialisation mode, the directional derivative of every output with respect to the excitation's
+    amplitude F and frequency w and the start states (set away from 0 first: the FMU's own difference step is
+    relative to the value) equals a central difference of the outputs."""
+    md = fmpy.read_model_description(str(fmu))
+    d = tmp_path / name
+    fmpy.extract(str(fmu), str(d))
+    s = FMU2Slave(guid=md.guid, unzipDirectory=str(d), modelIdentifier=name, instanceName="dd")
+    s.instantiate()
+    try:
+        s.setupExperiment(startTime=0.0)
+        s.enterInitializationMode()
+        vr = {v.name: v.valueReference for v in md.modelVariables}
+        starts = [n for n in vr if n in ("x0", "xd0", "x0_1", "xd0_1", "y0", "yd0")]
+        s.setReal([vr[n] for n in starts], [(1e-2 if n.startswith(("x0", "y0")) else 0.1) for n in starts])
+        out_vrs = [y.vr for y in outputs]
+        moved = 0
+        for p in ("F", "w", *starts):
+            p0 = s.getReal([vr[p]])[0]
+            h = 1e-4 * max(1.0, abs(p0))
+            s.setReal([vr[p]], [p0 + h])
+            plus = s.getReal(out_vrs)
+            s.setReal([vr[p]], [p0 - h])
+            minus = s.getReal(out_vrs)
+            s.setReal([vr[p]], [p0])
+            dd = s.getDirectionalDerivative(out_vrs, [vr[p]], [1.0])
+            for j, y in enumerate(outputs):
+                fd = (plus[j] - minus[j]) / (2 * h)
+                assert abs(dd[j] - fd) <= 1e-6 * max(1.0, abs(fd)), (y.name, p, dd[j], fd)
+                moved += fd != 0.0
+        assert moved > 0, f"{name}: no output moves with its parameters"
+        s.exitInitializationMode()
         s.terminate()
     finally:
         s.freeInstance()

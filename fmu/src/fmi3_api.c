@@ -17,7 +17,9 @@
  *  - the independent variable `time` (required in FMI 3.0) has the value reference N;
  *  - Float64 = fmi2Real, Int32 = fmi2Integer, Boolean = bool; no other types are declared, so
  *    every other getter and setter answers fmi3Error for any value reference;
- *  - no event mode, clocks, model exchange or scheduled execution: those functions answer
+ *  - Model Exchange (fmi3InstantiateModelExchange, event mode, continuous-time mode) maps onto the core's
+ *    ME functions, which refuse it unless the model provides it (a native FMU with states: me_model());
+ *  - no event mode in co-simulation, no clocks, no scheduled execution: those functions answer
  *    fmi3Error with a message (never fmi3OK).
  */
 #define _GNU_SOURCE
@@ -61,6 +63,8 @@ static const char *const RENAMES[][2] = {
     {"fmi2SerializedFMUstateSize", "fmi3SerializedFMUStateSize"},
     {"fmi2SerializeFMUstate", "fmi3SerializeFMUState"},
     {"fmi2DeSerializeFMUstate", "fmi3DeserializeFMUState"},
+    {"fmi2GetDerivatives", "fmi3GetContinuousStateDerivatives"},
+    {"fmi2NewDiscreteStates", "fmi3UpdateDiscreteStates"},
 };
 
 /* The core's messages come pre-formatted with '%' doubled (log.c): format them once more to undo
@@ -146,13 +150,11 @@ fmi3Status fmi3SetDebugLogging(fmi3Instance instance, fmi3Boolean loggingOn, siz
     return (fmi3Status)fmi2SetDebugLogging(c, loggingOn, nCategories, categories);
 }
 
-fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken, fmi3String resourcePath,
-                                         fmi3Boolean visible, fmi3Boolean loggingOn, fmi3Boolean eventModeUsed,
-                                         fmi3Boolean earlyReturnAllowed,
-                                         const fmi3ValueReference requiredIntermediateVariables[],
-                                         size_t nRequiredIntermediateVariables, fmi3InstanceEnvironment instanceEnvironment,
-                                         fmi3LogMessageCallback logMessage, fmi3IntermediateUpdateCallback intermediateUpdate) {
-    (void)earlyReturnAllowed; (void)requiredIntermediateVariables; (void)intermediateUpdate;
+/* An instance for co-simulation or (fmi2ModelExchange) Model Exchange; refused: why (NULL: nothing refused). */
+static fmi3Instance instantiate3(fmi3String instanceName, fmi3String instantiationToken, fmi3String resourcePath,
+                                 fmi3Boolean visible, fmi3Boolean loggingOn, fmi3InstanceEnvironment instanceEnvironment,
+                                 fmi3LogMessageCallback logMessage, fmi2Type type, const char *refused) {
+    const char *f = type == fmi2ModelExchange ? "fmi3InstantiateModelExchange" : "fmi3InstantiateCoSimulation";
     Env3 *env = calloc(1, sizeof *env);
     if (!env) return NULL;
     env->magic = ENV3_MAGIC;
@@ -161,19 +163,12 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
     fmi2CallbackFunctions cb = {0};
     cb.logger = (fmi2CallbackLogger)logger3;
     cb.componentEnvironment = env;
-    const char *refused = NULL;
-    if (nRequiredIntermediateVariables > 0) /* no intermediate update: nothing can be provided */
-        refused = "required intermediate variables were given, but this FMU provides no intermediate update "
-                  "(providesIntermediateUpdate = false)";
-    else if (eventModeUsed) /* FMI 3.0.2, 4.3.1: an FMU without event mode must fail to instantiate */
-        refused = "eventModeUsed = true, but this FMU has no event mode (hasEventMode = false): instantiate it with "
-                  "eventModeUsed = false";
     if (refused) {
         Comp tmp = {0};
         tmp.instance_name = (char *)(instanceName ? instanceName : "?");
         tmp.logger = cb.logger;
         tmp.env = env;
-        logmsg(&tmp, fmi2Error, "logStatusError", "fmi3InstantiateCoSimulation: %s", refused);
+        logmsg(&tmp, fmi2Error, "logStatusError", "%s: %s", f, refused);
         free(env);
         return NULL;
     }
@@ -194,11 +189,37 @@ fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String ins
         }
         *q = 0;
     }
-    Comp *c = (Comp *)fmi2Instantiate(instanceName, fmi2CoSimulation, instantiationToken, uri, &cb, visible, loggingOn);
+    Comp *c = (Comp *)fmi2Instantiate(instanceName, type, instantiationToken, uri, &cb, visible, loggingOn);
     free(uri);
     if (!c) free(env);
     else c->fmi3 = 1;
     return c;
+}
+
+fmi3Instance fmi3InstantiateCoSimulation(fmi3String instanceName, fmi3String instantiationToken, fmi3String resourcePath,
+                                         fmi3Boolean visible, fmi3Boolean loggingOn, fmi3Boolean eventModeUsed,
+                                         fmi3Boolean earlyReturnAllowed,
+                                         const fmi3ValueReference requiredIntermediateVariables[],
+                                         size_t nRequiredIntermediateVariables, fmi3InstanceEnvironment instanceEnvironment,
+                                         fmi3LogMessageCallback logMessage, fmi3IntermediateUpdateCallback intermediateUpdate) {
+    (void)earlyReturnAllowed; (void)requiredIntermediateVariables; (void)intermediateUpdate;
+    const char *refused = NULL;
+    if (nRequiredIntermediateVariables > 0) /* no intermediate update: nothing can be provided */
+        refused = "required intermediate variables were given, but this FMU provides no intermediate update "
+                  "(providesIntermediateUpdate = false)";
+    else if (eventModeUsed) /* FMI 3.0.2, 4.3.1: an FMU without event mode must fail to instantiate */
+        refused = "eventModeUsed = true, but this FMU has no event mode (hasEventMode = false): instantiate it with "
+                  "eventModeUsed = false";
+    return instantiate3(instanceName, instantiationToken, resourcePath, visible, loggingOn, instanceEnvironment,
+                        logMessage, fmi2CoSimulation, refused);
+}
+
+/* Model Exchange: the core refuses it (with a message) unless the model provides it (me_model()). */
+fmi3Instance fmi3InstantiateModelExchange(fmi3String instanceName, fmi3String instantiationToken, fmi3String resourcePath,
+                                          fmi3Boolean visible, fmi3Boolean loggingOn,
+                                          fmi3InstanceEnvironment instanceEnvironment, fmi3LogMessageCallback logMessage) {
+    return instantiate3(instanceName, instantiationToken, resourcePath, visible, loggingOn, instanceEnvironment,
+                        logMessage, fmi2ModelExchange, NULL);
 }
 
 void fmi3FreeInstance(fmi3Instance instance) {
@@ -225,7 +246,8 @@ fmi3Status fmi3ExitInitializationMode(fmi3Instance instance) {
 
 fmi3Status fmi3EnterEventMode(fmi3Instance instance) {
     INST(0);
-    return refuse(c, "fmi3EnterEventMode", "this FMU has no event mode (hasEventMode = false)");
+    if (c->me) return (fmi3Status)fmi2EnterEventMode(c);
+    return refuse(c, "fmi3EnterEventMode", "this FMU has no event mode in co-simulation (hasEventMode = false)");
 }
 
 fmi3Status fmi3Terminate(fmi3Instance instance) {
@@ -519,46 +541,103 @@ CLOCKS_ONLY(fmi3ActivateModelPartition, (fmi3Instance instance, fmi3ValueReferen
 
 fmi3Status fmi3EvaluateDiscreteStates(fmi3Instance instance) {
     INST(0);
-    return refuse(c, "fmi3EvaluateDiscreteStates", "this FMU has no event mode (hasEventMode = false)");
+    if (c->me) { /* no discrete state: nothing to evaluate */
+        if (!check_state(c, "fmi3EvaluateDiscreteStates", S_EVENT | S_CONT)) return fmi3Error;
+        return fmi3OK;
+    }
+    return refuse(c, "fmi3EvaluateDiscreteStates", "this FMU has no event mode in co-simulation (hasEventMode = false)");
 }
-fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *a, fmi3Boolean *b, fmi3Boolean *d,
-                                    fmi3Boolean *e, fmi3Boolean *f, fmi3Float64 *g) {
+fmi3Status fmi3UpdateDiscreteStates(fmi3Instance instance, fmi3Boolean *discreteStatesNeedUpdate,
+                                    fmi3Boolean *terminateSimulation, fmi3Boolean *nominalsOfContinuousStatesChanged,
+                                    fmi3Boolean *valuesOfContinuousStatesChanged, fmi3Boolean *nextEventTimeDefined,
+                                    fmi3Float64 *nextEventTime) {
     INST(0);
-    (void)a; (void)b; (void)d; (void)e; (void)f; (void)g;
-    return refuse(c, "fmi3UpdateDiscreteStates", "this FMU has no event mode (hasEventMode = false)");
+    const char *f = "fmi3UpdateDiscreteStates";
+    if (!c->me) return refuse(c, f, "this FMU has no event mode in co-simulation (hasEventMode = false)");
+    NULLARG(f, discreteStatesNeedUpdate);
+    NULLARG(f, terminateSimulation);
+    NULLARG(f, nominalsOfContinuousStatesChanged);
+    NULLARG(f, valuesOfContinuousStatesChanged);
+    NULLARG(f, nextEventTimeDefined);
+    NULLARG(f, nextEventTime);
+    fmi2EventInfo e;
+    fmi2Status s = fmi2NewDiscreteStates(c, &e);
+    if (s > fmi2Warning) return (fmi3Status)s;
+    *discreteStatesNeedUpdate = e.newDiscreteStatesNeeded != fmi2False;
+    *terminateSimulation = e.terminateSimulation != fmi2False;
+    *nominalsOfContinuousStatesChanged = e.nominalsOfContinuousStatesChanged != fmi2False;
+    *valuesOfContinuousStatesChanged = e.valuesOfContinuousStatesChanged != fmi2False;
+    *nextEventTimeDefined = e.nextEventTimeDefined != fmi2False;
+    *nextEventTime = e.nextEventTime;
+    return (fmi3Status)s;
 }
 
-/* ---- model exchange and scheduled execution: not supported ----------------------------------- */
-fmi3Instance fmi3InstantiateModelExchange(fmi3String name, fmi3String token, fmi3String res, fmi3Boolean visible,
-                                          fmi3Boolean loggingOn, fmi3InstanceEnvironment env, fmi3LogMessageCallback log) {
-    (void)token; (void)res; (void)visible; (void)loggingOn;
-    if (log) log(env, fmi3Error, "logStatusError", "fmi3InstantiateModelExchange: this FMU supports co-simulation only");
-    (void)name;
-    return NULL;
-}
+/* ---- scheduled execution: not supported ------------------------------------------------------ */
 fmi3Instance fmi3InstantiateScheduledExecution(fmi3String name, fmi3String token, fmi3String res, fmi3Boolean visible,
                                                fmi3Boolean loggingOn, fmi3InstanceEnvironment env,
                                                fmi3LogMessageCallback log, fmi3ClockUpdateCallback cu,
                                                fmi3LockPreemptionCallback lp, fmi3UnlockPreemptionCallback up) {
     (void)name; (void)token; (void)res; (void)visible; (void)loggingOn; (void)cu; (void)lp; (void)up;
-    if (log) log(env, fmi3Error, "logStatusError", "fmi3InstantiateScheduledExecution: this FMU supports co-simulation only");
+    if (log) log(env, fmi3Error, "logStatusError", "fmi3InstantiateScheduledExecution: this FMU has no scheduled execution");
     return NULL;
 }
-#define ME_ONLY3(NAME, ARGS)                                                             \
-    fmi3Status NAME ARGS {                                                               \
-        INST(0);                                                                         \
-        return refuse(c, #NAME, "model exchange is not supported (co-simulation only)"); \
+
+/* ---- model exchange: the core's (fmi_api.c), which refuses it on a co-simulation instance ------ */
+fmi3Status fmi3EnterContinuousTimeMode(fmi3Instance instance) {
+    INST(0);
+    return (fmi3Status)fmi2EnterContinuousTimeMode(c);
+}
+fmi3Status fmi3CompletedIntegratorStep(fmi3Instance instance, fmi3Boolean noSetFMUStatePriorToCurrentPoint,
+                                       fmi3Boolean *enterEventMode, fmi3Boolean *terminateSimulation) {
+    INST(0);
+    const char *f = "fmi3CompletedIntegratorStep";
+    NULLARG(f, enterEventMode);
+    NULLARG(f, terminateSimulation);
+    fmi2Boolean e = fmi2False, t = fmi2False;
+    fmi2Status s = fmi2CompletedIntegratorStep(c, noSetFMUStatePriorToCurrentPoint, &e, &t);
+    if (s <= fmi2Warning) {
+        *enterEventMode = e != fmi2False;
+        *terminateSimulation = t != fmi2False;
     }
-ME_ONLY3(fmi3EnterContinuousTimeMode, (fmi3Instance instance))
-ME_ONLY3(fmi3CompletedIntegratorStep, (fmi3Instance instance, fmi3Boolean a, fmi3Boolean *b, fmi3Boolean *d))
-ME_ONLY3(fmi3SetTime, (fmi3Instance instance, fmi3Float64 t))
-ME_ONLY3(fmi3SetContinuousStates, (fmi3Instance instance, const fmi3Float64 x[], size_t n))
-ME_ONLY3(fmi3GetContinuousStateDerivatives, (fmi3Instance instance, fmi3Float64 x[], size_t n))
-ME_ONLY3(fmi3GetEventIndicators, (fmi3Instance instance, fmi3Float64 x[], size_t n))
-ME_ONLY3(fmi3GetContinuousStates, (fmi3Instance instance, fmi3Float64 x[], size_t n))
-ME_ONLY3(fmi3GetNominalsOfContinuousStates, (fmi3Instance instance, fmi3Float64 x[], size_t n))
-ME_ONLY3(fmi3GetNumberOfEventIndicators, (fmi3Instance instance, size_t *n))
-ME_ONLY3(fmi3GetNumberOfContinuousStates, (fmi3Instance instance, size_t *n))
+    return (fmi3Status)s;
+}
+fmi3Status fmi3SetTime(fmi3Instance instance, fmi3Float64 t) {
+    INST(0);
+    return (fmi3Status)fmi2SetTime(c, t);
+}
+fmi3Status fmi3SetContinuousStates(fmi3Instance instance, const fmi3Float64 x[], size_t n) {
+    INST(0);
+    return (fmi3Status)fmi2SetContinuousStates(c, x, n);
+}
+fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance instance, fmi3Float64 x[], size_t n) {
+    INST(0);
+    return (fmi3Status)fmi2GetDerivatives(c, x, n);
+}
+fmi3Status fmi3GetEventIndicators(fmi3Instance instance, fmi3Float64 x[], size_t n) {
+    INST(0);
+    return (fmi3Status)fmi2GetEventIndicators(c, x, n);
+}
+fmi3Status fmi3GetContinuousStates(fmi3Instance instance, fmi3Float64 x[], size_t n) {
+    INST(0);
+    return (fmi3Status)fmi2GetContinuousStates(c, x, n);
+}
+fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance instance, fmi3Float64 x[], size_t n) {
+    INST(0);
+    return (fmi3Status)fmi2GetNominalsOfContinuousStates(c, x, n);
+}
+static fmi3Status me_count(fmi3Instance instance, const char *f, size_t *n, int states) {
+    INST(0);
+    NULLARG(f, n);
+    if (!me_model()) return refuse(c, f, "model exchange is not supported (co-simulation only)");
+    *n = (size_t)(states ? me_model()->nx : me_model()->nz);
+    return fmi3OK;
+}
+fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance instance, size_t *n) {
+    return me_count(instance, "fmi3GetNumberOfEventIndicators", n, 0);
+}
+fmi3Status fmi3GetNumberOfContinuousStates(fmi3Instance instance, size_t *n) {
+    return me_count(instance, "fmi3GetNumberOfContinuousStates", n, 1);
+}
 
 /* ---- co-simulation --------------------------------------------------------------------------- */
 fmi3Status fmi3EnterStepMode(fmi3Instance instance) {

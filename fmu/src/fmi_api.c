@@ -125,8 +125,13 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
         logmsg(c, fmi2Error, "logStatusError", "fmi2Instantiate: missing instance name (NULL, empty or blank)");
         return NULL;
     }
-    if (fmuType != fmi2CoSimulation) {
+    if (fmuType == fmi2ModelExchange && !me_model()) {
         logmsg(c, fmi2Error, "logStatusError", "fmi2Instantiate: this FMU supports co-simulation only");
+        return NULL;
+    }
+    if (fmuType != fmi2CoSimulation && fmuType != fmi2ModelExchange) {
+        logmsg(c, fmi2Error, "logStatusError", "fmi2Instantiate: fmuType %d is neither co-simulation nor model "
+               "exchange", (int)fmuType);
         return NULL;
     }
     if (!fmuGUID) {
@@ -152,6 +157,7 @@ fmi2Component fmi2Instantiate(fmi2String instanceName, fmi2Type fmuType, fmi2Str
     c = calloc(1, sizeof(Comp));
     *c = tmp;
     c->magic = COMP_MAGIC;
+    c->me = fmuType == fmi2ModelExchange;
     c->fingerprint = fingerprint_of(cfg.guid);
     c->instance_name = strdup(instanceName);
     c->logging_on = loggingOn;
@@ -306,7 +312,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component comp) {
     fmi2Status s = py_status(c, "fmi2ExitInitializationMode", py.CallFunction(c->m_exit, NULL));
     GIL_DROP(g);
     if (s <= fmi2Warning) {
-        c->state = S_STEP_COMPLETE;
+        c->state = c->me ? S_EVENT : S_STEP_COMPLETE; /* Model Exchange: event mode (FMI 2.0 and 3.0) */
         c->dirty = 0;
     } else c->state = S_ERROR;
     return s;
@@ -314,7 +320,7 @@ fmi2Status fmi2ExitInitializationMode(fmi2Component comp) {
 
 fmi2Status fmi2Terminate(fmi2Component comp) {
     Comp *c = (Comp *)comp;
-    CHECK("fmi2Terminate", S_STEP_COMPLETE | S_STEP_FAILED);
+    CHECK("fmi2Terminate", S_STEP_COMPLETE | S_STEP_FAILED | M_ME);
     NEED_PY("fmi2Terminate");
     int g = gil_take();
     fmi2Status s = py_status(c, "fmi2Terminate", py.CallFunction(c->m_terminate, NULL));
@@ -340,7 +346,7 @@ fmi2Status fmi2Reset(fmi2Component comp) {
 
 /* Recompute outputs if inputs/parameters changed; call before reading outputs. */
 fmi2Status refresh(Comp *c, const char *f) {
-    if (!c->dirty || !(c->state & (S_INIT | S_STEP_COMPLETE))) return fmi2OK;
+    if (!c->dirty || !(c->state & (S_INIT | S_STEP_COMPLETE | M_ME))) return fmi2OK;
     NEED_PY(f);
     int g = gil_take();
     fmi2Status s = py_status(c, f, py.CallFunction(c->m_update, "i", c->state == S_INIT));
@@ -517,6 +523,17 @@ fmi2Status fmi2GetDirectionalDerivative(fmi2Component comp, const fmi2ValueRefer
     if (nKnown > 0) {
         NULLARG(f, vKnown_ref);
         NULLARG(f, dvKnown);
+    }
+    if (c->me) { /* Model Exchange: the states are knowns (the model's Jacobian) */
+        for (size_t i = 0; i < nKnown; i++)
+            if (!isfinite(dvKnown[i])) {
+                logmsg(c, fmi2Error, "logStatusError", "%s: seed of known %u must be finite but was %g", f,
+                       vKnown_ref[i], dvKnown[i]);
+                return fmi2Error;
+            }
+        fmi2Status s = refresh(c, f);
+        if (s > fmi2Warning) return s;
+        return me_model()->directional(c, f, vUnknown_ref, nUnknown, vKnown_ref, nKnown, dvKnown, dvUnknown);
     }
     size_t cap = (size_t)c->nscratch / 2; /* layout [vUnknown, vKnown, dvKnown, dvUnknown] */
     if (nUnknown > cap || nKnown > cap || nUnknown + nKnown > cap) {
@@ -728,21 +745,148 @@ fmi2Status fmi2GetStringStatus(fmi2Component comp, const fmi2StatusKind s, fmi2S
     return fmi2Discard;
 }
 
-/* Model-exchange entry points: this FMU is co-simulation only. */
-#define ME_ONLY(comp, name)                                                                      \
-    do {                                                                                         \
-        logmsg((Comp *)(comp), fmi2Error, "logStatusError", name ": model exchange is not supported"); \
-        return fmi2Error;                                                                        \
-    } while (0)
-fmi2Status fmi2EnterEventMode(fmi2Component c) { ME_ONLY(c, "fmi2EnterEventMode"); }
-fmi2Status fmi2NewDiscreteStates(fmi2Component c, fmi2EventInfo *e) { (void)e; ME_ONLY(c, "fmi2NewDiscreteStates"); }
-fmi2Status fmi2EnterContinuousTimeMode(fmi2Component c) { ME_ONLY(c, "fmi2EnterContinuousTimeMode"); }
-fmi2Status fmi2CompletedIntegratorStep(fmi2Component c, fmi2Boolean a, fmi2Boolean *b, fmi2Boolean *d) {
-    (void)a; (void)b; (void)d; ME_ONLY(c, "fmi2CompletedIntegratorStep");
+/* ------------------------------------------------------------------------------------------ */
+/* Model Exchange (FMI 2.0, 3.2): the host integrates the model's states; the numbers come from the model
+ * (me_model(): a native FMU whose model declares states). An event changes no state and has no discrete
+ * state: the event indicators (the model's switching functions) make the host land on the surface and
+ * restart its integrator there, as the model's own integrator does. */
+static int me_instance(Comp *c, const char *f) {
+    if (c->me && me_model()) return 1;
+    logmsg(c, fmi2Error, "logStatusError", "%s: %s", f,
+           me_model() ? "this instance was instantiated for co-simulation (fmuType fmi2CoSimulation)"
+                      : "model exchange is not supported (co-simulation only)");
+    return 0;
 }
-fmi2Status fmi2SetTime(fmi2Component c, fmi2Real t) { (void)t; ME_ONLY(c, "fmi2SetTime"); }
-fmi2Status fmi2SetContinuousStates(fmi2Component c, const fmi2Real x[], size_t n) { (void)x; (void)n; ME_ONLY(c, "fmi2SetContinuousStates"); }
-fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real x[], size_t n) { (void)x; (void)n; ME_ONLY(c, "fmi2GetDerivatives"); }
-fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real x[], size_t n) { (void)x; (void)n; ME_ONLY(c, "fmi2GetEventIndicators"); }
-fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t n) { (void)x; (void)n; ME_ONLY(c, "fmi2GetContinuousStates"); }
-fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component c, fmi2Real x[], size_t n) { (void)x; (void)n; ME_ONLY(c, "fmi2GetNominalsOfContinuousStates"); }
+#define ME_CHECK(f, mask)                 \
+    CHECK(f, mask);                       \
+    if (!me_instance(c, f)) return fmi2Error;
+#define ME_SIZE(f, n, want, what)                                                                          \
+    if ((n) != (size_t)(want)) {                                                                           \
+        logmsg(c, fmi2Error, "logStatusError", "%s: n%s = %zu but this FMU has %d", f, what, (size_t)(n), \
+               (int)(want));                                                                               \
+        return fmi2Error;                                                                                  \
+    }
+
+/* in initialisation mode the parameters may have changed: configure before the model is asked */
+static fmi2Status me_ready(Comp *c, const char *f) { return c->state == S_INIT ? refresh(c, f) : fmi2OK; }
+
+static fmi2Status me_finite(Comp *c, const char *f, const double *v, size_t n, const char *what) {
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(v[i])) {
+            logmsg(c, fmi2Error, "logStatusError", "%s: %s %zu is %g: the model overflowed (parameters or states too "
+                   "large for each other?); nothing returned", f, what, i, v[i]);
+            return fmi2Error;
+        }
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterEventMode(fmi2Component comp) {
+    Comp *c = (Comp *)comp;
+    ME_CHECK("fmi2EnterEventMode", S_CONT | S_EVENT);
+    c->state = S_EVENT;
+    return fmi2OK;
+}
+
+fmi2Status fmi2NewDiscreteStates(fmi2Component comp, fmi2EventInfo *e) {
+    Comp *c = (Comp *)comp;
+    ME_CHECK("fmi2NewDiscreteStates", S_EVENT);
+    NULLARG("fmi2NewDiscreteStates", e);
+    e->newDiscreteStatesNeeded = fmi2False; /* no discrete state: an event changes nothing */
+    e->terminateSimulation = fmi2False;
+    e->nominalsOfContinuousStatesChanged = fmi2False;
+    e->valuesOfContinuousStatesChanged = fmi2False;
+    e->nextEventTimeDefined = fmi2False;
+    e->nextEventTime = 0.0;
+    return fmi2OK;
+}
+
+fmi2Status fmi2EnterContinuousTimeMode(fmi2Component comp) {
+    Comp *c = (Comp *)comp;
+    ME_CHECK("fmi2EnterContinuousTimeMode", S_EVENT);
+    c->state = S_CONT;
+    return fmi2OK;
+}
+
+fmi2Status fmi2CompletedIntegratorStep(fmi2Component comp, fmi2Boolean noSetFMUStatePriorToCurrentPoint,
+                                       fmi2Boolean *enterEventMode, fmi2Boolean *terminateSimulation) {
+    Comp *c = (Comp *)comp;
+    (void)noSetFMUStatePriorToCurrentPoint;
+    ME_CHECK("fmi2CompletedIntegratorStep", S_CONT);
+    NULLARG("fmi2CompletedIntegratorStep", enterEventMode);
+    NULLARG("fmi2CompletedIntegratorStep", terminateSimulation);
+    *enterEventMode = fmi2False;
+    *terminateSimulation = fmi2False;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetTime(fmi2Component comp, fmi2Real t) {
+    Comp *c = (Comp *)comp;
+    ME_CHECK("fmi2SetTime", M_ME);
+    if (!isfinite(t)) {
+        logmsg(c, fmi2Error, "logStatusError", "fmi2SetTime: time must be finite but was %g", t);
+        return fmi2Error;
+    }
+    c->time = t;
+    me_model()->set_time(c, t);
+    c->dirty = 1;
+    return fmi2OK;
+}
+
+fmi2Status fmi2SetContinuousStates(fmi2Component comp, const fmi2Real x[], size_t n) {
+    Comp *c = (Comp *)comp;
+    const char *f = "fmi2SetContinuousStates";
+    ME_CHECK(f, S_CONT);
+    ME_SIZE(f, n, me_model()->nx, "x");
+    if (n == 0) return fmi2OK;
+    NULLARG(f, x);
+    for (size_t i = 0; i < n; i++)
+        if (!isfinite(x[i])) {
+            logmsg(c, fmi2Error, "logStatusError", "%s: state %zu must be finite but was %g", f, i, x[i]);
+            return fmi2Error;
+        }
+    me_model()->set_states(c, x);
+    c->dirty = 1;
+    return fmi2OK;
+}
+
+/* Derivatives, event indicators, states: from initialisation mode on (FMI 2.0 allows them there). */
+#define ME_GETTER(NAME, WANT, WHAT, CALL)                                                                  \
+    fmi2Status NAME(fmi2Component comp, fmi2Real v[], size_t n) {                                        \
+        Comp *c = (Comp *)comp;                                                                          \
+        ME_CHECK(#NAME, M_GET);                                                                          \
+        ME_SIZE(#NAME, n, me_model()->WANT, WHAT);                                                       \
+        if (n == 0) return fmi2OK;                                                                       \
+        NULLARG(#NAME, v);                                                                               \
+        fmi2Status s = me_ready(c, #NAME);                                                               \
+        if (s > fmi2Warning) return s;                                                                   \
+        CALL;                                                                                            \
+        return me_finite(c, #NAME, v, n, WHAT) > s ? fmi2Error : s;                                     \
+    }
+#define ME_COMPUTE(FN)                                                                                   \
+    if (!me_model()->FN(c, v)) {                                                                         \
+        logmsg(c, fmi2Error, "logStatusError", "%s: the compiled model function raised", __func__);      \
+        return fmi2Error;                                                                                \
+    }
+ME_GETTER(fmi2GetDerivatives, nx, "derivative", ME_COMPUTE(derivatives))
+ME_GETTER(fmi2GetEventIndicators, nz, "eventIndicator", ME_COMPUTE(indicators))
+ME_GETTER(fmi2GetContinuousStates, nx, "x", me_model()->get_states(c, v))
+
+fmi2Status fmi2GetNominalsOfContinuousStates(fmi2Component comp, fmi2Real v[], size_t n) {
+    Comp *c = (Comp *)comp;
+    const char *f = "fmi2GetNominalsOfContinuousStates";
+    ME_CHECK(f, M_ANY_BUT_FATAL);
+    ME_SIZE(f, n, me_model()->nx, "x");
+    if (n == 0) return fmi2OK;
+    NULLARG(f, v);
+    if (c->state == S_INSTANTIATED) { /* the parameters are not fixed yet: FMI's default */
+        for (size_t i = 0; i < n; i++) v[i] = 1.0;
+        return fmi2OK;
+    }
+    fmi2Status s = me_ready(c, f);
+    if (s > fmi2Warning) return s;
+    if (!me_model()->nominals(c, v)) {
+        logmsg(c, fmi2Error, "logStatusError", "%s: the compiled model function raised", f);
+        return fmi2Error;
+    }
+    return me_finite(c, f, v, n, "nominal") > s ? fmi2Error : s;
+}

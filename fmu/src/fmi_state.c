@@ -279,9 +279,11 @@ fmi2Status fmi2SerializeFMUstate(fmi2Component comp, fmi2FMUstate FMUstate, fmi2
     return fmi2OK;
 }
 
-static int valid_fmi_state(int32_t st) {
-    return st == S_INSTANTIATED || st == S_INIT || st == S_STEP_COMPLETE || st == S_STEP_FAILED || st == S_TERMINATED ||
-           st == S_ERROR;
+/* A state of the instance's kind: co-simulation (step complete, step failed) or Model Exchange (event mode,
+ * continuous-time mode), or one both share. */
+static int valid_fmi_state(const Comp *c, int32_t st) {
+    if (st == S_INSTANTIATED || st == S_INIT || st == S_TERMINATED || st == S_ERROR) return 1;
+    return c->me ? (st == S_EVENT || st == S_CONT) : (st == S_STEP_COMPLETE || st == S_STEP_FAILED);
 }
 
 fmi2Status fmi2DeSerializeFMUstate(fmi2Component comp, const fmi2Byte in[], size_t size, fmi2FMUstate *FMUstate) {
@@ -310,7 +312,7 @@ fmi2Status fmi2DeSerializeFMUstate(fmi2Component comp, const fmi2Byte in[], size
     if (h.magic != STATE_MAGIC) why = "not a serialized FMU state (bad magic number)";
     else if (h.fingerprint != c->fingerprint || h.nvr != (uint32_t)c->nvr) why = "a state of another FMU";
     else if (pylen != (uint64_t)(size - fixed)) why = "its length field does not match the number of bytes";
-    else if (!valid_fmi_state(h.state)) why = "its FMI state field is not a valid state";
+    else if (!valid_fmi_state(c, h.state)) why = "its FMI state field is not a valid state";
     else if (h.dirty != 0 && h.dirty != 1) why = "its flags are corrupt";
     else if (!isfinite(h.time)) why = "its time is not finite";
     else if (reserved != 0) why = "its reserved field is not zero";

@@ -43,6 +43,8 @@ const char *state_name(int s) {
     case S_STEP_FAILED: return "StepFailed";
     case S_TERMINATED: return "Terminated";
     case S_ERROR: return "Error";
+    case S_EVENT: return "EventMode";
+    case S_CONT: return "ContinuousTimeMode";
     default: return "Fatal";
     }
 }

@@ -461,3 +461,6 @@ fmi2Status py_status(Comp *c, const char *f, PyObject *r) {
     if (st < 0 || st > fmi2Fatal) return fmi2Error;
     return (fmi2Status)st;
 }
+
+/* The Python-hosted FMU is co-simulation only (Model Exchange: native FMUs, native/native_me.c). */
+const MeModel *me_model(void) { return NULL; }

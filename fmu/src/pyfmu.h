@@ -85,11 +85,14 @@ enum {
     S_STEP_FAILED = 1 << 3,
     S_TERMINATED = 1 << 4,
     S_ERROR = 1 << 5,
-    S_FATAL = 1 << 6
+    S_FATAL = 1 << 6,
+    S_EVENT = 1 << 7, /* Model Exchange: event mode */
+    S_CONT = 1 << 8   /* Model Exchange: continuous-time mode */
 };
-#define M_ANY_BUT_FATAL (S_INSTANTIATED | S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED | S_ERROR)
-#define M_GET (S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED | S_ERROR)
-#define M_SET (S_INSTANTIATED | S_INIT | S_STEP_COMPLETE)
+#define M_ME (S_EVENT | S_CONT)
+#define M_ANY_BUT_FATAL (S_INSTANTIATED | S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED | S_ERROR | M_ME)
+#define M_GET (S_INIT | S_STEP_COMPLETE | S_STEP_FAILED | S_TERMINATED | S_ERROR | M_ME)
+#define M_SET (S_INSTANTIATED | S_INIT | S_STEP_COMPLETE | M_ME)
 
 enum { C_PARAMETER = 1, C_INPUT, C_OUTPUT, C_LOCAL, C_CALCPAR, C_INDEPENDENT };
 enum { V_CONSTANT = 1, V_FIXED, V_TUNABLE, V_DISCRETE, V_CONTINUOUS };
@@ -137,8 +140,25 @@ typedef struct {
     NativeStep native;
     void *nat[7]; /* z, p, stats, th, u, atol, backup */
     int fmi3;     /* instantiated through the FMI 3.0 API (its state machine: values readable in Instantiated) */
+    int me;       /* instantiated for Model Exchange (the host integrates: no doStep) */
 } Comp;
 #define COMP_MAGIC 0x434f4d50u
+
+/* ---- Model Exchange: what the core's ME functions (fmi_api.c) ask of the model ------------------ */
+/* A native FMU whose model declares states serves these (native/native_me.c, from its compiled
+ * functions); the Python-hosted stub has no Model Exchange: me_model() is NULL (py_embed.c). */
+typedef struct {
+    int nx, nz; /* continuous states, event indicators */
+    void (*set_time)(Comp *c, double t);
+    void (*get_states)(Comp *c, double *x);
+    void (*set_states)(Comp *c, const double *x);
+    int (*derivatives)(Comp *c, double *dx); /* 1: done */
+    int (*indicators)(Comp *c, double *g);
+    int (*nominals)(Comp *c, double *nominal);
+    fmi2Status (*directional)(Comp *c, const char *f, const fmi2ValueReference *vu, size_t nu,
+                              const fmi2ValueReference *vk, size_t nk, const double *dvk, double *dvu);
+} MeModel;
+HIDDEN const MeModel *me_model(void);
 
 /* ---- log.c --------------------------------------------------------------------------------- */
 HIDDEN void logmsg(Comp *c, fmi2Status st, const char *cat, const char *fmt, ...)

@@ -47,6 +47,9 @@ class FmuModel:
     spec: FmuSpec
     slave: type[Slave]
     native: NativeFmu | None = None
+    #: the whole structure with its absorber in one FMU (a system FMU, e.g. for Model Exchange): not one of the
+    #: parts the unit's co-simulation couples
+    system: bool = False
 
     def __post_init__(self) -> None:
         if getattr(self.slave, "spec", None) is not self.spec:

@@ -139,3 +139,24 @@ def parameter_sensitivity(
             res[j] = (rows[k, j] - rows[2, j]) / (v - r0)
         return NATIVE_OK
     return 1
+
+
+#: Model Exchange (a native FMU whose table declares states, :meth:`~.varspec.FmuSpec.derivatives`): its
+#: functions ``me_derivatives``, ``me_indicators``, ``me_nominals`` and ``me_jacobian``, each
+#: ``f(reals, ints, z, p, u, t, out) -> int32`` (NATIVE_OK): the states' derivatives, the event indicators, the
+#: states' nominal values, and [d derivatives / d z; d outputs / d z] (row-major, (nx + outputs) x nx)
+ME_SIG = types.int32(F64P, I32P, F64P, F64P, F64P, types.float64, F64P)
+#: the names of those functions in a model's functions dict (:data:`~pyfmu_wrapper.fmubuild.native_obj.ENTRIES`)
+ME_FUNCTIONS = ("me_derivatives", "me_indicators", "me_nominals", "me_jacobian")
+#: what an event indicator that is exactly 0 is reported as (:func:`away_from_zero`)
+INDICATOR_ZERO = 2.2250738585072014e-308
+
+
+def away_from_zero(g: Any) -> None:
+    """The event indicators as reported (to be compiled by the caller, like :func:`pack_slots`): an indicator
+    exactly 0 (a friction stuck to the last bit, xd == yd in floating point) becomes the smallest positive normal
+    double. FMI hosts locate an event where an indicator changes sign, and CVODE stops with "Root found at and
+    very near t" when one stays exactly 0 after an event; the event is still found where the sign first changed."""
+    for k in range(g.shape[0]):
+        if g[k] == 0.0:
+            g[k] = INDICATOR_ZERO

@@ -58,6 +58,12 @@ class Variable:
     min: float | None = None
     max: float | None = None
     min_exclusive: bool = False
+    #: Model Exchange: this variable is the time derivative of the continuous state named here (the
+    #: states are the variables some derivative names, in the order of their derivatives)
+    derivative_of: str | None = None
+    #: Model Exchange: this (local, continuous Real) variable is an event indicator (its zero crossings
+    #: are the model's events), numbered in the order of the table
+    event_indicator: bool = False
 
     def __post_init__(self) -> None:
         if self.type not in (REAL, INTEGER, BOOLEAN):
@@ -84,6 +90,10 @@ class Variable:
             raise ValueError(f"{self.name}: a Boolean has no range")
         if self.start is not None and not self.in_range(self.start):
             raise ValueError(f"{self.name}: start value {self.start!r} is outside its range {self.range_text()}")
+        if (self.derivative_of is not None or self.event_indicator) and not (
+            self.type == REAL and self.causality == "local" and self.variability == "continuous"
+        ):
+            raise ValueError(f"{self.name}: a state derivative or event indicator is a local continuous Real")
 
     def in_range(self, value: float | int | bool) -> bool:
         """Whether value lies within min/max (what the stub accepts: an exclusive minimum m as
@@ -132,6 +142,25 @@ class FmuSpec:
             for d in v.depends_on:
                 if self.by_name(d).causality != "input":
                     raise ValueError(f"{v.name}: dependency {d} is not an input")
+            if v.derivative_of is not None:
+                x = self.by_name(v.derivative_of)
+                if x.type != REAL or x.variability != "continuous" or x.causality not in ("output", "local"):
+                    raise ValueError(f"{v.name}: the state {x.name} is not a continuous Real output or local")
+        states = [d.derivative_of for d in self.derivatives()]
+        if len(set(states)) != len(states):
+            raise ValueError(f"{self.model_name}: a state has two derivatives")
+
+    def derivatives(self) -> list[Variable]:
+        """Model Exchange: the state derivatives, in the order of the states (empty: co-simulation only)."""
+        return [v for v in self.variables if v.derivative_of is not None]
+
+    def states(self) -> list[Variable]:
+        """Model Exchange: the continuous states, in the order of their derivatives (the model's state z)."""
+        return [self.by_name(str(d.derivative_of)) for d in self.derivatives()]
+
+    def event_indicators(self) -> list[Variable]:
+        """Model Exchange: the event indicators, in the order of the table."""
+        return [v for v in self.variables if v.event_indicator]
 
     def by_name(self, name: str) -> Variable:
         for v in self.variables:

@@ -28,7 +28,7 @@ def xml_value(v: float | int | bool | str) -> str:
     return repr(float(v))
 
 
-def _variable_xml(v: Variable) -> str:
+def _variable_xml(spec: FmuSpec, v: Variable) -> str:
     attrs = (
         f'name={quoteattr(v.name)} valueReference="{v.vr}" description={quoteattr(v.description)} '
         f'causality="{v.causality}" variability="{v.variability}"'
@@ -36,6 +36,8 @@ def _variable_xml(v: Variable) -> str:
     if v.initial is not None and v.causality != "input":
         attrs += f' initial="{v.initial}"'
     inner = ""
+    if v.derivative_of is not None:
+        inner += f' derivative="{spec.index(v.derivative_of)}"'
     if v.type == REAL and v.unit:
         inner += f' unit="{v.unit}"'
     if v.start is not None:
@@ -87,20 +89,44 @@ def guid_of(spec: FmuSpec, salt: str = "") -> str:
     return "{" + str(uuid.UUID(bytes=h[:16])) + "}"
 
 
-def model_description_xml(spec: FmuSpec, guid: str, generation_tool: str = "pyfmu_wrapper") -> str:
-    """The complete FMI 2.0 co-simulation modelDescription.xml of spec."""
+def initial_unknowns(spec: FmuSpec) -> list[Variable]:
+    """What is computed in initialisation (FMI 2.0 / 3.0 InitialUnknowns): the outputs and calculated
+    parameters, and with Model Exchange the states and their derivatives that are calculated."""
+    me = {v.name for v in spec.states() + spec.derivatives() if v.initial in (None, "approx", "calculated")}
+    return [
+        v
+        for v in spec.variables
+        if (v.causality == "output" and v.initial in (None, "approx", "calculated"))
+        or v.causality == "calculatedParameter"
+        or v.name in me
+    ]
+
+
+def me_dependencies(spec: FmuSpec, v: Variable) -> tuple[str, ...] | None:
+    """The dependencies an output declares: with Model Exchange (states among the knowns) none are listed,
+    which FMI reads as "on every known" (the co-simulation's list names inputs only)."""
+    return None if spec.derivatives() else v.depends_on
+
+
+def model_description_xml(
+    spec: FmuSpec, guid: str, generation_tool: str = "pyfmu_wrapper", model_exchange: bool = False
+) -> str:
+    """The complete FMI 2.0 modelDescription.xml of spec: co-simulation, and Model Exchange too when asked
+    (``model_exchange``: the binary implements it; the spec must declare states)."""
+    if model_exchange and not spec.derivatives():
+        raise ValueError(f"{spec.model_name}: Model Exchange needs states (variables with derivative_of)")
     used_units = sorted({v.unit for v in spec.variables if v.unit})
     units = []
     for u in used_units:
         exps = " ".join(f'{k}="{e}"' for k, e in unit_exponents(spec, u).items())
         units.append(f'    <Unit name="{u}">\n      <BaseUnit {exps}/>\n    </Unit>')
     outputs = spec.of("output")
-    init_unknowns = [
-        v
-        for v in spec.variables
-        if (v.causality == "output" and v.initial in (None, "approx", "calculated"))
-        or v.causality == "calculatedParameter"
-    ]
+    init_unknowns = initial_unknowns(spec)
+    me = (
+        f'  <ModelExchange modelIdentifier="{spec.model_identifier}" canGetAndSetFMUstate="true" '
+        f'canSerializeFMUstate="true" providesDirectionalDerivative="true" canNotUseMemoryManagementFunctions="true" '
+        f'completedIntegratorStepNotNeeded="true"/>'
+    )
     cs = (
         f'  <CoSimulation modelIdentifier="{spec.model_identifier}" canHandleVariableCommunicationStepSize="true" '
         f'canInterpolateInputs="{str(spec.can_interpolate_inputs).lower()}" '
@@ -113,7 +139,8 @@ def model_description_xml(spec: FmuSpec, guid: str, generation_tool: str = "pyfm
         '<?xml version="1.0" encoding="UTF-8"?>',
         f'<fmiModelDescription fmiVersion="2.0" modelName="{spec.model_name}" guid="{guid}" '
         f'description={quoteattr(spec.description)} generationTool="{generation_tool}" '
-        f'variableNamingConvention="flat" numberOfEventIndicators="0">',
+        f'variableNamingConvention="flat" numberOfEventIndicators="{len(spec.event_indicators())}">',
+        *([me] if model_exchange else []),
         cs,
         *(["  <UnitDefinitions>", *units, "  </UnitDefinitions>"] if units else []),
         "  <LogCategories>",
@@ -124,14 +151,19 @@ def model_description_xml(spec: FmuSpec, guid: str, generation_tool: str = "pyfm
     ]
     for v in spec.variables:
         lines.append(f"    <!-- index {spec.index(v.name)} -->")
-        lines.append(_variable_xml(v))
+        lines.append(_variable_xml(spec, v))
     lines.append("  </ModelVariables>")
     lines.append("  <ModelStructure>")
     if outputs:
         lines.append("    <Outputs>")
         for v in outputs:
-            lines.append(_unknown(spec, v, v.depends_on, v.dependencies_kind))
+            out_deps = me_dependencies(spec, v)
+            lines.append(_unknown(spec, v, out_deps, None if out_deps is None else v.dependencies_kind))
         lines.append("    </Outputs>")
+    if spec.derivatives():
+        lines.append("    <Derivatives>")
+        lines += [_unknown(spec, v, None, None) for v in spec.derivatives()]
+        lines.append("    </Derivatives>")
     if init_unknowns:
         lines.append("    <InitialUnknowns>")
         for v in sorted(init_unknowns, key=lambda v: spec.index(v.name)):

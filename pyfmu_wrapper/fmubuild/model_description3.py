@@ -24,7 +24,7 @@ from xml.sax.saxutils import quoteattr
 from ..fmi.contract import LOG_CATEGORIES
 from ..fmi.units import base_unit, time_derivative
 from ..fmi.varspec import BOOLEAN, INTEGER, REAL, FmuSpec, Variable
-from .model_description import declared_range, unit_exponents, xml_value
+from .model_description import declared_range, initial_unknowns, me_dependencies, unit_exponents, xml_value
 
 TYPE3 = {REAL: "Float64", INTEGER: "Int32", BOOLEAN: "Boolean"}
 #: orders of the input derivatives an FMI 3.0 variant declares (FMI 2.0: canInterpolateInputs, order <= 2)
@@ -81,7 +81,7 @@ def _units_used(spec: FmuSpec) -> dict[str, dict[str, int]]:
     return dict(sorted(used.items()))
 
 
-def _variable3(v: Variable, unit: str | None = None) -> str:
+def _variable3(v: Variable, unit: str | None = None, spec: FmuSpec | None = None) -> str:
     t = TYPE3[v.type]
     attrs = (
         f'name={quoteattr(v.name)} valueReference="{v.vr}" description={quoteattr(v.description)} '
@@ -89,6 +89,8 @@ def _variable3(v: Variable, unit: str | None = None) -> str:
     )
     if v.initial is not None and v.causality != "input":
         attrs += f' initial="{v.initial}"'
+    if v.derivative_of is not None and spec is not None:
+        attrs += f' derivative="{spec.vr(v.derivative_of)}"'
     unit = unit if unit is not None else v.unit
     if v.type == REAL and unit:
         attrs += f' unit="{unit}"'
@@ -112,9 +114,13 @@ def _unknown3(spec: FmuSpec, tag: str, v: Variable, deps: Sequence[str] | None, 
     return s + "/>"
 
 
-def model_description3_xml(spec: FmuSpec, token: str, generation_tool: str = "pyfmu_wrapper") -> str:
-    """The complete FMI 3.0 co-simulation modelDescription.xml of spec (instantiationToken = token,
-    the FMI 2.0 variant's GUID: the same core, the same FMU states)."""
+def model_description3_xml(
+    spec: FmuSpec, token: str, generation_tool: str = "pyfmu_wrapper", model_exchange: bool = False
+) -> str:
+    """The complete FMI 3.0 modelDescription.xml of spec (instantiationToken = token, the FMI 2.0 variant's
+    GUID: the same core, the same FMU states): co-simulation, and Model Exchange too when asked."""
+    if model_exchange and not spec.derivatives():
+        raise ValueError(f"{spec.model_name}: Model Exchange needs states (variables with derivative_of)")
     units = [
         f'    <Unit name="{u}">\n      <BaseUnit {" ".join(f"{k}={chr(34)}{e}{chr(34)}" for k, e in ex.items())}/>\n'
         f"    </Unit>"
@@ -131,6 +137,14 @@ def model_description3_xml(spec: FmuSpec, token: str, generation_tool: str = "py
         f'<fmiModelDescription fmiVersion="3.0" modelName="{spec.model_name}" instantiationToken="{token}" '
         f'description={quoteattr(spec.description)} generationTool="{generation_tool}" '
         f'variableNamingConvention="flat">',
+        *(
+            [
+                f'  <ModelExchange modelIdentifier="{spec.model_identifier}" canGetAndSetFMUState="true" '
+                'canSerializeFMUState="true" providesDirectionalDerivatives="true"/>'
+            ]
+            if model_exchange
+            else []
+        ),
         cs,
         *(["  <UnitDefinitions>", *units, "  </UnitDefinitions>"] if units else []),
         "  <LogCategories>",
@@ -142,22 +156,21 @@ def model_description3_xml(spec: FmuSpec, token: str, generation_tool: str = "py
         f'variability="continuous" description="simulation time" unit="s"/>',
     ]
     for v in spec.variables:
-        lines.append(_variable3(v))
+        lines.append(_variable3(v, spec=spec))
     for v, _, unit in input_derivatives(spec):
         lines.append(_variable3(v, unit))
     lines.append("  </ModelVariables>")
     lines.append("  <ModelStructure>")
     for v in spec.of("output"):
-        lines.append(_unknown3(spec, "Output", v, v.depends_on, v.dependencies_kind))
-    init_unknowns = [
-        v
-        for v in spec.variables
-        if (v.causality == "output" and v.initial in (None, "approx", "calculated"))
-        or v.causality == "calculatedParameter"
-    ]
-    for v in sorted(init_unknowns, key=lambda v: v.vr):
+        out_deps = me_dependencies(spec, v)
+        lines.append(_unknown3(spec, "Output", v, out_deps, None if out_deps is None else v.dependencies_kind))
+    for v in spec.derivatives():
+        lines.append(_unknown3(spec, "ContinuousStateDerivative", v, None, None))
+    for v in sorted(initial_unknowns(spec), key=lambda v: v.vr):
         deps = None if v.initial_depends_on is None else sorted(v.initial_depends_on, key=spec.vr)
         lines.append(_unknown3(spec, "InitialUnknown", v, deps, None))
+    for v in spec.event_indicators():
+        lines.append(_unknown3(spec, "EventIndicator", v, None, None))
     lines.append("  </ModelStructure>")
     lines.append("</fmiModelDescription>")
     return "\n".join(lines) + "\n"

@@ -39,7 +39,7 @@ from typing import Any
 
 from ..fmi.contract import MAX_INTEGRATOR_STEPS, c_header
 from ..fmi.fmumodel import FmuModel, NativeFmu
-from ..fmi.native_model import FIELD_CODE, KAPPA_CODE
+from ..fmi.native_model import FIELD_CODE, KAPPA_CODE, ME_FUNCTIONS
 from ..fmi.varspec import FmuSpec
 from ..safeio.files import replace_checked
 from .build import DEFAULT_OUT, STUB_DIR, check_output, fmi_headers_dir, fmi_out_dir, fmu_source_hash, source_hash
@@ -47,7 +47,7 @@ from .buildinfo import BuildError
 from .documentation import documentation_html
 from .model_description import guid_of, model_description_xml, variable_table_tsv
 from .model_description3 import model_description3_xml
-from .native_obj import PLATFORM3, RUNTIME_C, mingw_gcc, write_objects
+from .native_obj import ENTRIES, PLATFORM3, RUNTIME_C, mingw_gcc, write_objects
 
 NATIVE_DIR = STUB_DIR / "native"
 #: where the native FMUs go, below the build folder (FMI 3.0 ones in its fmi3/)
@@ -172,6 +172,7 @@ def model_header(fmu: FmuModel, test_hooks: bool = False) -> str:
         "static const struct { unsigned vr; char type; const char *name; } NM_CHECKVARS[] = {"
         + (check_rows or "{0, 'R', \"\"}")
         + "};",
+        *model_exchange_lines(fmu),
         f"#define NM_FIELD_CODE {FIELD_CODE}",
         f"#define NM_KAPPA_CODE {KAPPA_CODE}",
         f"#define NM_VR_KAPPA {names.get('base_compliance', 0)}",
@@ -180,6 +181,43 @@ def model_header(fmu: FmuModel, test_hooks: bool = False) -> str:
         "",
     ]
     return "\n".join(lines)
+
+
+def has_model_exchange(fmu: FmuModel) -> bool:
+    """The native FMU implements Model Exchange: its table declares states (variables with ``derivative_of``);
+    its functions then include :data:`~pyfmu_wrapper.fmi.native_model.ME_FUNCTIONS` (checked when its objects
+    are written, :func:`check_model_exchange`)."""
+    return bool(fmu.spec.derivatives())
+
+
+def model_exchange_lines(fmu: FmuModel) -> list[str]:
+    """pyfmu_native_model.h's Model Exchange table (native/native_me.c): the number of states (0: none) and of
+    event indicators, the value references of the states (the first NM_NX entries of z) and of their
+    derivatives."""
+    spec = fmu.spec
+    states, ders = spec.states(), spec.derivatives()
+    nstate = model_table(fmu)["nstate"] if states else 0
+    if len(states) > nstate:
+        raise BuildError(f"{fmu.name}: {len(states)} states declared, but its model's state has {nstate} entries")
+    return [
+        f"#define NM_NX {len(states)}",
+        f"#define NM_NZ {len(spec.event_indicators())}",
+        f"static const unsigned NM_X_VR[] = {{{', '.join(str(v.vr) for v in states) or '0'}}};",
+        f"static const unsigned NM_DER_VR[] = {{{', '.join(str(v.vr) for v in ders) or '0'}}};",
+    ]
+
+
+def check_model_exchange(fmu: FmuModel, objects: list[Path]) -> None:
+    """A native FMU with states must bring every Model Exchange function (refused by name otherwise)."""
+    if not has_model_exchange(fmu):
+        return
+    have = {p.name.split(".")[1] for p in objects}
+    missing = [ENTRIES[k] for k in ME_FUNCTIONS if ENTRIES[k] not in have]
+    if missing:
+        raise BuildError(
+            f"{fmu.name} declares states (Model Exchange) but its native functions lack {', '.join(missing)}: "
+            f"add {', '.join(k for k in ME_FUNCTIONS if ENTRIES[k] in missing)} to its functions dict"
+        )
 
 
 def native_sources() -> list[Path]:
@@ -322,6 +360,8 @@ def build_native_fmus(
         objects = write_objects(tmp / "obj", fmus, platforms)
         for fmu in fmus:
             n, spec, nhash = fmu.name, shipped_spec(fmu.spec, test_hooks), native_hash(fmu, test_hooks)
+            check_model_exchange(fmu, objects[(n, platforms[0])])
+            me = has_model_exchange(fmu)
             binaries = {}
             for plat in platforms:
                 binaries[plat] = tmp / plat / f"{n}{SUFFIX[plat]}"
@@ -330,7 +370,11 @@ def build_native_fmus(
                 else:
                     compile_native(fmu, objects[(n, plat)], binaries[plat], fmi_version, plat, test_hooks)
             guid = guid_of(spec, "native" + nhash)
-            md = model_description_xml(spec, guid) if fmi_version == 2 else model_description3_xml(spec, guid)
+            md = (
+                model_description_xml(spec, guid, model_exchange=me)
+                if fmi_version == 2
+                else model_description3_xml(spec, guid, model_exchange=me)
+            )
             cfg = (
                 f"guid={guid}\nmodel_identifier={spec.model_identifier}\nvariant=native{'-test' if test_hooks else ''}\n"
                 f"platforms={' '.join(binaries)}\nsource_hash={nhash}\n"

@@ -56,6 +56,11 @@ ENTRIES = {
     "outputs": "pyfmu_model_outputs",
     "derivative": "pyfmu_model_derivative",
     "sensitivity": "pyfmu_model_sensitivity",
+    # Model Exchange (a model that declares states; fmi/native_model.py's ME_FUNCTIONS, fmu/src/native/native_me.c)
+    "me_derivatives": "pyfmu_model_me_derivatives",
+    "me_indicators": "pyfmu_model_me_indicators",
+    "me_nominals": "pyfmu_model_me_nominals",
+    "me_jacobian": "pyfmu_model_me_jacobian",
 }
 #: symbols defined by fmu/src/native/native_rt.c
 RUNTIME_SYMBOLS = frozenset(

@@ -40,9 +40,11 @@ def gather(models: Registry) -> dict[str, FmuModel]:
 FMUS: dict[str, FmuModel] = gather(MODELS)
 #: model identifier -> its variable table
 SPECS: dict[str, FmuSpec] = {n: f.spec for n, f in FMUS.items()}
-#: the FMUs of the first registered unit with FMUs (the paper's pair, its co-simulation): what the tests and
-#: benchmarks of the pair build
-PROJECT_FMUS: tuple[str, ...] = next((tuple(f.name for f in u.fmus()) for u in MODELS.units() if u.fmus()), ())
+#: the FMUs of the first registered unit with FMUs that its co-simulation couples (the paper's pair; its system
+#: FMU, TMDSystem, left out): what the tests and benchmarks of the pair build
+PROJECT_FMUS: tuple[str, ...] = next(
+    (tuple(f.name for f in u.fmus() if not f.system) for u in MODELS.units() if u.fmus()), ()
+)
 #: what ``build-fmus`` builds when no FMU is named: every model's FMU (the support FMU only on request)
 BUILD_FMUS: tuple[str, ...] = tuple(n for n in FMUS if n != trivial.FMU.name)
 #: the FMUs with a native variant (``build-fmus --native``)

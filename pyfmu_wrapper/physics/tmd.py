@@ -11,15 +11,24 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .params import InerterModel, TMDParams, has_gap
+from .._jit import njit
+from .params import P_F, P_I, P_MODEL, InerterModel, P_eps, P_ki, TMDParams, has_gap
+
+_PLAY = int(InerterModel.PLAY)
 
 
-def chain_atol(force_amplitude: float, tmd: TMDParams) -> float:
+@njit(cache=True)
+def chain_tolerance(force_amplitude: float, mesh_stiffness: float, play_gap: float) -> float:
     """Absolute tolerance [m] on the gear-chain deflection d of the play model, shared by both
     engines (the monolithic integrator and the TMD FMU): the gear penetration is ~ F / ki, so
     resolve it, not just the gap: 1e-3 of the larger of gap and penetration, plus the penetration."""
-    pen = max(abs(force_amplitude) / tmd.mesh_stiffness, 1e-12)
-    return 1e-3 * max(tmd.play_gap, pen) + pen
+    pen = max(abs(force_amplitude) / mesh_stiffness, 1e-12)
+    return 1e-3 * max(play_gap, pen) + pen
+
+
+def chain_atol(force_amplitude: float, tmd: TMDParams) -> float:
+    """:func:`chain_tolerance` of a TMD."""
+    return float(chain_tolerance(float(force_amplitude), float(tmd.mesh_stiffness), float(tmd.play_gap)))
 
 
 def tmd_atol(atol: NDArray[np.float64], force_amplitude: float, tmd: TMDParams) -> None:
@@ -27,6 +36,15 @@ def tmd_atol(atol: NDArray[np.float64], force_amplitude: float, tmd: TMDParams) 
     if has_gap(tmd):
         atol[4] = min(atol[4], chain_atol(force_amplitude, tmd))
         atol[5] = atol[4] * math.sqrt(tmd.mesh_stiffness / tmd.inertance)
+
+
+@njit(cache=True)
+def packed_tmd_atol(p: NDArray[np.float64], atol: NDArray[np.float64]) -> None:
+    """:func:`tmd_atol` on the packed parameters (the compiled tolerances of a structure carrying the TMD at
+    z[2:6]: the FMUs' integrators and nominal values)."""
+    if int(p[P_MODEL]) == _PLAY and p[P_eps] > 0.0:
+        atol[4] = min(atol[4], chain_tolerance(p[P_F], p[P_ki], p[P_eps]))
+        atol[5] = atol[4] * math.sqrt(p[P_ki] / p[P_I])
 
 
 def detached(tmd: TMDParams) -> bool:

@@ -246,7 +246,8 @@ static void op(void) {
         judge(0, s, L);
         break;
     }
-    case 6: case 7: { /* set an input */
+    case 6: case 7: { /* set an input (a system FMU has none) */
+        if (!f->nin) break;
         unsigned vr = f->in[pick(f->nin)];
         double v = uniform(-1e-2, 1e-2) * (f->nin == 1 ? 1e4 : 1.0);
         s = f->set_real(in->c, &vr, 1, &v);
@@ -257,6 +258,7 @@ static void op(void) {
         unsigned vr;
         double v = 1.0;
         int w = pick(4);
+        if (w == 0 && !f->nin) w = 1; /* no input to set to NaN/Inf */
         if (w == 0) { vr = f->in[pick(f->nin)]; v = bad_double(); }
         else if (w == 1) vr = f->out[pick(f->nout)];
         else if (w == 2) vr = (unsigned)(f->nvr + pick(1000000));
@@ -430,8 +432,9 @@ static void op(void) {
     }
     case 21: { /* directional derivatives: any known (inputs, parameters), sometimes a bad one */
         unsigned u[2] = {f->out[pick(f->nout)], f->out[pick(f->nout)]};
-        unsigned kn[2] = {(unsigned)pick(f->nvr), f->in[pick(f->nin)]};
+        unsigned kn[2] = {(unsigned)pick(f->nvr), f->nin ? f->in[pick(f->nin)] : (unsigned)pick(f->nvr)};
         while (!f->type[kn[0]]) kn[0] = (unsigned)pick(f->nvr);
+        while (!f->type[kn[1]]) kn[1] = (unsigned)pick(f->nvr);
         double seed[2] = {1.0, -0.5}, d[2];
         int bad = pick(4) == 0;
         if (bad) {
@@ -442,7 +445,8 @@ static void op(void) {
         if (judge(bad ? 0 : in->st != INSTANTIATED, s, L) && !(isfinite(d[0]) && isfinite(d[1]))) K.nonfinite_ok++;
         break;
     }
-    case 22: { /* input derivatives: valid order 1/2, or a bad order or value */
+    case 22: { /* input derivatives: valid order 1/2, or a bad order or value (a system FMU has no input) */
+        if (!f->nin) break;
         unsigned vr = f->in[pick(f->nin)];
         int order = 1 + pick(2);
         double v = uniform(-1, 1);
@@ -515,7 +519,7 @@ int main(int argc, char **argv) {
     for (int i = 0; i < 2; i++) {
         Fmu *f = fs[i];
         double v[16], seed = 1.0, d;
-        unsigned kn = f->in[0];
+        unsigned kn = f->nin ? f->in[0] : f->out[0]; /* a system FMU has no input: any known will do */
         f->setup(ws[i], fmi2False, 0, 0, fmi2False, 0);
         f->enter(ws[i]);
         f->get_real(ws[i], f->out, (size_t)f->nout, v);

@@ -440,3 +440,6 @@ fmi2Status py_status(Comp *c, const char *f, PyObject *r) {
     if (st < 0 || st > fmi2Fatal) return fmi2Error;
     return (fmi2Status)st;
 }
+
+/* ---- Model Exchange (a model that declares states) ----------------------------------------------------- */
+#include "native_me.c"

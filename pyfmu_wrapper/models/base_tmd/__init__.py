@@ -18,11 +18,12 @@ from ...physics import registry
 from ...physics.kernels import NSTATE, inerter_force, rhs
 from ...physics.models import COUPLED
 from ...physics.params import BaseParams, TMDParams, pack
-from ...physics.tmd import active_states, tmd_atol
+from ...physics.tmd import active_states
 from ...physics.unit import ModelUnit
 from .effects import VOCABULARY
 from .modelica import MODELICA
 from .scenario import read_base
+from .tolerances import coupled_atol
 
 if TYPE_CHECKING:
     from ...fmi.fmumodel import FmuModel
@@ -30,20 +31,18 @@ if TYPE_CHECKING:
 
 def fmus() -> tuple[FmuModel, ...]:
     """The pair's FMUs, BaseOscillator and TMDInerter (the paper's co-simulation; the frame's uses the
-    TMDInerter too), imported on the first call: importing the unit stays cheap."""
+    TMDInerter too), and TMDSystem (the two in one FMU, co-simulation and Model Exchange), imported on the first
+    call: importing the unit stays cheap."""
     from .fmus.base_oscillator import FMU as BASE_OSCILLATOR
     from .fmus.tmd_inerter import FMU as TMD_INERTER
+    from .fmus.tmd_system import FMU as TMD_SYSTEM
 
-    return (BASE_OSCILLATOR, TMD_INERTER)
+    return (BASE_OSCILLATOR, TMD_INERTER, TMD_SYSTEM)
 
 
 def _atol(base: BaseParams, tmd: TMDParams, omega: float, atol_scale: float) -> NDArray[np.float64]:
-    xs = abs(base.force_amplitude) / max(base.stiffness, 1e-300)
-    xs = xs if xs > 0 else 1e-3
-    wn = max(omega, base.natural_frequency, 1.0)
-    a = atol_scale * xs
-    atol = np.array([a, a * wn, a, a * wn, a, a * wn])
-    tmd_atol(atol, base.force_amplitude, tmd)
+    atol = np.empty(NSTATE)
+    coupled_atol(pack(base, tmd, omega), atol_scale, atol)
     return atol
 
 

@@ -16,23 +16,22 @@ import numpy as np
 from numpy.typing import NDArray
 
 from ...physics.kernels import inerter_force
-from ...physics.models import OdeModel, bind_describe, contact_mode_index, mode_describer
 from ...physics.params import TMDParams
-from ...physics.tmd import active_states, tmd_atol
+from ...physics.tmd import active_states
 from ...physics.unit import ModelUnit
 from .equations import (
     F_N,
     F_TMD,
     F_TO,
-    frame_jacobian,
     frame_rhs,
-    frame_switching,
     storey_index,
 )
 from .modelica import MODELICA
+from .ode import FRAME
 from .packing import frame_pack
 from .params import PARAMETERS, FrameParams
 from .scenario import read_frame
+from .tolerances import frame_atol
 
 if TYPE_CHECKING:
     from ...fmi.fmumodel import FmuModel
@@ -41,11 +40,13 @@ __all__ = ["UNIT", "FrameParams", "frame_pack", "storey_index"]
 
 
 def fmus() -> tuple[FmuModel, ...]:
-    """The frame's FMU, ShearFrame (its TMD's FMU is the paper's TMDInerter, which ``base_tmd`` declares),
-    imported on the first call: importing the unit stays cheap."""
+    """The frame's FMUs, ShearFrame (its TMD's FMU is the paper's TMDInerter, which ``base_tmd`` declares) and
+    FrameSystem (the frame with its TMD-inerter in one FMU, co-simulation and Model Exchange), imported on the
+    first call: importing the unit stays cheap."""
+    from .fmus.frame_system import FMU as FRAME_SYSTEM
     from .fmus.shear_frame import FMU
 
-    return (FMU,)
+    return (FMU, FRAME_SYSTEM)
 
 
 def _n_state(frame: FrameParams) -> int:
@@ -54,13 +55,10 @@ def _n_state(frame: FrameParams) -> int:
 
 def _atol(frame: FrameParams, tmd: TMDParams, omega: float, atol_scale: float) -> NDArray[np.float64]:
     """The paper's rule per storey: atol_scale times the static deflection bound F / K (rates: times
-    the larger of w and the fastest storey's sqrt(K_i / M_i)); the play chain's as the paper's."""
-    xs = abs(frame.force_amplitude) / frame.stiffness
-    xs = xs if xs > 0 else 1e-3
-    wn = max(omega, frame.natural_frequency, 1.0)
-    a = atol_scale * xs
-    atol = np.tile([a, a * wn], frame.n + 2)
-    tmd_atol(atol, frame.force_amplitude, tmd)
+    the larger of w and the fastest storey's sqrt(K_i / M_i)); the play chain's as the paper's
+    (:func:`.tolerances.frame_atol`)."""
+    atol = np.empty(_n_state(frame))
+    frame_atol(frame_pack(frame, tmd, omega), atol_scale, atol)
     return atol
 
 
@@ -73,20 +71,6 @@ def _inerter_force(z: NDArray[np.float64], p: NDArray[np.float64]) -> float:
     sx = storey_index(s, n)
     zt = np.array([z[sx], z[sx + 1], z[2], z[3], z[4], z[5]])
     return float(inerter_force(zt, f[storey_index(j, n) + 1] if j > 0 else 0.0, p))
-
-
-FRAME = OdeModel(
-    name="frame",
-    rhs=frame_rhs,
-    jacobian=frame_jacobian,
-    switching=frame_switching,
-    mode=contact_mode_index,
-    n_switches=3,
-    n_modes=3,
-    switch_tolerance=(-1, 4, 4),
-    state_names=("x_top", "xd_top", "y", "yd", "d", "dd"),
-    describe=bind_describe(mode_describer(True, 4), frame_switching),
-)
 
 
 def _active(frame: FrameParams, tmd: TMDParams) -> list[int]:

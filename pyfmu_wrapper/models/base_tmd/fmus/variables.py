@@ -11,6 +11,9 @@ value buffers through :meth:`~pyfmu_wrapper.fmi.varspec.FmuSpec.vr`. What a decl
 
 from __future__ import annotations
 
+from dataclasses import replace
+from typing import Any
+
 from ....fmi.varspec import INTEGER, REAL, FmuSpec, Variable, parameter
 from ....physics import registry
 
@@ -286,4 +289,76 @@ TMD_INERTER = FmuSpec(
         ),
     )
     + _integrator(exact=False),
+)
+
+
+# --- TMDSystem: the base with its TMD-inerter in one FMU (co-simulation and Model Exchange) ----------------
+
+#: the TMD's registry parameters sit at these value references in TMDSystem (its own are the base's)
+SYSTEM_TMD_VR = 100
+
+
+def _system_variables() -> tuple[Variable, ...]:
+    """TMDSystem's table: BaseOscillator's and TMDInerter's parameters, start values and outputs under their
+    names (the TMD's parameters moved to value references from :data:`SYSTEM_TMD_VR`, the base's outputs x,
+    xd, xdd where both have one), the chain's states d, dd, the states' derivatives and the event indicators
+    (Model Exchange), the coupled integrator's tolerances."""
+    base = {v.name: v for v in BASE_OSCILLATOR.variables}
+    tmd = {v.name: v for v in TMD_INERTER.variables}
+
+    def out(v: Variable) -> Variable:  # an output of the system: no inputs, computed from the state
+        return replace(v, depends_on=(), dependencies_kind=(), initial_depends_on=None)
+
+    def local(name: str, vr: int, unit: str | None, doc: str, **kw: Any) -> Variable:
+        return Variable(
+            name=name, vr=vr, type=REAL, causality="local", variability="continuous", description=doc, unit=unit,
+            initial="calculated", **kw,
+        )  # fmt: skip
+
+    states = (("x", "m"), ("xd", "m/s"), ("y", "m"), ("yd", "m/s"), ("d", "m"), ("dd", "m/s"))
+    rate = {"m": "m/s", "m/s": "m/s2"}
+    return (
+        *(base[p.fmu_name] for p in registry.of("base")),
+        *(replace(tmd[p.fmu_name], vr=SYSTEM_TMD_VR + p.fmu_vr) for p in registry.of("tmd")),
+        base["x0"],
+        base["xd0"],
+        *(tmd[n] for n in ("y0", "yd0", "d0", "dd0")),
+        *(out(base[n]) for n in ("x", "xd", "xdd", "f_exc", "xdd_free")),
+        *(out(tmd[n]) for n in ("force", "y", "yd", "inerter_force", "contact")),
+        local("d", 45, "m", "play-chain deflection d = r - y (a state; 0 unless the inerter has play)"),
+        local("dd", 46, "m/s", "play-chain deflection rate (a state; 0 unless the inerter has play)"),
+        *(
+            local(f"der({n})", 50 + i, rate[u], f"time derivative of the state {n}", derivative_of=n)
+            for i, (n, u) in enumerate(states)
+        ),
+        local(
+            "g_friction", 60, "m/s", "event indicator: the friction's relative velocity xd - yd (1 without friction)",
+            event_indicator=True,
+        ),
+        local(
+            "g_compression", 61, "m", "event indicator: d - eps, the gear's contact in compression (1 without a gap)",
+            event_indicator=True,
+        ),
+        local(
+            "g_extension", 62, "m", "event indicator: d + eps, the gear's contact in extension (1 without a gap)",
+            event_indicator=True,
+        ),
+        parameter(
+            "rtol", 90, 1e-8, None, "relative tolerance of the coupled RODAS4 integrator inside doStep (> 0, <= 1; "
+            "co-simulation only: in Model Exchange the host integrates)", min=0.0, max=1.0, min_exclusive=True,
+        ),
+        parameter(
+            "atol", 91, 1e-7, None, "absolute tolerance of that integrator as a fraction of the static deflection "
+            "F/K (rates scaled by the natural frequency; the monolithic solver's atol_scale; > 0)",
+            min=0.0, min_exclusive=True,
+        ),
+    )  # fmt: skip
+
+
+TMD_SYSTEM = FmuSpec(
+    model_name="TMDSystem",
+    model_identifier="TMDSystem",
+    description="Base oscillator of Brzeski & Perlikowski (2017) with its TMD-inerter (none/ideal/with play, "
+    "friction, cubic spring) as one FMU: co-simulation and Model Exchange",
+    variables=_system_variables(),
 )
