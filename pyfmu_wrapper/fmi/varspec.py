@@ -128,6 +128,10 @@ class FmuSpec:
     provides_directional_derivative: bool = True
     default_step: float = 1e-3
     extra: dict[str, Any] = field(default_factory=dict)
+    #: the highest value reference of the binary's value space when it is above every declared one (a native
+    #: FMU's table without its test hook: the compiled code still addresses the hook's value reference, so
+    #: the FMI 3.0 ``time`` and input-derivative value references come after it); None: the highest declared
+    vr_top: int | None = None
 
     def __post_init__(self) -> None:
         names = [v.name for v in self.variables]

@@ -101,7 +101,8 @@ def shipped_spec(spec: FmuSpec, test_hooks: bool = False) -> FmuSpec:
     (``test_hooks``: with them, the test build)."""
     if test_hooks:
         return spec
-    return dataclasses.replace(spec, variables=tuple(v for v in spec.variables if v.name not in TEST_HOOKS))
+    kept = tuple(v for v in spec.variables if v.name not in TEST_HOOKS)
+    return dataclasses.replace(spec, variables=kept, vr_top=max(v.vr for v in spec.variables))
 
 
 def native_variable_table(fmu: FmuModel, test_hooks: bool = False) -> str:
