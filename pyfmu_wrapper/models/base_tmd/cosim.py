@@ -57,7 +57,7 @@ from .fmus.tmd_inerter import FMU as TMD_INERTER
 
 CONNECTIONS = ("base.x -> tmd.x", "base.xd -> tmd.xd", "base.xdd -> tmd.xdd", "tmd.force -> base.f_link")
 RECORD = ("tmd.y", "tmd.yd")
-#: smallest absolute tolerance [m] given to the FMUs: with no forcing (F = 0) the scale 1e-8 F/K is 0,
+#: smallest absolute tolerance [m] given to the FMUs: with no forcing (F = 0) the scale FMU_ATOL_SCALE F/K is 0,
 #: which the FMUs refuse (atol must be > 0); any forced configuration of the paper is far above it
 ATOL_FLOOR = 1e-14
 

@@ -64,7 +64,7 @@ CONNECTIONS = (
 )
 #: the pendulum's outputs the engine reads besides the connected ones (its angle and rate: the shot states)
 RECORD = ("pendulum.th", "pendulum.thd", "pendulum.y", "pendulum.yd")
-#: smallest absolute tolerance [m] given to the FMUs (with F = 0 the scale 1e-8 F/K is 0, which they refuse)
+#: smallest absolute tolerance [m] given to the FMUs (with F = 0 the scale FMU_ATOL_SCALE F/K is 0, which they refuse)
 ATOL_FLOOR = 1e-14
 
 
