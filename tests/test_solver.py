@@ -226,9 +226,7 @@ def test_hermite_maximum_between_samples():
 def test_shooting_finds_the_fixed_point_of_an_affine_period_map():
     """The one shooting of both engines on z -> A z + b (a damped rotation, as a linear period map
     is): the fixed point (I - A)^-1 b to 1e-12 after one finite-difference Jacobian (4 periods) and
-    three map calls (the start, the Newton step from it, and the period whose residual asks for a
-    correction below the tolerance: no fourth call to confirm it); a map with a multiplier of 1 (no
-    isolated orbit) is reported as None."""
+    three Newton steps (4 map calls); a map with a multiplier of 1 (no isolated orbit) is reported as None."""
     from pyfmu_wrapper.solvers.shooting import shoot
 
     th, r = 0.7, 0.9
@@ -238,5 +236,5 @@ def test_shooting_finds_the_fixed_point_of_an_affine_period_map():
     res = shoot(lambda z: (A @ z + b, float(abs(z[0]))), np.zeros(4), np.ones(4), 1e-10)
     exact = np.linalg.solve(np.eye(4) - A, b)
     np.testing.assert_allclose(res.z, exact, rtol=0, atol=1e-12)
-    assert res.periods == 4 + 3 and res.amplitude == pytest.approx(abs(exact[0]))
+    assert res.periods == 4 + 4 and res.amplitude == pytest.approx(abs(exact[0]))
     assert shoot(lambda z: (z + np.array([1e-3, 0, 0, 0]), 0.0), np.zeros(4), np.ones(4), 1e-10) is None

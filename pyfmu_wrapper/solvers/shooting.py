@@ -7,10 +7,8 @@ monodromy matrix, taken from the previous frequency of a sweep when given, else 
 differences (one period per state), and refreshed by Broyden updates; a fresh finite-difference
 Jacobian is computed when the iteration stops contracting.
 
-Converged when the Newton correction is below ``tol`` and the residual below 10 ``tol``, both relative
-to max(|z_i|, scale_i) per state: the correction just taken, or the one the last residual asks for (then
-the period just integrated is the answer, and no period more is run to confirm it: with a good Jacobian,
-a linear configuration's period map converges in two periods).
+Converged when the last Newton correction is below ``tol`` and the residual below 10 ``tol``,
+both relative to max(|z_i|, scale_i) per state.
 """
 
 from __future__ import annotations
@@ -85,9 +83,6 @@ def shoot(
             return None
         if not np.all(np.isfinite(delta)):
             return None
-        step = float(np.max(np.abs(delta) / zmag))
-        if step <= tol and res <= 10 * tol:  # the correction this residual asks for is within the tolerance
-            return ShootingResult(z, zT, float(amp), periods, max(step, res), J)
         z = z + delta
         g_old, s_old, res_old = g, delta, res
         last_change = float(np.max(np.abs(delta) / zmag))
