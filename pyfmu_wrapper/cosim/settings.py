@@ -16,9 +16,7 @@ from ..solvers.steady import SteadySettings
 
 #: the absolute tolerance of the integrators inside the FMUs (parameter ``atol``), as a fraction of the structure's
 #: static deflection |F|/K: the monolithic engine's (its ``atol_scale`` default), so that both engines integrate the
-#: absorber to the same tolerance. (It was 1e-8, 100 times tighter than the monolithic engine's: the TMD FMU then
-#: took more integrator steps per period than the monolithic engine did for the whole system, and Case 1's play
-#: curves co-simulated 1.5 times slower; at 1e-6 they are faster than the monolithic engine and as close to it.)
+#: absorber to the same tolerance (a tighter one only costs the FMU integrator steps the coupling error swamps).
 FMU_ATOL_SCALE: float = _table.default("atol_scale", MONO)
 
 

@@ -256,8 +256,7 @@ class Instance:
 
     def set_values(self, values: dict[str, Any]) -> None:
         """:meth:`set_value` of each ``name: value``, the real ones in one call (a restart sets every parameter
-        again: one call each cost a shooting step of a 20-storey frame more than its period took); on a failure
-        they are set one by one, so that the error names the variable."""
+        again); on a failure they are set one by one, so that the error names the variable."""
         vrs: list[int] = []
         reals: list[float] = []
         others: list[tuple[str, Any]] = []
