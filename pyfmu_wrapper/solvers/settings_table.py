@@ -123,9 +123,11 @@ SETTINGS: tuple[Setting, ...] = (
     _s(
         "tol_window",
         "number",
-        {MONO: 1e-4, COSIM: 1e-4},
+        {MONO: 1e-4, COSIM: 1e-3},
         "1",
-        "agreement of two window maxima (window > 1), relative (0: never settled, for fixed-length runs)",
+        "agreement of two window maxima (window > 1), relative (0: never settled, for fixed-length runs); "
+        "co-simulation 1e-3, below its amplitude accuracy with a gear gap (2.5e-3): its coupling error makes "
+        "the rattle's window maxima scatter by about 1e-3",
         minimum=0.0,
         maximum=0.5,
     ),
