@@ -341,7 +341,8 @@ def test_settings_used_by_each_engine(tmp_path):
     assert both["solver"]["rtol"] == 1e-7 and both["cosim"]["accuracy"] == 1e-4
     for u in (mono, co, both):
         assert u["sweep"] == {"direction": "down", "continuation": True}
-    assert co["cosim"]["tol_window"] == CosimSettings().tol_window and co["cosim"]["max_periods"] > 0  # defaults filled in
+    assert co["cosim"]["tol_window"] == CosimSettings().tol_window  # defaults filled in
+    assert co["cosim"]["max_periods"] > 0
     assert RunSettings.for_scenario(scn, engine="cosim").directions() == ["down"]
     with pytest.raises(ValueError):
         RunSettings.for_scenario(scn, engine="nope")
