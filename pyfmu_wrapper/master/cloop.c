@@ -11,6 +11,10 @@
    (History.weights, cached in Python): the loop looks them up by the exact time offsets of the
    history points and returns CL_NEED_WEIGHTS when it meets offsets it has not been given.
 
+   The start-up steps (fewer known points than order + 1, Stepper.step in Python) are iterated
+   here too when every FMU can get and set its state: taken, rolled back with fmi2SetFMUstate and
+   taken again with the polynomial through the known points and the point just found.
+
    Return: CL_DONE (all steps taken), CL_NEED_WEIGHTS, CL_FMU_ERROR (status > fmi2Warning of
    one call: which instance, which call, the status; the step is not completed). */
 #include <stdint.h>
@@ -25,6 +29,9 @@ typedef int (*set_real_t)(void *, const unsigned int *, size_t, const double *);
 typedef int (*get_real_t)(void *, const unsigned int *, size_t, double *);
 typedef int (*set_der_t)(void *, const unsigned int *, size_t, const int *, const double *);
 typedef int (*do_step_t)(void *, double, double, int);
+typedef int (*get_state_t)(void *, void **);
+typedef int (*set_state_t)(void *, void *);
+typedef int (*free_state_t)(void *, void **);
 
 typedef struct {
     void *comp;
@@ -45,6 +52,10 @@ typedef struct {
     int64_t rate_ready;
     double time_in; /* seconds inside this FMU's calls (when timing) */
     int64_t calls;
+    get_state_t get_state; /* fmi2GetFMUstate, fmi2SetFMUstate, fmi2FreeFMUstate (start-up rollback) */
+    set_state_t set_state;
+    free_state_t free_state;
+    void *fmu_state; /* the state saved at the start of a start-up step (NULL: none) */
 } cl_inst;
 
 typedef struct {
@@ -63,6 +74,9 @@ typedef struct {
     double need_x0, need_x1;
     int64_t err_inst, err_func, err_status;
     double loop_time; /* seconds in this function */
+    int64_t startup_iters; /* iterations of a start-up step (0: none, the FMUs cannot roll back) */
+    int64_t probe;         /* a start-up step that will be rolled back: the rate memory is kept */
+    double *ysave, *yit;   /* (nsig) the signals at the start of a start-up step, after an iteration */
 } cl_ctx;
 
 static inline double now(void)
@@ -189,13 +203,15 @@ static int step_rate(cl_ctx *c, cl_inst *ins)
                 slope = 0.0 * mean;
             }
             s->slope[q] = slope;
-            s->rate_prev[q] = mean; /* read above before being replaced, as in Python */
+            if (!c->probe)
+                s->rate_prev[q] = mean; /* read above before being replaced, as in Python */
             int64_t pos = s->rate_pos[q];
             s->in_val[pos] = mean - c->half_h * slope;
             s->der_val[pos] = slope;
             s->der_val[nd + pos] = 0.0;
         }
-        s->rate_ready = 1;
+        if (!c->probe)
+            s->rate_ready = 1;
         if (nd) {
             CALL(c, s, i, 0, s->set_real(s->comp, s->in_vr, (size_t)nd, s->in_val));
             if (s->rate_orders && s->set_der)
@@ -323,6 +339,73 @@ static int derivatives(cl_ctx *c)
     return 1;
 }
 
+static int advance_once(cl_ctx *c, cl_inst *ins)
+{
+    return c->scheme == 1 ? step_rate(c, ins) : step_jacobi(c, ins);
+}
+
+static void free_saved(cl_inst *ins, int64_t n_inst)
+{
+    for (int64_t i = 0; i < n_inst; i++)
+        if (ins[i].fmu_state) {
+            ins[i].free_state(ins[i].comp, &ins[i].fmu_state);
+            ins[i].fmu_state = NULL;
+        }
+}
+
+/* One start-up step (k <= order known points; d1, d2 from them), iterated startup_iters times
+   with rollback as Stepper.step does: the polynomial of each new iteration passes through the
+   known points and the point the previous iteration found (Lagrange weights, summed left to right). */
+static int startup_body(cl_ctx *c, cl_inst *ins, int64_t k)
+{
+    int r;
+    int64_t nsig = c->nsig;
+    for (int64_t i = 0; i < c->n_inst; i++)
+        CALL(c, &ins[i], i, 4, ins[i].get_state(ins[i].comp, &ins[i].fmu_state));
+    memcpy(c->ysave, c->y, (size_t)nsig * sizeof(double));
+    for (int64_t it = 0; it <= c->startup_iters; it++) {
+        if (it) {
+            memcpy(c->yit, c->y, (size_t)nsig * sizeof(double));
+            for (int64_t i = 0; i < c->n_inst; i++)
+                CALL(c, &ins[i], i, 5, ins[i].set_state(ins[i].comp, ins[i].fmu_state));
+            memcpy(c->y, c->ysave, (size_t)nsig * sizeof(double));
+            double s[3], v1[3], v2[3];
+            int64_t np = k + 1;
+            for (int64_t p = 0; p < k; p++)
+                s[p] = c->hist_t[3 - k + p] - c->t;
+            s[k] = c->h;
+            lagrange(s, np, v1, v2);
+            for (int64_t j = 0; j < nsig; j++) {
+                double a1 = 0.0, a2 = 0.0;
+                for (int64_t p = 0; p < np; p++) {
+                    double pt = p < k ? c->hist_y[(3 - k + p) * nsig + j] : c->yit[j];
+                    if (p == 0) {
+                        a1 = v1[0] * pt;
+                        a2 = v2[0] * pt;
+                    } else {
+                        a1 = a1 + v1[p] * pt;
+                        a2 = a2 + v2[p] * pt;
+                    }
+                }
+                c->d1[j] = a1;
+                c->d2[j] = a2;
+            }
+        }
+        c->probe = it < c->startup_iters;
+        if ((r = advance_once(c, ins)))
+            return r;
+    }
+    return CL_DONE;
+}
+
+static int startup_step(cl_ctx *c, cl_inst *ins, int64_t k)
+{
+    int r = startup_body(c, ins, k);
+    c->probe = 0;
+    free_saved(ins, c->n_inst);
+    return r;
+}
+
 int cl_run(cl_ctx *c, cl_inst *ins, int64_t n_steps, double *rec_t, double *rec_y)
 {
     double t_start = now();
@@ -334,8 +417,11 @@ int cl_run(cl_ctx *c, cl_inst *ins, int64_t n_steps, double *rec_t, double *rec_
             r = CL_NEED_WEIGHTS;
             break;
         }
+        int64_t k = c->hist_n < c->order + 1 ? c->hist_n : c->order + 1;
         if (c->scheme == 2)
             r = step_gauss_seidel(c, ins);
+        else if (k <= c->order && c->startup_iters > 0)
+            r = startup_step(c, ins, k);
         else if (c->scheme == 1)
             r = step_rate(c, ins);
         else
@@ -403,6 +489,9 @@ typedef struct {
     int64_t n_der; /* 2 n_in when the FMU declares der(u) and der(u,2) of its inputs, else 0 */
     const unsigned int *der_vr;
     const double *zeros; /* n_der zeros */
+    get_state_t getst;   /* fmi3GetFMUState, fmi3SetFMUState, fmi3FreeFMUState (same shapes as FMI 2.0's) */
+    set_state_t setst;
+    free_state_t freest;
 } cl_fmi3;
 
 int cl_f3_set_real(void *p, const unsigned int *vr, size_t n, const double *v)
@@ -435,4 +524,22 @@ int cl_f3_do_step(void *p, double t, double h, int no_set)
     _Bool event = 0, terminate = 0, early = 0;
     double last = 0.0;
     return f->step(f->inst, t, h, no_set != 0, &event, &terminate, &early, &last);
+}
+
+int cl_f3_get_state(void *p, void **state)
+{
+    cl_fmi3 *f = (cl_fmi3 *)p;
+    return f->getst(f->inst, state);
+}
+
+int cl_f3_set_state(void *p, void *state)
+{
+    cl_fmi3 *f = (cl_fmi3 *)p;
+    return f->setst(f->inst, state);
+}
+
+int cl_f3_free_state(void *p, void **state)
+{
+    cl_fmi3 *f = (cl_fmi3 *)p;
+    return f->freest(f->inst, state);
 }

@@ -11,9 +11,10 @@ The loop returns to Python at the end of a block (the caller records in prealloc
 when it meets history time offsets whose extrapolation weights it has not been given (the master's
 own :meth:`~.extrapolation.History.weights`, so the cache behaves as on the Python path) and on an
 FMU error (status > fmi2Warning: the master raises the same :class:`~.instance.MasterError`
-with the FMU's own message as the Python path). What it does not cover stays in Python: the
-``loop`` scheme on a system with algebraic loops (Newton with directional derivatives), the
-start-up iterations with rollback, adaptive steps.
+with the FMU's own message as the Python path). The start-up steps after an initialisation (fewer known points than order + 1) are
+iterated with rollback there as well (fmi2GetFMUstate / fmi2SetFMUstate), as
+:meth:`.schemes.Stepper.step` does. What it does not cover stays in Python: the ``loop`` scheme on
+a system with algebraic loops (Newton with directional derivatives), adaptive steps.
 
 It also measures, per FMU, the time spent inside its fmi2 calls (``timing``).
 """
@@ -25,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from .instance import MasterError
+from .instance import MasterError, address_of
 
 if TYPE_CHECKING:
     from .instance3 import Instance3
@@ -78,6 +79,9 @@ class CompiledLoop:
                 s.get_real = ins.raw_address("fmi2GetReal")
                 s.set_der = ins.raw_address("fmi2SetRealInputDerivatives")
                 s.do_step = ins.raw_address("fmi2DoStep")
+                states = ins.state_addresses()
+                if states is not None:
+                    s.get_state, s.set_state, s.free_state = states
             s.n_in, s.n_out = ins.n_in, ins.n_out
             arrays = dict(
                 in_vr=ins.in_vr,
@@ -105,7 +109,9 @@ class CompiledLoop:
             s.phase = 2 if id(ins) in phase2 else 1
         c = self.ctx = Ctx()
         c.n_inst, c.nsig = n, nsig
-        self.work = {k: np.zeros(max(1, nsig)) for k in ("y0", "d1", "d2", "pred", "ynew")}
+        #: the start-up steps roll back in C when every FMU gives its state functions
+        self.can_rollback = all(bool(self.insts[k].get_state) for k in range(n))
+        self.work = {k: np.zeros(max(1, nsig)) for k in ("y0", "d1", "d2", "pred", "ynew", "ysave", "yit")}
         self.stepped = np.zeros(max(1, nsig), dtype=np.uint8)
         for name, a in self.work.items():
             setattr(c, name, _addr(a))
@@ -133,6 +139,16 @@ class CompiledLoop:
         self._keep += [f, der, zeros]
         s.comp = ctypes.addressof(f)
         lib = self.lib
+        if ins.can_state:
+            try:
+                f.getst, f.setst, f.freest = (address_of(getattr(ins.slave.dll, n)) for n in ins.STATE_CALLS)
+            except (AttributeError, MasterError):
+                pass
+            else:
+                s.get_state, s.set_state, s.free_state = (
+                    ctypes.cast(getattr(lib, n), ctypes.c_void_p).value
+                    for n in ("cl_f3_get_state", "cl_f3_set_state", "cl_f3_free_state")
+                )
         s.set_real = ctypes.cast(lib.cl_f3_set_real, ctypes.c_void_p).value
         s.get_real = ctypes.cast(lib.cl_f3_get_real, ctypes.c_void_p).value
         s.set_der = ctypes.cast(lib.cl_f3_set_der, ctypes.c_void_p).value if der.size else None
@@ -176,6 +192,8 @@ class CompiledLoop:
             )
         c.scheme = SCHEME_CODE[scheme]
         c.order = st.order
+        c.startup_iters = st.startup_iterations if (st.can_rollback and self.can_rollback) else 0
+        c.probe = 0
         c.timing = int(self.timing)
         c.t, c.h, c.h_prev = m.t, h, st.h_prev
         c.half_h, c.hh2, c.h3 = 0.5 * h, 0.5 * h * h, h**3

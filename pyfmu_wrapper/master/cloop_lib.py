@@ -63,6 +63,10 @@ class Inst(ctypes.Structure):
         ("rate_ready", _i64),
         ("time_in", _dbl),
         ("calls", _i64),
+        ("get_state", _vp),
+        ("set_state", _vp),
+        ("free_state", _vp),
+        ("fmu_state", _vp),
     ]
 
 
@@ -105,6 +109,10 @@ class Ctx(ctypes.Structure):
         ("err_func", _i64),
         ("err_status", _i64),
         ("loop_time", _dbl),
+        ("startup_iters", _i64),
+        ("probe", _i64),
+        ("ysave", _vp),
+        ("yit", _vp),
     ]
 
 
@@ -119,6 +127,9 @@ class Fmi3(ctypes.Structure):
         ("n_der", _i64),
         ("der_vr", _vp),
         ("zeros", _vp),
+        ("getst", _vp),
+        ("setst", _vp),
+        ("freest", _vp),
     ]
 
 
@@ -173,7 +184,15 @@ def library() -> CDLL:
         lib.cl_run.restype = ctypes.c_int
         lib.cl_plain.argtypes = [ctypes.POINTER(Inst), _i64, _dbl, _dbl, _i64]
         lib.cl_plain.restype = ctypes.c_int
-        for name in ("cl_f3_set_real", "cl_f3_set_der", "cl_f3_get_real", "cl_f3_do_step"):
+        for name in (
+            "cl_f3_set_real",
+            "cl_f3_set_der",
+            "cl_f3_get_real",
+            "cl_f3_do_step",
+            "cl_f3_get_state",
+            "cl_f3_set_state",
+            "cl_f3_free_state",
+        ):
             getattr(lib, name).restype = ctypes.c_int
         _lib = lib
     return _lib

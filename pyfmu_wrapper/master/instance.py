@@ -173,7 +173,26 @@ class Instance:
     # --- lean calls -------------------------------------------------------------------------
     #: the lean calls, in the numbering of the compiled loop's error report (:mod:`.cloop`)
     fmi_version = 2
-    LEAN_CALLS = ("fmi2SetReal", "fmi2SetRealInputDerivatives", "fmi2DoStep", "fmi2GetReal")
+    LEAN_CALLS = (
+        "fmi2SetReal",
+        "fmi2SetRealInputDerivatives",
+        "fmi2DoStep",
+        "fmi2GetReal",
+        "fmi2GetFMUstate",
+        "fmi2SetFMUstate",
+    )
+    STATE_CALLS = ("fmi2GetFMUstate", "fmi2SetFMUstate", "fmi2FreeFMUstate")
+
+    def state_addresses(self) -> tuple[int, int, int] | None:
+        """Addresses of the FMU's get / set / free state functions (:data:`STATE_CALLS`), for the
+        compiled loop's start-up rollback; None if the FMU cannot get and set its state."""
+        if not self.can_state:
+            return None
+        try:
+            got = tuple(address_of(getattr(self.slave.dll, n)) for n in self.STATE_CALLS)
+        except (AttributeError, MasterError):
+            return None
+        return got[0], got[1], got[2]
 
     def failure(self, call: str, status: int = 3, t: float = 0.0, h: float = 0.0) -> MasterError:
         """The error of a failed lean call (status > fmi2Warning); a failed doStep says where and

@@ -49,7 +49,14 @@ class Instance3(Instance):
     REAL_TYPE = "Float64"
 
     fmi_version = 3
-    LEAN_CALLS = ("fmi3SetFloat64", "fmi3SetFloat64", "fmi3DoStep", "fmi3GetFloat64")
+    LEAN_CALLS = (
+        "fmi3SetFloat64",
+        "fmi3SetFloat64",
+        "fmi3DoStep",
+        "fmi3GetFloat64",
+        "fmi3GetFMUState",
+        "fmi3SetFMUState",
+    )
 
     def __init__(
         self, name: str, path: Path, md: ModelDescription, unzipdir: str
@@ -130,6 +137,8 @@ class Instance3(Instance):
 
     def raw_address(self, name: str) -> int:
         raise MasterError(f"{self.name}: an FMI 3.0 instance has no {name} (the compiled loop uses raw3_address)")
+
+    STATE_CALLS = ("fmi3GetFMUState", "fmi3SetFMUState", "fmi3FreeFMUState")
 
     def raw3_address(self, name: str) -> int:
         """Address of the raw fmi3 function ``name``, for the compiled loop's adapters."""

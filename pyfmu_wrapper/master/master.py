@@ -255,14 +255,15 @@ class Master:
         return self._cloop
 
     def _startup_step(self) -> bool:
-        """Whether the next step is a start-up step iterated with rollback (Python only)."""
+        """Whether the next step is a start-up step iterated with rollback."""
         st = self.stepper
         k = min(self.history.n, st.order + 1)
         return st.scheme != "gauss-seidel" and k <= st.order and st.startup_iterations > 0 and st.can_rollback
 
     def advance(self, n: int, h: float, rec_t: np.ndarray | None = None, rec_y: np.ndarray | None = None) -> None:
         """n communication steps of size h [s], the same as n calls of :meth:`step` (bit for bit),
-        in the compiled loop where it applies (after the start-up steps, which stay in Python).
+        in the compiled loop where it applies (its start-up steps included, when every FMU gives its
+        state functions to the loop; else those stay in Python).
         rec_t, rec_y: if given, arrays of at least n rows (rec_y: C-contiguous, one column per
         signal) that receive t and the signals after every step."""
         n = int(n)
@@ -270,7 +271,7 @@ class Master:
             raise ValueError("rec_t and rec_y are given together or not at all")
         i = 0
         loop = self._compiled_loop()
-        while i < n and (loop is None or self._startup_step()):
+        while i < n and (loop is None or (self._startup_step() and not loop.can_rollback)):
             t0 = time.perf_counter()
             self.step(h)
             self.python_seconds += time.perf_counter() - t0

@@ -96,7 +96,7 @@ class Stepper:
                         s_pts = np.concatenate([hist.t[3 - k :] - t, [h]])[-(self.order + 1) :]
                         pts = np.vstack([hy, ynew[None, :]])[-(self.order + 1) :]
                         v1, v2 = lagrange_weights(s_pts)
-                        d1, d2 = v1 @ pts, v2 @ pts
+                        d1, d2 = combine(v1, pts), combine(v2, pts)
                     self.startup_probe = it < self.startup_iterations
                     self.advance(t, h, d1, d2)
             finally:
