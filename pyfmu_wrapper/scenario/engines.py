@@ -259,6 +259,31 @@ def prepare_cosim(structures: Iterable[Any], settings: RunSettings) -> list[str]
     return names
 
 
+def peak_refiner(base: Any, tmd: TMDParams, settings: RunSettings) -> tuple[Callable[..., Any] | None, bool]:
+    """How a curve's peak is refined between its grid points (:func:`.sweeptable.find_peaks`): (amplitudes at
+    given frequencies, whether only the curve's highest maximum is refined), or (None, False): not refined.
+
+    * the monolithic engine's linear configurations: the exact response at every local maximum;
+    * the co-simulation's linear configurations (one periodic state per frequency): the co-simulation itself at
+      extra frequencies around the curve's highest maximum only (each evaluation is a co-simulated steady state;
+      a point that does not converge counts as no amplitude);
+    * a nonlinear configuration is not refined: its response may jump or rattle between grid points, where a
+      point solved alone need not be on the curve's branch (its peak is the grid's)."""
+    if uses_exact(base, tmd, settings):
+        return (lambda x: exact_amplitude(base, tmd, x)), False
+    if settings.engine == "cosim" and MODELS.of(base).is_linear(base, tmd):
+        cs = _cosim_settings(settings)
+        sweep = _cosim_system(base)
+
+        def cosim_amplitude(x: Any) -> Any:
+            t = sweep(base, tmd, np.asarray(x, dtype=float), settings=cs)
+            a = t["amplitude"].to_numpy(dtype=float)
+            return np.where(t["converged"].to_numpy(dtype=bool), a, np.nan)
+
+        return cosim_amplitude, True
+    return None, False
+
+
 def _cosim_system(base: Any) -> Callable[..., pd.DataFrame]:
     """The co-simulation sweep of a structure's model (:func:`cosim_engine`)."""
     sweep: Callable[..., pd.DataFrame] = cosim_engine(base).sweep

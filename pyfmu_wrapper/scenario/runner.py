@@ -17,8 +17,15 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import pandas as pd
 
-from ..models.solve import exact_amplitude
-from .engines import BLOCK_USERS, RunSettings, compute_sweep, compute_time_series, prepare_cosim, uses_exact
+from .engines import (
+    BLOCK_USERS,
+    RunSettings,
+    compute_sweep,
+    compute_time_series,
+    peak_refiner,
+    prepare_cosim,
+    uses_exact,
+)
 from .executors import run_tasks
 from .schema import Curve, FRCStudy, MapStudy, PhasePortraitStudy, Scenario
 from .sweeptable import engine_differences, find_peaks, sweep_diagnostics
@@ -219,14 +226,11 @@ def frc_response(
         table = table.copy()
         table.insert(0, "curve", curve.label)
         parts.append(table)
-        refine = (
-            (lambda x, tmd=curve.tmd, base=base: exact_amplitude(base, tmd, x))
-            if uses_exact(base, curve.tmd, settings)
-            else None
-        )
+        refine, highest_only = peak_refiner(base, curve.tmd, settings)
         peaks[curve.label] = {}
         for d, td in table.groupby("direction", sort=False):
-            peaks[curve.label][d] = dict(find_peaks(td["omega"], td["amplitude"], refine), **sweep_diagnostics(td))
+            found = find_peaks(td["omega"], td["amplitude"], refine, highest_only=highest_only)
+            peaks[curve.label][d] = dict(found, **sweep_diagnostics(td))
             peaks[curve.label][d].update(engine_differences(td))
     return FRCData(
         study,

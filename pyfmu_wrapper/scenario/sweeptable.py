@@ -59,11 +59,16 @@ def with_sweep_columns(table: pd.DataFrame) -> pd.DataFrame:
     return table[list(SWEEP_COLUMNS)]
 
 
-def find_peaks(omegas: Series, amplitudes: Series, refine: Callable[..., Any] | None = None) -> dict:
-    """Peak summary of one curve: global maximum and the interior local maxima.
+def find_peaks(
+    omegas: Series, amplitudes: Series, refine: Callable[..., Any] | None = None, highest_only: bool = False
+) -> dict:
+    """Peak summary of one curve: global maximum and the interior local maxima (``refined``: whether the
+    global maximum was located between grid points).
 
-    refine: optional callable(omegas array) -> amplitudes for a smooth (exact) curve; each local
-    maximum is then located to 1e-9 rad/s between its grid neighbours instead of on the grid.
+    refine: optional callable(omegas array) -> amplitudes for a curve with one state per frequency (the
+    exact response, a linear co-simulation); each local maximum (``highest_only``: the highest one) is then
+    located between its grid neighbours (to 1e-9 rad/s; a co-simulated one to 1e-6 of its frequency) instead
+    of on the grid. A refined value below the grid's (or NaN: not converged) leaves the grid point.
     """
     w = np.asarray(omegas, float)
     a = np.asarray(amplitudes, float)
@@ -72,25 +77,33 @@ def find_peaks(omegas: Series, amplitudes: Series, refine: Callable[..., Any] | 
         return dict(peak_amplitude=None, peak_omega=None, local_maxima=[])
     w, a = w[finite], a[finite]
     local = []
-    for i in range(1, len(a) - 1):
-        if a[i] >= a[i - 1] and a[i] > a[i + 1]:
-            wi, ai = w[i], a[i]
-            if refine is not None:
-                r = minimize_scalar(
-                    lambda x: -float(refine(np.array([x]))[0]),
-                    bounds=(w[i - 1], w[i + 1]),
-                    method="bounded",
-                    options=dict(xatol=1e-9),
-                )
-                if -r.fun >= ai:
-                    wi, ai = float(r.x), float(-r.fun)
-            local.append(dict(omega=float(wi), amplitude=float(ai)))
+    interior = [i for i in range(1, len(a) - 1) if a[i] >= a[i - 1] and a[i] > a[i + 1]]
+    top = max(interior, key=lambda i: a[i]) if interior else -1
+    refined = False
+    for i in interior:
+        wi, ai = w[i], a[i]
+        if refine is not None and (i == top or not highest_only):
+
+            def neg(x: float, grid: float = float(ai)) -> float:
+                v = float(refine(np.array([x]))[0])
+                return -v if np.isfinite(v) else -grid
+
+            r = minimize_scalar(
+                neg,
+                bounds=(w[i - 1], w[i + 1]),
+                method="bounded",
+                options=dict(xatol=1e-6 * w[i] if highest_only else 1e-9),
+            )
+            if -r.fun >= ai:
+                wi, ai = float(r.x), float(-r.fun)
+                refined = refined or i == top
+        local.append(dict(omega=float(wi), amplitude=float(ai)))
     k = int(np.argmax(a))
     best = dict(omega=float(w[k]), amplitude=float(a[k]))
     for p in local:
         if p["amplitude"] >= best["amplitude"]:
             best = dict(p)
-    return dict(peak_amplitude=best["amplitude"], peak_omega=best["omega"], local_maxima=local)
+    return dict(peak_amplitude=best["amplitude"], peak_omega=best["omega"], local_maxima=local, peak_refined=refined)
 
 
 def sweep_diagnostics(t: pd.DataFrame) -> dict:
