@@ -251,7 +251,10 @@ def test_cosimulated_peak_is_refined_between_grid_points(tmd_kw):
     table = sweep(frame, tmd, w, settings=settings.cosim)
     refine, highest_only = peak_refiner(frame, tmd, settings)
     assert refine is not None and highest_only
-    peak = find_peaks(table["omega"], table["amplitude"], refine, highest_only=highest_only)
+    try:
+        peak = find_peaks(table["omega"], table["amplitude"], refine, highest_only=highest_only)
+    finally:
+        refine.close()
     k = int(np.argmax(table["amplitude"]))
     best = minimize_scalar(
         lambda x: -float(ref.top_amplitude(structure, lin, np.array([x]))[0]),

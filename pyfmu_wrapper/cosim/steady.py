@@ -327,6 +327,42 @@ def _time_series_of(
     return periodic_time_series(make_system(structure, tmd), omega, n_periods, samples_per_period, settings, master)
 
 
+class PointSolver:
+    """Co-simulated steady-state amplitudes at frequencies asked one call at a time, all on one master (built at
+    the first call) and one shooting hint, each started by continuation from the last converged point: the
+    amplitude function a linear curve's peak is refined with between its grid points
+    (:func:`pyfmu_wrapper.scenario.engines.peak_refiner`). A point that does not converge gives NaN. Call
+    :meth:`close` when done."""
+
+    def __init__(self, system: CosimSystem, settings: CosimSettings) -> None:
+        self.system, self.settings = system, settings
+        self.master: Master | None = None
+        self.hint: dict = {}
+        self.z: np.ndarray | None = None
+        self.w = math.nan
+
+    def __call__(self, omegas: ArrayLike) -> np.ndarray:
+        out = []
+        for w in np.atleast_1d(np.asarray(omegas, dtype=float)):
+            if self.master is None:
+                self.master = self.system.make_master(self.settings)
+            start = None if self.z is None else continuation_start(self.system, self.z, self.w, float(w))
+            ss = steady_state(self.master, self.system, float(w), start, self.settings, self.hint, restart=False)
+            if ss.converged:
+                self.z, self.w = ss.state, float(w)
+            out.append(ss.amplitude if ss.converged else math.nan)
+        return np.array(out)
+
+    def close(self) -> None:
+        if self.master is not None:
+            self.master.close()
+            self.master = None
+
+
+def _points_of(make_system: SystemFactory, structure: Any, tmd: Any, settings: CosimSettings) -> PointSolver:
+    return PointSolver(make_system(structure, tmd), settings)
+
+
 def _refusal_of(make_system: SystemFactory, structure: Any, tmd: Any, omegas: object, cap: int) -> str | None:
     return refusal(make_system(structure, tmd), omegas, cap)
 
@@ -346,4 +382,5 @@ def engine_of(make_system: SystemFactory, prepare: Callable[..., list[str]] | No
         refusal=partial(_refusal_of, make_system),
         steps_at=partial(_steps_at_of, make_system),
         prepare=prepare,
+        points=partial(_points_of, make_system),
     )

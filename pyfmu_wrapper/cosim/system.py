@@ -104,3 +104,6 @@ class CosimEngine:
     #: returns their names (``run-scenario`` calls it once, before its workers start:
     #: :func:`pyfmu_wrapper.scenario.engines.prepare_cosim`)
     prepare: Callable[..., list[str]] | None = None
+    #: points(structure, tmd, settings) -> a callable giving the co-simulated amplitudes at frequencies asked one
+    #: call at a time on one master, with ``close()`` (:class:`~.steady.PointSolver`: a linear curve's peak refinement)
+    points: Callable[..., Any] | None = None

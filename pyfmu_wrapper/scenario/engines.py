@@ -265,22 +265,16 @@ def peak_refiner(base: Any, tmd: TMDParams, settings: RunSettings) -> tuple[Call
 
     * the monolithic engine's linear configurations: the exact response at every local maximum;
     * the co-simulation's linear configurations (one periodic state per frequency): the co-simulation itself at
-      extra frequencies around the curve's highest maximum only (each evaluation is a co-simulated steady state;
-      a point that does not converge counts as no amplitude);
+      extra frequencies around the curve's highest maximum only (:class:`~pyfmu_wrapper.cosim.steady.PointSolver`:
+      co-simulated steady states on one master, by continuation; a point that does not converge counts as no
+      amplitude; the caller closes it);
     * a nonlinear configuration is not refined: its response may jump or rattle between grid points, where a
       point solved alone need not be on the curve's branch (its peak is the grid's)."""
     if uses_exact(base, tmd, settings):
         return (lambda x: exact_amplitude(base, tmd, x)), False
-    if settings.engine == "cosim" and MODELS.of(base).is_linear(base, tmd):
-        cs = _cosim_settings(settings)
-        sweep = _cosim_system(base)
-
-        def cosim_amplitude(x: Any) -> Any:
-            t = sweep(base, tmd, np.asarray(x, dtype=float), settings=cs)
-            a = t["amplitude"].to_numpy(dtype=float)
-            return np.where(t["converged"].to_numpy(dtype=bool), a, np.nan)
-
-        return cosim_amplitude, True
+    engine = cosim_engine(base) if settings.engine == "cosim" else None
+    if engine is not None and engine.points is not None and MODELS.of(base).is_linear(base, tmd):
+        return engine.points(base, tmd, _cosim_settings(settings)), True
     return None, False
 
 

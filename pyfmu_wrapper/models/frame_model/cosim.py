@@ -255,13 +255,28 @@ def _sweep(
     z0: ArrayLike | None = None,
     workers: int = 1,
 ) -> pd.DataFrame:
-    """The engine's sweep with the frame's defaults: the accuracy :data:`FRAME_ACCURACY` unless the settings ask
+    """The engine's sweep with the frame's defaults (:func:`frame_settings`)."""
+    settings = frame_settings(frame, settings)
+    return cosim_steady.sweep(make_system(frame, tmd), omegas, direction, settings, progress, z0, workers)
+
+
+def frame_settings(frame: FrameParams, settings: CosimSettings) -> CosimSettings:
+    """The settings with the frame's defaults: the accuracy :data:`FRAME_ACCURACY` unless the settings ask
     another, and the force coupling for the TMDI (its inerter on another storey: no impulse coupling)."""
     accuracy = FRAME_ACCURACY if settings.accuracy is None else settings.accuracy
     settings = replace(settings, accuracy=accuracy)
     if frame.terminal != frame.tmd_at:
         settings = replace(settings, coupling="force")
-    return cosim_steady.sweep(make_system(frame, tmd), omegas, direction, settings, progress, z0, workers)
+    return settings
+
+
+def _points(
+    make_system: Callable[[FrameParams, TMDParams], FramePairSystem],
+    frame: FrameParams,
+    tmd: TMDParams,
+    settings: CosimSettings,
+) -> cosim_steady.PointSolver:
+    return cosim_steady.PointSolver(make_system(frame, tmd), frame_settings(frame, settings))
 
 
 def sweep(
@@ -283,7 +298,11 @@ def engine(unit: ModelUnit) -> CosimEngine:
     ``engine(UNIT)``; this module imports no unit): the engine's on :class:`FramePairSystem`, its sweep with the
     frame's defaults (:func:`_sweep`)."""
     make_system = partial(FramePairSystem, unit)
-    return replace(cosim_steady.engine_of(make_system, prepare=prepare), sweep=partial(_sweep, make_system))
+    return replace(
+        cosim_steady.engine_of(make_system, prepare=prepare),
+        sweep=partial(_sweep, make_system),
+        points=partial(_points, make_system),
+    )
 
 
 def prepare(settings: CosimSettings) -> list[str]:
