@@ -231,10 +231,10 @@ def frc_response(
         for d, td in table.groupby("direction", sort=False):
             found = find_peaks(td["omega"], td["amplitude"], refine, highest_only=highest_only)
             peaks[curve.label][d] = dict(found, **sweep_diagnostics(td))
+            peaks[curve.label][d].update(engine_differences(td))
         close = getattr(refine, "close", None)
         if close is not None:
             close()
-            peaks[curve.label][d].update(engine_differences(td))
     return FRCData(
         study,
         pd.concat(parts, ignore_index=True),
