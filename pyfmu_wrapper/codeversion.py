@@ -17,6 +17,8 @@ from __future__ import annotations
 import ast
 import functools
 import hashlib
+import json
+import os
 from pathlib import Path
 
 PACKAGE_DIR = Path(__file__).resolve().parent
@@ -93,10 +95,41 @@ def _imports(root: Path, rel: str, source: bytes) -> set[str]:
     return found
 
 
+#: where :func:`compiled_files` keeps its answer while no module of the package has changed (git-ignored)
+COMPILED_FILES_CACHE = "__pycache__/compiled_files.json"
+
+
 @functools.cache
 def compiled_files(root: Path = PACKAGE_DIR) -> tuple[str, ...]:
-    """Package-relative files of the compiled layer: numba users and their imports, transitively."""
+    """Package-relative files of the compiled layer: numba users and their imports, transitively.
+
+    Reading every module's imports is most of what :func:`compiled_hash` costs (0.5 s: a process that loads
+    numba pays it, a co-simulation's included); the answer is kept in ``__pycache__`` under a key of every
+    module's name, size and modification time, and found again while none has changed (the hash itself
+    always reads the files it lists)."""
     root = Path(root)
+    modules = [p for p in sorted(root.rglob("*.py")) if "__pycache__" not in p.parts]
+    stats = [(p.relative_to(root).as_posix(), p.stat().st_size, p.stat().st_mtime_ns) for p in modules]
+    key = hashlib.sha256(json.dumps(stats).encode()).hexdigest()
+    cache = root / COMPILED_FILES_CACHE
+    try:
+        kept = json.loads(cache.read_text())
+        if kept.get("key") == key:
+            return tuple(kept["files"])
+    except (OSError, ValueError, AttributeError):
+        pass
+    found = _compiled_files(root)
+    try:
+        cache.parent.mkdir(exist_ok=True)
+        tmp = cache.with_name(f"{cache.name}.{os.getpid()}.tmp")
+        tmp.write_text(json.dumps({"key": key, "files": list(found)}))
+        os.replace(tmp, cache)  # atomic: concurrent processes write the same answer
+    except OSError:
+        pass  # a read-only installation: computed again next time
+    return found
+
+
+def _compiled_files(root: Path) -> tuple[str, ...]:
     files = _sources(root)
     todo = [n for n, src in files.items() if (b"numba" in src or b"njit" in src) and n != "codeversion.py"]
     seen: set[str] = set()
