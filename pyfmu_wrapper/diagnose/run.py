@@ -135,6 +135,11 @@ def _run(ds: Dataset, out: Path | None, red: list[Any]) -> dict:
 
     from . import progress
 
+    if ds.level == "system" and "frame" in ds.nominal:
+        from .frame.report import run_frame
+
+        progress.stage("frame: transient records")
+        return finish(run_frame(ds, out))
     frc = None
     if any(r.kind == "frc" for r in ds.records):
         from .system.frc import diagnose_frc

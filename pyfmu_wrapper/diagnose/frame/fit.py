@@ -1,0 +1,483 @@
+"""The frame diagnosis: which effect of the frame unit's vocabulary, at which element, explains the
+transient records **to the noise** (output error, every record simulated exactly, :mod:`.model`).
+
+1. Views: each record's force (the model's input; zero for a free decay) and response channels, the
+   noise std of every channel from its fourth differences
+   (:func:`pyfmu_wrapper.diagnose.system.transient_sim.robust_noise`) with the nominal's response to
+   the force channel's own noise added, so that chi2 / dof ~ 1 means "explained to the noise". A
+   record that does not start at rest (its first samples off the nominal's start from rest) gets its
+   start state fitted (linearly: the free responses projected out of its residual).
+2. Candidates: every effect of the unit's vocabulary (:data:`pyfmu_wrapper.models.frame_model.effects.
+   LINEAR`) at every element: each storey's mass, stiffness and damping, the TMD's mass, stiffness,
+   damping (``viscous``) and inertance, the force's gain, each recorded channel's gain.
+3. Singles: each candidate scanned on a grid of its size (a mode shifted by more than its bandwidth
+   is far outside the linearisation), the best refined by nonlinear least squares
+   (:func:`scipy.optimize.least_squares`). Pairs: the FIRSTS best singles, each with the candidates
+   whose linearised gain at that single's solution is largest (scanned and refined likewise).
+4. Selection by chi2 against the noise: an effect is named when it lowers chi2 by more than
+   SIGNIFICANT times the residual's chi2 per dof (a scale-free test); a second one when it does so
+   again beside the first and its size is > 3 std from 0. Candidates within AMBIGUOUS of the named
+   one's chi2 explain the data as well: the verdict lists them. The named set leaving chi2 / dof
+   above EXPLAINED: ``unexplained``, with where the residual lives.
+5. The work is bounded: the search stops after CPU_BUDGET seconds and the verdict says what was not
+   tried.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING, Any
+
+import numpy as np
+
+from .. import progress
+from .model import FrameModel, Simulator
+
+if TYPE_CHECKING:
+    from numpy import ndarray
+
+    from ..data import Dataset
+
+SIGNIFICANT = 30.0  #: an effect is named when it lowers chi2 by this many times chi2 / dof
+AMBIGUOUS = 10.0  #: a candidate within this many chi2 / dof of the named one explains the data as well
+EXPLAINED = 1.3  #: chi2 / dof at most this (and within 10 std of its dof): explained to the noise
+CPU_BUDGET = 100.0  #: CPU seconds of the search
+FIRSTS = 3  #: singles each paired with seconds
+SECONDS = 5  #: seconds scanned per first
+REFINE = 6  #: singles refined after the scan
+SUB = 4  #: simulation steps per record sample (the force a cubic spline between samples)
+REST_Z = 6.0  #: a record whose first samples are this many noise std off the nominal's start from rest is not at rest
+#: the scan of each structural candidate's size, relative to its nominal value
+GRID = {"default": np.linspace(-0.5, 0.5, 21), "damping": np.array([-0.9, -0.6, -0.3, 0.0, 0.5, 1.0, 2.0, 4.0, 8.0])}
+
+
+@dataclass(frozen=True)
+class Cand:
+    """One candidate: an effect of the vocabulary at one element."""
+
+    effect: str
+    where: Any  #: storey number, channel column, or None
+    element: str
+    param: str
+    scale: float  #: the unit of the fitted variable (the nominal value, or 1 for a gain)
+    kind: str  #: struct | gain | force
+
+    @property
+    def key(self) -> str:
+        return f"{self.effect}@{self.element}.{self.param}"
+
+    @property
+    def label(self) -> str:
+        return f"{self.effect} at {self.element}"
+
+
+@dataclass
+class View:
+    name: str
+    t: ndarray
+    u: ndarray  #: the measured force (zero: a free decay)
+    meas: ndarray  #: (samples, channels)
+    channels: list[str]
+    sigma: ndarray  #: noise std per channel
+    raw_noise: ndarray
+    sim: Simulator
+    free_start: bool = False  #: its start state is fitted
+    free_decay: bool = False
+
+
+@dataclass
+class Fit:
+    cands: tuple[Cand, ...]
+    u: ndarray  #: scaled values
+    chi2: float
+    std: ndarray
+    ok: bool = True
+    reason: str = ""
+    resid: list[ndarray] = field(default_factory=list)
+
+    @property
+    def effects(self) -> list[str]:
+        return [c.effect for c in self.cands]
+
+    @property
+    def elements(self) -> list[str]:
+        return [c.element for c in self.cands]
+
+    @property
+    def label(self) -> str:
+        return " + ".join(c.label for c in self.cands) or "nominal"
+
+    def values(self) -> dict[str, tuple[float, float]]:
+        return {c.key: (float(u * c.scale), float(s * c.scale)) for c, u, s in zip(self.cands, self.u, self.std, strict=True)}
+
+
+class FrameDiagnosis:
+    """The frame diagnosis of a dataset (module doc)."""
+
+    def __init__(self, ds: Dataset, budget: float = CPU_BUDGET) -> None:
+        from ...models.frame_model import UNIT
+        from ..system.transient_sim import robust_noise
+
+        assert UNIT.effects is not None
+        self.vocab = UNIT.effects
+        self.ds = ds
+        self.model0 = FrameModel.from_nominal(ds.nominal)
+        self.budget = budget
+        self.cpu0 = time.process_time()
+        self.wall0 = time.monotonic()
+        self.not_tried: list[str] = []
+        self.notes: list[str] = []
+        self.views: list[View] = []
+        for r in ds.records:
+            t = np.asarray(r["t"], float)
+            h = float(t[-1] - t[0]) / (t.size - 1)
+            if np.max(np.abs(np.diff(t) - h)) > 0.01 * h:
+                from ..errors import DataError
+
+                raise DataError(
+                    f"{ds.path / r.name}, column 't': a transient record must be uniformly sampled (spacing "
+                    f"varies by more than 1 % of dt = {h:.6g} s)"
+                )
+            chans = [c for c in r.columns if c not in ("t", "force")]
+            meas = np.column_stack([np.asarray(r[c], float) for c in chans])
+            u = np.asarray(r["force"], float) if r.has("force") else np.zeros(t.size)
+            raw = np.array([robust_noise(meas[:, k]) for k in range(len(chans))])
+            sim = Simulator(chans, ds.acquisition, h, SUB)
+            self.views.append(View(r.name, t, u, meas, chans, raw.copy(), raw, sim, free_decay=not r.has("force")))
+        self._input_noise()
+        self.cands = self._candidates()
+        self.nominal = self._evaluate(())
+        for v, r in zip(self.views, self.nominal.resid, strict=True):  # start at rest?
+            k0 = max(3, int(0.02 / v.sim.h))
+            if v.free_decay or float(np.max(np.abs(r.reshape(-1, len(v.channels))[:k0]))) > REST_Z:
+                v.free_start = True
+        if any(v.free_start for v in self.views):
+            self.nominal = self._evaluate(())
+        self.dof = sum(v.meas.size for v in self.views) - sum(2 * (self.model0.n + 1) for v in self.views if v.free_start)
+
+    # -- the model --------------------------------------------------------------------------------
+
+    def _input_noise(self) -> None:
+        """Add to each channel's noise the nominal's response to white noise of the force channel's std."""
+        from ..system.transient_sim import robust_noise
+
+        rng = np.random.default_rng(0)
+        for v in self.views:
+            if v.free_decay:
+                continue
+            sf = robust_noise(v.u)
+            n = min(v.u.size, 8000)
+            w = rng.normal(0.0, sf, n)
+            y = Simulator(v.channels, v.sim.chains, v.sim.h, 1).run(self.model0, w)[n // 10 :]
+            v.sigma = np.sqrt(v.raw_noise**2 + np.var(y, axis=0))
+
+    def _candidates(self) -> list[Cand]:
+        from ...models.frame_model.effects import LINEAR
+
+        m = self.model0
+        out = []
+        for e in LINEAR:
+            eff = self.vocab[e]
+            par = eff.params[0].name
+            if eff.per == "storey":
+                for i in range(1, m.n + 1):
+                    sc = m.value(e, i)
+                    if e == "storey_damping":
+                        sc = max(sc, 0.01 * math.sqrt(m.stiffnesses[i - 1] * m.masses[i - 1]))
+                    out.append(Cand(e, i, eff.at(i), par, sc, "struct"))
+            elif eff.per == "channel":
+                chans = sorted({c for v in self.views for c in v.channels}, key=_channel_order)
+                out += [Cand(e, c, eff.at(c), par, 1.0, "gain") for c in chans]
+            elif e == "force_error":
+                if not all(v.free_decay for v in self.views):
+                    out.append(Cand(e, None, eff.element, par, 1.0, "force"))
+            else:
+                sc = m.value(e)
+                if e == "viscous":
+                    sc = max(sc, 0.01 * math.sqrt(m.stiffness * max(m.mass, 1e-9)))
+                elif e == "inertance":
+                    sc = max(sc, 0.1 * m.mass)
+                out.append(Cand(e, None, eff.element, par, sc, "struct"))
+        return out
+
+    def residuals(self, cands: tuple[Cand, ...], u: ndarray) -> list[ndarray] | None:
+        """The whitened residual of every record (measured - model) / sigma, start states projected
+        out where fitted; None for a non-physical model."""
+        deltas: dict[tuple[str, Any], float] = {}
+        gains: dict[str, float] = {}
+        fg = 0.0
+        for c, x in zip(cands, u, strict=True):
+            if c.kind == "struct":
+                deltas[(c.effect, c.where)] = deltas.get((c.effect, c.where), 0.0) + float(x) * c.scale
+            elif c.kind == "gain":
+                gains[c.where] = gains.get(c.where, 0.0) + float(x)
+            else:
+                fg += float(x)
+        model = self.model0.changed(deltas) if deltas else self.model0
+        if model.physical() or fg <= -0.9:
+            return None
+        out = []
+        for v in self.views:
+            y = v.sim.run(model, v.u)
+            g = np.array([1.0 + gains.get(c, 0.0) for c in v.channels]) / (1.0 + fg)
+            r = (v.meas - y * g) / v.sigma
+            if v.free_start:
+                P = v.sim.free(model, v.u.size) * (g / v.sigma)[None, :, None]
+                P = P.reshape(-1, P.shape[2])
+                rf = r.reshape(-1)
+                q, _ = np.linalg.qr(P)
+                r = (rf - q @ (q.T @ rf)).reshape(r.shape)
+            out.append(r.reshape(-1))
+        return out
+
+    def _vec(self, cands: tuple[Cand, ...], u: ndarray) -> ndarray:
+        r = self.residuals(cands, u)
+        if r is None:
+            return np.full(self.n_resid, 1e6)
+        return np.concatenate(r)
+
+    @property
+    def n_resid(self) -> int:
+        return sum(v.meas.size for v in self.views)
+
+    def _evaluate(self, cands: tuple[Cand, ...], u: ndarray | None = None) -> Fit:
+        u = np.zeros(len(cands)) if u is None else np.asarray(u, float)
+        r = self.residuals(cands, u)
+        if r is None:
+            return Fit(cands, u, math.inf, np.full(len(cands), math.inf), False, "not physical")
+        return Fit(cands, u, float(sum(float(x @ x) for x in r)), np.zeros(len(cands)), resid=r)
+
+    def cpu(self) -> float:
+        return time.process_time() - self.cpu0
+
+    def over(self) -> bool:
+        return self.cpu() > self.budget
+
+    # -- the fits ---------------------------------------------------------------------------------
+
+    def scan(self, base: Fit, c: Cand) -> float:
+        """The best size of ``c`` beside ``base`` (held at its values) on its grid (gains: linear)."""
+        grid = GRID["damping"] if c.effect in ("storey_damping", "viscous") else GRID["default"]
+        if c.kind != "struct":
+            grid = np.linspace(-0.3, 0.3, 13)
+        best, arg = math.inf, 0.0
+        for g in grid:
+            f = self._evaluate((*base.cands, c), np.append(base.u, g))
+            if f.chi2 < best:
+                best, arg = f.chi2, float(g)
+        return arg
+
+    def refine(self, cands: tuple[Cand, ...], u0: ndarray) -> Fit:
+        """Nonlinear least squares from ``u0``; std from the Jacobian (scaled by chi2/dof when above 1)."""
+        from scipy.optimize import least_squares
+
+        try:
+            sol = least_squares(
+                lambda u: self._vec(cands, u), np.asarray(u0, float), method="lm", x_scale=1.0, max_nfev=40 * (len(cands) + 1)
+            )
+        except (ValueError, np.linalg.LinAlgError) as e:  # pragma: no cover - a model the fit cannot evaluate
+            return Fit(cands, np.asarray(u0, float), math.inf, np.full(len(cands), math.inf), False, str(e))
+        f = self._evaluate(cands, sol.x)
+        if not f.ok:
+            return f
+        J = sol.jac
+        try:
+            cov = np.linalg.inv(J.T @ J) * max(1.0, f.chi2 / max(self.dof - len(cands), 1))
+            f.std = np.sqrt(np.maximum(np.diag(cov), 0.0))
+        except np.linalg.LinAlgError:
+            f.std = np.full(len(cands), math.inf)
+        progress.candidate(f.label)
+        return f
+
+    def sensitivities(self, base: Fit, cands: list[Cand]) -> ndarray:
+        """d residual / d u of each of ``cands`` beside ``base`` (forward differences), as columns."""
+        r0 = np.concatenate(base.resid)
+        cols = []
+        for c in cands:
+            d = 1e-4
+            r = self.residuals((*base.cands, c), np.append(base.u, d))
+            cols.append(np.zeros_like(r0) if r is None else (np.concatenate(r) - r0) / d)
+        return np.column_stack(cols)
+
+    def run(self) -> dict[str, Any]:
+        progress.stage("frame: scanning every effect at every element")
+        nom = self.nominal
+        singles: list[Fit] = []
+        scanned: list[tuple[float, Cand, float]] = []
+        for c in self.cands:
+            if self.over():
+                self.not_tried.append(f"the scan of {c.label}")
+                continue
+            g = self.scan(nom, c)
+            f = self._evaluate((c,), np.array([g]))
+            scanned.append((f.chi2, c, g))
+        scanned.sort(key=lambda x: x[0])
+        progress.stage("frame: refining the best singles")
+        for _, c, g in scanned[:REFINE]:
+            if self.over():
+                self.not_tried.append(f"the refinement of {c.label}")
+                continue
+            singles.append(self.refine((c,), np.array([g])))
+        singles = sorted((f for f in singles if f.ok), key=lambda f: f.chi2)
+        pairs: list[Fit] = []
+        progress.stage("frame: pairs")
+        for first in singles[:FIRSTS]:
+            if self.over():
+                self.not_tried.append(f"pairs with {first.label}")
+                continue
+            others = [c for c in self.cands if c != first.cands[0]]
+            J = self.sensitivities(first, others)
+            r0 = np.concatenate(first.resid)
+            gain = (J.T @ r0) ** 2 / np.maximum(np.sum(J * J, axis=0), 1e-300)
+            for i in np.argsort(-gain)[:SECONDS]:
+                c = others[int(i)]
+                if self.over():
+                    self.not_tried.append(f"the pair {first.label} + {c.label}")
+                    continue
+                g = self.scan(first, c)
+                pairs.append(self.refine((*first.cands, c), np.append(first.u, g)))
+        pairs = sorted((f for f in pairs if f.ok), key=lambda f: f.chi2)
+        return self.decide(nom, singles, pairs)
+
+    # -- the verdict ------------------------------------------------------------------------------
+
+    def per_dof(self, f: Fit) -> float:
+        return f.chi2 / max(self.dof - len(f.cands), 1)
+
+    def explained(self, f: Fit) -> bool:
+        dof = max(self.dof - len(f.cands), 1)
+        return f.chi2 <= dof * EXPLAINED or f.chi2 <= dof + 10 * math.sqrt(2 * dof)
+
+    def significant(self, a: Fit, b: Fit) -> bool:
+        """b (more effects) lowers chi2 significantly below a's."""
+        return (a.chi2 - b.chi2) > SIGNIFICANT * max(1.0, self.per_dof(b))
+
+    def decide(self, nom: Fit, singles: list[Fit], pairs: list[Fit]) -> dict[str, Any]:
+        named: Fit | None = None
+        s1 = singles[0] if singles else None
+        if s1 is not None and self.significant(nom, s1) and _sized(s1):
+            named = s1
+            seen = set()
+            for p in pairs:
+                key = frozenset(c.key for c in p.cands)
+                if key in seen:
+                    continue
+                seen.add(key)
+                if self.significant(s1, p) and _sized(p) and not self.explained(s1):
+                    named = p
+                    break
+        pool = singles if named is None or len(named.cands) == 1 else pairs
+        ambiguous: list[Fit] = []
+        if named is not None:
+            tol = AMBIGUOUS * max(1.0, self.per_dof(named))
+            keys = {frozenset(c.key for c in named.cands)}
+            for f in pool:
+                k = frozenset(c.key for c in f.cands)
+                if k not in keys and f.chi2 - named.chi2 < tol and _sized(f):
+                    keys.add(k)
+                    ambiguous.append(f)
+        ref = named or nom
+        unexplained = not self.explained(ref)
+        return self.result(nom, named, singles, pairs, ambiguous, unexplained)
+
+    def where(self, f: Fit) -> dict[str, Any]:
+        """Where the residual of ``f`` exceeds the noise: per record and channel, chi2 / samples."""
+        rows = []
+        for v, r in zip(self.views, f.resid, strict=True):
+            R = r.reshape(-1, len(v.channels))
+            for k, c in enumerate(v.channels):
+                rows.append({"record": v.name, "channel": c, "chi2_per_sample": float(np.mean(R[:, k] ** 2))})
+        rows.sort(key=lambda d: -d["chi2_per_sample"])
+        worst = [d for d in rows if d["chi2_per_sample"] > 1.5][:4]
+        text = (
+            "; ".join(f"{d['channel']} of {d['record']} (chi2/sample {d['chi2_per_sample']:.3g})" for d in worst)
+            or "no channel stands out above the noise"
+        )
+        return {"channels": rows, "text": text}
+
+    def result(
+        self, nom: Fit, named: Fit | None, singles: list[Fit], pairs: list[Fit], ambiguous: list[Fit], unexplained: bool
+    ) -> dict[str, Any]:
+        ref = named or nom
+        params = {}
+        if named is not None:
+            for c, (val, sd) in named.values().items():
+                cand = next(x for x in named.cands if x.key == c)
+                params[c] = {"value": val, "std": sd, "unit": self.vocab.units[cand.param]}
+        text = self.text(nom, named, ambiguous, unexplained, singles)
+        cpu = self.cpu()
+        if self.not_tried:
+            text += f" Stopped at the CPU budget ({self.budget:g} s): not tried: {'; '.join(self.not_tried[:6])}" + (
+                f" and {len(self.not_tried) - 6} more." if len(self.not_tried) > 6 else "."
+            )
+        verdict = {
+            "structural": named is not None and any(c.kind == "struct" for c in named.cands),
+            "effects": named.effects if named else [],
+            "elements": named.elements if named else [],
+            "labels": [self.vocab[c.effect].label for c in named.cands] if named else [],
+            "parameters": params,
+            "ambiguous": [{"effects": f.effects, "elements": f.elements, "chi2": f.chi2} for f in ambiguous],
+            "unexplained": unexplained,
+            "chi2_before": nom.chi2,
+            "chi2_after": ref.chi2,
+            "dof": self.dof,
+            "not_tried": list(self.not_tried),
+            "notes": list(self.notes),
+            "text": text,
+        }
+        return {
+            "verdict": verdict,
+            "candidates": [
+                {"effects": f.effects, "elements": f.elements, "chi2": f.chi2, "chi2_per_dof": self.per_dof(f),
+                 "params": {k: {"value": a, "std": b} for k, (a, b) in f.values().items()}}
+                for f in [*singles, *pairs]
+            ],
+            "where": self.where(ref),
+            "noise": [{"record": v.name, "noise_std": dict(zip(v.channels, map(float, v.sigma), strict=True))} for v in self.views],
+            "records": [{"record": v.name, "samples": int(v.t.size), "rate_hz": 1.0 / v.sim.h, "start_fitted": v.free_start, "free_decay": v.free_decay} for v in self.views],
+            "cpu_s": cpu,
+            "wall_s": time.monotonic() - self.wall0,
+            "model": {"storeys": self.model0.n, "modes_hz": self.model0.modes_hz()},
+        }
+
+    def text(self, nom: Fit, named: Fit | None, ambiguous: list[Fit], unexplained: bool, singles: list[Fit]) -> str:
+        pd0 = self.per_dof(nom)
+        if named is None:
+            if not unexplained:
+                return (
+                    f"No effect: the nominal frame explains the transient records to the noise (chi2/dof = {pd0:.3g})."
+                )
+            hint = ""
+            if singles:
+                hint = f" The closest candidate, {singles[0].label}, leaves chi2/dof = {self.per_dof(singles[0]):.3g}."
+            return (
+                f"Unexplained: the nominal frame leaves chi2/dof = {pd0:.3g} and no effect of the vocabulary lowers it "
+                f"significantly; the residual lives in {self.where(nom)['text']}.{hint}"
+            )
+        vals = "; ".join(
+            f"{c.effect} at {c.element}: {c.param} = {u * c.scale:.4g} +- {s * c.scale:.2g} {self.vocab.units[c.param]}"
+            + (f" ({100 * u:+.1f} % of the nominal)" if c.kind == "struct" else "")
+            for c, u, s in zip(named.cands, named.u, named.std, strict=True)
+        )
+        pd1 = self.per_dof(named)
+        s = f"Gap attributed to {vals}; chi2/dof {pd0:.3g} -> {pd1:.3g}."
+        if any(c.kind == "force" for c in named.cands):
+            s += " (A force gain is indistinguishable from one common gain of every response channel.)"
+        if ambiguous:
+            s += " Equally good (within the noise): " + "; ".join(f.label for f in ambiguous) + "."
+        if unexplained:
+            s += f" It does not explain the data to the noise: the rest lives in {self.where(named)['text']}."
+        return s
+
+
+def _sized(f: Fit) -> bool:
+    """Every parameter of a fit more than 3 std from 0."""
+    return bool(np.all(np.abs(f.u) > 3 * f.std))
+
+
+def _channel_order(c: str) -> tuple[int, int, str]:
+    if c in ("y", "ydd"):
+        return (99, c == "ydd", c)
+    return (int(c[1:].removesuffix("dd")), c.endswith("dd"), c)
