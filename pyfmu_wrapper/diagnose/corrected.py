@@ -279,7 +279,9 @@ def write_corrected_frame(ds: Dataset, verdict: Mapping[str, Any], folder: Path)
         "force_amplitude": F,
         "force_storey": int(fr["force_storey"]),
     }
-    tmd_block = {k: (float(v) if isinstance(v, (int, float)) and k not in ("storey", "inerter_to") else v) for k, v in td.items()}
+    tmd_block = {
+        k: (float(v) if isinstance(v, (int, float)) and k not in ("storey", "inerter_to") else v) for k, v in td.items()
+    }
     doc = {
         "schema_version": 2,
         "name": "corrected_frame",

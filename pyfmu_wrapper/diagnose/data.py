@@ -398,9 +398,13 @@ def normalise_frame_nominal(nom: dict, file: Path | str) -> dict:
             ]
         else:
             out[k] = [_number(v, file, f"nominal.frame.{k}", ln(k), 0.0, strict)] * n
-    out["force_storey"] = _storey_int(fr.get("force_storey", n), file, "nominal.frame.force_storey", ln("force_storey"), 1, n)
+    out["force_storey"] = _storey_int(
+        fr.get("force_storey", n), file, "nominal.frame.force_storey", ln("force_storey"), 1, n
+    )
     if "force_amplitude" in fr:
-        out["force_amplitude"] = _number(fr["force_amplitude"], file, "nominal.frame.force_amplitude", ln("force_amplitude"))
+        out["force_amplitude"] = _number(
+            fr["force_amplitude"], file, "nominal.frame.force_amplitude", ln("force_amplitude")
+        )
     td = nom.get("tmd")
     if not isinstance(td, dict):
         raise data_error(file, "a frame nominal needs a 'tmd' mapping (the TMD's parameters)", line=_line(nom, "tmd"))

@@ -110,7 +110,10 @@ class Fit:
         return " + ".join(c.label for c in self.cands) or "nominal"
 
     def values(self) -> dict[str, tuple[float, float]]:
-        return {c.key: (float(u * c.scale), float(s * c.scale)) for c, u, s in zip(self.cands, self.u, self.std, strict=True)}
+        return {
+            c.key: (float(u * c.scale), float(s * c.scale))
+            for c, u, s in zip(self.cands, self.u, self.std, strict=True)
+        }
 
 
 class FrameDiagnosis:
@@ -155,7 +158,9 @@ class FrameDiagnosis:
                 v.free_start = True
         if any(v.free_start for v in self.views):
             self.nominal = self._evaluate(())
-        self.dof = sum(v.meas.size for v in self.views) - sum(2 * (self.model0.n + 1) for v in self.views if v.free_start)
+        self.dof = sum(v.meas.size for v in self.views) - sum(
+            2 * (self.model0.n + 1) for v in self.views if v.free_start
+        )
 
     # -- the model --------------------------------------------------------------------------------
 
@@ -275,7 +280,11 @@ class FrameDiagnosis:
 
         try:
             sol = least_squares(
-                lambda u: self._vec(cands, u), np.asarray(u0, float), method="lm", x_scale=1.0, max_nfev=40 * (len(cands) + 1)
+                lambda u: self._vec(cands, u),
+                np.asarray(u0, float),
+                method="lm",
+                x_scale=1.0,
+                max_nfev=40 * (len(cands) + 1),
             )
         except (ValueError, np.linalg.LinAlgError) as e:  # pragma: no cover - a model the fit cannot evaluate
             return Fit(cands, np.asarray(u0, float), math.inf, np.full(len(cands), math.inf), False, str(e))
@@ -384,7 +393,7 @@ class FrameDiagnosis:
 
     def where(self, f: Fit) -> dict[str, Any]:
         """Where the residual of ``f`` exceeds the noise: per record and channel, chi2 / samples."""
-        rows = []
+        rows: list[dict[str, Any]] = []
         for v, r in zip(self.views, f.resid, strict=True):
             R = r.reshape(-1, len(v.channels))
             for k, c in enumerate(v.channels):
@@ -430,13 +439,30 @@ class FrameDiagnosis:
         return {
             "verdict": verdict,
             "candidates": [
-                {"effects": f.effects, "elements": f.elements, "chi2": f.chi2, "chi2_per_dof": self.per_dof(f),
-                 "params": {k: {"value": a, "std": b} for k, (a, b) in f.values().items()}}
+                {
+                    "effects": f.effects,
+                    "elements": f.elements,
+                    "chi2": f.chi2,
+                    "chi2_per_dof": self.per_dof(f),
+                    "params": {k: {"value": a, "std": b} for k, (a, b) in f.values().items()},
+                }
                 for f in [*singles, *pairs]
             ],
             "where": self.where(ref),
-            "noise": [{"record": v.name, "noise_std": dict(zip(v.channels, map(float, v.sigma), strict=True))} for v in self.views],
-            "records": [{"record": v.name, "samples": int(v.t.size), "rate_hz": 1.0 / v.sim.h, "start_fitted": v.free_start, "free_decay": v.free_decay} for v in self.views],
+            "noise": [
+                {"record": v.name, "noise_std": dict(zip(v.channels, map(float, v.sigma), strict=True))}
+                for v in self.views
+            ],
+            "records": [
+                {
+                    "record": v.name,
+                    "samples": int(v.t.size),
+                    "rate_hz": 1.0 / v.sim.h,
+                    "start_fitted": v.free_start,
+                    "free_decay": v.free_decay,
+                }
+                for v in self.views
+            ],
             "cpu_s": cpu,
             "wall_s": time.monotonic() - self.wall0,
             "model": {"storeys": self.model0.n, "modes_hz": self.model0.modes_hz()},

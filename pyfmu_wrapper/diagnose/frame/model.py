@@ -87,7 +87,11 @@ class FrameModel:
     def changed(self, deltas: dict[tuple[str, Any], float]) -> FrameModel:
         """This model with the structural effects ``deltas`` ((effect, storey or None) -> change) added;
         measurement effects (gains) are ignored here."""
-        per = {"storey_mass": list(self.masses), "storey_stiffness": list(self.stiffnesses), "storey_damping": list(self.dampings)}
+        per = {
+            "storey_mass": list(self.masses),
+            "storey_stiffness": list(self.stiffnesses),
+            "storey_damping": list(self.dampings),
+        }
         kw: dict[str, Any] = {}
         for (e, where), d in deltas.items():
             if e in per:
@@ -210,7 +214,8 @@ class Simulator:
         """Per channel the filter to apply in the model (None: none) and the net delay [s]."""
         cf = self.chains.get("force")
         fd = cf.delay_s if cf is not None else 0.0
-        out, delays = [], np.zeros(len(self.channels))
+        out: list[Any] = []
+        delays = np.zeros(len(self.channels))
         for r, ch in enumerate(self.channels):
             c = self.chains.get(ch)
             delays[r] = (c.delay_s if c is not None else 0.0) - fd

@@ -61,18 +61,31 @@ def write(res: dict[str, Any], ds: Dataset, out: Path) -> None:
         L.append("")
     if v["ambiguous"]:
         L += ["Equally good alternatives (within the noise):", ""]
-        L += [f"- {' + '.join(f'{e} at {el}' for e, el in zip(a['effects'], a['elements'], strict=True))}" for a in v["ambiguous"]]
+        L += [
+            f"- {' + '.join(f'{e} at {el}' for e, el in zip(a['effects'], a['elements'], strict=True))}"
+            for a in v["ambiguous"]
+        ]
         L.append("")
     L += ["## Where the residual lives", "", f["where"]["text"], "", "## Candidates", ""]
     L += ["| effects | chi2/dof | parameters |", "|---|---|---|"]
     for c in f["candidates"]:
         ps = "; ".join(f"{k} = {p['value']:.4g} +- {p['std']:.2g}" for k, p in c["params"].items())
-        L.append(f"| {' + '.join(f'{e} at {el}' for e, el in zip(c['effects'], c['elements'], strict=True))} | {c['chi2_per_dof']:.4g} | {ps} |")
-    L += ["", "## Records", "", "| record | samples | rate [Hz] | start state fitted | noise std |", "|---|---|---|---|---|"]
+        L.append(
+            f"| {' + '.join(f'{e} at {el}' for e, el in zip(c['effects'], c['elements'], strict=True))} | {c['chi2_per_dof']:.4g} | {ps} |"
+        )
+    L += [
+        "",
+        "## Records",
+        "",
+        "| record | samples | rate [Hz] | start state fitted | noise std |",
+        "|---|---|---|---|---|",
+    ]
     noise = {n["record"]: n["noise_std"] for n in f["noise"]}
     for r in f["records"]:
         ns = ", ".join(f"{k} {s:.3g}" for k, s in noise[r["record"]].items())
-        L.append(f"| {r['record']} | {r['samples']} | {r['rate_hz']:.4g} | {'yes' if r['start_fitted'] else 'no'} | {ns} |")
+        L.append(
+            f"| {r['record']} | {r['samples']} | {r['rate_hz']:.4g} | {'yes' if r['start_fitted'] else 'no'} | {ns} |"
+        )
     if v.get("not_tried"):
         L += ["", "Not tried (CPU budget): " + "; ".join(v["not_tried"])]
     (out / "report.md").write_text("\n".join(L) + "\n", encoding="utf-8")
@@ -114,7 +127,12 @@ def plot_frame(nominal: dict[str, Any], verdict: dict[str, Any], path: Path) -> 
     ax.add_patch(Rectangle((-2.6, ys + 0.25), 0.6, 0.45, color=colour("tmd")))
     ax.plot([-2.0, -1.0], [ys + 0.47, ys], color=colour("tmd link") if colour("tmd link") != "0.8" else "k", lw=2)
     yt = 1.2 * to if to > 0 else 0.0
-    ax.plot([-2.3, -2.3, -1.0], [ys + 0.25, yt, yt], ls="--", color=colour("tmd link") if colour("tmd link") != "0.8" else "0.4")
+    ax.plot(
+        [-2.3, -2.3, -1.0],
+        [ys + 0.25, yt, yt],
+        ls="--",
+        color=colour("tmd link") if colour("tmd link") != "0.8" else "0.4",
+    )
     tm = [e for e, el in named + alt if el in ("tmd", "tmd link")]
     ax.text(-2.9, ys + 0.85, "TMD" + (f": {', '.join(tm)}" if tm else ""), fontsize=8)
     meas = [f"{e} at {el}" for e, el in named if el.startswith("channel") or el == "force"]
