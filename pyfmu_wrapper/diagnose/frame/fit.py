@@ -40,7 +40,7 @@ if TYPE_CHECKING:
 
     from ..data import Dataset
 
-SIGNIFICANT = 30.0  #: an effect is named when it lowers chi2 by this many times chi2 / dof
+SIGNIFICANT = 60.0  #: an effect is named when it lowers chi2 by this many times chi2 / dof
 AMBIGUOUS = 10.0  #: a candidate within this many chi2 / dof of the named one explains the data as well
 EXPLAINED = 1.3  #: chi2 / dof at most this (and within 10 std of its dof): explained to the noise
 CPU_BUDGET = 100.0  #: CPU seconds of the search
@@ -83,6 +83,9 @@ class View:
     sigma: ndarray  #: noise std per channel
     raw_noise: ndarray
     sim: Simulator
+    whiten: Any = None  #: (bins, channels, channels): inverse Cholesky factor of the noise's covariance per bin
+    weight: Any = None  #: (bins,): the real FFT's Parseval weights
+    sensor: Any = None  #: the sensor noise std per channel (without the force noise's response)
     free_start: bool = False  #: its start state is fitted
     free_decay: bool = False
 
@@ -151,13 +154,13 @@ class FrameDiagnosis:
             self.views.append(View(r.name, t, u, meas, chans, raw.copy(), raw, sim, free_decay=not r.has("force")))
         self._input_noise()
         self.cands = self._candidates()
-        self.nominal = self._evaluate(())
-        for v, r in zip(self.views, self.nominal.resid, strict=True):  # start at rest?
+        rest = self.residuals((), np.zeros(0), whiten=False)
+        assert rest is not None
+        for v, r in zip(self.views, rest, strict=True):  # start at rest?
             k0 = max(3, int(0.02 / v.sim.h))
             if v.free_decay or float(np.max(np.abs(r.reshape(-1, len(v.channels))[:k0]))) > REST_Z:
                 v.free_start = True
-        if any(v.free_start for v in self.views):
-            self.nominal = self._evaluate(())
+        self.nominal = self._evaluate(())
         self.dof = sum(v.meas.size for v in self.views) - sum(
             2 * (self.model0.n + 1) for v in self.views if v.free_start
         )
@@ -165,18 +168,30 @@ class FrameDiagnosis:
     # -- the model --------------------------------------------------------------------------------
 
     def _input_noise(self) -> None:
-        """Add to each channel's noise the nominal's response to white noise of the force channel's std."""
+        """The noise of each record as a spectrum (module doc, step 1): each channel's sensor noise (white,
+        its std from the measured channel's fourth differences) and the force channel's
+        white noise through the nominal (the measured force drives the model: its noise reaches every
+        channel, coherently, resonantly near the modes). Per frequency bin the residual is whitened by
+        the inverse Cholesky factor of that covariance (channels x channels): its chi2 is then chi2(dof)
+        under the noise, and a fit cannot pass off the force noise's resonant response as an effect."""
         from ..system.transient_sim import robust_noise
 
-        rng = np.random.default_rng(0)
         for v in self.views:
-            if v.free_decay:
-                continue
-            sf = robust_noise(v.u)
-            n = min(v.u.size, 8000)
-            w = rng.normal(0.0, sf, n)
-            y = Simulator(v.channels, v.sim.chains, v.sim.h, 1).run(self.model0, w)[n // 10 :]
-            v.sigma = np.sqrt(v.raw_noise**2 + np.var(y, axis=0))
+            N = v.u.size
+            f = np.fft.rfftfreq(N, v.sim.h)
+            sf = 0.0 if v.free_decay else robust_noise(v.u)
+            G = v.sim.response(self.model0, 2 * np.pi * f)  # (bins, channels)
+            sensor = v.raw_noise  # the measured channel's own noise: the force's reaches the model only
+            S = sf**2 * G[:, :, None] * G.conj()[:, None, :] + np.diag(sensor**2)[None]
+            L = np.linalg.cholesky(S)
+            v.whiten = np.linalg.inv(L)
+            wt = np.full(f.size, math.sqrt(2.0 / N))
+            wt[0] = math.sqrt(1.0 / N)
+            if N % 2 == 0:
+                wt[-1] = math.sqrt(1.0 / N)
+            v.weight = wt
+            v.sigma = np.sqrt(sensor**2 + sf**2 * np.mean(np.abs(G) ** 2, axis=0))
+            v.sensor = sensor
 
     def _candidates(self) -> list[Cand]:
         from ...models.frame_model.effects import LINEAR
@@ -207,9 +222,10 @@ class FrameDiagnosis:
                 out.append(Cand(e, None, eff.element, par, sc, "struct"))
         return out
 
-    def residuals(self, cands: tuple[Cand, ...], u: ndarray) -> list[ndarray] | None:
-        """The whitened residual of every record (measured - model) / sigma, start states projected
-        out where fitted; None for a non-physical model."""
+    def residuals(self, cands: tuple[Cand, ...], u: ndarray, whiten: bool = True) -> list[ndarray] | None:
+        """The whitened residual of every record (measured - model, start states projected out where
+        fitted, whitened per frequency bin: :meth:`_input_noise`; ``whiten`` False: in the time domain,
+        divided by sigma); None for a non-physical model."""
         deltas: dict[tuple[str, Any], float] = {}
         gains: dict[str, float] = {}
         fg = 0.0
@@ -234,6 +250,10 @@ class FrameDiagnosis:
                 rf = r.reshape(-1)
                 q, _ = np.linalg.qr(P)
                 r = (rf - q @ (q.T @ rf)).reshape(r.shape)
+            if whiten:
+                R = np.fft.rfft(r * v.sigma, axis=0)
+                E = np.einsum("fcd,fd->fc", v.whiten, R) * v.weight[:, None]
+                r = np.stack([E.real, E.imag])
             out.append(r.reshape(-1))
         return out
 
@@ -245,7 +265,7 @@ class FrameDiagnosis:
 
     @property
     def n_resid(self) -> int:
-        return sum(v.meas.size for v in self.views)
+        return sum(2 * (v.u.size // 2 + 1) * len(v.channels) for v in self.views)
 
     def _evaluate(self, cands: tuple[Cand, ...], u: ndarray | None = None) -> Fit:
         u = np.zeros(len(cands)) if u is None else np.asarray(u, float)
@@ -329,7 +349,7 @@ class FrameDiagnosis:
                 self.not_tried.append(f"the refinement of {c.label}")
                 continue
             singles.append(self.refine((c,), np.array([g])))
-        singles = sorted((f for f in singles if f.ok), key=lambda f: f.chi2)
+        singles = sorted((f for f in singles if f.ok), key=self._order)
         pairs: list[Fit] = []
         progress.stage("frame: pairs")
         for first in singles[:FIRSTS]:
@@ -347,8 +367,13 @@ class FrameDiagnosis:
                     continue
                 g = self.scan(first, c)
                 pairs.append(self.refine((*first.cands, c), np.append(first.u, g)))
-        pairs = sorted((f for f in pairs if f.ok), key=lambda f: f.chi2)
+        pairs = sorted((f for f in pairs if f.ok), key=self._order)
         return self.decide(nom, singles, pairs)
+
+    def _order(self, f: Fit) -> tuple[float, list[int]]:
+        """By chi2; fits equal to 1e-7 (the same model: the TMDI's inerter to the ground adds to the TMD's
+        mass exactly) in the vocabulary's order."""
+        return (float(f"{f.chi2:.7g}"), [self.cands.index(c) for c in f.cands])
 
     # -- the verdict ------------------------------------------------------------------------------
 

@@ -297,6 +297,16 @@ class Simulator:
             out[:, :, j] = self.delayed(out[:, :, j])
         return out
 
+    def response(self, model: FrameModel, omega: ndarray) -> ndarray:
+        """(frequencies, channels): the channels' frequency response to the force at ``omega`` [rad/s]
+        (filters and delays included)."""
+        A, B, C, D = self.system(model)
+        lam, V = np.linalg.eig(A)
+        W, b = C @ V, np.linalg.solve(V, B)
+        H = (W[None, :, :] * (b[None, None, :] / (1j * omega[:, None, None] - lam[None, None, :]))).sum(axis=2) + D
+        _, delays = self.filters()
+        return H * np.exp(-1j * omega[:, None] * delays[None, :])
+
     def delayed(self, y: ndarray) -> ndarray:
         _, delays = self.filters()
         if not np.any(delays):
