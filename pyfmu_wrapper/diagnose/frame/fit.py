@@ -248,8 +248,10 @@ class FrameDiagnosis:
                 P = v.sim.free(model, v.u.size) * (g / v.sigma)[None, :, None]
                 P = P.reshape(-1, P.shape[2])
                 rf = r.reshape(-1)
-                q, _ = np.linalg.qr(P)
-                r = (rf - q @ (q.T @ rf)).reshape(r.shape)
+                sc = np.sqrt(np.einsum("ij,ij->j", P, P)) + 1e-300
+                Ps = P / sc
+                coef = np.linalg.lstsq(Ps.T @ Ps, Ps.T @ rf, rcond=1e-12)[0]
+                r = (rf - Ps @ coef).reshape(r.shape)
             if whiten:
                 R = np.fft.rfft(r * v.sigma, axis=0)
                 E = np.einsum("fcd,fd->fc", v.whiten, R) * v.weight[:, None]

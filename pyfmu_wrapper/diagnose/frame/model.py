@@ -292,7 +292,8 @@ class Simulator:
         n0 = 2 * (model.n + 1)
         k = np.arange(n_samples)
         P = np.exp(np.outer(k, np.log(phi.astype(complex))))  # phi^k
-        out = np.einsum("km,cm,mj->kcj", P, W, Vinv[:, :n0]).real
+        Mx = (W[:, :, None] * Vinv[None, :, :n0]).transpose(1, 0, 2).reshape(phi.size, -1)
+        out = (P @ Mx).real.reshape(n_samples, W.shape[0], n0)
         for j in range(n0):
             out[:, :, j] = self.delayed(out[:, :, j])
         return out
