@@ -35,7 +35,7 @@ CHANNELS = ["x1dd", "x2dd", "x3dd", "ydd"]
 FS, T = 200.0, 10.0
 
 
-def _truth(stiffness: list[float], seed: int) -> dict[str, np.ndarray]:
+def _truth(stiffness: list[float], seed: int, z0: np.ndarray | None = None) -> dict[str, np.ndarray]:
     """The records' true channels: the frame's equations by hand (module doc), storey i's force
     -K_i (x_i - x_(i-1)) - C_i (v_i - v_(i-1)) + K_(i+1) (x_(i+1) - x_i) + ..., the TMD's spring and
     damper between storey 3 and y, the inerter I (ydd - x3dd) between them."""
@@ -75,16 +75,21 @@ def _truth(stiffness: list[float], seed: int) -> dict[str, np.ndarray]:
         return np.concatenate([z[N + 1 :], acc(z[: N + 1], z[N + 1 :], force(t)[0])])
 
     t = np.arange(int(T * FS)) / FS
-    sol = solve_ivp(rhs, (0.0, t[-1]), np.zeros(2 * N + 2), t_eval=t, method="DOP853", rtol=1e-10, atol=1e-12)
+    start = np.zeros(2 * N + 2) if z0 is None else z0
+    sol = solve_ivp(rhs, (0.0, t[-1]), start, t_eval=t, method="DOP853", rtol=1e-10, atol=1e-12)
     f = force(t)
     a = acc(sol.y[: N + 1], sol.y[N + 1 :], f)
     return {"t": t, "force": f, **{ch: a[N if ch == "ydd" else int(ch[1]) - 1] for ch in CHANNELS}}
 
 
 def _dataset(
-    folder: Path, stiffness: list[float] | None = None, gains: dict[str, float] | None = None, seed: int = 1
+    folder: Path,
+    stiffness: list[float] | None = None,
+    gains: dict[str, float] | None = None,
+    seed: int = 1,
+    z0: np.ndarray | None = None,
 ) -> Path:
-    d = _truth(stiffness or [1.2e5] * N, seed)
+    d = _truth(stiffness or [1.2e5] * N, seed, z0)
     rng = np.random.default_rng(seed + 100)
     for ch in ["force", *CHANNELS]:
         d[ch] = d[ch] * (1.0 + (gains or {}).get(ch, 0.0))
@@ -138,6 +143,17 @@ def test_channel_gain_named_at_its_channel(tmp_path: Path) -> None:
     assert v["effects"] == ["channel_gain"] and v["elements"] == ["channel x2dd"], v["text"]
     p = v["parameters"]["channel_gain@channel x2dd.gain"]
     assert abs(p["value"] - 0.05) < max(3 * p["std"], 0.005)
+
+
+def test_start_state_fitted_when_not_at_rest(tmp_path: Path) -> None:
+    z0 = np.zeros(2 * N + 2)
+    z0[:N] = [0.002, 0.004, 0.005]  # displaced storeys at t = 0
+    res = run_diagnosis(_dataset(tmp_path / "s", stiffness=[0.93 * 1.2e5, 1.2e5, 1.2e5], seed=9, z0=z0))
+    v = res["verdict"]
+    assert res["frame"]["records"][0]["start_fitted"]
+    assert v["effects"] == ["storey_stiffness"] and v["elements"] == ["storey 1"], v["text"]
+    p = v["parameters"]["storey_stiffness@storey 1.delta_stiffness"]
+    assert abs(p["value"] + 0.07 * 1.2e5) < max(3 * p["std"], 0.1 * 0.07 * 1.2e5)
 
 
 def test_vocabulary_on_the_frame_unit() -> None:

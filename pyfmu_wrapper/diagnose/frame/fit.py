@@ -83,7 +83,7 @@ class View:
     sigma: ndarray  #: noise std per channel
     raw_noise: ndarray
     sim: Simulator
-    whiten: Any = None  #: (bins, channels, channels): inverse Cholesky factor of the noise's covariance per bin
+    whiten: Any = None  #: (u, beta) per frequency bin: the whitening of :meth:`FrameDiagnosis._input_noise`
     weight: Any = None  #: (bins,): the real FFT's Parseval weights
     sensor: Any = None  #: the sensor noise std per channel (without the force noise's response)
     free_start: bool = False  #: its start state is fitted
@@ -171,9 +171,11 @@ class FrameDiagnosis:
         """The noise of each record as a spectrum (module doc, step 1): each channel's sensor noise (white,
         its std from the measured channel's fourth differences) and the force channel's
         white noise through the nominal (the measured force drives the model: its noise reaches every
-        channel, coherently, resonantly near the modes). Per frequency bin the residual is whitened by
-        the inverse Cholesky factor of that covariance (channels x channels): its chi2 is then chi2(dof)
-        under the noise, and a fit cannot pass off the force noise's resonant response as an effect."""
+        channel, coherently, resonantly near the modes). Per frequency bin that covariance is
+        S = D + a a^H (D the sensors' variances, a the force noise's response); the residual is
+        whitened by W = (I - beta u u^H) D^-1/2 with u = D^-1/2 a / |D^-1/2 a|, beta = 1 - 1 / sqrt(1 +
+        |D^-1/2 a|^2), so that W^H W = S^-1: its chi2 is chi2(dof) under the noise, and a fit cannot
+        pass off the force noise's resonant response as an effect."""
         from ..system.transient_sim import robust_noise
 
         for v in self.views:
@@ -182,9 +184,9 @@ class FrameDiagnosis:
             sf = 0.0 if v.free_decay else robust_noise(v.u)
             G = v.sim.response(self.model0, 2 * np.pi * f)  # (bins, channels)
             sensor = v.raw_noise  # the measured channel's own noise: the force's reaches the model only
-            S = sf**2 * G[:, :, None] * G.conj()[:, None, :] + np.diag(sensor**2)[None]
-            L = np.linalg.cholesky(S)
-            v.whiten = np.linalg.inv(L)
+            a = sf * G / sensor[None, :]  # the force noise's share, in units of each channel's sensor noise
+            s2 = np.sum(np.abs(a) ** 2, axis=1)
+            v.whiten = (a / np.sqrt(np.maximum(s2, 1e-300))[:, None], 1.0 - 1.0 / np.sqrt(1.0 + s2))
             wt = np.full(f.size, math.sqrt(2.0 / N))
             wt[0] = math.sqrt(1.0 / N)
             if N % 2 == 0:
@@ -250,11 +252,12 @@ class FrameDiagnosis:
                 rf = r.reshape(-1)
                 sc = np.sqrt(np.einsum("ij,ij->j", P, P)) + 1e-300
                 Ps = P / sc
-                coef = np.linalg.lstsq(Ps.T @ Ps, Ps.T @ rf, rcond=1e-12)[0]
-                r = (rf - Ps @ coef).reshape(r.shape)
+                coef = np.linalg.lstsq(np.einsum("ki,kj->ij", Ps, Ps), np.einsum("ki,k->i", Ps, rf), rcond=1e-12)[0]
+                r = (rf - np.einsum("ki,i->k", Ps, coef)).reshape(r.shape)
             if whiten:
-                R = np.fft.rfft(r * v.sigma, axis=0)
-                E = np.einsum("fcd,fd->fc", v.whiten, R) * v.weight[:, None]
+                X = np.fft.rfft(r * (v.sigma / v.sensor), axis=0)
+                U, beta = v.whiten
+                E = (X - (beta * np.sum(U.conj() * X, axis=1))[:, None] * U) * v.weight[:, None]
                 r = np.stack([E.real, E.imag])
             out.append(r.reshape(-1))
         return out
@@ -274,7 +277,7 @@ class FrameDiagnosis:
         r = self.residuals(cands, u)
         if r is None:
             return Fit(cands, u, math.inf, np.full(len(cands), math.inf), False, "not physical")
-        return Fit(cands, u, float(sum(float(x @ x) for x in r)), np.zeros(len(cands)), resid=r)
+        return Fit(cands, u, float(sum(float(np.einsum("i,i->", x, x)) for x in r)), np.zeros(len(cands)), resid=r)
 
     def cpu(self) -> float:
         return time.process_time() - self.cpu0

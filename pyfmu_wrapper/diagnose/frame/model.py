@@ -290,10 +290,8 @@ class Simulator:
         displacement and velocity of the plant (no force)."""
         phi, _, _, W, _, Vinv = self.modal(model, self.h)
         n0 = 2 * (model.n + 1)
-        k = np.arange(n_samples)
-        P = np.exp(np.outer(k, np.log(phi.astype(complex))))  # phi^k
-        Mx = (W[:, :, None] * Vinv[None, :, :n0]).transpose(1, 0, 2).reshape(phi.size, -1)
-        out = (P @ Mx).real.reshape(n_samples, W.shape[0], n0)
+        Mx = np.ascontiguousarray(W[:, :, None] * Vinv[None, :, :n0])  # (channels, modes, states)
+        out = _free_run(phi, Mx, n_samples)
         for j in range(n0):
             out[:, :, j] = self.delayed(out[:, :, j])
         return out
@@ -318,6 +316,24 @@ class Simulator:
             if d:
                 out[:, r] = np.interp(t - d, t, y[:, r], left=0.0)
         return out
+
+
+@njit(cache=True)
+def _free_run(phi: ndarray, Mx: ndarray, n: int) -> ndarray:
+    """y[k, c, j] = Re sum_m Mx[c, m, j] phi_m^k."""
+    nc, m, n0 = Mx.shape
+    y = np.zeros((n, nc, n0))
+    p = np.ones(m, dtype=np.complex128)
+    for k in range(n):
+        for c in range(nc):
+            for j in range(n0):
+                acc = 0.0
+                for i in range(m):
+                    acc += (Mx[c, i, j] * p[i]).real
+                y[k, c, j] = acc
+        for i in range(m):
+            p[i] *= phi[i]
+    return y
 
 
 @njit(cache=True)
