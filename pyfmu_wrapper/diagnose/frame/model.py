@@ -270,8 +270,8 @@ class Simulator:
         phi, b0, b1, W, D, _ = self.modal(model, self.h / self.sub)
         if self.sub > 1:
             u = self.fine(u)
-        y = _modal_run(phi, b0, b1, np.ascontiguousarray(W), D, u)
-        return self.delayed(y[:: self.sub])
+        y = _modal_run(phi, b0, b1, np.ascontiguousarray(W), D, u, self.sub)
+        return self.delayed(y)
 
     def fine(self, u: ndarray) -> ndarray:
         """The force on the sub-step grid: a cubic spline through the samples."""
@@ -337,18 +337,19 @@ def _free_run(phi: ndarray, Mx: ndarray, n: int) -> ndarray:
 
 
 @njit(cache=True)
-def _modal_run(phi: ndarray, b0: ndarray, b1: ndarray, W: ndarray, D: ndarray, u: ndarray) -> ndarray:
-    """y_k = Re(W z_k) + D u_k, z_k+1 = phi z_k + b0 u_k + b1 u_k+1, z_0 = 0."""
+def _modal_run(phi: ndarray, b0: ndarray, b1: ndarray, W: ndarray, D: ndarray, u: ndarray, sub: int) -> ndarray:
+    """y_k = Re(W z_k) + D u_k at every ``sub``-th step, z_k+1 = phi z_k + b0 u_k + b1 u_k+1, z_0 = 0."""
     n, m = u.size, phi.size
     nc = D.size
-    y = np.empty((n, nc))
+    y = np.empty(((n - 1) // sub + 1, nc))
     z = np.zeros(m, dtype=np.complex128)
     for k in range(n):
-        for c in range(nc):
-            acc = D[c] * u[k]
-            for j in range(m):
-                acc += (W[c, j] * z[j]).real
-            y[k, c] = acc
+        if k % sub == 0:
+            for c in range(nc):
+                acc = D[c] * u[k]
+                for j in range(m):
+                    acc += (W[c, j] * z[j]).real
+                y[k // sub, c] = acc
         if k + 1 < n:
             for j in range(m):
                 z[j] = phi[j] * z[j] + b0[j] * u[k] + b1[j] * u[k + 1]
