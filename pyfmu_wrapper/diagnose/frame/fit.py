@@ -15,8 +15,9 @@ transient records **to the noise** (output error, every record simulated exactly
    (:func:`scipy.optimize.least_squares`). Pairs: the FIRSTS best singles, each with the candidates
    whose linearised gain at that single's solution is largest (scanned and refined likewise).
 4. Selection by chi2 against the noise: an effect is named when it lowers chi2 by more than
-   SIGNIFICANT times the residual's chi2 per dof (a scale-free test); a second one when it does so
-   again beside the first and its size is > 3 std from 0. Candidates within AMBIGUOUS of the named
+   SIGNIFICANT times the residual's chi2 per dof (a scale-free test) and its size is > 3 std from 0;
+   a second one when it does so again beside the first (the residual whitened by the noise's
+   covariance, a spurious second effect gains ~ chi2(1): at most ~20 measured on single-effect sets). Candidates within AMBIGUOUS of the named
    one's chi2 explain the data as well: the verdict lists them. The named set leaving chi2 / dof
    above EXPLAINED: ``unexplained``, with where the residual lives.
 5. The work is bounded: the search stops after CPU_BUDGET seconds and the verdict says what was not
@@ -404,7 +405,7 @@ class FrameDiagnosis:
                 if key in seen:
                     continue
                 seen.add(key)
-                if self.significant(s1, p) and _sized(p) and not self.explained(s1):
+                if self.significant(s1, p) and _sized(p):
                     named = p
                     break
         pool = singles if named is None or len(named.cands) == 1 else pairs
