@@ -43,7 +43,7 @@ if TYPE_CHECKING:
 
 SIGNIFICANT = 60.0  #: an effect is named when it lowers chi2 by this many times chi2 / dof
 AMBIGUOUS = 10.0  #: a candidate within this many chi2 / dof of the named one explains the data as well
-EXPLAINED = 1.3  #: chi2 / dof at most this (and within 10 std of its dof): explained to the noise
+EXPLAINED = 1.1  #: chi2 / dof at most this (or within 6 std of its dof): explained to the noise (measured: 0.96-1.04)
 CPU_BUDGET = 100.0  #: CPU seconds of the search
 FIRSTS = 3  #: singles each paired with seconds
 SECONDS = 5  #: seconds scanned per first
@@ -388,7 +388,7 @@ class FrameDiagnosis:
 
     def explained(self, f: Fit) -> bool:
         dof = max(self.dof - len(f.cands), 1)
-        return f.chi2 <= dof * EXPLAINED or f.chi2 <= dof + 10 * math.sqrt(2 * dof)
+        return f.chi2 <= dof * EXPLAINED or f.chi2 <= dof + 6 * math.sqrt(2 * dof)
 
     def significant(self, a: Fit, b: Fit) -> bool:
         """b (more effects) lowers chi2 significantly below a's."""
