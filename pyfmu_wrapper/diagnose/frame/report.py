@@ -106,22 +106,24 @@ def plot_frame(nominal: dict[str, Any], verdict: dict[str, Any], path: Path) -> 
     named = list(zip(verdict.get("effects", []), verdict.get("elements", []), strict=False))
     alt = [(e, el) for a in verdict.get("ambiguous", []) for e, el in zip(a["effects"], a["elements"], strict=False)]
 
-    def colour(element: str) -> str:
-        if any(el == element for _, el in named):
-            return "tab:red"
-        if any(el == element for _, el in alt):
-            return "tab:orange"
+    def colour(element: str, part: str = "") -> str:
+        """Red: named there; orange: an ambiguous alternative there (``part``: the storey's slab, its
+        mass, or its columns, stiffness and damping)."""
+        for pool, c in ((named, "tab:red"), (alt, "tab:orange")):
+            for e, el in pool:
+                if el == element and (not part or (e == "storey_mass") == (part == "slab")):
+                    return c
         return "0.8"
 
     fig, ax = plt.subplots(figsize=(5.5, 1.2 * n + 2))
     ax.plot([-1.5, 1.5], [0, 0], color="k", lw=3)
     for i in range(1, n + 1):
         y = 1.2 * i
-        c = colour(f"storey {i}")
-        ax.add_patch(Rectangle((-1.0, y - 0.15), 2.0, 0.3, color=c))
+        ax.add_patch(Rectangle((-1.0, y - 0.15), 2.0, 0.3, color=colour(f"storey {i}", "slab")))
+        c = colour(f"storey {i}", "columns")
         for xx in (-0.9, 0.9):
-            ax.plot([xx, xx], [y - 1.05, y - 0.15], color=c if c != "0.8" else "k", lw=2)
-        what = [e for e, el in named + alt if el == f"storey {i}"]
+            ax.plot([xx, xx], [y - 1.05, y - 0.15], color=c if c != "0.8" else "k", lw=3 if c != "0.8" else 2)
+        what = [e for e, el in named if el == f"storey {i}"] + [f"{e} (or)" for e, el in alt if el == f"storey {i}"]
         ax.text(1.1, y, f"storey {i}" + (f": {', '.join(what)}" if what else ""), va="center", fontsize=8)
     ys = 1.2 * s
     ax.add_patch(Rectangle((-2.6, ys + 0.25), 0.6, 0.45, color=colour("tmd")))
@@ -133,7 +135,9 @@ def plot_frame(nominal: dict[str, Any], verdict: dict[str, Any], path: Path) -> 
         ls="--",
         color=colour("tmd link") if colour("tmd link") != "0.8" else "0.4",
     )
-    tm = [e for e, el in named + alt if el in ("tmd", "tmd link")]
+    tm = [e for e, el in named if el in ("tmd", "tmd link")] + [
+        f"{e} (or)" for e, el in alt if el in ("tmd", "tmd link")
+    ]
     ax.text(-2.9, ys + 0.85, "TMD" + (f": {', '.join(tm)}" if tm else ""), fontsize=8)
     meas = [f"{e} at {el}" for e, el in named if el.startswith("channel") or el == "force"]
     title = "named: " + (", ".join(f"{e} at {el}" for e, el in named) if named else "nothing")
