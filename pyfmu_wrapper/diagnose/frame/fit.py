@@ -137,6 +137,7 @@ class FrameDiagnosis:
         self.not_tried: list[str] = []
         self.notes: list[str] = []
         self.views: list[View] = []
+        self._cache: dict[tuple[Any, ...], list[ndarray]] = {}  #: the structural changes -> the simulated records
         for r in ds.records:
             t = np.asarray(r["t"], float)
             h = float(t[-1] - t[0]) / (t.size - 1)
@@ -242,9 +243,15 @@ class FrameDiagnosis:
         model = self.model0.changed(deltas) if deltas else self.model0
         if model.physical() or fg <= -0.9:
             return None
+        key = tuple(sorted((e, str(w), round(d, 12)) for (e, w), d in deltas.items() if d != 0.0))
+        ys = self._cache.get(key)
+        if ys is None:
+            ys = [v.sim.run(model, v.u) for v in self.views]
+            if len(self._cache) > 64:
+                self._cache.clear()
+            self._cache[key] = ys
         out = []
-        for v in self.views:
-            y = v.sim.run(model, v.u)
+        for v, y in zip(self.views, ys, strict=True):
             g = np.array([1.0 + gains.get(c, 0.0) for c in v.channels]) / (1.0 + fg)
             r = (v.meas - y * g) / v.sigma
             if v.free_start:
