@@ -171,7 +171,7 @@ class FrameDiagnosis:
 
     def _input_noise(self) -> None:
         """The noise of each record as a spectrum (module doc, step 1): each channel's sensor noise (white,
-        its std from the measured channel's fourth differences) and the force channel's
+        its std from the fourth differences of the nominal's residual) and the force channel's
         white noise through the nominal (the measured force drives the model: its noise reaches every
         channel, coherently, resonantly near the modes). Per frequency bin that covariance is
         S = D + a a^H (D the sensors' variances, a the force noise's response); the residual is
@@ -185,7 +185,15 @@ class FrameDiagnosis:
             f = np.fft.rfftfreq(N, v.sim.h)
             sf = 0.0 if v.free_decay else robust_noise(v.u)
             G = v.sim.response(self.model0, 2 * np.pi * f)  # (bins, channels)
-            sensor = v.raw_noise  # the measured channel's own noise: the force's reaches the model only
+            # the sensor noise from the fourth differences of the nominal's residual (what the measured
+            # force explains, e.g. a broadband force's direct term in the accelerations, taken out),
+            # less the force noise's share there (it reaches the residual through the model)
+            res0 = v.meas - v.sim.run(self.model0, v.u)
+            est = np.array([robust_noise(res0[:, k]) for k in range(len(v.channels))])
+            w4 = (2 * np.sin(np.pi * f * v.sim.h)) ** 8
+            g4 = (np.abs(G) ** 2 * w4[:, None]).sum(axis=0) / w4.sum()
+            sensor = np.sqrt(np.maximum(est**2 - sf**2 * g4, 0.05 * est**2))
+            v.raw_noise = sensor
             a = sf * G / sensor[None, :]  # the force noise's share, in units of each channel's sensor noise
             s2 = np.sum(np.abs(a) ** 2, axis=1)
             v.whiten = (a / np.sqrt(np.maximum(s2, 1e-300))[:, None], 1.0 - 1.0 / np.sqrt(1.0 + s2))
