@@ -450,7 +450,44 @@ class FrameDiagnosis:
             "; ".join(f"{d['channel']} of {d['record']} (chi2/sample {d['chi2_per_sample']:.3g})" for d in worst)
             or "no channel stands out above the noise"
         )
-        return {"channels": rows, "text": text}
+        bands = self.bands(f)
+        top = [b for b in bands if b["share"] >= 0.15][:3]
+        if top and worst:
+            text += "; in frequency near " + ", ".join(
+                f"{b['band']} ({100 * b['share']:.0f} % of the excess)" for b in top
+            )
+        return {"channels": rows, "bands": bands, "text": text}
+
+    def bands(self, f: Fit) -> list[dict[str, Any]]:
+        """The whitened residual's chi2 excess over its dof by frequency: around each nominal mode (+-10 %),
+        below the lowest, between the modes, above the highest; shares of the positive excess."""
+        modes = self.model0.modes_hz()
+        edges: list[tuple[str, float, float]] = [("below the modes", 0.0, 0.9 * modes[0])]
+        for i, m in enumerate(modes):
+            edges.append((f"mode {i + 1} ({m:.3g} Hz)", 0.9 * m, 1.1 * m))
+            if i + 1 < len(modes) and 1.1 * m < 0.9 * modes[i + 1]:
+                edges.append((f"between modes {i + 1} and {i + 2}", 1.1 * m, 0.9 * modes[i + 1]))
+        edges.append(("above the modes", 1.1 * modes[-1], math.inf))
+        ex = np.zeros(len(edges))
+        for v, r in zip(self.views, f.resid, strict=True):
+            nb = v.u.size // 2 + 1
+            E = r.reshape(2, nb, len(v.channels))
+            p = np.sum(E**2, axis=(0, 2))
+            dof = np.full(nb, 2.0 * len(v.channels))  # the chi2 a bin holds under the noise (Re and Im)
+            dof[0] = len(v.channels)
+            if v.u.size % 2 == 0:
+                dof[-1] = len(v.channels)
+            fr = np.fft.rfftfreq(v.u.size, v.sim.h)
+            for k, (_, lo, hi) in enumerate(edges):
+                sel = (fr >= lo) & (fr < hi)
+                ex[k] += float(np.sum(p[sel]) - np.sum(dof[sel]))
+        pos = np.maximum(ex, 0.0)
+        tot = float(pos.sum())
+        out = [
+            {"band": name, "excess": float(e), "share": float(q / tot) if tot > 0 else 0.0}
+            for (name, _, _), e, q in zip(edges, ex, pos, strict=True)
+        ]
+        return sorted(out, key=lambda d: -d["share"])
 
     def result(
         self, nom: Fit, named: Fit | None, singles: list[Fit], pairs: list[Fit], ambiguous: list[Fit], unexplained: bool
