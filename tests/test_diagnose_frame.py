@@ -129,6 +129,9 @@ def test_stiffness_of_storey_2_named_there_and_corrected(tmp_path: Path) -> None
     k = sc.base.stiffnesses
     assert k[0] == 1.2e5 and k[2] == 1.2e5 and k[1] == pytest.approx(1.2e5 + p["value"])
     assert (out / "corrected" / "corrected_frame.ssv").is_file()
+    # the loop closed: the same records against the corrected model (--model) name nothing
+    again = run_diagnosis(ds, None, str(out / "corrected" / "corrected_frame.yaml"))["verdict"]
+    assert again["effects"] == [] and not again["unexplained"], again["text"]
 
 
 def test_clean_frame_names_nothing(tmp_path: Path) -> None:
