@@ -160,10 +160,12 @@ class FrameDiagnosis:
         assert rest is not None
         for v, r in zip(self.views, rest, strict=True):  # start at rest?
             k0 = max(3, int(0.02 / v.sim.h))
-            if v.free_decay or float(np.max(np.abs(r.reshape(-1, len(v.channels))[:k0]))) > REST_Z:
+            R = r.reshape(-1, len(v.channels))
+            R = R - np.mean(R, axis=0)  # a sensor's offset is not a start off rest
+            if v.free_decay or float(np.max(np.abs(R[:k0]))) > REST_Z:
                 v.free_start = True
         self.nominal = self._evaluate(())
-        self.dof = sum(v.meas.size for v in self.views) - sum(
+        self.dof = sum(v.meas.size - len(v.channels) for v in self.views) - sum(
             2 * (self.model0.n + 1) for v in self.views if v.free_start
         )
 
@@ -198,7 +200,7 @@ class FrameDiagnosis:
             s2 = np.sum(np.abs(a) ** 2, axis=1)
             v.whiten = (a / np.sqrt(np.maximum(s2, 1e-300))[:, None], 1.0 - 1.0 / np.sqrt(1.0 + s2))
             wt = np.full(f.size, math.sqrt(2.0 / N))
-            wt[0] = math.sqrt(1.0 / N)
+            wt[0] = 0.0  # the mean of every channel is left out: a sensor's offset (bias) is not the model's
             if N % 2 == 0:
                 wt[-1] = math.sqrt(1.0 / N)
             v.weight = wt
@@ -264,6 +266,8 @@ class FrameDiagnosis:
             r = (v.meas - y * g) / v.sigma
             if v.free_start:
                 P = v.sim.free(model, v.u.size) * (g / v.sigma)[None, :, None]
+                nc = len(v.channels)  # with each channel's offset (its mean is left out anyway)
+                P = np.concatenate([P, np.broadcast_to(np.eye(nc)[None], (v.u.size, nc, nc))], axis=2)
                 P = P.reshape(-1, P.shape[2])
                 rf = r.reshape(-1)
                 sc = np.sqrt(np.einsum("ij,ij->j", P, P)) + 1e-300
@@ -474,7 +478,7 @@ class FrameDiagnosis:
             E = r.reshape(2, nb, len(v.channels))
             p = np.sum(E**2, axis=(0, 2))
             dof = np.full(nb, 2.0 * len(v.channels))  # the chi2 a bin holds under the noise (Re and Im)
-            dof[0] = len(v.channels)
+            dof[0] = 0.0  # the mean is left out
             if v.u.size % 2 == 0:
                 dof[-1] = len(v.channels)
             fr = np.fft.rfftfreq(v.u.size, v.sim.h)
