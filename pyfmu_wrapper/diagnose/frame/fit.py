@@ -86,7 +86,9 @@ class View:
     sim: Simulator
     whiten: Any = None  #: (u, beta) per frequency bin: the whitening of :meth:`FrameDiagnosis._input_noise`
     weight: Any = None  #: (bins,): the real FFT's Parseval weights
-    sensor: Any = None  #: the sensor noise std per channel (without the force noise's response)
+    sensor: Any = (
+        None  #: (bins, channels): the sensor noise's std per frequency bin (without the force noise's response)
+    )
     free_start: bool = False  #: its start state is fitted
     free_decay: bool = False
 
@@ -187,16 +189,31 @@ class FrameDiagnosis:
             f = np.fft.rfftfreq(N, v.sim.h)
             sf = 0.0 if v.free_decay else robust_noise(v.u)
             G = v.sim.response(self.model0, 2 * np.pi * f)  # (bins, channels)
+            f_lo = max(2.0 * self.model0.modes_hz()[-1], 0.25 * f[-1])  # above the modes: noise
+            cf = v.sim.chains.get("force")
+            SF = np.full(f.size, sf**2)  # the force channel's noise per bin (coloured when before its filter)
+            if sf > 0 and cf is not None and cf.type is not None:
+                SF = noise_psd(v.u, f, np.abs(cf.response(2 * np.pi * f)) ** 2, np.zeros(f.size), f_lo)
             # the sensor noise from the fourth differences of the nominal's residual (what the measured
             # force explains, e.g. a broadband force's direct term in the accelerations, taken out),
             # less the force noise's share there (it reaches the residual through the model)
             res0 = v.meas - v.sim.run(self.model0, v.u)
             est = np.array([robust_noise(res0[:, k]) for k in range(len(v.channels))])
             w4 = (2 * np.sin(np.pi * f * v.sim.h)) ** 8
-            g4 = (np.abs(G) ** 2 * w4[:, None]).sum(axis=0) / w4.sum()
-            sensor = np.sqrt(np.maximum(est**2 - sf**2 * g4, 0.05 * est**2))
+            g4 = (SF[:, None] * np.abs(G) ** 2 * w4[:, None]).sum(axis=0) / w4.sum()
+            D = np.empty((f.size, len(v.channels)))
+            for k, ch in enumerate(v.channels):
+                c = v.sim.chains.get(ch)
+                if c is None or c.type is None:
+                    D[:, k] = max(est[k] ** 2 - g4[k], 0.05 * est[k] ** 2)
+                else:  # white after the filter and/or white before it (coloured by it)
+                    H2 = np.abs(c.response(2 * np.pi * f)) ** 2
+                    D[:, k] = noise_psd(res0[:, k], f, H2, SF * np.abs(G[:, k]) ** 2, f_lo)
+            sensor = np.sqrt(np.mean(D, axis=0))
             v.raw_noise = sensor
-            a = sf * G / sensor[None, :]  # the force noise's share, in units of each channel's sensor noise
+            a = (
+                np.sqrt(SF)[:, None] * G / np.sqrt(D)
+            )  # the force noise's share, in units of each channel's sensor noise
             s2 = np.sum(np.abs(a) ** 2, axis=1)
             v.whiten = (a / np.sqrt(np.maximum(s2, 1e-300))[:, None], 1.0 - 1.0 / np.sqrt(1.0 + s2))
             wt = np.full(f.size, math.sqrt(2.0 / N))
@@ -204,8 +221,8 @@ class FrameDiagnosis:
             if N % 2 == 0:
                 wt[-1] = math.sqrt(1.0 / N)
             v.weight = wt
-            v.sigma = np.sqrt(sensor**2 + sf**2 * np.mean(np.abs(G) ** 2, axis=0))
-            v.sensor = sensor
+            v.sigma = np.sqrt(sensor**2 + np.mean(SF[:, None] * np.abs(G) ** 2, axis=0))
+            v.sensor = np.sqrt(D)
 
     def _candidates(self) -> list[Cand]:
         from ...models.frame_model.effects import LINEAR
@@ -275,7 +292,7 @@ class FrameDiagnosis:
                 coef = np.linalg.lstsq(np.einsum("ki,kj->ij", Ps, Ps), np.einsum("ki,k->i", Ps, rf), rcond=1e-12)[0]
                 r = (rf - np.einsum("ki,i->k", Ps, coef)).reshape(r.shape)
             if whiten:
-                X = np.fft.rfft(r * (v.sigma / v.sensor), axis=0)
+                X = np.fft.rfft(r * v.sigma, axis=0) / v.sensor
                 U, beta = v.whiten
                 E = (X - (beta * np.sum(U.conj() * X, axis=1))[:, None] * U) * v.weight[:, None]
                 r = np.stack([E.real, E.imag])
@@ -583,6 +600,30 @@ class FrameDiagnosis:
         if unexplained:
             s += f" It does not explain the data to the noise: the rest lives in {self.where(named)['text']}."
         return s
+
+
+def noise_psd(r: ndarray, f: ndarray, H2: ndarray, force: ndarray, f_lo: float) -> ndarray:
+    """The sensor noise's variance per frequency bin of a filtered channel: white noise after the filter
+    (a) and/or white noise before it, coloured by its |H|^2 (b), fitted (non-negative least squares)
+    to the band medians of the nominal's residual periodogram above ``f_lo`` (the structure's misfit
+    lies below), less the force noise's response ``force`` there. Unit: the variance of a white
+    sequence of that level (its periodogram's mean)."""
+    from scipy.optimize import nnls
+
+    from ..system.transient_sim import robust_noise
+
+    w = np.hanning(r.size)  # a window: the misfit's low-frequency residual must not leak up
+    P = np.abs(np.fft.rfft(w * (r - np.mean(r)))) ** 2 / float(np.sum(w * w))
+    sel = np.nonzero((f > f_lo) & (f < f[-1]))[0]
+    if sel.size < 64:
+        return np.full(f.size, robust_noise(r) ** 2)
+    bands = np.array_split(sel, 16)
+    y = np.array([np.median(P[b]) / math.log(2.0) - np.mean(force[b]) for b in bands])
+    A = np.column_stack([np.ones(len(bands)), [np.mean(H2[b]) for b in bands]])
+    (va, vb), _ = nnls(A, np.maximum(y, 0.0))
+    out = va + vb * H2
+    floor = 1e-3 * max(float(np.max(out)), 1e-300)
+    return np.maximum(out, floor)
 
 
 def _sized(f: Fit) -> bool:
