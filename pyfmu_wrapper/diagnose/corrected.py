@@ -222,6 +222,10 @@ def corrected_frame(nominal: Mapping[str, Any], parameters: Mapping[str, Any]) -
         val = float(v["value"] if isinstance(v, Mapping) else v)
         head, _, name = key.partition(".")
         eff, _, element = head.partition("@")
+        if eff == "friction" and name == "log10_friction_slope" and math.isfinite(val):  # the law's fitted slope
+            td["friction_slope"] = 10.0**val
+            applied[key] = val
+            continue
         if eff not in vocab or name not in vocab[eff].param_names or not math.isfinite(val):
             not_applied[key] = "not a parameter of the frame's vocabulary"
             continue
@@ -237,6 +241,8 @@ def corrected_frame(nominal: Mapping[str, Any], parameters: Mapping[str, Any]) -
             if sub == "frame":
                 i = int(element.split()[-1]) - 1
                 fr[field][i] = float(fr[field][i]) + coef * val
+            elif par.replaces:
+                td[field] = val
             else:
                 td[field] = float(td.get(field, 0.0)) + coef * val
         applied[key] = val

@@ -49,6 +49,7 @@ FIRSTS = 3  #: singles each paired with seconds
 SECONDS = 5  #: seconds scanned per first
 REFINE = 6  #: singles refined after the scan
 SUB = 4  #: simulation steps per record sample (the force a cubic spline between samples)
+FRICTION_SLOPES = (1e2, 3e2, 1e3, 3e3, 1e4, 1e5)  #: s/m: the friction law's regularisation slopes tried
 REST_Z = 6.0  #: a record whose first samples are this many noise std off the nominal's start from rest is not at rest
 #: the scan of each structural candidate's size, relative to its nominal value
 GRID = {"default": np.linspace(-0.5, 0.5, 21), "damping": np.array([-0.9, -0.6, -0.3, 0.0, 0.5, 1.0, 2.0, 4.0, 8.0])}
@@ -105,15 +106,15 @@ class Fit:
 
     @property
     def effects(self) -> list[str]:
-        return [c.effect for c in self.cands]
+        return [c.effect for c in self.cands if c.kind != "slope"]
 
     @property
     def elements(self) -> list[str]:
-        return [c.element for c in self.cands]
+        return [c.element for c in self.cands if c.kind != "slope"]
 
     @property
     def label(self) -> str:
-        return " + ".join(c.label for c in self.cands) or "nominal"
+        return " + ".join(c.label for c in self.cands if c.kind != "slope") or "nominal"
 
     def values(self) -> dict[str, tuple[float, float]]:
         return {
@@ -260,20 +261,32 @@ class FrameDiagnosis:
         deltas: dict[tuple[str, Any], float] = {}
         gains: dict[str, float] = {}
         fg = 0.0
+        fric: tuple[float, float] | None = None
         for c, x in zip(cands, u, strict=True):
             if c.kind == "struct":
                 deltas[(c.effect, c.where)] = deltas.get((c.effect, c.where), 0.0) + float(x) * c.scale
             elif c.kind == "gain":
                 gains[c.where] = gains.get(c.where, 0.0) + float(x)
+            elif c.kind == "friction":
+                fric = (float(x) * c.scale, float(c.where))
+            elif c.kind == "slope":  # log10 of the friction law's slope, fitted beside its force
+                if fric is None or not -1.0 < float(x) < 8.0:
+                    return None
+                fric = (fric[0], 10.0 ** float(x))
             else:
                 fg += float(x)
         model = self.model0.changed(deltas) if deltas else self.model0
-        if model.physical() or fg <= -0.9:
+        if model.physical() or fg <= -0.9 or (fric is not None and fric[0] < 0):
             return None
-        key = tuple(sorted((e, str(w), round(d, 12)) for (e, w), d in deltas.items() if d != 0.0))
+        key: tuple[Any, ...] = tuple(sorted((e, str(w), round(d, 12)) for (e, w), d in deltas.items() if d != 0.0))
+        if fric is not None:
+            key += (("friction", fric),)
         ys = self._cache.get(key)
         if ys is None:
-            ys = [v.sim.run(model, v.u) for v in self.views]
+            if fric is not None and fric[0] > 0:
+                ys = [Simulator(v.channels, v.sim.chains, v.sim.h, 2 * SUB).run(model, v.u, fric) for v in self.views]
+            else:
+                ys = [v.sim.run(model, v.u) for v in self.views]
             if len(self._cache) > 64:
                 self._cache.clear()
             self._cache[key] = ys
@@ -410,12 +423,54 @@ class FrameDiagnosis:
                 g = self.scan(first, c)
                 pairs.append(self.refine((*first.cands, c), np.append(first.u, g)))
         pairs = sorted((f for f in pairs if f.ok), key=self._order)
+        best = min([nom, *singles[:1], *pairs[:1]], key=lambda f: f.chi2)
+        if not self.explained(best) and not any(v.free_decay for v in self.views):
+            fs, fp = self.friction(nom, singles)
+            singles = sorted([*singles, *fs], key=self._order)
+            pairs = sorted([*pairs, *fp], key=self._order)
         return self.decide(nom, singles, pairs)
+
+    def friction(self, nom: Fit, singles: list[Fit]) -> tuple[list[Fit], list[Fit]]:
+        """Dry friction in the TMD link (tried only when no linear candidate explains the data): its force
+        scanned and refined at each slope of FRICTION_SLOPES (held, reported in the notes), alone and
+        beside the best linear single."""
+        progress.stage("frame: dry friction in the TMD link")
+        rms = float(np.sqrt(np.mean(np.concatenate([v.u for v in self.views]) ** 2)))
+        eff = self.vocab["friction"]
+        out: list[Fit] = []
+        for slope in FRICTION_SLOPES:
+            if self.over():
+                self.not_tried.append(f"friction at slope {slope:g} s/m")
+                continue
+            c = Cand("friction", slope, eff.element, eff.params[0].name, 0.01 * rms, "friction")
+            best, arg = math.inf, 0.0
+            for g in (0.1, 0.3, 1.0, 3.0, 10.0):
+                f = self._evaluate((c,), np.array([g]))
+                if f.chi2 < best:
+                    best, arg = f.chi2, g
+            out.append(self.refine((c,), np.array([arg])))
+        out = sorted((f for f in out if f.ok), key=self._order)
+        if out and not self.over():  # the slope fitted beside the force, from the best on the grid
+            c = out[0].cands[0]
+            cs = Cand("friction", None, eff.element, "log10_friction_slope", 1.0, "slope")
+            both = self.refine((c, cs), np.array([out[0].u[0], math.log10(float(c.where))]))
+            if both.ok and both.chi2 < out[0].chi2:
+                out.insert(0, both)
+        pairs: list[Fit] = []
+        if out and singles and not self.over():
+            fr = out[0]
+            pairs.append(self.refine((*fr.cands, *singles[0].cands), np.append(fr.u, singles[0].u)))
+        for f in out[:1]:
+            slope = 10.0 ** float(f.u[1]) if len(f.cands) > 1 else float(f.cands[0].where)
+            self.notes.append(
+                f"friction law df (2/pi) atan(s v): slope s = {slope:.3g} s/m (fitted from the best of {list(FRICTION_SLOPES)})"
+            )
+        return out[:1], [p for p in pairs if p.ok]
 
     def _order(self, f: Fit) -> tuple[float, list[int]]:
         """By chi2; fits equal to 1e-7 (the same model: the TMDI's inerter to the ground adds to the TMD's
         mass exactly) in the vocabulary's order."""
-        return (float(f"{f.chi2:.7g}"), [self.cands.index(c) for c in f.cands])
+        return (float(f"{f.chi2:.7g}"), [self.cands.index(c) if c in self.cands else len(self.cands) for c in f.cands])
 
     # -- the verdict ------------------------------------------------------------------------------
 
@@ -518,7 +573,7 @@ class FrameDiagnosis:
         if named is not None:
             for c, (val, sd) in named.values().items():
                 cand = next(x for x in named.cands if x.key == c)
-                params[c] = {"value": val, "std": sd, "unit": self.vocab.units[cand.param]}
+                params[c] = {"value": val, "std": sd, "unit": _unit(self.vocab, cand)}
         text = self.text(nom, named, ambiguous, unexplained, singles)
         cpu = self.cpu()
         if self.not_tried:
@@ -587,7 +642,7 @@ class FrameDiagnosis:
                 f"significantly; the residual lives in {self.where(nom)['text']}.{hint}"
             )
         vals = "; ".join(
-            f"{c.effect} at {c.element}: {c.param} = {u * c.scale:.4g} +- {s * c.scale:.2g} {self.vocab.units[c.param]}"
+            f"{c.effect} at {c.element}: {c.param} = {u * c.scale:.4g} +- {s * c.scale:.2g} {_unit(self.vocab, c)}"
             + (f" ({100 * u:+.1f} % of the nominal)" if c.kind == "struct" else "")
             for c, u, s in zip(named.cands, named.u, named.std, strict=True)
         )
@@ -624,6 +679,10 @@ def noise_psd(r: ndarray, f: ndarray, H2: ndarray, force: ndarray, f_lo: float) 
     out = va + vb * H2
     floor = 1e-3 * max(float(np.max(out)), 1e-300)
     return np.maximum(out, floor)
+
+
+def _unit(vocab: Any, c: Cand) -> str:
+    return "1" if c.kind == "slope" else str(vocab.units[c.param])
 
 
 def _sized(f: Fit) -> bool:

@@ -158,6 +158,19 @@ class FrameModel:
         w2 = np.linalg.eigvals(np.linalg.solve(M, K)).real
         return sorted(math.sqrt(max(float(v), 0.0)) / (2 * math.pi) for v in w2)
 
+    def friction_input(self) -> tuple[ndarray, ndarray]:
+        """(Bq, cv): the state's rate per unit friction force q in the TMD link (q pushes the TMD's storey
+        in -x and the TMD in +y, as the kernels' link force), and the row giving the link's relative
+        velocity xd_s - yd from the state."""
+        M, _, _, _ = self.matrices()
+        N = self.n + 1
+        g = np.zeros(N)
+        g[self.storey - 1], g[self.n] = -1.0, 1.0
+        Bq = np.concatenate([np.zeros(N), np.linalg.solve(M, g)])
+        cv = np.zeros(2 * N)
+        cv[N + self.storey - 1], cv[N + self.n] = 1.0, -1.0
+        return Bq, cv
+
     def state_space(self, channels: list[str]) -> tuple[ndarray, ndarray, ndarray, ndarray]:
         """(A, B, Cy, Dy) of state [x; v] (storeys 1..n, TMD), input F, outputs ``channels``
         (``x<i>``, ``x<i>dd``, ``y``, ``ydd``)."""
@@ -228,26 +241,40 @@ class Simulator:
     def system(self, model: FrameModel) -> tuple[ndarray, ndarray, ndarray, ndarray]:
         """(A, B, C, D) of the plant with each channel's filter in series (outputs: the channels as the
         acquisition delivers them, before their delays)."""
+        A, B, C, D, _ = self.system2(model)
+        return A, B[:, 0], C, D[:, 0]
+
+    def system2(self, model: FrameModel) -> tuple[ndarray, ndarray, ndarray, ndarray, ndarray]:
+        """(A, B, C, D, cv) of :meth:`system` with two inputs, the force and the friction force in the
+        TMD link (:meth:`FrameModel.friction_input`), and the row of the link's relative velocity."""
         A0, B0, Cy, Dy = model.state_space(self.channels)
+        Bq0, cv0 = model.friction_input()
+        N = model.n + 1
+        Dq = np.array(
+            [Bq0[N + channel_dof(ch, model.n)[0]] if channel_dof(ch, model.n)[1] else 0.0 for ch in self.channels]
+        )
         filt, _ = self.filters()
         nx = A0.shape[0] + sum(f[0].shape[0] for f in filt if f is not None)
-        A, B = np.zeros((nx, nx)), np.zeros(nx)
-        C, D = np.zeros((len(self.channels), nx)), np.zeros(len(self.channels))
+        A, B = np.zeros((nx, nx)), np.zeros((nx, 2))
+        C, D = np.zeros((len(self.channels), nx)), np.zeros((len(self.channels), 2))
         n0 = A0.shape[0]
-        A[:n0, :n0], B[:n0] = A0, B0
+        A[:n0, :n0], B[:n0, 0], B[:n0, 1] = A0, B0, Bq0
         i = n0
         for r, f in enumerate(filt):
             if f is None:
-                C[r, :n0], D[r] = Cy[r], Dy[r]
+                C[r, :n0], D[r] = Cy[r], (Dy[r], Dq[r])
                 continue
             Af, Bf, Cf = f
             m = Af.shape[0]
             A[i : i + m, i : i + m] = Af
             A[i : i + m, :n0] = np.outer(Bf, Cy[r])
-            B[i : i + m] = Bf * Dy[r]
+            B[i : i + m, 0] = Bf * Dy[r]
+            B[i : i + m, 1] = Bf * Dq[r]
             C[r, i : i + m] = Cf
             i += m
-        return A, B, C, D
+        cv = np.zeros(nx)
+        cv[:n0] = cv0
+        return A, B, C, D, cv
 
     def modal(self, model: FrameModel, h: float) -> tuple[ndarray, ndarray, ndarray, ndarray, ndarray, ndarray]:
         """(phi, b0, b1, W, D, Vinv): the system diagonalised and discretised for a force linear between
@@ -264,13 +291,45 @@ class Simulator:
             g1 = np.where(small, h * (0.5 + lh / 6 + lh**2 / 24), (phi - 1 - lh) / (lam**2 * h))
         return phi, b * (g0 - g1), b * g1, C @ V, D, Vinv
 
-    def run(self, model: FrameModel, u: ndarray) -> ndarray:
-        """(samples, channels): the channels of the record under force samples ``u``, from rest."""
+    def run(self, model: FrameModel, u: ndarray, friction: tuple[float, float] | None = None) -> ndarray:
+        """(samples, channels): the channels of the record under force samples ``u``, from rest;
+        ``friction``: (df, s), dry friction df (2/pi) atan(s (xd_s - yd)) in the TMD link, each sub-step
+        implicit in the friction force (:func:`_friction_run`)."""
         u = np.asarray(u, float)
+        if friction is not None and friction[0] > 0:
+            return self._run_friction(model, u, *friction)
         phi, b0, b1, W, D, _ = self.modal(model, self.h / self.sub)
         if self.sub > 1:
             u = self.fine(u)
         y = _modal_run(phi, b0, b1, np.ascontiguousarray(W), D, u, self.sub)
+        return self.delayed(y)
+
+    def _run_friction(self, model: FrameModel, u: ndarray, df: float, slope: float) -> ndarray:
+        h = self.h / self.sub
+        A, B, C, D, cv = self.system2(model)
+        lam, V = np.linalg.eig(A)
+        Vinv = np.linalg.inv(V)
+        b, bq = Vinv @ B[:, 0], Vinv @ B[:, 1]
+        lh = lam * h
+        phi = np.exp(lh)
+        small = np.abs(lh) < 1e-4
+        with np.errstate(divide="ignore", invalid="ignore"):
+            g0 = np.where(small, h * (1 + lh / 2 + lh**2 / 6), (phi - 1) / lam)
+            g1 = np.where(small, h * (0.5 + lh / 6 + lh**2 / 24), (phi - 1 - lh) / (lam**2 * h))
+        uf = self.fine(u) if self.sub > 1 else u
+        y = _friction_run(
+            phi,
+            b * (g0 - g1),
+            b * g1,
+            bq * g0,
+            np.ascontiguousarray(C @ V),
+            np.ascontiguousarray(D),
+            cv @ V,
+            uf,
+            self.sub,
+            df,
+            slope,
+        )
         return self.delayed(y)
 
     def fine(self, u: ndarray) -> ndarray:
@@ -353,4 +412,65 @@ def _modal_run(phi: ndarray, b0: ndarray, b1: ndarray, W: ndarray, D: ndarray, u
         if k + 1 < n:
             for j in range(m):
                 z[j] = phi[j] * z[j] + b0[j] * u[k] + b1[j] * u[k + 1]
+    return y
+
+
+@njit(cache=True)
+def _friction_run(
+    phi: ndarray,
+    b0: ndarray,
+    b1: ndarray,
+    bq: ndarray,
+    W: ndarray,
+    D: ndarray,
+    wv: ndarray,
+    u: ndarray,
+    sub: int,
+    df: float,
+    slope: float,
+) -> ndarray:
+    """:func:`_modal_run` with the friction force q = df (2/pi) atan(slope v) of the link's relative
+    velocity v = Re(wv z) held over each step and implicit in it: q = f(v_free + gamma q) solved by a
+    safeguarded Newton iteration in [-df, df] (gamma = Re(wv bq) < 0: stable at any slope)."""
+    n, m = u.size, phi.size
+    nc = D.shape[0]
+    y = np.empty(((n - 1) // sub + 1, nc))
+    z = np.zeros(m, dtype=np.complex128)
+    zf = np.zeros(m, dtype=np.complex128)
+    gam = 0.0
+    for j in range(m):
+        gam += (wv[j] * bq[j]).real
+    c = 2.0 / np.pi * df
+    q = 0.0
+    for k in range(n):
+        if k + 1 < n:
+            vf = 0.0
+            for j in range(m):
+                zf[j] = phi[j] * z[j] + b0[j] * u[k] + b1[j] * u[k + 1]
+                vf += (wv[j] * zf[j]).real
+            lo, hi = -df, df
+            for _ in range(40):
+                x = vf + gam * q
+                g = q - c * np.arctan(slope * x)
+                if g > 0.0:
+                    hi = q
+                else:
+                    lo = q
+                dg = 1.0 - c * slope / (1.0 + (slope * x) ** 2) * gam
+                qn = q - g / dg
+                if not lo < qn < hi:
+                    qn = 0.5 * (lo + hi)
+                if abs(qn - q) <= 1e-12 * df:
+                    q = qn
+                    break
+                q = qn
+        if k % sub == 0:
+            for r in range(nc):
+                acc = D[r, 0] * u[k] + D[r, 1] * q
+                for j in range(m):
+                    acc += (W[r, j] * z[j]).real
+                y[k // sub, r] = acc
+        if k + 1 < n:
+            for j in range(m):
+                z[j] = zf[j] + bq[j] * q
     return y
