@@ -35,7 +35,9 @@ CHANNELS = ["x1dd", "x2dd", "x3dd", "ydd"]
 FS, T = 200.0, 10.0
 
 
-def _truth(stiffness: list[float], seed: int, z0: np.ndarray | None = None) -> dict[str, np.ndarray]:
+def _truth(
+    stiffness: list[float], seed: int, z0: np.ndarray | None = None, friction: tuple[float, float] = (0.0, 1.0)
+) -> dict[str, np.ndarray]:
     """The records' true channels: the frame's equations by hand (module doc), storey i's force
     -K_i (x_i - x_(i-1)) - C_i (v_i - v_(i-1)) + K_(i+1) (x_(i+1) - x_i) + ..., the TMD's spring and
     damper between storey 3 and y, the inerter I (ydd - x3dd) between them."""
@@ -66,6 +68,7 @@ def _truth(stiffness: list[float], seed: int, z0: np.ndarray | None = None) -> d
             if i:
                 F[i - 1] += s
         link = k * (x[N - 1] - x[N]) + c * (v[N - 1] - v[N])
+        link = link + friction[0] * (2 / math.pi) * np.arctan(friction[1] * (v[N - 1] - v[N]))  # dry friction
         F[N - 1] -= link
         F[N] += link
         F[N - 1] += f
@@ -88,8 +91,9 @@ def _dataset(
     gains: dict[str, float] | None = None,
     seed: int = 1,
     z0: np.ndarray | None = None,
+    friction: tuple[float, float] = (0.0, 1.0),
 ) -> Path:
-    d = _truth(stiffness or [1.2e5] * N, seed, z0)
+    d = _truth(stiffness or [1.2e5] * N, seed, z0, friction)
     rng = np.random.default_rng(seed + 100)
     for ch in ["force", *CHANNELS]:
         d[ch] = d[ch] * (1.0 + (gains or {}).get(ch, 0.0))
@@ -157,6 +161,14 @@ def test_start_state_fitted_when_not_at_rest(tmp_path: Path) -> None:
     assert v["effects"] == ["storey_stiffness"] and v["elements"] == ["storey 1"], v["text"]
     p = v["parameters"]["storey_stiffness@storey 1.delta_stiffness"]
     assert abs(p["value"] + 0.07 * 1.2e5) < max(3 * p["std"], 0.1 * 0.07 * 1.2e5)
+
+
+def test_dry_friction_in_the_tmd_link(tmp_path: Path) -> None:
+    res = run_diagnosis(_dataset(tmp_path / "f", seed=11, friction=(3.0, 200.0)))
+    v = res["verdict"]
+    assert v["effects"] == ["friction"] and v["elements"] == ["tmd link"] and not v["unexplained"], v["text"]
+    p = v["parameters"]["friction@tmd link.friction_force"]
+    assert abs(p["value"] - 3.0) < max(3 * p["std"], 0.3)
 
 
 def test_vocabulary_on_the_frame_unit() -> None:
