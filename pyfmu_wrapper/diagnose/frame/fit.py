@@ -48,6 +48,7 @@ CPU_BUDGET = 100.0  #: CPU seconds of the search
 FIRSTS = 3  #: singles each paired with seconds
 SECONDS = 5  #: seconds scanned per first
 REFINE = 6  #: singles refined after the scan
+SHORT = 2500  #: the scans use the first max(SHORT, samples / 3) samples of each record
 SUB = 4  #: simulation steps per record sample (the force a cubic spline between samples)
 FRICTION_SLOPES = (1e2, 3e2, 1e3, 3e3, 1e4, 1e5)  #: s/m: the friction law's regularisation slopes tried
 REST_Z = 6.0  #: a record whose first samples are this many noise std off the nominal's start from rest is not at rest
@@ -90,6 +91,8 @@ class View:
     sensor: Any = (
         None  #: (bins, channels): the sensor noise's std per frequency bin (without the force noise's response)
     )
+    short: int = 0  #: the samples the scans use (the start of the record)
+    fsim: Any = None  #: the simulation with friction (twice the sub-steps)
     free_start: bool = False  #: its start state is fitted
     free_decay: bool = False
 
@@ -156,7 +159,23 @@ class FrameDiagnosis:
             u = np.asarray(r["force"], float) if r.has("force") else np.zeros(t.size)
             raw = np.array([robust_noise(meas[:, k]) for k in range(len(chans))])
             sim = Simulator(chans, ds.acquisition, h, SUB)
-            self.views.append(View(r.name, t, u, meas, chans, raw.copy(), raw, sim, free_decay=not r.has("force")))
+            fsim = Simulator(chans, ds.acquisition, h, 2 * SUB)
+            short = t.size if t.size <= SHORT else max(SHORT, t.size // 3)
+            self.views.append(
+                View(
+                    r.name,
+                    t,
+                    u,
+                    meas,
+                    chans,
+                    raw.copy(),
+                    raw,
+                    sim,
+                    short=short,
+                    fsim=fsim,
+                    free_decay=not r.has("force"),
+                )
+            )
         self._input_noise()
         self.cands = self._candidates()
         rest = self.residuals((), np.zeros(0), whiten=False)
@@ -254,7 +273,9 @@ class FrameDiagnosis:
                 out.append(Cand(e, None, eff.element, par, sc, "struct"))
         return out
 
-    def residuals(self, cands: tuple[Cand, ...], u: ndarray, whiten: bool = True) -> list[ndarray] | None:
+    def residuals(
+        self, cands: tuple[Cand, ...], u: ndarray, whiten: bool = True, short: bool = False
+    ) -> list[ndarray] | None:
         """The whitened residual of every record (measured - model, start states projected out where
         fitted, whitened per frequency bin: :meth:`_input_noise`; ``whiten`` False: in the time domain,
         divided by sigma); None for a non-physical model."""
@@ -281,23 +302,27 @@ class FrameDiagnosis:
         key: tuple[Any, ...] = tuple(sorted((e, str(w), round(d, 12)) for (e, w), d in deltas.items() if d != 0.0))
         if fric is not None:
             key += (("friction", fric),)
+        if short:  # the scans: the start of each record (fewer cycles: a wider basin, less work)
+            key += ("short",)
+            whiten = False
+        ns = [v.short if short else v.u.size for v in self.views]
         ys = self._cache.get(key)
         if ys is None:
             if fric is not None and fric[0] > 0:
-                ys = [Simulator(v.channels, v.sim.chains, v.sim.h, 2 * SUB).run(model, v.u, fric) for v in self.views]
+                ys = [v.fsim.run(model, v.u[:n], fric) for v, n in zip(self.views, ns, strict=True)]
             else:
-                ys = [v.sim.run(model, v.u) for v in self.views]
+                ys = [v.sim.run(model, v.u[:n]) for v, n in zip(self.views, ns, strict=True)]
             if len(self._cache) > 64:
                 self._cache.clear()
             self._cache[key] = ys
         out = []
-        for v, y in zip(self.views, ys, strict=True):
+        for v, y, n in zip(self.views, ys, ns, strict=True):
             g = np.array([1.0 + gains.get(c, 0.0) for c in v.channels]) / (1.0 + fg)
-            r = (v.meas - y * g) / v.sigma
+            r = (v.meas[:n] - y * g) / v.sigma
             if v.free_start:
-                P = v.sim.free(model, v.u.size) * (g / v.sigma)[None, :, None]
+                P = v.sim.free(model, n) * (g / v.sigma)[None, :, None]
                 nc = len(v.channels)  # with each channel's offset (its mean is left out anyway)
-                P = np.concatenate([P, np.broadcast_to(np.eye(nc)[None], (v.u.size, nc, nc))], axis=2)
+                P = np.concatenate([P, np.broadcast_to(np.eye(nc)[None], (n, nc, nc))], axis=2)
                 P = P.reshape(-1, P.shape[2])
                 rf = r.reshape(-1)
                 sc = np.sqrt(np.einsum("ij,ij->j", P, P)) + 1e-300
@@ -344,9 +369,10 @@ class FrameDiagnosis:
             grid = np.linspace(-0.3, 0.3, 13)
         best, arg = math.inf, 0.0
         for g in grid:
-            f = self._evaluate((*base.cands, c), np.append(base.u, g))
-            if f.chi2 < best:
-                best, arg = f.chi2, float(g)
+            r = self.residuals((*base.cands, c), np.append(base.u, g), short=True)
+            chi2 = math.inf if r is None else sum(float(np.einsum("i,i->", x, x)) for x in r)
+            if chi2 < best:
+                best, arg = chi2, float(g)
         return arg
 
     def refine(self, cands: tuple[Cand, ...], u0: ndarray) -> Fit:

@@ -224,7 +224,12 @@ class Simulator:
     sub: int = 1
 
     def filters(self) -> tuple[list[Any], ndarray]:
-        """Per channel the filter to apply in the model (None: none) and the net delay [s]."""
+        """Per channel the filter to apply in the model (None: none) and the net delay [s] (made once)."""
+        if getattr(self, "_filters", None) is None:
+            self._filters = self._make_filters()
+        return self._filters
+
+    def _make_filters(self) -> tuple[list[Any], ndarray]:
         cf = self.chains.get("force")
         fd = cf.delay_s if cf is not None else 0.0
         out: list[Any] = []
@@ -276,20 +281,85 @@ class Simulator:
         cv[:n0] = cv0
         return A, B, C, D, cv
 
-    def modal(self, model: FrameModel, h: float) -> tuple[ndarray, ndarray, ndarray, ndarray, ndarray, ndarray]:
-        """(phi, b0, b1, W, D, Vinv): the system diagonalised and discretised for a force linear between
-        instants h apart (module doc); outputs y = Re(W z) + D u, z = Vinv x."""
-        A, B, C, D = self.system(model)
-        lam, V = np.linalg.eig(A)
-        Vinv = np.linalg.inv(V)
-        b = Vinv @ B
+    def decompose(self, model: FrameModel) -> tuple[ndarray, ndarray, ndarray, ndarray, ndarray, ndarray]:
+        """The plant with the channels' filters in series in modal form, from the plant's own
+        eigen-decomposition and each filter's (made once): the system is block triangular, so its modes
+        are the plant's (z, rate lambda z + beta u) and each filtered channel's filter modes eta (rate
+        mu eta + (gamma Dy - kappa beta) u), with filter state zeta = eta + kappa z, kappa_ji = gamma_j
+        c_i / (lambda_i - mu_j) (c = the channel's row on the plant modes). Returns (lam, Bm (modes x 2:
+        force, friction), W (channels x modes), D (channels x 2), X0 (modes x plant states: the modal
+        start of a plant start state, the filters at rest), wv (the link's relative velocity on the
+        modes)); outputs y = Re(W z) + D u."""
+        A0, B0, Cy, Dy = model.state_space(self.channels)
+        Bq0, cv0 = model.friction_input()
+        N = model.n + 1
+        Dq = np.array(
+            [Bq0[N + channel_dof(ch, model.n)[0]] if channel_dof(ch, model.n)[1] else 0.0 for ch in self.channels]
+        )
+        lam0, V0 = np.linalg.eig(A0)
+        V0i = np.linalg.inv(V0)
+        beta = np.einsum("ij,jk->ik", V0i, np.column_stack([B0, Bq0]))  # (plant modes, 2)
+        cy = np.einsum("rj,ji->ri", Cy, V0)  # the channels' rows on the plant modes
+        filt = self.modal_filters()
+        nf = sum(f[0].size for f in filt if f is not None)
+        n0, nc = lam0.size, len(self.channels)
+        lam = np.concatenate([lam0, *[f[0] for f in filt if f is not None]]) if nf else lam0
+        Bm = np.zeros((n0 + nf, 2), complex)
+        W = np.zeros((nc, n0 + nf), complex)
+        D = np.zeros((nc, 2))
+        X0 = np.zeros((n0 + nf, n0), complex)
+        Bm[:n0], X0[:n0] = beta, V0i
+        i = n0
+        for r, f in enumerate(filt):
+            if f is None:
+                W[r, :n0], D[r] = cy[r], (Dy[r], Dq[r])
+                continue
+            mu, gam, w = f
+            m = mu.size
+            kappa = gam[:, None] * cy[r][None, :] / (lam0[None, :] - mu[:, None])  # (filter modes, plant modes)
+            Bm[i : i + m, 0] = gam * Dy[r] - kappa @ beta[:, 0]
+            Bm[i : i + m, 1] = gam * Dq[r] - kappa @ beta[:, 1]
+            W[r, :n0] = w @ kappa
+            W[r, i : i + m] = w
+            X0[i : i + m] = -kappa @ V0i
+            i += m
+        wv = np.zeros(n0 + nf, complex)
+        wv[:n0] = cv0 @ V0
+        return lam, Bm, W, D, X0, wv
+
+    def modal_filters(self) -> list[Any]:
+        """Per channel its filter in modal form (mu, gamma, w): rates, input and output weights (None: no
+        filter in the model), made once."""
+        if getattr(self, "_modal_filters", None) is None:
+            out: list[Any] = []
+            for f in self.filters()[0]:
+                if f is None:
+                    out.append(None)
+                    continue
+                Af, Bf, Cf = f
+                mu, Vf = np.linalg.eig(Af)
+                out.append((mu, np.linalg.solve(Vf, Bf.astype(complex)), Cf @ Vf))
+            self._modal_filters = out
+        return self._modal_filters
+
+    @staticmethod
+    def _steps(lam: ndarray, h: float) -> tuple[ndarray, ndarray, ndarray]:
+        """(phi, g0, g1): e^(lambda h) and the integrals of e^(lambda s) over a step (constant, ramp)."""
         lh = lam * h
         phi = np.exp(lh)
         small = np.abs(lh) < 1e-4
         with np.errstate(divide="ignore", invalid="ignore"):
             g0 = np.where(small, h * (1 + lh / 2 + lh**2 / 6), (phi - 1) / lam)
             g1 = np.where(small, h * (0.5 + lh / 6 + lh**2 / 24), (phi - 1 - lh) / (lam**2 * h))
-        return phi, b * (g0 - g1), b * g1, C @ V, D, Vinv
+        return phi, g0, g1
+
+    def modal(self, model: FrameModel, h: float) -> tuple[ndarray, ndarray, ndarray, ndarray, ndarray, ndarray]:
+        """(phi, b0, b1, W, D, X0): the system in modal form (:meth:`decompose`) discretised for a force
+        linear between instants h apart; outputs y = Re(W z) + D u."""
+        lam, Bm, W, D, X0, _ = self.decompose(model)
+        phi, g0, g1 = self._steps(lam, h)
+        b = Bm[:, 0]
+        return phi, b * (g0 - g1), b * g1, W, D[:, 0], X0
 
     def run(self, model: FrameModel, u: ndarray, friction: tuple[float, float] | None = None) -> ndarray:
         """(samples, channels): the channels of the record under force samples ``u``, from rest;
@@ -306,25 +376,18 @@ class Simulator:
 
     def _run_friction(self, model: FrameModel, u: ndarray, df: float, slope: float) -> ndarray:
         h = self.h / self.sub
-        A, B, C, D, cv = self.system2(model)
-        lam, V = np.linalg.eig(A)
-        Vinv = np.linalg.inv(V)
-        b, bq = Vinv @ B[:, 0], Vinv @ B[:, 1]
-        lh = lam * h
-        phi = np.exp(lh)
-        small = np.abs(lh) < 1e-4
-        with np.errstate(divide="ignore", invalid="ignore"):
-            g0 = np.where(small, h * (1 + lh / 2 + lh**2 / 6), (phi - 1) / lam)
-            g1 = np.where(small, h * (0.5 + lh / 6 + lh**2 / 24), (phi - 1 - lh) / (lam**2 * h))
+        lam, Bm, W, D, _, wv = self.decompose(model)
+        phi, g0, g1 = self._steps(lam, h)
+        b, bq = Bm[:, 0], Bm[:, 1]
         uf = self.fine(u) if self.sub > 1 else u
         y = _friction_run(
             phi,
             b * (g0 - g1),
             b * g1,
             bq * g0,
-            np.ascontiguousarray(C @ V),
+            np.ascontiguousarray(W),
             np.ascontiguousarray(D),
-            cv @ V,
+            wv,
             uf,
             self.sub,
             df,
@@ -347,21 +410,21 @@ class Simulator:
     def free(self, model: FrameModel, n_samples: int) -> ndarray:
         """(samples, channels, 2 (n + 1)): the channels' free responses to a unit start state of each
         displacement and velocity of the plant (no force)."""
-        phi, _, _, W, _, Vinv = self.modal(model, self.h)
-        n0 = 2 * (model.n + 1)
-        Mx = np.ascontiguousarray(W[:, :, None] * Vinv[None, :, :n0])  # (channels, modes, states)
+        phi, _, _, W, _, X0 = self.modal(model, self.h)
+        Mx = np.ascontiguousarray(W[:, :, None] * X0[None, :, :])  # (channels, modes, plant states)
         out = _free_run(phi, Mx, n_samples)
-        for j in range(n0):
+        for j in range(X0.shape[1]):
             out[:, :, j] = self.delayed(out[:, :, j])
         return out
 
     def response(self, model: FrameModel, omega: ndarray) -> ndarray:
         """(frequencies, channels): the channels' frequency response to the force at ``omega`` [rad/s]
         (filters and delays included)."""
-        A, B, C, D = self.system(model)
-        lam, V = np.linalg.eig(A)
-        W, b = C @ V, np.linalg.solve(V, B)
-        H = (W[None, :, :] * (b[None, None, :] / (1j * omega[:, None, None] - lam[None, None, :]))).sum(axis=2) + D
+        lam, Bm, W, D, _, _ = self.decompose(model)
+        b = Bm[:, 0]
+        H = (W[None, :, :] * (b[None, None, :] / (1j * omega[:, None, None] - lam[None, None, :]))).sum(axis=2) + D[
+            :, 0
+        ]
         _, delays = self.filters()
         return H * np.exp(-1j * omega[:, None] * delays[None, :])
 
