@@ -48,8 +48,10 @@ CPU_BUDGET = 100.0  #: CPU seconds of the search
 FIRSTS = 3  #: singles each paired with seconds
 SECONDS = 5  #: seconds scanned per first
 REFINE = 6  #: singles refined after the scan
-SHORT = 2500  #: the scans use the first max(SHORT, samples / 3) samples of each record
-SUB = 4  #: simulation steps per record sample (the force a cubic spline between samples)
+SUB_HZ = (
+    1000.0  #: simulation steps per second at least (2 per sample at least; the force a cubic spline between samples)
+)
+SCAN_HZ, SCAN_PER_MODE = 200.0, 10.0  #: the scans' sampling: at least this rate and samples per period of the top mode
 FRICTION_SLOPES = (1e2, 3e2, 1e3, 3e3, 1e4, 1e5)  #: s/m: the friction law's regularisation slopes tried
 REST_Z = 6.0  #: a record whose first samples are this many noise std off the nominal's start from rest is not at rest
 #: the scan of each structural candidate's size, relative to its nominal value
@@ -91,7 +93,8 @@ class View:
     sensor: Any = (
         None  #: (bins, channels): the sensor noise's std per frequency bin (without the force noise's response)
     )
-    short: int = 0  #: the samples the scans use (the start of the record)
+    scan_q: int = 1  #: the scans use every scan_q-th sample
+    ssim: Any = None  #: the simulation on that grid
     fsim: Any = None  #: the simulation with friction (twice the sub-steps)
     free_start: bool = False  #: its start state is fitted
     free_decay: bool = False
@@ -144,6 +147,7 @@ class FrameDiagnosis:
         self.notes: list[str] = []
         self.views: list[View] = []
         self._cache: dict[tuple[Any, ...], list[ndarray]] = {}  #: the structural changes -> the simulated records
+        top = self.model0.modes_hz()[-1]
         for r in ds.records:
             t = np.asarray(r["t"], float)
             h = float(t[-1] - t[0]) / (t.size - 1)
@@ -158,9 +162,13 @@ class FrameDiagnosis:
             meas = np.column_stack([np.asarray(r[c], float) for c in chans])
             u = np.asarray(r["force"], float) if r.has("force") else np.zeros(t.size)
             raw = np.array([robust_noise(meas[:, k]) for k in range(len(chans))])
-            sim = Simulator(chans, ds.acquisition, h, SUB)
-            fsim = Simulator(chans, ds.acquisition, h, 2 * SUB)
-            short = t.size if t.size <= SHORT else max(SHORT, t.size // 3)
+            sub = max(2, math.ceil(SUB_HZ * h))  # sub-steps: at least SUB_HZ steps per second
+            sim = Simulator(chans, ds.acquisition, h, sub)
+            fsim = Simulator(chans, ds.acquisition, h, 2 * sub)
+            # the scans compare every q-th sample, simulated on that grid: SCAN_PER_MODE samples per
+            # period of the nominal's top mode (at least SCAN_HZ per second)
+            q = max(1, int(1.0 / (h * max(SCAN_HZ, SCAN_PER_MODE * top))))
+            ssim = Simulator(chans, ds.acquisition, h * q, max(2, math.ceil(SUB_HZ * h * q)))
             self.views.append(
                 View(
                     r.name,
@@ -171,7 +179,8 @@ class FrameDiagnosis:
                     raw.copy(),
                     raw,
                     sim,
-                    short=short,
+                    scan_q=q,
+                    ssim=ssim,
                     fsim=fsim,
                     free_decay=not r.has("force"),
                 )
@@ -302,25 +311,31 @@ class FrameDiagnosis:
         key: tuple[Any, ...] = tuple(sorted((e, str(w), round(d, 12)) for (e, w), d in deltas.items() if d != 0.0))
         if fric is not None:
             key += (("friction", fric),)
-        if short:  # the scans: the start of each record (fewer cycles: a wider basin, less work)
+        if short:  # the scans: every scan_q-th sample, simulated on that grid (less work)
             key += ("short",)
             whiten = False
-        ns = [v.short if short else v.u.size for v in self.views]
         ys = self._cache.get(key)
         if ys is None:
             if fric is not None and fric[0] > 0:
-                ys = [v.fsim.run(model, v.u[:n], fric) for v, n in zip(self.views, ns, strict=True)]
+                ys = [
+                    (v.fsim if not short else v.ssim).run(model, v.u if not short else v.u[:: v.scan_q], fric)
+                    for v in self.views
+                ]
+            elif short:
+                ys = [v.ssim.run(model, v.u[:: v.scan_q]) for v in self.views]
             else:
-                ys = [v.sim.run(model, v.u[:n]) for v, n in zip(self.views, ns, strict=True)]
+                ys = [v.sim.run(model, v.u) for v in self.views]
             if len(self._cache) > 64:
                 self._cache.clear()
             self._cache[key] = ys
         out = []
-        for v, y, n in zip(self.views, ys, ns, strict=True):
+        for v, y in zip(self.views, ys, strict=True):
             g = np.array([1.0 + gains.get(c, 0.0) for c in v.channels]) / (1.0 + fg)
-            r = (v.meas[:n] - y * g) / v.sigma
+            meas = v.meas[:: v.scan_q] if short else v.meas
+            n = meas.shape[0]
+            r = (meas - y * g) / v.sigma
             if v.free_start:
-                P = v.sim.free(model, n) * (g / v.sigma)[None, :, None]
+                P = (v.ssim if short else v.sim).free(model, n) * (g / v.sigma)[None, :, None]
                 nc = len(v.channels)  # with each channel's offset (its mean is left out anyway)
                 P = np.concatenate([P, np.broadcast_to(np.eye(nc)[None], (n, nc, nc))], axis=2)
                 P = P.reshape(-1, P.shape[2])
