@@ -42,8 +42,10 @@ if TYPE_CHECKING:
     from ..data import Dataset
 
 SIGNIFICANT = 60.0  #: an effect is named when it lowers chi2 by this many times chi2 / dof
+SIGNIFICANT_ROOT = 0.5  #: ... or by this many sqrt(dof) times chi2 / dof, if more
 AMBIGUOUS = 10.0  #: a candidate within this many chi2 / dof of the named one explains the data as well
 EXPLAINED = 1.1  #: chi2 / dof at most this (or within 6 std of its dof): explained to the noise (measured: 0.96-1.04)
+BAND_Z = 8.0  #: a band's residual this many std above its dof: unexplained (measured: <= 4 after the right effects, 15 with hammer pulses of 10 samples)
 CPU_BUDGET = 100.0  #: CPU seconds of the search
 FIRSTS = 3  #: singles each paired with seconds
 SECONDS = 5  #: seconds scanned per first
@@ -219,10 +221,9 @@ class FrameDiagnosis:
             sf = 0.0 if v.free_decay else robust_noise(v.u)
             G = v.sim.response(self.model0, 2 * np.pi * f)  # (bins, channels)
             f_lo = max(2.0 * self.model0.modes_hz()[-1], 0.25 * f[-1])  # above the modes: noise
-            cf = v.sim.chains.get("force")
-            SF = np.full(f.size, sf**2)  # the force channel's noise per bin (coloured when before its filter)
-            if sf > 0 and cf is not None and cf.type is not None:
-                SF = noise_psd(v.u, f, np.abs(cf.response(2 * np.pi * f)) ** 2, np.zeros(f.size), f_lo)
+            # the force channel's noise per bin: white, from its fourth differences (robust to impulses;
+            # its periodogram cannot tell a broadband force, a hammer's, from noise)
+            SF = np.full(f.size, sf**2)
             # the sensor noise from the fourth differences of the nominal's residual (what the measured
             # force explains, e.g. a broadband force's direct term in the accelerations, taken out),
             # less the force noise's share there (it reaches the residual through the model)
@@ -237,7 +238,10 @@ class FrameDiagnosis:
                     D[:, k] = max(est[k] ** 2 - g4[k], 0.05 * est[k] ** 2)
                 else:  # white after the filter and/or white before it (coloured by it)
                     H2 = np.abs(c.response(2 * np.pi * f)) ** 2
-                    D[:, k] = noise_psd(res0[:, k], f, H2, SF * np.abs(G[:, k]) ** 2, f_lo)
+                    # never below the fourth differences' white level (a fit that took the force's
+                    # content for noise and subtracted it must not leave a channel without noise)
+                    white = max(est[k] ** 2 - g4[k], 0.05 * est[k] ** 2)
+                    D[:, k] = np.maximum(noise_psd(res0[:, k], f, H2, SF * np.abs(G[:, k]) ** 2, f_lo), white)
             sensor = np.sqrt(np.mean(D, axis=0))
             v.raw_noise = sensor
             a = (
@@ -522,9 +526,12 @@ class FrameDiagnosis:
         dof = max(self.dof - len(f.cands), 1)
         return f.chi2 <= dof * EXPLAINED or f.chi2 <= dof + 6 * math.sqrt(2 * dof)
 
-    def significant(self, a: Fit, b: Fit) -> bool:
-        """b (more effects) lowers chi2 significantly below a's."""
-        return (a.chi2 - b.chi2) > SIGNIFICANT * max(1.0, self.per_dof(b))
+    def significant(self, a: Fit, b: Fit, factor: float = 1.0) -> bool:
+        """b (more effects) lowers chi2 significantly below a's: by more than SIGNIFICANT (or, on a large
+        dataset, SIGNIFICANT_ROOT sqrt(dof): a model error far below the noise per sample still adds up
+        over many samples) times chi2 / dof, times ``factor``."""
+        level = max(SIGNIFICANT, SIGNIFICANT_ROOT * math.sqrt(self.dof))
+        return (a.chi2 - b.chi2) > factor * level * max(1.0, self.per_dof(b))
 
     def decide(self, nom: Fit, singles: list[Fit], pairs: list[Fit]) -> dict[str, Any]:
         named: Fit | None = None
@@ -537,7 +544,9 @@ class FrameDiagnosis:
                 if key in seen:
                     continue
                 seen.add(key)
-                if self.significant(s1, p) and _sized(p):
+                # a second effect: significant beside the first, and needed (the first leaves the data
+                # unexplained) unless it is ten times as significant
+                if self.significant(s1, p) and _sized(p) and (not self.explained(s1) or self.significant(s1, p, 10.0)):
                     named = p
                     break
         pool = singles if named is None or len(named.cands) == 1 else pairs
@@ -551,7 +560,15 @@ class FrameDiagnosis:
                     keys.add(k)
                     ambiguous.append(f)
         ref = named or nom
-        unexplained = not self.explained(ref)
+        # unexplained: chi2 above the noise overall, or a frequency band (a mode, between modes) where
+        # the residual stands BAND_Z std above its dof (a structure a noise-level error cannot make)
+        worst = max(self.bands(ref), key=lambda b: b["z"])
+        unexplained = not self.explained(ref) or worst["z"] > BAND_Z
+        if self.explained(ref) and unexplained:
+            self.notes.append(
+                f"chi2 is at the noise overall, but near {worst['band']} the residual is {worst['z']:.1f} std above "
+                "its noise: a structure the named model leaves"
+            )
         return self.result(nom, named, singles, pairs, ambiguous, unexplained)
 
     def where(self, f: Fit) -> dict[str, Any]:
@@ -568,10 +585,11 @@ class FrameDiagnosis:
             or "no channel stands out above the noise"
         )
         bands = self.bands(f)
-        top = [b for b in bands if b["share"] >= 0.15][:3]
-        if top and worst:
-            text += "; in frequency near " + ", ".join(
-                f"{b['band']} ({100 * b['share']:.0f} % of the excess)" for b in top
+        top = [b for b in bands if b["share"] >= 0.15 or b["z"] > BAND_Z][:3]
+        if top and (worst or any(b["z"] > BAND_Z for b in top)):
+            text = "" if not worst else text + "; "
+            text += "frequency near " + ", ".join(
+                f"{b['band']} ({100 * b['share']:.0f} % of the excess, {b['z']:.0f} std above the noise)" for b in top
             )
         return {"channels": rows, "bands": bands, "text": text}
 
@@ -586,6 +604,7 @@ class FrameDiagnosis:
                 edges.append((f"between modes {i + 1} and {i + 2}", 1.1 * m, 0.9 * modes[i + 1]))
         edges.append(("above the modes", 1.1 * modes[-1], math.inf))
         ex = np.zeros(len(edges))
+        nd = np.zeros(len(edges))
         for v, r in zip(self.views, f.resid, strict=True):
             nb = v.u.size // 2 + 1
             E = r.reshape(2, nb, len(v.channels))
@@ -598,11 +617,18 @@ class FrameDiagnosis:
             for k, (_, lo, hi) in enumerate(edges):
                 sel = (fr >= lo) & (fr < hi)
                 ex[k] += float(np.sum(p[sel]) - np.sum(dof[sel]))
+                nd[k] += float(np.sum(dof[sel]))
         pos = np.maximum(ex, 0.0)
         tot = float(pos.sum())
         out = [
-            {"band": name, "excess": float(e), "share": float(q / tot) if tot > 0 else 0.0}
-            for (name, _, _), e, q in zip(edges, ex, pos, strict=True)
+            {
+                "band": name,
+                "excess": float(e),
+                "dof": float(d),
+                "z": float(e / math.sqrt(2 * d)) if d > 0 else 0.0,
+                "share": float(q / tot) if tot > 0 else 0.0,
+            }
+            for (name, _, _), e, d, q in zip(edges, ex, nd, pos, strict=True)
         ]
         return sorted(out, key=lambda d: -d["share"])
 
