@@ -329,7 +329,7 @@ class FrameDiagnosis:
                 ys = [v.ssim.run(model, v.u[:: v.scan_q]) for v in self.views]
             else:
                 ys = [v.sim.run(model, v.u) for v in self.views]
-            if len(self._cache) > 64:
+            if len(self._cache) > 16:  # bounded memory: a long record's simulation is megabytes
                 self._cache.clear()
             self._cache[key] = ys
         out = []
@@ -420,15 +420,19 @@ class FrameDiagnosis:
         progress.candidate(f.label)
         return f
 
-    def sensitivities(self, base: Fit, cands: list[Cand]) -> ndarray:
-        """d residual / d u of each of ``cands`` beside ``base`` (forward differences), as columns."""
+    def linear_gains(self, base: Fit, cands: list[Cand]) -> ndarray:
+        """The chi2 each of ``cands`` would remove beside ``base``, linearised: (J r)^2 / (J J) of its
+        column J = d residual / d u (forward differences), one column at a time (bounded memory)."""
         r0 = np.concatenate(base.resid)
-        cols = []
-        for c in cands:
+        out = np.zeros(len(cands))
+        for i, c in enumerate(cands):
             d = 1e-4
             r = self.residuals((*base.cands, c), np.append(base.u, d))
-            cols.append(np.zeros_like(r0) if r is None else (np.concatenate(r) - r0) / d)
-        return np.column_stack(cols)
+            if r is None:
+                continue
+            J = (np.concatenate(r) - r0) / d
+            out[i] = float(np.einsum("i,i->", J, r0)) ** 2 / max(float(np.einsum("i,i->", J, J)), 1e-300)
+        return out
 
     def run(self) -> dict[str, Any]:
         progress.stage("frame: scanning every effect at every element")
@@ -457,9 +461,7 @@ class FrameDiagnosis:
                 self.not_tried.append(f"pairs with {first.label}")
                 continue
             others = [c for c in self.cands if c != first.cands[0]]
-            J = self.sensitivities(first, others)
-            r0 = np.concatenate(first.resid)
-            gain = (J.T @ r0) ** 2 / np.maximum(np.sum(J * J, axis=0), 1e-300)
+            gain = self.linear_gains(first, others)
             for i in np.argsort(-gain)[:SECONDS]:
                 c = others[int(i)]
                 if self.over():
