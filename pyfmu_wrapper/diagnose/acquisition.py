@@ -258,9 +258,13 @@ def _parse_filter(f: str | MarkedDict, file: Path, key: str) -> dict[str, Any]:
     return {"type": typ, "order": int(order), "cutoff_hz": fc}
 
 
-def parse_acquisition(block: MarkedDict | None, file: Path, level: str = "system") -> dict:
+def parse_acquisition(
+    block: MarkedDict | None, file: Path, level: str = "system", extra_channels: tuple[str, ...] = ()
+) -> dict:
     """Validate the ``acquisition`` block of dataset.yaml; returns {channel: Chain} (empty when the
-    block is absent). Every problem is a DataError naming ``file`` and the key."""
+    block is absent). Every problem is a DataError naming ``file`` and the key. ``extra_channels``:
+    channels beside :data:`CHANNELS` the records hold (a frame's ``x1``, ``x2dd``, ...)."""
+    channels = (*CHANNELS, *extra_channels)
     if block is None:
         return {}
     if level != "system":
@@ -271,9 +275,9 @@ def parse_acquisition(block: MarkedDict | None, file: Path, level: str = "system
         )
     if not isinstance(block, dict):
         raise _err(file, f"'acquisition' must be a mapping of channel -> {{filter, delay_s}}, got {block!r}")
-    unknown = sorted(set(map(str, block)) - set(CHANNELS) - {"all"})
+    unknown = sorted(set(map(str, block)) - set(channels) - {"all"})
     if unknown:
-        raise _err(file, f"acquisition: unknown channel(s) {unknown}; known: {list(CHANNELS) + ['all']}")
+        raise _err(file, f"acquisition: unknown channel(s) {unknown}; known: {list(channels) + ['all']}")
     parsed = {}
     for ch, spec in block.items():
         key = f"acquisition.{ch}"
@@ -294,7 +298,7 @@ def parse_acquisition(block: MarkedDict | None, file: Path, level: str = "system
             p["delay_s"] = d
         parsed[str(ch)] = p
     out = {}
-    for ch in CHANNELS:
+    for ch in channels:
         p = {**parsed.get("all", {}), **parsed.get(ch, {})}
         if not p:
             continue

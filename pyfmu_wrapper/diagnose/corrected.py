@@ -130,6 +130,8 @@ def write_corrected(ds: Dataset, res: Mapping[str, Any], folder: Path) -> list[P
     from ..physics.params import as_dict
 
     verdict = res.get("verdict") or {}
+    if "frame" in ds.nominal:
+        return write_corrected_frame(ds, verdict, folder)
     effects = list(verdict.get("effects") or [])
     params = verdict.get("parameters") or {}
     base, tmd, notes = corrected_params(ds.nominal, {k: v for k, v in params.items() if k.split(".")[0] in effects})
@@ -198,6 +200,161 @@ def write_corrected(ds: Dataset, res: Mapping[str, Any], folder: Path) -> list[P
         q.write_text(ssv_text(name, values, desc.replace("{F}", f"{F:g}")), encoding="utf-8")
         written += [p, q]
     return written
+
+
+def corrected_frame(nominal: Mapping[str, Any], parameters: Mapping[str, Any]) -> tuple[dict, dict, dict]:
+    """(frame block, tmd block, notes) of a frame nominal (:func:`pyfmu_wrapper.diagnose.data.
+    normalise_frame_nominal`) with the verdict's ``parameters`` (``effect@element.parameter`` -> value
+    or ``{"value": ...}``) applied by the frame unit's vocabulary: a storey effect changes that storey's
+    entry of the frame's per-storey list, a TMD effect the TMD's field (each parameter's registry
+    target, :class:`~pyfmu_wrapper.physics.effects.EffectParam`); ``force_error`` gives ``force_gain``
+    (true = recorded / (1 + g)); a channel gain is the sensor's (``not_applied``)."""
+    from ..models.frame_model import UNIT
+
+    vocab = UNIT.effects
+    assert vocab is not None
+    fr = {k: (list(v) if isinstance(v, list) else v) for k, v in nominal["frame"].items()}
+    td = dict(nominal["tmd"])
+    applied: dict[str, float] = {}
+    not_applied: dict[str, str] = {}
+    gain = 1.0
+    for key, v in parameters.items():
+        val = float(v["value"] if isinstance(v, Mapping) else v)
+        head, _, name = key.partition(".")
+        eff, _, element = head.partition("@")
+        if eff == "friction" and name == "log10_friction_slope" and math.isfinite(val):  # the law's fitted slope
+            td["friction_slope"] = 10.0**val
+            applied[key] = val
+            continue
+        if eff not in vocab or name not in vocab[eff].param_names or not math.isfinite(val):
+            not_applied[key] = "not a parameter of the frame's vocabulary"
+            continue
+        par = vocab[eff].param(name)
+        if eff == "force_error":
+            gain = 1.0 / (1.0 + val)
+            continue
+        if not par.targets:
+            not_applied[key] = f"a measurement effect ({vocab[eff].label}): the sensor's, not the model's"
+            continue
+        for target, coef in par.targets:
+            sub, field = target.split(".")
+            if sub == "frame":
+                i = int(element.split()[-1]) - 1
+                fr[field][i] = float(fr[field][i]) + coef * val
+            elif par.replaces:
+                td[field] = val
+            else:
+                td[field] = float(td.get(field, 0.0)) + coef * val
+        applied[key] = val
+    return fr, td, {"applied": applied, "force_gain": gain, "not_applied": not_applied}
+
+
+def write_corrected_frame(ds: Dataset, verdict: Mapping[str, Any], folder: Path) -> list[Path]:
+    """The corrected frame (:func:`corrected_frame`) as a scenario (``corrected_frame.yaml``: frame:/tmd:
+    blocks with per-storey lists, an FRC study of the corrected and the nominal TMD around the nominal's
+    modes) and its FrameSystem parameter set (``corrected_frame.ssv``)."""
+    import yaml
+
+    from .frame.model import FrameModel
+
+    effects = list(verdict.get("effects") or [])
+    params = verdict.get("parameters") or {}
+    fr, td, notes = corrected_frame(ds.nominal, params)
+    F = max((float(np.max(np.abs(r["force"]))) for r in ds.records if r.has("force")), default=0.0)
+    F = _round_force(F) if F > 0 else float(ds.nominal["frame"].get("force_amplitude", 200.0))
+    F *= notes["force_gain"]
+    modes = FrameModel.from_nominal(ds.nominal).modes_hz()
+    w = 2 * math.pi * np.linspace(0.7 * modes[0], 1.3 * modes[-1], 81)
+    if effects:
+        what = "; ".join(f"{e} at {el}" for e, el in zip(effects, verdict.get("elements") or [], strict=False))
+        vals = ", ".join(f"{k} = {v:.6g}" for k, v in notes["applied"].items())
+        desc = f"The nominal of {ds.path.name} corrected by diagnose: {what} named; applied {vals or 'no change of a model parameter'}."
+        if notes["force_gain"] != 1.0:
+            desc += f" force_error: the true force is {notes['force_gain']:.6g} x the recorded one."
+        for k, why in notes["not_applied"].items():
+            desc += f" Not applied: {k} ({why})."
+    else:
+        desc = f"The nominal of {ds.path.name} unchanged: diagnose named no effect."
+    desc += f" force_amplitude: the records' largest |force| ({F:g} N); frequencies 0.7 x the lowest to 1.3 x the highest nominal mode."
+    nom_tmd = {k: v for k, v in ds.nominal["tmd"].items() if k not in ("storey", "inerter_to")}
+    frame_block = {
+        "storeys": int(fr["storeys"]),
+        "mass": [float(x) for x in fr["mass"]],
+        "stiffness": [float(x) for x in fr["stiffness"]],
+        "damping": [float(x) for x in fr["damping"]],
+        "force_amplitude": F,
+        "force_storey": int(fr["force_storey"]),
+    }
+    tmd_block = {
+        k: (float(v) if isinstance(v, (int, float)) and k not in ("storey", "inerter_to") else v) for k, v in td.items()
+    }
+    doc = {
+        "schema_version": 2,
+        "name": "corrected_frame",
+        "description": desc,
+        "frame": frame_block,
+        "tmd": tmd_block,
+        "frequencies": [float(x) for x in w],
+        "sweep": {"direction": "up", "continuation": False},
+        "studies": [
+            {
+                "kind": "frc",
+                "name": "corrected",
+                "title": "corrected frame",
+                "curves": [
+                    {"label": "corrected" if effects else "corrected (= nominal)"},
+                    {"label": "nominal", "tmd": nom_tmd},
+                ],
+            }
+        ],
+    }
+    folder.mkdir(parents=True, exist_ok=False)
+    p = folder / "corrected_frame.yaml"
+    p.write_text(
+        "# written by diagnose (the corrected model, docs/diagnose.md 'The corrected model')\n"
+        + yaml.safe_dump(doc, sort_keys=False, width=100),
+        encoding="utf-8",
+    )
+    q = folder / "corrected_frame.ssv"
+    q.write_text(frame_ssv_text("corrected_frame", frame_block, tmd_block, desc), encoding="utf-8")
+    return [p, q]
+
+
+def frame_ssv_text(name: str, frame: Mapping[str, Any], tmd: Mapping[str, Any], description: str = "") -> str:
+    """An SSP 1.0 parameter set of the FrameSystem FMU (:mod:`pyfmu_wrapper.models.frame_model.fmus.
+    system_variables`): ``storeys``, ``m<i>``, ``k<i>``, ``c<i>``, ``F``, ``force_storey``,
+    ``tmd_storey``, ``inerter_to`` and the TMD's parameters under their FrameSystem names."""
+    from ..models.frame_model.fmus.system_variables import tmd_name
+    from ..physics import registry
+    from ..physics.params import InerterModel
+
+    rows: list[tuple[str, Any, str]] = [("storeys", int(frame["storeys"]), "")]
+    for key, sym, unit in (("mass", "m", "kg"), ("stiffness", "k", "N/m"), ("damping", "c", "N.s/m")):
+        rows += [(f"{sym}{i + 1}", float(v), unit) for i, v in enumerate(frame[key])]
+    rows += [("F", float(frame["force_amplitude"]), "N"), ("force_storey", int(frame["force_storey"]), "")]
+    rows += [("tmd_storey", int(tmd["storey"]), ""), ("inerter_to", int(tmd["inerter_to"]), "")]
+    for field, v in tmd.items():
+        if field in ("storey", "inerter_to"):
+            continue
+        row = registry.get("tmd", field)
+        if row.kind == "enum":
+            rows.append((tmd_name(row.fmu_name), int(InerterModel[v.upper()]) if isinstance(v, str) else int(v), ""))
+        else:
+            rows.append((tmd_name(row.fmu_name), float(v), registry.get("tmd", field).unit))
+    lines = [
+        '<?xml version="1.0" encoding="UTF-8"?>',
+        f'<ssv:ParameterSet xmlns:ssv="{_NS_SSV}" version="1.0" name={quoteattr(name)}'
+        + (f" description={quoteattr(description)}>" if description else ">"),
+        "  <ssv:Parameters>",
+    ]
+    for key, v, unit in rows:
+        if isinstance(v, int):
+            lines.append(f'    <ssv:Parameter name={quoteattr(key)}><ssv:Integer value="{v}"/></ssv:Parameter>')
+        else:
+            u = f" unit={quoteattr(unit)}" if unit else ""
+            lines.append(f'    <ssv:Parameter name={quoteattr(key)}><ssv:Real value="{_fmt(v)}"{u}/></ssv:Parameter>')
+    lines += ["  </ssv:Parameters>", "</ssv:ParameterSet>"]
+    return "\n".join(lines) + "\n"
 
 
 def ssv_text(name: str, values: Mapping[str, Mapping[str, Any]], description: str = "") -> str:

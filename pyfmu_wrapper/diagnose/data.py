@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING
 import yaml
 
 from .errors import DataError
-from .records import REQUIRED, check_header, data_error, read_record, say
+from .records import REQUIRED, check_header, data_error, read_record, say, storey_columns
 
 if TYPE_CHECKING:
     from collections.abc import Callable
@@ -236,10 +236,12 @@ def load_dataset(
             yml, "every record has role 'test': at least one record must be for training", line=_line(raw, "records")
         )
     if level == "system":
+        check_frame_records(records, nominal, yml)
         check_time_base(records, nominal, yml)
     from .acquisition import check_records, correct_frc, parse_acquisition
 
-    acq = parse_acquisition(raw.get("acquisition"), yml, level)
+    extra = sorted({c for r in records for c in storey_columns(r.columns)}) if "frame" in nominal else ()
+    acq = parse_acquisition(raw.get("acquisition"), yml, level, extra_channels=tuple(extra))
     check_records(acq, records, yml)
     correct_frc(records, acq)
     return Dataset(
@@ -262,6 +264,8 @@ def normalise_nominal(nom: dict, level: str, file: Path | str) -> dict:
 
     if "nominal" in nom and isinstance(nom["nominal"], dict):
         nom = nom["nominal"]
+    if level == "system" and "frame" in nom:
+        return normalise_frame_nominal(nom, file)
     ln = lambda node, k: _line(node, k) or _line(nom, k)  # noqa: E731
     if level == "link":
         if "link" in nom and set(nom) - {"link", "base", "tmd"}:
@@ -336,6 +340,94 @@ def normalise_nominal(nom: dict, level: str, file: Path | str) -> dict:
     return {"base": _plain_data(nom["base"]), "tmd": _plain_data(nom["tmd"])}
 
 
+#: keys of a dataset's nominal frame: block (mass, stiffness, damping: one number, or a list of one per storey)
+FRAME_KEYS = ("storeys", "mass", "stiffness", "damping", "force_storey", "force_amplitude")
+#: the TMD's attachment keys in a frame nominal's tmd: block (beside the TMDParams fields)
+FRAME_TMD_KEYS = ("storey", "inerter_to")
+
+
+def _storey_int(v: Any, file: Path | str, key: str, line: int | None, lo: int, hi: int) -> int:
+    if isinstance(v, bool) or not isinstance(v, (int, float)) or v != int(v) or not lo <= int(v) <= hi:
+        raise data_error(file, f"'{key}' must be an integer {lo}..{hi}, got {v!r}", line=line)
+    return int(v)
+
+
+def normalise_frame_nominal(nom: dict, file: Path | str) -> dict:
+    """A frame nominal ``{frame: {storeys, mass, stiffness, damping, force_storey}, tmd: {..., storey,
+    inerter_to}}`` (mass/stiffness/damping one number or one per storey, storey 1 first), validated with
+    located errors (the key, the list entry, the line), as ``{"frame": {storeys, mass, stiffness,
+    damping (lists), force_storey}, "tmd": {TMDParams fields, storey, inerter_to}}``."""
+    from ..physics.params import ParameterError, TMDParams, field_names
+
+    extra = [k for k in nom if k not in ("frame", "tmd")]
+    if extra:
+        raise data_error(
+            file,
+            f"nominal: unknown key(s) {[str(k) for k in extra]}; a frame nominal has keys ['frame', 'tmd']",
+            line=_line(nom, extra[0]),
+        )
+    fr = nom["frame"]
+    if not isinstance(fr, dict):
+        raise data_error(file, f"nominal.frame must be a mapping, got {fr!r}", line=_line(nom, "frame"))
+    bad = [k for k in fr if k not in FRAME_KEYS]
+    if bad:
+        raise data_error(
+            file,
+            f"nominal.frame: unknown key(s) {[str(k) for k in bad]}; allowed keys: {list(FRAME_KEYS)}",
+            line=_line(fr, bad[0]) or _line(nom, "frame"),
+        )
+    ln = lambda k: _line(fr, k) or _line(nom, "frame")  # noqa: E731
+    for k in ("storeys", "mass", "stiffness", "damping"):
+        if k not in fr:
+            raise data_error(file, f"nominal.frame.{k} is missing (a frame needs {FRAME_KEYS[:4]})", line=ln("storeys"))
+    n = _storey_int(fr["storeys"], file, "nominal.frame.storeys", ln("storeys"), 1, 20)
+    out: dict[str, Any] = {"storeys": n}
+    for k, strict in (("mass", True), ("stiffness", True), ("damping", False)):
+        v = fr[k]
+        if isinstance(v, list):
+            if len(v) != n:
+                raise data_error(
+                    file,
+                    f"'nominal.frame.{k}' must be one number or a list of one per storey ({n}, storey 1 first), "
+                    f"got a list of {len(v)}",
+                    line=ln(k),
+                )
+            out[k] = [
+                _number(x, file, f"nominal.frame.{k}[{i}] (storey {i + 1})", _line(v, i) or ln(k), 0.0, strict)
+                for i, x in enumerate(v)
+            ]
+        else:
+            out[k] = [_number(v, file, f"nominal.frame.{k}", ln(k), 0.0, strict)] * n
+    out["force_storey"] = _storey_int(
+        fr.get("force_storey", n), file, "nominal.frame.force_storey", ln("force_storey"), 1, n
+    )
+    if "force_amplitude" in fr:
+        out["force_amplitude"] = _number(
+            fr["force_amplitude"], file, "nominal.frame.force_amplitude", ln("force_amplitude")
+        )
+    td = nom.get("tmd")
+    if not isinstance(td, dict):
+        raise data_error(file, "a frame nominal needs a 'tmd' mapping (the TMD's parameters)", line=_line(nom, "tmd"))
+    allowed = [f for f in field_names(TMDParams) if f != "source"] + list(FRAME_TMD_KEYS)
+    bad = [k for k in td if k not in allowed]
+    if bad:
+        raise data_error(
+            file,
+            f"nominal.tmd: unknown key(s) {[str(k) for k in bad]}; allowed keys: {allowed}",
+            line=_line(td, bad[0]) or _line(nom, "tmd"),
+        )
+    tln = lambda k: _line(td, k) or _line(nom, "tmd")  # noqa: E731
+    tmd = {k: _plain_data(v) for k, v in td.items() if k not in FRAME_TMD_KEYS}
+    try:
+        TMDParams(**tmd, source=str(file))
+    except (ParameterError, TypeError) as e:
+        msg = str(e).replace(f" (from {file})", "")
+        raise data_error(file, f"nominal model: tmd: {msg}", line=_line(nom, "tmd")) from None
+    s = _storey_int(td.get("storey", n), file, "nominal.tmd.storey", tln("storey"), 1, n)
+    j = _storey_int(td.get("inerter_to", s), file, "nominal.tmd.inerter_to", tln("inerter_to"), 0, n)
+    return {"frame": out, "tmd": {**tmd, "storey": s, "inerter_to": j}}
+
+
 def nominal_modes_hz(nominal: dict) -> list[float]:
     """The undamped natural frequencies [Hz] of a system-level nominal model (base + TMD, the inerter
     taken as ideal between them, the cubic spring and the play left out): the roots of
@@ -344,6 +436,10 @@ def nominal_modes_hz(nominal: dict) -> list[float]:
 
     from ..physics.params import BaseParams, InerterModel, TMDParams
 
+    if "frame" in nominal:
+        from .frame.model import FrameModel
+
+        return FrameModel.from_nominal(nominal).modes_hz()
     b, t = BaseParams(**nominal["base"]), TMDParams(**nominal["tmd"])
     inert = t.inertance if t.inerter != InerterModel.NONE else 0.0
     mass = np.array([[b.mass + inert, -inert], [-inert, t.mass + inert]])
@@ -352,6 +448,46 @@ def nominal_modes_hz(nominal: dict) -> list[float]:
         return [math.sqrt(b.stiffness / b.mass) / (2 * math.pi)]
     w2 = np.linalg.eigvals(np.linalg.solve(mass, stiff)).real
     return sorted(math.sqrt(max(float(v), 0.0)) / (2 * math.pi) for v in w2)
+
+
+def check_frame_records(records: list, nominal: dict, yml: Path) -> None:
+    """A frame's records are transient records with storey channels ``x<i>``, ``x<i>dd`` (i = 1..n), the
+    TMD's ``y``, ``ydd`` and the force; the pair's ``x``, ``xdd`` have no place there, nor storey
+    channels beside a base + TMD nominal (DataError naming the record and the column)."""
+    frame = "frame" in nominal
+    n = int(nominal["frame"]["storeys"]) if frame else 0
+    for r in records:
+        file = yml.parent / r.name
+        cols = storey_columns(r.columns)
+        if not frame:
+            if cols:
+                raise data_error(
+                    file,
+                    f"storey channel {cols[0]!r} in a dataset whose nominal is the base + TMD pair (a frame's "
+                    "records need a nominal with a 'frame:' block)",
+                    column=cols[0],
+                )
+            continue
+        if r.kind != "transient":
+            raise data_error(
+                file,
+                f"a frame is diagnosed from transient records (kind: transient, columns t, force, x<i>dd, ...); "
+                f"this record is of kind {r.kind!r}",
+            )
+        for c in ("x", "xdd"):
+            if c in r.columns:
+                raise data_error(
+                    file,
+                    f"column {c!r} is the pair's base channel: a frame's storey channels are x<i> / x<i>dd (storey i, "
+                    "1 = lowest)",
+                    column=c,
+                )
+        for c in cols:
+            i = int(c[1:].removesuffix("dd"))
+            if i > n:
+                raise data_error(file, f"storey {i} does not exist: the nominal frame has {n} storeys", column=c)
+        if not cols and not any(c in r.columns for c in ("y", "ydd")):
+            raise data_error(file, "no response channel (x<i>, x<i>dd, y, ydd) to diagnose the frame from", column="t")
 
 
 def check_time_base(records: list, nominal: dict, yml: Path) -> None:

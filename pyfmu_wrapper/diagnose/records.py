@@ -14,6 +14,7 @@ Record kinds (told apart by their columns):
 from __future__ import annotations
 
 import math
+import re
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -46,6 +47,14 @@ OPTIONAL = {
     "frc": ["direction"],
     "transient": ["force", "x", "y", "xdd", "ydd"],
 }
+
+#: a frame's storey channels in a transient record: ``x<i>`` [m] and ``x<i>dd`` [m/s^2] of storey i (1 = lowest)
+STOREY_COLUMN = re.compile(r"^x([1-9][0-9]?)(dd)?$")
+
+
+def storey_columns(cols: Any) -> list[str]:
+    """The storey channels (``x1``, ``x2dd``, ...) among the column names ``cols``, in their order."""
+    return [str(c) for c in cols if STOREY_COLUMN.match(str(c))]
 
 
 @dataclass
@@ -111,7 +120,8 @@ def _plainf(x: float) -> str:
 def _columns(df: DataFrame, file: Path, kind: str, row0: int = 0, t_prev: float64 | None = None) -> dict[str, ndarray]:
     """Validated numeric columns of (a block of) a record; rows counted from row0."""
     cols = {}
-    for c in REQUIRED[kind] + OPTIONAL[kind]:
+    extra = storey_columns(df.columns) if kind == "transient" else []
+    for c in REQUIRED[kind] + OPTIONAL[kind] + extra:
         if c not in df.columns:
             continue
         if c == "direction":
@@ -199,10 +209,11 @@ def check_header(file: Path, level: str, entry: dict[str, Any]) -> str:
             f"optional {OPTIONAL[kind]}); found {cols}",
             column=missing[0],
         )
-    if kind == "transient" and not any(c in cols for c in ("x", "y", "xdd", "ydd")):
+    if kind == "transient" and not any(c in cols for c in ("x", "y", "xdd", "ydd", *storey_columns(cols))):
         raise data_error(
             file,
-            "a transient record needs at least one response channel of x, y, xdd, ydd (and 'force', "
+            "a transient record needs at least one response channel of x, y, xdd, ydd (a frame's: x<i>, "
+            "x<i>dd of storey i, y, ydd) (and 'force', "
             f"unless it is a free decay); found {cols}",
             column="x",
         )
@@ -347,7 +358,7 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
         kind, cols, span, reduced = _read_long(file, level, entry, n_rows, log)
         if len(cols["t"]) < 3:
             raise data_error(file, f"needs at least 3 data rows, has {len(cols['t'])}")
-    for c in LIVE_CHANNELS.get(kind, ()):
+    for c in (*LIVE_CHANNELS.get(kind, ()), *(storey_columns(cols) if kind == "transient" else ())):
         if c in cols and span[0][c] == span[1][c]:
             raise data_error(
                 file,

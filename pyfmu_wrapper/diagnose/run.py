@@ -48,6 +48,18 @@ def _load_model(spec: str | None) -> dict[str, Any] | MarkedDict | None:
             sc = load_scenario(p)
         except ScenarioError as e:
             raise DataError(str(e)) from None
+        if hasattr(sc.base, "stiffnesses"):  # a frame scenario: its frame: and tmd: blocks
+            fr = sc.base.resolved()
+            return {
+                "frame": {
+                    "storeys": fr.n,
+                    "mass": list(fr.masses),
+                    "stiffness": list(fr.stiffnesses),
+                    "damping": list(fr.dampings),
+                    "force_storey": fr.force_storey,
+                },
+                "tmd": {**as_dict(sc.tmd), "storey": fr.tmd_storey, "inerter_to": fr.inerter_to},
+            }
         return {"base": as_dict(sc.base), "tmd": as_dict(sc.tmd)}
     if isinstance(raw, dict) and "nominal" in raw:
         raw = raw["nominal"]
@@ -135,6 +147,11 @@ def _run(ds: Dataset, out: Path | None, red: list[Any]) -> dict:
 
     from . import progress
 
+    if ds.level == "system" and "frame" in ds.nominal:
+        from .frame.report import run_frame
+
+        progress.stage("frame: transient records")
+        return finish(run_frame(ds, out))
     frc = None
     if any(r.kind == "frc" for r in ds.records):
         from .system.frc import diagnose_frc

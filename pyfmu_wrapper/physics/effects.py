@@ -50,7 +50,10 @@ class Effect:
     """One effect of the vocabulary (module doc). ``element``: where it acts, as the verdict names it;
     ``signed``: it can be of either sign (a parameter off its nominal, a gain error), else it is a
     positive amount (a friction force, a gap); ``size``: the parameter a benchmark scores the effect by
-    (default: the first)."""
+    (default: the first); ``per``: the effect is declared once and instantiated at every element of
+    that kind (``storey``: at each storey of a frame, ``channel``: at each recorded channel), its
+    ``element`` then a template with ``{}`` for the storey number or the channel's column
+    (``storey {}``, ``channel {}``): :meth:`elements`."""
 
     name: str
     label: str
@@ -59,6 +62,12 @@ class Effect:
     signed: bool = False
     levels: tuple[str, ...] = (SYSTEM,)
     size: str = ""
+    per: str = ""
+
+    def at(self, where: int | str) -> str:
+        """The element string of this effect at storey / channel ``where`` (its ``element`` when it is
+        not a per-element effect)."""
+        return self.element.format(where) if self.per else self.element
 
     @property
     def param_names(self) -> tuple[str, ...]:

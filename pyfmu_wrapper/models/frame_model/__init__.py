@@ -19,6 +19,7 @@ from ...physics.kernels import inerter_force
 from ...physics.params import TMDParams
 from ...physics.tmd import active_states
 from ...physics.unit import ModelUnit
+from .effects import VOCABULARY
 from .equations import (
     F_N,
     F_TMD,
@@ -106,4 +107,5 @@ UNIT = ModelUnit(
     example=_example,
     description="a shear frame of 1-20 storeys with the TMD-inerter on any storey (TMDI: inerter to another storey or the ground)",
     home=__name__,
+    effects=VOCABULARY,
 )
