@@ -183,7 +183,7 @@ def summarise(rows: list[dict]) -> dict[str, Any]:
             1 for r in by["single"] + by["pair"] if not r["right"] and r["truth_among_ambiguous"]
         ),
         "worst_cpu_s": max((r["cpu_s"] for r in rows), default=None),
-        "median_cpu_s": statistics.median(r["cpu_s"] for r in rows) if rows else None,
+        "median_cpu_s": round(statistics.median(r["cpu_s"] for r in rows), 1) if rows else None,
         "worst_wall_s": max((r["wall_s"] for r in rows), default=None),
         "peak_rss_mb": max((r["peak_rss_mb"] for r in rows), default=None),
     }
@@ -215,13 +215,40 @@ def summarise(rows: list[dict]) -> dict[str, Any]:
     return s
 
 
+def code_version(code: Path) -> dict[str, Any]:
+    """The commit of the source tree diagnose runs from and whether its work tree differs (None: not git)."""
+    try:
+        head = subprocess.run(["git", "-C", str(code), "rev-parse", "HEAD"], capture_output=True, text=True, check=True)
+        st = subprocess.run(
+            ["git", "-C", str(code), "status", "--porcelain", "--untracked-files=no"],
+            capture_output=True,
+            text=True,
+            check=True,
+        )
+    except (OSError, subprocess.CalledProcessError):
+        return {"code_commit": None, "code_dirty": None}
+    return {"code_commit": head.stdout.strip(), "code_dirty": bool(st.stdout.strip())}
+
+
+def outcome_of(r: dict) -> str:
+    """One word for a row: error, right / WRONG (singles, pairs), ok / false effect (clean), the OOV outcome."""
+    if r["error"]:
+        return "error" + (" (timeout)" if r.get("timed_out") else "")
+    if r["class"] == "oov":
+        return str(r["outcome"])
+    if r["class"] == "clean":
+        return "false effect" if r["false_effect"] else "ok"
+    return "right" if r["right"] else "WRONG"
+
+
 def markdown(doc: dict) -> str:
     s = doc["summary"]
     pct = lambda v: "-" if v is None else f"{100 * v:.0f} %"  # noqa: E731
     lines = [
         f"# Frame benchmark: {doc['bench']} (seed {doc['seed']})",
         "",
-        f"diagnose from {doc['code']}; {s['n']} datasets ({s['n_clean']} clean, {s['n_single']} singles, "
+        f"diagnose from {doc['code']} (commit {doc.get('code_commit')}{', modified' if doc.get('code_dirty') else ''}); "
+        f"{s['n']} datasets ({s['n_clean']} clean, {s['n_single']} singles, "
         f"{s['n_pair']} pairs, {s['n_oov']} out of vocabulary); load average {doc['load']}; "
         "an error counts as a failure of its class's measure.",
         "",
@@ -245,14 +272,7 @@ def markdown(doc: dict) -> str:
         "|---|---|---|---|---|---|---|---|---|---|---|",
     ]
     for r in doc["rows"]:
-        outcome = (
-            r.get("outcome")
-            or ("right" if r.get("right") else "")
-            or ("false effect" if r.get("false_effect") else "")
-            or ("ok" if r["class"] == "clean" else "WRONG")
-        )
-        if r["error"]:
-            outcome = "error" + (" (timeout)" if r.get("timed_out") else "")
+        outcome = outcome_of(r)
         truth = ", ".join(r["truth"]) or (r["oov_kind"] or "-")
         lines.append(
             f"| {r['name']} | {r['class']} | {r['storeys']} | {truth} | {', '.join(r['named']) or '-'} | "
@@ -298,7 +318,7 @@ def main(argv: list[str] | None = None) -> int:
         done = {r["name"]: r for r in json.loads((out / "results.json").read_text())["rows"]}
     by_name = {d["name"]: d for d in doc["datasets"]}
     rows: list[dict] = []
-    res_doc: dict[str, Any] = {"bench": str(bench), "seed": doc.get("seed"), "code": str(code)}
+    res_doc: dict[str, Any] = {"bench": str(bench), "seed": doc.get("seed"), "code": str(code), **code_version(code)}
     for name in names:
         if name in done:
             rows.append(done[name])
@@ -316,7 +336,7 @@ def main(argv: list[str] | None = None) -> int:
             run["message"] = " | ".join(tail)[-400:]
         row = score_row(by_name[name], res, run)
         rows.append(row)
-        brief = row.get("outcome") or ("error" if row["error"] else "")
+        brief = outcome_of(row)
         print(
             f"{name} {row['class']}: named {row['named'] or '-'} unexplained={row['unexplained']} {brief} "
             f"(CPU {run['cpu_s']} s, {run['peak_rss_mb']} MB, exit {run['exit']})",
