@@ -38,18 +38,21 @@ def _steady(truth: FrameTruth, X: np.ndarray, w: float, F0: float, periods: floa
     return sim, (X[:, None] * ph).real, (-(w**2) * X[:, None] * ph).real
 
 
-@pytest.mark.parametrize(("to", "force_storey", "f_hz"), [(3, 3, 2.9), (0, 2, 3.4), (1, 1, 6.0)])
-def test_truth_is_the_exact_linear_response(to, force_storey, f_hz):
-    """TMD-inerter, TMDI to the ground, TMDI to storey 1: the integrated truth stays on the exact
-    steady state (displacements and accelerations of every storey and the TMD) to 1e-6."""
+@pytest.mark.parametrize(
+    ("n", "to", "force_storey", "f_hz"), [(3, 3, 3, 2.9), (3, 0, 2, 3.4), (3, 1, 1, 6.0), (5, 2, 4, 4.1)]
+)
+def test_truth_is_the_exact_linear_response(n, to, force_storey, f_hz):
+    """TMD-inerter, TMDI to the ground, TMDI to a lower storey (3 and 5 storeys): the integrated truth
+    stays on the exact steady state (displacements and accelerations of every storey and the TMD) to 1e-6."""
     w, F0 = 2 * math.pi * f_hz, 150.0
-    tmd = dict(TMD, inerter_to=to)
+    ms, ks, cs = (v + [v[-1] * 0.9] * (n - 3) for v in (MASSES, STIFF, DAMP))
+    tmd = dict(TMD, storey=n, inerter_to=to)
     X = frequency_response(
-        ShearFrame(tuple(MASSES), tuple(STIFF), tuple(DAMP), force_amplitude=F0, force_storey=force_storey),
-        LinearTMD(3, TMD["mass"], TMD["stiffness"], TMD["damping"], TMD["inertance"], to),
+        ShearFrame(tuple(ms), tuple(ks), tuple(cs), force_amplitude=F0, force_storey=force_storey),
+        LinearTMD(n, TMD["mass"], TMD["stiffness"], TMD["damping"], TMD["inertance"], to),
         [w],
     )[0]
-    sim, x, a = _steady(FrameTruth(MASSES, STIFF, DAMP, force_storey, tmd), X, w, F0)
+    sim, x, a = _steady(FrameTruth(ms, ks, cs, force_storey, tmd), X, w, F0)
     assert np.max(np.abs(sim["q"] - x)) < 1e-6 * np.max(np.abs(x))
     assert np.max(np.abs(sim["qdd"] - a)) < 1e-6 * np.max(np.abs(a))
 
@@ -305,3 +308,21 @@ def test_scorer_on_a_stand_in_diagnose(tmp_path, monkeypatch):
     (tmp_path / "other").mkdir()
     (tmp_path / "other" / "x").write_text("")
     assert mod.main([str(bench), "--out", str(tmp_path / "other"), "--code", str(code)]) == 2
+
+
+@pytest.mark.parametrize("j", [1, 2])
+def test_storey_force_path_is_a_stiffness_change(j):
+    """The out-of-vocabulary storey forces (cubic, friction, drift) act through one path; a drift frozen at
+    its start (share 0, start -0.2) is storey j's stiffness at 0.8 k_j: the exact frame's response."""
+    w, F0 = 2 * math.pi * 3.0, 120.0
+    tmd = dict(TMD, inerter_to=3)
+    ks = list(STIFF)
+    ks[j - 1] *= 0.8
+    X = frequency_response(
+        ShearFrame(tuple(MASSES), tuple(ks), tuple(DAMP), force_amplitude=F0, force_storey=3),
+        LinearTMD(3, TMD["mass"], TMD["stiffness"], TMD["damping"], TMD["inertance"], 3),
+        [w],
+    )[0]
+    truth = FrameTruth(MASSES, STIFF, DAMP, 3, tmd, drift={"storey": j, "share": 0.0, "start": -0.2, "T": 1.0})
+    sim, x, _ = _steady(truth, X, w, F0)
+    assert np.max(np.abs(sim["q"] - x)) < 1e-6 * np.max(np.abs(x))
