@@ -98,11 +98,16 @@ def test_acquisition_filter_is_the_declared_one():
     assert np.max(np.abs(m["a"][late] - expect[late])) < 3e-5
 
 
+SHORT = (6.0, 8.0)  #: record lengths [s] of the tests' suites (the suite's 20-60 s would take 10-20 s here)
+
+
 @pytest.fixture(scope="module")
 def bench(tmp_path_factory):
-    """A 1-dataset suite written by the command line (seed 17)."""
+    """A 1-dataset suite written by the command line (seed 17), its records 6-8 s long."""
     out = tmp_path_factory.mktemp("fb") / "bench"
-    assert main_make_benchmark(["--suite", "frame", "--out", str(out), "-n", "1", "--seed", "17"]) == 0
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(suite, "RECORD_SECONDS", (6, 8))
+        assert main_make_benchmark(["--suite", "frame", "--out", str(out), "-n", "1", "--seed", "17"]) == 0
     return out
 
 
@@ -155,7 +160,7 @@ def test_generated_suite_format(bench):
     assert t["effect"] in suite.IN_VOCAB and t["param"] == suite.IN_VOCAB[t["effect"]]
     assert ELEMENT.match(t["element"]) and isinstance(t["value"], float) and t["value"] != 0.0
     assert row["visible_chi2"] > 100.0
-    _check_dataset(bench / "fr000", row)
+    _check_dataset(bench / "fr000", row, SHORT)
 
 
 def test_generated_suite_loads(bench):
