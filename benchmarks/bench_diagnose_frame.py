@@ -286,7 +286,12 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("bench", help="folder written by make-benchmark --suite frame")
     ap.add_argument("--out", required=True, help="results folder: new, empty, or a previous results folder")
     ap.add_argument("--code", default=str(Path(__file__).resolve().parents[1]), help="source tree diagnose runs from")
-    ap.add_argument("--resume", action="store_true", help="keep the rows of a previous results.json in --out")
+    ap.add_argument(
+        "--resume",
+        action="store_true",
+        help="keep the rows of a previous results.json in --out (those datasets are not diagnosed again, "
+        "except the ones --only names)",
+    )
     ap.add_argument("--only", default=None, help="comma-separated dataset names (default: all)")
     ap.add_argument("--timeout", type=float, default=900.0, help="wall seconds per diagnosis before it is killed")
     ap.add_argument("--nice", type=int, default=10, help="niceness of each diagnose process (default 10)")
@@ -317,10 +322,12 @@ def main(argv: list[str] | None = None) -> int:
     if a.resume and (out / "results.json").is_file():
         done = {r["name"]: r for r in json.loads((out / "results.json").read_text())["rows"]}
     by_name = {d["name"]: d for d in doc["datasets"]}
-    rows: list[dict] = []
+    order = {d["name"]: i for i, d in enumerate(doc["datasets"])}
+    # rows of a resumed run outside --only are kept: results.json always holds every dataset scored
+    rows: list[dict] = [r for n, r in done.items() if n not in names and n in order]
     res_doc: dict[str, Any] = {"bench": str(bench), "seed": doc.get("seed"), "code": str(code), **code_version(code)}
     for name in names:
-        if name in done:
+        if name in done and not a.only:
             rows.append(done[name])
             continue
         run = run_one(bench / name, out / "runs" / name, out / "runs" / f"{name}.log", code, a.timeout, a.nice)
@@ -336,6 +343,7 @@ def main(argv: list[str] | None = None) -> int:
             run["message"] = " | ".join(tail)[-400:]
         row = score_row(by_name[name], res, run)
         rows.append(row)
+        rows.sort(key=lambda r: order[r["name"]])
         brief = outcome_of(row)
         print(
             f"{name} {row['class']}: named {row['named'] or '-'} unexplained={row['unexplained']} {brief} "
@@ -344,6 +352,7 @@ def main(argv: list[str] | None = None) -> int:
         )
         res_doc.update(load=round(os.getloadavg()[0], 2), rows=rows, summary=summarise(rows))
         (out / "results.json").write_text(json.dumps(res_doc, indent=1))
+    rows.sort(key=lambda r: order[r["name"]])
     res_doc.update(load=round(os.getloadavg()[0], 2), rows=rows, summary=summarise(rows))
     (out / "results.json").write_text(json.dumps(res_doc, indent=1))
     (out / "results.md").write_text(markdown(res_doc))

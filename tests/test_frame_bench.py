@@ -309,6 +309,14 @@ def test_scorer_on_a_stand_in_diagnose(tmp_path, monkeypatch):
     assert by["c1"]["exit"] == 2 and by["s2"]["exit"] == 1 and by["o0"]["outcome"] == "honest"
     assert all(r["cpu_s"] >= 0 and r["peak_rss_mb"] > 0 for r in res["rows"])
     assert "| singles_right | 33 % | >= 0.9 | NO |" in (out / "results.md").read_text()
+    # --resume --only: the named dataset again, every other row kept
+    (out / "runs" / "s1" / "diagnosis.json").unlink()
+    verdicts["s1"] = verdicts["s0"] | {"elements": ["storey 2"]}
+    (bench / "fake_verdicts.json").write_text(json.dumps(verdicts))
+    assert mod.main([str(bench), "--out", str(out), "--code", str(code), "--resume", "--only", "s1"]) == 0
+    res = json.loads((out / "results.json").read_text())
+    assert [r["name"] for r in res["rows"]] == [n for n, _, _ in rows]
+    assert res["summary"]["singles_right"] == pytest.approx(2 / 3, abs=1e-4)
     # a folder the scorer did not write is refused
     (tmp_path / "other").mkdir()
     (tmp_path / "other" / "x").write_text("")
