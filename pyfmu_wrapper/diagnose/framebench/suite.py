@@ -81,7 +81,10 @@ OOV: dict[str, str] = {
     "cubic_storey": "a hardening storey spring k3 d^3: tangent stiffness +30-90 % at the storey's peak drift",
     "storey_friction": "dry friction in a storey (a slipping brace): 5-15 % of the storey's peak elastic force",
     "secondary_absorber": "an unlisted mass (1-3 % of the frame) on a storey, tuned to 0.9-1.1 f2, 2-5 % damping",
-    "flexible_foundation": "a foundation mass (0.5-1.5 m1) on a spring (5-20 k1) and damper (5-10 %) under storey 1",
+    # soft enough that its sway mode lies in the records' band: a foundation 5-20 times stiffer than storey 1
+    # (seed 17's fr016 with the sizes of the first version) only acts as a spring in series with storey 1 there,
+    # which storey_stiffness at storey 1 explains to the noise -- in the vocabulary in all but name
+    "flexible_foundation": "a foundation mass (1-3 m1) on a spring (1.5-4 k1) and damper (5-10 %) under storey 1",
     "channel_clipping": "one acceleration channel clipped at 50-80 % of its peak (ADC range)",
     "channel_delay": "one channel (acceleration or force) delayed by 3-10 samples, undeclared",
     "stiffness_drift": "a storey's stiffness falling linearly by 10-25 % through the test",
@@ -311,8 +314,8 @@ def _oov(rng: np.random.Generator, kind: str, nom: dict, truth: FrameTruth, nomi
         }
         spec.update(truth.secondary)
     elif kind == "flexible_foundation":
-        mf = float(rng.uniform(0.5, 1.5)) * fr["mass"][0]
-        kf = float(rng.uniform(5.0, 20.0)) * fr["stiffness"][0]
+        mf = float(rng.uniform(1.0, 3.0)) * fr["mass"][0]
+        kf = float(rng.uniform(1.5, 4.0)) * fr["stiffness"][0]
         z = float(rng.uniform(0.05, 0.10))
         total = mf + sum(fr["mass"])
         truth.foundation = {"mass": _sig(mf), "stiffness": _sig(kf), "damping": _sig(2 * z * math.sqrt(kf * total))}
