@@ -123,11 +123,13 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
     )
     ap.add_argument(
         "--suite",
-        choices=["system", "link", "transient"],
+        choices=["system", "link", "transient", "frame"],
         default="system",
         help="system: the coupled base + TMD simulated and measured as a rig does (default); "
         "link: one TMD link on a displacement-controlled rig; transient: the coupled system under "
-        "swept sines, random force, hammer impulses and free decays (docs/diagnose.md, Check 3)",
+        "swept sines, random force, hammer impulses and free decays (docs/diagnose.md, Check 3); "
+        "frame: shear frames of 3 or 5 storeys with a TMD or TMDI, accelerations under sweeps, random "
+        "force and hammer impulses (issue 41; score with benchmarks/bench_diagnose_frame.py)",
     )
     ap.add_argument(
         "--seconds", type=float, default=None, help="transient suite only: length of each record [s] (default 60)"
@@ -139,23 +141,28 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
         help="transient suite only: write part K of N (the datasets i with i %% N == K - 1, the same ones a "
         "whole run writes), so N processes or machines share a long generation; score each folder on its own",
     )
-    ap.add_argument("-n", type=int, default=None, help="number of datasets (default: system 52, link 40)")
+    ap.add_argument(
+        "-n", type=int, default=None, help="number of datasets (default: system 52, link 40, transient 60, frame 40)"
+    )
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument(
-        "--clean-fraction", type=float, default=None, help="share of clean datasets (default: system 0.19, link 0.25)"
+        "--clean-fraction",
+        type=float,
+        default=None,
+        help="share of clean datasets (default: system 0.19, link 0.25, frame 0.2)",
     )
     ap.add_argument(
         "--pair-fraction",
         type=float,
         default=None,
-        help="share of two-effect datasets (default: system 0.15, link 0.2)",
+        help="share of two-effect datasets (default: system 0.15, link 0.2, frame 0.2)",
     )
     ap.add_argument(
         "--oov-fraction",
         type=float,
         default=None,
-        help="system suite: share of out-of-vocabulary datasets (default 0.23; with --clean-fraction or "
-        "--pair-fraction given, at most what they leave)",
+        help="system, transient and frame suites: share of out-of-vocabulary datasets (default 0.23, frame 0.2; "
+        "with --clean-fraction or --pair-fraction given, at most what they leave)",
     )
     ap.add_argument("--noise", type=float, default=None, help="link suite only: force noise std [N] (default 0.5)")
     ap.add_argument(
@@ -204,7 +211,7 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
         part = (int(k) - 1, int(n_parts))
     if a.suite != "link" and a.noise is not None:
         raise InputError(
-            f"--noise {a.noise}: the system suite draws its sensor noise per channel and record (0.3-3 % of "
+            f"--noise {a.noise}: the {a.suite} suite draws its sensor noise per channel and record (a share of "
             "the rms, docs/diagnose.md); --noise is the link suite's force noise: leave it out or use --suite link"
         )
     if a.held_out_oov and a.suite != "system":
@@ -212,7 +219,14 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
     if a.suite == "link" and a.oov_fraction is not None:
         raise InputError("--oov-fraction: the link suite has no out-of-vocabulary class; use --suite system")
     composition = None
-    if a.suite in ("system", "transient"):
+    if a.suite == "frame":
+        from ..diagnose.system.suite import composition_from_fractions
+
+        composition = composition_from_fractions(  # the OOV share is cut to what the others leave
+            40 if a.n is None else a.n,
+            *(0.2 if v is None else v for v in (a.clean_fraction, a.pair_fraction, a.oov_fraction)),
+        )
+    elif a.suite in ("system", "transient"):
         from ..diagnose.system.suite import composition_from_fractions
 
         composition = composition_from_fractions(
@@ -246,6 +260,20 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
                 progress=lambda r: print(
                     f"{r['dataset']}: written" + (f" ({r['seconds']:.1f} s)" if "seconds" in r else ""), flush=True
                 ),
+            )
+        elif a.suite == "frame":
+            from ..diagnose.framebench.suite import make_frame_benchmark
+
+            assert composition is not None
+            nc, _, npair, noov = composition
+            man = make_frame_benchmark(
+                tmp,
+                n=sum(composition),
+                seed=a.seed,
+                n_clean=nc,
+                n_pair=npair,
+                n_oov=noov,
+                progress=lambda r: print(f"{r['dataset']}: written ({r['seconds']:.1f} s)", flush=True),
             )
         elif a.suite == "transient":
             from ..diagnose.system.transient_suite import make_transient_benchmark
@@ -289,6 +317,15 @@ def main_score(argv: list[str] | None = None) -> int:
     from ..diagnose.link.benchmark import score
     from ..diagnose.run import load_manifest
 
+    try:
+        suite = json.loads((Path(a.benchmark) / "manifest.json").read_text(encoding="utf-8")).get("suite")
+    except (OSError, ValueError, AttributeError):
+        suite = None  # load_manifest says what is wrong
+    if suite == "frame":
+        raise InputError(
+            f"{a.benchmark}: a frame benchmark (make-benchmark --suite frame) is scored by "
+            "benchmarks/bench_diagnose_frame.py BENCH --out RESULTS"
+        )
     load_manifest(Path(a.benchmark))
     if a.out:
         o = check_out_file(a.out)
