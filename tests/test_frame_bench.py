@@ -164,16 +164,10 @@ def test_generated_suite_format(bench):
 
 
 def test_generated_suite_loads(bench):
-    """load_dataset reads the frame dataset (its frame nominal comes with branch i41-frame: until then
-    the refusal is the one of a nominal without 'base', reported as an expected failure)."""
-    from pyfmu_wrapper.diagnose.data import DataError, load_dataset
+    """load_dataset reads the frame dataset: its frame nominal, every record with the manifest's channels."""
+    from pyfmu_wrapper.diagnose.data import load_dataset
 
-    try:
-        ds = load_dataset(bench / "fr000")
-    except DataError as e:
-        if "'base'" in str(e):
-            pytest.xfail(f"load_dataset has no frame nominal yet: {e}")
-        raise
+    ds = load_dataset(bench / "fr000")
     row = json.loads((bench / "manifest.json").read_text())["datasets"][0]
     assert len(ds.records) == len(row["records"])
     for r in ds.records:
