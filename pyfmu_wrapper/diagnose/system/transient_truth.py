@@ -291,8 +291,10 @@ class Truth:
             if mode == 0:
                 z[3] = z[1]  # stuck: no relative velocity at all
 
-                def rhs(tt: float, zz: ndarray) -> ndarray:
+                def rhs_stuck(tt: float, zz: ndarray) -> ndarray:
                     return self._stuck(tt, zz, F)[0]
+
+                rhs: Callable[..., ndarray] = rhs_stuck
 
                 def ev_hi(tt: float, zz: ndarray) -> float:
                     return self._stuck(tt, zz, F)[1] - df
@@ -306,8 +308,10 @@ class Truth:
             else:
                 s = float(mode)
 
-                def rhs(tt: float, zz: ndarray, s: float = s) -> ndarray:
+                def rhs_slip(tt: float, zz: ndarray, s: float = s) -> ndarray:
                     return self.deriv(tt, zz, F, s * df)
+
+                rhs = rhs_slip
 
                 def ev_v(tt: float, zz: ndarray) -> float:
                     return zz[1] - zz[3]
