@@ -27,7 +27,7 @@ PLAY_KI, PLAY_CI = 2.0e6, 20.0
 #: nominal's fastest modal rate) x m / (df 2/pi); the friction candidate fits its slope s within
 #: FRICTION_SLOPE (a transition velocity of 0.2 mm/s at most is resolved: the explicit step's cost)
 FRICTION_RATE = 20.0
-FRICTION_SLOPE = (10.0, 5000.0)
+FRICTION_SLOPE = (10.0, 2.0e5)
 #: effect -> (parameter names, their units), from the unit's vocabulary (:mod:`.effects`)
 TEFFECTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     e: (VOCAB[e].param_names, tuple(p.unit for p in VOCAB[e].params)) for e in TRANSIENT_EFFECTS
