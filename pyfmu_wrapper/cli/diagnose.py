@@ -135,6 +135,12 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
         "--seconds", type=float, default=None, help="transient suite only: length of each record [s] (default 60)"
     )
     ap.add_argument(
+        "--effects",
+        default=None,
+        metavar="E1,E2",
+        help="transient suite only: draw the singles and pairs from these in-vocabulary effects (e.g. play,friction)",
+    )
+    ap.add_argument(
         "--part",
         default=None,
         metavar="K/N",
@@ -214,6 +220,16 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
             f"--noise {a.noise}: the {a.suite} suite draws its sensor noise per channel and record (a share of "
             "the rms, docs/diagnose.md); --noise is the link suite's force noise: leave it out or use --suite link"
         )
+    effects = None
+    if a.effects is not None:
+        from ..diagnose.system.transient_suite import IN_VOCAB
+
+        effects = [e.strip() for e in a.effects.split(",") if e.strip()]
+        bad = [e for e in effects if e not in IN_VOCAB]
+        if a.suite != "transient" or bad or not effects:
+            raise InputError(
+                f"--effects {a.effects}: only for --suite transient, a comma-separated list of {', '.join(IN_VOCAB)}"
+            )
     if a.held_out_oov and a.suite != "system":
         raise InputError(f"--held-out-oov: only for --suite system (the {a.suite} suite has its own kinds)")
     if a.suite == "link" and a.oov_fraction is not None:
@@ -289,6 +305,7 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
                 n_oov=noov,
                 seconds=60.0 if a.seconds is None else a.seconds,
                 part=part,
+                effects=effects,
                 progress=lambda r: print(f"{r['dataset']}: written ({r['seconds']:.1f} s)", flush=True),
             )
         else:

@@ -25,9 +25,10 @@ if TYPE_CHECKING:
 PLAY_KI, PLAY_CI = 2.0e6, 20.0
 #: a nominal's dry friction is regularised as df (2/pi) atan(s v) with s = FRICTION_RATE x (the
 #: nominal's fastest modal rate) x m / (df 2/pi); the friction candidate fits its slope s within
-#: FRICTION_SLOPE (a transition velocity of 0.2 mm/s at most is resolved: the explicit step's cost)
+#: FRICTION_SLOPE (the link also sticks, :data:`.transient_sim.STICK`: the law's steep part near v = 0 is never
+#: stepped, so a Coulomb-like slope of 2e5 s/m costs about what 5000 did; a stick-slip truth fits 2e4-2e5)
 FRICTION_RATE = 20.0
-FRICTION_SLOPE = (10.0, 5000.0)
+FRICTION_SLOPE = (10.0, 2.0e5)
 #: effect -> (parameter names, their units), from the unit's vocabulary (:mod:`.effects`)
 TEFFECTS: dict[str, tuple[tuple[str, ...], tuple[str, ...]]] = {
     e: (VOCAB[e].param_names, tuple(p.unit for p in VOCAB[e].params)) for e in TRANSIENT_EFFECTS

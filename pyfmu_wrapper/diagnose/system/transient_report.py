@@ -94,7 +94,8 @@ def write(res: dict[str, Any], td: TransientDiagnosis, out: Path) -> None:
         L.append("")
     ag = t.get("agreement") or {}
     if ag.get("records"):
-        L += [f"Parameters record by record (agreement p = {ag['p_value']:.3g}):", ""]
+        pv = "n/a: no parameter votes" if ag.get("p_value") is None else f"{ag['p_value']:.3g}"
+        L += [f"Parameters record by record (agreement p = {pv}):", ""]
         for r in ag["records"]:
             L.append(
                 f"- {r['record']}: "

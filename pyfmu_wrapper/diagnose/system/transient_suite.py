@@ -34,6 +34,7 @@ if TYPE_CHECKING:
 IN_VOCAB: dict[str, tuple[str, tuple[float, float], bool]] = {
     "viscous": ("dc", (2.0, 30.0), False),
     "friction": ("df", (1.5, 15.0), False),
+    "play": ("eps", (1e-4, 1e-3), False),
     "mass_split": ("dI_split", (0.1, 0.8), True),
     "cubic": ("k3", (3e4, 3e5), False),
     "force_error": ("force_gain", (0.02, 0.15), True),
@@ -60,6 +61,8 @@ RATES = (256.0, 500.0, 1000.0, 1024.0, 2000.0, 2560.0, 4000.0, 5000.0)
 #: a truth that escapes (:class:`.transient_truth.TruthEscaped`) is drawn again this many times at
 #: most, every change times ESCAPE_SCALE, the records' force and noise draws the same
 ESCAPE_TRIES, ESCAPE_SCALE = 6, 0.5
+#: the play truth's gear contact damping ci [N s/m], drawn log-uniform (its stiffness is the paper's 2e7 N/m)
+PLAY_CI = (0.01, 100.0)
 KINDS = ("sweep_lin", "sweep_log", "random", "burst", "hammer", "decay")
 
 
@@ -70,8 +73,13 @@ def _draw(rng: np.random.Generator, lo_hi: tuple[float, float], signed: bool, st
     return -v if signed and rng.uniform() < 0.5 else v
 
 
-def plan(rng: np.random.Generator, n: int, n_clean: int, n_pair: int, n_oov: int) -> list[tuple[str, dict, dict]]:
-    eff, oov = list(IN_VOCAB), list(OOV)
+def plan(
+    rng: np.random.Generator, n: int, n_clean: int, n_pair: int, n_oov: int, effects: list[str] | None = None
+) -> list[tuple[str, dict, dict]]:
+    """The datasets' classes and truths; ``effects``: the in-vocabulary effects drawn (default all)."""
+    eff, oov = list(IN_VOCAB) if effects is None else list(effects), list(OOV)
+    if n_pair and len(eff) < 2:
+        raise ValueError(f"pairs need two effects to draw from, not {eff}")
     items: list[tuple[str, dict, dict]] = [("clean", {}, {})] * n_clean
     for j in range(n - n_clean - n_pair - n_oov):
         e = eff[j % len(eff)]
@@ -136,6 +144,8 @@ def write_dataset(path: Path, rng: np.random.Generator, hidden: dict, oov: dict,
     gain = ch.pop("force_gain", 0.0)
     x_off = ch.pop("x_offset", 0.0)
     x_gain = ch.pop("x_gain", 0.0)
+    if "eps" in ch:  # the gear's contact: the paper's stiffness, a damping from nearly elastic (the paper) up
+        ch["ci"] = float(math.exp(rng.uniform(math.log(PLAY_CI[0]), math.log(PLAY_CI[1]))))
     if "dI_split" in ch:  # keep m and I positive
         ch["dI_split"] = float(np.clip(ch["dI_split"], -0.45 * tmd["inertance"], 0.45 * tmd["mass"]))
         hidden["mass_split"] = ch["dI_split"]
@@ -154,7 +164,8 @@ def write_dataset(path: Path, rng: np.random.Generator, hidden: dict, oov: dict,
             note = f"drawn {attempt + 1} time(s) weaker by {ESCAPE_SCALE:g}: {e}"
             rng.bit_generator.state = state
             for key in ch:  # every change of the dynamics weaker; the manifest's truth with it
-                ch[key] *= ESCAPE_SCALE
+                if key != "ci":  # (the play's contact is the gear's, not a change)
+                    ch[key] *= ESCAPE_SCALE
             for d, table in ((hidden, IN_VOCAB), (oov, OOV)):
                 for e in d:
                     if table[e][0] in ch:
@@ -170,6 +181,8 @@ def write_dataset(path: Path, rng: np.random.Generator, hidden: dict, oov: dict,
         doc["acquisition"] = acq
     (path / "dataset.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
     out = {"case": case, "fs": fs, "accel_only": bool(accel_only), "acquisition": acq, "records": meta}
+    if "ci" in ch:
+        out["play_contact"] = {"ki": truth.ki, "ci": ch["ci"]}
     return out if note is None else {**out, "truth_redrawn": note}
 
 
@@ -200,6 +213,7 @@ def _records(
         F_true = (lambda Fr: lambda s: (1.0 + gain) * Fr(s))(F)
         z0 = np.array([0.004, 0.0, 0.012, 0.0]) * rng.uniform(0.5, 1.5) if kind == "decay" else None
         sig = truth.simulate(F_true, tt, z0, max_step=5e-4 if kind == "hammer" else 2e-3)
+        sig.pop("mode", None)  # (the stick-slip truth's modes: not a channel)
         sig["force"] = np.asarray(F(tt), float)  # the load cell reads the recorded force
         if kind == "decay":
             sig.pop("force")
@@ -227,10 +241,16 @@ def make_transient_benchmark(
     seconds: float = 60.0,
     progress: Callable[..., Any] | None = None,
     part: tuple[int, int] | None = None,
+    effects: list[str] | None = None,
 ) -> list[Any]:
     """Write the transient suite to ``out`` (one folder per dataset + manifest.json). ``part = (k, K)``
     writes only the datasets i with i % K == k (the same datasets as the whole run: K processes
-    share the work, each folder scored on its own)."""
+    share the work, each folder scored on its own). ``effects``: the in-vocabulary effects of the
+    singles and pairs (default every one of IN_VOCAB)."""
+    if effects is not None:
+        bad = [e for e in effects if e not in IN_VOCAB]
+        if bad or not effects:
+            raise ValueError(f"effects {bad or effects}: the transient suite draws {', '.join(IN_VOCAB)}")
     n = 60 if n is None else int(n)
     nc = round(0.17 * n) if n_clean is None else n_clean
     npair = round(0.13 * n) if n_pair is None else n_pair
@@ -239,7 +259,7 @@ def make_transient_benchmark(
         raise ValueError(f"n = {n} is smaller than clean + pairs + OOV = {nc + npair + no}")
     rng = np.random.default_rng(seed)
     man = []
-    for i, (cls, hidden, oov) in enumerate(plan(rng, n, nc, npair, no)):
+    for i, (cls, hidden, oov) in enumerate(plan(rng, n, nc, npair, no, effects)):
         t0 = time.perf_counter()
         name = f"tr{i:03d}"
         sub = np.random.default_rng(int(rng.integers(1 << 31)))
@@ -261,6 +281,8 @@ def make_transient_benchmark(
         man.append(row)
         # the manifest is rewritten after every dataset: a run stopped early leaves a scorable part
         doc = {"suite": "system", "generator": "transient", "seed": seed, "seconds": seconds, "datasets": man}
+        if effects is not None:
+            doc["effects"] = list(effects)
         doc["complete"] = i >= n - (part[1] if part else 1)
         tmp = out / ".manifest.json.partial"
         tmp.write_text(json.dumps(doc, indent=1))
