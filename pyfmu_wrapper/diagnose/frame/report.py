@@ -38,10 +38,10 @@ def run_frame(ds: Dataset, out: Path | None) -> dict[str, Any]:
 
 
 def write(res: dict[str, Any], ds: Dataset, out: Path) -> None:
-    from ..system.transient_report import _default
+    from ..system.transient_report import json_default
 
     out.mkdir(parents=True, exist_ok=True)
-    (out / "diagnosis.json").write_text(json.dumps(res, indent=1, default=_default))
+    (out / "diagnosis.json").write_text(json.dumps(res, indent=1, default=json_default))
     plot_frame(ds.nominal, res["verdict"], out / "where.png")
     v, f = res["verdict"], res["frame"]
     L = [

@@ -61,7 +61,7 @@ def write(res: dict[str, Any], td: TransientDiagnosis, out: Path) -> None:
     from .. import plotting
 
     out.mkdir(parents=True, exist_ok=True)
-    (out / "diagnosis.json").write_text(json.dumps(res, indent=1, default=_default))
+    (out / "diagnosis.json").write_text(json.dumps(res, indent=1, default=json_default))
     plotting.plot_transient(td, res["transient"], out / "where.png")
     v, t = res["verdict"], res["transient"]
     h = t["held_out"]["by_segment"]
@@ -131,7 +131,8 @@ def write(res: dict[str, Any], td: TransientDiagnosis, out: Path) -> None:
     (out / "report.md").write_text("\n".join(L) + "\n")
 
 
-def _default(o: Any) -> Any:
+def json_default(o: Any) -> Any:
+    """numpy scalars, arrays and tuples as JSON values (the `default` of json.dumps for a diagnosis)."""
     import numpy as np
 
     if isinstance(o, (np.floating, np.integer, np.bool_)):
