@@ -178,7 +178,16 @@ def test_vocabulary_on_the_frame_unit() -> None:
     assert voc is not None
     assert voc["storey_stiffness"].at(2) == "storey 2" and voc["channel_gain"].at("x3dd") == "channel x3dd"
     assert voc["viscous"].element == "tmd link" and voc["tmd_mass"].element == "tmd"
-    assert voc.units["delta_stiffness"] == "N/m" and voc["force_error"].params[0].name == "force_gain"
+    assert voc.units["delta_stiffness"] == "N/m" and voc["force_error"].params[0].name == "force_gain_error"
+    # the TMD's effects are declared once (physics/tmd_effects.py): the frame and the pair hold the same ones
+    from pyfmu_wrapper.models.base_tmd.effects import VOCABULARY as PAIR
+
+    shared = ("tmd_mass", "tmd_stiffness", "viscous", "inertance", "friction", "play", "force_error")
+    assert all(voc[e] is PAIR[e] for e in shared)
+    assert voc["tmd_stiffness"].element == "tmd link" and voc["friction"].param_names == (
+        "friction_force",
+        "friction_slope",
+    )
 
 
 def _raw_dataset(folder: Path, nominal: dict, cols: dict[str, np.ndarray]) -> Path:

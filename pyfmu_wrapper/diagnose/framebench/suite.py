@@ -44,25 +44,17 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 
+from ...models.frame_model.effects import LINEAR, VOCABULARY
 from .truth import FineForce, FrameTruth, acquire, channels, hammer_force, random_force, sweep_force
 
 if TYPE_CHECKING:
     from collections.abc import Callable
     from pathlib import Path
 
-#: the frame unit's vocabulary this suite draws (effect -> its parameter; frame_contract.md). friction
-#: and play are the contract's stretch goals for frames and are not drawn.
-IN_VOCAB: dict[str, str] = {
-    "storey_mass": "delta_mass",
-    "storey_stiffness": "delta_stiffness",
-    "storey_damping": "delta_damping",
-    "tmd_mass": "delta_mass",
-    "tmd_stiffness": "delta_stiffness",
-    "viscous": "delta_damping",
-    "inertance": "delta_inertance",
-    "force_error": "force_gain",
-    "channel_gain": "gain",
-}
+#: the frame unit's vocabulary this suite draws (effect -> the parameter it is scored by): the effects the
+#: linear frame diagnosis fits (:data:`pyfmu_wrapper.models.frame_model.effects.LINEAR`); friction and play
+#: are not drawn for frames
+IN_VOCAB: dict[str, str] = {e: VOCABULARY[e].params[0].name for e in LINEAR}
 #: sizes: (low, high) share of the element's nominal value, log-uniform, and the sign: +1, -1 or 0 (either);
 #: inertance as a share of the TMD mass (the nominal inertance may be near 0); gains are the gain itself
 SIZES: dict[str, tuple[float, float, int]] = {
@@ -177,23 +169,24 @@ def draw_effect(rng: np.random.Generator, effect: str, nom: dict, accel: list[st
     share = _log_uniform(rng, lo, hi)
     s = sign if sign else (1 if rng.uniform() < 0.5 else -1)
     fr, tmd = nom["frame"], nom["tmd"]
+    eff = VOCABULARY[effect]
     if effect.startswith("storey_"):
         j = int(rng.integers(1, fr["storeys"] + 1))
         key = {"storey_mass": "mass", "storey_stiffness": "stiffness", "storey_damping": "damping"}[effect]
-        element, value = f"storey {j}", s * share * fr[key][j - 1]
+        element, value = eff.at(j), s * share * fr[key][j - 1]
     elif effect in ("tmd_mass", "tmd_stiffness"):
-        element, value = "tmd", s * share * tmd[effect[4:]]
+        element, value = eff.element, s * share * tmd[effect[4:]]
     elif effect == "viscous":
-        element, value = "tmd link", s * share * tmd["damping"]
+        element, value = eff.element, s * share * tmd["damping"]
     elif effect == "inertance":
         value = share * tmd["mass"]
         if s < 0 and value <= 0.8 * tmd["inertance"]:
             value = -value
-        element = "tmd link"
+        element = eff.element
     elif effect == "force_error":
-        element, value = "force", s * share
+        element, value = eff.element, s * share
     elif effect == "channel_gain":
-        element, value = f"channel {rng.choice(accel)}", s * share
+        element, value = eff.at(str(rng.choice(accel))), s * share
     else:
         raise ValueError(f"unknown effect {effect!r}")
     return {"effect": effect, "element": element, "param": IN_VOCAB[effect], "value": _sig(value)}

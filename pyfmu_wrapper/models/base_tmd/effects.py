@@ -1,68 +1,25 @@
 """The pair's effect vocabulary (:mod:`pyfmu_wrapper.physics.effects`): what ``diagnose`` can name on
-the base + TMD-inerter, declared once here and read by every diagnosis path, benchmark and report.
+the base + TMD-inerter, read by every diagnosis path, benchmark and report.
 
-The mechanisms are the kernels' own terms (:mod:`pyfmu_wrapper.physics.kernels`): dry friction
-``df (2/pi) atan(s v)`` in the link has two parameters, the force df and the regularisation slope s
-(the kernel cannot be evaluated without s; the fits that do not resolve it hold it on a grid and
-report it beside df); play is the gear's half gap eps of the inerter chain; the cubic spring k3. The
-parameter effects are changes of the unit's declared parameters (base M, K, C; TMD m, k, I), their
-units from the registry. The measurement effects act on a channel: the force's gain, the
-displacement sensors' offsets (the link rig's displacement bias, seen as the force k b).
+The TMD-inerter's effects and the force channel's gain are declared once for every structure that
+carries the absorber (:mod:`pyfmu_wrapper.physics.tmd_effects`); the pair adds its base's parameter
+effects (M, K, C off the nominal, their units from the registry), the displacement sensors' offsets,
+and the link rig's two (the TMD link alone on a test machine): a displacement bias, seen as the force
+k b, and dry friction with contact compliance, the rival of play in front of friction.
 """
 
 from __future__ import annotations
 
-import math
-
 from ...physics.effects import LINK, SYSTEM, Effect, EffectParam, Vocabulary, registry_param
-
-BOTH = (SYSTEM, LINK)
-POSITIVE = (0.0, math.inf)
+from ...physics.tmd_effects import FORCE_ERROR, POSITIVE, TMD
 
 EFFECTS = (
-    Effect(
-        "viscous",
-        "extra viscous damping",
-        "tmd link",
-        (registry_param("tmd", "damping", "delta_damping"),),
-        levels=BOTH,
-    ),
-    Effect(
-        "friction",
-        "dry friction in the TMD link",
-        "tmd link",
-        (
-            registry_param("tmd", "friction_force", bounds=POSITIVE, replaces=True),
-            registry_param("tmd", "friction_slope", linear=False, bounds=(0.0, math.inf), replaces=True),
-        ),
-        levels=BOTH,
-    ),
-    Effect(
-        "play",
-        "play in the inerter gear",
-        "tmd link",
-        (registry_param("tmd", "play_gap", linear=False, bounds=POSITIVE, replaces=True),),
-        levels=BOTH,
-    ),
-    Effect(
-        "mass_split",
-        "different split of m and I (m + I fixed)",
-        "tmd",
-        (registry_param("tmd", "inertance", "delta_inertance", also=(("tmd.mass", -1.0),)),),
-        signed=True,
-        levels=BOTH,
-    ),
-    Effect(
-        "cubic", "cubic term in the TMD spring", "tmd link", (registry_param("tmd", "cubic_stiffness"),), levels=BOTH
-    ),
-    Effect(
-        "force_error",
-        "forcing-amplitude error",
-        "force",
-        (EffectParam("force_gain_error", "1"),),
-        signed=True,
-        levels=BOTH,
-    ),
+    TMD["viscous"],
+    TMD["friction"],
+    TMD["play"],
+    TMD["mass_split"],
+    TMD["cubic"],
+    FORCE_ERROR,
     Effect(
         "sensor_offset",
         "displacement-sensor offset",
@@ -85,23 +42,9 @@ EFFECTS = (
         (registry_param("base", "damping", "delta_damping"),),
         True,
     ),
-    Effect(
-        "tmd_stiffness",
-        "TMD spring stiffness k off the nominal",
-        "tmd link",
-        (registry_param("tmd", "stiffness", "delta_stiffness"),),
-        True,
-    ),
-    Effect("tmd_mass", "TMD mass m off the nominal", "tmd", (registry_param("tmd", "mass", "delta_mass"),), True),
-    Effect(
-        "inertance",
-        "inertance I off the nominal (m unchanged)",
-        "tmd link",
-        (registry_param("tmd", "inertance", "delta_inertance"),),
-        True,
-    ),
-    # the link rig (the TMD link alone on a test machine): a bias of its displacement sensor, fitted as
-    # the force k b it adds; dry friction with contact compliance, the rival of play in front of friction
+    TMD["tmd_stiffness"],
+    TMD["tmd_mass"],
+    TMD["inertance"],
     Effect(
         "bias",
         "sensor bias (constant offset)",
@@ -122,3 +65,4 @@ EFFECTS = (
     ),
 )
 VOCABULARY = Vocabulary(EFFECTS)
+__all__ = ["EFFECTS", "SYSTEM", "VOCABULARY"]

@@ -1,23 +1,20 @@
 """The frame unit's effect vocabulary (:mod:`pyfmu_wrapper.physics.effects`): what ``diagnose`` can
 name on a shear frame with its TMD-inerter / TMDI, declared once here (the names and element strings
-are the contract the frame diagnosis and the frame benchmark share, /work/notes/frame_contract.md).
+are the contract the frame diagnosis and the frame benchmark share, docs/diagnose-frame.md).
 
 Per-storey effects (``per="storey"``) are declared once and instantiated at every storey
 (element ``storey i``, 1 = the lowest); the channel gain at every recorded channel (``channel
 x3dd``). Their parameters change the frame's declared per-storey rows (``frame.mass`` of storey i:
-the diagnosis indexes the storey) or the TMD's (``tmd.mass`` ...). The measurement effects act on a
-channel: the force's gain (measured = (1 + g) true, indistinguishable in a linear model from one
-common gain of every response channel) and a response channel's gain.
+the diagnosis indexes the storey). The TMD's effects and the force channel's gain are the ones every
+structure carrying the TMD-inerter composes (:mod:`pyfmu_wrapper.physics.tmd_effects`, declared once);
+the frame adds a response channel's gain.
 """
 
 from __future__ import annotations
 
-import math
-
 from ...physics.effects import SYSTEM, Effect, EffectParam, Vocabulary, registry_param
+from ...physics.tmd_effects import FORCE_ERROR, TMD
 from .params import PARAMETERS  # noqa: F401 -- declares the frame rows the parameters name
-
-POSITIVE = (0.0, math.inf)
 
 EFFECTS = (
     Effect(
@@ -44,47 +41,13 @@ EFFECTS = (
         signed=True,
         per="storey",
     ),
-    Effect("tmd_mass", "TMD mass m off the nominal", "tmd", (registry_param("tmd", "mass", "delta_mass"),), True),
-    Effect(
-        "tmd_stiffness",
-        "TMD spring stiffness k off the nominal",
-        "tmd",
-        (registry_param("tmd", "stiffness", "delta_stiffness"),),
-        True,
-    ),
-    Effect(
-        "viscous",
-        "TMD link damping c off the nominal",
-        "tmd link",
-        (registry_param("tmd", "damping", "delta_damping"),),
-        True,
-    ),
-    Effect(
-        "inertance",
-        "inertance I off the nominal (m unchanged)",
-        "tmd link",
-        (registry_param("tmd", "inertance", "delta_inertance"),),
-        True,
-    ),
-    Effect(
-        "friction",
-        "dry friction in the TMD link",
-        "tmd link",
-        (registry_param("tmd", "friction_force", bounds=POSITIVE, replaces=True),),
-    ),
-    Effect(
-        "play",
-        "play in the inerter gear",
-        "tmd link",
-        (registry_param("tmd", "play_gap", linear=False, bounds=POSITIVE, replaces=True),),
-    ),
-    Effect(
-        "force_error",
-        "force-channel gain error (= a common gain of every response channel)",
-        "force",
-        (EffectParam("force_gain", "1"),),
-        signed=True,
-    ),
+    TMD["tmd_mass"],
+    TMD["tmd_stiffness"],
+    TMD["viscous"],
+    TMD["inertance"],
+    TMD["friction"],
+    TMD["play"],
+    FORCE_ERROR,
     Effect(
         "channel_gain",
         "gain error of one response channel",
@@ -95,7 +58,8 @@ EFFECTS = (
     ),
 )
 VOCABULARY = Vocabulary(EFFECTS)
-#: the effects the linear frame diagnosis fits (friction and play: not yet for frames)
+#: the effects the linear frame diagnosis fits (dry friction is tried apart, when nothing linear
+#: explains; play is not fitted for frames yet)
 LINEAR = VOCABULARY.select(
     (
         "storey_mass",
