@@ -123,12 +123,13 @@ def test_duplicated_force_column(tmp_path):
 
 def test_make_benchmark_system_honours_fractions_and_refuses_noise(tmp_path, capsys, monkeypatch):
     """--clean-fraction/--pair-fraction/--noise/--held-out-oov reach the system suite (they were ignored)."""
+    from pyfmu_wrapper.diagnose import suites
     from pyfmu_wrapper.diagnose.system import suite
 
     seen = {}
 
     def fake(out, n, seed, n_clean=None, n_pair=None, n_oov=None, progress=None, held_out_oov=False):
-        seen.update(n=n, counts=suite.composition(n, n_clean, n_pair, n_oov), held_out=held_out_oov)
+        seen.update(n=n, counts=suites.counts("system", n, n_clean, n_pair, n_oov), held_out=held_out_oov)
         (out / "manifest.json").write_text(json.dumps({"datasets": []}))
         return []
 
@@ -146,6 +147,36 @@ def test_make_benchmark_system_honours_fractions_and_refuses_noise(tmp_path, cap
     assert "--noise 0.3" in capsys.readouterr().err and not (tmp_path / "e").exists()
     assert main_make_benchmark(["--out", str(tmp_path / "f"), "--suite", "link", "--oov-fraction", "0.1"]) == 2
     assert main_make_benchmark(["--out", str(tmp_path / "g"), "--clean-fraction", "0.6", "--oov-fraction", "0.6"]) == 2
+
+
+@pytest.mark.parametrize(
+    ("suite_name", "module", "func"),
+    [
+        ("transient", "pyfmu_wrapper.diagnose.system.transient_suite", "make_transient_benchmark"),
+        ("frame", "pyfmu_wrapper.diagnose.framebench.suite", "make_frame_benchmark"),
+    ],
+)
+def test_make_benchmark_default_composition_is_the_suites_own(tmp_path, monkeypatch, suite_name, module, func):
+    """make-benchmark --suite S without shares writes the class counts the suite's generator takes by
+    default (the command line once drew the transient suite with the system suite's shares)."""
+    import importlib
+
+    from pyfmu_wrapper.diagnose import suites
+
+    mod = importlib.import_module(module)
+    seen = {}
+
+    def fake(out, n, seed, n_clean=None, n_pair=None, n_oov=None, progress=None, **kw):
+        seen["counts"] = suites.counts(suite_name, n, n_clean, n_pair, n_oov)
+        (out / "manifest.json").write_text(json.dumps({"datasets": []}))
+        return []
+
+    monkeypatch.setattr(mod, func, fake)
+    assert main_make_benchmark(["--out", str(tmp_path / "b"), "--suite", suite_name]) == 0
+    want = suites.SUITES[suite_name]
+    n = want.n
+    nc, npair, no = round(want.clean * n), round(want.pair * n), round(want.oov * n)
+    assert seen["counts"] == (nc, n - nc - npair - no, npair, no)
 
 
 def test_score_out_in_a_missing_folder_is_refused_before_scoring(tmp_path, capsys, monkeypatch):

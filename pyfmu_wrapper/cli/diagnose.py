@@ -14,6 +14,7 @@ from pathlib import Path
 
 from ..diagnose.outfolder import BENCHMARK_MARKER, DIAGNOSE_MARKER, ResultFolder, check_out_file, check_out_folder
 from ..diagnose.record_checks import set_max_record_size
+from ..diagnose.suites import SUITES, counts_from_fractions, defaults_help
 from ..errors import InputError, set_max_input_size
 from .common import add_version, check_creatable
 from .errors import cli_main
@@ -147,28 +148,26 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
         help="transient suite only: write part K of N (the datasets i with i %% N == K - 1, the same ones a "
         "whole run writes), so N processes or machines share a long generation; score each folder on its own",
     )
-    ap.add_argument(
-        "-n", type=int, default=None, help="number of datasets (default: system 52, link 40, transient 60, frame 40)"
-    )
+    ap.add_argument("-n", type=int, default=None, help=f"number of datasets (default: {defaults_help('n')})")
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument(
         "--clean-fraction",
         type=float,
         default=None,
-        help="share of clean datasets (default: system 0.19, link 0.25, frame 0.2)",
+        help=f"share of clean datasets (default: {defaults_help('clean')})",
     )
     ap.add_argument(
         "--pair-fraction",
         type=float,
         default=None,
-        help="share of two-effect datasets (default: system 0.15, link 0.2, frame 0.2)",
+        help=f"share of two-effect datasets (default: {defaults_help('pair')})",
     )
     ap.add_argument(
         "--oov-fraction",
         type=float,
         default=None,
-        help="system, transient and frame suites: share of out-of-vocabulary datasets (default 0.23, frame 0.2; "
-        "with --clean-fraction or --pair-fraction given, at most what they leave)",
+        help=f"system, transient and frame suites: share of out-of-vocabulary datasets (default: "
+        f"{defaults_help('oov')}; with --clean-fraction or --pair-fraction given, at most what they leave)",
     )
     ap.add_argument("--noise", type=float, default=None, help="link suite only: force noise std [N] (default 0.5)")
     ap.add_argument(
@@ -235,25 +234,17 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
     if a.suite == "link" and a.oov_fraction is not None:
         raise InputError("--oov-fraction: the link suite has no out-of-vocabulary class; use --suite system")
     composition = None
-    if a.suite == "frame":
-        from ..diagnose.system.suite import composition_from_fractions
-
-        composition = composition_from_fractions(  # the OOV share is cut to what the others leave
-            40 if a.n is None else a.n,
-            *(0.2 if v is None else v for v in (a.clean_fraction, a.pair_fraction, a.oov_fraction)),
-        )
-    elif a.suite in ("system", "transient"):
-        from ..diagnose.system.suite import composition_from_fractions
-
-        composition = composition_from_fractions(
-            a.n if a.n is not None or a.suite == "system" else 60, a.clean_fraction, a.pair_fraction, a.oov_fraction
-        )
-    elif (0.25 if a.clean_fraction is None else a.clean_fraction) + (
-        0.2 if a.pair_fraction is None else a.pair_fraction
-    ) > 1.0:
-        raise InputError(
-            "--clean-fraction + --pair-fraction (link defaults 0.25 and 0.2 for the one not given) must be <= 1"
-        )
+    if a.suite != "link":  # the OOV share not given is cut to what the others leave
+        composition = counts_from_fractions(a.suite, a.n, a.clean_fraction, a.pair_fraction, a.oov_fraction)
+    else:
+        link = SUITES["link"]
+        if (link.clean if a.clean_fraction is None else a.clean_fraction) + (
+            link.pair if a.pair_fraction is None else a.pair_fraction
+        ) > 1.0:
+            raise InputError(
+                f"--clean-fraction + --pair-fraction (link defaults {link.clean:g} and {link.pair:g} for the one "
+                "not given) must be <= 1"
+            )
     from ..diagnose.link.benchmark import make_benchmark
 
     out = check_out_folder(a.out, "make-benchmark", BENCHMARK_MARKER)
@@ -267,7 +258,7 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
             nc, _, npair, noov = composition
             man = make_system_benchmark(
                 tmp,
-                n=a.n,
+                n=sum(composition),
                 seed=a.seed,
                 n_clean=nc,
                 n_pair=npair,
@@ -309,12 +300,13 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
                 progress=lambda r: print(f"{r['dataset']}: written ({r['seconds']:.1f} s)", flush=True),
             )
         else:
+            link = SUITES["link"]
             man = make_benchmark(
                 tmp,
-                n=40 if a.n is None else a.n,
+                n=link.n if a.n is None else a.n,
                 seed=a.seed,
-                clean_fraction=0.25 if a.clean_fraction is None else a.clean_fraction,
-                pair_fraction=0.2 if a.pair_fraction is None else a.pair_fraction,
+                clean_fraction=link.clean if a.clean_fraction is None else a.clean_fraction,
+                pair_fraction=link.pair if a.pair_fraction is None else a.pair_fraction,
                 noise=0.5 if a.noise is None else a.noise,
             )
     print(

@@ -36,7 +36,6 @@ the nominal over every record and channel, in units of each channel's noise) go 
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from typing import TYPE_CHECKING, Any
@@ -45,6 +44,7 @@ import numpy as np
 import yaml
 
 from ...models.frame_model.effects import LINEAR, VOCABULARY
+from ..suites import counts, write_manifest
 from .truth import FineForce, FrameTruth, acquire, channels, hammer_force, random_force, sweep_force
 
 if TYPE_CHECKING:
@@ -439,7 +439,7 @@ def write_dataset(path: Path, rng: np.random.Generator, effects: list[str], oov_
 
 def make_frame_benchmark(
     out: Path,
-    n: int = 40,
+    n: int | None = None,
     seed: int = 1,
     n_clean: int | None = None,
     n_pair: int | None = None,
@@ -449,14 +449,10 @@ def make_frame_benchmark(
     """Write the frame suite to ``out``: one folder per dataset (fr000, ...) and manifest.json, rewritten
     after every dataset (a stopped run leaves a scorable part; ``complete`` says whether it is whole).
     ``progress(row)`` gets the public part of each row (name, seconds), never the labels."""
-    nc = round(0.2 * n) if n_clean is None else n_clean
-    npair = round(0.2 * n) if n_pair is None else n_pair
-    no = round(0.2 * n) if n_oov is None else n_oov
-    if nc + npair + no > n:
-        raise ValueError(f"n = {n} is smaller than clean + pairs + OOV = {nc + npair + no}")
+    nc, ns, npair, no = counts("frame", n, n_clean, n_pair, n_oov)
     rng = np.random.default_rng(seed)
     man: list[dict[str, Any]] = []
-    items = plan(rng, n, nc, npair, no)
+    items = plan(rng, nc + ns + npair + no, nc, npair, no)
     for i, (cls, effects, oov_kind) in enumerate(items):
         t0 = time.perf_counter()
         name = f"fr{i:03d}"
@@ -465,9 +461,7 @@ def make_frame_benchmark(
         row["seconds"] = round(time.perf_counter() - t0, 2)
         man.append(row)
         doc = {"suite": "frame", "seed": seed, "complete": i == len(items) - 1, "datasets": man}
-        tmp = out / ".manifest.json.partial"
-        tmp.write_text(json.dumps(doc, indent=1))
-        tmp.replace(out / "manifest.json")
+        write_manifest(out, doc)
         if progress:
             progress({"dataset": name, "seconds": row["seconds"]})
     return man

@@ -18,7 +18,6 @@ go to ``manifest.json`` only.
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Callable, Sequence
 from pathlib import Path
@@ -26,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from ..suites import counts, write_manifest
 from .bench import RANGES as BASE_RANGES
 from .bench import has_cubic, nominal, true_values
 from .effects import VOCAB
@@ -159,37 +159,6 @@ def draw_dataset(
     }
 
 
-def composition(
-    n: int | None, n_clean: int | None = None, n_pair: int | None = None, n_oov: int | None = None
-) -> tuple[int, int, int, int]:
-    n = 52 if n is None else int(n)
-    n_clean = int(round(0.19 * n)) if n_clean is None else n_clean
-    n_pair = int(round(0.15 * n)) if n_pair is None else n_pair
-    n_oov = int(round(0.23 * n)) if n_oov is None else n_oov
-    n_single = n - n_clean - n_pair - n_oov
-    if n_single < 0:
-        raise ValueError(f"n = {n} is smaller than clean + pairs + OOV = {n_clean + n_pair + n_oov}")
-    return n_clean, n_single, n_pair, n_oov
-
-
-#: default shares of the system suite's classes (the rest are single effects)
-DEFAULT_FRACTIONS = {"clean": 0.19, "pair": 0.15, "oov": 0.23}
-
-
-def composition_from_fractions(
-    n: int | None, clean: float | None = None, pair: float | None = None, oov: float | None = None
-) -> tuple[int, int, int, int]:
-    """(clean, single, pair, oov) counts for ``n`` datasets from the shares of the command line
-    (None: the default share; an OOV share not given is cut to what the given shares leave)."""
-    n = 52 if n is None else int(n)
-    nc = int(round((DEFAULT_FRACTIONS["clean"] if clean is None else clean) * n))
-    npair = int(round((DEFAULT_FRACTIONS["pair"] if pair is None else pair) * n))
-    nc, npair = min(nc, n), min(npair, n - min(nc, n))
-    no = int(round((DEFAULT_FRACTIONS["oov"] if oov is None else oov) * n))
-    no = min(no, n - nc - npair)
-    return composition(n, nc, npair, no)
-
-
 def plan(
     rng: np.random.Generator,
     n: int | None = None,
@@ -204,7 +173,7 @@ def plan(
 
     kinds = HELD_OUT if held_out_oov else OOV_EFFECTS
 
-    nc, ns, npair, no = composition(n, n_clean, n_pair, n_oov)
+    nc, ns, npair, no = counts("system", n, n_clean, n_pair, n_oov)
     eff = in_vocab()
     items: list[tuple[str, dict, dict]] = [("clean", {}, {})] * nc
     start = int(rng.integers(len(eff)))
@@ -280,18 +249,16 @@ def make_field_benchmark(
         man.append(row)
         if progress:
             progress({"dataset": name, "seconds": row["seconds"]})
-    (out / "manifest.json").write_text(
-        json.dumps(
-            {
-                "suite": "system",
-                "generator": "field",
-                "seed": seed,
-                "held_out_oov": held_out_oov,
-                "visible_chi2": VISIBLE_CHI2,
-                "datasets": man,
-            },
-            indent=1,
-        )
+    write_manifest(
+        out,
+        {
+            "suite": "system",
+            "generator": "field",
+            "seed": seed,
+            "held_out_oov": held_out_oov,
+            "visible_chi2": VISIBLE_CHI2,
+            "datasets": man,
+        },
     )
     return man
 

@@ -13,7 +13,6 @@ white noise 0.5-2 % of the rms per channel (0.3-1 % on the force).
 
 from __future__ import annotations
 
-import json
 import math
 import time
 from typing import TYPE_CHECKING, Any
@@ -21,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 import yaml
 
+from ..suites import counts, write_manifest
 from .effects import VOCAB
 
 if TYPE_CHECKING:
@@ -251,12 +251,8 @@ def make_transient_benchmark(
         bad = [e for e in effects if e not in IN_VOCAB]
         if bad or not effects:
             raise ValueError(f"effects {bad or effects}: the transient suite draws {', '.join(IN_VOCAB)}")
-    n = 60 if n is None else int(n)
-    nc = round(0.17 * n) if n_clean is None else n_clean
-    npair = round(0.13 * n) if n_pair is None else n_pair
-    no = round(0.25 * n) if n_oov is None else n_oov
-    if nc + npair + no > n:
-        raise ValueError(f"n = {n} is smaller than clean + pairs + OOV = {nc + npair + no}")
+    nc, ns, npair, no = counts("transient", n, n_clean, n_pair, n_oov)
+    n = nc + ns + npair + no
     rng = np.random.default_rng(seed)
     man = []
     for i, (cls, hidden, oov) in enumerate(plan(rng, n, nc, npair, no, effects)):
@@ -284,9 +280,7 @@ def make_transient_benchmark(
         if effects is not None:
             doc["effects"] = list(effects)
         doc["complete"] = i >= n - (part[1] if part else 1)
-        tmp = out / ".manifest.json.partial"
-        tmp.write_text(json.dumps(doc, indent=1))
-        tmp.replace(out / "manifest.json")
+        write_manifest(out, doc)
         if progress:
             progress({"dataset": name, "seconds": row["seconds"]})
     return man
