@@ -11,7 +11,8 @@ transient records **to the noise** (output error, every record simulated exactly
    LINEAR`) at every element: each storey's mass, stiffness and damping, the TMD's mass, stiffness,
    damping (``viscous``) and inertance, the force's gain, each recorded channel's gain.
 3. Singles: each candidate scanned on a grid of its size (a mode shifted by more than its bandwidth
-   is far outside the linearisation), the best refined by nonlinear least squares
+   is far outside the linearisation) and one Gauss-Newton step from the grid's best (an effect below
+   the grid's step), the best refined by nonlinear least squares
    (:func:`scipy.optimize.least_squares`). Pairs: the FIRSTS best singles, each with the candidates
    whose linearised gain at that single's solution is largest (scanned and refined likewise).
 4. Selection by chi2 against the noise: an effect is named when it lowers chi2 by more than
@@ -386,12 +387,27 @@ class FrameDiagnosis:
         grid = GRID["damping"] if c.effect in ("storey_damping", "viscous") else GRID["default"]
         if c.kind != "struct":
             grid = np.linspace(-0.3, 0.3, 13)
-        best, arg = math.inf, 0.0
+        best, arg, r_best = math.inf, 0.0, None
         for g in grid:
             r = self.residuals((*base.cands, c), np.append(base.u, g), short=True)
             chi2 = math.inf if r is None else sum(float(np.einsum("i,i->", x, x)) for x in r)
             if chi2 < best:
-                best, arg = chi2, float(g)
+                best, arg, r_best = chi2, float(g), r
+        # a Gauss-Newton step from the grid's best: an effect smaller than half the grid's step leaves
+        # every candidate's best at 0 (the nominal), all tied, and the true one may not be refined
+        if r_best is not None:
+            d = 1e-3
+            r = self.residuals((*base.cands, c), np.append(base.u, arg + d), short=True)
+            if r is not None:
+                r0 = np.concatenate(r_best)
+                J = (np.concatenate(r) - r0) / d
+                jj = float(np.einsum("i,i->", J, J))
+                if jj > 0.0:
+                    step = float(np.clip(-np.einsum("i,i->", J, r0) / jj, -0.5, 0.5))
+                    r = self.residuals((*base.cands, c), np.append(base.u, arg + step), short=True)
+                    chi2 = math.inf if r is None else sum(float(np.einsum("i,i->", x, x)) for x in r)
+                    if chi2 < best:
+                        arg = arg + step
         return arg
 
     def refine(self, cands: tuple[Cand, ...], u0: ndarray) -> Fit:
