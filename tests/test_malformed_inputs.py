@@ -665,3 +665,21 @@ def test_unexpected_errors_keep_their_traceback():
 
     with pytest.raises(ZeroDivisionError):
         bug([])
+
+
+def test_a_closed_pipe_ends_a_command_quietly():
+    """``diagnose ... | head -1``: the reader goes away while the command prints; it ends with status 141
+    (as a tool killed by SIGPIPE) and no traceback (it printed one from its last line)."""
+    import subprocess
+    import sys
+
+    code = (
+        "import sys\nfrom pyfmu_wrapper.cli.errors import cli_main\n"
+        "@cli_main('x')\ndef m():\n    for i in range(10**6):\n        print('line', i)\n    return 0\n"
+        "sys.exit(m())\n"
+    )
+    p = subprocess.Popen([sys.executable, "-c", code], stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    assert p.stdout is not None and p.stdout.readline() == b"line 0\n"
+    p.stdout.close()
+    _, err = p.communicate(timeout=60)
+    assert p.returncode == 141 and b"Traceback" not in err and b"Error" not in err, err.decode()

@@ -15,6 +15,7 @@ Set ``PYFMU_TRACEBACK=1`` to see the traceback of an input error too (debugging)
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import os
 import sys
@@ -66,6 +67,11 @@ def cli_main(prog: str) -> Callable[[Callable[..., int]], Callable[..., int]]:
             except KeyboardInterrupt:
                 print(f"\n{prog}: interrupted", file=sys.stderr)
                 return 130
+            except BrokenPipeError:  # the reader went away (``diagnose ... | head``): end quietly, as a
+                # Unix tool killed by SIGPIPE; what was written to files is complete
+                with contextlib.suppress(OSError, ValueError):  # no error at exit's flush
+                    os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+                return 141
             except Exception as exc:  # noqa: BLE001 - typed input errors only; the rest re-raised
                 if is_input_error(exc):
                     return report(prog, exc)

@@ -12,7 +12,8 @@ transient records **to the noise** (output error, every record simulated exactly
    damping (``viscous``) and inertance, the force's gain, each recorded channel's gain.
 3. Singles: each candidate scanned on a grid of its size (a mode shifted by more than its bandwidth
    is far outside the linearisation) and one Gauss-Newton step from the grid's best (an effect below
-   the grid's step), the best refined by nonlinear least squares
+   the grid's step), the best refined by nonlinear least squares, and so are the ones whose linearised
+   step removes most of the whole records' chi2 (near the noise the scan ranks by its own scatter)
    (:func:`scipy.optimize.least_squares`). Pairs: the FIRSTS best singles, each with the candidates
    whose linearised gain at that single's solution is largest (scanned and refined likewise).
 4. Selection by chi2 against the noise: an effect is named when it lowers chi2 by more than
@@ -463,8 +464,14 @@ class FrameDiagnosis:
             f = self._evaluate((c,), np.array([g]))
             scanned.append((f.chi2, c, g))
         scanned.sort(key=lambda x: x[0])
+        # near the noise the scan's chi2 (every q-th sample) ranks candidates by little more than its own
+        # scatter: the ones whose linearised step removes most of the whole records' chi2 are refined too
+        todo = scanned[:REFINE]
+        if not self.over():
+            gain = self.linear_gains(nom, [c for _, c, _ in scanned])
+            todo += [scanned[int(i)] for i in np.argsort(-gain)[:REFINE] if scanned[int(i)] not in todo]
         progress.stage("frame: refining the best singles")
-        for _, c, g in scanned[:REFINE]:
+        for _, c, g in todo:
             if self.over():
                 self.not_tried.append(f"the refinement of {c.label}")
                 continue
