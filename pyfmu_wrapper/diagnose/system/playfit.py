@@ -21,7 +21,17 @@ class PlayMixin:
     folds: Any
     views: Any
     train_ids: Any
+    test_ids: Any
     log: Any
+    chi0_t: Any
+    chi0_f: Any
+    chi0: Any
+    play_nominal: Any
+    _play_chi: Any
+    play_ok: Any
+    cands: Any
+    singles: Any
+    _refine_friction: Any
 
     def _refit_play(self, c: Any) -> None:
         """Play + a second effect in the TMD link: the rattle curves S(eps) were simulated with the
@@ -39,6 +49,34 @@ class PlayMixin:
             self.log.append(("note", c.effects, [f"play not refitted with {second}: {err}"]))
             return
         self._take_play(c, pf)
+
+    def _rattle_is_the_seconds(self, c: Any) -> bool:
+        """After :meth:`_refit_play`: a gap at the bottom of the ladder (EPS_LADDER[0]) means the rattle
+        curves simulated with the second effect alone (and a gap too small to rattle) already carry the
+        records' rattle statistic -- the spikes are the second effect's (dry friction's stick-slip is
+        anti-correlated in xdd and ydd as contact is). Then play is dropped: not a candidate, its rattle
+        terms not part of the gap, the second effect refitted without it. Returns whether it was."""
+        from .play import EPS_LADDER
+
+        if not c.params.get("play.play_gap", 1.0) <= EPS_LADDER[0] * (1 + 1e-9):
+            return False
+        second = c.effects[1]
+        self.log.append(
+            (
+                "note",
+                c.effects,
+                [
+                    f"the rattle is {second}'s: its simulation with a gap of {EPS_LADDER[0]:g} m carries it; play dropped"
+                ],
+            )
+        )
+        self.play_ok = False
+        self.model.play_signature = {}
+        self.cands.pop((second,), None)
+        self.singles[second] = fit_eq(self.model, (second,), self.folds)  # friction: on its solver signature
+        if second == "friction":
+            self._refine_friction(())
+        return True
 
     def _take_play(self, c: Any, pf: Any) -> None:
         self.log.append(
@@ -66,6 +104,7 @@ class PlayMixin:
         for e in grid:
             m.play_signature = sigs[e] = pf.signature(m, e)
             chi.append(fit_eq(m, ("play",), self.folds).chi2_fit)
+        self._play_chi = dict(zip(grid, chi, strict=True))  #: gap -> training chi-square (:meth:`_play_of_nominal`)
         x = np.log(grid)
         c = np.polyfit(x, chi, 2)
         best = grid[int(np.argmin(chi))]
@@ -77,6 +116,59 @@ class PlayMixin:
             sigs[best] = pf.signature(m, best)
         pf.eps = best
         m.play_signature = sigs[best]
+
+    def _play_of_nominal(self) -> bool:
+        """A nominal with play (inerter = play, gap g > 0): the gap the records give (:meth:`_refine_play`:
+        the rattle statistic, then the periodic equation error) is compared with g by the equation error's
+        training chi-square: if chi2(g) - chi2(fitted gap) <= Z_SIGNIF^2 (g within Z_SIGNIF std of the
+        fit), the gap is the nominal's: the nominal's residuals become those of its play chain (the
+        equation error the ideal link leaves on the chain's simulated records, the signature at g, taken
+        out of every record's whitened residual), play is part of the model, not a candidate; returns
+        True. A gap that differs is a candidate as without play in the nominal; returns False."""
+        from ...physics.params import InerterModel
+        from ..gates import Z_SIGNIF
+
+        m, pf = self.model, self.play
+        g = float(m.tmd.play_gap) if m.tmd.inerter == InerterModel.PLAY else 0.0
+        if not g > 0.0:
+            return False
+        best, sig_best = pf.eps, m.play_signature
+        chi_best = self._play_chi.get(best)
+        if chi_best is None:
+            chi_best = self._play_chi[best] = fit_eq(m, ("play",), self.folds).chi2_fit
+        sig = pf.signature(m, g)
+        m.play_signature = sig
+        chi_g = fit_eq(m, ("play",), self.folds).chi2_fit
+        if chi_g - chi_best > Z_SIGNIF**2:
+            m.play_signature = sig_best
+            self.log.append(
+                (
+                    "note",
+                    ("play",),
+                    [
+                        f"the records' play gap {best:.4g} m is not the nominal's {g:.4g} m (chi2 {chi_g - chi_best:.3g} worse)"
+                    ],
+                )
+            )
+            return False
+        m.play_signature = {}
+        for v in self.views:
+            A, B = sig[v.name]
+            v.r = v.r - m.whiten(v, A, B)
+        self.chi0_t = sum(float(self.views[i].r @ self.views[i].r) for i in self.test_ids)
+        self.chi0 = self.chi0_t + self.chi0_f
+        self.play_nominal = True
+        self.log.append(
+            (
+                "note",
+                ("play",),
+                [
+                    f"the nominal's play gap {g:.4g} m agrees with the records' {best:.4g} m "
+                    f"(chi2 {chi_g - chi_best:.3g} worse, <= {Z_SIGNIF**2:.0f}): part of the model"
+                ],
+            )
+        )
+        return True
 
     def _spike_sd(self) -> list[float]:
         out = []
