@@ -15,11 +15,10 @@ is not fitted here.
 Noise of x_max: ``x_max_noise`` of dataset.yaml when given (an absolute std [m]); otherwise
 estimated per FRC record from the relative residual the best candidate leaves (:meth:`FRCDiagnosis.run`),
 its fitted parameter counted: s^2 = sum r^2 / (n - 1) (on 21 points of white noise its relative
-scatter is 1/sqrt(2 (n - 1)) = 16 %). The guard: a robust estimate that a smooth structural residual
-cannot inflate (the smaller of the MAD of the second differences, in frequency order, of the
-nominal's relative residual and of the best candidate's: 32 % scatter on 21 points, biased low by the
-minimum); where the residual's own estimate exceeds GUARD x the guard, structure is left in it and
-the guard is the noise. Before :meth:`FRCDiagnosis.run` the noise is the robust estimate of the
+scatter is 1/sqrt(2 (n - 1)) = 16 %). The guard: an estimate that a smooth structural residual
+cannot inflate, from the second differences (in frequency order) of the same residual (the larger of
+their MAD and rms estimates); where the residual's own estimate exceeds GUARD x the guard, structure
+is left in it and the guard is the noise. Before :meth:`FRCDiagnosis.run` the noise is the robust estimate of the
 nominal's residual.
 
 With time records, :meth:`FRCDiagnosis.fit_effect` (:mod:`.frcfit`) fits one effect's parameter on
@@ -189,12 +188,17 @@ class FRCDiagnosis(FRCEffectFit):
 
     def set_noise(self, pred: ndarray, p: int) -> None:
         """The x_max noise from the relative residual of a model fitted with ``p`` parameters on these
-        points (its degrees of freedom counted, per FRC record), guarded by the robust estimates (the
-        smaller of the nominal's and this residual's second-difference MAD): where the rms exceeds
-        GUARD x the guard, the guard (module doc)."""
+        points (its degrees of freedom counted, per FRC record), guarded by this residual's
+        second-difference estimates (:func:`_d2_guard`): where the rms exceeds GUARD x the guard, the
+        guard (module doc)."""
         rel = self.x / pred - 1.0
-        guard = min(self.noise_rel, _d2_noise(rel, self.w) or self.noise_rel)
-        guard_pt = np.minimum(self.noise_rel_pt, self._per_record(rel, guard))
+        guard = _d2_guard(rel, self.w) or self.noise_rel
+        guard_pt = np.full(self.x.size, guard)
+        if len(self.names) > 1:
+            for i in range(len(self.names)):
+                m = self.rec == i
+                if m.sum() >= 5:
+                    guard_pt[m] = _d2_guard(rel[m], self.w[m]) or guard
         own = fit_noise(rel, p)
         self.noise_rel = own if 0.0 < own <= GUARD * guard else guard
         own_pt = np.full(self.x.size, own)
@@ -353,6 +357,17 @@ def _d2_noise(rel: ndarray, w: ndarray) -> float:
     frequency order / sqrt(6)."""
     d2 = np.diff(np.asarray(rel)[np.argsort(w, kind="stable")], 2)
     return float(1.4826 * np.median(np.abs(d2 - np.median(d2))) / math.sqrt(6.0)) if d2.size else 0.0
+
+
+def _d2_guard(rel: ndarray, w: ndarray) -> float:
+    """The noise a smooth structural residual cannot inflate, for :meth:`FRCDiagnosis.set_noise`: the
+    larger of the second differences' robust (:func:`_d2_noise`) and rms (sqrt(mean d2^2 / 6))
+    estimates -- each alone scatters by 32 % and 22 % on 21 points; their larger is rarely far below
+    the noise, so a white residual is rarely taken for structure."""
+    d2 = np.diff(np.asarray(rel)[np.argsort(w, kind="stable")], 2)
+    if not d2.size:
+        return 0.0
+    return max(_d2_noise(rel, w), float(math.sqrt(float(d2 @ d2) / (6.0 * d2.size))))
 
 
 def _ideal(tmd: TMDParams) -> TMDParams:
