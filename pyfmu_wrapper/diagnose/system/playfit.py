@@ -13,6 +13,8 @@ from .effects import VOCAB
 from .eqfit import fit_eq
 from .play import PlayFit
 
+REFINE = 1.25  #: the periodic evidence refines the rattle's gap within / and x this factor
+
 
 class PlayMixin:
     # what the mixin reads of the diagnosis it is mixed into (SystemDiagnosis)
@@ -28,6 +30,7 @@ class PlayMixin:
     chi0: Any
     play_nominal: Any
     _play_chi: Any
+    _play_raw: Any
     play_ok: Any
     cands: Any
     singles: Any
@@ -93,12 +96,12 @@ class PlayMixin:
         self.play.n_sim += pf.n_sim
         c.params["play.play_gap"], c.std["play.play_gap"] = pf.eps, pf.std
 
-    def _refine_play(self, factor: float = 1.25) -> None:
+    def _refine_play(self, factor: float = REFINE) -> None:
         """The rattle statistic fixes the gap to ~10-25 %; the periodic part of the chain force is
         more sensitive to it: compare the equation error of the simulated signature at eps / factor,
         eps, eps * factor (training chi-square) and keep the vertex of the parabola in log eps."""
         m, pf = self.model, self.play
-        e0 = pf.eps
+        e0 = self._play_raw = pf.eps
         grid = [e0 / factor, e0, e0 * factor]
         sigs, chi = {}, []
         for e in grid:
@@ -120,10 +123,12 @@ class PlayMixin:
     def _play_of_nominal(self) -> bool:
         """A nominal with play (inerter = play, gap g > 0): the gap the records give (:meth:`_refine_play`:
         the rattle statistic, then the periodic equation error) is compared with g by the equation error's
-        training chi-square: if chi2(g) - chi2(fitted gap) <= Z_SIGNIF^2 (g within Z_SIGNIF std of the
-        fit), the gap is the nominal's: the nominal's residuals become those of its play chain (the
+        training chi-square: if chi2(g) - chi2(fitted gap) <= Z_SIGNIF^2 and g is within the refinement's
+        range (REFINE) plus Z_SIGNIF std of the rattle's gap (the equation error alone does not separate
+        gaps well: its nuisance inertance absorbs part), the gap is the nominal's: the nominal's residuals become those of its play chain (the
         equation error the ideal link leaves on the chain's simulated records, the signature at g, taken
-        out of every record's whitened residual), play is part of the model, not a candidate; returns
+        out of every record's whitened residual, with the play model's nuisance inertance column at its
+        fitted value), play is part of the model, not a candidate; returns
         True. A gap that differs is a candidate as without play in the nominal; returns False."""
         from ...physics.params import InerterModel
         from ..gates import Z_SIGNIF
@@ -138,23 +143,29 @@ class PlayMixin:
             chi_best = self._play_chi[best] = fit_eq(m, ("play",), self.folds).chi2_fit
         sig = pf.signature(m, g)
         m.play_signature = sig
-        chi_g = fit_eq(m, ("play",), self.folds).chi2_fit
-        if chi_g - chi_best > Z_SIGNIF**2:
+        fg = fit_eq(m, ("play",), self.folds)
+        chi_g = fg.chi2_fit
+        # the rattle's gap (before the refinement, which moves it by up to REFINE x) and its std
+        far = abs(math.log(g / self._play_raw)) > math.log(REFINE) + Z_SIGNIF * float(pf.std) / self._play_raw
+        if far or chi_g - chi_best > Z_SIGNIF**2:
             m.play_signature = sig_best
             self.log.append(
                 (
                     "note",
                     ("play",),
                     [
-                        f"the records' play gap {best:.4g} m is not the nominal's {g:.4g} m (chi2 {chi_g - chi_best:.3g} worse)"
+                        f"the records' play gap {best:.4g} m (rattle: {self._play_raw:.4g} +- {pf.std:.2g} m) is not "
+                        f"the nominal's {g:.4g} m (equation error chi2 {chi_g - chi_best:.3g} worse)"
                     ],
                 )
             )
             return False
         m.play_signature = {}
+        beta = float(fg.beta[0])  # the play model's own nuisance: the inertance lost while rattling
         for v in self.views:
             A, B = sig[v.name]
-            v.r = v.r - m.whiten(v, A, B)
+            ((a, b),) = m.columns("play", v)
+            v.r = v.r - m.whiten(v, A + beta * a, B + beta * b)
         self.chi0_t = sum(float(self.views[i].r @ self.views[i].r) for i in self.test_ids)
         self.chi0 = self.chi0_t + self.chi0_f
         self.play_nominal = True
