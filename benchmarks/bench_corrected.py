@@ -13,7 +13,12 @@ generator's range with ``--seed``. For each:
    of the records against the corrected curve, each residual in units of the point's noise
    (:func:`pyfmu_wrapper.diagnose.corrected.measured_points`: the FRC path's x_max noise estimated
    against the corrected nominal, a steady record's max |x| with its harmonic series' variance);
-   the same for the nominal curve, and for the FRC points also with the generator's true 0.5 % noise;
+   the same for the nominal curve, and for the FRC points also with the generator's true 0.5 % noise.
+   The FRC noise is the one the diagnosis of the dataset against the corrected nominal uses (the
+   residual its best FRC candidate leaves, degrees of freedom counted); each point's noise is added in
+   quadrature to the corrected model's own scatter (:func:`~pyfmu_wrapper.diagnose.corrected.read_scatter`:
+   half the spread of run-scenario's steady windows -- the play chain rattles). chi2 / n of 25 points
+   of a right model scatters by sqrt(2 / 25) = 0.28 about 1 (more with an estimated noise);
 3. ``diagnose DS --model D/corrected/<one>.yaml`` (the dataset against the corrected nominal): what
    is named now (the target: nothing).
 
@@ -26,13 +31,14 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import resource
 import subprocess
 import time
 from pathlib import Path
 
 import numpy as np
 
-from pyfmu_wrapper.diagnose.corrected import chi2_per_point, measured_points, read_curve
+from pyfmu_wrapper.diagnose.corrected import chi2_per_point, measured_points, read_curve, read_scatter
 from pyfmu_wrapper.diagnose.data import load_dataset
 from pyfmu_wrapper.diagnose.run import _load_model
 from pyfmu_wrapper.diagnose.system.bench import FRC_NOISE, RANGES, make_system_dataset
@@ -56,9 +62,15 @@ def named(res_json: Path) -> tuple[list[str], dict, dict]:
     return list(v.get("effects") or []), {k: p["value"] for k, p in (v.get("parameters") or {}).items()}, flags
 
 
+CPU: dict[str, float] = {}  #: CPU seconds (user + system) of the last command run, by its first word
+
+
 def run(cmd: list[str]) -> tuple[float, str]:
     t = time.perf_counter()
+    r0 = resource.getrusage(resource.RUSAGE_CHILDREN)
     p = subprocess.run(cmd, capture_output=True, text=True)
+    r1 = resource.getrusage(resource.RUSAGE_CHILDREN)
+    CPU[cmd[0]] = (r1.ru_utime - r0.ru_utime) + (r1.ru_stime - r0.ru_stime)
     if p.returncode != 0:
         raise RuntimeError(f"{' '.join(cmd)} failed ({p.returncode}): {p.stderr[-2000:]}")
     return time.perf_counter() - t, p.stdout
@@ -70,9 +82,10 @@ def bench_one(root: Path, effect: str, size: float, seed: int) -> dict:
         make_system_dataset(ds, {effect: size}, seed=seed, case=1)
     out = root / f"diag_{effect}"
     t_diag, _ = run(["diagnose", str(ds), "--out", str(out)])
+    cpu_diag = CPU["diagnose"]
     found, params, flags = named(out / "diagnosis.json")
     ymls = sorted((out / "corrected").glob("*.yaml"))
-    curves: dict[str, dict[float, dict[float, float]]] = {"corrected": {}, "nominal": {}}
+    curves: dict[str, dict[float, dict[float, float]]] = {"corrected": {}, "nominal": {}, "scatter": {}}
     t_rs = 0.0
     for y in ymls:
         rs = root / f"rs_{effect}" / y.stem
@@ -81,6 +94,8 @@ def bench_one(root: Path, effect: str, size: float, seed: int) -> dict:
         F = float(y.stem[len("corrected_F") : -1])
         curves["corrected"][F] = read_curve(rs / "corrected.csv")  # the first curve: the corrected model
         curves["nominal"][F] = read_curve(rs / "corrected.csv", "nominal")
+        curves["scatter"][F] = read_scatter(rs / "corrected.csv")  # the corrected model's window scatter
+    sc = curves["scatter"]
     dsc = load_dataset(ds, _load_model(str(ymls[0])))  # the noise estimated against the corrected nominal
     pts = measured_points(dsc)
     steady = [p for p in pts if p["kind"] == "steady"]
@@ -88,6 +103,7 @@ def bench_one(root: Path, effect: str, size: float, seed: int) -> dict:
     frc_true = [{**p, "sigma": FRC_NOISE * p["x"]} for p in frc]
     re_out = root / f"rediag_{effect}"
     t_re, _ = run(["diagnose", str(ds), "--model", str(ymls[0]), "--out", str(re_out)])
+    cpu_re = CPU["diagnose"]
     left, left_params, left_flags = named(re_out / "diagnosis.json")
     row = {
         "effect": effect,
@@ -96,17 +112,20 @@ def bench_one(root: Path, effect: str, size: float, seed: int) -> dict:
         "parameters": params,
         "verdict": flags,
         "scenario_files": [y.name for y in ymls],
-        "chi2_per_point": chi2_per_point(pts, curves["corrected"]),
-        "chi2_steady": chi2_per_point(steady, curves["corrected"]),
-        "chi2_frc": chi2_per_point(frc, curves["corrected"]),
-        "chi2_frc_true_noise": chi2_per_point(frc_true, curves["corrected"]),
-        "chi2_per_point_true_frc_noise": chi2_per_point(steady + frc_true, curves["corrected"]),
+        "chi2_per_point": chi2_per_point(pts, curves["corrected"], sc),
+        "chi2_steady": chi2_per_point(steady, curves["corrected"], sc),
+        "chi2_frc": chi2_per_point(frc, curves["corrected"], sc),
+        "chi2_frc_true_noise": chi2_per_point(frc_true, curves["corrected"], sc),
+        "chi2_per_point_true_frc_noise": chi2_per_point(steady + frc_true, curves["corrected"], sc),
+        "chi2_per_point_no_scatter": chi2_per_point(pts, curves["corrected"]),
         "chi2_nominal": chi2_per_point(pts, curves["nominal"]),
+        "frc_noise_relative": [p["sigma"] / p["x"] for p in frc[:1]],
         "rediagnosis_named": left,
         "rediagnosis_parameters": left_params,
         "rediagnosis_verdict": left_flags,
         "nothing_left": not left and not left_flags["structural"] and not left_flags["unexplained"],
         "seconds": {"diagnose": t_diag, "run_scenario": t_rs, "rediagnose": t_re},
+        "cpu_seconds": {"diagnose": cpu_diag, "rediagnose": cpu_re},
     }
     return row
 
@@ -176,7 +195,8 @@ def main() -> None:
             f"{r['chi2_frc']['chi2_per_point']:.3g}, FRC with the true noise {r['chi2_frc_true_noise']['chi2_per_point']:.3g}; "
             f"all with the FRC's true noise {r['chi2_per_point_true_frc_noise']['chi2_per_point']:.3g}), "
             f"nominal {r['chi2_nominal']['chi2_per_point']:.3g}; re-diagnosis names {r['rediagnosis_named'] or 'nothing'}"
-            + (" (nothing left)" if r["nothing_left"] else f" (structural gap: {r['rediagnosis_verdict']['text']})"),
+            + (" (nothing left)" if r["nothing_left"] else f" (structural gap: {r['rediagnosis_verdict']['text']})")
+            + f"; CPU diagnose {r['cpu_seconds']['diagnose']:.0f} s, re-diagnosis {r['cpu_seconds']['rediagnose']:.0f} s",
             flush=True,
         )
         (root / "bench_corrected.json").write_text(json.dumps(rows, indent=1, default=float))

@@ -393,9 +393,10 @@ def measured_points(ds: Dataset) -> list[dict[str, Any]]:
     """The records' amplitudes with their noise std: one point per steady time record (max |x| of its
     harmonic series without the mean, from x and/or xdd, :func:`pyfmu_wrapper.diagnose.harmonic.fuse`;
     its std the square root of the sum of the harmonics' variances) and one per FRC point (x_max, its
-    std the FRC path's: ``x_max_noise`` when the dataset states it, else the robust estimate of
-    :class:`.system.frc.FRCDiagnosis`). Each: ``record``, ``kind`` (steady, frc), ``omega``, ``force`` (as recorded), ``x``,
-    ``sigma``."""
+    std the one the diagnosis of ``ds`` uses: ``x_max_noise`` when the dataset states it, else the
+    estimate of :meth:`.system.frc.FRCDiagnosis.run` -- the residual its best candidate leaves, with its
+    degrees of freedom, guarded by a robust estimate). Each: ``record``, ``kind`` (steady, frc),
+    ``omega``, ``force`` (as recorded), ``x``, ``sigma``."""
     from .harmonic import fit_series, fuse, grid_values
 
     out: list[dict[str, Any]] = []
@@ -422,7 +423,7 @@ def measured_points(ds: Dataset) -> list[dict[str, Any]]:
     if any(r.kind == "frc" for r in ds.records):
         from .system.frc import FRCDiagnosis
 
-        sig = iter(FRCDiagnosis(ds).sigma)  # its points: the FRC records' rows, in order
+        sig = iter(FRCDiagnosis(ds).run().sigma)  # its points: the FRC records' rows, in order
         for r in ds.records:
             if r.kind != "frc":
                 continue
@@ -449,10 +450,33 @@ def read_curve(csv: Path, curve: str = "") -> dict[float, float]:
     return {float(r["omega"]): float(r["amplitude"]) for r in rows if r["curve"] == curve}
 
 
-def chi2_per_point(points: list[dict[str, Any]], model: Mapping[float, Mapping[float, float]]) -> dict[str, Any]:
+def read_scatter(csv: Path, curve: str = "") -> dict[float, float]:
+    """omega -> the model amplitude's own scatter [m] of one curve (default: the first) of a
+    run-scenario FRC CSV: half the spread of its steady windows' maxima (``change`` x amplitude / 2;
+    ``change`` is that relative spread for an irregular point, the last relative change between
+    windows for a converged one). A rattling play chain has no single steady amplitude: two samples
+    of its motion (a record's periods, run-scenario's windows) differ by about this much."""
+    import csv as _csv
+
+    rows = list(_csv.DictReader(csv.open(encoding="utf-8")))
+    curve = curve or rows[0]["curve"]
+    out = {}
+    for r in rows:
+        if r["curve"] == curve:
+            ch = float(r.get("change") or "nan")
+            out[float(r["omega"])] = 0.5 * ch * abs(float(r["amplitude"])) if math.isfinite(ch) else 0.0
+    return out
+
+
+def chi2_per_point(
+    points: list[dict[str, Any]],
+    model: Mapping[float, Mapping[float, float]],
+    scatter: Mapping[float, Mapping[float, float]] | None = None,
+) -> dict[str, Any]:
     """chi2 / n of the records' ``points`` (:func:`measured_points`) against ``model`` (force as
     recorded -> omega -> amplitude, e.g. run-scenario's corrected curves), each residual in units of its
-    point's noise; also the worst point."""
+    point's noise -- with ``scatter`` (the same keys -> the model amplitude's std, :func:`read_scatter`)
+    the point's noise and the model's scatter added in quadrature; also the worst point."""
     z = []
     worst: dict[str, Any] = {}
     for p in points:
@@ -460,9 +484,10 @@ def chi2_per_point(points: list[dict[str, Any]], model: Mapping[float, Mapping[f
         w = min(curve, key=lambda o: abs(o - p["omega"]))
         if abs(w - p["omega"]) > 1e-6 * p["omega"]:
             raise KeyError(f"no model amplitude at omega {p['omega']} (force {p['force']} N)")
-        zi = (p["x"] - curve[w]) / p["sigma"]
+        sm = float(scatter[p["force"]][w]) if scatter is not None else 0.0
+        zi = (p["x"] - curve[w]) / math.hypot(p["sigma"], sm)
         z.append(zi)
         if not worst or abs(zi) > abs(worst["z"]):
-            worst = {**p, "model": curve[w], "z": float(zi)}
+            worst = {**p, "model": curve[w], "model_scatter": sm, "z": float(zi)}
     za = np.asarray(z)
     return {"chi2_per_point": float(np.mean(za**2)), "n": int(za.size), "worst": worst}

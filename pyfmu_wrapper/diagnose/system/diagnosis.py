@@ -43,7 +43,7 @@ from .agreement import record_agreement
 from .effects import EQ_EFFECTS, FRC_PRIOR, LABELS, MAX_EFFECTS, TMD_EFFECTS, UNITS
 from .eqfit import fit_eq, folds_for
 from .model import EFFECT_PARAMS, SIGN, SystemModel, record_views, steady_signature
-from .play import PlayFit
+from .play import EPS_LADDER, PlayFit
 from .playfit import PlayMixin
 
 if TYPE_CHECKING:
@@ -100,14 +100,26 @@ class SystemDiagnosis(PlayMixin):
         self.play = PlayFit(m.base, m.tmd, v)
         self.play_ok = False
         base: tuple[str, ...] = ()
+        self.play_nominal = False  #: the nominal's own play gap confirmed by the rattle (then part of the model)
         if self.play.indicated:
             try:
                 self.play.fit(self.train_ids, self.folds)
-                self._refine_play()
+                if self.play.eps <= EPS_LADDER[0] * (1 + 1e-9):  # the nominal's chain rattles as much
+                    self.log.append(
+                        (
+                            "rejected",
+                            ("play",),
+                            [f"the records rattle no more than the nominal's link with a gap of {EPS_LADDER[0]:g} m"],
+                        )
+                    )
+                    self.play_fail = True
+                else:
+                    self._refine_play()
+                    self._play_of_nominal()
             except (SolverError, ValueError, FloatingPointError) as err:
                 self.log.append(("rejected", ("play",), [f"the play model could not be simulated: {err}"]))
                 self.play_fail = True
-        if self.play.indicated and not getattr(self, "play_fail", False):
+        if self.play.indicated and not getattr(self, "play_fail", False) and not self.play_nominal:
             eqp = fit_eq(m, ("play",), self.folds)
             params = dict(eqp.params, **{"play.play_gap": self.play.eps})
             std = dict(eqp.std, **{"play.play_gap": self.play.std})
@@ -197,6 +209,10 @@ class SystemDiagnosis(PlayMixin):
         self.chosen, self.cur = chosen, cur
         if len(chosen) == 2 and chosen[0] == "play" and chosen[1] in TMD_EFFECTS:
             self._refit_play(cur)
+            if self._rattle_is_the_seconds(cur):  # e.g. the spikes of dry friction's stick-slip
+                base, start, chosen = (), Cand((), None, self.chi0_t, self.chi0_f, {}, {}), chosen[1:]
+                cur = self._cand(tuple(chosen))
+                self.chosen, self.cur = chosen, cur
         self.final = cur.fit
         # the honest part: do the named effects explain the gap, and is anything structural left?
         self.hint = None
