@@ -368,7 +368,8 @@ class TransientDiagnosis:
         # (:mod:`.transient_play`: every candidate scored there, the rattle's spread in the noise)
         from .transient_play import play_test
 
-        fitted = {f.effects[0]: f.theta for f in [*singles, *self.late.values()] if f.ok and len(f.effects) == 1}
+        fitted = {e: self._default_theta(e) for e in self.candidates()}
+        fitted.update({f.effects[0]: f.theta for f in [*singles, *self.late.values()] if f.ok and len(f.effects) == 1})
         fitted.update({e: f.theta for (e, *rest), f in getattr(self, "held_fits", {}).items() if not rest})
         res["play_band"] = play_test(self, fitted)
         if res["play_band"]["named"]:

@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
@@ -50,7 +50,6 @@ from .transient_sim import fastest_rate, simulate, spread
 if TYPE_CHECKING:
     from numpy import ndarray
 
-    from .transient import TransientDiagnosis
     from .transient_effects import Model
     from .transient_sim import TView
 
@@ -64,6 +63,17 @@ PLAY_RED = 60.0  #: play's reduced band chi-square at most this
 EXPLAINS_Z = 5.0  #: the nominal explains the band when its z is at most this (as :mod:`.transient`)
 START_PASSES = 1  #: start-state passes under each scored model (from the nominal's start)
 REFIT = 3  #: one-parameter singles refitted on the band: the best this many at their held-out values
+
+
+class TransientDiagnosis(Protocol):
+    """What the band test reads of :class:`.transient.TransientDiagnosis`."""
+
+    views: list[TView]
+    p_nom: ndarray
+    sc: dict[str, tuple[float, ...]]
+    noise_parts: dict[str, tuple[ndarray, ndarray | None]]
+
+    def candidates(self) -> list[str]: ...
 
 
 def _band_bins(v: TView, f_top: float) -> tuple[ndarray, int]:
@@ -215,7 +225,8 @@ def refit_single(td: TransientDiagnosis, e: str, th0: float, noise: list[ndarray
 
 
 def play_test(td: TransientDiagnosis, fitted: dict[str, ndarray]) -> dict[str, Any]:
-    """The band test (module doc): ``fitted`` holds each single's held-out fit (effect -> SI values).
+    """The band test (module doc): ``fitted`` holds each single's held-out fit or default start
+    (effect -> SI values; an effect missing: 0).
     Returns the scores, the gap and whether play is named."""
     nom = _score(td, (), np.zeros(0))
     out: dict[str, Any] = {"band_hz": BAND * fastest_rate(td.p_nom) / (2 * math.pi), "named": False}
@@ -246,7 +257,7 @@ def play_test(td: TransientDiagnosis, fitted: dict[str, ndarray]) -> dict[str, A
     for e in td.candidates():
         if e == "play" or len(TEFFECTS[e][0]) != 1:
             continue
-        th0 = float(fitted[e][0]) if e in fitted else float(td._default_theta(e)[0])
+        th0 = float(fitted[e][0]) if e in fitted else 0.0
         s0 = _score(td, (e,), np.array([th0]), shared)
         if s0 is not None:
             at[e] = th0
