@@ -26,8 +26,10 @@ Steps (docs/diagnose-method.md, "Transient records"):
    force's correlated noise); a disagreement is reported and nothing is
    named (a drift between records, or a pair of effects mimicking the truth). Held out **by record**:
    each record predicted from the others (only its start state fitted on itself).
-5. Nothing explains the data: ``unexplained``, with the best candidate as a hint and where the
-   residual lives (:func:`where`).
+5. Nothing explains the data sample by sample: the play band test (:mod:`.transient_play`: the
+   low band, the rattle's spread in the noise, every other single under play's noise) may name
+   play. Else ``unexplained``, with the best candidate as a hint and where the residual lives
+   (:func:`where`).
 """
 
 from __future__ import annotations

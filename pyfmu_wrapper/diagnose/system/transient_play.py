@@ -21,17 +21,15 @@ rattle spreads it. This module scores candidates there:
   :func:`.transient.TransientDiagnosis.prepare`. One rule for every candidate;
 * ``chi2 = sum 2 |E_k|^2 / (N s_k)`` over the band's bins (2 dof per bin and channel).
 
-Play's gap is found on a log grid (GAPS, then a parabola in log eps through the best three); every
-one-parameter single of the vocabulary is refitted on the same band (bounded Brent from its
-held-out fit), friction scored at its held-out fit. Play is named when (all of): its band chi-square's
-excess over its dof is at most PLAY_SHARE of the best other candidate's; its reduced band chi-square
-is at most PLAY_RED (the rattle that the spread does not capture: measured 2-40 on dev play singles);
-the gap's minimum is inside the grid (not the ideal inerter's end, not the disengaged one's); and the
-excess left by the nominal is more than PLAY_MIN_EXCESS x the dof (there is a gap to close).
-The guard against "the rattle explains everything": a play candidate whose spread is large where
-the data hold no rattle has an excess far below its dof in that band (its spread is twice what the
-residual holds) and loses to the candidates that predict the data; and an OOV truth that is not play
-is caught by the share (play closes less than the others by the ratio) and by PLAY_RED.
+Play's gap is found on a log grid (GAPS, then a parabola in log eps through the best three) by the
+Gaussian likelihood (chi-square plus the log of the noise: the noise depends on the gap, and a wider
+gap rattles more); the nominal and every one-parameter single of the vocabulary (the REFIT best
+refitted on the band, bounded Brent from its held-out fit) and friction (at its fit) are scored
+**under play's noise** (its spread at the fitted gap), so declaring the rattle as noise helps every
+candidate alike. Play is named when (all of): the nominal does not explain the band (z > EXPLAINS_Z);
+the gap's minimum is inside the grid; at least two records have their own minimum inside it and the
+gap is > 3 std from 0 (std: the records' scatter, MAD); play's reduced band chi-square is at most
+PLAY_RED; its band excess is at most PLAY_SHARE of the best other candidate's.
 """
 
 from __future__ import annotations
