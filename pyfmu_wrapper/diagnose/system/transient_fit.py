@@ -47,11 +47,13 @@ def pmap(fn: Callable[[T], R], items: Sequence[T], sizes: Sequence[float]) -> li
     return [futs[k].result() for k in range(len(items))]
 
 
-def residual(v: TView, mdl: Model, mask: ndarray, z0: ndarray | None = None) -> ndarray | None:
-    """Whitened simulation error (n_out, 4) of record v (simulated from z0, default ``v.z0``) with
-    the start state projected out on the samples of ``mask`` (NaN for channels not recorded); None
-    when the simulation blows up."""
-    y = simulate(v, mdl.p, z0, force_gain=mdl.gain)
+def residual(
+    v: TView, mdl: Model, mask: ndarray, z0: ndarray | None = None, sim: ndarray | None = None
+) -> ndarray | None:
+    """Whitened simulation error (n_out, 4) of record v (simulated from z0, default ``v.z0``; ``sim``:
+    that simulation already made, not changed) with the start state projected out on the samples of
+    ``mask`` (NaN for channels not recorded); None when the simulation blows up."""
+    y = simulate(v, mdl.p, z0, force_gain=mdl.gain) if sim is None else sim.copy()
     if y is None:
         return None
     y[:, 0] += mdl.offset[0]

@@ -75,6 +75,16 @@ def write(res: dict[str, Any], td: TransientDiagnosis, out: Path) -> None:
         f"(z {h['z_before']:.1f} -> {h['z_after']:.1f}; {t['held_out']['level']}).",
         "",
     ]
+    pb = t.get("play_band")
+    if pb and "play" in pb:  # the band test ran (nothing explained the records sample by sample)
+        L += [
+            f"Play on the band below {pb['band_hz']:.3g} Hz (the rattle's spread in the noise; "
+            f"{'named' if pb['named'] else 'not named: ' + pb['why']}): band chi2/dof of play "
+            f"{pb['play']['red']:.4g} (gap {pb['play']['gap']:.4g} m), of the best other candidate "
+            f"({pb['best_other']}) {pb['others'][pb['best_other']]['chi2'] / pb['others'][pb['best_other']]['dof']:.4g}, "
+            f"of the nominal {pb['nominal']['chi2'] / pb['nominal']['dof']:.4g}.",
+            "",
+        ]
     if v["parameters"]:
         L += ["| parameter | value | std | unit |", "|---|---|---|---|"]
         L += [f"| {k} | {p['value']:.6g} | {p['std']:.2g} | {p['unit']} |" for k, p in v["parameters"].items()]

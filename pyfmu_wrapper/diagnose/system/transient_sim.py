@@ -1163,3 +1163,45 @@ def param_variance_factor(J: ndarray, white: ndarray, y_in: ndarray | None) -> n
     sand = np.diag(Ai @ M @ Ai)
     base = np.diag(Ai)
     return np.asarray(np.where(base > 0, sand / np.maximum(base, 1e-300), 1.0), float)
+
+
+def spread(
+    v: TView,
+    p: ndarray,
+    force_gain: float,
+    contact: tuple[tuple[float, float], ...],
+    seed: int = 0,
+    base: ndarray | None = None,
+) -> list[ndarray] | None:
+    """The spread of the model p's simulation of record v under its nuisances: per entry (ki factor,
+    ci factor) of ``contact``, the whitened difference (n_out, 4) between the simulation with the
+    force plus an independent realisation of the load cell's measured noise (none for a free decay)
+    and the play contact's ki, ci scaled by those factors (nothing changes without play), and the
+    simulation itself (``base``: that simulation already made). Both from ``v.z0``. None when a
+    simulation blows up (:mod:`.transient_play`: the noise of a rattle that no simulation follows
+    sample by sample)."""
+    from ...physics.params import P_MODEL, P_ci, P_ki
+
+    if base is None:
+        base = simulate(v, p, force_gain=force_gain)
+    if base is None:
+        return None
+    out = []
+    sf = 0.0 if v.free_decay else v.raw_noise.get("force", 0.0)
+    for j, (fk, fc) in enumerate(contact):
+        q = p.copy()
+        if int(p[P_MODEL]) == 2:
+            q[P_ki] *= fk
+            q[P_ci] *= fc
+        g, cache = v.force, v.fcache
+        if sf > 0:
+            v.force = g + np.random.default_rng(seed + j).normal(0.0, sf, g.size)
+            v.fcache = {}
+        try:
+            y = simulate(v, q, force_gain=force_gain)
+        finally:
+            v.force, v.fcache = g, cache
+        if y is None:
+            return None
+        out.append((y - base) / v.sigma)
+    return out

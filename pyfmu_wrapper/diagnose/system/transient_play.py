@@ -1,0 +1,293 @@
+"""Transient records: play in the inerter gear named by the **predictable band** (issue 41).
+
+A gear with play rattles: the inerter's far terminal crosses the gap and hits its stops, a chaotic
+sequence of impacts (docs/diagnose-evidence.md, issue 41: the truth's own contact values leave chi2/n
+12-380 in the accelerations). No simulation follows the rattle sample by sample, so the held-out
+chi-square of :mod:`.transient` leaves every play single ``unexplained``. What a model of play does
+predict is the **low band** -- the motion at the structure's modes, where the inerter acts while the
+gap is closed and not while it is open (an amplitude-dependent loss of inertance) -- and how much the
+rattle spreads it. This module scores candidates there:
+
+* the band: the whitened residual's discrete Fourier transform on each record (the chain's start-up
+  skipped), bins 0 < f <= BAND x the nominal's highest modal frequency (the rattle's 60-700 Hz
+  contact content is outside; its low-frequency part is the spread below);
+* the noise of each bin: the sensor's white share plus the **spread of the candidate's own
+  simulations** (:func:`.transient_sim.spread`): the candidate simulated again with its nuisances
+  perturbed -- the force by an independent realisation of the load cell's measured noise, and the
+  gear contact (ki, ci: unknown, a nuisance of play) by factors SPREAD_CONTACT -- the difference's
+  periodogram smoothed over SMOOTH bins. Residual and spread are both differences of two rattles
+  (truth and model, model and model), so their expected power is the same. For a model without play
+  the contact does nothing and the spread is the response to the force's noise: the noise model of
+  :func:`.transient.TransientDiagnosis.prepare`. One rule for every candidate;
+* ``chi2 = sum 2 |E_k|^2 / (N s_k)`` over the band's bins (2 dof per bin and channel).
+
+Play's gap is found on a log grid (GAPS, then a parabola in log eps through the best three) by the
+Gaussian likelihood (chi-square plus the log of the noise: the noise depends on the gap, and a wider
+gap rattles more); the nominal and every one-parameter single of the vocabulary (the REFIT best
+refitted on the band, bounded Brent from its held-out fit) and friction (at its fit) are scored
+**under play's noise** (its spread at the fitted gap), so declaring the rattle as noise helps every
+candidate alike. Play is named when (all of): the nominal does not explain the band (z > EXPLAINS_Z);
+the gap's minimum is inside the grid; at least two records have their own minimum inside it and the
+gap is > 3 std from 0 (std: the records' scatter, MAD); play's reduced band chi-square is at most
+PLAY_RED; its band excess is at most PLAY_SHARE of the best other candidate's.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any, Protocol
+
+import numpy as np
+
+from ...physics.params import P_MODEL
+from .transient_effects import BOUNDS, TEFFECTS, apply
+from .transient_fit import residual, start_update
+from .transient_sim import fastest_rate, simulate, spread
+
+if TYPE_CHECKING:
+    from numpy import ndarray
+
+    from .transient_effects import Model
+    from .transient_sim import TView
+
+BAND = 3.0  #: band top: this many times the nominal's highest modal frequency
+SMOOTH = 15  #: bins the spread's periodogram is averaged over
+#: the play contact's perturbations (ki factor, ci factor): the truth's contact is unknown
+SPREAD_CONTACT = ((0.5, 0.3), (2.0, 3.0))
+GAPS = tuple(float(g) for g in np.geomspace(2e-5, 3e-3, 9))  #: the gap's grid [m]
+PLAY_SHARE = 0.8  #: play's band excess at most this share of the best other candidate's (the shared noise)
+PLAY_RED = 60.0  #: play's reduced band chi-square at most this
+EXPLAINS_Z = 5.0  #: the nominal explains the band when its z is at most this (as :mod:`.transient`)
+START_PASSES = 1  #: start-state passes under each scored model (from the nominal's start)
+REFIT = 3  #: one-parameter singles refitted on the band: the best this many at their held-out values
+
+
+class TransientDiagnosis(Protocol):
+    """What the band test reads of :class:`.transient.TransientDiagnosis`."""
+
+    views: list[TView]
+    p_nom: ndarray
+    sc: dict[str, tuple[float, ...]]
+    noise_parts: dict[str, tuple[ndarray, ndarray | None]]
+
+    def candidates(self) -> list[str]: ...
+
+
+def _band_bins(v: TView, f_top: float) -> tuple[ndarray, int]:
+    n = v.n_out - v.skip
+    f = np.fft.rfftfreq(n, 1.0 / v.fs)
+    return (f > 0) & (f <= f_top), n
+
+
+@dataclass
+class Score:
+    """A model's band chi-square: its sum, dof, each record's reduced value, and each record's noise
+    per band bin and channel (the variance of the whitened residual's transform / (n/2))."""
+
+    chi2: float
+    dof: int
+    per: list[float]
+    noise: list[ndarray]
+    #: the Gaussian -2 log-likelihood's noise term, sum of 2 log s over bins and channels (with the
+    #: chi-square: what a noise that depends on the parameters costs; each record's apart)
+    logdet: list[float]
+
+    @property
+    def nll(self) -> float:
+        return self.chi2 + float(sum(self.logdet))
+
+    @property
+    def red(self) -> float:
+        return self.chi2 / max(self.dof, 1)
+
+
+def band_chi2(td: TransientDiagnosis, mdl: Model, noise: list[ndarray] | None = None) -> Score | None:
+    """Model ``mdl`` on the band: its spread in the noise, or the given ``noise`` (another model's: the
+    shared likelihood); None when a simulation blows up."""
+    f_top = BAND * fastest_rate(td.p_nom) / (2 * math.pi)
+    chi, dof, per, used, ld = 0.0, 0, [], [], []
+    for j, v in enumerate(td.views):
+        m = np.ones(v.n_out, bool)
+        m[: v.skip] = False
+        saved = v.z0.copy()
+        d = None
+        try:
+            for _ in range(START_PASSES):
+                start_update(v, mdl, m)
+            y = simulate(v, mdl.p, force_gain=mdl.gain)
+            e = None if y is None else residual(v, mdl, m, sim=y)
+            if e is not None and noise is None:
+                # without play the contact's factors change nothing: one perturbation (the force's noise)
+                contact = SPREAD_CONTACT if int(mdl.p[P_MODEL]) == 2 else SPREAD_CONTACT[:1]
+                d = spread(v, mdl.p, mdl.gain, contact, base=y)
+        finally:
+            v.z0 = saved
+        if e is None or (noise is None and d is None):
+            return None
+        k, n = _band_bins(v, f_top)
+        u = e[v.skip :][:, v.has]
+        E = np.fft.rfft(u - u.mean(axis=0), axis=0)[k]
+        s = td.noise_parts[v.name][0] ** 2 + smooth_power(d, v, k, n) if noise is None else noise[j]  # type: ignore[arg-type]
+        c = float(np.sum(2 * np.abs(E) ** 2 / (n * s)))
+        chi += c
+        dof += 2 * E.size
+        per.append(c)
+        used.append(s)
+        ld.append(float(2 * np.sum(np.log(s))))
+    return Score(chi, dof, per, used, ld)
+
+
+def smooth_power(d: list[ndarray], v: TView, k: ndarray, n: int) -> ndarray:
+    """The spread's power per band bin: the mean periodogram of the perturbed simulations' differences
+    (whitened), averaged over SMOOTH bins."""
+    from scipy.ndimage import uniform_filter1d
+
+    P = np.mean(
+        [np.abs(np.fft.rfft(x[v.skip :][:, v.has] - x[v.skip :][:, v.has].mean(axis=0), axis=0)) ** 2 / n for x in d],
+        axis=0,
+    )
+    return np.asarray(uniform_filter1d(P, SMOOTH, axis=0, mode="nearest"))[k]
+
+
+def _score(
+    td: TransientDiagnosis, effects: tuple[str, ...], theta: ndarray, noise: list[ndarray] | None = None
+) -> Score | None:
+    mdl = apply(td.p_nom, effects, theta)
+    if isinstance(mdl, str):
+        return None
+    return band_chi2(td, mdl, noise)
+
+
+def play_gap(td: TransientDiagnosis) -> dict[str, Any]:
+    """Play's gap on the band, its own spread in the noise: the grid GAPS, then the minimum of the
+    parabola in log eps through the best point and its neighbours. Its std: the scatter of the
+    records' own minima over the grid / sqrt(records) (the rattle makes the chi-square rough in the
+    gap: its curvature at the minimum says little); one record: unknown."""
+    rows = [(g, _score(td, ("play",), np.array([g]))) for g in GAPS]
+    chis = np.array([math.inf if r is None else r.nll for _, r in rows])
+    per = np.array([np.add(r.per, r.logdet) if r is not None else [math.inf] * len(td.views) for _, r in rows])
+    x = np.log(np.array(GAPS))
+    recs = [_parabola_min(x, per[:, j]) for j in range(per.shape[1])]
+    rec_gaps = [math.exp(r) for r in recs if r is not None]
+    i = int(np.argmin(chis))
+    g_best, s_best = rows[i]
+    xm = _parabola_min(x, chis)
+    if xm is not None:
+        s_try = _score(td, ("play",), np.array([math.exp(xm)]))
+        if s_try is not None and s_best is not None and s_try.nll < s_best.nll:
+            g_best, s_best = math.exp(xm), s_try
+    # robust to one record whose minimum says little (a hammer record's few impacts): the MAD's std
+    std = (
+        float(1.4826 * np.median(np.abs(np.subtract(rec_gaps, np.median(rec_gaps)))) / math.sqrt(len(rec_gaps)))
+        if len(rec_gaps) > 1
+        else math.inf
+    )
+    return {
+        "grid": [[g, c] for g, c in zip(GAPS, chis.tolist())],
+        "interior": 0 < i < len(GAPS) - 1,
+        "per_record_gap": rec_gaps,
+        "gap": g_best,
+        "std": std,
+        "score": s_best,
+    }
+
+
+def _parabola_min(x: ndarray, c: ndarray) -> float | None:
+    """The minimum of the parabola through the lowest point of c(x) and its two neighbours (None: the
+    lowest point at an end of the grid, or no finite minimum)."""
+    i = int(np.argmin(c))
+    if not 0 < i < len(x) - 1 or not np.all(np.isfinite(c[i - 1 : i + 2])):
+        return None
+    a, b, _ = np.polyfit(x[i - 1 : i + 2], c[i - 1 : i + 2], 2)
+    return float(np.clip(-b / (2 * a), x[i - 1], x[i + 1])) if a > 0 else None
+
+
+def refit_single(td: TransientDiagnosis, e: str, th0: float, noise: list[ndarray]) -> tuple[float, Score | None]:
+    """A one-parameter single refitted on the band under the shared ``noise`` (bounded Brent around
+    its held-out value)."""
+    from scipy.optimize import minimize_scalar
+
+    sc = td.sc[e][0]
+    lo, hi = BOUNDS.get(f"{e}.{TEFFECTS[e][0][0]}", (-np.inf, np.inf))
+    a, b = max(th0 - 20 * sc, lo), min(th0 + 20 * sc, hi)
+    cache: dict[float, Score | None] = {}
+
+    def f(x: float) -> float:
+        s = cache[x] = _score(td, (e,), np.array([x]), noise)
+        return 1e300 if s is None else s.chi2
+
+    r = minimize_scalar(f, bounds=(a, b), method="bounded", options={"xatol": 0.02 * sc, "maxiter": 12})
+    x = float(r.x)
+    return x, cache[x] if x in cache else _score(td, (e,), np.array([x]), noise)
+
+
+def play_test(td: TransientDiagnosis, fitted: dict[str, ndarray]) -> dict[str, Any]:
+    """The band test (module doc): ``fitted`` holds each single's held-out fit or default start
+    (effect -> SI values; an effect missing: 0).
+    Returns the scores, the gap and whether play is named."""
+    nom = _score(td, (), np.zeros(0))
+    out: dict[str, Any] = {"band_hz": BAND * fastest_rate(td.p_nom) / (2 * math.pi), "named": False}
+    if nom is None:
+        out["why"] = "the nominal's simulation failed"
+        return out
+    out["nominal"] = {"chi2": nom.chi2, "dof": nom.dof}
+    z_nom = (nom.chi2 - nom.dof) / math.sqrt(2 * nom.dof)
+    if z_nom <= EXPLAINS_Z:
+        out["why"] = f"the nominal explains the band (z {z_nom:.3g} <= {EXPLAINS_Z:g})"
+        return out
+    pg = play_gap(td)
+    out["play"] = {k: pg[k] for k in ("gap", "std", "interior", "grid", "per_record_gap")}
+    ps: Score | None = pg["score"]
+    if ps is None:
+        out["why"] = "play's simulations failed"
+        return out
+    out["play"].update(chi2=ps.chi2, dof=ps.dof, red=ps.red, per_record=ps.per)
+    out["play"]["interior_records"] = len(pg["per_record_gap"])
+    # the shared likelihood: every other candidate under play's noise (its spread at its gap), so the
+    # rattle declared as noise helps every candidate alike
+    shared = ps.noise
+    n2 = _score(td, (), np.zeros(0), shared)
+    others: dict[str, dict[str, Any]] = {}
+    if n2 is not None:
+        others["nominal"] = {"chi2": n2.chi2, "dof": n2.dof}
+    at: dict[str, float] = {}  # each one-parameter single at its held-out value (else its default start)
+    for e in td.candidates():
+        if e == "play" or len(TEFFECTS[e][0]) != 1:
+            continue
+        th0 = float(fitted[e][0]) if e in fitted else 0.0
+        s0 = _score(td, (e,), np.array([th0]), shared)
+        if s0 is not None:
+            at[e] = th0
+            others[e] = {"value": th0, "chi2": s0.chi2, "dof": s0.dof}
+    for e in sorted(at, key=lambda k: others[k]["chi2"])[:REFIT]:  # the best refitted on the band
+        x, s = refit_single(td, e, at[e], shared)
+        if s is not None and s.chi2 < others[e]["chi2"]:
+            others[e] = {"value": x, "chi2": s.chi2, "dof": s.dof, "refitted": True}
+    if "friction" in fitted:
+        s = _score(td, ("friction",), fitted["friction"], shared)
+        if s is not None:
+            others["friction"] = {"value": fitted["friction"].tolist(), "chi2": s.chi2, "dof": s.dof}
+    out["others"] = others
+    if not others:
+        out["why"] = "no other candidate could be scored"
+        return out
+    best = min(others, key=lambda k: others[k]["chi2"])
+    ex_o = others[best]["chi2"] - others[best]["dof"]
+    ex_p = ps.chi2 - ps.dof
+    out["best_other"] = best
+    out["share"] = ex_p / ex_o if ex_o > 0 else math.inf
+    why = []
+    if not pg["interior"]:
+        why.append("the gap's band minimum is at the end of its grid")
+    if ex_o <= 0 or ex_p > PLAY_SHARE * ex_o:
+        why.append(f"play leaves {out['share']:.3g} of the band excess of {best} (> {PLAY_SHARE:g})")
+    if ps.red > PLAY_RED:
+        why.append(f"play's reduced band chi-square {ps.red:.3g} > {PLAY_RED:g}")
+    if len(pg["per_record_gap"]) < 2:
+        why.append("fewer than two records have their own band minimum inside the gap's grid")
+    elif not (pg["gap"] > 3 * pg["std"]):
+        why.append("the records' own gaps scatter: the gap is not > 3 std from 0")
+    out["named"] = not why
+    out["why"] = "; ".join(why)
+    return out
