@@ -26,7 +26,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from bench_diagnose_frame import LIMITS, run_one
+sys.path.insert(0, str(Path(__file__).resolve().parent))  # the sibling script, also when loaded by path
+from bench_diagnose_frame import LIMITS, run_one  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
 
