@@ -428,21 +428,28 @@ class TransientDiagnosis:
             "notes": notes,
             "text": text + (" " + " ".join(notes) if notes else ""),
         }
-        res["noise"] = [
-            {"record": v.name, "noise_std": {c: float(s) for c, s, h in zip(CHANNELS, v.sigma, v.has) if h}}
-            for v in self.views
-        ]
-        res["records"] = [
-            {
-                "record": v.name,
-                "fit_rate_hz": v.fs,
-                "averaged": v.q,
-                "skipped_start_s": v.skip / v.fs,
-                "free_decay": v.free_decay,
-            }
-            for v in self.views
-        ]
+        res.update(self._record_rows())
         return res
+
+    def _record_rows(self) -> dict[str, Any]:
+        """``noise`` (each record's noise std per channel) and ``records`` (its fit rate, averaging,
+        skipped start, free decay) of the result."""
+        return {
+            "noise": [
+                {"record": v.name, "noise_std": {c: float(s) for c, s, h in zip(CHANNELS, v.sigma, v.has) if h}}
+                for v in self.views
+            ],
+            "records": [
+                {
+                    "record": v.name,
+                    "fit_rate_hz": v.fs,
+                    "averaged": v.q,
+                    "skipped_start_s": v.skip / v.fs,
+                    "free_decay": v.free_decay,
+                }
+                for v in self.views
+            ],
+        }
 
     # --- the window fits (:mod:`.transient_window`) ------------------------------------------------
     def _window_setup(self, res: dict[str, Any]) -> None:
@@ -735,20 +742,7 @@ class TransientDiagnosis:
             "notes": notes,
             "text": text,
         }
-        res["noise"] = [
-            {"record": v.name, "noise_std": {c: float(s) for c, s, h in zip(CHANNELS, v.sigma, v.has) if h}}
-            for v in self.views
-        ]
-        res["records"] = [
-            {
-                "record": v.name,
-                "fit_rate_hz": v.fs,
-                "averaged": v.q,
-                "skipped_start_s": v.skip / v.fs,
-                "free_decay": v.free_decay,
-            }
-            for v in self.views
-        ]
+        res.update(self._record_rows())
         return res
 
 
