@@ -92,6 +92,20 @@ def test_viscous_from_acceleration_only_sweeps_and_a_decay(tmp_path, capsys):
     assert y.with_suffix(".ssv").is_file()
 
 
+def test_search_past_its_cpu_budget_says_what_it_did_not_try(tmp_path, monkeypatch):
+    """Bounded (issue 41): past the CPU budget no further candidate fit is started; the verdict names
+    nothing it did not fit, is `unexplained`, and lists what was not tried (here a budget of 0 s: every
+    single, the play band test)."""
+    from pyfmu_wrapper.diagnose.system import transient
+
+    make(tmp_path / "ds", {"dc": 10.0}, [SWEEP_UP, RANDOM], seed=3)
+    monkeypatch.setattr(transient, "CPU_BUDGET", 0.0)
+    v = run_diagnosis(tmp_path / "ds")["verdict"]
+    assert v["effects"] == [] and v["unexplained"], v["text"]
+    assert "the single viscous" in v["not_tried"] and "play on its band" in v["not_tried"]
+    assert "CPU budget (0 s)" in v["text"]
+
+
 @pytest.mark.slow
 def test_out_of_vocabulary_quadratic_damping_is_unexplained(tmp_path):
     """A quadratic damping law c2 |v| v (no candidate has it): no set explains it to the noise, so

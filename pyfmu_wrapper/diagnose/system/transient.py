@@ -35,6 +35,7 @@ Steps (docs/diagnose-method.md, "Transient records"):
 from __future__ import annotations
 
 import math
+import time
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -66,6 +67,9 @@ PAIR_TRIES = 5  #: second effects tried next to the best single
 PAIR_SHARE = 0.5  #: a second effect must close at least this share of what the first leaves
 ALIASED_MAX = 1e-3  #: a record's force may hold at most this share of its power above 0.8 x Nyquist
 FIRST_TRIES = 3  #: first effects of a pair: this many of the best singles
+#: CPU seconds of the search (issue 41: a dataset at most 120 s): past it no further candidate fit is
+#: started, and the verdict says what was not tried (a fit under way runs to its end)
+CPU_BUDGET = 90.0
 #: the friction single's second start, as a share of the measured force's std (median over records)
 FRICTION_RESTART = 0.2
 #: mass_split beside inertance or tmd_mass: the same model as these two (m and I, the nominal's own)
@@ -88,6 +92,9 @@ class TransientDiagnosis:
     def __init__(self, ds: Dataset) -> None:
         from ...physics.params import BaseParams, TMDParams, pack
 
+        self.budget = CPU_BUDGET  #: CPU seconds of the search (:meth:`over`)
+        self.t_cpu = time.process_time()
+        self.not_tried: list[str] = []
         self.ds = ds
         self.late: dict[str, TFit] = {}  #: singles ruled out on their window, fitted on everything later
         from .transient_sim import fastest_rate
@@ -273,7 +280,22 @@ class TransientDiagnosis:
         return g
 
     # --- the decision ------------------------------------------------------------------------
+    def over(self, what: str) -> bool:
+        """Whether the search is past its CPU budget (:data:`CPU_BUDGET`); ``what`` is then listed as
+        not tried."""
+        if time.process_time() - self.t_cpu <= self.budget:
+            return False
+        self.not_tried.append(what)
+        return True
+
+    def _budget_notes(self) -> list[str]:
+        if not self.not_tried:
+            return []
+        return [f"The search stopped at its CPU budget ({self.budget:g} s): not tried: {', '.join(self.not_tried)}."]
+
     def run(self) -> dict[str, Any]:
+        self.t_cpu = time.process_time()
+        self.not_tried = []
         self.prepare()
         tr, te = self._masks(False), self._masks(True)
         nom = self._fit((), tr, te)
@@ -284,8 +306,6 @@ class TransientDiagnosis:
         if z0 <= EXPLAINS_Z:
             return self._result(res, nom, None, [], "none")
         singles = []
-        import time
-
         keep, screened = screen(self, self.candidates(), tr)
         for e, red in screened.items():
             res["candidates"].append(
@@ -315,18 +335,23 @@ class TransientDiagnosis:
                 singles.append(f)
 
         for e in keep:
-            single(e)
+            if not self.over(f"the single {e}"):
+                single(e)
         if not singles and ruled and screened:
             # every kept single ruled out on its window: the screen's one linear step from the nominal
             # may not see a cause far from it (a resonance moved past its bandwidth); the screened-out
             # ones are fitted on the windows too (linear: cheap)
             for e in screened:
-                single(e, "screened out, fitted on the windows: every kept single was ruled out there")
+                if not self.over(f"the single {e}"):
+                    single(e, "screened out, fitted on the windows: every kept single was ruled out there")
         singles.sort(key=lambda f: f.chi2["test"])
         passing = [f for f in singles if z_test(f) <= EXPLAINS_Z]
         if not passing:  # before pairs: friction from a large start (its default start's local minimum)
             singles = [
-                self._friction_restart(g, tr, te, res, ex0) if g.effects == ("friction",) else g for g in singles
+                self._friction_restart(g, tr, te, res, ex0)
+                if g.effects == ("friction",) and not self.over("friction from a large start")
+                else g
+                for g in singles
             ]
             singles.sort(key=lambda f: f.chi2["test"])
             # the best singles refitted from their own values: the fit's start-state pass then runs under
@@ -335,6 +360,8 @@ class TransientDiagnosis:
             for i, g in enumerate(singles[:FIRST_TRIES]):
                 if "play" in g.effects:
                     continue  # its fit has its own three starts
+                if self.over(f"{' + '.join(g.effects)} refitted from its own values"):
+                    break
                 h = self._fit(g.effects, tr, te, init=g.theta)
                 if h.ok and h.chi2["train"] < g.chi2["train"]:
                     row = self._row(h, ex0)
@@ -373,6 +400,8 @@ class TransientDiagnosis:
         fitted = {e: self._default_theta(e) for e in self.candidates()}
         fitted.update({f.effects[0]: f.theta for f in [*singles, *self.late.values()] if f.ok and len(f.effects) == 1})
         fitted.update({e: f.theta for (e, *rest), f in getattr(self, "held_fits", {}).items() if not rest})
+        if self.over("play on its band"):
+            return self._result(res, nom, best, [], "unexplained")
         res["play_band"] = play_test(self, fitted)
         if res["play_band"]["named"]:
             return self._result_play(res, nom, self.held_fits.get(("play",)) if hasattr(self, "held_fits") else None)
@@ -414,7 +443,7 @@ class TransientDiagnosis:
             "for the nominal. The gear's rattle itself (its contact's 60-700 Hz content) is not followed sample by "
             "sample: no candidate explains the records to their noise there."
         )
-        notes = list(self.skipped)
+        notes = [*self.skipped, *self._budget_notes()]
         res["verdict"] = {
             "structural": True,
             "effects": ["play"],
@@ -427,6 +456,7 @@ class TransientDiagnosis:
             "hint": None,
             "notes": notes,
             "text": text + (" " + " ".join(notes) if notes else ""),
+            "not_tried": list(self.not_tried),
         }
         res.update(self._record_rows())
         return res
@@ -554,6 +584,8 @@ class TransientDiagnosis:
             for second in seconds:
                 key = frozenset((e1, second))
                 if key in seen:
+                    continue
+                if self.over(f"the pair {e1} + {second}"):
                     continue
                 seen.add(key)
                 # started from the first's fitted parameters and the second's own fit (else its default
@@ -687,7 +719,7 @@ class TransientDiagnosis:
 
     def _result(self, res: dict[str, Any], nom: TFit, best: TFit | None, alts: list[TFit], how: str) -> dict[str, Any]:
         named: tuple[str, ...] = () if how in ("none", "unexplained") or best is None else best.effects
-        notes: list[str] = list(self.skipped)
+        notes: list[str] = [*self.skipped, *self._budget_notes()]
         final = None
         agree: dict[str, Any] = {}
         if named:
@@ -725,8 +757,8 @@ class TransientDiagnosis:
         params = self._params(final) if (final is not None and named) else {}
         alternatives = [list(a.effects) for a in alts]
         text = _text(named, params, res, alternatives, unexplained, best, notes)
-        if self.skipped and not unexplained:
-            text += " " + " ".join(self.skipped)
+        if (self.skipped or self.not_tried) and not unexplained:
+            text += " " + " ".join([*self.skipped, *self._budget_notes()])
         res["verdict"] = {
             "structural": how != "none",
             "effects": list(named),
@@ -741,6 +773,7 @@ class TransientDiagnosis:
             "hint": None if (named or best is None) else {"effects": list(best.effects), **self._row(best, n_ex)},
             "notes": notes,
             "text": text,
+            "not_tried": list(self.not_tried),
         }
         res.update(self._record_rows())
         return res
