@@ -294,7 +294,10 @@ class TransientDiagnosis:
     def _budget_notes(self) -> list[str]:
         if not self.not_tried:
             return []
-        return [f"The search stopped at its CPU budget ({self.budget:g} s): not tried: {', '.join(self.not_tried)}."]
+        pairs = [w for w in self.not_tried if w.startswith("the pair ")]
+        rest = [w for w in self.not_tried if not w.startswith("the pair ")]
+        said = rest + ([f"{len(pairs)} pair{'s' if len(pairs) > 1 else ''} (verdict.not_tried)"] if pairs else [])
+        return [f"The search stopped at its CPU budget ({self.budget:g} s): not tried: {', '.join(said)}."]
 
     def run(self) -> dict[str, Any]:
         self.t_cpu = time.process_time()
