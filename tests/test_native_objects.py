@@ -139,7 +139,7 @@ def _blob_and_reference(case: str) -> tuple[bytes, bytes]:
 
 @pytest.fixture(scope="module")
 def objects(tmp_path_factory):
-    # the models and platforms the cases run (every native FMU for every platform: 5x the compile time)
+    # only the models and platforms the cases run (each further model or platform is another compile)
     models = sorted({model for model, *_ in CASES.values()})
     return write_objects(tmp_path_factory.mktemp("native_obj"), pick(models), ("linux64", "win64"))
 

@@ -10,7 +10,9 @@ from __future__ import annotations
 import argparse
 import json
 import os
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 from ..diagnose.outfolder import BENCHMARK_MARKER, DIAGNOSE_MARKER, ResultFolder, check_out_file, check_out_folder
 from ..diagnose.record_checks import set_max_record_size
@@ -250,54 +252,35 @@ def main_make_benchmark(argv: list[str] | None = None) -> int:
     out = check_out_folder(a.out, "make-benchmark", BENCHMARK_MARKER)
     check_creatable(out)
     with ResultFolder(out, BENCHMARK_MARKER) as tmp:
-        if a.suite == "system":
-            from ..diagnose.system.suite import make_system_benchmark
+        if a.suite != "link":
+            make: Callable[..., list[Any]]
+            if a.suite == "system":
+                from ..diagnose.system.suite import make_system_benchmark
 
-            # progress without the labels: a blind benchmark does not print what it hides
+                make, extra = make_system_benchmark, {"held_out_oov": a.held_out_oov}
+            elif a.suite == "frame":
+                from ..diagnose.framebench.suite import make_frame_benchmark
+
+                make, extra = make_frame_benchmark, {}
+            else:
+                from ..diagnose.system.transient_suite import make_transient_benchmark
+
+                make = make_transient_benchmark
+                extra = {"seconds": 60.0 if a.seconds is None else a.seconds, "part": part, "effects": effects}
             assert composition is not None
             nc, _, npair, noov = composition
-            man = make_system_benchmark(
+            # progress without the labels: a blind benchmark does not print what it hides
+            man = make(
                 tmp,
                 n=sum(composition),
                 seed=a.seed,
                 n_clean=nc,
                 n_pair=npair,
                 n_oov=noov,
-                held_out_oov=a.held_out_oov,
                 progress=lambda r: print(
                     f"{r['dataset']}: written" + (f" ({r['seconds']:.1f} s)" if "seconds" in r else ""), flush=True
                 ),
-            )
-        elif a.suite == "frame":
-            from ..diagnose.framebench.suite import make_frame_benchmark
-
-            assert composition is not None
-            nc, _, npair, noov = composition
-            man = make_frame_benchmark(
-                tmp,
-                n=sum(composition),
-                seed=a.seed,
-                n_clean=nc,
-                n_pair=npair,
-                n_oov=noov,
-                progress=lambda r: print(f"{r['dataset']}: written ({r['seconds']:.1f} s)", flush=True),
-            )
-        elif a.suite == "transient":
-            from ..diagnose.system.transient_suite import make_transient_benchmark
-
-            assert composition is not None
-            nc, _, npair, noov = composition
-            man = make_transient_benchmark(
-                tmp,
-                n=sum(composition),
-                seed=a.seed,
-                n_clean=nc,
-                n_pair=npair,
-                n_oov=noov,
-                seconds=60.0 if a.seconds is None else a.seconds,
-                part=part,
-                effects=effects,
-                progress=lambda r: print(f"{r['dataset']}: written ({r['seconds']:.1f} s)", flush=True),
+                **extra,
             )
         else:
             link = SUITES["link"]

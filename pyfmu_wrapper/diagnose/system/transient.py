@@ -70,8 +70,8 @@ FIRST_TRIES = 3  #: first effects of a pair: this many of the best singles
 #: CPU seconds of the search (issue 41: a dataset at most 120 s): past it no further candidate fit is
 #: started, and the verdict says what was not tried (a fit under way runs to its end)
 CPU_BUDGET = 90.0
-#: of it, the seconds the pair search leaves to the play band test (1-22 s measured): the pairs, many and
-#: slow, ran the budget out before the test that names play was reached
+#: of it, the seconds the pair search (many, slow fits) leaves to the play band test that follows it
+#: (1-22 s measured)
 BAND_RESERVE = 25.0
 #: the friction single's second start, as a share of the measured force's std (median over records)
 FRICTION_RESTART = 0.2
@@ -422,16 +422,8 @@ class TransientDiagnosis:
         unit = TEFFECTS["play"][1][0]
         params = {"play.play_gap": {"value": float(gap), "std": float(std), "unit": unit}}
         ref = held if held is not None and held.ok else nom  # sample by sample: what the play single leaves
-        n_ex = nom.chi2["test"] - nom.chi2["dof_test"]
         res["held_out"] = {
-            "by_segment": {
-                "chi2_before": nom.chi2["test"],
-                "chi2_after": ref.chi2["test"],
-                "dof": nom.chi2["dof_test"],
-                "z_before": z_test(nom),
-                "z_after": z_test(ref),
-                "gap_closed": 1 - (ref.chi2["test"] - ref.chi2["dof_test"]) / n_ex if n_ex > 0 else None,
-            },
+            "by_segment": _by_segment(nom, ref),
             "by_record": [],
             "level": (
                 f"named on the band below {pb['band_hz']:.3g} Hz (the gear's rattle is not followed sample by "
@@ -744,16 +736,8 @@ class TransientDiagnosis:
         n_ex = nom.chi2["test"] - nom.chi2["dof_test"]
         ref = best if best is not None else nom
         ex = ref.chi2["test"] - ref.chi2["dof_test"]
-        z_after = z_test(ref)
         res["held_out"] = {
-            "by_segment": {
-                "chi2_before": nom.chi2["test"],
-                "chi2_after": ref.chi2["test"],
-                "dof": nom.chi2["dof_test"],
-                "z_before": z_test(nom),
-                "z_after": z_after,
-                "gap_closed": 1 - ex / n_ex if n_ex > 0 else None,
-            },
+            "by_segment": _by_segment(nom, ref),
             "by_record": held.by_record() if named else [],
             "level": f"explained when the held-out z <= {EXPLAINS_Z:g}",
         }
@@ -783,6 +767,20 @@ class TransientDiagnosis:
         }
         res.update(self._record_rows())
         return res
+
+
+def _by_segment(nom: TFit, ref: TFit) -> dict[str, Any]:
+    """The held-out segments' chi-square before (the nominal) and after (``ref``), their z and the share
+    of the nominal's excess over the dof that ``ref`` closes."""
+    n_ex = nom.chi2["test"] - nom.chi2["dof_test"]
+    return {
+        "chi2_before": nom.chi2["test"],
+        "chi2_after": ref.chi2["test"],
+        "dof": nom.chi2["dof_test"],
+        "z_before": z_test(nom),
+        "z_after": z_test(ref),
+        "gap_closed": 1 - (ref.chi2["test"] - ref.chi2["dof_test"]) / n_ex if n_ex > 0 else None,
+    }
 
 
 def _folded_snr(v: TView) -> float:
