@@ -106,6 +106,31 @@ def test_search_past_its_cpu_budget_says_what_it_did_not_try(tmp_path, monkeypat
     assert "CPU budget (0 s)" in v["text"]
 
 
+def test_a_fit_under_way_stops_at_the_cpu_deadline(tmp_path):
+    """Bounded (issue 41): past the CPU deadline a fit stops at its next Jacobian with the point it
+    reached, marked cut (here from the start: the default start, 0 N s/m), where the same fit without
+    a deadline finds the truth's 10 N s/m; the records' agreement under it is said not tested instead
+    of judged on fits that did not converge."""
+    import time
+
+    from pyfmu_wrapper.diagnose.system.transient import TransientDiagnosis
+    from pyfmu_wrapper.diagnose.system.transient_fit import CUT, cpu_deadline, warm_start
+    from pyfmu_wrapper.diagnose.system.transient_heldout import HeldOut
+
+    make(tmp_path / "ds", {"dc": 10.0}, [SWEEP_UP, RANDOM], seed=3)
+    td = TransientDiagnosis(load_dataset(tmp_path / "ds"))
+    td.prepare()
+    allm = td._masks(None)
+    free = td._fit(("viscous",), allm, None)
+    assert not free.cut and abs(free.theta[0] - 10.0) < 0.3
+    with cpu_deadline(time.process_time()):
+        f = td._fit(("viscous",), allm, None, init=np.array([1.0]))
+        assert f.cut and f.reason == CUT and f.theta[0] == pytest.approx(1.0)
+        held = HeldOut(td.views, td.p_nom, td.sc, ("viscous",), allm, free, warm_start(free, td.sc), td.noise_parts)
+        a = held.agreement()
+    assert held.cut and a["agree"] and a["p_value"] is None and "CPU budget" in a["not_tested"]
+
+
 @pytest.mark.slow
 def test_out_of_vocabulary_quadratic_damping_is_unexplained(tmp_path):
     """A quadratic damping law c2 |v| v (no candidate has it): no set explains it to the noise, so

@@ -10,8 +10,11 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import time
+from collections.abc import Iterator
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 from typing import TYPE_CHECKING, Any, TypeVar
 
 import numpy as np
@@ -27,6 +30,33 @@ if TYPE_CHECKING:
     from .transient_sim import TView
 
 TOL = {"ftol": 1e-7, "xtol": 1e-6, "gtol": 1e-8}  #: least_squares stopping (relative change of the cost / step)
+#: the process CPU time (``time.process_time``) past which every fit stops at its next Jacobian and
+#: returns the best point reached (:func:`cpu_deadline`); None: no limit
+_DEADLINE: list[float | None] = [None]
+
+
+class OutOfTime(Exception):
+    """The CPU deadline of :func:`cpu_deadline` passed during a fit."""
+
+
+@contextlib.contextmanager
+def cpu_deadline(t: float | None) -> Iterator[None]:
+    """Within the block, every :func:`fit` stops when the process CPU time passes ``t``: at its next
+    Jacobian, with the best point reached (``TFit.cut``); a linearisation fails. Nested blocks keep
+    the earlier deadline."""
+    old = _DEADLINE[0]
+    _DEADLINE[0] = t if old is None or t is None else min(old, t)
+    try:
+        yield
+    finally:
+        _DEADLINE[0] = old
+
+
+def past_deadline() -> bool:
+    d = _DEADLINE[0]
+    return d is not None and time.process_time() > d
+
+
 _POOL: list[ThreadPoolExecutor] = []
 T = TypeVar("T")
 R = TypeVar("R")
@@ -92,6 +122,7 @@ class TFit:
     z0: dict = field(default_factory=dict)  #: record name -> fitted start state of a free decay
     #: ``fit(linearise=True)``: (stacked whitened residual, its Jacobian in the scaled unknowns, row offsets)
     lin: tuple = ()
+    cut: bool = False  #: stopped at the CPU deadline (:func:`cpu_deadline`) before it converged
 
 
 def _stack(views: list[TView], mdl: Model, masks: list[ndarray]) -> tuple[ndarray, list[ndarray]] | None:
@@ -201,9 +232,14 @@ def fit(
         cache.update(key=key, f=f)
         return f
 
+    last: dict[str, Any] = {}  #: the newest Jacobian and its point (a fit stopped at the deadline)
+
     def jac(u: ndarray) -> ndarray:
         """Forward differences, every (column, record) simulation side by side in the threads: a
         parameter's column takes every record, a decay's start-state column only its own record."""
+        if past_deadline():
+            last["stop"] = u.copy()
+            raise OutOfTime
         f0 = fun(u).copy()
         J = np.zeros((n_res, u.size))
         mdl0 = apply(p_nom, effects, u[:npar] * scale)
@@ -229,6 +265,7 @@ def fit(
                 J[:, j] = (BAD - f0) / steps[j]
             elif r is not None:
                 J[offs[i] : offs[i + 1], j] = (r - f0[offs[i] : offs[i + 1]]) / steps[j]
+        last["jac"] = J
         return J
 
     for i in dec:
@@ -247,7 +284,10 @@ def fit(
         if npar:
             _rest_or_estimate(views, apply(p_nom, effects, starts[0][:npar] * scale), train, dec)
         if linearise:
-            return _linearised(views, p_nom, effects, train, starts[0], scale, fun, jac, start, offs, BAD)
+            try:
+                return _linearised(views, p_nom, effects, train, starts[0], scale, fun, jac, start, offs, BAD)
+            except OutOfTime:
+                return TFit(effects, starts[0][:npar] * scale, np.full(npar, np.inf), ok=False, reason=CUT, cut=True)
         best = None
         if not starts[0].size:
             mdl = apply(p_nom, (), np.zeros(0))
@@ -256,6 +296,7 @@ def fit(
             if st is None:
                 return TFit(effects, np.zeros(0), np.zeros(0), ok=False, reason="the nominal simulation blows up")
             return _finish(views, effects, np.zeros(0), np.zeros(0), st[1], train, test)
+        cut = False
         for u0 in starts:
             try:
                 r = least_squares(
@@ -263,27 +304,42 @@ def fit(
                 )
             except (ValueError, np.linalg.LinAlgError):
                 continue
+            except OutOfTime:  # the best point reached: the newest accepted iterate (the Jacobian's point)
+                cut = True
+                u = last["stop"]
+                r = SimpleNamespace(x=u, cost=0.5 * float(np.sum(fun(u) ** 2)), jac=last.get("jac"))
             if best is None or r.cost < best.cost:
                 best = r
-        if best is not None and len(dec) < len(views):  # the others' start states under the fitted model
+            if cut:
+                break
+        if best is not None and len(dec) < len(views) and not cut:  # the others' start states under the fitted model
             m1 = apply(p_nom, effects, best.x[:npar] * scale)
             if not isinstance(m1, str):
                 for i, (v, m) in enumerate(zip(views, train)):
                     if i not in dec:
                         start_update(v, m1, m)
                 cache.clear()
-                with contextlib.suppress(ValueError, np.linalg.LinAlgError):
+                try:
                     best = least_squares(
                         fun, best.x, jac=jac, bounds=(lb, ub), method="trf", x_scale=1.0, max_nfev=10, **TOL
                     )
+                except (ValueError, np.linalg.LinAlgError):
+                    pass
+                except OutOfTime:  # the first pass's optimum, its start states refreshed: no worse start
+                    cut = True
         if best is not None:
             fun(best.x)  # leaves the decays' fitted start states in the views for the chi-squares
         out = _conclude(views, p_nom, effects, train, test, scale, best, n_res, BAD)
         out.z0 = {views[i].name: views[i].z0.copy() for i in dec}
+        if cut:
+            out.cut, out.reason = True, CUT
         return out
     finally:
         for v, z, ph in zip(views, saved, phis):
             v.z0, v.phi = z, ph
+
+
+CUT = "stopped at the CPU budget before it converged"
 
 
 def _linearised(
@@ -355,6 +411,8 @@ def _conclude(
     if isinstance(mdl, str):
         return TFit(effects, theta, np.full(scale.size, np.inf), ok=False, reason=mdl)
     try:
+        if best.jac is None:  # stopped at the deadline before a Jacobian
+            raise np.linalg.LinAlgError
         cov = np.linalg.inv(best.jac.T @ best.jac)
         std = np.sqrt(np.clip(np.diag(cov)[:npar], 0, None)) * scale
     except np.linalg.LinAlgError:

@@ -61,6 +61,10 @@ def closed(c0: float, c1: float, n: int) -> float | None:
     return 1 - (c1 - n) / (c0 - n) if c0 > n else None
 
 
+#: what the verdict says when the records' agreement was not tested to its end
+CUT_NOTE = "not tested: the CPU budget ran out during the records' own fits"
+
+
 class HeldOut:
     """The held-out stage of a named set of effects on the records ``views`` (``masks``: their fit
     samples; ``final``: the set's fit on all of them; ``warm``: its :func:`.transient_fit.warm_start`;
@@ -82,6 +86,7 @@ class HeldOut:
         self.masks, self.final, self.warm, self.noise_parts = masks, final, warm, noise_parts
         self.scale = np.array([s for e in effects for s in sc[e]], float)
         self.refitted: list[str] = []  #: the sets that needed the full fit (names)
+        self.cut = False  #: a fit of this stage stopped at the CPU deadline (:func:`.transient_fit.cpu_deadline`)
         self._lin: _Lin | None = None
         self._lin_tried = False
 
@@ -91,6 +96,7 @@ class HeldOut:
             self._lin_tried = True
             if self.final.ok and self.warm and self.scale.size:
                 f = fit(self.views, self.p_nom, self.effects, self.masks, None, self.sc, **self.warm, linearise=True)
+                self.cut |= f.cut
                 if f.ok and f.lin:
                     self._lin = _Lin(self, f)
         return self._lin
@@ -109,13 +115,16 @@ class HeldOut:
                 theta, std = got[0], got[1] * np.sqrt(lin.widening(i, got[2][i]))
             else:
                 f = fit([v], self.p_nom, effects, [m], None, self.sc, **self.warm)
-                if not f.ok:
+                self.cut |= f.cut
+                if not f.ok or f.cut:
                     continue
                 self.refitted.append(v.name)
                 theta, std = f.theta, f.std * np.sqrt(self._std_widening(v, m, f.theta))
             rows.append({"record": v.name, "params": params_of(effects, theta, std), "full_fit": got is None})
             vals.append(theta)
             stds.append(std)
+        if self.cut:
+            return {"records": rows, "p_value": None, "agree": True, "not_tested": CUT_NOTE}
         if len(vals) < 2:
             return {"records": rows, "p_value": None, "agree": True}
         scale = [s for e in effects for s in self.sc[e]]
@@ -185,6 +194,7 @@ class HeldOut:
                 else:
                     return out
         nom = fit(views, self.p_nom, (), allm, None, self.sc)
+        self.cut |= nom.cut
         return [chi2_of([v], [e], [m])[0] for v, e, m in zip(views, nom.resid, allm)]
 
     def by_record(self) -> list[dict[str, Any]]:
@@ -203,7 +213,8 @@ class HeldOut:
                 others = [u for j, u in enumerate(self.views) if j != i]
                 om = [m for j, m in enumerate(allm) if j != i]
                 f = fit(others, self.p_nom, effects, om, None, self.sc, **self.warm)
-                if not f.ok:
+                self.cut |= f.cut
+                if not f.ok or f.cut:
                     continue
                 self.refitted.append(f"all but {v.name}")
                 theta = f.theta

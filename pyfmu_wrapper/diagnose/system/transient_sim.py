@@ -858,7 +858,22 @@ def refinement(v: TView, p: ndarray) -> int:
         n = max(n, min(math.ceil(T / v.h_max), 2 * v.q))
     if any(c is not None and c.type is not None for c in v.chains.values()):
         n = max(n, FILTER_SUB_SMOOTH if smooth(p) else FILTER_SUB)  # the filters' input is linear between grid points
-    return n + (n % 2)
+    return rung(n)
+
+
+def rung(n: int) -> int:
+    """n grid intervals rounded up to the ladder's next rung: even; above LADDER_EXACT, 2^(k/4) rounded up to
+    even (at most 19 % more steps). A fit's parameters move the rates, hence the grid, at every
+    evaluation: on the ladder neighbouring models share a grid (the force on it is made once, the
+    Jacobian's columns step on the same grid as the point they differ from)."""
+    n = max(2, n + (n % 2))
+    if n <= LADDER_EXACT:
+        return n
+    r = LADDER_EXACT
+    while r < n:
+        r = int(math.ceil(r * 2**0.25))
+        r += r % 2
+    return r
 
 
 def apply_chain(
@@ -967,6 +982,12 @@ def direct_force(v: TView) -> ndarray:
 #: grid points of the force evaluated at a time (:func:`grid_force`): its temporaries stay near 10 MB
 #: (a grid of MAX_GRID intervals holds 8e6 values, 64 MB per temporary)
 GRID_CHUNK = 1 << 17
+#: a view's cached arrays of one kind (the force on a grid: 2 n_out n_sub + 1 values) at most this many
+#: bytes beside the newest: a 30 s record at 71 Hz with friction's fine grid (n_sub ~800) holds 27 MB a
+#: grid, and four per record and window (``keep``) held 0.8 GB (seed 9494 tr018, tracemalloc)
+CACHE_BYTES = 48 * 2**20
+#: grid intervals per fit block below which :func:`rung` keeps the count itself
+LADDER_EXACT = 16
 
 
 def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
@@ -1006,14 +1027,23 @@ def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
 
 
 def _cached(cache: dict, key: tuple, make: Callable[[], Any], keep: int = 4) -> Any:
-    """cache[key], made by ``make`` if absent; at most ``keep`` entries of the same kind (key[0]) kept.
-    Safe when threads share the cache (records' Jacobian columns side by side): every entry is
-    complete when it is stored, and a reader holds its own reference."""
+    """cache[key], made by ``make`` if absent; at most ``keep`` entries of the same kind (key[0]) kept,
+    and of arrays at most CACHE_BYTES of that kind (the newest always). Safe when threads share the
+    cache (records' Jacobian columns side by side): every entry is complete when it is stored, and a
+    reader holds its own reference."""
     val = cache.get(key)
     if val is None:
         val = make()
         same = [k for k in list(cache) if isinstance(k, tuple) and k[0] == key[0] and k != key]
-        for k in same[: max(0, len(same) - keep + 1)]:
+        drop = same[: max(0, len(same) - keep + 1)]
+        kept = same[len(drop) :]
+        size = val.nbytes if isinstance(val, np.ndarray) else 0
+        for k in reversed(kept):  # the newest kept while they fit beside the new entry
+            old = cache.get(k)
+            size += old.nbytes if isinstance(old, np.ndarray) else 0
+            if size > CACHE_BYTES:
+                drop.append(k)
+        for k in drop:
             cache.pop(k, None)
         cache[key] = val
     return val
