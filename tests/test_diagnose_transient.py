@@ -128,6 +128,7 @@ def test_a_fit_under_way_stops_at_the_cpu_deadline(tmp_path):
         assert f.cut and f.reason == CUT and f.theta[0] == pytest.approx(1.0)
         held = HeldOut(td.views, td.p_nom, td.sc, ("viscous",), allm, free, warm_start(free, td.sc), td.noise_parts)
         a = held.agreement()
+        assert held.by_record() == []  # no record's prediction from fits that were not made
     assert held.cut and a["agree"] and a["p_value"] is None and "CPU budget" in a["not_tested"]
 
 

@@ -43,7 +43,17 @@ import numpy as np
 from .. import progress
 from .effects import LABELS, VOCAB
 from .transient_effects import BOUNDS, TEFFECTS, apply, meaningless, scales
-from .transient_fit import TFit, chi2_of, cpu_deadline, fit, residual, start_update, warm_start, z_test
+from .transient_fit import (
+    TFit,
+    chi2_of,
+    cpu_deadline,
+    fit,
+    past_deadline,
+    residual,
+    start_update,
+    warm_start,
+    z_test,
+)
 from .transient_heldout import HeldOut
 from .transient_screen import NONLINEAR, screen
 from .transient_sim import (
@@ -728,14 +738,16 @@ class TransientDiagnosis:
         notes: list[str] = [*self.skipped, *self._budget_notes()]
         final = None
         agree: dict[str, Any] = {}
+        held = None
         if named:
-            final = self._fit(named, self._masks(None), None)
-            if final.cut and best is not None:
+            final = None if past_deadline() else self._fit(named, self._masks(None), None)
+            if (final is None or final.cut) and best is not None:
                 notes.append(
                     "the fit on all samples stopped at the CPU budget: the parameters are the held-out stage's fit "
                     "(on half the samples)"
                 )
                 final = best
+            assert final is not None
             self.warm[named] = warm_start(final, self.sc)
             held = HeldOut(
                 self.views, self.p_nom, self.sc, named, self._masks(None), final, self.warm[named], self.noise_parts
@@ -754,7 +766,7 @@ class TransientDiagnosis:
         ex = ref.chi2["test"] - ref.chi2["dof_test"]
         res["held_out"] = {
             "by_segment": _by_segment(nom, ref),
-            "by_record": held.by_record() if named else [],
+            "by_record": held.by_record() if named and held is not None else [],
             "level": f"explained when the held-out z <= {EXPLAINS_Z:g}",
         }
         res["agreement"] = agree

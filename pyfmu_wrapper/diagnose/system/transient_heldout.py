@@ -27,7 +27,7 @@ import numpy as np
 
 from .agreement import LEVEL, records_agree
 from .transient_effects import TEFFECTS, apply
-from .transient_fit import TFit, chi2_of, fit, residual, start_update
+from .transient_fit import TFit, chi2_of, fit, past_deadline, residual, start_update
 from .transient_sim import param_variance_factor
 
 if TYPE_CHECKING:
@@ -90,6 +90,13 @@ class HeldOut:
         self._lin: _Lin | None = None
         self._lin_tried = False
 
+    def _stop(self) -> bool:
+        """Past the CPU deadline (:func:`.transient_fit.cpu_deadline`): no further fit is started (and
+        :attr:`cut` says the stage was cut short)."""
+        if past_deadline():
+            self.cut = True
+        return self.cut
+
     def _linear(self) -> _Lin | None:
         """The records' residuals and Jacobians at ``final`` (computed once; None: not available)."""
         if not self._lin_tried:
@@ -108,8 +115,10 @@ class HeldOut:
             return {"records": [], "p_value": None, "agree": True}
         effects = self.effects
         rows, vals, stds = [], [], []
-        lin = self._linear()
+        lin = None if self._stop() else self._linear()
         for i, (v, m) in enumerate(zip(self.views, self.masks)):
+            if lin is None and self._stop():
+                break
             got = None if lin is None else lin.solve([i])
             if lin is not None and got is not None:
                 theta, std = got[0], got[1] * np.sqrt(lin.widening(i, got[2][i]))
@@ -199,7 +208,7 @@ class HeldOut:
 
     def by_record(self) -> list[dict[str, Any]]:
         """Each record predicted from the others (its start state fitted on itself)."""
-        if len(self.views) < 2:
+        if len(self.views) < 2 or self._stop():
             return []
         effects, allm = self.effects, self.masks
         c_nom = self._nominal_chi2()
@@ -207,6 +216,8 @@ class HeldOut:
         lin = self._linear()
         for i, v in enumerate(self.views):
             got = None if lin is None else lin.solve([j for j in range(len(self.views)) if j != i])
+            if got is None and self._stop():
+                break
             if got is not None:
                 theta = got[0]
             else:
