@@ -389,13 +389,6 @@ class SystemDiagnosis(PlayMixin):
                 break
         self.singles["friction"] = g
 
-    def _frc_evidence(self, f: EqFit) -> Any:
-        key = f.effects
-        if key not in self.frc_ev:
-            assert self.frc is not None  # called only with FRC records
-            self.frc_ev[key] = self.frc.evidence(f.params)
-        return self.frc_ev[key]
-
     # --- results -------------------------------------------------------------------------------
     def params(self) -> Any:
         if not self.chosen:

@@ -217,10 +217,6 @@ class FRCDiagnosis(FRCEffectFit):
             r = r[mask]
         return float(r @ r)
 
-    def chi2_points(self, pred: np.ndarray) -> np.ndarray:
-        r = (self.x - pred) / self.sigma
-        return r * r
-
     def _noise(self) -> float:
         o = np.argsort(self.w)
         r = (self.x - self.amplitude(self.base, self.tmd))[o]

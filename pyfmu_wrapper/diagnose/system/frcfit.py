@@ -126,17 +126,6 @@ class FRCEffectFit:
         sd = h / math.sqrt(max(float(g @ g), 1e-300))
         return {"value": v0, "std": sd, "chi2_all": self.chi2(P[1]), "chi2_cv": cv}
 
-    def evidence(self, params: dict) -> float | None:
-        """Chi-square drop on every FRC point when the nominal is changed by ``params`` (fitted on
-        other records: all FRC points are held out). None when the effect cannot be evaluated."""
-        try:
-            pred = self.predict(params)
-        except (SolverError, ParameterError, ValueError, FloatingPointError):
-            return None  # the changed model has no steady state the solver can reach: no FRC evidence
-        if pred is None or not np.all(np.isfinite(pred)):
-            return None
-        return self.chi2(self.pred0) - self.chi2(pred)
-
     def chi2_of(self, params: dict[str, Any]) -> float | None:
         """FRC chi-square of the nominal changed by ``params`` (None when not evaluable)."""
         try:
