@@ -261,9 +261,12 @@ class FRCDiagnosis(FRCEffectFit):
 
                 def obj(v: float, model: Any = model) -> float:
                     try:
-                        return float(np.sum(((self.x - model([v], only=self.train)) / sc)[self.train] ** 2))
+                        c = float(np.sum(((self.x - model([v], only=self.train)) / sc)[self.train] ** 2))
                     except (SolverError, ParameterError, ValueError, FloatingPointError):
                         return 1e20
+                    # a point the solver does not converge on is nan: as a model that cannot be evaluated
+                    # (np.argmin of the grid would otherwise pick the first nan)
+                    return c if math.isfinite(c) else 1e20
 
                 lo, upper = p0 if isinstance(p0, tuple) else (0.0, 0.5 * float(np.max(np.abs(self.F))))
                 if isinstance(p0, tuple):  # decades: the best of a log grid, then Brent next to it
@@ -278,7 +281,12 @@ class FRCDiagnosis(FRCEffectFit):
                 )
                 p = np.array([res.x])
             else:
-                p = least_squares(lambda q, model=model: ((self.x - model(q)) / sc)[self.train], p0, diff_step=1e-4).x
+                try:  # a nonlinear nominal's point the solver does not converge on is nan: the candidate is skipped
+                    p = least_squares(
+                        lambda q, model=model: ((self.x - model(q)) / sc)[self.train], p0, diff_step=1e-4
+                    ).x
+                except (SolverError, ParameterError, ValueError, FloatingPointError):
+                    continue
             progress.candidate(name)
             try:
                 pred = model(p)
