@@ -287,7 +287,12 @@ def fit(
         if npar:
             _rest_or_estimate(views, apply(p_nom, effects, starts[0][:npar] * scale), train, dec)
         if ramp and dec and not z_start and "friction" in effects and not linearise:
-            starts = [_decay_ramp(views, p_nom, effects, train, sc, u0, base, dec) for u0 in starts]
+            ramped: list[ndarray] = []
+            for u0 in starts:  # starts the ramp brings to one point are fitted once
+                u = _decay_ramp(views, p_nom, effects, train, sc, u0, base, dec)
+                if not any(np.allclose(u[:npar], w[:npar], rtol=RAMP_SAME, atol=RAMP_SAME) for w in ramped):
+                    ramped.append(u)
+            starts = ramped
         if linearise:
             try:
                 return _linearised(views, p_nom, effects, train, starts[0], scale, fun, jac, start, offs, BAD)
@@ -349,6 +354,8 @@ CUT = "stopped at the CPU budget before it converged"
 #: :func:`_decay_ramp`'s windows of the free decays [periods of the nominal's slowest mode]
 RAMP_PERIODS = (2.0, 4.0, 8.0, 16.0)
 RAMP_NFEV = 20  #: trust-region evaluations per window of the ramp
+#: two starts whose ramped parameters agree to this (relative, and absolute in units of their scales) are one
+RAMP_SAME = 1e-2
 
 
 def _decay_ramp(
