@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Any
 import numpy as np
 
 from .agreement import LEVEL, records_agree
-from .transient_effects import TEFFECTS, apply
+from .transient_effects import REGULARISATION, TEFFECTS, apply
 from .transient_fit import TFit, chi2_of, fit, past_deadline, residual, start_update
 from .transient_sim import param_variance_factor
 
@@ -138,6 +138,8 @@ class HeldOut:
             return {"records": rows, "p_value": None, "agree": True}
         scale = [s for e in effects for s in self.sc[e]]
         names = [f"{e}.{n}" for e in effects for n in TEFFECTS[e][0]]
+        vote = np.array([n not in REGULARISATION for n in names])
+        stds = [np.where(vote, s, np.inf) for s in stds]  # (a non-finite std does not vote)
         a = records_agree(vals, stds, names, AGREE_FLOOR, scale, AGREE_P)
         if a is None:
             return {"records": rows, "p_value": None, "agree": True}
