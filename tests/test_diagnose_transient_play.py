@@ -87,3 +87,29 @@ def test_play_truth_is_named_play_with_its_gap_or_unexplained(tmp_path, eps):
         assert abs(gap - eps) < 0.35 * eps, gap
     else:
         assert v["unexplained"], v["text"]
+
+
+def test_floor_is_the_flat_excess_the_spread_does_not_make():
+    """Above the band the residual holds white noise of variance w + a per channel (a: the flat content a
+    sampling without an anti-alias filter folds of the impacts) and a few strong harmonics, the spread b:
+    the floor is a - b, at least 0, to the median's statistical error (std = mean / sqrt(bins) of an
+    exponential's sample median)."""
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(5)
+    n, fs, f_top = 3840, 128.0, 10.0
+    w = np.array([0.9, 0.9, 0.9, 0.9])
+    a = np.array([0.0, 3.0, 50.0, 400.0])
+    b = np.array([0.0, 1.0, 10.0, 500.0])
+    u = rng.normal(size=(n, 4)) * np.sqrt(w + a)
+    t = np.arange(n) / fs
+    u[:, 2] += 30.0 * np.sin(2 * np.pi * 13.0 * t) + 30.0 * np.sin(2 * np.pi * 17.0 * t)  # harmonics above the band
+    F = np.fft.rfft(u - u.mean(axis=0), axis=0)
+    fr = np.fft.rfftfreq(n, 1.0 / fs)
+    sp = np.broadcast_to(b, (fr.size, 4)).copy()
+    got = TP.floor(F, sp, w, SimpleNamespace(fs=fs), f_top, n)
+    bins = int(np.sum((fr > f_top) & (fr <= TP.FLOOR_BAND * f_top)))
+    want = np.maximum(a - b, 0.0)
+    std = (w + a) / np.sqrt(bins)
+    assert np.all(got >= 0.0)
+    assert np.all(np.abs(got - want) < 4 * std + 1e-12), (got, want, std)
