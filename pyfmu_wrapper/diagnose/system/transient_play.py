@@ -14,18 +14,22 @@ rattle spreads it. This module scores candidates there:
 * the noise of each bin: the sensor's white share plus the **spread of the candidate's own
   simulations** (:func:`.transient_sim.spread`): the candidate simulated again with its nuisances
   perturbed -- the force by an independent realisation of the load cell's measured noise, and the
-  gear contact (ki, ci: unknown, a nuisance of play) by factors SPREAD_CONTACT -- the difference's
-  periodogram smoothed over SMOOTH bins. Residual and spread are both differences of two rattles
-  (truth and model, model and model), so their expected power is the same. For a model without play
-  the contact does nothing and the spread is the response to the force's noise: the noise model of
+  gear contact (ki, ci: unknown, a nuisance of play; the band test's own is CONTACT, the paper's mesh
+  stiffness as the truth's) by factors SPREAD_CONTACT -- the difference's periodogram smoothed over
+  SMOOTH bins. Residual and spread are both differences of two rattles (truth and model, model and
+  model), so their expected power is the same. For a model without play the contact does nothing and
+  the spread is the response to the force's noise: the noise model of
   :func:`.transient.TransientDiagnosis.prepare`. One rule for every candidate;
+* with play, plus its :func:`floor`: the residual's content above the band that the spread does not
+  make and that is flat (the impacts folded by a sampling without an anti-alias filter), carried into
+  the band;
 * ``chi2 = sum 2 |E_k|^2 / (N s_k)`` over the band's bins (2 dof per bin and channel).
 
-Play's gap is found on a log grid (GAPS, then a parabola in log eps through the best three) by the
-Gaussian likelihood (chi-square plus the log of the noise: the noise depends on the gap, and a wider
-gap rattles more); the nominal and every one-parameter single of the vocabulary (the REFIT best
+Play's gap is found on a log grid (GAPS, its best bracket sampled REFINE times finer, then a parabola
+in log eps through the best three) by the Gaussian likelihood (chi-square plus the log of the noise:
+the noise depends on the gap, and a wider gap rattles more); the nominal and every one-parameter single of the vocabulary (the REFIT best
 refitted on the band, bounded Brent from its held-out fit) and friction (at its fit) are scored
-**under play's noise** (its spread at the fitted gap), so declaring the rattle as noise helps every
+**under play's noise** (its spread and floor at the fitted gap), so declaring the rattle as noise helps every
 candidate alike. Play is named when (all of): the nominal does not explain the band (z > EXPLAINS_Z);
 the gap's minimum is inside the grid; at least two records have their own minimum inside it and the
 gap is > 3 std from 0 (std: the records' scatter, MAD); play's reduced band chi-square is at most
@@ -35,7 +39,7 @@ PLAY_RED; its band excess is at most PLAY_SHARE of the best other candidate's.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
@@ -58,8 +62,8 @@ SPREAD_CONTACT = ((0.5, 0.3), (2.0, 3.0))
 GAPS = tuple(float(g) for g in np.geomspace(2e-5, 3e-3, 9))  #: the gap's grid [m]
 #: the band test's gear contact (ki [N/m], ci [N s/m]): the paper's mesh stiffness, as the truth's
 CONTACT = (2.0e7, 20.0)
-FLOOR_BAND = 2.0  #: the floor (:func:`floor`) is measured from the band's top to this many times it
-FLOOR_TOP = (0.6, 0.9)  #: and over these shares of the fit's Nyquist frequency (the lower level counts)
+FLOOR_TOP = 0.9  #: the floor (:func:`floor`) is measured from the band's top to this share of the fit's Nyquist
+FLOOR_SPLIT = 4  #: in this many sub-bands (the lowest level counts)
 PLAY_SHARE = 0.8  #: play's band excess at most this share of the best other candidate's (the shared noise)
 PLAY_RED = 60.0  #: play's reduced band chi-square at most this
 EXPLAINS_Z = 5.0  #: the nominal explains the band when its z is at most this (as :mod:`.transient`)
@@ -97,6 +101,8 @@ class Score:
     #: the Gaussian -2 log-likelihood's noise term, sum of 2 log s over bins and channels (with the
     #: chi-square: what a noise that depends on the parameters costs; each record's apart)
     logdet: list[float]
+    #: with play: each record's floor per channel (:func:`floor`)
+    floor: list[ndarray] = field(default_factory=list)
 
     @property
     def nll(self) -> float:
@@ -111,7 +117,7 @@ def band_chi2(td: TransientDiagnosis, mdl: Model, noise: list[ndarray] | None = 
     """Model ``mdl`` on the band: its spread (with play: plus its :func:`floor`) in the noise, or the
     given ``noise`` (another model's: the shared likelihood); None when a simulation blows up."""
     f_top = BAND * fastest_rate(td.p_nom) / (2 * math.pi)
-    chi, dof, per, used, ld = 0.0, 0, [], [], []
+    chi, dof, per, used, ld, fl = 0.0, 0, [], [], [], []
     for j, v in enumerate(td.views):
         m = np.ones(v.n_out, bool)
         m[: v.skip] = False
@@ -139,7 +145,8 @@ def band_chi2(td: TransientDiagnosis, mdl: Model, noise: list[ndarray] | None = 
             sp = smooth_power(d, v, n)  # type: ignore[arg-type]
             s = white + sp[k]
             if play:
-                s = s + floor(F, sp, white, v, f_top, n)
+                fl.append(floor(F, sp, white, v, f_top, n))
+                s = s + fl[-1]
         else:
             s = noise[j]
         c = float(np.sum(2 * np.abs(E) ** 2 / (n * s)))
@@ -148,7 +155,7 @@ def band_chi2(td: TransientDiagnosis, mdl: Model, noise: list[ndarray] | None = 
         per.append(c)
         used.append(s)
         ld.append(float(2 * np.sum(np.log(s))))
-    return Score(chi, dof, per, used, ld)
+    return Score(chi, dof, per, used, ld, fl)
 
 
 def floor(F: ndarray, sp: ndarray, white: ndarray, v: TView, f_top: float, n: int) -> ndarray:
@@ -158,20 +165,23 @@ def floor(F: ndarray, sp: ndarray, white: ndarray, v: TView, f_top: float, n: in
     and shorter than any simulation's, in point samples where the simulation averages) is flat from 0 to
     the fit's Nyquist frequency; the rattle's own content rises with frequency (alternate impacts: their
     momenta cancel at low frequency) and is the spread's; the harmonics of a stick-slip or a stiffening
-    spring fall with it. So the floor is the lower of two levels above the band, each the residual's
+    spring fall with it, and a resonance above the band (an elastic inerter's) is a hump. So the range
+    above the band (to FLOOR_TOP x the fit's Nyquist frequency) is cut into FLOOR_SPLIT equal
+    sub-bands (fewer where a sub-band would hold fewer than 16 bins), each one's level the residual's
     median periodogram / ln 2 (the mean of a flat level, blind to a few harmonics) less the white share
-    and the spread's median there: just above the band (f_top to FLOOR_BAND x f_top) and near the fit's
-    Nyquist frequency (FLOOR_TOP of it); at least 0, and 0 where no sub-band has 16 bins."""
+    and the spread's median there, and the floor is the lowest level, at least 0 (0 without 16 bins)."""
     fr = np.fft.rfftfreq(n, 1.0 / v.fs)
-    nyq = 0.5 * v.fs
-    levels = []
-    for lo, hi in ((f_top, FLOOR_BAND * f_top), (FLOOR_TOP[0] * nyq, FLOOR_TOP[1] * nyq)):
-        k = (fr > max(lo, f_top)) & (fr <= min(hi, FLOOR_TOP[1] * nyq))
-        if k.sum() >= 16:
-            P = np.abs(F[k]) ** 2 / n
-            levels.append(np.median(P, axis=0) / math.log(2.0) - white - np.median(sp[k], axis=0))
-    if not levels:
+    top = FLOOR_TOP * 0.5 * v.fs
+    above = int(np.sum((fr > f_top) & (fr <= top)))
+    m = min(FLOOR_SPLIT, above // 16)
+    if m < 1:
         return np.zeros(white.size)
+    edges = np.linspace(f_top, top, m + 1)
+    levels = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        k = (fr > lo) & (fr <= hi)
+        P = np.abs(F[k]) ** 2 / n
+        levels.append(np.median(P, axis=0) / math.log(2.0) - white - np.median(sp[k], axis=0))
     return np.asarray(np.maximum(np.min(levels, axis=0), 0.0))
 
 
@@ -307,7 +317,7 @@ def play_test(td: TransientDiagnosis, fitted: dict[str, ndarray]) -> dict[str, A
     if ps is None:
         out["why"] = "play's simulations failed"
         return out
-    out["play"].update(chi2=ps.chi2, dof=ps.dof, red=ps.red, per_record=ps.per)
+    out["play"].update(chi2=ps.chi2, dof=ps.dof, red=ps.red, per_record=ps.per, floor=[f.tolist() for f in ps.floor])
     out["play"]["interior_records"] = len(pg["per_record_gap"])
     # the shared likelihood: every other candidate under play's noise (its spread at its gap), so the
     # rattle declared as noise helps every candidate alike
