@@ -73,8 +73,8 @@ def test_play_truth_is_named_play_with_its_gap_or_unexplained(tmp_path, eps):
     """A gear with play simulated by the truth's own integrator (contact 2e7 N/m, ci 5 N s/m): every
     candidate leaves the records unexplained sample by sample (the rattle). What the diagnosis promises
     (issue 41, play named on 5 of 9 dev datasets, not yet on all): no effect but play is named, and
-    when play is named its gap is within 35 % of the truth (the candidate's softer contact, 2e6 N/m,
-    lets the gear in deeper: the fitted gap runs low by up to about a fifth). Where play is not named
+    when play is named its gap is within 35 % of the truth (the band test's contact is the truth's 2e7
+    N/m; the likelihood is rough in the gap: seed 9494's ten singles came out -29 % to +8 %). Where play is not named
     the verdict is `unexplained`."""
     from pyfmu_wrapper.diagnose.run import run_diagnosis
 
@@ -87,3 +87,44 @@ def test_play_truth_is_named_play_with_its_gap_or_unexplained(tmp_path, eps):
         assert abs(gap - eps) < 0.35 * eps, gap
     else:
         assert v["unexplained"], v["text"]
+
+
+def test_floor_is_the_flat_excess_the_spread_does_not_make():
+    """Above the band the residual holds white noise of variance w + a per channel (a: the flat content a
+    sampling without an anti-alias filter folds of the impacts) and a few strong harmonics, the spread b:
+    the floor is a - b, at least 0, to the median's statistical error (std = mean / sqrt(bins) of an
+    exponential's sample median)."""
+    from types import SimpleNamespace
+
+    rng = np.random.default_rng(5)
+    n, fs, f_top = 3840, 128.0, 10.0
+    w = np.array([0.9, 0.9, 0.9, 0.9])
+    a = np.array([0.0, 3.0, 50.0, 400.0])
+    b = np.array([0.0, 1.0, 10.0, 500.0])
+    u = rng.normal(size=(n, 4)) * np.sqrt(w + a)
+    t = np.arange(n) / fs
+    u[:, 2] += 30.0 * np.sin(2 * np.pi * 13.0 * t) + 30.0 * np.sin(2 * np.pi * 17.0 * t)  # harmonics above the band
+    F = np.fft.rfft(u - u.mean(axis=0), axis=0)
+    fr = np.fft.rfftfreq(n, 1.0 / fs)
+    sp = np.broadcast_to(b, (fr.size, 4)).copy()
+    got = TP.floor(F, sp, w, SimpleNamespace(fs=fs), f_top, n)
+    bins = int(np.sum((fr > f_top) & (fr <= TP.FLOOR_TOP * fs / 2))) // TP.FLOOR_SPLIT
+    want = np.maximum(a - b, 0.0)
+    std = (w + a) / np.sqrt(bins)
+    assert np.all(got >= 0.0)
+    assert np.all(np.abs(got - want) < 4 * std + 1e-12), (got, want, std)
+
+
+@pytest.mark.slow
+def test_play_without_an_anti_alias_filter_is_named_with_its_gap(tmp_path):
+    """A 0.3 mm play sampled at 256 Hz with no anti-alias filter (the truth's own integrator, contact 2e7
+    N/m, ci 5 N s/m, point samples): the impacts fold into the accelerations' band, which the floor
+    (:func:`floor`) carries as noise; play is named on its band and its gap is within 35 % of the
+    truth's, as the full diagnosis's (the likelihood is rough in the gap: -26 % here; seed 9494's
+    tr013, the same sampling, gave a gap of 1.6 mm on a 0.13 mm truth, not named, without the floor)."""
+    eps = 3.0e-4
+    td = _td(make(tmp_path / "ds", {"eps": eps, "ci": 5.0}, [SWEEP_UP, RANDOM], T=30.0, acq={}))
+    r = TP.play_test(td, {})
+    assert r["named"], r["why"]
+    assert abs(r["play"]["gap"] / eps - 1.0) < 0.35, r["play"]["gap"]
+    assert any(np.max(f) > 10.0 for f in r["play"]["floor"]), r["play"]["floor"]

@@ -14,18 +14,22 @@ rattle spreads it. This module scores candidates there:
 * the noise of each bin: the sensor's white share plus the **spread of the candidate's own
   simulations** (:func:`.transient_sim.spread`): the candidate simulated again with its nuisances
   perturbed -- the force by an independent realisation of the load cell's measured noise, and the
-  gear contact (ki, ci: unknown, a nuisance of play) by factors SPREAD_CONTACT -- the difference's
-  periodogram smoothed over SMOOTH bins. Residual and spread are both differences of two rattles
-  (truth and model, model and model), so their expected power is the same. For a model without play
-  the contact does nothing and the spread is the response to the force's noise: the noise model of
+  gear contact (ki, ci: unknown, a nuisance of play; the band test's own is CONTACT, the paper's mesh
+  stiffness as the truth's) by factors SPREAD_CONTACT -- the difference's periodogram smoothed over
+  SMOOTH bins. Residual and spread are both differences of two rattles (truth and model, model and
+  model), so their expected power is the same. For a model without play the contact does nothing and
+  the spread is the response to the force's noise: the noise model of
   :func:`.transient.TransientDiagnosis.prepare`. One rule for every candidate;
+* with play, plus its :func:`floor`: the residual's content above the band that the spread does not
+  make and that is flat (the impacts folded by a sampling without an anti-alias filter), carried into
+  the band;
 * ``chi2 = sum 2 |E_k|^2 / (N s_k)`` over the band's bins (2 dof per bin and channel).
 
-Play's gap is found on a log grid (GAPS, then a parabola in log eps through the best three) by the
-Gaussian likelihood (chi-square plus the log of the noise: the noise depends on the gap, and a wider
-gap rattles more); the nominal and every one-parameter single of the vocabulary (the REFIT best
+Play's gap is found on a log grid (GAPS, its best bracket sampled REFINE times finer, then a parabola
+in log eps through the best three) by the Gaussian likelihood (chi-square plus the log of the noise:
+the noise depends on the gap, and a wider gap rattles more); the nominal and every one-parameter single of the vocabulary (the REFIT best
 refitted on the band, bounded Brent from its held-out fit) and friction (at its fit) are scored
-**under play's noise** (its spread at the fitted gap), so declaring the rattle as noise helps every
+**under play's noise** (its spread and floor at the fitted gap), so declaring the rattle as noise helps every
 candidate alike. Play is named when (all of): the nominal does not explain the band (z > EXPLAINS_Z);
 the gap's minimum is inside the grid; at least two records have their own minimum inside it and the
 gap is > 3 std from 0 (std: the records' scatter, MAD); play's reduced band chi-square is at most
@@ -35,12 +39,12 @@ PLAY_RED; its band excess is at most PLAY_SHARE of the best other candidate's.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 
-from ...physics.params import P_MODEL
+from ...physics.params import P_MODEL, P_ci, P_ki
 from .transient_effects import BOUNDS, TEFFECTS, apply
 from .transient_fit import residual, start_update
 from .transient_sim import fastest_rate, simulate, spread
@@ -56,10 +60,15 @@ SMOOTH = 15  #: bins the spread's periodogram is averaged over
 #: the play contact's perturbations (ki factor, ci factor): the truth's contact is unknown
 SPREAD_CONTACT = ((0.5, 0.3), (2.0, 3.0))
 GAPS = tuple(float(g) for g in np.geomspace(2e-5, 3e-3, 9))  #: the gap's grid [m]
+#: the band test's gear contact (ki [N/m], ci [N s/m]): the paper's mesh stiffness, as the truth's
+CONTACT = (2.0e7, 20.0)
+FLOOR_TOP = 0.9  #: the floor (:func:`floor`) is measured from the band's top to this share of the fit's Nyquist
+FLOOR_SPLIT = 4  #: in this many sub-bands (the lowest level counts)
 PLAY_SHARE = 0.8  #: play's band excess at most this share of the best other candidate's (the shared noise)
 PLAY_RED = 60.0  #: play's reduced band chi-square at most this
 EXPLAINS_Z = 5.0  #: the nominal explains the band when its z is at most this (as :mod:`.transient`)
 START_PASSES = 1  #: start-state passes under each scored model (from the nominal's start)
+REFINE = 3  #: the gap's bracket around its best grid point sampled this many times finer than GAPS
 REFIT = 3  #: one-parameter singles refitted on the band: the best this many at their held-out values
 
 
@@ -92,6 +101,8 @@ class Score:
     #: the Gaussian -2 log-likelihood's noise term, sum of 2 log s over bins and channels (with the
     #: chi-square: what a noise that depends on the parameters costs; each record's apart)
     logdet: list[float]
+    #: with play: each record's floor per channel (:func:`floor`)
+    floor: list[ndarray] = field(default_factory=list)
 
     @property
     def nll(self) -> float:
@@ -103,15 +114,16 @@ class Score:
 
 
 def band_chi2(td: TransientDiagnosis, mdl: Model, noise: list[ndarray] | None = None) -> Score | None:
-    """Model ``mdl`` on the band: its spread in the noise, or the given ``noise`` (another model's: the
-    shared likelihood); None when a simulation blows up."""
+    """Model ``mdl`` on the band: its spread (with play: plus its :func:`floor`) in the noise, or the
+    given ``noise`` (another model's: the shared likelihood); None when a simulation blows up."""
     f_top = BAND * fastest_rate(td.p_nom) / (2 * math.pi)
-    chi, dof, per, used, ld = 0.0, 0, [], [], []
+    chi, dof, per, used, ld, fl = 0.0, 0, [], [], [], []
     for j, v in enumerate(td.views):
         m = np.ones(v.n_out, bool)
         m[: v.skip] = False
         saved = v.z0.copy()
         d = None
+        play = int(mdl.p[P_MODEL]) == 2
         try:
             for _ in range(START_PASSES):
                 start_update(v, mdl, m)
@@ -119,27 +131,62 @@ def band_chi2(td: TransientDiagnosis, mdl: Model, noise: list[ndarray] | None = 
             e = None if y is None else residual(v, mdl, m, sim=y)
             if e is not None and noise is None:
                 # without play the contact's factors change nothing: one perturbation (the force's noise)
-                contact = SPREAD_CONTACT if int(mdl.p[P_MODEL]) == 2 else SPREAD_CONTACT[:1]
-                d = spread(v, mdl.p, mdl.gain, contact, base=y)
+                d = spread(v, mdl.p, mdl.gain, SPREAD_CONTACT if play else SPREAD_CONTACT[:1], base=y)
         finally:
             v.z0 = saved
         if e is None or (noise is None and d is None):
             return None
         k, n = _band_bins(v, f_top)
         u = e[v.skip :][:, v.has]
-        E = np.fft.rfft(u - u.mean(axis=0), axis=0)[k]
-        s = td.noise_parts[v.name][0] ** 2 + smooth_power(d, v, k, n) if noise is None else noise[j]  # type: ignore[arg-type]
+        F = np.fft.rfft(u - u.mean(axis=0), axis=0)
+        E = F[k]
+        if noise is None:
+            white = td.noise_parts[v.name][0] ** 2
+            sp = smooth_power(d, v, n)  # type: ignore[arg-type]
+            s = white + sp[k]
+            if play:
+                fl.append(floor(F, sp, white, v, f_top, n))
+                s = s + fl[-1]
+        else:
+            s = noise[j]
         c = float(np.sum(2 * np.abs(E) ** 2 / (n * s)))
         chi += c
         dof += 2 * E.size
         per.append(c)
         used.append(s)
         ld.append(float(2 * np.sum(np.log(s))))
-    return Score(chi, dof, per, used, ld)
+    return Score(chi, dof, per, used, ld, fl)
 
 
-def smooth_power(d: list[ndarray], v: TView, k: ndarray, n: int) -> ndarray:
-    """The spread's power per band bin: the mean periodogram of the perturbed simulations' differences
+def floor(F: ndarray, sp: ndarray, white: ndarray, v: TView, f_top: float, n: int) -> ndarray:
+    """Per recorded channel: the residual's content that the play model's spread does not make and that is
+    flat in frequency, carried into the band (variance of a whitened fit sample). What a sampling
+    without an anti-alias filter folds of the impacts (60-700 Hz and up; the truth's contact, stiffer
+    and shorter than any simulation's, in point samples where the simulation averages) is flat from 0 to
+    the fit's Nyquist frequency; the rattle's own content rises with frequency (alternate impacts: their
+    momenta cancel at low frequency) and is the spread's; the harmonics of a stick-slip or a stiffening
+    spring fall with it, and a resonance above the band (an elastic inerter's) is a hump. So the range
+    above the band (to FLOOR_TOP x the fit's Nyquist frequency) is cut into FLOOR_SPLIT equal
+    sub-bands (fewer where a sub-band would hold fewer than 16 bins), each one's level the residual's
+    median periodogram / ln 2 (the mean of a flat level, blind to a few harmonics) less the white share
+    and the spread's median there, and the floor is the lowest level, at least 0 (0 without 16 bins)."""
+    fr = np.fft.rfftfreq(n, 1.0 / v.fs)
+    top = FLOOR_TOP * 0.5 * v.fs
+    above = int(np.sum((fr > f_top) & (fr <= top)))
+    m = min(FLOOR_SPLIT, above // 16)
+    if m < 1:
+        return np.zeros(white.size)
+    edges = np.linspace(f_top, top, m + 1)
+    levels = []
+    for lo, hi in zip(edges[:-1], edges[1:]):
+        k = (fr > lo) & (fr <= hi)
+        P = np.abs(F[k]) ** 2 / n
+        levels.append(np.median(P, axis=0) / math.log(2.0) - white - np.median(sp[k], axis=0))
+    return np.asarray(np.maximum(np.min(levels, axis=0), 0.0))
+
+
+def smooth_power(d: list[ndarray], v: TView, n: int) -> ndarray:
+    """The spread's power per rfft bin: the mean periodogram of the perturbed simulations' differences
     (whitened), averaged over SMOOTH bins."""
     from scipy.ndimage import uniform_filter1d
 
@@ -147,36 +194,63 @@ def smooth_power(d: list[ndarray], v: TView, k: ndarray, n: int) -> ndarray:
         [np.abs(np.fft.rfft(x[v.skip :][:, v.has] - x[v.skip :][:, v.has].mean(axis=0), axis=0)) ** 2 / n for x in d],
         axis=0,
     )
-    return np.asarray(uniform_filter1d(P, SMOOTH, axis=0, mode="nearest"))[k]
+    return np.asarray(uniform_filter1d(P, SMOOTH, axis=0, mode="nearest"))
 
 
 def _score(
-    td: TransientDiagnosis, effects: tuple[str, ...], theta: ndarray, noise: list[ndarray] | None = None
+    td: TransientDiagnosis,
+    effects: tuple[str, ...],
+    theta: ndarray,
+    noise: list[ndarray] | None = None,
 ) -> Score | None:
     mdl = apply(td.p_nom, effects, theta)
     if isinstance(mdl, str):
         return None
+    if "play" in effects:
+        mdl.p[P_ki], mdl.p[P_ci] = CONTACT
     return band_chi2(td, mdl, noise)
 
 
 def play_gap(td: TransientDiagnosis) -> dict[str, Any]:
-    """Play's gap on the band, its own spread in the noise: the grid GAPS, then the minimum of the
-    parabola in log eps through the best point and its neighbours. Its std: the scatter of the
-    records' own minima over the grid / sqrt(records) (the rattle makes the chi-square rough in the
-    gap: its curvature at the minimum says little); one record: unknown."""
+    """Play's gap on the band, its own spread in the noise: the grid GAPS; around its best interior
+    point the bracket between its neighbours sampled REFINE times finer, and the gap the minimum of the
+    parabola in log eps through the best of these points and its neighbours (the best point itself at
+    the bracket's end). Each record's own minimum: the same on its own likelihood (its coarse minimum
+    elsewhere: the parabola through that point and its coarse neighbours).
+    Its std: the scatter of the records' minima (MAD) / sqrt(records) (the chi-square's curvature at the
+    minimum says little); one record: unknown."""
     rows = [(g, _score(td, ("play",), np.array([g]))) for g in GAPS]
     chis = np.array([math.inf if r is None else r.nll for _, r in rows])
     per = np.array([np.add(r.per, r.logdet) if r is not None else [math.inf] * len(td.views) for _, r in rows])
     x = np.log(np.array(GAPS))
-    recs = [_parabola_min(x, per[:, j]) for j in range(per.shape[1])]
-    rec_gaps = [math.exp(r) for r in recs if r is not None]
     i = int(np.argmin(chis))
     g_best, s_best = rows[i]
-    xm = _parabola_min(x, chis)
-    if xm is not None:
-        s_try = _score(td, ("play",), np.array([math.exp(xm)]))
-        if s_try is not None and s_best is not None and s_try.nll < s_best.nll:
-            g_best, s_best = math.exp(xm), s_try
+    fine: tuple[ndarray, ndarray, ndarray] | None = None
+    if 0 < i < len(GAPS) - 1 and np.all(np.isfinite(chis[i - 1 : i + 2])):
+        xs = [float(t) for t in np.linspace(x[i - 1], x[i + 1], 2 * REFINE + 1)]
+        fx, fc, fp = [], [], []
+        for t in xs:
+            j = int(np.argmin(np.abs(x - t)))
+            r = rows[j][1] if abs(x[j] - t) < 1e-9 else _score(td, ("play",), np.array([math.exp(t)]))
+            if r is not None:
+                fx.append(t)
+                fc.append(r.nll)
+                fp.append(np.add(r.per, r.logdet))
+                if r.nll < chis[i] and (s_best is None or r.nll < s_best.nll):
+                    g_best, s_best = math.exp(t), r
+        fine = (np.array(fx), np.array(fc), np.array(fp))
+        xm = _parabola_min(fine[0], fine[1])
+        if xm is not None:
+            s_try = _score(td, ("play",), np.array([math.exp(xm)]))
+            if s_try is not None:
+                g_best, s_best = math.exp(xm), s_try
+    recs: list[float | None] = []
+    for j in range(per.shape[1]):
+        if fine is not None and int(np.argmin(per[:, j])) == i:
+            recs.append(_parabola_min(fine[0], fine[2][:, j]) or float(fine[0][np.argmin(fine[2][:, j])]))
+        else:
+            recs.append(_parabola_min(x, per[:, j]))
+    rec_gaps = [math.exp(r) for r in recs if r is not None]
     # robust to one record whose minimum says little (a hammer record's few impacts): the MAD's std
     std = (
         float(1.4826 * np.median(np.abs(np.subtract(rec_gaps, np.median(rec_gaps)))) / math.sqrt(len(rec_gaps)))
@@ -185,6 +259,7 @@ def play_gap(td: TransientDiagnosis) -> dict[str, Any]:
     )
     return {
         "grid": [[g, c] for g, c in zip(GAPS, chis.tolist())],
+        "fine": [] if fine is None else [[math.exp(t), c] for t, c in zip(fine[0].tolist(), fine[1].tolist())],
         "interior": 0 < i < len(GAPS) - 1,
         "per_record_gap": rec_gaps,
         "gap": g_best,
@@ -237,12 +312,12 @@ def play_test(td: TransientDiagnosis, fitted: dict[str, ndarray]) -> dict[str, A
         out["why"] = f"the nominal explains the band (z {z_nom:.3g} <= {EXPLAINS_Z:g})"
         return out
     pg = play_gap(td)
-    out["play"] = {k: pg[k] for k in ("gap", "std", "interior", "grid", "per_record_gap")}
+    out["play"] = {k: pg[k] for k in ("gap", "std", "interior", "grid", "fine", "per_record_gap")}
     ps: Score | None = pg["score"]
     if ps is None:
         out["why"] = "play's simulations failed"
         return out
-    out["play"].update(chi2=ps.chi2, dof=ps.dof, red=ps.red, per_record=ps.per)
+    out["play"].update(chi2=ps.chi2, dof=ps.dof, red=ps.red, per_record=ps.per, floor=[f.tolist() for f in ps.floor])
     out["play"]["interior_records"] = len(pg["per_record_gap"])
     # the shared likelihood: every other candidate under play's noise (its spread at its gap), so the
     # rattle declared as noise helps every candidate alike
