@@ -84,8 +84,8 @@ CPU_BUDGET = 90.0
 #: the best point it reached (:func:`.transient_fit.cpu_deadline`), and what is left (the final fit, the
 #: records' agreement) is cut short and said so: the reading, the report and the plots stay within 120 s
 CPU_LIMIT = 105.0
-#: of it, the seconds the pair search (many, slow fits) leaves to the play band test that follows it
-#: (1-22 s measured)
+#: of it, the seconds the restarts and the pair search (many, slow fits) leave to the play band test that
+#: follows them (1-22 s measured)
 BAND_RESERVE = 25.0
 #: the friction single's second start, as a share of the measured force's std (median over records)
 FRICTION_RESTART = 0.2
@@ -373,7 +373,7 @@ class TransientDiagnosis:
         if not passing:  # before pairs: friction from a large start (its default start's local minimum)
             singles = [
                 self._friction_restart(g, tr, te, res, ex0)
-                if g.effects == ("friction",) and not self.over("friction from a large start")
+                if g.effects == ("friction",) and not self.over("friction from a large start", BAND_RESERVE)
                 else g
                 for g in singles
             ]
@@ -384,7 +384,7 @@ class TransientDiagnosis:
             for i, g in enumerate(singles[:FIRST_TRIES]):
                 if "play" in g.effects:
                     continue  # its fit has its own three starts
-                if self.over(f"{' + '.join(g.effects)} refitted from its own values"):
+                if self.over(f"{' + '.join(g.effects)} refitted from its own values", BAND_RESERVE):
                     break
                 h = self._fit(g.effects, tr, te, init=g.theta)
                 if h.ok and h.chi2["train"] < g.chi2["train"]:

@@ -354,6 +354,10 @@ CUT = "stopped at the CPU budget before it converged"
 #: :func:`_decay_ramp`'s windows of the free decays [periods of the nominal's slowest mode]
 RAMP_PERIODS = (2.0, 4.0, 8.0, 16.0)
 RAMP_NFEV = 20  #: trust-region evaluations per window of the ramp
+#: CPU seconds of one window's fit in the ramp at most (0.2-0.6 s measured from the default starts; from the
+#: friction restart's large start, whose stick-slip needs a fine grid, one window took 134 s on seed 9696
+#: tr013): past it the window's fit stops with the point it reached (:func:`cpu_deadline`)
+RAMP_CPU = 5.0
 #: two starts whose ramped parameters agree to this (relative, and absolute in units of their scales) are one
 RAMP_SAME = 1e-2
 
@@ -398,7 +402,8 @@ def _decay_ramp(
             z = base[i].copy()
             z[:4] += 1e-3 * u[npar + 4 * j : npar + 4 * j + 4]
             zs[views[i].name] = z
-        f = fit(wv, p_nom, effects, masks, None, sc, starts=[u[:npar]], max_nfev=RAMP_NFEV, z_start=zs, ramp=False)
+        with cpu_deadline(time.process_time() + RAMP_CPU):
+            f = fit(wv, p_nom, effects, masks, None, sc, starts=[u[:npar]], max_nfev=RAMP_NFEV, z_start=zs, ramp=False)
         if not f.ok:
             break
         u[:npar] = f.theta / scale

@@ -1026,9 +1026,18 @@ def grid_force(v: TView, n_sub: int, gain: float = 1.0) -> ndarray:
     return out if gain == 1.0 else out * gain
 
 
+def _nbytes(val: Any) -> int:
+    """The bytes of an array, or of the arrays of a tuple or list (a cache entry)."""
+    if isinstance(val, np.ndarray):
+        return int(val.nbytes)
+    if isinstance(val, (tuple, list)):
+        return sum(_nbytes(x) for x in val)
+    return 0
+
+
 def _cached(cache: dict, key: tuple, make: Callable[[], Any], keep: int = 4) -> Any:
     """cache[key], made by ``make`` if absent; at most ``keep`` entries of the same kind (key[0]) kept,
-    and of arrays at most CACHE_BYTES of that kind (the newest always). Safe when threads share the
+    and of arrays (or tuples of them) at most CACHE_BYTES of that kind (the newest always). Safe when threads share the
     cache (records' Jacobian columns side by side): every entry is complete when it is stored, and a
     reader holds its own reference."""
     val = cache.get(key)
@@ -1037,10 +1046,9 @@ def _cached(cache: dict, key: tuple, make: Callable[[], Any], keep: int = 4) -> 
         same = [k for k in list(cache) if isinstance(k, tuple) and k[0] == key[0] and k != key]
         drop = same[: max(0, len(same) - keep + 1)]
         kept = same[len(drop) :]
-        size = val.nbytes if isinstance(val, np.ndarray) else 0
+        size = _nbytes(val)
         for k in reversed(kept):  # the newest kept while they fit beside the new entry
-            old = cache.get(k)
-            size += old.nbytes if isinstance(old, np.ndarray) else 0
+            size += _nbytes(cache.get(k))
             if size > CACHE_BYTES:
                 drop.append(k)
         for k in drop:
