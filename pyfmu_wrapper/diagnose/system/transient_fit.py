@@ -308,6 +308,7 @@ def fit(
             return _finish(views, effects, np.zeros(0), np.zeros(0), st[1], train, test)
         cut = False
         for u0 in starts:
+            last.clear()  # a stop's Jacobian is this start's own, never an earlier start's
             try:
                 r = least_squares(
                     fun, u0, jac=jac, bounds=(lb, ub), method="trf", x_scale=1.0, max_nfev=max_nfev, **TOL
