@@ -486,7 +486,7 @@ def chi2_per_point(
     generator's solver and a rig take it) against ``model``. The model scatter is added to both: the
     periodic part of a finite record of a rattling chain scatters too (10 periods of the noise-free
     play chain of seed 4242's records: 0.02-0.07 % from the long-run periodic amplitude; half the window
-    spread, 0.001-0.02 % there, is a lower bound)."""
+    spread, 0.002-0.04 % there, is a lower bound)."""
     z = []
     worst: dict[str, Any] = {}
     for p in points:
