@@ -15,10 +15,14 @@ generator's range with ``--seed``. For each:
    against the corrected nominal, a steady record's max |x| with its harmonic series' variance);
    the same for the nominal curve, and for the FRC points also with the generator's true 0.5 % noise.
    The FRC noise is the one the diagnosis of the dataset against the corrected nominal uses (the
-   residual its best FRC candidate leaves, degrees of freedom counted); each point's noise is added in
-   quadrature to the corrected model's own scatter (:func:`~pyfmu_wrapper.diagnose.corrected.read_scatter`:
-   half the spread of run-scenario's steady windows -- the play chain rattles). chi2 / n of 25 points
-   of a right model scatters by sqrt(2 / 25) = 0.28 about 1 (more with an estimated noise);
+   residual its best FRC candidate leaves, degrees of freedom counted). Each kind of point against
+   run-scenario's amplitude of the same definition: a steady record's max |x - mean| of its harmonic
+   series against the CSV's ``amplitude_periodic`` (the series fitted over run-scenario's steady
+   windows); an FRC point's x_max (the generator's: the monolithic solver's largest window maximum)
+   against ``amplitude``, its noise added in quadrature to the corrected model's own scatter
+   (:func:`~pyfmu_wrapper.diagnose.corrected.read_scatter`: half the spread of run-scenario's steady
+   windows -- the play chain rattles). chi2 / n of 25 points of a right model scatters by
+   sqrt(2 / 25) = 0.28 about 1 (more with an estimated noise);
 3. ``diagnose DS --model D/corrected/<one>.yaml`` (the dataset against the corrected nominal): what
    is named now (the target: nothing).
 
@@ -85,7 +89,7 @@ def bench_one(root: Path, effect: str, size: float, seed: int) -> dict:
     cpu_diag = CPU["diagnose"]
     found, params, flags = named(out / "diagnosis.json")
     ymls = sorted((out / "corrected").glob("*.yaml"))
-    curves: dict[str, dict[float, dict[float, float]]] = {"corrected": {}, "nominal": {}, "scatter": {}}
+    curves: dict[str, dict[float, dict[float, float]]] = {"corrected": {}, "nominal": {}, "scatter": {}, "periodic": {}}
     t_rs = 0.0
     for y in ymls:
         rs = root / f"rs_{effect}" / y.stem
@@ -95,7 +99,8 @@ def bench_one(root: Path, effect: str, size: float, seed: int) -> dict:
         curves["corrected"][F] = read_curve(rs / "corrected.csv")  # the first curve: the corrected model
         curves["nominal"][F] = read_curve(rs / "corrected.csv", "nominal")
         curves["scatter"][F] = read_scatter(rs / "corrected.csv")  # the corrected model's window scatter
-    sc = curves["scatter"]
+        curves["periodic"][F] = read_curve(rs / "corrected.csv", column="amplitude_periodic")
+    sc, per = curves["scatter"], curves["periodic"]
     dsc = load_dataset(ds, _load_model(str(ymls[0])))  # the noise estimated against the corrected nominal
     pts = measured_points(dsc)
     steady = [p for p in pts if p["kind"] == "steady"]
@@ -112,12 +117,13 @@ def bench_one(root: Path, effect: str, size: float, seed: int) -> dict:
         "parameters": params,
         "verdict": flags,
         "scenario_files": [y.name for y in ymls],
-        "chi2_per_point": chi2_per_point(pts, curves["corrected"], sc),
-        "chi2_steady": chi2_per_point(steady, curves["corrected"], sc),
+        "chi2_per_point": chi2_per_point(pts, curves["corrected"], sc, per),
+        "chi2_steady": chi2_per_point(steady, curves["corrected"], sc, per),
         "chi2_frc": chi2_per_point(frc, curves["corrected"], sc),
         "chi2_frc_true_noise": chi2_per_point(frc_true, curves["corrected"], sc),
-        "chi2_per_point_true_frc_noise": chi2_per_point(steady + frc_true, curves["corrected"], sc),
-        "chi2_per_point_no_scatter": chi2_per_point(pts, curves["corrected"]),
+        "chi2_per_point_true_frc_noise": chi2_per_point(steady + frc_true, curves["corrected"], sc, per),
+        "chi2_per_point_no_scatter": chi2_per_point(pts, curves["corrected"], None, per),
+        "chi2_steady_window_max": chi2_per_point(steady, curves["corrected"], sc),  # the former definition
         "chi2_nominal": chi2_per_point(pts, curves["nominal"]),
         "frc_noise_relative": [p["sigma"] / p["x"] for p in frc[:1]],
         "rediagnosis_named": left,

@@ -18,6 +18,7 @@ from ..master.master import Master
 from ..physics.params import InerterModel
 from ..physics.unit import SmallForcing
 from ..solvers.expm import expm
+from ..solvers.harmonic import periodic_max
 from ..solvers.hermite import hermite_absmax_series as _hermite_absmax  # the one Hermite maximum of both engines
 from ..solvers.monolithic import SolverSettings, companion_start, small_forcing_start
 from ..solvers.shooting import shoot
@@ -42,6 +43,7 @@ class CosimSteadyState:
     reason: str = ""  #: why it is not converged ("" when converged)
     coupling_error: float = math.nan  #: estimated relative amplitude error of the coupling (step doubling)
     steps_per_period: int = 0  #: communication steps per forcing period of the reported amplitude
+    amplitude_periodic: float = math.nan  #: max |x - mean| of the periodic part (WindowCriterion.periodic) [m]
 
     def row(self, direction: str) -> dict[str, Any]:
         """The point's row of a sweep table (scenario.sweeptable's columns)."""
@@ -49,6 +51,7 @@ class CosimSteadyState:
             direction=direction,
             omega=float(self.omega),
             amplitude=self.amplitude,
+            amplitude_periodic=self.amplitude_periodic,
             periods=self.periods,
             converged=self.converged,
             irregular=self.irregular,
@@ -217,6 +220,7 @@ def run_steady(
                 wall_time=time.perf_counter() - t_start,
                 period_max=np.array([res.amplitude]),
                 steps_per_period=n,
+                amplitude_periodic=periodic_max(run.x[:-1]),  # the last map call was from res.z
             )
         steps = 0
     start(master, system, omega, z, settings)
@@ -228,7 +232,7 @@ def run_steady(
     k = 0
     while k < crit.max_periods:
         k += 1
-        if crit.add(run.period(), (master.y[ix], master.y[iv])):
+        if crit.add(run.period(), (master.y[ix], master.y[iv]), run.x[:-1]):
             break
     amplitude, converged, change = crit.result()
     return CosimSteadyState(
@@ -244,6 +248,7 @@ def run_steady(
         irregular=crit.irregular,
         reason=_window_reason(crit, k, converged, change),
         steps_per_period=n,
+        amplitude_periodic=crit.periodic(),
     )
 
 

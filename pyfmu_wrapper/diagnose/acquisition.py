@@ -56,7 +56,7 @@ if TYPE_CHECKING:
 
     from ..inputs.yamlio import MarkedDict
     from .errors import DataError
-    from .harmonic import Series
+    from ..solvers.harmonic import Series
     from .records import Record
 
 CHANNELS = ("force", "x", "y", "xdd", "ydd")

@@ -8,7 +8,7 @@ import math
 from typing import TYPE_CHECKING
 
 from .errors import DataError
-from .harmonic import estimate_omega
+from ..solvers.harmonic import estimate_omega
 
 if TYPE_CHECKING:
     from pathlib import Path

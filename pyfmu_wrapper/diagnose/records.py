@@ -427,7 +427,7 @@ def read_record(file: Path, level: str, entry: dict | None = None, log: Callable
 def estimate_omega(t: ndarray, d: ndarray) -> float | None:
     """Dominant angular frequency [rad/s] > 0 of a sampled signal, or None when it is not periodic
     (see :func:`harmonic.estimate_omega`)."""
-    from .harmonic import estimate_omega as _est
+    from ..solvers.harmonic import estimate_omega as _est
 
     return _est(t, d)
 

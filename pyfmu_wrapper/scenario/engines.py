@@ -153,6 +153,7 @@ def _exact_table(
                 direction=direction,
                 omega=omegas,
                 amplitude=amp,
+                amplitude_periodic=amp,
                 periods=0,
                 converged=True,
                 irregular=False,

@@ -23,6 +23,7 @@ SWEEP_COLUMNS = (
     "direction",
     "omega",
     "amplitude",
+    "amplitude_periodic",
     "periods",
     "converged",
     "irregular",
@@ -47,6 +48,10 @@ SWEEP_COLUMNS = (
 #: compiled stepping loop by role (``fmu_time_base``: the structure's FMU, ``fmu_time_tmd``: the absorber's,
 #: whatever each model names its instances), the loop's own work, and the steps taken on the Python path
 #: (``cosim.steady._time_split``); the rest of ``wall_time`` is the steady-state logic
+#: ``amplitude_periodic``: max |x - mean| over one period of the harmonic series fitted to x over the point's
+#: final steady windows (:meth:`~pyfmu_wrapper.solvers.steady.WindowCriterion.periodic`: the periodic part of a
+#: rattling play chain, whose ``amplitude``, the largest window maximum, also holds its non-periodic motion),
+#: as the diagnosis takes a steady record's amplitude; the amplitude itself for the exact response
 TIMING_COLUMNS = ("fmu_time_base", "fmu_time_tmd", "master_loop_time", "python_step_time")
 
 

@@ -42,7 +42,7 @@ if TYPE_CHECKING:
     from pathlib import Path
 
 #: bump when the layout or meaning of a checkpoint file changes
-CHECKPOINT_FORMAT = 3
+CHECKPOINT_FORMAT = 4  # 4: the column amplitude_periodic
 
 
 def code_version() -> str:
@@ -124,6 +124,7 @@ _DTYPES = dict(
     direction=str,
     omega=float,
     amplitude=float,
+    amplitude_periodic=float,
     periods=int,
     converged=bool,
     irregular=bool,

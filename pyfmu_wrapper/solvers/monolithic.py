@@ -48,11 +48,16 @@ from numpy.typing import ArrayLike, NDArray
 from ..physics.params import InerterModel, TMDParams
 from ..physics.unit import ModelUnit, SmallForcing
 from . import settings_table as _table
+from .harmonic import periodic_max
 from .rodas import DEFAULT_MAX_STEPS, OK, STAT_EVENTS, STAT_REJECTED, STAT_STEPS, failure_message, make_integrator
 from .settings_table import MONO
 from .shooting import shoot
 from .start import initial_guess
 from .steady import SteadySettings, WindowCriterion
+
+#: x samples per period for the periodic amplitude (``SteadyState.amplitude_periodic``): enough for the
+#: series to keep :data:`~.harmonic.H_MAX` harmonics (0.45 x 512 > 150), as a record's fit at 1 kHz does
+PERIODIC_SAMPLES = 512
 
 
 def integrator(unit: ModelUnit) -> Any:
@@ -103,6 +108,7 @@ class SteadyState:
     wall_time: float = 0.0
     irregular: bool = False  #: settled into irregular motion; ``change`` is then its scatter
     reason: str = ""  #: why it is not converged ("" when it is)
+    amplitude_periodic: float = math.nan  #: max |x - mean| of the periodic part (:meth:`WindowCriterion.periodic`) [m]
 
 
 def integrator_atol(unit: ModelUnit, base: Any, tmd: TMDParams, omega: float, settings: SolverSettings) -> np.ndarray:
@@ -129,6 +135,9 @@ class _Runner:
         self.hmax = self.T / 20.0
         self.no_samples = np.zeros(0)
         self.no_out = np.zeros((0, unit.n_state(base)))
+        #: the phases each settling period samples for the periodic amplitude, and their states
+        self.phases = np.linspace(0.0, self.T, PERIODIC_SAMPLES, endpoint=False)
+        self.sampled = np.zeros((PERIODIC_SAMPLES, unit.n_state(base)))
 
     def period(
         self,
@@ -306,6 +315,7 @@ def _settle(
                     events=int(s[STAT_EVENTS]),
                     period_max=np.array([amp]),
                     wall_time=time.perf_counter() - t_start,
+                    amplitude_periodic=periodic_max(run.sampled[:, 0]),  # the last map call was from zs
                 )
             spent += settings.max_newton * 5
             for _ in range(10):
@@ -332,7 +342,7 @@ def _settle(
         crit.period_max.clear()
     while k < crit.max_periods:
         k += 1
-        if crit.add(run.period(z, 0.0), z):  # each period restarts at phase 0: t0 = 0
+        if crit.add(run.period(z, 0.0, run.phases, run.sampled), z, run.sampled[:, 0]):  # restarts at phase 0: t0 = 0
             break
     amplitude, converged, change = crit.result()
     pmax = crit.period_max
@@ -350,6 +360,7 @@ def _settle(
         period_max=np.array(pmax),
         wall_time=time.perf_counter() - t_start,
         irregular=crit.irregular,
+        amplitude_periodic=crit.periodic(),
         reason=""
         if converged
         else (
@@ -374,7 +385,7 @@ def _shoot(
     def period_map(za: np.ndarray) -> tuple[np.ndarray, float]:
         zf = z.copy()
         zf[act] = za
-        amp = run.period(zf, 0.0)
+        amp = run.period(zf, 0.0, run.phases, run.sampled)  # sampled: the periodic amplitude of the last call
         last["z"] = zf
         return zf[act], amp
 

@@ -22,6 +22,7 @@ from numpy.typing import NDArray
 from ..errors import InputError
 from ..physics.params import TMDParams, has_gap
 from . import settings_table as _table
+from .harmonic import periodic_max
 from .settings_table import MONO
 
 #: where a windowed solve starts (SteadySettings.play_start)
@@ -162,6 +163,14 @@ class WindowCriterion:
       scatter is within ``scatter_tol`` (an amplitude known to that fraction), else it is
       flagged irregular and not converged. There is no absolute tolerance: a tiny amplitude
       must settle relative to itself.
+
+    With each period's x sampled at n uniform phases (``add(..., samples=...)``), :meth:`periodic`
+    gives the **periodic amplitude**: :func:`~.harmonic.periodic_max` of the mean of those samples
+    over the periods of the windows after the first (W > 1: the least-squares harmonic series of x
+    over the windows the amplitude is taken from) or of the last period (W = 1), i.e. max |x - mean|
+    of the response's periodic part, as the diagnosis takes a steady record's amplitude. For a
+    periodic response it is the amplitude (to the series' truncation); a rattling play chain's
+    non-periodic part averages out of it.
     """
 
     def __init__(
@@ -188,6 +197,8 @@ class WindowCriterion:
         self._stopped = False
         self._stable = 0
         self.floor = 0.0
+        self._sync: NDArray[np.float64] | None = None  #: the sum of the sampled periods' x (periodic)
+        self._sync_n = 0
 
     @classmethod
     def from_settings(
@@ -222,10 +233,24 @@ class WindowCriterion:
         rho = min(max(ratios), 0.999)
         return r * rho / (1.0 - rho) if rho > 0 else r
 
-    def add(self, a: float, state: Sequence[float] | NDArray[np.float64] | None = None) -> bool:
+    def add(
+        self,
+        a: float,
+        state: Sequence[float] | NDArray[np.float64] | None = None,
+        samples: NDArray[np.float64] | None = None,
+    ) -> bool:
+        """A_k = ``a`` of the next period; ``state``: x, xd at its end (W = 1); ``samples``: its x at n
+        uniform phases from its start (:meth:`periodic`). True when the run may stop."""
         self.period_max.append(float(a))
         k = len(self.period_max)
         W = self.W
+        if samples is not None and (W == 1 or k > W):
+            x = np.asarray(samples, dtype=float)
+            if W == 1 or self._sync is None or self._sync.shape != x.shape:
+                self._sync, self._sync_n = x.copy(), 1
+            else:
+                self._sync += x
+                self._sync_n += 1
         if W == 1:
             scale = max(abs(a), self.floor, 1e-300)
             if state is not None and self.omega:
@@ -278,3 +303,9 @@ class WindowCriterion:
             amplitude = max(tail)
             change = (max(tail) - min(tail)) / max(max(tail), 1e-300)
         return amplitude, self.converged, change
+
+    def periodic(self) -> float:
+        """The periodic amplitude (class doc); NaN when no period was sampled."""
+        if self._sync is None or self._sync_n == 0:
+            return math.nan
+        return periodic_max(self._sync / self._sync_n)

@@ -75,6 +75,7 @@ def _sweep_piece(
                 direction=d,
                 omega=float(w),
                 amplitude=ss.amplitude,
+                amplitude_periodic=ss.amplitude_periodic,
                 periods=ss.periods,
                 converged=ss.converged,
                 irregular=ss.irregular,

@@ -146,7 +146,7 @@ def _deriv(t: ndarray, x: ndarray, omega: float | None = None, order: int = 1) -
     """Derivative of a measured signal: from its Fourier series over whole periods when the record
     is periodic at omega (exact for the steady state, noise averaged over the periods), else from a
     cubic Savitzky-Golay smoother over SAVGOL_POINTS samples (cut-off ~ fs / SAVGOL_POINTS)."""
-    from ..harmonic import fit_series
+    from ...solvers.harmonic import fit_series
 
     dt_mean = (t[-1] - t[0]) / max(len(t) - 1, 1)
     if omega and 2 * math.pi / omega >= 4 * dt_mean:  # at least 4 samples per period

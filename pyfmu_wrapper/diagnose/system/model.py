@@ -32,7 +32,7 @@ import numpy as np
 from ..._jit import njit
 from ...physics.kernels import friction_force, static_link_force
 from ...physics.params import N_PARAMS, BaseParams, P_k3, TMDParams, pack
-from ..harmonic import PERIODIC_R2, fit_series, fuse, grid_coef, grid_values
+from ...solvers.harmonic import PERIODIC_R2, fit_series, fuse, grid_coef, grid_values
 from .effects import EQ_EFFECTS, VOCAB
 
 if TYPE_CHECKING:

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from ..harmonic import fit_series
+from ...solvers.harmonic import fit_series
 
 if TYPE_CHECKING:
     from typing import Any
@@ -36,7 +36,7 @@ if TYPE_CHECKING:
     from numpy import float64
 
     from ...physics.params import BaseParams, TMDParams
-    from ..harmonic import Series
+    from ...solvers.harmonic import Series
     from .model import RecView, SystemModel
 
 Z_GATE = 6.0  #: rattle statistic (in noise std) above which a record shows contact spikes
@@ -179,7 +179,7 @@ class PlayFit:
         """Per record, the equation error (A_h, B_h) the nominal model leaves on the record simulated
         with the fitted gap (the periodic part of the rattling chain force minus I a), in the phase
         of the measured force: the play candidate's prediction for the harmonic residuals."""
-        from ..harmonic import fuse
+        from ...solvers.harmonic import fuse
 
         out = {}
         for v in self.views:

@@ -1,5 +1,8 @@
 """Fourier series over whole forcing periods: derivatives a rig can give, and the noise per channel.
 
+(The diagnosis fits its steady records with it; the engines' steady states take their periodic
+amplitude, :func:`periodic_max`, from the same series.)
+
 A steady-state record at forcing frequency w is periodic: every channel is
 ``s(t) = Re(sum_h C_h exp(i h w t)) + noise``. Least squares on the samples of the largest whole
 number of periods gives the coefficients C_h (h = 0..H) of every channel at once (one QR per
@@ -26,6 +29,7 @@ if TYPE_CHECKING:
 
 PERIODIC_R2 = 0.9  #: share of the variance a harmonic series must explain for a record to count as periodic
 H_MAX = 150  #: cap on the harmonics of the full (noise-estimating) fit
+GRID = 4096  #: phases over one period a series' maximum is taken on (:func:`series_max`)
 
 
 def estimate_omega(t: ndarray, s: ndarray) -> float | None:
@@ -130,6 +134,32 @@ def _basis(tt: ndarray, omega: float, H: int) -> tuple[ndarray, ndarray, ndarray
     return _BASIS[key]
 
 
+def harmonics_for(samples_per_period: float, n: int | None = None) -> int:
+    """The harmonics a series fitted to uniform samples holds: at most :data:`H_MAX`, below 0.45 of
+    the samples per period (short of Nyquist) and, of ``n`` samples in all, (n - 2) // 3."""
+    cap = max(1, (n - 2) // 3) if n is not None else H_MAX
+    return int(min(H_MAX, max(1, math.floor(0.45 * samples_per_period)), cap))
+
+
+def series_max(C: ndarray) -> float:
+    """max |x - mean| over one period of the series with coefficients C (h = 0..H; C_0, the mean,
+    dropped), on a grid of :data:`GRID` phases: a steady record's amplitude as the diagnosis takes it."""
+    c = np.array(C, complex)
+    c[0] = 0.0
+    return float(np.max(np.abs(grid_values(c, 1.0, GRID))))
+
+
+def periodic_max(period: ndarray) -> float:
+    """:func:`series_max` of the harmonic series of x sampled uniformly over one period (``period``:
+    n samples at phases 2 pi j / n, j = 0..n-1, e.g. the mean of several periods' samples at the same
+    phases, which is the least-squares series of all of them), with :func:`harmonics_for` n
+    harmonics; NaN without three finite samples."""
+    vals = np.asarray(period, float)
+    if vals.size < 3 or not np.all(np.isfinite(vals)):
+        return math.nan
+    return series_max(grid_coef(vals, harmonics_for(vals.size)))
+
+
 def fit_series(t: ndarray, channels: dict, omega: float, H: int | None = None) -> Series:
     """Least-squares Fourier series of every channel over the whole periods of the record."""
     sl, nper = whole_periods(t, omega)
@@ -137,7 +167,7 @@ def fit_series(t: ndarray, channels: dict, omega: float, H: int | None = None) -
     n = tt.size
     dt = (tt[-1] - tt[0]) / max(n - 1, 1)
     spp = 2 * math.pi / omega / dt
-    Hf = int(min(H_MAX, max(1, math.floor(0.45 * spp)), max(1, (n - 2) // 3)))
+    Hf = harmonics_for(spp, n)
     if H is not None:
         Hf = min(Hf, H) if H > 0 else Hf
     B, Ginv, cdiag = _basis(tt, float(omega), int(Hf))
