@@ -18,9 +18,9 @@ from scipy import signal
 from pyfmu_wrapper.cli.diagnose import main_diagnose as main
 from pyfmu_wrapper.diagnose import acquisition as acq
 from pyfmu_wrapper.diagnose.data import DataError, load_dataset
-from pyfmu_wrapper.solvers.harmonic import fit_series
 from pyfmu_wrapper.diagnose.records import write_record
 from pyfmu_wrapper.diagnose.run import run_diagnosis
+from pyfmu_wrapper.solvers.harmonic import fit_series
 
 FS = 256.0
 DENSE = 32  # dense samples per ADC sample

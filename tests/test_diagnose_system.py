@@ -10,10 +10,10 @@ import numpy as np
 import pytest
 
 from pyfmu_wrapper.diagnose import gates
-from pyfmu_wrapper.solvers.harmonic import estimate_omega, fit_series, fuse
 from pyfmu_wrapper.diagnose.run import run_diagnosis
 from pyfmu_wrapper.diagnose.system import diagnosis as sysdiag
 from pyfmu_wrapper.diagnose.system.bench import has_cubic, make_system_dataset
+from pyfmu_wrapper.solvers.harmonic import estimate_omega, fit_series, fuse
 
 CASES = {  # name: (hidden effects, paper case, parameter key, tolerance (relative))
     "clean": ({}, 1, None, None),

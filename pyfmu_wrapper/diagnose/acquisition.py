@@ -55,8 +55,8 @@ if TYPE_CHECKING:
     from numpy import complex128, ndarray
 
     from ..inputs.yamlio import MarkedDict
-    from .errors import DataError
     from ..solvers.harmonic import Series
+    from .errors import DataError
     from .records import Record
 
 CHANNELS = ("force", "x", "y", "xdd", "ydd")

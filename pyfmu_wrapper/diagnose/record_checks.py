@@ -7,8 +7,8 @@ from __future__ import annotations
 import math
 from typing import TYPE_CHECKING
 
-from .errors import DataError
 from ..solvers.harmonic import estimate_omega
+from .errors import DataError
 
 if TYPE_CHECKING:
     from pathlib import Path
