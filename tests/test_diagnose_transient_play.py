@@ -54,8 +54,24 @@ def test_clean_records_have_the_band_at_the_noise_and_play_is_not_named(tmp_path
     assert s is not None
     chi2, dof = s.chi2, s.dof
     assert abs(chi2 - dof) < 5 * np.sqrt(2 * dof), (chi2, dof)
+    # above the band too, under its own noise: no rattle is left (z well below RATTLE_Z)
+    assert s.hi_dof > 0 and abs(s.hi_excess) < 5, (s.hi_chi2, s.hi_dof)
     r = TP.play_test(td, {})
     assert not r["named"]
+
+
+def test_a_model_without_play_leaves_the_rattle_above_the_band(tmp_path):
+    """A 0.3 mm gap (the truth's own integrator, contact 2e7 N/m, ci 5 N s/m, a random force): above the
+    band, under each model's own noise, the nominal (no play) leaves the impacts' content far beyond
+    RATTLE_Z; play at the true gap makes as much in its own spread (its excess there below PLAY_SHARE of
+    the nominal's): what separates play from a candidate that explains the band alone."""
+    eps = 3.0e-4
+    td = _td(make(tmp_path / "ds", {"eps": eps, "ci": 5.0}, [RANDOM], T=20.0))
+    nom = TP._score(td, (), np.zeros(0))
+    ps = TP._score(td, ("play",), np.array([eps]))
+    assert nom is not None and ps is not None
+    assert nom.hi_excess > TP.RATTLE_Z, nom.hi_excess
+    assert ps.hi_excess <= TP.PLAY_SHARE * nom.hi_excess, (ps.hi_excess, nom.hi_excess)
 
 
 def test_a_linear_change_is_not_named_play(tmp_path):
