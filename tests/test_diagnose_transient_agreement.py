@@ -58,3 +58,28 @@ def test_records_agree_on_a_true_single_under_correlated_force_noise(tmp_path, d
     assert len(vals) == 3
     assert all(abs(p["value"] - dk) < 4 * p["std"] for p, dk in zip(vals, dks)), vals  # stds cover the truth
     assert a["agree"] is agree and (a["p_value"] >= AGREE_P) is agree, a["p_value"]
+
+
+def test_a_silent_record_is_left_out_of_one_parameters_test_only():
+    """records_agree's ``silent``: a record's value of one parameter is left out of that parameter's
+    test, the others test it alone (chi-square of two values a, b with stds s, t: (a - b)^2 / (s^2 + t^2),
+    1 dof); the record still votes on the other parameters. A free decay's friction force is silent in
+    the transient agreement (its chi-square is a comb in the force: seed 9898 tr004's decay alone gave
+    0 +- 0.0003 N beside 3.396 and 3.380 N)."""
+    from scipy.stats import chi2 as chi2_dist
+
+    from pyfmu_wrapper.diagnose.system.agreement import records_agree
+
+    vals = [[0.0, 5.0], [3.396, 5.1], [3.380, 4.9]]
+    stds = [[3e-4, 0.1], [0.0105, 0.1], [0.0109, 0.1]]
+    names = ["friction.friction_force", "other.p"]
+    loud = records_agree(vals, stds, names, level=1e-3)
+    assert loud is not None and not loud["agree"]
+    quiet = records_agree(vals, stds, names, level=1e-3, silent=[[True, False], [False, False], [False, False]])
+    assert quiet is not None and quiet["agree"]
+    f = quiet["params"]["friction.friction_force"]
+    want = (3.396 - 3.380) ** 2 / (0.0105**2 + 0.0109**2)
+    assert f["dof"] == 1 and f["chi2"] == pytest.approx(want, rel=1e-12)
+    assert f["p_value"] == pytest.approx(chi2_dist.sf(want, 1), rel=1e-9)
+    o = quiet["params"]["other.p"]  # all three vote there: mean 5.0, chi2 = (0.1^2 + 0.1^2) / 0.1^2 = 2
+    assert o["dof"] == 2 and o["chi2"] == pytest.approx(2.0, rel=1e-9)

@@ -48,6 +48,7 @@ def records_agree(
     floor: float = 0.0,
     scale: Sequence[float] | None = None,
     level: float | None = None,
+    silent: Sequence[Sequence[bool]] | None = None,
 ) -> dict[str, Any] | None:
     """The agreement test (module doc) of per-record parameters ``values[i][j]`` (record i, parameter
     ``names[j]``) with stds ``stds[i][j]``; ``floor``: a model-error std added in quadrature, that share
@@ -55,14 +56,16 @@ def records_agree(
     the call). A parameter that some record cannot determine (non-finite)
     does not vote. ``{"agree", "level", "p_value" (the family's), "chi2", "dof" (the worst parameter's),
     "worst": {"param", ...}, "params": {name: {"values", "stds", "weighted_mean", "chi2", "dof",
-    "p_value"}}}``, or None when no parameter votes."""
+    "p_value"}}}``, or None when no parameter votes. ``silent[i][j]``: record i's value of parameter j
+    is left out of that parameter's test (the others still test it when at least two are left)."""
     V = np.asarray(values, float)
     S = np.maximum(np.asarray(stds, float), 1e-300)
-    n = V.shape[0]
+    keep = np.ones(V.shape, bool) if silent is None else ~np.asarray(silent, bool)
     out: dict[str, Any] = {}
     for j, k in enumerate(names):
-        p, s = V[:, j], S[:, j]
-        if not (np.all(np.isfinite(p)) and np.all(np.isfinite(s))):
+        p, s = V[keep[:, j], j], S[keep[:, j], j]
+        n = p.size
+        if n < 2 or not (np.all(np.isfinite(p)) and np.all(np.isfinite(s))):
             continue
         if floor:
             mean = float((p / s**2).sum() / (1 / s**2).sum())

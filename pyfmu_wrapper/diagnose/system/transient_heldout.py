@@ -114,7 +114,7 @@ class HeldOut:
         if len(self.views) < 2:
             return {"records": [], "p_value": None, "agree": True}
         effects = self.effects
-        rows, vals, stds = [], [], []
+        rows, vals, stds, comb = [], [], [], []
         lin = None if self._stop() else self._linear()
         for i, (v, m) in enumerate(zip(self.views, self.masks)):
             if lin is None and self._stop():
@@ -132,6 +132,7 @@ class HeldOut:
             rows.append({"record": v.name, "params": params_of(effects, theta, std), "full_fit": got is None})
             vals.append(theta)
             stds.append(std)
+            comb.append(v.free_decay and "friction" in effects)
         if self.cut:
             return {"records": rows, "p_value": None, "agree": True, "not_tested": CUT_NOTE}
         if len(vals) < 2:
@@ -140,10 +141,16 @@ class HeldOut:
         names = [f"{e}.{n}" for e in effects for n in TEFFECTS[e][0]]
         vote = np.array([n not in REGULARISATION for n in names])
         stds = [np.where(vote, s, np.inf) for s in stds]  # (a non-finite std does not vote)
-        a = records_agree(vals, stds, names, AGREE_FLOOR, scale, AGREE_P)
+        # a free decay's friction force is left out of that parameter's test: its chi-square is a comb in
+        # the force (the link sticks at an offset its slip history sets), and the record's estimate alone
+        # from the pooled fit lands in any tooth (seed 9898 tr004: 0 +- 0.0003 N beside 3.396 and 3.380 N
+        # of the forced records; the pooled fit 3.382 N for the truth 3.383 N, z -1.9: not named)
+        silent = [[c and n.startswith("friction.") for n in names] for c in comb]
+        a = records_agree(vals, stds, names, AGREE_FLOOR, scale, AGREE_P, silent)
+        out = {"records": rows, **({"comb": [r["record"] for r, c in zip(rows, comb) if c]} if any(comb) else {})}
         if a is None:
-            return {"records": rows, "p_value": None, "agree": True}
-        return {**a, "records": rows}
+            return {**out, "p_value": None, "agree": True}
+        return {**a, **out}
 
     def _std_widening(self, v: TView, m: ndarray, theta: ndarray) -> ndarray:
         """Per parameter of a fit of record v alone: how much its variance exceeds the one
