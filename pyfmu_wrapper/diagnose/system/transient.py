@@ -465,6 +465,14 @@ class TransientDiagnosis:
             "for the nominal. The gear's rattle itself (its contact's 60-700 Hz content) is not followed sample by "
             "sample: no candidate explains the records to their noise there."
         )
+        ab = pb.get("above_band") or {}
+        if ab.get("separates"):
+            zs = [z for z in ab["rivals"].values() if z is not None]
+            text += (
+                f" The band alone does not separate play from {_label(pb['best_other'])} (under play's noise both "
+                f"explain it); above the band, where each model is scored under its own noise, every such candidate "
+                f"leaves the rattle (z >= {min(zs):.3g}) that play's spread makes (z {ab['play_z']:.3g})."
+            )
         notes = [*self.skipped, *self._budget_notes()]
         res["verdict"] = {
             "structural": True,
